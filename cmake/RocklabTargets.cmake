@@ -1,0 +1,11 @@
+# Per-target warnings and sanitizers, shared by every rocklab target.
+function(rocklab_configure_target target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow)
+  if(ROCKLAB_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(ROCKLAB_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()

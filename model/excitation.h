@@ -1,0 +1,80 @@
+#pragma once
+/// @file
+/// Table motions that drive the models: analytic sines (ERRATA item 11) and
+/// sampled acceleration records.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rocklab::model {
+
+/// The table acceleration u_g''(t) seen by a model. The models apply the
+/// inertial acceleration a = -u_g'' to the block (ERRATA item 5).
+class Forcing {
+ public:
+  virtual ~Forcing() = default;
+  /// Table acceleration u_g'' at time t_s (s), m/s^2.
+  virtual double TableAcceleration(double t_s) const = 0;
+};
+
+/// A table motion known in closed form: displacement and its exact derivatives.
+class Excitation : public Forcing {
+ public:
+  virtual double Displacement(double t_s) const = 0;  ///< m
+  virtual double Velocity(double t_s) const = 0;      ///< m/s
+};
+
+/// Parameters of a sine table motion.
+struct SineSpec {
+  double amplitude_m{};   ///< displacement amplitude U, m; >= 0
+  double frequency_hz{};  ///< f, Hz; > 0
+  double duration_s{};    ///< length of the motion, s; > 0
+  double start_s{};       ///< time the motion starts, s; >= 0
+  /// @throws std::invalid_argument naming the key (amp, freq, duration, start).
+  void Validate() const;
+};
+
+/// u(t) = U sin(2 pi f (t - start)) on [start, start + duration], zero
+/// outside. The velocity jumps at the ends (the table starts abruptly); the
+/// acceleration is the exact second derivative inside and zero outside.
+std::unique_ptr<Excitation> MakeSine(const SineSpec& spec);
+
+/// u(t) = U A(t - t_c) sin(2 pi f (t - start)) with the Hanning window
+/// A(x) = (1 + cos(pi x / a)) / 2 of half-duration a = duration / 2 centred on
+/// t_c = start + a (paper footnote 4, ERRATA item 11). Displacement, velocity
+/// and acceleration are exact and continuous.
+std::unique_ptr<Excitation> MakeHanningSine(const SineSpec& spec);
+
+/// Sum of several excitations (the CLI accepts --excitation more than once).
+std::unique_ptr<Excitation> MakeSum(std::vector<std::unique_ptr<Excitation>> parts);
+
+/// Parses `sine:amp=0.006,freq=5,duration=20,start=0` or
+/// `hanning:amp=0.006,freq=3.3,duration=4,start=0.5` (amp in m, freq in Hz,
+/// duration and start in s; start defaults to 0).
+/// @throws std::invalid_argument naming the kind or key that is wrong.
+std::unique_ptr<Excitation> ParseExcitation(const std::string& spec);
+
+/// A sampled table-acceleration record, linear between samples and zero
+/// outside the record.
+class SampledAcceleration : public Forcing {
+ public:
+  /// @param time_s strictly increasing sample times, s
+  /// @param accel_mps2 table acceleration at those times, m/s^2, finite
+  /// @throws std::invalid_argument on size mismatch, fewer than 2 samples,
+  ///         non-increasing time or a non-finite value (naming the index).
+  SampledAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2);
+  double TableAcceleration(double t_s) const override;
+  double start_s() const { return time_.front(); }
+  double end_s() const { return time_.back(); }
+
+ private:
+  std::vector<double> time_;
+  std::vector<double> accel_;
+};
+
+/// Reads a CSV with the header `time,accel` (s, m/s^2).
+/// @throws std::runtime_error naming the file and line of the first problem.
+SampledAcceleration ReadAccelerationCsv(const std::string& path);
+
+}  // namespace rocklab::model

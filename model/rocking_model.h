@@ -1,0 +1,121 @@
+#pragma once
+/// @file
+/// Housner's piecewise model and the paper's complex formulation, integrated
+/// with SUNDIALS CVODE, with the regime logic of ERRATA item 6 (rest, uplift,
+/// impacts, return to rest, overturning).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "model/block.h"
+#include "model/excitation.h"
+
+namespace rocklab::model {
+
+enum class ModelKind { kHousner, kComplex };
+enum class Regime { kRest, kRocking, kOverturned };
+enum class EventKind { kUplift, kImpact, kRest, kOverturn };
+
+/// "housner" / "complex"; "rest" / "rocking" / "overturned";
+/// "uplift" / "impact" / "rest" / "overturn".
+const char* ToString(ModelKind kind);
+const char* ToString(Regime regime);
+const char* ToString(EventKind kind);
+/// @throws std::invalid_argument for a name other than housner or complex.
+ModelKind ParseModelKind(const std::string& name);
+
+/// A discrete event of the model, with its time found by CVODE's root finding.
+struct ModelEvent {
+  double time_s{};    ///< s
+  EventKind kind{};
+  /// uplift: table acceleration, m/s^2; impact: theta_dot just before, rad/s;
+  /// rest: 0; overturn: theta, rad.
+  double value{};
+};
+
+/// The state a model reports after each advance.
+struct ModelState {
+  double time_s{};     ///< s
+  double theta{};      ///< rocking angle, rad; > 0 about the +x corner
+  double theta_dot{};  ///< rad/s
+  double chi{};        ///< |theta| / alpha (complex: the integrated modulus), 1
+  double psi{};        ///< complex formulation phase, rad (housner: 0 for theta >= 0, pi otherwise)
+  double energy{};     ///< E / (M g R) = theta_dot^2 / (2 p^2) + cos(alpha - |theta|) - cos(alpha), 1
+  int impacts{};       ///< impacts since Reset
+  Regime regime{Regime::kRest};
+};
+
+/// Integration and regime knobs.
+struct ModelOptions {
+  double rtol{1e-10};       ///< CVODE relative tolerance, 1
+  double atol{1e-12};       ///< CVODE absolute tolerance on theta (rad) and theta_dot (rad/s)
+  double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
+  double l{3e-4};           ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
+  /// Return to rest when two impacts come closer than this, s.
+  double rest_impact_interval_s{2e-3};
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+};
+
+/// A rocking model. Not copyable; owns its CVODE memory.
+class RockingModel {
+ public:
+  /// @throws std::invalid_argument for invalid parameters or options.
+  static std::unique_ptr<RockingModel> Create(ModelKind kind, const BlockParams& params,
+                                              const ModelOptions& options = {});
+  virtual ~RockingModel() = default;
+  RockingModel(const RockingModel&) = delete;
+  RockingModel& operator=(const RockingModel&) = delete;
+
+  /// Start at t0_s from theta0 (rad) and theta_dot0 (rad/s). Both zero: at rest,
+  /// waiting for the uplift criterion |u_g''| > g tan(alpha).
+  /// @throws std::invalid_argument when |theta0| >= pi/2 or a value is not finite.
+  virtual void Reset(double t0_s, double theta0, double theta_dot0) = 0;
+
+  /// Integrate to t_s (>= the current time), with the table acceleration from
+  /// `forcing`, which is evaluated only on [current time, t_s]. Events found on
+  /// the way are appended to events().
+  /// @throws std::runtime_error when CVODE fails (naming the CVODE function).
+  virtual void AdvanceTo(double t_s, const Forcing& forcing) = 0;
+
+  /// Live stepping: the table acceleration sample `table_accel_mps2` (m/s^2)
+  /// at t_s; between the previous sample and this one the acceleration is
+  /// linear (the first sample after Reset holds it constant). Never integrates
+  /// past t_s.
+  void Step(double t_s, double table_accel_mps2);
+
+  virtual const ModelState& state() const = 0;
+  virtual ModelKind kind() const = 0;
+  virtual const BlockParams& params() const = 0;
+  virtual const ModelOptions& options() const = 0;
+
+  /// Events since Reset (or since the last ClearEvents).
+  const std::vector<ModelEvent>& events() const { return events_; }
+  void ClearEvents() { events_.clear(); }
+
+ protected:
+  RockingModel() = default;
+  std::vector<ModelEvent> events_;
+
+ private:
+  double last_step_time_s_{};
+  double last_step_accel_{};
+  bool has_step_sample_{false};
+};
+
+/// A whole simulated record at a fixed output rate.
+struct Trajectory {
+  std::vector<double> time_s;     ///< s
+  std::vector<double> theta;      ///< rad
+  std::vector<double> theta_dot;  ///< rad/s
+  std::vector<ModelEvent> events;
+};
+
+/// Batch interface: Reset(t0, theta0, theta_dot0), then output at
+/// t0 + k / rate_hz for k = 0 .. floor(duration_s * rate_hz).
+/// @throws std::invalid_argument for duration_s < 0 or rate_hz <= 0.
+Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, double theta0,
+                    double theta_dot0, double duration_s, double rate_hz);
+
+}  // namespace rocklab::model

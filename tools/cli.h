@@ -1,0 +1,34 @@
+#pragma once
+// Shared pieces of the `rocklab` command line: each subcommand lives in its
+// own cmd_<name>.cpp and registers itself through a Register<Name> function
+// listed in main.cpp.
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace rocklab::tools {
+
+/// A bad command line or a non-physical value: main prints `rocklab: <what>`
+/// on one line and exits with kUsageExit.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+inline constexpr int kUsageExit = 2;    ///< bad option, value or input file
+inline constexpr int kFailureExit = 1;  ///< the command ran and failed
+
+/// What a subcommand runs once its options are parsed; returns the exit code.
+using CommandRun = std::function<int()>;
+
+/// Adds a subcommand to `app`; its callback stores the command's run function
+/// into `run` so that main calls it outside CLI11's parsing.
+using CommandRegistrar = void (*)(CLI::App& app, CommandRun& run);
+
+/// Throws UsageError("<option> must be <what>, got <value>") unless ok.
+void Require(bool ok, const std::string& option, const std::string& what, double value);
+
+}  // namespace rocklab::tools

@@ -1,0 +1,52 @@
+// The `rocklab` command line: one binary, one subcommand per task.
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include <spdlog/cfg/env.h>
+
+#include "tools/cli.h"
+
+namespace rocklab::tools {
+void RegisterParams(CLI::App& app, CommandRun& run);
+void RegisterSimulate(CLI::App& app, CommandRun& run);
+}  // namespace rocklab::tools
+
+int main(int argc, char** argv) {
+  using namespace rocklab::tools;
+  spdlog::cfg::load_env_levels();  // SPDLOG_LEVEL=debug etc.
+
+  CLI::App app{"rocklab: shake-table rocking-block laboratory"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "rocklab 0.1.0");
+  CommandRun run;
+  for (CommandRegistrar add : {&RegisterParams, &RegisterSimulate}) {
+    add(app, run);
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    return kUsageExit;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    return kUsageExit;
+  }
+
+  try {
+    return run ? run() : kUsageExit;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    return kUsageExit;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    return kFailureExit;
+  }
+}
