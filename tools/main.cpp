@@ -10,6 +10,7 @@
 namespace rocklab::tools {
 void RegisterParams(CLI::App& app, CommandRun& run);
 void RegisterSimulate(CLI::App& app, CommandRun& run);
+void RegisterDemo(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -20,9 +21,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "rocklab 0.1.0");
   CommandRun run;
-  for (CommandRegistrar add : {&RegisterParams, &RegisterSimulate}) {
-    add(app, run);
-  }
+  const CommandRegistrar commands[] = {
+      &RegisterParams,
+      &RegisterSimulate,
+      &RegisterDemo,
+  };
+  for (CommandRegistrar add : commands) add(app, run);
 
   try {
     app.parse(argc, argv);
