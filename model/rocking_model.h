@@ -96,6 +96,9 @@ class RockingModel {
 
  protected:
   RockingModel() = default;
+  /// Forgets the previous Step sample, so the next Step holds its sample
+  /// constant. Every Reset implementation calls it.
+  void ResetStepHistory() { has_step_sample_ = false; }
   std::vector<ModelEvent> events_;
 
  private:

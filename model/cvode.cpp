@@ -1,0 +1,132 @@
+#include "model/cvode.h"
+
+#include <cvode/cvode.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
+
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+namespace rocklab::model::detail {
+namespace {
+
+void Check(int flag, const char* function) {
+  if (flag < 0) {
+    throw std::runtime_error(std::string(function) + " failed with flag " + std::to_string(flag) +
+                             " (" + CVodeGetReturnFlagName(flag) + ")");
+  }
+}
+
+template <typename T>
+T CheckPtr(T ptr, const char* function) {
+  if (ptr == nullptr) throw std::runtime_error(std::string(function) + " returned null");
+  return ptr;
+}
+
+}  // namespace
+
+struct Cvode::Handles {
+  SUNContext ctx{nullptr};
+  N_Vector y{nullptr};
+  N_Vector atol{nullptr};
+  SUNNonlinearSolver nls{nullptr};
+  void* mem{nullptr};
+  OdeSystem* system{nullptr};
+  std::exception_ptr error;
+
+  ~Handles() {
+    // Destruction order: solver memory first, then what it refers to.
+    if (mem != nullptr) CVodeFree(&mem);
+    if (nls != nullptr) SUNNonlinSolFree(nls);
+    if (atol != nullptr) N_VDestroy(atol);
+    if (y != nullptr) N_VDestroy(y);
+    if (ctx != nullptr) SUNContext_Free(&ctx);
+  }
+};
+
+// Exceptions must not cross the C library: the thunks keep the first one and
+// Advance rethrows it after CVode has returned its failure flag.
+int Cvode::RhsThunk(double t, N_Vector y, N_Vector ydot, void* user) {
+  auto* h = static_cast<Handles*>(user);
+  try {
+    return h->system->Rhs(t, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot));
+  } catch (...) {
+    if (!h->error) h->error = std::current_exception();
+    return -1;
+  }
+}
+
+int Cvode::RootThunk(double t, N_Vector y, double* g, void* user) {
+  auto* h = static_cast<Handles*>(user);
+  try {
+    return h->system->Roots(t, N_VGetArrayPointer(y), g);
+  } catch (...) {
+    if (!h->error) h->error = std::current_exception();
+    return -1;
+  }
+}
+
+Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s)
+    : h_(std::make_unique<Handles>()), n_(n) {
+  h_->system = &system;
+  Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
+  h_->y = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
+  h_->atol = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
+  double* y = N_VGetArrayPointer(h_->y);
+  double* a = N_VGetArrayPointer(h_->atol);
+  for (int i = 0; i < n; ++i) {
+    y[i] = 0.0;
+    a[i] = atol[i];
+  }
+  h_->mem = CheckPtr(CVodeCreate(CV_ADAMS, h_->ctx), "CVodeCreate");
+  Check(CVodeInit(h_->mem, RhsThunk, 0.0, h_->y), "CVodeInit");
+  Check(CVodeSetUserData(h_->mem, h_.get()), "CVodeSetUserData");
+  Check(CVodeSVtolerances(h_->mem, rtol, h_->atol), "CVodeSVtolerances");
+  h_->nls = CheckPtr(SUNNonlinSol_FixedPoint(h_->y, 0, h_->ctx), "SUNNonlinSol_FixedPoint");
+  Check(CVodeSetNonlinearSolver(h_->mem, h_->nls), "CVodeSetNonlinearSolver");
+  Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
+  Check(CVodeSetMaxNumSteps(h_->mem, 1000000), "CVodeSetMaxNumSteps");
+  Check(CVodeRootInit(h_->mem, kRoots, RootThunk), "CVodeRootInit");
+  Check(CVodeSetNoInactiveRootWarn(h_->mem), "CVodeSetNoInactiveRootWarn");
+}
+
+Cvode::~Cvode() = default;
+
+void Cvode::ReInit(double t0_s, const double* y0) {
+  double* y = N_VGetArrayPointer(h_->y);
+  for (int i = 0; i < n_; ++i) y[i] = y0[i];
+  Check(CVodeReInit(h_->mem, t0_s, h_->y), "CVodeReInit");
+  t_ = t0_s;
+}
+
+void Cvode::SetRootDirection(std::array<int, kRoots> direction) {
+  Check(CVodeSetRootDirection(h_->mem, direction.data()), "CVodeSetRootDirection");
+}
+
+Cvode::Result Cvode::Advance(double tout_s) {
+  // The stop time is cleared by CVODE once reached: set it for every call.
+  Check(CVodeSetStopTime(h_->mem, tout_s), "CVodeSetStopTime");
+  realtype t = t_;
+  const int flag = CVode(h_->mem, tout_s, h_->y, &t, CV_NORMAL);
+  if (h_->error) {
+    std::exception_ptr error = h_->error;
+    h_->error = nullptr;
+    std::rethrow_exception(error);
+  }
+  Check(flag, "CVode");
+  t_ = t;
+  return flag == CV_ROOT_RETURN ? Result::kRoot : Result::kReached;
+}
+
+std::array<int, Cvode::kRoots> Cvode::RootsFound() {
+  std::array<int, kRoots> found{};
+  Check(CVodeGetRootInfo(h_->mem, found.data()), "CVodeGetRootInfo");
+  return found;
+}
+
+const double* Cvode::y() const { return N_VGetArrayPointer(h_->y); }
+double* Cvode::y_mut() { return N_VGetArrayPointer(h_->y); }
+
+}  // namespace rocklab::model::detail

@@ -1,0 +1,273 @@
+#include "model/excitation.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace rocklab::model {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+// Parses the whole of `text` as a double; false when anything is left over.
+bool ParseDouble(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || errno == ERANGE) return false;
+  while (*end == ' ' || *end == '\t') ++end;
+  if (*end != '\0') return false;
+  *value = v;
+  return true;
+}
+
+std::string Trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+// u = U sin(w (t - start)) on [start, start + duration].
+class Sine final : public Excitation {
+ public:
+  explicit Sine(const SineSpec& s) : s_(s), w_(2 * kPi * s.frequency_hz) {}
+  double Displacement(double t) const override {
+    return Inside(t) ? s_.amplitude_m * std::sin(w_ * (t - s_.start_s)) : 0.0;
+  }
+  double Velocity(double t) const override {
+    return Inside(t) ? s_.amplitude_m * w_ * std::cos(w_ * (t - s_.start_s)) : 0.0;
+  }
+  double TableAcceleration(double t) const override {
+    return Inside(t) ? -s_.amplitude_m * w_ * w_ * std::sin(w_ * (t - s_.start_s)) : 0.0;
+  }
+
+ private:
+  bool Inside(double t) const { return t >= s_.start_s && t <= s_.start_s + s_.duration_s; }
+  SineSpec s_;
+  double w_;
+};
+
+// u = U A(t - tc) sin(w (t - start)), A(x) = (1 + cos(pi x / a)) / 2 for
+// |x| <= a, a = duration / 2, tc = start + a; derivatives by the product rule.
+class HanningSine final : public Excitation {
+ public:
+  explicit HanningSine(const SineSpec& s)
+      : s_(s), w_(2 * kPi * s.frequency_hz), a_(s.duration_s / 2), k_(kPi / a_) {}
+  double Displacement(double t) const override {
+    if (!Inside(t)) return 0.0;
+    return s_.amplitude_m * Window(t) * std::sin(w_ * (t - s_.start_s));
+  }
+  double Velocity(double t) const override {
+    if (!Inside(t)) return 0.0;
+    const double ph = w_ * (t - s_.start_s);
+    return s_.amplitude_m * (WindowD1(t) * std::sin(ph) + Window(t) * w_ * std::cos(ph));
+  }
+  double TableAcceleration(double t) const override {
+    if (!Inside(t)) return 0.0;
+    const double ph = w_ * (t - s_.start_s);
+    return s_.amplitude_m * (WindowD2(t) * std::sin(ph) + 2 * WindowD1(t) * w_ * std::cos(ph) -
+                             Window(t) * w_ * w_ * std::sin(ph));
+  }
+
+ private:
+  bool Inside(double t) const { return t >= s_.start_s && t <= s_.start_s + s_.duration_s; }
+  double X(double t) const { return t - (s_.start_s + a_); }
+  double Window(double t) const { return 0.5 * (1 + std::cos(k_ * X(t))); }
+  double WindowD1(double t) const { return -0.5 * k_ * std::sin(k_ * X(t)); }
+  double WindowD2(double t) const { return -0.5 * k_ * k_ * std::cos(k_ * X(t)); }
+  SineSpec s_;
+  double w_;
+  double a_;  // half-duration, s
+  double k_;  // pi / a, rad/s
+};
+
+class Sum final : public Excitation {
+ public:
+  explicit Sum(std::vector<std::unique_ptr<Excitation>> parts) : parts_(std::move(parts)) {}
+  double Displacement(double t) const override {
+    double s = 0.0;
+    for (const auto& p : parts_) s += p->Displacement(t);
+    return s;
+  }
+  double Velocity(double t) const override {
+    double s = 0.0;
+    for (const auto& p : parts_) s += p->Velocity(t);
+    return s;
+  }
+  double TableAcceleration(double t) const override {
+    double s = 0.0;
+    for (const auto& p : parts_) s += p->TableAcceleration(t);
+    return s;
+  }
+
+ private:
+  std::vector<std::unique_ptr<Excitation>> parts_;
+};
+
+}  // namespace
+
+void SineSpec::Validate() const {
+  auto bad = [](const char* key, const char* rule, double v) {
+    throw std::invalid_argument(std::string("excitation ") + key + " must be " + rule + " (got " +
+                                Num(v) + ")");
+  };
+  if (!std::isfinite(amplitude_m) || amplitude_m < 0.0) bad("amp", "finite and >= 0 m", amplitude_m);
+  if (!std::isfinite(frequency_hz) || frequency_hz <= 0.0) bad("freq", "finite and > 0 Hz", frequency_hz);
+  if (!std::isfinite(duration_s) || duration_s <= 0.0) bad("duration", "finite and > 0 s", duration_s);
+  if (!std::isfinite(start_s) || start_s < 0.0) bad("start", "finite and >= 0 s", start_s);
+}
+
+std::unique_ptr<Excitation> MakeSine(const SineSpec& spec) {
+  spec.Validate();
+  return std::make_unique<Sine>(spec);
+}
+
+std::unique_ptr<Excitation> MakeHanningSine(const SineSpec& spec) {
+  spec.Validate();
+  return std::make_unique<HanningSine>(spec);
+}
+
+std::unique_ptr<Excitation> MakeSum(std::vector<std::unique_ptr<Excitation>> parts) {
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    if (!parts[i]) throw std::invalid_argument("MakeSum: parts[" + std::to_string(i) + "] is null");
+  }
+  return std::make_unique<Sum>(std::move(parts));
+}
+
+std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
+  const auto colon = spec.find(':');
+  if (colon == std::string::npos) {
+    throw std::invalid_argument("excitation '" + spec +
+                                "' must read KIND:amp=..,freq=..,duration=..[,start=..] "
+                                "(KIND sine or hanning)");
+  }
+  const std::string kind = Trim(spec.substr(0, colon));
+  if (kind != "sine" && kind != "hanning") {
+    throw std::invalid_argument("unknown excitation kind '" + kind + "' in '" + spec +
+                                "' (expected sine, hanning)");
+  }
+  std::map<std::string, double> values;
+  std::stringstream items(spec.substr(colon + 1));
+  std::string item;
+  while (std::getline(items, item, ',')) {
+    const auto eq = item.find('=');
+    const std::string key = Trim(item.substr(0, eq));
+    if (key != "amp" && key != "freq" && key != "duration" && key != "start") {
+      throw std::invalid_argument("unknown excitation key '" + key + "' in '" + spec +
+                                  "' (expected amp, freq, duration, start)");
+    }
+    if (eq == std::string::npos) {
+      throw std::invalid_argument("excitation key '" + key + "' in '" + spec + "' has no value");
+    }
+    const std::string text = Trim(item.substr(eq + 1));
+    double v = 0.0;
+    if (!ParseDouble(text, &v)) {
+      throw std::invalid_argument("excitation key '" + key + "' in '" + spec + "': '" + text +
+                                  "' is not a number");
+    }
+    if (!values.emplace(key, v).second) {
+      throw std::invalid_argument("excitation key '" + key + "' given twice in '" + spec + "'");
+    }
+  }
+  for (const char* required : {"amp", "freq", "duration"}) {
+    if (values.count(required) == 0) {
+      throw std::invalid_argument("excitation '" + spec + "' is missing key '" + required + "'");
+    }
+  }
+  SineSpec s;
+  s.amplitude_m = values["amp"];
+  s.frequency_hz = values["freq"];
+  s.duration_s = values["duration"];
+  s.start_s = values.count("start") ? values["start"] : 0.0;
+  return kind == "sine" ? MakeSine(s) : MakeHanningSine(s);
+}
+
+SampledAcceleration::SampledAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2)
+    : time_(std::move(time_s)), accel_(std::move(accel_mps2)) {
+  if (time_.size() != accel_.size()) {
+    throw std::invalid_argument("SampledAcceleration: time_s has " + std::to_string(time_.size()) +
+                                " samples but accel_mps2 has " + std::to_string(accel_.size()));
+  }
+  if (time_.size() < 2) {
+    throw std::invalid_argument("SampledAcceleration: needs at least 2 samples (got " +
+                                std::to_string(time_.size()) + ")");
+  }
+  for (std::size_t i = 0; i < time_.size(); ++i) {
+    const std::string at = "[" + std::to_string(i) + "]";
+    if (!std::isfinite(time_[i])) throw std::invalid_argument("SampledAcceleration: time_s" + at + " is not finite");
+    if (!std::isfinite(accel_[i])) {
+      throw std::invalid_argument("SampledAcceleration: accel_mps2" + at + " is not finite");
+    }
+    if (i > 0 && !(time_[i] > time_[i - 1])) {
+      throw std::invalid_argument("SampledAcceleration: time_s" + at + " = " + Num(time_[i]) +
+                                  " is not after the previous sample");
+    }
+  }
+}
+
+double SampledAcceleration::TableAcceleration(double t_s) const {
+  if (!(t_s >= time_.front() && t_s <= time_.back())) return 0.0;
+  // First sample strictly after t_s (or the last one).
+  auto it = std::upper_bound(time_.begin(), time_.end(), t_s);
+  if (it == time_.end()) return accel_.back();
+  const std::size_t i = static_cast<std::size_t>(it - time_.begin());
+  const double w = (t_s - time_[i - 1]) / (time_[i] - time_[i - 1]);
+  return accel_[i - 1] + w * (accel_[i] - accel_[i - 1]);
+}
+
+SampledAcceleration ReadAccelerationCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open for reading");
+  auto fail = [&path](std::size_t line, const std::string& what) {
+    throw std::runtime_error(path + ":" + std::to_string(line) + ": " + what);
+  };
+  std::string line;
+  std::size_t line_no = 0;
+  if (!std::getline(in, line)) throw std::runtime_error(path + ":1: empty file (expected header 'time,accel')");
+  ++line_no;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line != "time,accel") fail(line_no, "header is '" + line + "', expected 'time,accel'");
+  std::vector<double> time;
+  std::vector<double> accel;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (Trim(line).empty()) continue;
+    const auto comma = line.find(',');
+    if (comma == std::string::npos || line.find(',', comma + 1) != std::string::npos) {
+      fail(line_no, "expected 2 fields (time,accel), got '" + line + "'");
+    }
+    const std::string fields[2] = {Trim(line.substr(0, comma)), Trim(line.substr(comma + 1))};
+    const char* names[2] = {"time", "accel"};
+    double v[2] = {0.0, 0.0};
+    for (int k = 0; k < 2; ++k) {
+      if (!ParseDouble(fields[k], &v[k])) fail(line_no, std::string(names[k]) + " '" + fields[k] + "' is not a number");
+      if (!std::isfinite(v[k])) fail(line_no, std::string(names[k]) + " '" + fields[k] + "' is not finite");
+    }
+    if (!time.empty() && !(v[0] > time.back())) {
+      fail(line_no, "time " + Num(v[0]) + " s is not after the previous sample " + Num(time.back()) + " s");
+    }
+    time.push_back(v[0]);
+    accel.push_back(v[1]);
+  }
+  if (time.size() < 2) fail(line_no, "needs at least 2 samples, got " + std::to_string(time.size()));
+  return SampledAcceleration(std::move(time), std::move(accel));
+}
+
+}  // namespace rocklab::model

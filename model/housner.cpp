@@ -1,0 +1,64 @@
+// Housner's piecewise model (physical time):
+//   theta'' = -p^2 [ sin(alpha s - theta) + (u_g''/g) cos(alpha s - theta) ],
+// s = +1 while the block pivots on its +x corner (theta > 0), -1 otherwise.
+// Impact at theta = 0: theta_dot <- mu theta_dot, s flips, CVODE restarts.
+
+#include <cmath>
+
+#include "model/rocking_impl.h"
+
+namespace rocklab::model::detail {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+class HousnerModel final : public CvodeRockingModel {
+ public:
+  HousnerModel(const BlockParams& params, const ModelOptions& options)
+      : CvodeRockingModel(params, options) {
+    const double atol[2] = {options.atol, options.atol};
+    Init(2, atol);
+  }
+  ModelKind kind() const override { return ModelKind::kHousner; }
+
+ protected:
+  void RockingRhs(double t_s, const double* y, double* ydot) override {
+    const double ug = table_accel(t_s);
+    const double phi = params_.alpha * side_ - y[0];
+    ydot[0] = y[1];
+    ydot[1] = -params_.p * params_.p * (std::sin(phi) + ug / kGravity * std::cos(phi));
+  }
+  void RockingRoots(const double* y, double* g) const override {
+    g[0] = y[0];
+    g[1] = side_ * y[0] - kPi / 2;
+  }
+  int ImpactRootDirection() const override { return side_ > 0 ? -1 : +1; }
+  void InitialState(double theta0, double theta_dot0, int side, double* y) override {
+    side_ = side;
+    y[0] = theta0;
+    y[1] = theta_dot0;
+  }
+  bool ApplyImpact(double* y) override {
+    y[0] = 0.0;
+    y[1] *= params_.mu;
+    side_ = -side_;
+    return true;
+  }
+  void FillState(const double* y) override {
+    state_.theta = y[0];
+    state_.theta_dot = y[1];
+    state_.chi = std::abs(y[0]) / params_.alpha;
+    state_.psi = side_ > 0 ? 0.0 : kPi;
+  }
+
+ private:
+  int side_{+1};
+};
+
+}  // namespace
+
+std::unique_ptr<RockingModel> MakeHousner(const BlockParams& params, const ModelOptions& options) {
+  return std::make_unique<HousnerModel>(params, options);
+}
+
+}  // namespace rocklab::model::detail

@@ -1,0 +1,71 @@
+#pragma once
+// Private to rocklab::model: the CVODE-driven regime machine shared by the
+// Housner and complex models (rest -> uplift -> rocking -> impacts -> rest or
+// overturn, ERRATA item 6). Derived classes supply the equations.
+
+#include <limits>
+#include <memory>
+
+#include "model/cvode.h"
+#include "model/rocking_model.h"
+
+namespace rocklab::model::detail {
+
+class CvodeRockingModel : public RockingModel, protected OdeSystem {
+ public:
+  void Reset(double t0_s, double theta0, double theta_dot0) final;
+  void AdvanceTo(double t_s, const Forcing& forcing) final;
+  const ModelState& state() const final { return state_; }
+  const BlockParams& params() const final { return params_; }
+  const ModelOptions& options() const final { return options_; }
+
+ protected:
+  CvodeRockingModel(const BlockParams& params, const ModelOptions& options);
+  /// Creates the integrator; call from the derived constructor.
+  void Init(int n, const double* atol);
+
+  // --- supplied by the formulation -----------------------------------------
+  /// Equations while rocking; u_g'' from table_accel(t).
+  virtual void RockingRhs(double t_s, const double* y, double* ydot) = 0;
+  /// g[0]: impact, g[1]: overturn (rising through zero).
+  virtual void RockingRoots(const double* y, double* g) const = 0;
+  /// Direction of the impact root for the current state (the overturn root rises).
+  virtual int ImpactRootDirection() const = 0;
+  /// Initial state from theta0, theta_dot0 (not both zero); `side` is +1 or -1.
+  virtual void InitialState(double theta0, double theta_dot0, int side, double* y) = 0;
+  /// Applies an impact found at the current time to y (in place); returns
+  /// whether the integrator must be re-initialised.
+  virtual bool ApplyImpact(double* y) = 0;
+  /// True when the model should go back to rest at this impact for a reason
+  /// of its own (besides the impact-interval rule).
+  virtual bool RestAtImpact(const double* /*y*/) const { return false; }
+  /// theta, theta_dot, chi, psi of y into state_ (energy is filled by the base).
+  virtual void FillState(const double* y) = 0;
+
+  double table_accel(double t_s) const { return forcing_->TableAcceleration(t_s); }
+
+  BlockParams params_;
+  ModelOptions options_;
+  ModelState state_;
+
+ private:
+  int Rhs(double t_s, const double* y, double* ydot) final;
+  int Roots(double t_s, const double* y, double* g) final;
+  void EnterRest(double t_s);
+  void StartRocking(double t_s, double theta0, double theta_dot0, int side);
+  void Emit(double t_s, EventKind kind, double value);
+  void UpdateState(double t_s, const double* y);
+
+  int n_{};
+  std::unique_ptr<Cvode> cvode_;
+  const Forcing* forcing_{nullptr};  // non-owning; valid during AdvanceTo only
+  double uplift_accel_mps2_{};       // g tan(alpha)
+  double last_impact_s_{-std::numeric_limits<double>::infinity()};
+  bool rest_checked_{false};         // uplift criterion checked at the current rest time
+  double y_[3]{};                    // scratch state, no allocation on the stepping path
+};
+
+std::unique_ptr<RockingModel> MakeHousner(const BlockParams& params, const ModelOptions& options);
+std::unique_ptr<RockingModel> MakeComplex(const BlockParams& params, const ModelOptions& options);
+
+}  // namespace rocklab::model::detail

@@ -1,0 +1,302 @@
+#include "model/rocking_model.h"
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "model/rocking_impl.h"
+
+namespace rocklab::model {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+std::shared_ptr<spdlog::logger> Log() {
+  static const std::shared_ptr<spdlog::logger> logger = [] {
+    auto existing = spdlog::get("model");
+    return existing ? existing : spdlog::stderr_color_mt("model");
+  }();
+  return logger;
+}
+
+// Table acceleration of Step: linear from (t0, a0) to (t1, a1), held
+// constant when t1 == t0. Lives on the stack of Step (no allocation).
+class SegmentForcing final : public Forcing {
+ public:
+  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
+  double TableAcceleration(double t_s) const override {
+    if (!(t1_ > t0_)) return a1_;
+    const double w = (t_s - t0_) / (t1_ - t0_);
+    return a0_ + w * (a1_ - a0_);
+  }
+
+ private:
+  double t0_, a0_, t1_, a1_;
+};
+
+}  // namespace
+
+const char* ToString(ModelKind kind) {
+  switch (kind) {
+    case ModelKind::kHousner: return "housner";
+    case ModelKind::kComplex: return "complex";
+  }
+  return "?";
+}
+
+const char* ToString(Regime regime) {
+  switch (regime) {
+    case Regime::kRest: return "rest";
+    case Regime::kRocking: return "rocking";
+    case Regime::kOverturned: return "overturned";
+  }
+  return "?";
+}
+
+const char* ToString(EventKind kind) {
+  switch (kind) {
+    case EventKind::kUplift: return "uplift";
+    case EventKind::kImpact: return "impact";
+    case EventKind::kRest: return "rest";
+    case EventKind::kOverturn: return "overturn";
+  }
+  return "?";
+}
+
+ModelKind ParseModelKind(const std::string& name) {
+  if (name == "housner") return ModelKind::kHousner;
+  if (name == "complex") return ModelKind::kComplex;
+  throw std::invalid_argument("unknown model '" + name + "' (expected housner, complex)");
+}
+
+void ModelOptions::Validate() const {
+  auto bad = [](const char* name, const char* rule, double v) {
+    throw std::invalid_argument(std::string("ModelOptions.") + name + " must be " + rule + " (got " +
+                                Num(v) + ")");
+  };
+  if (!std::isfinite(rtol) || rtol <= 0.0 || rtol >= 1.0) bad("rtol", "in (0, 1)", rtol);
+  if (!std::isfinite(atol) || atol <= 0.0) bad("atol", "finite and > 0", atol);
+  if (!std::isfinite(max_step_s) || max_step_s <= 0.0) bad("max_step_s", "finite and > 0 s", max_step_s);
+  if (!std::isfinite(l) || l <= 0.0) bad("l", "finite and > 0", l);
+  if (!std::isfinite(rest_impact_interval_s) || rest_impact_interval_s < 0.0) {
+    bad("rest_impact_interval_s", "finite and >= 0 s", rest_impact_interval_s);
+  }
+}
+
+std::unique_ptr<RockingModel> RockingModel::Create(ModelKind kind, const BlockParams& params,
+                                                   const ModelOptions& options) {
+  params.Validate();
+  options.Validate();
+  switch (kind) {
+    case ModelKind::kHousner: return detail::MakeHousner(params, options);
+    case ModelKind::kComplex: return detail::MakeComplex(params, options);
+  }
+  throw std::invalid_argument("RockingModel::Create: unknown kind");
+}
+
+void RockingModel::Step(double t_s, double table_accel_mps2) {
+  if (!std::isfinite(t_s) || !std::isfinite(table_accel_mps2)) {
+    throw std::invalid_argument("Step: t_s and table_accel_mps2 must be finite (got " + Num(t_s) +
+                                ", " + Num(table_accel_mps2) + ")");
+  }
+  const SegmentForcing forcing = has_step_sample_
+                                     ? SegmentForcing(last_step_time_s_, last_step_accel_, t_s, table_accel_mps2)
+                                     : SegmentForcing(t_s, table_accel_mps2, t_s, table_accel_mps2);
+  AdvanceTo(t_s, forcing);
+  last_step_time_s_ = t_s;
+  last_step_accel_ = table_accel_mps2;
+  has_step_sample_ = true;
+}
+
+Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, double theta0,
+                    double theta_dot0, double duration_s, double rate_hz) {
+  if (!std::isfinite(duration_s) || duration_s < 0.0) {
+    throw std::invalid_argument("Simulate: duration_s must be finite and >= 0 (got " + Num(duration_s) + ")");
+  }
+  if (!std::isfinite(rate_hz) || rate_hz <= 0.0) {
+    throw std::invalid_argument("Simulate: rate_hz must be finite and > 0 (got " + Num(rate_hz) + ")");
+  }
+  model.Reset(t0_s, theta0, theta_dot0);
+  // The small allowance keeps e.g. 4 s * 100 Hz from losing its last sample
+  // to rounding.
+  const auto n = static_cast<std::size_t>(std::floor(duration_s * rate_hz * (1 + 1e-12) + 1e-9)) + 1;
+  Trajectory out;
+  out.time_s.reserve(n);
+  out.theta.reserve(n);
+  out.theta_dot.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = t0_s + static_cast<double>(k) / rate_hz;
+    model.AdvanceTo(t, forcing);
+    out.time_s.push_back(t);
+    out.theta.push_back(model.state().theta);
+    out.theta_dot.push_back(model.state().theta_dot);
+  }
+  out.events = model.events();
+  return out;
+}
+
+namespace detail {
+
+CvodeRockingModel::CvodeRockingModel(const BlockParams& params, const ModelOptions& options)
+    : params_(params), options_(options), uplift_accel_mps2_(kGravity * std::tan(params.alpha)) {
+  params_.Validate();
+  options_.Validate();
+  events_.reserve(256);
+}
+
+void CvodeRockingModel::Init(int n, const double* atol) {
+  n_ = n;
+  cvode_ = std::make_unique<Cvode>(n, static_cast<OdeSystem&>(*this), options_.rtol, atol,
+                                   options_.max_step_s);
+  EnterRest(0.0);
+}
+
+void CvodeRockingModel::Reset(double t0_s, double theta0, double theta_dot0) {
+  if (!std::isfinite(t0_s)) throw std::invalid_argument("Reset: t0_s is not finite");
+  if (!std::isfinite(theta0) || std::abs(theta0) >= kPi / 2) {
+    throw std::invalid_argument("Reset: theta0 must be finite with |theta0| < pi/2 (got " + Num(theta0) + ")");
+  }
+  if (!std::isfinite(theta_dot0)) {
+    throw std::invalid_argument("Reset: theta_dot0 is not finite (got " + Num(theta_dot0) + ")");
+  }
+  events_.clear();
+  ResetStepHistory();
+  state_ = ModelState{};
+  last_impact_s_ = -std::numeric_limits<double>::infinity();
+  if (theta0 == 0.0 && theta_dot0 == 0.0) {
+    EnterRest(t0_s);
+    return;
+  }
+  const int side = theta0 > 0.0 || (theta0 == 0.0 && theta_dot0 > 0.0) ? +1 : -1;
+  StartRocking(t0_s, theta0, theta_dot0, side);
+}
+
+void CvodeRockingModel::EnterRest(double t_s) {
+  state_.time_s = t_s;
+  state_.theta = state_.theta_dot = state_.chi = state_.psi = state_.energy = 0.0;
+  state_.regime = Regime::kRest;
+  rest_checked_ = false;
+  for (double& v : y_) v = 0.0;
+  cvode_->ReInit(t_s, y_);
+  // Root 0: u_g'' rising through +g tan(alpha); root 1: falling through -g tan(alpha).
+  cvode_->SetRootDirection({+1, -1});
+}
+
+void CvodeRockingModel::StartRocking(double t_s, double theta0, double theta_dot0, int side) {
+  state_.regime = Regime::kRocking;
+  InitialState(theta0, theta_dot0, side, y_);
+  cvode_->ReInit(t_s, y_);
+  cvode_->SetRootDirection({ImpactRootDirection(), +1});
+  UpdateState(t_s, y_);
+}
+
+void CvodeRockingModel::UpdateState(double t_s, const double* y) {
+  state_.time_s = t_s;
+  FillState(y);
+  const double a = params_.alpha;
+  state_.energy = state_.theta_dot * state_.theta_dot / (2 * params_.p * params_.p) +
+                  std::cos(a - std::abs(state_.theta)) - std::cos(a);
+}
+
+void CvodeRockingModel::Emit(double t_s, EventKind kind, double value) {
+  events_.push_back({t_s, kind, value});
+  Log()->debug("{} {} at {:.9f} s, value {:.9g}", ToString(kind), state_.impacts, t_s, value);
+}
+
+int CvodeRockingModel::Rhs(double t_s, const double* y, double* ydot) {
+  if (state_.regime == Regime::kRocking) {
+    RockingRhs(t_s, y, ydot);
+  } else {
+    for (int i = 0; i < n_; ++i) ydot[i] = 0.0;
+  }
+  return 0;
+}
+
+int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
+  if (state_.regime == Regime::kRocking) {
+    RockingRoots(y, g);
+  } else {
+    const double ug = table_accel(t_s);
+    g[0] = ug - uplift_accel_mps2_;
+    g[1] = ug + uplift_accel_mps2_;
+  }
+  return 0;
+}
+
+void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
+  if (!std::isfinite(t_s) || t_s < state_.time_s) {
+    throw std::invalid_argument("AdvanceTo: t_s (" + Num(t_s) + ") is before the current time (" +
+                                Num(state_.time_s) + ")");
+  }
+  forcing_ = &forcing;
+  while (true) {
+    if (state_.regime == Regime::kOverturned) {
+      state_.time_s = t_s;  // the state stays frozen at the overturn
+      break;
+    }
+    if (state_.regime == Regime::kRest) {
+      if (!rest_checked_) {
+        // Root finding sees crossings only: check the criterion where rest starts.
+        rest_checked_ = true;
+        const double ug = table_accel(state_.time_s);
+        if (std::abs(ug) > uplift_accel_mps2_) {
+          Emit(state_.time_s, EventKind::kUplift, ug);
+          // u_g'' > 0 pushes the block onto its -x corner (theta < 0), ERRATA 5/6.
+          StartRocking(state_.time_s, 0.0, 0.0, ug > 0.0 ? -1 : +1);
+          continue;
+        }
+      }
+      if (state_.time_s >= t_s) break;
+      const Cvode::Result r = cvode_->Advance(t_s);
+      state_.time_s = cvode_->t_s();
+      if (r == Cvode::Result::kReached) break;
+      const auto found = cvode_->RootsFound();
+      const double t = cvode_->t_s();
+      Emit(t, EventKind::kUplift, table_accel(t));
+      StartRocking(t, 0.0, 0.0, found[0] != 0 ? -1 : +1);
+      continue;
+    }
+    if (state_.time_s >= t_s) break;
+    const Cvode::Result r = cvode_->Advance(t_s);
+    const double t = cvode_->t_s();
+    for (int i = 0; i < n_; ++i) y_[i] = cvode_->y()[i];
+    UpdateState(t, y_);
+    if (r == Cvode::Result::kReached) break;
+    const auto found = cvode_->RootsFound();
+    if (found[1] != 0) {
+      state_.regime = Regime::kOverturned;
+      Emit(t, EventKind::kOverturn, state_.theta);
+      continue;
+    }
+    // An impact.
+    ++state_.impacts;
+    Emit(t, EventKind::kImpact, state_.theta_dot);
+    const bool rest = t - last_impact_s_ < options_.rest_impact_interval_s || RestAtImpact(y_);
+    last_impact_s_ = t;
+    if (rest) {
+      Emit(t, EventKind::kRest, 0.0);
+      EnterRest(t);
+      last_impact_s_ = -std::numeric_limits<double>::infinity();
+      continue;
+    }
+    if (ApplyImpact(y_)) {
+      cvode_->ReInit(t, y_);
+      cvode_->SetRootDirection({ImpactRootDirection(), +1});
+      UpdateState(t, y_);
+    }
+  }
+  forcing_ = nullptr;
+}
+
+}  // namespace detail
+}  // namespace rocklab::model
