@@ -1,0 +1,344 @@
+#include "compare/compare_node.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "rocklab/comparison_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+
+namespace rocklab::compare {
+namespace {
+
+double HostNowS() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+std::shared_ptr<spdlog::logger> Log() {
+  // Shared: spdlog's registry hands out shared_ptr loggers.
+  static std::shared_ptr<spdlog::logger> log = [] {
+    auto l = spdlog::get("compare");
+    return l ? l : spdlog::default_logger()->clone("compare");
+  }();
+  return log;
+}
+
+}  // namespace
+
+void CompareNodeConfig::Validate() const {
+  auto check = [](bool ok, const char* name) {
+    if (!ok) throw std::invalid_argument(std::string("compare option ") + name + " out of range");
+  };
+  check(std::isfinite(publish_rate_hz) && publish_rate_hz > 0, "publish_rate_hz");
+  check(std::isfinite(stale_after_s) && stale_after_s > 0, "stale_after_s");
+  check(std::isfinite(health_period_s) && health_period_s > 0, "health_period_s");
+  check(align_capacity >= 2, "align_capacity");
+  comparator.Validate();
+}
+
+struct CompareNode::Variant {
+  Variant(const CompareNodeConfig& c, const rocklab::model_state_t& first)
+      : name(first.name), model(first.model), alpha(first.alpha), p(first.p), mu(first.mu),
+        comparator(c.comparator), pending(c.align_capacity) {}
+  std::string name, model;
+  double alpha, p, mu;
+  Comparator comparator;
+  struct Pending {
+    std::int64_t utime{};
+    double theta{};
+  };
+  Ring<Pending> pending;  // model samples newer than every measured one
+  std::int64_t pairs{};
+  std::int64_t unmatched_model{};
+  std::int64_t last_pub_utime{INT64_MIN};
+  bool dirty{};  // paired since the last publish
+  double last_host_s{};
+  bool stale{};
+};
+
+CompareNode::CompareNode(const CompareNodeConfig& config, lcm::LCM* publisher)
+    : config_(config), publisher_(publisher), measured_(config.align_capacity) {
+  config_.Validate();
+  last_theta_host_s_ = last_health_host_s_ = HostNowS();
+}
+
+CompareNode::~CompareNode() = default;
+
+CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state_t& msg) {
+  auto it = variants_.find(msg.name);
+  if (it != variants_.end()) return *it->second;
+  auto v = std::make_unique<Variant>(config_, msg);
+  Variant& ref = *v;
+  order_.push_back(&ref);
+  variants_.emplace(msg.name, std::move(v));
+  Log()->info("comparing variant '{}' ({}, alpha {:.4f} rad, p {:.4f} rad/s, mu {:.4f})",
+              msg.name, msg.model, msg.alpha, msg.p, msg.mu);
+  return ref;
+}
+
+void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
+  const double now = HostNowS();
+  if (theta_stale_) {
+    theta_stale_ = false;
+    PublishEvent(rocklab::event_t::RECOVERED, "daq", 0.0, "RL_THETA flowing again");
+  }
+  last_theta_host_s_ = now;
+  if (!measured_.empty() && msg.utime <= measured_.back().utime) {
+    ++theta_out_of_order_;  // the DAQ stamps in order: a duplicate or a replay restart
+    return;
+  }
+  ++theta_count_;
+  newest_utime_ = std::max(newest_utime_, msg.utime);
+  const bool valid = (msg.flags & config_.invalid_flags) == 0 && std::isfinite(msg.theta);
+  measured_.push_back({msg.utime, msg.theta, valid});
+  for (Variant* v : order_) {
+    while (!v->pending.empty() && v->pending.front().utime <= msg.utime) {
+      const Variant::Pending pm = v->pending.front();
+      v->pending.pop_front();
+      if (pm.utime == msg.utime) {
+        Pair(*v, msg.utime, msg.theta, valid, pm.theta);
+      } else {
+        ++v->unmatched_model;  // its measured sample never came
+      }
+    }
+  }
+}
+
+void CompareNode::HandleModel(const rocklab::model_state_t& msg) {
+  ++model_count_;
+  Variant& v = VariantFor(msg);
+  v.last_host_s = HostNowS();
+  if (v.stale) {
+    v.stale = false;
+    PublishEvent(rocklab::event_t::RECOVERED, msg.name, 0.0, "model flowing again");
+  }
+  newest_utime_ = std::max(newest_utime_, msg.utime);
+  if (measured_.empty() || msg.utime > measured_.back().utime) {
+    if (!v.pending.push_back({msg.utime, msg.theta})) ++v.unmatched_model;
+    return;
+  }
+  // Binary search in the ring (utime increasing).
+  std::size_t lo = 0, hi = measured_.size();
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (measured_[mid].utime < msg.utime) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  if (lo < measured_.size() && measured_[lo].utime == msg.utime) {
+    const Measured& m = measured_[lo];
+    Pair(v, m.utime, m.theta, m.valid, msg.theta);
+  } else {
+    ++v.unmatched_model;
+  }
+}
+
+void CompareNode::Pair(Variant& v, std::int64_t utime, double measured, bool valid,
+                       double modelled) {
+  ++v.pairs;
+  v.comparator.Add(utime, measured, modelled, valid);
+  v.dirty = true;
+  const double period_us = 1e6 / config_.publish_rate_hz;
+  if (v.last_pub_utime == INT64_MIN ||
+      static_cast<double>(utime - v.last_pub_utime) >= period_us - 0.5) {
+    PublishCompare(v);
+  }
+}
+
+void CompareNode::PublishCompare(Variant& v) {
+  const ComparisonMetrics& m = v.comparator.metrics();
+  v.last_pub_utime = m.utime;
+  v.dirty = false;
+  if (!publisher_) return;
+  rocklab::comparison_t out;
+  out.utime = m.utime;
+  out.name = v.name;
+  out.error = m.error;
+  out.rms_window = m.rms_window;
+  out.window_s = config_.comparator.window_s;
+  out.rms_total = m.rms_total;
+  out.nrms = m.nrms;
+  out.peak_error = m.peak_error;
+  out.impact_timing_error = m.impact_timing_error;
+  out.correlation = m.correlation;
+  out.valid = m.valid;
+  out.samples = m.samples;
+  publisher_->publish(config_.channel_prefix + "COMPARE_" + v.name, &out);
+  ++published_;
+}
+
+void CompareNode::PublishEvent(std::int8_t kind, const std::string& source, double value,
+                               const std::string& detail) {
+  Log()->log(kind == rocklab::event_t::RECOVERED ? spdlog::level::info : spdlog::level::warn,
+             "{}: {}", source, detail);
+  if (!publisher_) return;
+  rocklab::event_t ev;
+  ev.utime = newest_utime_;
+  ev.source = source;
+  ev.kind = kind;
+  ev.value = value;
+  ev.detail = detail;
+  publisher_->publish(config_.channel_prefix + "EVENT", &ev);
+}
+
+void CompareNode::PublishHealth(const char* state) {
+  if (!publisher_) return;
+  rocklab::health_t h{};
+  h.utime = newest_utime_;
+  h.node = "compare";
+  h.state = state;
+  h.count_in = theta_count_ + model_count_;
+  h.count_out = published_;
+  std::int64_t dropped = theta_out_of_order_;
+  for (const Variant* v : order_) dropped += v->unmatched_model;
+  h.dropped = dropped;
+  h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
+  publisher_->publish(config_.channel_prefix + "HEALTH", &h);
+}
+
+void CompareNode::CheckStale() {
+  const double now = HostNowS();
+  if (theta_count_ > 0 && !theta_stale_ && now - last_theta_host_s_ > config_.stale_after_s) {
+    theta_stale_ = true;
+    PublishEvent(rocklab::event_t::STALE, "daq", now - last_theta_host_s_,
+                 "no RL_THETA for " + std::to_string(now - last_theta_host_s_) + " s");
+  }
+  for (Variant* v : order_) {
+    if (!v->stale && now - v->last_host_s > config_.stale_after_s) {
+      v->stale = true;
+      PublishEvent(rocklab::event_t::STALE, v->name, now - v->last_host_s,
+                   "no " + config_.channel_prefix + "MODEL_" + v->name + " for " +
+                       std::to_string(now - v->last_host_s) + " s");
+    }
+  }
+  if (now - last_health_host_s_ >= config_.health_period_s) {
+    last_health_host_s_ = now;
+    bool any_stale = theta_stale_;
+    for (const Variant* v : order_) any_stale = any_stale || v->stale;
+    PublishHealth(any_stale ? "stale" : "running");
+  }
+}
+
+void CompareNode::OnTheta(const lcm::ReceiveBuffer*, const std::string&,
+                          const rocklab::block_state_t* msg) {
+  try {
+    HandleTheta(*msg);
+  } catch (const std::exception& e) {
+    Log()->error("RL_THETA handler: {}", e.what());
+  }
+}
+
+void CompareNode::OnModel(const lcm::ReceiveBuffer*, const std::string& channel,
+                          const rocklab::model_state_t* msg) {
+  try {
+    HandleModel(*msg);
+  } catch (const std::exception& e) {
+    Log()->error("{} handler: {}", channel, e.what());
+  }
+}
+
+void CompareNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
+  lcm::Subscription* theta =
+      subscriber.subscribe(config_.channel_prefix + "THETA", &CompareNode::OnTheta, this);
+  lcm::Subscription* model =
+      subscriber.subscribe(config_.channel_prefix + "MODEL_.*", &CompareNode::OnModel, this);
+  PublishHealth("running");
+  while (!stop.load()) {
+    if (subscriber.handleTimeout(100) < 0) {
+      Log()->error("LCM handleTimeout failed");
+      break;
+    }
+    CheckStale();
+  }
+  subscriber.unsubscribe(theta);
+  subscriber.unsubscribe(model);
+  Finish();
+}
+
+void CompareNode::Finish() {
+  for (Variant* v : order_) {
+    if (v->dirty) PublishCompare(*v);
+  }
+  PublishHealth("stopped");
+}
+
+std::vector<VariantSummary> CompareNode::Summary() const {
+  std::vector<VariantSummary> out;
+  for (const Variant* v : order_) {
+    VariantSummary s;
+    s.name = v->name;
+    s.model = v->model;
+    s.alpha = v->alpha;
+    s.p = v->p;
+    s.mu = v->mu;
+    s.metrics = v->comparator.metrics();
+    s.unmatched_measured = theta_count_ - v->pairs;
+    s.unmatched_model = v->unmatched_model + static_cast<std::int64_t>(v->pending.size());
+    out.push_back(s);
+  }
+  return out;
+}
+
+void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::FILE* out) {
+  std::fprintf(out, "%-20s %-8s %8s %8s %6s %11s %9s %7s %9s %11s %11s %7s\n", "variant", "model",
+               "alpha", "p", "mu", "rms_deg", "max_deg", "nrms", "corr", "timing_s",
+               "peak_deg", "valid%");
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  for (const VariantSummary& s : summary) {
+    const ComparisonMetrics& m = s.metrics;
+    const double valid_pct =
+        m.samples > 0 ? 100.0 * static_cast<double>(m.valid_samples) / m.samples : 0.0;
+    std::fprintf(out, "%-20s %-8s %8.4f %8.4f %6.3f %11.5f %9.4f %7.4f %9.5f %11.5f %11.5f %7.2f\n",
+                 s.name.c_str(), s.model.c_str(), s.alpha, s.p, s.mu, m.rms_total * kDeg,
+                 m.max_abs_error * kDeg, m.nrms, m.correlation, m.mean_abs_timing_error,
+                 m.mean_abs_peak_error * kDeg, valid_pct);
+  }
+}
+
+void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
+                                   const std::string& path) {
+  nlohmann::json variants = nlohmann::json::array();
+  for (const VariantSummary& s : summary) {
+    const ComparisonMetrics& m = s.metrics;
+    variants.push_back({{"name", s.name},
+                        {"model", s.model},
+                        {"alpha", s.alpha},
+                        {"p", s.p},
+                        {"mu", s.mu},
+                        {"samples", m.samples},
+                        {"valid_samples", m.valid_samples},
+                        {"rms", m.rms_total},
+                        {"nrms", m.nrms},
+                        {"max_abs_error", m.max_abs_error},
+                        {"peak_measured", m.peak_measured},
+                        {"correlation", m.correlation},
+                        {"matched_crossings", m.matched_crossings},
+                        {"unmatched_crossings", m.unmatched_crossings},
+                        {"mean_abs_timing_error", m.mean_abs_timing_error},
+                        {"mean_abs_peak_error", m.mean_abs_peak_error},
+                        {"unmatched_measured", s.unmatched_measured},
+                        {"unmatched_model", s.unmatched_model}});
+  }
+  const nlohmann::json doc = {
+      {"variants", variants},
+      {"units",
+       {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"rms", "rad"}, {"nrms", "1"},
+        {"max_abs_error", "rad"}, {"peak_measured", "rad"}, {"correlation", "1"},
+        {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"}}}};
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) throw std::runtime_error("cannot write summary '" + path + "'");
+  const std::string text = doc.dump(2) + "\n";
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  if (std::fclose(f) != 0 || !ok) throw std::runtime_error("error writing summary '" + path + "'");
+}
+
+}  // namespace rocklab::compare

@@ -1,0 +1,122 @@
+#pragma once
+/// @file
+/// The comparator node: subscribes RL_THETA and RL_MODEL_*, aligns each model
+/// variant with the measurement by utime, publishes RL_COMPARE_<name> at a
+/// configurable rate of the sample clock, reports stale inputs, and writes a
+/// summary at the end.
+///
+/// Threading: single-threaded. Run() loops on lcm.handleTimeout so that the
+/// stale checks and health messages run when nothing arrives; the LCM
+/// handlers only call the Handle* entry points, which the all-in-one run may
+/// also call directly (LCM then is only a tap). Shutdown: the stop flag ends
+/// the loop, a final RL_COMPARE per variant and a final RL_HEALTH go out.
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "compare/comparator.h"
+#include "compare/ring.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/model_state_t.hpp"
+
+namespace rocklab::compare {
+
+struct CompareNodeConfig {
+  std::string lcm_url;             ///< empty: LCM's default (LCM_DEFAULT_URL)
+  std::string channel_prefix{"RL_"};
+  double publish_rate_hz{20.0};    ///< RL_COMPARE_* rate in sample-clock time, Hz; > 0
+  double stale_after_s{1.0};       ///< host time without input before a stale event, s; > 0
+  double health_period_s{1.0};     ///< RL_HEALTH period, host time, s; > 0
+  std::size_t align_capacity{8192};///< samples buffered per side while waiting for a match
+  /// DAQ flags that make a pair invalid (1-DOF model not applicable):
+  /// sliding | jump | twist by default.
+  std::int32_t invalid_flags{rocklab::block_state_t::FLAG_SLIDING |
+                             rocklab::block_state_t::FLAG_JUMP |
+                             rocklab::block_state_t::FLAG_TWIST};
+  ComparatorOptions comparator;
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+};
+
+/// End-of-run figures of one variant.
+struct VariantSummary {
+  std::string name;
+  std::string model;
+  double alpha{}, p{}, mu{};   ///< parameters the variant used: rad, rad/s, 1
+  ComparisonMetrics metrics;   ///< at the end of the run
+  std::int64_t unmatched_measured{};  ///< measured samples never paired
+  std::int64_t unmatched_model{};     ///< model samples never paired
+};
+
+class CompareNode {
+ public:
+  /// @param publisher where RL_COMPARE_*, RL_EVENT and RL_HEALTH go; not
+  ///        owned, must outlive the node (may be null: nothing is published).
+  /// @throws std::invalid_argument for an invalid configuration.
+  CompareNode(const CompareNodeConfig& config, lcm::LCM* publisher);
+  ~CompareNode();
+  CompareNode(const CompareNode&) = delete;
+  CompareNode& operator=(const CompareNode&) = delete;
+
+  /// Direct-call entry points (also used by the LCM handlers).
+  void HandleTheta(const rocklab::block_state_t& msg);
+  void HandleModel(const rocklab::model_state_t& msg);
+
+  /// Subscribes on `subscriber` and dispatches until `stop`; checks staleness
+  /// and sends health while idle.
+  void Run(lcm::LCM& subscriber, const std::atomic<bool>& stop);
+
+  /// Stale checks against the host clock; Run calls it, a direct-call user may.
+  void CheckStale();
+  /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
+  void Finish();
+
+  std::vector<VariantSummary> Summary() const;
+  /// The summary as a table (stdout) and as JSON (file); throws naming the
+  /// file when it cannot be written.
+  static void PrintSummary(const std::vector<VariantSummary>& summary, std::FILE* out);
+  static void WriteSummaryJson(const std::vector<VariantSummary>& summary,
+                               const std::string& path);
+
+  std::int64_t theta_count() const { return theta_count_; }
+  std::int64_t model_count() const { return model_count_; }
+
+ private:
+  struct Variant;
+  Variant& VariantFor(const rocklab::model_state_t& msg);
+  void Pair(Variant& v, std::int64_t utime, double measured, bool valid, double modelled);
+  void PublishCompare(Variant& v);
+  void PublishEvent(std::int8_t kind, const std::string& source, double value,
+                    const std::string& detail);
+  void PublishHealth(const char* state);
+  void OnTheta(const lcm::ReceiveBuffer*, const std::string&, const rocklab::block_state_t* msg);
+  void OnModel(const lcm::ReceiveBuffer*, const std::string&, const rocklab::model_state_t* msg);
+
+  CompareNodeConfig config_;
+  lcm::LCM* publisher_;  // not owned
+  std::map<std::string, std::unique_ptr<Variant>> variants_;
+  std::vector<Variant*> order_;  // variants in order of appearance
+
+  // Measured samples waiting for the models, oldest first, utime increasing.
+  struct Measured {
+    std::int64_t utime{};
+    double theta{};
+    bool valid{};
+  };
+  Ring<Measured> measured_;
+
+  std::int64_t theta_count_{}, model_count_{}, published_{};
+  std::int64_t theta_out_of_order_{};  // RL_THETA not newer than the last: dropped, counted
+  double last_theta_host_s_{};
+  bool theta_stale_{};
+  double last_health_host_s_{};
+  std::int64_t newest_utime_{};
+};
+
+}  // namespace rocklab::compare
