@@ -1,1 +1,168 @@
+// Tests of model/excitation.h. Oracles: closed forms, finite differences of
+// the displacement, and the documented error messages.
+#include "model/excitation.h"
+
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+namespace rocklab::model {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string ParseError(const std::string& spec) {
+  try {
+    ParseExcitation(spec);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// ORACLE: u'' = -U w^2 sin(w (t - start)) inside, 0 outside. TOLERANCE: 1e-12
+// (a handful of roundings of O(1) numbers).
+TEST(ExcitationTest, SineClosedForm) {
+  const auto s = MakeSine({0.006, 5.0, 20.0, 1.0});
+  const double w = 2 * kPi * 5.0;
+  EXPECT_EQ(s->TableAcceleration(0.5), 0.0);
+  EXPECT_EQ(s->Displacement(21.5), 0.0);
+  for (double t : {1.0, 1.03, 7.77, 21.0}) {
+    EXPECT_NEAR(s->Displacement(t), 0.006 * std::sin(w * (t - 1)), 1e-12);
+    EXPECT_NEAR(s->Velocity(t), 0.006 * w * std::cos(w * (t - 1)), 1e-12);
+    EXPECT_NEAR(s->TableAcceleration(t), -0.006 * w * w * std::sin(w * (t - 1)), 1e-12);
+  }
+}
+
+// ORACLE: ERRATA 11 — the acceleration is the exact second derivative of
+// U A(t - tc) sin(2 pi f (t - start)): compared with central differences of
+// Displacement and Velocity, Richardson-extrapolated (4 D(h/2) - D(h)) / 3.
+// TOLERANCE: truncation ~h^4/480 max|u^(6)| with h = 1e-3 and
+// |u^(6)| <~ U (2 pi f)^6 (1.3)^6 ~ 4e5 (window terms add the 1.3): ~1e-9;
+// rounding ~1e-16 * 0.13 / h ~ 1e-14: 1e-8.
+TEST(ExcitationTest, HanningDerivativesAreExact) {
+  const auto e = MakeHanningSine({0.006, 3.3, 4.0, 0.5});
+  auto d = [](auto f, double t) {
+    const double h = 1e-3;
+    const double d1 = (f(t + h) - f(t - h)) / (2 * h);
+    const double d2 = (f(t + h / 2) - f(t - h / 2)) / h;
+    return (4 * d2 - d1) / 3;
+  };
+  auto u = [&e](double t) { return e->Displacement(t); };
+  auto v = [&e](double t) { return e->Velocity(t); };
+  for (double t = 0.6; t < 4.45; t += 0.0371) {
+    EXPECT_NEAR(e->Velocity(t), d(u, t), 1e-8) << t;
+    EXPECT_NEAR(e->TableAcceleration(t), d(v, t), 1e-8) << t;
+  }
+  // The window: zero at the ends, full amplitude at the centre t_c = 2.5 s.
+  EXPECT_NEAR(e->Displacement(0.5), 0.0, 1e-15);
+  EXPECT_NEAR(e->Displacement(4.5), 0.0, 1e-15);
+  EXPECT_EQ(e->Displacement(4.6), 0.0);
+  const double tc = 2.5;
+  EXPECT_NEAR(e->Displacement(tc), 0.006 * std::sin(2 * kPi * 3.3 * 2.0), 1e-15);
+  // Not U (2 pi f)^2 times the window (the misreading ERRATA 11 warns of).
+  const double naive = -0.006 * std::pow(2 * kPi * 3.3, 2) * 0.5 * (1 + std::cos(kPi * 0.3 / 2)) *
+                       std::sin(2 * kPi * 3.3 * 2.3);
+  EXPECT_GT(std::abs(e->TableAcceleration(2.8) - naive), 1e-3);
+}
+
+// ORACLE: linearity of the sum.
+TEST(ExcitationTest, SumAddsParts) {
+  std::vector<std::unique_ptr<Excitation>> parts;
+  parts.push_back(MakeSine({0.002, 2.0, 5.0, 0.0}));
+  parts.push_back(MakeHanningSine({0.004, 3.0, 4.0, 1.0}));
+  const auto a = MakeSine({0.002, 2.0, 5.0, 0.0});
+  const auto b = MakeHanningSine({0.004, 3.0, 4.0, 1.0});
+  const auto sum = MakeSum(std::move(parts));
+  for (double t : {0.3, 1.7, 2.9}) {
+    EXPECT_DOUBLE_EQ(sum->TableAcceleration(t), a->TableAcceleration(t) + b->TableAcceleration(t));
+    EXPECT_DOUBLE_EQ(sum->Velocity(t), a->Velocity(t) + b->Velocity(t));
+  }
+}
+
+// ORACLE: the documented spec syntax and messages.
+TEST(ExcitationTest, ParseGoodAndBad) {
+  const auto e = ParseExcitation("hanning:amp=0.006,freq=3.3,duration=4,start=0.5");
+  const auto ref = MakeHanningSine({0.006, 3.3, 4.0, 0.5});
+  EXPECT_EQ(e->TableAcceleration(2.1), ref->TableAcceleration(2.1));
+  const auto s = ParseExcitation("sine:amp=0.006,freq=5,duration=20");  // start defaults to 0
+  EXPECT_EQ(s->TableAcceleration(0.01), MakeSine({0.006, 5, 20, 0})->TableAcceleration(0.01));
+
+  EXPECT_EQ(ParseError("sine:ampl=1"),
+            "unknown excitation key 'ampl' in 'sine:ampl=1' (expected amp, freq, duration, start)");
+  EXPECT_NE(ParseError("square:amp=1,freq=1,duration=1").find("kind 'square'"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=abc,freq=1,duration=1").find("key 'amp'"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=1,freq=1").find("missing key 'duration'"), std::string::npos);
+  EXPECT_NE(ParseError("sine:freq=1,duration=1").find("missing key 'amp'"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=1,duration=1").find("missing key 'freq'"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=1,freq=-2,duration=1").find("freq"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=1,freq=2,duration=1,start=-1").find("start"), std::string::npos);
+  EXPECT_NE(ParseError("sine:amp=nan,freq=2,duration=1").find("amp"), std::string::npos);
+  EXPECT_NE(ParseError("sine").find("KIND"), std::string::npos);
+}
+
+// ORACLE: linear interpolation by hand; zero outside.
+TEST(ExcitationTest, SampledAccelerationIsLinearAndZeroOutside) {
+  SampledAcceleration s({0.0, 1.0, 3.0}, {0.0, 2.0, -2.0});
+  EXPECT_EQ(s.TableAcceleration(-0.1), 0.0);
+  EXPECT_EQ(s.TableAcceleration(3.1), 0.0);
+  EXPECT_DOUBLE_EQ(s.TableAcceleration(0.5), 1.0);
+  EXPECT_DOUBLE_EQ(s.TableAcceleration(1.0), 2.0);
+  EXPECT_DOUBLE_EQ(s.TableAcceleration(2.0), 0.0);
+  EXPECT_DOUBLE_EQ(s.TableAcceleration(3.0), -2.0);
+  EXPECT_THROW(SampledAcceleration({0.0, 1.0}, {0.0}), std::invalid_argument);
+  EXPECT_THROW(SampledAcceleration({0.0}, {0.0}), std::invalid_argument);
+  try {
+    SampledAcceleration({0.0, 1.0, 1.0}, {0.0, 1.0, 2.0});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("time_s[2]"), std::string::npos);
+  }
+  try {
+    SampledAcceleration({0.0, 1.0}, {0.0, INFINITY});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("accel_mps2[1]"), std::string::npos);
+  }
+}
+
+std::string CsvError(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  try {
+    ReadAccelerationCsv(path);
+  } catch (const std::runtime_error& e) {
+    std::remove(path.c_str());
+    return e.what();
+  }
+  std::remove(path.c_str());
+  return "";
+}
+
+// ORACLE: the contract "FILE:LINE: ..." for each kind of bad file.
+TEST(ExcitationTest, CsvReaderNamesFileAndLine) {
+  const std::string path = ::testing::TempDir() + "good.csv";
+  std::ofstream(path) << "time,accel\n0,0\n0.5,1\n1.0,-1\n";
+  const SampledAcceleration s = ReadAccelerationCsv(path);
+  EXPECT_DOUBLE_EQ(s.TableAcceleration(0.75), 0.0);
+  EXPECT_EQ(s.end_s(), 1.0);
+  std::remove(path.c_str());
+
+  const std::string dir = ::testing::TempDir();
+  EXPECT_EQ(CsvError("ragged.csv", "time,accel\n0,1\n1,2,3\n"),
+            dir + "ragged.csv:3: expected 2 fields (time,accel), got '1,2,3'");
+  EXPECT_NE(CsvError("text.csv", "time,accel\n0,1\n1,abc\n").find("text.csv:3: accel 'abc'"), std::string::npos);
+  EXPECT_NE(CsvError("nan.csv", "time,accel\n0,1\n1,nan\n").find("nan.csv:3:"), std::string::npos);
+  EXPECT_NE(CsvError("order.csv", "time,accel\n0,1\n1,2\n1,3\n").find("order.csv:4: time"), std::string::npos);
+  EXPECT_NE(CsvError("empty.csv", "").find("empty.csv:1: empty file"), std::string::npos);
+  EXPECT_NE(CsvError("header.csv", "t,a\n0,1\n").find("header.csv:1: header"), std::string::npos);
+  EXPECT_NE(CsvError("short.csv", "time,accel\n0,1\n").find("short.csv:2:"), std::string::npos);
+  EXPECT_NE(CsvError("missing.csv", "x").find("missing.csv"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rocklab::model
