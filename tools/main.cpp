@@ -28,6 +28,18 @@ int main(int argc, char** argv) {
   };
   for (CommandRegistrar add : commands) add(app, run);
 
+  std::string known;
+  bool is_known = false;
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    known += (known.empty() ? "" : ", ") + sub->get_name();
+    is_known = is_known || (argc > 1 && sub->get_name() == argv[1]);
+  }
+  if (argc > 1 && argv[1][0] != '-' && !is_known) {
+    std::fprintf(stderr, "rocklab: unknown subcommand '%s' (expected one of %s)\n", argv[1],
+                 known.c_str());
+    return kUsageExit;
+  }
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
+#include <ostream>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -84,6 +86,17 @@ struct BadCase {
   std::string must_name;  // the option or key the message must name
 };
 
+// Shows the command line in test names and failure messages.
+void PrintTo(const BadCase& c, std::ostream* os) {
+  for (const std::string& a : c.args) *os << a << ' ';
+}
+
+std::string BadCaseName(const ::testing::TestParamInfo<BadCase>& info) {
+  std::string name = std::to_string(info.index) + "_";
+  for (char ch : info.param.must_name) name += std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
+  return name;
+}
+
 class CliBadInput : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(CliBadInput, OneLineNamingTheOptionExitCode2) {
@@ -128,7 +141,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{{"params", "--width", "0.2"}, "--height"},
         BadCase{{"params", "--width", "0.2", "--height", "1", "--chamfer", "0.2"}, "--chamfer"},
         BadCase{{"params", "--width", "0.2", "--height", "1", "--depth", "3"}, "--depth"},
-        BadCase{{"params", "--width"}, "--width"}));
+        BadCase{{"params", "--width"}, "--width"}),
+    BadCaseName);
 
 INSTANTIATE_TEST_SUITE_P(
     Simulate, CliBadInput,
@@ -161,7 +175,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{Sim({"--excitation", "sine:amp=0.006,freq=-5,duration=2"}), "freq"},
         BadCase{Sim({"--accel", "scratch/does-not-exist.csv"}), "does-not-exist.csv"},
         BadCase{Sim({"--out", "/nonexistent-dir/x.csv"}), "/nonexistent-dir/x.csv"},
-        BadCase{{"frobnicate"}, "frobnicate"}));
+        BadCase{{"frobnicate"}, "frobnicate"}),
+    BadCaseName);
 
 // A malformed acceleration record names the file and line.
 TEST(CliSimulate, BadAccelRecordNamesFileAndLine) {
