@@ -1,0 +1,121 @@
+// rocklab LCM logs: raw_frame_t events on RL_RAW, decoded with the channel
+// names of the first RL_DAQ_CONFIG event in the log.
+#include <cctype>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "daq/source.h"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+
+namespace rocklab::daq {
+namespace {
+
+class LcmLogSource final : public Source {
+ public:
+  LcmLogSource(const std::string& path, const SourceOptions& options)
+      : path_(path), raw_channel_(options.raw_channel), on_problem_(options.on_problem) {
+    rate_hz_ = options.sample_rate_hz;
+    {
+      // First pass: the channel description (sent at start and every few
+      // seconds, so it may come after the first frames).
+      lcm::LogFile scan(path, "r");
+      if (!scan.good()) throw std::runtime_error(path + ": cannot open the LCM log");
+      while (const lcm::LogEvent* ev = scan.readNextEvent()) {
+        if (ev->channel != options.config_channel) continue;
+        rocklab::daq_config_t config;
+        if (config.decode(ev->data, 0, ev->datalen) < 0) continue;
+        names_ = config.channel_names;
+        if (config.sample_rate_hz > 0) rate_hz_ = config.sample_rate_hz;
+        break;
+      }
+    }
+    if (names_.empty()) names_ = options.fallback_channel_names;
+    if (names_.empty()) {
+      throw std::runtime_error(path + ": no " + options.config_channel +
+                               " event names the channels, and no fallback names were given");
+    }
+    if (!(rate_hz_ > 0)) throw std::runtime_error(path + ": no sample rate (config or rig)");
+    log_ = std::make_unique<lcm::LogFile>(path, "r");
+    if (!log_->good()) throw std::runtime_error(path + ": cannot open the LCM log");
+  }
+
+  const std::vector<std::string>& channel_names() const override { return names_; }
+  double sample_rate_hz() const override { return rate_hz_; }
+  const SourceStats& stats() const override { return stats_; }
+  const std::string& path() const override { return path_; }
+
+  ReadStatus Next(Frame& frame) override {
+    while (const lcm::LogEvent* ev = log_->readNextEvent()) {
+      if (ev->channel != raw_channel_) continue;
+      ++stats_.rows;
+      if (msg_.decode(ev->data, 0, ev->datalen) < 0) {
+        Bad(ev->eventnum, "RL_RAW event does not decode as raw_frame_t (skipped)");
+        continue;
+      }
+      if (static_cast<size_t>(msg_.num_channels) != names_.size()) {
+        std::ostringstream what;
+        what << "raw frame has " << msg_.num_channels << " channels, the config names "
+             << names_.size() << " (skipped)";
+        Bad(ev->eventnum, what.str());
+        continue;
+      }
+      frame.seq = msg_.seq;
+      frame.time_s = static_cast<double>(msg_.utime) * 1e-6;
+      frame.line = ev->eventnum;
+      frame.values.assign(msg_.values.begin(), msg_.values.end());
+      return ReadStatus::kFrame;
+    }
+    return ReadStatus::kEnd;
+  }
+
+ private:
+  void Bad(int64_t event, const std::string& what) {
+    ++stats_.bad_rows;
+    if (on_problem_) on_problem_(Problem{{&path_, event}, what});
+  }
+
+  std::string path_;
+  std::string raw_channel_;
+  ProblemCallback on_problem_;
+  std::vector<std::string> names_;
+  double rate_hz_{};
+  std::unique_ptr<lcm::LogFile> log_;
+  rocklab::raw_frame_t msg_;  // reused: decode keeps the vector's capacity
+  SourceStats stats_;
+};
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (size_t i = 0; i < suffix.size(); ++i) {
+    const char c = s[s.size() - suffix.size() + i];
+    if (std::tolower(static_cast<unsigned char>(c)) != suffix[i]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOptions& options) {
+  return std::make_unique<LcmLogSource>(path, options);
+}
+
+std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options) {
+  if (EndsWith(path, ".csv")) return OpenCsvSource(path, options);
+  if (EndsWith(path, ".lvm")) return OpenLvmSource(path, options);
+  return OpenLcmLogSource(path, options);
+}
+
+std::string ToString(const Problem& problem) {
+  std::ostringstream s;
+  s << (problem.where.file != nullptr ? *problem.where.file : std::string("?")) << ":"
+    << problem.where.line << ": " << problem.message;
+  return s.str();
+}
+
+int64_t Frame::utime() const { return std::llround(time_s * 1e6); }
+
+}  // namespace rocklab::daq

@@ -1,0 +1,157 @@
+#include "daq/processor.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "rocklab/event_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::daq {
+namespace {
+
+constexpr int32_t kCheckFlags =
+    kFlagSliding | kFlagJump | kFlagTwist | kFlagOutOfPlane | kFlagDisagree;
+
+struct FlagEvent {
+  int32_t flag;
+  int8_t kind;
+  const char* name;
+};
+constexpr FlagEvent kFlagEvents[] = {
+    {kFlagSliding, rocklab::event_t::SLIDING, "sliding"},
+    {kFlagJump, rocklab::event_t::JUMP, "jump"},
+    {kFlagTwist, rocklab::event_t::TWIST, "twist"},
+    {kFlagOutOfPlane, rocklab::event_t::OUT_OF_PLANE, "out-of-plane"},
+    {kFlagDisagree, rocklab::event_t::DISAGREE, "mirror-camera disagreement"},
+};
+
+// Whether the quantity behind a flag was measured at this sample.
+bool Measured(const BlockState& s, int32_t flag) {
+  switch (flag) {
+    case kFlagSliding: return std::isfinite(s.sliding);
+    case kFlagJump: return std::isfinite(s.jump);
+    case kFlagTwist: return std::isfinite(s.twist);
+    case kFlagOutOfPlane: return std::isfinite(s.out_of_plane) || std::isfinite(s.tilt);
+    case kFlagDisagree: return std::isfinite(s.theta_mirror) && std::isfinite(s.theta_camera);
+    default: return false;
+  }
+}
+
+double FlagValue(const BlockState& s, int32_t flag) {
+  switch (flag) {
+    case kFlagSliding: return s.sliding;
+    case kFlagJump: return s.jump;
+    case kFlagTwist: return s.twist;
+    case kFlagOutOfPlane: return std::isfinite(s.out_of_plane) ? s.out_of_plane : s.tilt;
+    case kFlagDisagree: return s.theta_mirror - s.theta_camera;
+    default: return 0;
+  }
+}
+
+}  // namespace
+
+Processor::Processor(const RigConfig& rig, const std::vector<std::string>& source_channels,
+                     const std::string& source_path, ProcessorSink& sink)
+    : source_path_(source_path),
+      sink_(sink),
+      reconstructor_(rig, source_channels, source_path),
+      has_table_(reconstructor_.has_table_displacement() || reconstructor_.has_accelerometer()),
+      has_accelerometer_(reconstructor_.has_accelerometer()),
+      theta_sg_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
+      table_sg_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz) {
+  // A segment's first outputs wait for a full window: 2m+1 states pending.
+  pending_theta_.resize(2 * theta_sg_.delay_samples() + 1);
+  pending_table_.resize(2 * table_sg_.delay_samples() + 1);
+}
+
+void Processor::Event(int64_t utime, int8_t kind, double value, std::string detail) {
+  ++counts_.events;
+  sink_.OnEvent(DaqEvent{utime, kind, value, std::move(detail)});
+}
+
+void Processor::Process(const Frame& frame) {
+  ++counts_.frames_in;
+  const SequenceStatus status = sequence_.Check(frame.seq, frame.utime());
+  if (status == SequenceStatus::kDuplicate || status == SequenceStatus::kOutOfOrder) {
+    ++counts_.rejected;
+    std::ostringstream msg;
+    msg << "frame seq " << frame.seq << " at t = " << frame.time_s << " s is "
+        << ToString(status) << " (published raw, not reconstructed)";
+    sink_.OnProblem(Problem{{&source_path_, frame.line}, msg.str()});
+    Event(frame.utime(), rocklab::event_t::BAD_SAMPLE, 1, msg.str());
+    return;
+  }
+  if (status == SequenceStatus::kGap) {
+    std::ostringstream msg;
+    msg << sequence_.missing() << " samples missing before seq " << frame.seq;
+    sink_.OnProblem(Problem{{&source_path_, frame.line}, msg.str()});
+    Event(frame.utime(), rocklab::event_t::GAP, static_cast<double>(sequence_.missing()), msg.str());
+    // Differentiators never reach across a gap: close their segments.
+    theta_sg_.Finish();
+    table_sg_.Finish();
+    Drain();
+  }
+
+  reconstructor_.Reconstruct(frame, current_);
+  ++counts_.reconstructed;
+  CheckEdges(current_);
+  if (current_.flags & kCheckFlags) ++counts_.flagged;
+
+  pending_theta_[theta_sg_.next_index() % pending_theta_.size()] = current_;
+  theta_sg_.Push(current_.theta);
+  if (has_table_) {
+    pending_table_[table_sg_.next_index() % pending_table_.size()] = current_;
+    table_sg_.Push(current_.table_displacement);
+  }
+  Drain();
+}
+
+void Processor::CheckEdges(const BlockState& state) {
+  for (const FlagEvent& f : kFlagEvents) {
+    if (!Measured(state, f.flag)) continue;  // hold the last known state
+    const bool now = (state.flags & f.flag) != 0;
+    const bool before = (held_flags_ & f.flag) != 0;
+    if (now == before) continue;
+    if (now) {
+      held_flags_ |= f.flag;
+      Event(state.utime, f.kind, FlagValue(state, f.flag), std::string(f.name) + " above tolerance");
+    } else {
+      held_flags_ &= ~f.flag;
+      Event(state.utime, rocklab::event_t::RECOVERED, 0, std::string(f.name) + " back within tolerance");
+    }
+  }
+}
+
+void Processor::Drain() {
+  SgOutput out;
+  while (theta_sg_.Pop(out)) {
+    BlockState& state = pending_theta_[out.index % pending_theta_.size()];
+    state.theta_dot = out.d1;
+    sink_.OnBlockState(state);
+  }
+  while (table_sg_.Pop(out)) {
+    const BlockState& s = pending_table_[out.index % pending_table_.size()];
+    TableState t;
+    t.seq = s.seq;
+    t.utime = s.utime;
+    t.time_s = s.time_s;
+    t.displacement = s.table_displacement;
+    t.velocity = out.d1;
+    if (has_accelerometer_) {
+      t.acceleration = s.table_acceleration;
+      t.accel_source = rocklab::table_state_t::ACCEL_ACCELEROMETER;
+    } else {
+      t.acceleration = out.d2;
+      t.accel_source = rocklab::table_state_t::ACCEL_DIFFERENTIATED;
+    }
+    sink_.OnTableState(t);
+  }
+}
+
+void Processor::Finish() {
+  theta_sg_.Finish();
+  table_sg_.Finish();
+  Drain();
+}
+
+}  // namespace rocklab::daq

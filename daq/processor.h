@@ -1,0 +1,100 @@
+#pragma once
+/// @file
+/// The acquisition pipeline of one source, as plain calls: sequence
+/// accounting -> calibration and reconstruction -> checks and events ->
+/// smoothing differentiators (theta_dot; table velocity and acceleration).
+/// The DAQ node, `rocklab reconstruct` and the tests all drive this class, so
+/// the same frames give the same outputs at any replay speed.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "daq/reconstruction.h"
+#include "daq/rig_config.h"
+#include "daq/savitzky_golay.h"
+#include "daq/sequence_checker.h"
+#include "daq/source.h"
+
+namespace rocklab::daq {
+
+/// Table motion at one sample (the table_state_t fields).
+struct TableState {
+  int64_t seq{};
+  int64_t utime{};         ///< sample clock, us
+  double time_s{};         ///< s
+  double displacement{};   ///< m
+  double velocity{};       ///< m/s
+  double acceleration{};   ///< table acceleration u_g'', m/s^2
+  int8_t accel_source{};   ///< table_state_t::ACCEL_ACCELEROMETER or ACCEL_DIFFERENTIATED
+};
+
+/// An event_t without the source name: kind is an event_t constant.
+struct DaqEvent {
+  int64_t utime{};
+  int8_t kind{};
+  double value{};
+  std::string detail;
+};
+
+/// Receives the pipeline's outputs, in sample order per stream. Block and
+/// table states are delayed by their differentiator's half window; events
+/// are immediate. Implementations must not throw.
+class ProcessorSink {
+ public:
+  virtual ~ProcessorSink() = default;
+  virtual void OnBlockState(const BlockState& /*state*/) {}
+  virtual void OnTableState(const TableState& /*state*/) {}
+  virtual void OnEvent(const DaqEvent& /*event*/) {}
+  virtual void OnProblem(const Problem& /*problem*/) {}
+};
+
+struct ProcessorCounts {
+  int64_t frames_in{};       ///< frames given to Process
+  int64_t reconstructed{};   ///< frames reconstructed (in order, after gaps)
+  int64_t rejected{};        ///< duplicate or out-of-order frames, reported and not reconstructed
+  int64_t flagged{};         ///< block states with a check flag (sliding .. disagree)
+  int64_t events{};
+};
+
+class Processor {
+ public:
+  /// `sink` is retained (non-owning) and must outlive the Processor;
+  /// `source_path` names the source in problems.
+  /// @throws std::runtime_error when a rig channel is missing from the source,
+  ///         std::invalid_argument for unusable differentiator settings.
+  Processor(const RigConfig& rig, const std::vector<std::string>& source_channels,
+            const std::string& source_path, ProcessorSink& sink);
+
+  /// One frame, in arrival order. Never throws.
+  void Process(const Frame& frame);
+  /// End of data: the delayed outputs still held are emitted.
+  void Finish();
+
+  const ProcessorCounts& counts() const { return counts_; }
+  const SequenceCounts& sequence() const { return sequence_.counts(); }
+  const ReconstructionCounts& reconstruction() const { return reconstructor_.counts(); }
+  int theta_delay_samples() const { return theta_sg_.delay_samples(); }
+  int table_delay_samples() const { return table_sg_.delay_samples(); }
+
+ private:
+  void Drain();
+  void Event(int64_t utime, int8_t kind, double value, std::string detail);
+  void CheckEdges(const BlockState& state);
+
+  std::string source_path_;
+  ProcessorSink& sink_;
+  SequenceChecker sequence_;
+  Reconstructor reconstructor_;
+  bool has_table_;
+  bool has_accelerometer_;
+  SavitzkyGolay theta_sg_;
+  SavitzkyGolay table_sg_;
+  std::vector<BlockState> pending_theta_;  // ring, indexed by SG input index
+  std::vector<BlockState> pending_table_;
+  BlockState current_;
+  int32_t held_flags_{0};  // check flags as last measured (for event edges)
+  ProcessorCounts counts_;
+};
+
+}  // namespace rocklab::daq

@@ -1,0 +1,315 @@
+#include "daq/rig_config.h"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <toml++/toml.h>
+
+namespace rocklab::daq {
+namespace {
+
+// Reads keys out of the parsed document, naming file, line and key in every
+// error, and rejects keys nobody read (a typo must not be silently ignored).
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+
+  [[noreturn]] void Fail(int line, const std::string& key, const std::string& what) const {
+    std::ostringstream msg;
+    msg << path_ << ":" << line << ": key '" << key << "' " << what;
+    throw std::runtime_error(msg.str());
+  }
+
+  static int LineOf(const toml::node& node) { return static_cast<int>(node.source().begin.line); }
+
+  const toml::node* Get(const toml::table& table, const std::string& prefix, const std::string& key) {
+    seen_.insert(Join(prefix, key));
+    return table.get(key);
+  }
+
+  double Double(const toml::table& table, const std::string& prefix, const std::string& key,
+                std::optional<double> fallback) {
+    const toml::node* node = Get(table, prefix, key);
+    if (node == nullptr) {
+      if (fallback) return *fallback;
+      Fail(LineOf(table), Join(prefix, key), "is missing");
+    }
+    if (auto v = node->value<double>()) {  // toml++ converts integers too
+      if (!std::isfinite(*v)) Fail(LineOf(*node), Join(prefix, key), "must be finite");
+      return *v;
+    }
+    Fail(LineOf(*node), Join(prefix, key), "must be a number");
+  }
+
+  std::optional<double> OptionalDouble(const toml::table& table, const std::string& prefix,
+                                       const std::string& key) {
+    if (table.get(key) == nullptr) {
+      seen_.insert(Join(prefix, key));
+      return std::nullopt;
+    }
+    return Double(table, prefix, key, std::nullopt);
+  }
+
+  int Int(const toml::table& table, const std::string& prefix, const std::string& key,
+          std::optional<int> fallback) {
+    const toml::node* node = Get(table, prefix, key);
+    if (node == nullptr) {
+      if (fallback) return *fallback;
+      Fail(LineOf(table), Join(prefix, key), "is missing");
+    }
+    if (!node->is_integer()) Fail(LineOf(*node), Join(prefix, key), "must be an integer");
+    return static_cast<int>(*node->value<int64_t>());
+  }
+
+  std::string String(const toml::table& table, const std::string& prefix, const std::string& key,
+                     std::optional<std::string> fallback) {
+    const toml::node* node = Get(table, prefix, key);
+    if (node == nullptr) {
+      if (fallback) return *fallback;
+      Fail(LineOf(table), Join(prefix, key), "is missing");
+    }
+    if (!node->is_string()) Fail(LineOf(*node), Join(prefix, key), "must be a string");
+    return *node->value<std::string>();
+  }
+
+  const toml::table* Table(const toml::table& table, const std::string& prefix,
+                           const std::string& key, bool required) {
+    const toml::node* node = Get(table, prefix, key);
+    if (node == nullptr) {
+      if (required) Fail(LineOf(table), Join(prefix, key), "is missing");
+      return nullptr;
+    }
+    if (!node->is_table()) Fail(LineOf(*node), Join(prefix, key), "must be a table");
+    return node->as_table();
+  }
+
+  const toml::array* Array(const toml::table& table, const std::string& prefix,
+                           const std::string& key) {
+    const toml::node* node = Get(table, prefix, key);
+    if (node == nullptr) return nullptr;
+    if (!node->is_array()) Fail(LineOf(*node), Join(prefix, key), "must be an array");
+    return node->as_array();
+  }
+
+  void Check(bool ok, const toml::table& table, const std::string& prefix, const std::string& key,
+             const std::string& what) const {
+    if (ok) return;
+    const toml::node* node = table.get(key);
+    Fail(node != nullptr ? LineOf(*node) : LineOf(table), Join(prefix, key), what);
+  }
+
+  // Every key of `table` must have been read under `prefix`.
+  void RejectUnknown(const toml::table& table, const std::string& prefix) const {
+    for (const auto& [k, v] : table) {
+      const std::string key = Join(prefix, std::string(k.str()));
+      if (seen_.count(key) == 0) Fail(LineOf(v), key, "is not a rig configuration key");
+    }
+  }
+
+  static std::string Join(const std::string& prefix, const std::string& key) {
+    return prefix.empty() ? key : prefix + "." + key;
+  }
+
+ private:
+  std::string path_;
+  std::set<std::string> seen_;
+};
+
+void ParseDifferentiator(Reader& r, const toml::table& root, const std::string& key,
+                         DifferentiatorConfig& out, double rate_hz) {
+  const toml::table* t = r.Table(root, "", key, false);
+  if (t == nullptr) return;
+  out.window_s = r.Double(*t, key, "window_s", out.window_s);
+  out.order = r.Int(*t, key, "order", out.order);
+  r.Check(out.order >= 2 && out.order <= 6, *t, key, "order", "must be in [2, 6]");
+  const long half = std::lround(out.window_s * rate_hz / 2.0);
+  r.Check(out.window_s > 0 && 2 * half + 1 > out.order, *t, key, "window_s",
+          "must hold more samples than order at the sample rate");
+  r.RejectUnknown(*t, key);
+}
+
+}  // namespace
+
+const ChannelConfig* RigConfig::FindSensor(const std::string& sensor) const {
+  for (const auto& c : channels) {
+    if (c.sensor == sensor) return &c;
+  }
+  return nullptr;
+}
+
+int RigConfig::HalfWindow(const DifferentiatorConfig& d) const {
+  return static_cast<int>(std::lround(d.window_s * sample_rate_hz / 2.0));
+}
+
+RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream msg;
+    msg << path << ":" << e.source().begin.line << ": " << e.description();
+    throw std::runtime_error(msg.str());
+  }
+  Reader r(path);
+  RigConfig rig;
+  rig.path = path;
+  rig.name = r.String(root, "", "name", std::nullopt);
+  rig.calibration_id = r.String(root, "", "calibration_id", std::string());
+  rig.sample_rate_hz = r.Double(root, "", "sample_rate_hz", std::nullopt);
+  r.Check(rig.sample_rate_hz > 0, root, "", "sample_rate_hz", "must be > 0");
+
+  // [block]
+  {
+    const toml::table& t = *r.Table(root, "", "block", true);
+    rig.block.width_m = r.Double(t, "block", "width_m", std::nullopt);
+    rig.block.height_m = r.Double(t, "block", "height_m", std::nullopt);
+    rig.block.chamfer_m = r.Double(t, "block", "chamfer_m", 0.0);
+    r.Check(rig.block.width_m > 0, t, "block", "width_m", "must be > 0");
+    r.Check(rig.block.height_m > 0, t, "block", "height_m", "must be > 0");
+    r.Check(rig.block.chamfer_m >= 0 && rig.block.chamfer_m < 0.5 * rig.block.width_m &&
+                rig.block.chamfer_m < 0.5 * rig.block.height_m,
+            t, "block", "chamfer_m", "must be in [0, min(width, height) / 2)");
+    rig.block.alpha = r.OptionalDouble(t, "block", "alpha");
+    rig.block.p = r.OptionalDouble(t, "block", "p");
+    rig.block.mu = r.OptionalDouble(t, "block", "mu");
+    r.Check(!rig.block.alpha || (*rig.block.alpha > 0 && *rig.block.alpha < M_PI / 2), t, "block",
+            "alpha", "must be in (0, pi/2) rad");
+    r.Check(!rig.block.p || *rig.block.p > 0, t, "block", "p", "must be > 0 rad/s");
+    r.Check(!rig.block.mu || (*rig.block.mu > 0 && *rig.block.mu <= 1), t, "block", "mu",
+            "must be in (0, 1]");
+    r.RejectUnknown(t, "block");
+  }
+
+  // Sensor roles the rest of the file makes available.
+  std::set<std::string> roles = {"table.displacement", "table.acceleration"};
+
+  if (const toml::table* t = r.Table(root, "", "mirror", false)) {
+    rig.mirror.present = true;
+    rig.mirror.lever_m = r.Double(*t, "mirror", "lever_m", std::nullopt);
+    r.Check(rig.mirror.lever_m > 0, *t, "mirror", "lever_m", "must be > 0");
+    rig.mirror.rest_s_m = r.Double(*t, "mirror", "rest_s_m", 0.0);
+    rig.mirror.rest_n_m = r.Double(*t, "mirror", "rest_n_m", 0.0);
+    r.RejectUnknown(*t, "mirror");
+    roles.insert({"mirror.s", "mirror.n"});
+  }
+
+  if (const toml::array* cams = r.Array(root, "", "camera")) {
+    for (const toml::node& node : *cams) {
+      const toml::table* t = node.as_table();
+      if (t == nullptr) r.Fail(Reader::LineOf(node), "camera", "must be an array of tables");
+      CameraConfig cam;
+      cam.name = r.String(*t, "camera", "name", std::nullopt);
+      r.Check(!cam.name.empty() && cam.name.find('.') == std::string::npos, *t, "camera", "name",
+              "must be non-empty without '.'");
+      const toml::array* leds = r.Array(*t, "camera", "led");
+      r.Check(leds != nullptr && !leds->empty(), *t, "camera", "led", "must list the camera's LEDs");
+      for (const toml::node& led_node : *leds) {
+        const toml::table* lt = led_node.as_table();
+        if (lt == nullptr) r.Fail(Reader::LineOf(led_node), "camera.led", "must be a table");
+        LedConfig led;
+        led.name = r.String(*lt, "camera.led", "name", std::nullopt);
+        r.Check(!led.name.empty() && led.name.find('.') == std::string::npos, *lt, "camera.led",
+                "name", "must be non-empty without '.'");
+        led.x_m = r.Double(*lt, "camera.led", "x_m", std::nullopt);
+        led.z_m = r.Double(*lt, "camera.led", "z_m", std::nullopt);
+        const std::string role = cam.name + "." + led.name;
+        r.Check(roles.count(role + ".x") == 0, *lt, "camera.led", "name",
+                "repeats LED '" + role + "'");
+        roles.insert({role + ".x", role + ".z"});
+        r.RejectUnknown(*lt, "camera.led");
+        cam.leds.push_back(led);
+      }
+      r.RejectUnknown(*t, "camera");
+      rig.cameras.push_back(std::move(cam));
+    }
+  }
+
+  if (const toml::table* t = r.Table(root, "", "out_of_plane", false)) {
+    rig.out_of_plane.present = true;
+    rig.out_of_plane.spacing_m = r.Double(*t, "out_of_plane", "spacing_m", std::nullopt);
+    r.Check(rig.out_of_plane.spacing_m > 0, *t, "out_of_plane", "spacing_m", "must be > 0");
+    r.RejectUnknown(*t, "out_of_plane");
+    roles.insert({"oop.a", "oop.b"});
+  }
+
+  if (const toml::table* t = r.Table(root, "", "checks", false)) {
+    CheckTolerances& c = rig.checks;
+    const char* keys[] = {"sliding_m", "jump_m", "twist_rad", "out_of_plane_m", "tilt_rad",
+                          "disagree_rad"};
+    double* fields[] = {&c.sliding_m, &c.jump_m, &c.twist_rad, &c.out_of_plane_m, &c.tilt_rad,
+                        &c.disagree_rad};
+    for (size_t i = 0; i < std::size(keys); ++i) {
+      *fields[i] = r.Double(*t, "checks", keys[i], *fields[i]);
+      r.Check(*fields[i] > 0, *t, "checks", keys[i], "must be > 0");
+    }
+    c.min_leds = r.Int(*t, "checks", "min_leds", c.min_leds);
+    r.Check(c.min_leds >= 2, *t, "checks", "min_leds", "must be >= 2");
+    r.RejectUnknown(*t, "checks");
+  }
+
+  ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz);
+  ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz);
+
+  // [[channel]]
+  const toml::array* channels = r.Array(root, "", "channel");
+  if (channels == nullptr || channels->empty()) {
+    r.Fail(1, "channel", "is missing: the rig must map at least one channel");
+  }
+  std::set<std::string> names;
+  std::set<std::string> used_roles;
+  for (const toml::node& node : *channels) {
+    const toml::table* t = node.as_table();
+    if (t == nullptr) r.Fail(Reader::LineOf(node), "channel", "must be an array of tables");
+    ChannelConfig ch;
+    ch.line = Reader::LineOf(*t);
+    ch.name = r.String(*t, "channel", "name", std::nullopt);
+    r.Check(!ch.name.empty() && names.insert(ch.name).second, *t, "channel", "name",
+            "must be non-empty and unique, got '" + ch.name + "'");
+    ch.sensor = r.String(*t, "channel", "sensor", std::nullopt);
+    r.Check(roles.count(ch.sensor) == 1, *t, "channel", "sensor",
+            "names an unknown sensor '" + ch.sensor +
+                "' (declare its [mirror], [[camera]] LED or [out_of_plane] first)");
+    r.Check(used_roles.insert(ch.sensor).second, *t, "channel", "sensor",
+            "maps sensor '" + ch.sensor + "' a second time");
+    ch.gain = r.Double(*t, "channel", "gain", 1.0);
+    r.Check(ch.gain != 0, *t, "channel", "gain", "must not be 0");
+    ch.offset = r.Double(*t, "channel", "offset", 0.0);
+    ch.unit = r.String(*t, "channel", "unit", std::string(ch.sensor == "table.acceleration" ? "m/s^2" : "m"));
+    ch.raw_min = r.Double(*t, "channel", "raw_min", ch.raw_min);
+    ch.raw_max = r.Double(*t, "channel", "raw_max", ch.raw_max);
+    r.Check(ch.raw_min < ch.raw_max, *t, "channel", "raw_max", "must be > raw_min");
+    r.RejectUnknown(*t, "channel");
+    rig.channels.push_back(std::move(ch));
+  }
+  // A camera LED needs both coordinates, the out-of-plane pair both LEDs.
+  for (const std::string& role : used_roles) {
+    const size_t dot = role.rfind('.');
+    const std::string stem = role.substr(0, dot);
+    const std::string axis = role.substr(dot + 1);
+    std::string twin;
+    if (axis == "x" || axis == "z") twin = stem + (axis == "x" ? ".z" : ".x");
+    if (role == "oop.a") twin = "oop.b";
+    if (role == "oop.b") twin = "oop.a";
+    if (!twin.empty() && used_roles.count(twin) == 0) {
+      r.Fail(rig.FindSensor(role)->line, "channel.sensor",
+             "maps '" + role + "' but no channel maps '" + twin + "'");
+    }
+  }
+  r.Check(!rig.mirror.present || used_roles.count("mirror.s") == 1, root, "", "mirror",
+          "is declared but no channel maps sensor 'mirror.s'");
+  r.RejectUnknown(root, "");
+  return rig;
+}
+
+RigConfig LoadRigConfig(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open the rig file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseRigConfig(text.str(), path);
+}
+
+}  // namespace rocklab::daq

@@ -1,0 +1,118 @@
+#pragma once
+/// @file
+/// The rig configuration: one TOML file per shake-table set-up (format in
+/// daq/README.md). Loaded once at start-up; every error names the file, the
+/// line and the key ("rig.toml:12: key 'mirror.lever_m' must be > 0").
+
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rocklab::daq {
+
+/// A raw channel and how to turn it into a physical value:
+/// physical = gain * raw + offset. A raw value is valid when finite and
+/// strictly inside (raw_min, raw_max): a sensor at its rail is saturated.
+struct ChannelConfig {
+  std::string name;    ///< column name in the raw file (CSV/LVM header, RL_DAQ_CONFIG)
+  std::string sensor;  ///< role, one of the sensor names in daq/README.md
+  double gain{1.0};    ///< physical unit per raw unit
+  double offset{0.0};  ///< physical unit
+  std::string unit;    ///< physical unit after calibration ("m", "m/s^2")
+  double raw_min{-std::numeric_limits<double>::infinity()};  ///< raw unit
+  double raw_max{std::numeric_limits<double>::infinity()};   ///< raw unit
+  int line{};          ///< line of the channel's table in the rig file
+};
+
+/// An LED on the block's face, in the block frame: origin at the centre of the
+/// base, x along the rocking direction, z up, m.
+struct LedConfig {
+  std::string name;
+  double x_m{};
+  double z_m{};
+};
+
+/// A lateral camera and the LEDs it sees. All cameras are calibrated (by the
+/// channel gains and offsets) into the same rig frame: origin at the base
+/// centre of the block at rest with the table at zero displacement, x along
+/// the rocking direction, z up, m.
+struct CameraConfig {
+  std::string name;
+  std::vector<LedConfig> leds;
+};
+
+/// The LED-mirror: theta = 0.5 atan((s - rest_s) / lever).
+struct MirrorConfig {
+  bool present{false};
+  double lever_m{};   ///< optical lever D, m; > 0
+  double rest_s_m{};  ///< spot coordinate along the rocking direction at rest, m
+  double rest_n_m{};  ///< orthogonal spot coordinate at rest, m
+};
+
+/// Two LEDs a known distance apart along the block's x axis whose
+/// out-of-plane (y) coordinates are seen by a camera looking along x.
+struct OutOfPlaneConfig {
+  bool present{false};
+  double spacing_m{};  ///< x distance from LED a to LED b, m; > 0
+};
+
+/// Savitzky-Golay smoothing differentiator settings.
+struct DifferentiatorConfig {
+  double window_s{};  ///< span from first to last sample, s: m = round(window_s * rate / 2), 2m+1 samples
+  int order{};        ///< polynomial order; < number of samples in the window
+};
+
+/// Tolerances of the "only rocking" checks.
+struct CheckTolerances {
+  double sliding_m{0.001};      ///< |pivot x - table displacement|, m
+  double jump_m{0.001};         ///< |pivot lift|, m
+  double twist_rad{0.01};       ///< |rotation about the vertical|, rad
+  double out_of_plane_m{0.002}; ///< |mean out-of-plane displacement of the LED pair|, m
+  double tilt_rad{0.01};        ///< |out-of-plane tilt from the mirror's orthogonal spot|, rad
+  double disagree_rad{0.005};   ///< |theta_mirror - theta_camera|, rad
+  int min_leds{2};              ///< fewest valid LEDs for the rigid fit; >= 2
+};
+
+/// Block geometry (needed for the pivot positions) and optional parameters.
+struct BlockConfig {
+  double width_m{};    ///< 2b, m
+  double height_m{};   ///< 2h, m
+  double chamfer_m{};  ///< 45 degree base chamfer leg, m; the pivot is at x = +-(b - chamfer)
+  std::optional<double> alpha;  ///< rad; when absent the model library derives it from the geometry
+  std::optional<double> p;      ///< rad/s
+  std::optional<double> mu;     ///< 1
+  double pivot_half_width_m() const { return 0.5 * width_m - chamfer_m; }
+};
+
+struct RigConfig {
+  std::string path;  ///< file it was loaded from
+  std::string name;
+  std::string calibration_id;
+  double sample_rate_hz{};  ///< nominal acquisition rate, Hz; > 0
+  std::vector<ChannelConfig> channels;
+  MirrorConfig mirror;
+  std::vector<CameraConfig> cameras;
+  OutOfPlaneConfig out_of_plane;
+  BlockConfig block;
+  CheckTolerances checks;
+  /// theta_dot from theta (default: 10 ms span, order 2).
+  DifferentiatorConfig theta_dot{0.010, 2};
+  /// table velocity and acceleration from the displacement (default: 50 ms span, order 4).
+  DifferentiatorConfig table{0.050, 4};
+
+  /// The channel with this sensor role, or nullptr.
+  const ChannelConfig* FindSensor(const std::string& sensor) const;
+  /// Half window in samples of a differentiator at sample_rate_hz.
+  int HalfWindow(const DifferentiatorConfig& d) const;
+};
+
+/// Parses a rig file.
+/// @throws std::runtime_error "PATH:LINE: key 'a.b' ..." on a TOML syntax
+///         error, a missing or mistyped key, an unknown key, an unknown sensor
+///         role, a duplicated channel or sensor, or a value out of range.
+RigConfig LoadRigConfig(const std::string& path);
+/// Same, from text; `path` only names the source in messages.
+RigConfig ParseRigConfig(const std::string& text, const std::string& path);
+
+}  // namespace rocklab::daq

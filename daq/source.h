@@ -1,0 +1,95 @@
+#pragma once
+/// @file
+/// Raw sample sources behind one interface: CSV, LabVIEW .lvm and rocklab LCM
+/// logs (RL_RAW). Opening a source reads its header and throws on anything
+/// that stops the read; afterwards Next() never throws: a malformed row is
+/// reported to the problem callback with its file and line, counted, and
+/// skipped (its sample number stays unused, so it shows downstream as a gap),
+/// and a malformed value in a good row becomes NaN (a counted bad sample).
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rocklab::daq {
+
+/// Where something happened in an input: "file:line" (LCM logs: the event
+/// number stands in for the line).
+struct Location {
+  const std::string* file{};  ///< non-owning; outlives the report
+  int64_t line{};
+};
+
+/// A problem on the streaming path that did not stop the read.
+struct Problem {
+  Location where;
+  std::string message;  ///< one line, without the location
+};
+/// Receives problems; called on the reading thread. Must not throw.
+using ProblemCallback = std::function<void(const Problem&)>;
+/// "file:line: message".
+std::string ToString(const Problem& problem);
+
+/// One acquired sample of every channel, before calibration.
+struct Frame {
+  int64_t seq{};        ///< sample number on the acquisition clock; gaps mean lost samples
+  double time_s{};      ///< acquisition sample clock, s
+  int64_t line{};       ///< line (LCM: event number) in the source
+  std::vector<double> values;  ///< raw values in channel_names() order; NaN where missing
+  /// Sample clock in integer microseconds (rounded), as carried by every message.
+  int64_t utime() const;
+};
+
+enum class ReadStatus {
+  kFrame,  ///< `frame` holds the next sample
+  kEnd,    ///< no more samples
+};
+
+/// Counters a source keeps while reading.
+struct SourceStats {
+  int64_t rows{};         ///< data rows (LCM: RL_RAW events) seen
+  int64_t bad_rows{};     ///< rows skipped (ragged, no time, undecodable)
+  int64_t bad_values{};   ///< values that are not numbers (delivered as NaN)
+  int64_t warnings{};     ///< other problems (e.g. LVM Samples disagreeing with the rows)
+};
+
+class Source {
+ public:
+  virtual ~Source() = default;
+  /// Channel names in frame order (without the time column).
+  virtual const std::vector<std::string>& channel_names() const = 0;
+  /// Nominal sample rate, Hz (from the file's time base where it has one).
+  virtual double sample_rate_hz() const = 0;
+  /// Reads the next frame into `frame`, reusing its storage. Never throws.
+  [[nodiscard]] virtual ReadStatus Next(Frame& frame) = 0;
+  virtual const SourceStats& stats() const = 0;
+  virtual const std::string& path() const = 0;
+};
+
+struct SourceOptions {
+  /// Rate used when the file has no time column or time base, Hz; > 0.
+  double sample_rate_hz{};
+  /// LCM logs: channel of the raw frames and of their description.
+  std::string raw_channel{"RL_RAW"};
+  std::string config_channel{"RL_DAQ_CONFIG"};
+  /// LCM logs without an RL_DAQ_CONFIG event: channel names to assume.
+  std::vector<std::string> fallback_channel_names;
+  ProblemCallback on_problem;  ///< may be empty
+};
+
+/// CSV with a header row; a `time` column (s) if present, else time = seq / rate.
+/// @throws std::runtime_error (naming the file and line) when the file cannot be
+///         opened, is empty, or its header is unusable.
+std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options);
+/// LabVIEW Measurement file (see daq/README.md for what is read).
+/// @throws std::runtime_error (file:line) as OpenCsvSource.
+std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options);
+/// LCM log with raw_frame_t events on options.raw_channel.
+/// @throws std::runtime_error when the log cannot be opened or names no channels.
+std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOptions& options);
+/// By extension: .csv, .lvm, anything else is read as an LCM log.
+std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options);
+
+}  // namespace rocklab::daq

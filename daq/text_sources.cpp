@@ -1,0 +1,332 @@
+// CSV and LabVIEW .lvm sources: one line-oriented reader, two header parsers.
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include "daq/source.h"
+#include "daq/text_util.h"
+
+namespace rocklab::daq {
+namespace {
+
+using detail::ParseNumber;
+using detail::Split;
+using detail::Trim;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// State shared by the text formats: the file, the current line, the column
+// layout of the current block of rows and the time base.
+class TextSource : public Source {
+ public:
+  TextSource(const std::string& path, const SourceOptions& options)
+      : path_(path), in_(path, std::ios::binary), on_problem_(options.on_problem) {
+    if (!in_) throw std::runtime_error(path + ": cannot open the input file");
+  }
+
+  const std::vector<std::string>& channel_names() const override { return names_; }
+  double sample_rate_hz() const override { return rate_hz_; }
+  const SourceStats& stats() const override { return stats_; }
+  const std::string& path() const override { return path_; }
+
+ protected:
+  [[noreturn]] void Fail(const std::string& what) const {
+    std::ostringstream msg;
+    msg << path_ << ":" << line_no_ << ": " << what;
+    throw std::runtime_error(msg.str());
+  }
+
+  void Report(const std::string& what) {
+    if (on_problem_) on_problem_(Problem{{&path_, line_no_}, what});
+  }
+
+  bool ReadLine() {
+    if (!std::getline(in_, line_)) return false;
+    ++line_no_;
+    return true;
+  }
+
+  // Parses line_ (already split into fields_) as a data row. `k` is the row's
+  // index in its block (used when there is no time column). Returns false for
+  // a row that was skipped (reported and counted).
+  bool ParseRow(int64_t k, Frame& frame) {
+    ++stats_.rows;
+    // A trailing empty field (LVM's empty Comment column, a trailing separator).
+    size_t n = fields_.size();
+    if (n == columns_ + 1 && Trim(fields_.back()).empty()) --n;
+    if (n != columns_) {
+      ++stats_.bad_rows;
+      std::ostringstream msg;
+      msg << "row has " << n << " fields, the header has " << columns_ << " (row skipped)";
+      Report(msg.str());
+      return false;
+    }
+    double t = 0;
+    if (time_col_ >= 0) {
+      if (!ParseNumber(fields_[time_col_], decimal_comma_, t) || !std::isfinite(t)) {
+        ++stats_.bad_rows;
+        Report("time '" + std::string(Trim(fields_[time_col_])) + "' is not a finite number (row skipped)");
+        return false;
+      }
+    } else {
+      t = x0_s_ + static_cast<double>(k) / rate_hz_;
+    }
+    if (!first_time_) first_time_ = t;
+    frame.time_s = t;
+    frame.seq = std::llround((t - *first_time_) * rate_hz_);
+    frame.line = line_no_;
+    frame.values.resize(names_.size());
+    for (size_t i = 0; i < value_cols_.size(); ++i) {
+      double v = kNaN;
+      if (!ParseNumber(fields_[value_cols_[i]], decimal_comma_, v)) {
+        v = kNaN;
+        ++stats_.bad_values;
+        Report("column '" + names_[i] + "': '" + std::string(Trim(fields_[value_cols_[i]])) +
+               "' is not a number (sample set to NaN)");
+      }
+      frame.values[i] = v;
+    }
+    return true;
+  }
+
+  std::string path_;
+  std::ifstream in_;
+  ProblemCallback on_problem_;
+  std::string line_;
+  std::vector<std::string_view> fields_;
+  int64_t line_no_{0};
+  SourceStats stats_;
+
+  std::vector<std::string> names_;  // channel names, frame order
+  std::vector<size_t> value_cols_;  // column of each channel
+  size_t columns_{};                // fields per row
+  int time_col_{-1};
+  char sep_{','};
+  bool decimal_comma_{false};
+  double rate_hz_{};
+  double x0_s_{};                   // time of row 0 of the block without a time column
+  std::optional<double> first_time_;
+};
+
+class CsvSource final : public TextSource {
+ public:
+  CsvSource(const std::string& path, const SourceOptions& options) : TextSource(path, options) {
+    rate_hz_ = options.sample_rate_hz;
+    if (!(rate_hz_ > 0)) throw std::invalid_argument("CSV source: sample_rate_hz must be > 0");
+    // Header: the first non-blank line.
+    while (ReadLine()) {
+      if (!Trim(line_).empty()) break;
+    }
+    if (Trim(line_).empty()) Fail("empty file: expected a header row");
+    Split(line_, sep_, fields_);
+    columns_ = fields_.size();
+    for (size_t i = 0; i < fields_.size(); ++i) {
+      const std::string name(Trim(fields_[i]));
+      if (name.empty()) Fail("header column " + std::to_string(i + 1) + " has no name");
+      double ignored = 0;
+      if (ParseNumber(name, false, ignored)) Fail("no header row: column name '" + name + "' is a number");
+      if (name == "time") {
+        time_col_ = static_cast<int>(i);
+        continue;
+      }
+      for (const auto& n : names_) {
+        if (n == name) Fail("column '" + name + "' appears twice in the header");
+      }
+      names_.push_back(name);
+      value_cols_.push_back(i);
+    }
+  }
+
+  ReadStatus Next(Frame& frame) override {
+    while (ReadLine()) {
+      if (Trim(line_).empty()) continue;
+      Split(line_, sep_, fields_);
+      if (ParseRow(row_++, frame)) return ReadStatus::kFrame;
+    }
+    return ReadStatus::kEnd;
+  }
+
+ private:
+  int64_t row_{0};
+};
+
+// LabVIEW Measurement file: a file header, then segments, each with a header
+// (Channels, Samples, X0, Delta_X, ...) ended by ***End_of_Header***, a column
+// header row and data rows.
+class LvmSource final : public TextSource {
+ public:
+  LvmSource(const std::string& path, const SourceOptions& options) : TextSource(path, options) {
+    if (!ReadLine()) Fail("empty file: expected 'LabVIEW Measurement'");
+    if (Trim(line_).rfind("LabVIEW Measurement", 0) != 0) Fail("not a LabVIEW Measurement file");
+    // File header: key<TAB>value lines up to ***End_of_Header***.
+    bool ended = false;
+    while (ReadLine()) {
+      Split(line_, '\t', fields_);
+      const std::string_view key = Trim(fields_[0]);
+      if (key == "***End_of_Header***") {
+        ended = true;
+        break;
+      }
+      const std::string_view value = fields_.size() > 1 ? Trim(fields_[1]) : std::string_view();
+      if (key == "Separator") {
+        if (value == "Tab") sep_ = '\t';
+        else if (value == "Comma") sep_ = ',';
+        else Fail("Separator '" + std::string(value) + "' is not Tab or Comma");
+      } else if (key == "Decimal_Separator") {
+        decimal_comma_ = (value == ",");
+      } else if (key == "X_Columns") {
+        if (value == "Multi") Fail("X_Columns Multi is not supported (one time base for all channels)");
+      }
+    }
+    if (!ended) Fail("truncated file header: no ***End_of_Header***");
+    if (sep_ == ',' && decimal_comma_) Fail("Separator Comma with Decimal_Separator ',' is ambiguous");
+    // The first segment defines the channels.
+    if (!ReadSegmentHeader()) Fail("no segment: the file ends after its header");
+  }
+
+  ReadStatus Next(Frame& frame) override {
+    while (ReadLine()) {
+      const std::string_view trimmed = Trim(line_);
+      if (trimmed.empty()) continue;
+      Split(line_, sep_, fields_);
+      const std::string_view first = Trim(fields_[0]);
+      if (first == "Channels" || first == "***End_of_Header***") {
+        // A new segment starts: its header was the next thing in the file.
+        --line_no_;
+        pending_header_line_ = true;
+        EndSegment();
+        if (!ReadSegmentHeaderNoThrow()) return ReadStatus::kEnd;
+        continue;
+      }
+      if (skip_segment_) {
+        ++stats_.rows;
+        ++stats_.bad_rows;
+        continue;
+      }
+      if (ParseRow(segment_rows_++, frame)) return ReadStatus::kFrame;
+    }
+    EndSegment();
+    return ReadStatus::kEnd;
+  }
+
+ private:
+  void EndSegment() {
+    if (segment_done_) return;
+    segment_done_ = true;
+    if (samples_ && *samples_ != segment_rows_) {
+      ++stats_.warnings;
+      std::ostringstream msg;
+      msg << "segment " << segment_ << " header says Samples " << *samples_ << " but it has "
+          << segment_rows_ << " rows (the rows are used)";
+      Report(msg.str());
+    }
+  }
+
+  bool ReadSegmentHeaderNoThrow() {
+    try {
+      return ReadSegmentHeader();
+    } catch (const std::exception& e) {
+      ++stats_.warnings;
+      Report(std::string(e.what()) + " (rest of the file skipped)");
+      return false;
+    }
+  }
+
+  // Reads one segment header and its column row. Returns false at end of file.
+  bool ReadSegmentHeader() {
+    std::optional<double> x0;
+    std::optional<double> dx;
+    samples_.reset();
+    bool ended = false;
+    bool any = false;
+    const bool first_segment = names_.empty();
+    while (pending_header_line_ || ReadLine()) {
+      if (pending_header_line_) {
+        pending_header_line_ = false;
+        ++line_no_;
+      }
+      Split(line_, '\t', fields_);
+      const std::string_view key = Trim(fields_[0]);
+      if (key.empty() && fields_.size() <= 2) continue;
+      any = true;
+      if (key == "***End_of_Header***") {
+        ended = true;
+        break;
+      }
+      if (key == "X0" || key == "Delta_X" || key == "Samples") {
+        double v = 0;
+        if (fields_.size() < 2 || !ParseNumber(fields_[1], decimal_comma_, v)) {
+          Fail(std::string(key) + " is not a number");
+        }
+        if (key == "X0") x0 = v;
+        if (key == "Delta_X") dx = v;
+        if (key == "Samples") samples_ = static_cast<int64_t>(v);
+      }
+    }
+    if (!any) return false;
+    if (!ended) Fail("truncated segment header: no ***End_of_Header***");
+    ++segment_;
+    segment_done_ = false;
+    segment_rows_ = 0;
+    if (!dx || !(*dx > 0)) Fail("segment header has no Delta_X > 0");
+    x0_s_ = x0.value_or(0.0);
+    // Column header row.
+    if (!ReadLine()) Fail("segment has no column header row");
+    Split(line_, sep_, fields_);
+    size_t n = fields_.size();
+    while (n > 0 && (Trim(fields_[n - 1]).empty() || Trim(fields_[n - 1]) == "Comment")) --n;
+    int time_col = -1;
+    std::vector<std::string> names;
+    std::vector<size_t> cols;
+    for (size_t i = 0; i < n; ++i) {
+      const std::string name(Trim(fields_[i]));
+      if (name == "X_Value") {
+        if (time_col >= 0) Fail("more than one X_Value column");
+        time_col = static_cast<int>(i);
+        continue;
+      }
+      if (name.empty()) Fail("column " + std::to_string(i + 1) + " has no name");
+      names.push_back(name);
+      cols.push_back(i);
+    }
+    if (first_segment) {
+      names_ = std::move(names);
+      value_cols_ = std::move(cols);
+      columns_ = n;
+      time_col_ = time_col;
+      rate_hz_ = 1.0 / *dx;
+      skip_segment_ = false;
+    } else {
+      skip_segment_ = names != names_ || time_col != time_col_ ||
+                      std::abs(1.0 / *dx - rate_hz_) > 1e-9 * rate_hz_;
+      if (skip_segment_) {
+        ++stats_.warnings;
+        Report("segment " + std::to_string(segment_) +
+               " has other channels or another Delta_X than segment 1 (its rows are skipped)");
+      }
+    }
+    return true;
+  }
+
+  bool pending_header_line_{false};
+  bool skip_segment_{false};
+  bool segment_done_{true};
+  int segment_{0};
+  int64_t segment_rows_{0};
+  std::optional<int64_t> samples_;
+};
+
+}  // namespace
+
+std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options) {
+  return std::make_unique<CsvSource>(path, options);
+}
+
+std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options) {
+  return std::make_unique<LvmSource>(path, options);
+}
+
+}  // namespace rocklab::daq

@@ -1,0 +1,48 @@
+#include "daq/text_util.h"
+
+#include <charconv>
+
+namespace rocklab::daq::detail {
+
+std::string_view Trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+void Split(std::string_view line, char sep, std::vector<std::string_view>& fields) {
+  fields.clear();
+  size_t start = 0;
+  while (true) {
+    const size_t end = line.find(sep, start);
+    if (end == std::string_view::npos) {
+      fields.push_back(line.substr(start));
+      return;
+    }
+    fields.push_back(line.substr(start, end - start));
+    start = end + 1;
+  }
+}
+
+bool ParseNumber(std::string_view field, bool decimal_comma, double& out) {
+  field = Trim(field);
+  if (!field.empty() && field.front() == '+') field.remove_prefix(1);
+  if (field.empty() || field.size() > 64) return false;
+  const char* first = field.data();
+  const char* last = field.data() + field.size();
+  char buffer[64];
+  if (decimal_comma) {
+    // Swap the separators into a stack buffer: '.' is then not a number.
+    size_t i = 0;
+    for (char c : field) {
+      if (c == '.') return false;
+      buffer[i++] = (c == ',') ? '.' : c;
+    }
+    first = buffer;
+    last = buffer + i;
+  }
+  const auto [ptr, ec] = std::from_chars(first, last, out);
+  return ec == std::errc() && ptr == last;
+}
+
+}  // namespace rocklab::daq::detail

@@ -1,0 +1,76 @@
+#pragma once
+// Helpers shared by the daq tests: paths, scratch files, a sink that keeps
+// every output, and frames generated through the rig simulator.
+
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "daq/processor.h"
+#include "daq/rig_config.h"
+#include "daq/rig_simulator.h"
+
+namespace rocklab::daq::test {
+
+inline std::string LabRigPath() { return std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml"; }
+
+/// A scratch directory unique to this process, removed by nobody (under /tmp).
+inline std::string ScratchDir() {
+  static const std::string dir = [] {
+    std::string d = "/tmp/rocklab_daq_test_" + std::to_string(::getpid());
+    std::string cmd = "mkdir -p " + d;
+    if (std::system(cmd.c_str()) != 0) std::abort();
+    return d;
+  }();
+  return dir;
+}
+
+inline std::string WriteFile(const std::string& name, const std::string& text) {
+  const std::string path = ScratchDir() + "/" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+struct CollectSink : ProcessorSink {
+  std::vector<BlockState> block;
+  std::vector<TableState> table;
+  std::vector<DaqEvent> events;
+  std::vector<Problem> problems;
+  std::vector<std::string> problem_text;
+  void OnBlockState(const BlockState& s) override { block.push_back(s); }
+  void OnTableState(const TableState& s) override { table.push_back(s); }
+  void OnEvent(const DaqEvent& e) override { events.push_back(e); }
+  void OnProblem(const Problem& p) override {
+    problems.push_back(p);
+    problem_text.push_back(ToString(p));
+  }
+  int CountEvents(int8_t kind) const {
+    int n = 0;
+    for (const auto& e : events) n += e.kind == kind;
+    return n;
+  }
+};
+
+/// Frames of `duration_s` at the rig rate from `motion(t)` through the simulator.
+inline std::vector<Frame> SimulateFrames(const RigConfig& rig, const SimulatorNoise& noise,
+                                         uint64_t seed, double duration_s,
+                                         const std::function<TrueMotion(double)>& motion) {
+  RigSimulator sim(rig, noise, seed);
+  std::vector<Frame> frames;
+  const auto n = static_cast<int64_t>(duration_s * rig.sample_rate_hz);
+  for (int64_t k = 0; k <= n; ++k) {
+    const double t = static_cast<double>(k) / rig.sample_rate_hz;
+    Frame f;
+    f.seq = k;
+    f.time_s = t;
+    f.line = k + 2;
+    if (sim.Raw(motion(t), f.values)) frames.push_back(std::move(f));
+  }
+  return frames;
+}
+
+}  // namespace rocklab::daq::test

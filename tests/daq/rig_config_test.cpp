@@ -1,0 +1,113 @@
+// Rig configuration: the bundled example loads with the values written in it
+// (oracle: the file itself), and every error names file, line and key (oracle:
+// the line numbers of the hand-written snippets below).
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "daq/rig_config.h"
+#include "tests/daq/daq_test_util.h"
+
+namespace rocklab::daq {
+namespace {
+
+std::string Error(const std::string& text) {
+  try {
+    ParseRigConfig(text, "rig.toml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+const char* kMinimal = R"(name = "r"
+sample_rate_hz = 100
+[block]
+width_m = 0.2
+height_m = 0.8
+[mirror]
+lever_m = 1.5
+[[channel]]
+name = "s"
+sensor = "mirror.s"
+)";
+
+TEST(RigConfig, LoadsTheBundledExample) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  EXPECT_EQ(rig.name, "lab-table-A");
+  EXPECT_EQ(rig.sample_rate_hz, 1000.0);
+  EXPECT_DOUBLE_EQ(rig.block.pivot_half_width_m(), 0.125);
+  EXPECT_FALSE(rig.block.alpha.has_value());
+  EXPECT_TRUE(rig.mirror.present);
+  EXPECT_EQ(rig.mirror.lever_m, 2.0);
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.cameras[1].leds[1].name, "H2");
+  EXPECT_EQ(rig.cameras[1].leds[1].z_m, 0.85);
+  EXPECT_EQ(rig.out_of_plane.spacing_m, 0.20);
+  EXPECT_EQ(rig.channels.size(), 14u);
+  const ChannelConfig* acc = rig.FindSensor("table.acceleration");
+  ASSERT_NE(acc, nullptr);
+  EXPECT_EQ(acc->name, "table_acc");
+  EXPECT_EQ(acc->gain, 9.81);
+  EXPECT_EQ(acc->unit, "m/s^2");
+  EXPECT_EQ(rig.checks.disagree_rad, 0.005);
+  EXPECT_EQ(rig.HalfWindow(rig.theta_dot), 5);
+  EXPECT_EQ(rig.HalfWindow(rig.table), 25);
+}
+
+TEST(RigConfig, MinimalFileTakesDefaults) {
+  const RigConfig rig = ParseRigConfig(kMinimal, "rig.toml");
+  EXPECT_EQ(rig.channels[0].gain, 1.0);
+  EXPECT_EQ(rig.channels[0].unit, "m");
+  EXPECT_EQ(rig.checks.sliding_m, CheckTolerances{}.sliding_m);
+  EXPECT_TRUE(rig.cameras.empty());
+}
+
+TEST(RigConfig, ErrorsNameFileLineAndKey) {
+  std::string text = kMinimal;
+  // lever_m on line 7 made negative.
+  EXPECT_EQ(Error(std::string(text).replace(text.find("1.5"), 3, "-1")),
+            "rig.toml:7: key 'mirror.lever_m' must be > 0");
+  // A missing key is reported at its table's line.
+  EXPECT_EQ(Error(std::string(text).replace(text.find("lever_m = 1.5\n"), 14, "")),
+            "rig.toml:6: key 'mirror.lever_m' is missing");
+  // Wrong type.
+  EXPECT_EQ(Error(std::string(text).replace(text.find("100"), 3, "\"fast\"")),
+            "rig.toml:2: key 'sample_rate_hz' must be a number");
+  // A typo is not ignored.
+  EXPECT_EQ(Error(text + "gian = 2\n"), "rig.toml:11: key 'channel.gian' is not a rig configuration key");
+  // Unknown sensor role.
+  EXPECT_NE(Error(std::string(text).replace(text.find("mirror.s\""), 8, "camera.x")).find(
+                "rig.toml:10: key 'channel.sensor' names an unknown sensor 'camera.x'"),
+            std::string::npos);
+  // TOML syntax error with its line.
+  EXPECT_EQ(Error(std::string(text).replace(text.find("width_m = 0.2"), 13, "width_m = = 0.2"))
+                .rfind("rig.toml:4: ", 0),
+            0u);
+  // Saturation limits in the wrong order.
+  EXPECT_EQ(Error(text + "raw_min = 5\nraw_max = 1\n"),
+            "rig.toml:12: key 'channel.raw_max' must be > raw_min");
+  // A differentiator window too short for its order at the sample rate.
+  EXPECT_EQ(Error(std::string(text) + "[theta_dot]\nwindow_s = 0.02\norder = 4\n"),
+            "rig.toml:12: key 'theta_dot.window_s' must hold more samples than order at the sample rate");
+}
+
+TEST(RigConfig, LedNeedsBothCoordinates) {
+  const std::string text = std::string(kMinimal) +
+                           "[[camera]]\nname = \"c\"\nled = [{ name = \"A\", x_m = 0, z_m = 0.1 }]\n"
+                           "[[channel]]\nname = \"ax\"\nsensor = \"c.A.x\"\n";
+  EXPECT_EQ(Error(text), "rig.toml:14: key 'channel.sensor' maps 'c.A.x' but no channel maps 'c.A.z'");
+}
+
+TEST(RigConfig, MissingFileNamesIt) {
+  try {
+    LoadRigConfig("/nonexistent/rig.toml");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "/nonexistent/rig.toml: cannot open the rig file");
+  }
+}
+
+}  // namespace
+}  // namespace rocklab::daq
