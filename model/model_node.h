@@ -10,12 +10,13 @@
 /// (LCM then is only a tap). Shutdown: the stop flag ends the loop, then a
 /// final RL_HEALTH "stopped" goes out.
 ///
-/// Start and reset: the variants wait for an RL_THETA; from the first one
-/// they start at its utime from its theta and theta_dot (|theta| below
-/// rest_threshold_rad counts as at rest, so sensor noise does not start a
-/// free rocking). Table samples before the start are skipped and counted.
-/// A table utime that goes backwards (a replay restarting, a new test)
-/// resets every variant and they wait for the next RL_THETA.
+/// Start and reset: at the first table sample with an RL_THETA not ahead of
+/// it, the variants start at that RL_THETA's utime from its theta and
+/// theta_dot (|theta| below rest_threshold_rad counts as at rest, so sensor
+/// noise does not start a free rocking). Table samples before the start are
+/// skipped and counted. A table utime that goes backwards (a replay
+/// restarting, a new test) resets every variant, which start again the same
+/// way from the new run's RL_THETA.
 
 #include <atomic>
 #include <cstdint>
@@ -100,8 +101,9 @@ class ModelNode {
   lcm::LCM* publisher_;  // not owned
   std::vector<std::unique_ptr<Variant>> variants_;
   bool started_{};
-  std::optional<rocklab::block_state_t> pending_start_;  // latest RL_THETA while waiting
+  std::optional<rocklab::block_state_t> latest_theta_;  // newest RL_THETA
   std::int64_t last_table_utime_{INT64_MIN};
+  std::int64_t start_utime_{};  // model time 0, us
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   double last_health_host_s_{};
 };
