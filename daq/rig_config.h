@@ -98,8 +98,8 @@ struct RigConfig {
   CheckTolerances checks;
   /// theta_dot from theta (default: 10 ms span, order 2).
   DifferentiatorConfig theta_dot{0.010, 2};
-  /// table velocity and acceleration from the displacement (default: 50 ms span, order 4).
-  DifferentiatorConfig table{0.050, 4};
+  /// table velocity and acceleration from the displacement (default: 100 ms span, order 4).
+  DifferentiatorConfig table{0.100, 4};
 
   /// The channel with this sensor role, or nullptr.
   const ChannelConfig* FindSensor(const std::string& sensor) const;

@@ -53,7 +53,7 @@ TEST(RigConfig, LoadsTheBundledExample) {
   EXPECT_EQ(acc->unit, "m/s^2");
   EXPECT_EQ(rig.checks.disagree_rad, 0.005);
   EXPECT_EQ(rig.HalfWindow(rig.theta_dot), 5);
-  EXPECT_EQ(rig.HalfWindow(rig.table), 25);
+  EXPECT_EQ(rig.HalfWindow(rig.table), 50);
 }
 
 TEST(RigConfig, MinimalFileTakesDefaults) {
