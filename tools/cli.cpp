@@ -1,8 +1,25 @@
 #include "tools/cli.h"
 
+#include <csignal>
 #include <sstream>
 
 namespace rocklab::tools {
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void OnStopSignal(int) { g_stop.store(true); }
+}  // namespace
+
+const std::atomic<bool>& InstallStopSignals() {
+  static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+  struct sigaction sa {};
+  sa.sa_handler = OnStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  return g_stop;
+}
 
 void Require(bool ok, const std::string& option, const std::string& what, double value) {
   if (ok) return;

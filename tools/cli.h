@@ -3,6 +3,7 @@
 // own cmd_<name>.cpp and registers itself through a Register<Name> function
 // listed in main.cpp.
 
+#include <atomic>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,10 @@ using CommandRun = std::function<int()>;
 /// Adds a subcommand to `app`; its callback stores the command's run function
 /// into `run` so that main calls it outside CLI11's parsing.
 using CommandRegistrar = void (*)(CLI::App& app, CommandRun& run);
+
+/// Installs SIGINT/SIGTERM handlers that only set the returned flag (nodes
+/// poll it in their loops), and ignores SIGPIPE. Idempotent.
+const std::atomic<bool>& InstallStopSignals();
 
 /// Throws UsageError("<option> must be <what>, got <value>") unless ok.
 void Require(bool ok, const std::string& option, const std::string& what, double value);

@@ -11,6 +11,7 @@ namespace rocklab::tools {
 void RegisterParams(CLI::App& app, CommandRun& run);
 void RegisterSimulate(CLI::App& app, CommandRun& run);
 void RegisterDemo(CLI::App& app, CommandRun& run);
+void RegisterReplay(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
       &RegisterParams,
       &RegisterSimulate,
       &RegisterDemo,
+      &RegisterReplay,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

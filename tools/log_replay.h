@@ -1,0 +1,43 @@
+#pragma once
+/// @file
+/// Re-publishes a recorded LCM log, paced by the log's event timestamps at a
+/// speed factor or as fast as possible, with a channel filter, a time window
+/// and looping (what lcm-logplayer lacks). Payloads go out byte for byte, so
+/// what downstream nodes compute does not depend on the speed.
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+namespace rocklab::tools {
+
+struct ReplayOptions {
+  double speed{1.0};          ///< 1 = recorded pace; > 0
+  bool max_speed{false};      ///< ignore the pace: publish as fast as possible
+  std::string channels{".*"}; ///< ECMAScript regex, matched against the whole channel name
+  bool loop{false};           ///< start again at the end (until stopped)
+  double start_s{0.0};        ///< window start, s after the log's first event; >= 0
+  double end_s{-1.0};         ///< window end, s after the first event; < 0: to the end
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+};
+
+struct ReplayCounts {
+  std::int64_t read{};       ///< events read in the window
+  std::int64_t published{};  ///< events published
+  std::int64_t filtered{};   ///< events left out by the channel filter
+  std::int64_t failed{};     ///< publish calls that failed
+  int passes{};              ///< times the window was played
+  std::map<std::string, std::int64_t> per_channel;  ///< published, per channel
+};
+
+/// Plays `log_path` into `lcm` until the window ends (or forever with loop)
+/// or `stop` is set.
+/// @throws std::runtime_error naming the file when it cannot be read.
+ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& options, lcm::LCM& lcm,
+                       const std::atomic<bool>& stop);
+
+}  // namespace rocklab::tools
