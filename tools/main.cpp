@@ -12,6 +12,8 @@ void RegisterParams(CLI::App& app, CommandRun& run);
 void RegisterSimulate(CLI::App& app, CommandRun& run);
 void RegisterDemo(CLI::App& app, CommandRun& run);
 void RegisterReplay(CLI::App& app, CommandRun& run);
+void RegisterModel(CLI::App& app, CommandRun& run);
+void RegisterCompare(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -27,6 +29,8 @@ int main(int argc, char** argv) {
       &RegisterSimulate,
       &RegisterDemo,
       &RegisterReplay,
+      &RegisterModel,
+      &RegisterCompare,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

@@ -1,0 +1,45 @@
+// rocklab compare: the comparator node (RL_THETA + RL_MODEL_* in,
+// RL_COMPARE_<name> out), with a summary at the end.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "compare/compare_node.h"
+#include "tools/cli.h"
+#include "tools/pipeline.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct CompareCommand {
+  compare::CompareNodeConfig config;
+  std::string summary_json;
+};
+
+int RunCompare(CompareCommand& c) {
+  ValidateCompareOptions(c.config);
+  const std::atomic<bool>& stop = InstallStopSignals();
+  lcm::LCM lcm(c.config.lcm_url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.config.lcm_url + "'");
+  compare::CompareNode node(c.config, &lcm);
+  node.Run(lcm, stop);
+  const auto summary = node.Summary();
+  compare::CompareNode::PrintSummary(summary, stdout);
+  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, c.summary_json);
+  return 0;
+}
+
+}  // namespace
+
+void RegisterCompare(CLI::App& app, CommandRun& run) {
+  auto c = std::make_shared<CompareCommand>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("compare", "live error between experiment and models (LCM node)");
+  AddCompareOptions(*cmd, c->config);
+  cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file");
+  cmd->add_option("--lcm-url", c->config.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  cmd->callback([c, &run] { run = [c] { return RunCompare(*c); }; });
+}
+
+}  // namespace rocklab::tools

@@ -1,0 +1,56 @@
+// rocklab model: the model node (RL_TABLE + RL_THETA in, RL_MODEL_<name> out).
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "model/model_node.h"
+#include "tools/cli.h"
+#include "tools/pipeline.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct ModelCommand {
+  std::string rig_path;
+  std::vector<std::string> variants;
+  std::string lcm_url;
+};
+
+int RunModel(const ModelCommand& c) {
+  const daq::RigConfig rig = LoadRig(c.rig_path);
+  model::ModelNodeConfig cfg;
+  cfg.variants = BuildVariants(c.variants, rig);
+  const std::atomic<bool>& stop = InstallStopSignals();
+  lcm::LCM lcm(c.lcm_url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.lcm_url + "'");
+  model::ModelNode node(cfg, &lcm);
+  for (const model::VariantSpec& v : cfg.variants) {
+    std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
+                 v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
+                 v.params_source.c_str());
+  }
+  node.Run(lcm, stop);
+  std::fprintf(stderr, "model: %lld table samples, %lld before the start, %lld resets, %lld failures\n",
+               static_cast<long long>(node.table_count()),
+               static_cast<long long>(node.skipped_before_start()),
+               static_cast<long long>(node.resets()), static_cast<long long>(node.failures()));
+  return 0;
+}
+
+}  // namespace
+
+void RegisterModel(CLI::App& app, CommandRun& run) {
+  auto c = std::make_shared<ModelCommand>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("model", "run model variants beside the experiment (LCM node)");
+  cmd->add_option("--rig", c->rig_path, "rig configuration (TOML)")->required();
+  cmd->add_option("--variant", c->variants,
+                  "NAME:MODEL:PARAMS, MODEL housner|complex, PARAMS theoretical | "
+                  "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");
+  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  cmd->callback([c, &run] { run = [c] { return RunModel(*c); }; });
+}
+
+}  // namespace rocklab::tools
