@@ -57,11 +57,34 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
       reconstructor_(rig, source_channels, source_path),
       has_table_(reconstructor_.has_table_displacement() || reconstructor_.has_accelerometer()),
       has_accelerometer_(reconstructor_.has_accelerometer()),
-      theta_sg_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
-      table_sg_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz) {
-  // A segment's first outputs wait for a full window: 2m+1 states pending.
-  pending_theta_.resize(2 * theta_sg_.delay_samples() + 1);
-  pending_table_.resize(2 * table_sg_.delay_samples() + 1);
+      theta_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
+      table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz) {}
+
+Processor::Stream::Stream(int half_window, int order, double dt_s)
+    : sg(half_window, order, dt_s),
+      // At most 2m+1 inputs wait for their output (the last m after Finish).
+      pending(2 * half_window + 1),
+      real(2 * half_window + 1, 0) {}
+
+void Processor::Stream::Push(const BlockState& state, double value) {
+  const size_t slot = sg.next_index() % pending.size();
+  pending[slot] = state;
+  real[slot] = 1;
+  sg.Push(value);
+  last = value;
+  started = true;
+}
+
+void Processor::Stream::Gap(int64_t missing, double next_value) {
+  if (!started) return;
+  if (missing > sg.delay_samples()) {
+    sg.Finish();  // never differentiate across a long gap
+    return;
+  }
+  for (int64_t i = 1; i <= missing; ++i) {
+    real[sg.next_index() % real.size()] = 0;
+    sg.Push(last + (next_value - last) * static_cast<double>(i) / static_cast<double>(missing + 1));
+  }
 }
 
 void Processor::Event(int64_t utime, int8_t kind, double value, std::string detail) {
@@ -86,10 +109,6 @@ void Processor::Process(const Frame& frame) {
     msg << sequence_.missing() << " samples missing before seq " << frame.seq;
     sink_.OnProblem(Problem{{&source_path_, frame.line}, msg.str()});
     Event(frame.utime(), rocklab::event_t::GAP, static_cast<double>(sequence_.missing()), msg.str());
-    // Differentiators never reach across a gap: close their segments.
-    theta_sg_.Finish();
-    table_sg_.Finish();
-    Drain();
   }
 
   reconstructor_.Reconstruct(frame, current_);
@@ -97,12 +116,13 @@ void Processor::Process(const Frame& frame) {
   CheckEdges(current_);
   if (current_.flags & kCheckFlags) ++counts_.flagged;
 
-  pending_theta_[theta_sg_.next_index() % pending_theta_.size()] = current_;
-  theta_sg_.Push(current_.theta);
-  if (has_table_) {
-    pending_table_[table_sg_.next_index() % pending_table_.size()] = current_;
-    table_sg_.Push(current_.table_displacement);
+  if (status == SequenceStatus::kGap) {
+    theta_.Gap(sequence_.missing(), current_.theta);
+    if (has_table_) table_.Gap(sequence_.missing(), current_.table_displacement);
+    Drain();
   }
+  theta_.Push(current_, current_.theta);
+  if (has_table_) table_.Push(current_, current_.table_displacement);
   Drain();
 }
 
@@ -124,13 +144,17 @@ void Processor::CheckEdges(const BlockState& state) {
 
 void Processor::Drain() {
   SgOutput out;
-  while (theta_sg_.Pop(out)) {
-    BlockState& state = pending_theta_[out.index % pending_theta_.size()];
+  while (theta_.sg.Pop(out)) {
+    const size_t slot = out.index % theta_.pending.size();
+    if (!theta_.real[slot]) continue;
+    BlockState& state = theta_.pending[slot];
     state.theta_dot = out.d1;
     sink_.OnBlockState(state);
   }
-  while (table_sg_.Pop(out)) {
-    const BlockState& s = pending_table_[out.index % pending_table_.size()];
+  while (table_.sg.Pop(out)) {
+    const size_t slot = out.index % table_.pending.size();
+    if (!table_.real[slot]) continue;
+    const BlockState& s = table_.pending[slot];
     TableState t;
     t.seq = s.seq;
     t.utime = s.utime;
@@ -149,8 +173,8 @@ void Processor::Drain() {
 }
 
 void Processor::Finish() {
-  theta_sg_.Finish();
-  table_sg_.Finish();
+  theta_.sg.Finish();
+  table_.sg.Finish();
   Drain();
 }
 

@@ -38,8 +38,8 @@ struct DaqEvent {
 };
 
 /// Receives the pipeline's outputs, in sample order per stream. Block and
-/// table states are delayed by their differentiator's half window; events
-/// are immediate. Implementations must not throw.
+/// table states are delayed by their differentiator's half window (one out
+/// per frame in); events are immediate. Implementations must not throw.
 class ProcessorSink {
  public:
   virtual ~ProcessorSink() = default;
@@ -74,10 +74,23 @@ class Processor {
   const ProcessorCounts& counts() const { return counts_; }
   const SequenceCounts& sequence() const { return sequence_.counts(); }
   const ReconstructionCounts& reconstruction() const { return reconstructor_.counts(); }
-  int theta_delay_samples() const { return theta_sg_.delay_samples(); }
-  int table_delay_samples() const { return table_sg_.delay_samples(); }
+  int theta_delay_samples() const { return theta_.sg.delay_samples(); }
+  int table_delay_samples() const { return table_.sg.delay_samples(); }
 
  private:
+  // A differentiator and the states waiting for its output. A gap of at most
+  // m samples is bridged by linear interpolation of the input (those samples
+  // give no output); a longer gap ends the segment.
+  struct Stream {
+    Stream(int half_window, int order, double dt_s);
+    SavitzkyGolay sg;
+    std::vector<BlockState> pending;  // ring indexed by SG input index
+    std::vector<char> real;           // 0 for a bridged (interpolated) sample
+    double last{};                    // last input value
+    bool started{false};
+    void Push(const BlockState& state, double value);
+    void Gap(int64_t missing, double next_value);
+  };
   void Drain();
   void Event(int64_t utime, int8_t kind, double value, std::string detail);
   void CheckEdges(const BlockState& state);
@@ -88,10 +101,8 @@ class Processor {
   Reconstructor reconstructor_;
   bool has_table_;
   bool has_accelerometer_;
-  SavitzkyGolay theta_sg_;
-  SavitzkyGolay table_sg_;
-  std::vector<BlockState> pending_theta_;  // ring, indexed by SG input index
-  std::vector<BlockState> pending_table_;
+  Stream theta_;
+  Stream table_;
   BlockState current_;
   int32_t held_flags_{0};  // check flags as last measured (for event edges)
   ProcessorCounts counts_;

@@ -49,6 +49,13 @@ SavitzkyGolay::SavitzkyGolay(int half_window, int order, double dt_s)
   }
   if (!(dt_s > 0)) throw std::invalid_argument("Savitzky-Golay: dt_s must be > 0");
   FitWeights(n_, order_, dt_s_, weights_);
+  for (int d = 0; d < 3; ++d) start_weights_[d].setZero(m_, n_);
+  for (int j = 0; j < m_; ++j) {
+    const int len = j + m_ + 1;
+    Eigen::MatrixXd w[3];
+    FitWeights(len, std::min(order_, len - 1), dt_s_, w);
+    for (int d = 0; d < 3; ++d) start_weights_[d].row(j).head(len) = w[d].row(j);
+  }
   ring_.assign(n_, 0.0);
 }
 
@@ -65,7 +72,7 @@ void SavitzkyGolay::Push(double value) {
   }
   ring_[pushed_ % n_] = value;
   ++pushed_;
-  if (pushed_ - seg_start_ >= n_) ready_end_ = pushed_ - m_;
+  ready_end_ = std::max(seg_start_, pushed_ - m_);
 }
 
 void SavitzkyGolay::Finish() {
@@ -81,30 +88,39 @@ void SavitzkyGolay::Finish() {
   ready_end_ = pushed_;
 }
 
-double SavitzkyGolay::Dot(const Eigen::MatrixXd& weights, int row) const {
-  // The window is the last weights.cols() inputs, oldest first.
-  const int64_t first = pushed_ - weights.cols();
+double SavitzkyGolay::Dot(const Eigen::MatrixXd& weights, int row, int64_t first, int len) const {
   double sum = 0;
-  for (int i = 0; i < weights.cols(); ++i) sum += weights(row, i) * ring_[(first + i) % n_];
+  for (int i = 0; i < len; ++i) sum += weights(row, i) * ring_[(first + i) % n_];
   return sum;
 }
 
 bool SavitzkyGolay::Pop(SgOutput& out) {
   if (next_out_ >= ready_end_) return false;
   out.index = next_out_;
-  if (short_segment_) {
-    const int row = static_cast<int>(next_out_ - seg_start_);
-    const bool has_d2 = short_weights_[0].cols() >= 3;
-    out.value = Dot(short_weights_[0], row);
-    out.d1 = short_weights_[0].cols() >= 2 ? Dot(short_weights_[1], row)
-                                           : std::numeric_limits<double>::quiet_NaN();
-    out.d2 = has_d2 ? Dot(short_weights_[2], row) : std::numeric_limits<double>::quiet_NaN();
+  const int64_t j = next_out_ - seg_start_;  // position in the segment
+  const int64_t count = pushed_ - seg_start_;
+  const Eigen::MatrixXd* w = weights_;
+  int row = 0;
+  int64_t first = pushed_ - n_;
+  int len = n_;
+  if (short_segment_ && j >= count - m_) {
+    // The tail of a finished segment shorter than the window: one fit over it.
+    w = short_weights_;
+    row = static_cast<int>(j);
+    first = seg_start_;
+    len = static_cast<int>(count);
+  } else if (j < m_) {
+    w = start_weights_;
+    row = static_cast<int>(j);
+    first = seg_start_;
+    len = static_cast<int>(j + m_ + 1);
   } else {
-    const int row = static_cast<int>(next_out_ - (pushed_ - n_));
-    out.value = Dot(weights_[0], row);
-    out.d1 = Dot(weights_[1], row);
-    out.d2 = Dot(weights_[2], row);
+    row = static_cast<int>(next_out_ - first);  // m, or beyond m after Finish
   }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  out.value = Dot(w[0], row, first, len);
+  out.d1 = len >= 2 ? Dot(w[1], row, first, len) : nan;
+  out.d2 = len >= 3 ? Dot(w[2], row, first, len) : nan;
   ++next_out_;
   return true;
 }

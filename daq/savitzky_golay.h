@@ -4,9 +4,13 @@
 /// polynomial of degree `order` over a window of 2m+1 uniformly spaced samples,
 /// evaluated at the window's centre, gives the smoothed value and its first
 /// and second derivatives. Causality: the output for sample k is available
-/// when sample k+m has arrived (a delay of m samples); at the start and end of
-/// a segment the same polynomial is evaluated off-centre, so every input gets
-/// exactly one output. Polynomials up to degree `order` are reproduced exactly.
+/// when sample k+m has arrived, a constant delay of m samples, so outputs
+/// stream one per input. Near the start of a segment the window is cut to the
+/// samples available ([start, k+m]); at its end (Finish) the last full window
+/// is evaluated off-centre, which releases the last m outputs at once. Every
+/// input gets exactly one output. Polynomials up to degree `order` are
+/// reproduced exactly (order is lowered only where a window has fewer than
+/// order+1 samples).
 
 #include <cstdint>
 #include <vector>
@@ -47,7 +51,8 @@ class SavitzkyGolay {
   Eigen::VectorXd CentreWeights(int deriv) const;
 
  private:
-  double Dot(const Eigen::MatrixXd& weights, int row) const;
+  // sum_i weights(row, i) * input[first + i], i < len.
+  double Dot(const Eigen::MatrixXd& weights, int row, int64_t first, int len) const;
 
   int m_;
   int n_;  // window length 2m+1
@@ -56,7 +61,9 @@ class SavitzkyGolay {
   // Weights for each evaluation position p = 0..n-1 within a full window:
   // row p of weights_[d] gives derivative d at sample p of the window.
   Eigen::MatrixXd weights_[3];
-  Eigen::MatrixXd short_weights_[3];  // for a segment shorter than the window
+  // Row j: sample j of a segment from the window [0, j+m] (j < m).
+  Eigen::MatrixXd start_weights_[3];
+  Eigen::MatrixXd short_weights_[3];  // for a finished segment shorter than the window
   std::vector<double> ring_;
   int64_t pushed_{0};     // inputs since construction
   int64_t seg_start_{0};  // index of the segment's first input

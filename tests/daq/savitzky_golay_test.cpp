@@ -65,20 +65,24 @@ TEST(SavitzkyGolay, ShortSegmentUsesALowerOrderFit) {
   EXPECT_TRUE(std::isnan(single[0].d1));
 }
 
-TEST(SavitzkyGolay, OutputsWaitHalfAWindow) {
+TEST(SavitzkyGolay, OutputsStreamOnePerInputHalfAWindowLate) {
   SavitzkyGolay sg(3, 2, 1.0);
   SgOutput o;
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < 3; ++k) {
     sg.Push(k);
-    EXPECT_FALSE(sg.Pop(o)) << k;  // a full window (7 samples) is not there yet
+    EXPECT_FALSE(sg.Pop(o)) << k;  // sample k - m does not exist yet
   }
-  sg.Push(6);
+  for (int k = 3; k < 10; ++k) {
+    sg.Push(k);
+    ASSERT_TRUE(sg.Pop(o));
+    EXPECT_EQ(o.index, k - 3);  // sample k releases sample k - m, and only it
+    EXPECT_NEAR(o.d1, 1.0, 1e-12);
+    EXPECT_FALSE(sg.Pop(o));
+  }
+  sg.Finish();  // the last m outputs
   int n = 0;
   while (sg.Pop(o)) ++n;
-  EXPECT_EQ(n, 4);  // samples 0..3: the centre and the three before it
-  sg.Push(7);
-  ASSERT_TRUE(sg.Pop(o));
-  EXPECT_EQ(o.index, 4);  // sample 7 releases sample 7 - m
+  EXPECT_EQ(n, 3);
 }
 
 TEST(SavitzkyGolay, NoiseGainIsTheNormOfTheWeights) {

@@ -1,0 +1,273 @@
+#include "daq/daq_node.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <lcm/lcm-cpp.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "daq/pacer.h"
+#include "daq/processor.h"
+#include "daq/source.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::daq {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::shared_ptr<spdlog::logger> Logger() {
+  // spdlog's registry hands out shared loggers; one named logger per module.
+  auto logger = spdlog::get("daq");
+  return logger ? logger : spdlog::stderr_color_mt("daq");
+}
+
+}  // namespace
+
+void DaqNodeConfig::Validate() const {
+  if (input.empty()) throw std::invalid_argument("daq: input must name a file");
+  if (!(speed >= 0) || !std::isfinite(speed)) throw std::invalid_argument("daq: speed must be >= 0");
+  if (!(config_period_s > 0)) throw std::invalid_argument("daq: config_period_s must be > 0");
+  if (!(health_period_s > 0)) throw std::invalid_argument("daq: health_period_s must be > 0");
+}
+
+struct DaqNode::Impl : ProcessorSink {
+  DaqNodeConfig config;
+  std::unique_ptr<lcm::LCM> own_lcm;
+  lcm::LCM* lcm{};
+  std::shared_ptr<spdlog::logger> log = Logger();
+  std::unique_ptr<Source> source;
+  std::unique_ptr<Processor> processor;
+  DaqNodeStats stats;
+  std::string ch_config, ch_raw, ch_table, ch_theta, ch_event, ch_health;
+
+  rocklab::daq_config_t config_msg;
+  rocklab::raw_frame_t raw_msg;
+  rocklab::block_state_t theta_msg;
+  rocklab::table_state_t table_msg;
+  rocklab::health_t health_msg;
+
+  int64_t newest_utime{0};
+  Clock::time_point last_health{};
+  Clock::time_point last_log{};
+  int64_t suppressed_logs{0};
+  int64_t health_in{0}, health_out{0};  // counts at the last health
+  Pacer pacer{0};
+
+  template <class Msg>
+  void Publish(const std::string& channel, const Msg& msg) {
+    if (lcm->publish(channel, &msg) == 0) {
+      ++stats.published;
+    } else {
+      ++stats.publish_errors;
+    }
+  }
+
+  void OnBlockState(const BlockState& s) override {
+    theta_msg.utime = s.utime;
+    theta_msg.seq = s.seq;
+    theta_msg.theta = s.theta;
+    theta_msg.theta_dot = s.theta_dot;
+    theta_msg.theta_mirror = s.theta_mirror;
+    theta_msg.theta_camera = s.theta_camera;
+    theta_msg.sliding = s.sliding;
+    theta_msg.jump = s.jump;
+    theta_msg.twist = s.twist;
+    theta_msg.out_of_plane = s.out_of_plane;
+    theta_msg.leds_used = s.leds_used;
+    theta_msg.flags = s.flags;
+    Publish(ch_theta, theta_msg);
+  }
+
+  void OnTableState(const TableState& t) override {
+    table_msg.utime = t.utime;
+    table_msg.seq = t.seq;
+    table_msg.displacement = t.displacement;
+    table_msg.velocity = t.velocity;
+    table_msg.acceleration = t.acceleration;
+    table_msg.accel_source = t.accel_source;
+    Publish(ch_table, table_msg);
+  }
+
+  void OnEvent(const DaqEvent& e) override {
+    rocklab::event_t msg;
+    msg.utime = e.utime;
+    msg.source = "daq";
+    msg.kind = e.kind;
+    msg.value = e.value;
+    msg.detail = e.detail;
+    Publish(ch_event, msg);
+  }
+
+  void OnProblem(const Problem& p) override {
+    ++stats.problems;
+    // At most one log line a second; the rest are counted and summarised.
+    const auto now = Clock::now();
+    if (now - last_log >= std::chrono::seconds(1)) {
+      if (suppressed_logs > 0) log->warn("{} more problems not shown", suppressed_logs);
+      log->warn("{}", ToString(p));
+      last_log = now;
+      suppressed_logs = 0;
+    } else {
+      ++suppressed_logs;
+    }
+  }
+
+  // Problems of the source itself (bad rows and values) also go out as events.
+  void OnSourceProblem(const Problem& p) {
+    OnProblem(p);
+    rocklab::event_t msg;
+    msg.utime = newest_utime;
+    msg.source = "daq";
+    msg.kind = rocklab::event_t::BAD_SAMPLE;
+    msg.value = 1;
+    msg.detail = ToString(p);
+    Publish(ch_event, msg);
+  }
+
+  void BuildConfigMessage() {
+    const auto& names = source->channel_names();
+    config_msg.rig_name = config.rig.name;
+    config_msg.calibration_id = config.rig.calibration_id;
+    config_msg.sample_rate_hz = source->sample_rate_hz();
+    config_msg.num_channels = static_cast<int32_t>(names.size());
+    config_msg.channel_names = names;
+    config_msg.channel_units.clear();
+    config_msg.channel_sensors.clear();
+    config_msg.gain.clear();
+    config_msg.offset.clear();
+    for (const auto& name : names) {
+      const ChannelConfig* ch = nullptr;
+      for (const auto& c : config.rig.channels) {
+        if (c.name == name) ch = &c;
+      }
+      config_msg.channel_units.push_back(ch ? ch->unit : "");
+      config_msg.channel_sensors.push_back(ch ? ch->sensor : "");
+      config_msg.gain.push_back(ch ? ch->gain : 1.0);
+      config_msg.offset.push_back(ch ? ch->offset : 0.0);
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    config_msg.alpha = config.rig.block.alpha.value_or(nan);
+    config_msg.p = config.rig.block.p.value_or(nan);
+    config_msg.mu = config.rig.block.mu.value_or(nan);
+  }
+
+  void PublishHealth(const char* state) {
+    const auto now = Clock::now();
+    const double dt = std::chrono::duration<double>(now - last_health).count();
+    const ProcessorCounts& counts = processor->counts();
+    const SourceStats& src = source->stats();
+    health_msg.utime = newest_utime;
+    health_msg.node = "daq";
+    health_msg.state = state;
+    health_msg.count_in = stats.frames_read;
+    health_msg.count_out = stats.published;
+    health_msg.rate_in_hz = dt > 0 ? (stats.frames_read - health_in) / dt : 0;
+    health_msg.rate_out_hz = dt > 0 ? (stats.published - health_out) / dt : 0;
+    stats.gaps = processor->sequence().gaps;
+    stats.missing = processor->sequence().missing;
+    stats.bad_samples = src.bad_rows + src.bad_values + counts.rejected;
+    health_msg.dropped = stats.missing;  // samples lost before reaching the node
+    health_msg.gaps = stats.gaps;
+    health_msg.bad_samples = stats.bad_samples;
+    health_msg.lag_s = pacer.lag_s();
+    health_in = stats.frames_read;
+    health_out = stats.published + 1;  // this message
+    last_health = now;
+    Publish(ch_health, health_msg);
+  }
+};
+
+DaqNode::DaqNode(DaqNodeConfig config, lcm::LCM* lcm) : impl_(std::make_unique<Impl>()) {
+  config.Validate();
+  Impl& m = *impl_;
+  m.config = std::move(config);
+  if (lcm != nullptr) {
+    m.lcm = lcm;
+  } else {
+    m.own_lcm = std::make_unique<lcm::LCM>(m.config.lcm_url);
+    if (!m.own_lcm->good()) {
+      throw std::runtime_error("daq: cannot open LCM URL '" +
+                               (m.config.lcm_url.empty() ? std::string("(default)") : m.config.lcm_url) + "'");
+    }
+    m.lcm = m.own_lcm.get();
+  }
+  const std::string& p = m.config.prefix;
+  m.ch_config = p + "DAQ_CONFIG";
+  m.ch_raw = p + "RAW";
+  m.ch_table = p + "TABLE";
+  m.ch_theta = p + "THETA";
+  m.ch_event = p + "EVENT";
+  m.ch_health = p + "HEALTH";
+
+  SourceOptions options;
+  options.sample_rate_hz = m.config.rig.sample_rate_hz;
+  options.raw_channel = m.ch_raw;
+  options.config_channel = m.ch_config;
+  for (const auto& c : m.config.rig.channels) options.fallback_channel_names.push_back(c.name);
+  Impl* impl = impl_.get();
+  options.on_problem = [impl](const Problem& problem) { impl->OnSourceProblem(problem); };
+  m.source = OpenSource(m.config.input, options);
+  m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
+                                            m.source->path(), m);
+  m.pacer = Pacer(m.config.speed);
+  m.BuildConfigMessage();
+}
+
+DaqNode::~DaqNode() = default;
+
+const DaqNodeStats& DaqNode::stats() const { return impl_->stats; }
+
+void DaqNode::Run(const std::atomic<bool>& stop) {
+  Impl& m = *impl_;
+  m.last_health = Clock::now();
+  m.PublishHealth("starting");
+  double next_config_s = std::numeric_limits<double>::quiet_NaN();
+  Frame frame;
+  while (true) {
+    if (stop.load()) {
+      m.stats.stopped_early = true;
+      break;
+    }
+    if (m.source->Next(frame) == ReadStatus::kEnd) break;
+    if (!m.pacer.WaitFor(frame.time_s, stop)) {
+      // Stopped while waiting: this frame was read, so it is still published.
+      m.stats.stopped_early = true;
+    }
+    ++m.stats.frames_read;
+    m.newest_utime = frame.utime();
+    if (!(frame.time_s < next_config_s)) {  // first frame, then every config_period_s
+      m.config_msg.utime = m.newest_utime;
+      m.Publish(m.ch_config, m.config_msg);
+      next_config_s = frame.time_s + m.config.config_period_s;
+    }
+    m.raw_msg.utime = m.newest_utime;
+    m.raw_msg.seq = frame.seq;
+    m.raw_msg.num_channels = static_cast<int32_t>(frame.values.size());
+    m.raw_msg.values.assign(frame.values.begin(), frame.values.end());
+    m.Publish(m.ch_raw, m.raw_msg);
+    m.processor->Process(frame);
+    if (Clock::now() - m.last_health >=
+        std::chrono::duration<double>(m.config.health_period_s)) {
+      m.PublishHealth("running");
+    }
+    if (m.stats.stopped_early) break;
+  }
+  if (std::isnan(next_config_s)) m.Publish(m.ch_config, m.config_msg);  // an empty input
+  m.PublishHealth("stopping");
+  m.processor->Finish();
+  m.PublishHealth("stopped");
+  m.log->info("{}: {} frames, {} published, {} gaps ({} samples missing), {} bad samples{}",
+              m.config.input, m.stats.frames_read, m.stats.published, m.stats.gaps,
+              m.stats.missing, m.stats.bad_samples, m.stats.stopped_early ? " (stopped)" : "");
+}
+
+}  // namespace rocklab::daq

@@ -1,0 +1,312 @@
+// The DAQ node over LCM. Oracles: the raw file the node reads (every RL_RAW
+// frame must equal a file row, none lost, none reordered) and the Processor
+// run directly on the same frames (RL_THETA must equal it bit for bit, at any
+// speed). The udpm:// test runs in a private network namespace with ttl=0 and
+// skips when one cannot be made (DESIGN.md, "Networking in tests").
+#include <sched.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "daq/daq_node.h"
+#include "daq/processor.h"
+#include "daq/rig_simulator.h"
+#include "daq/source.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+#include "tests/daq/daq_test_util.h"
+
+namespace rocklab::daq {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+TrueMotion Motion(double t) {
+  TrueMotion m;
+  m.theta = 0.04 * std::sin(2 * kPi * 1.5 * t);
+  m.table_displacement = 0.006 * std::sin(2 * kPi * 5 * t);
+  m.table_acceleration = -0.006 * std::pow(2 * kPi * 5, 2) * std::sin(2 * kPi * 5 * t);
+  return m;
+}
+
+// A raw CSV of `duration_s` through the simulator (typical noise, seeded).
+std::string MakeRawCsv(const RigConfig& rig, const std::string& name, double duration_s) {
+  const std::string path = test::ScratchDir() + "/" + name;
+  RigSimulator sim(rig, SimulatorNoise::Typical(), 17);
+  RawFileWriter out(path, RawFileWriter::Format::kCsv, sim.channel_names(), rig.sample_rate_hz);
+  std::vector<double> raw;
+  for (int k = 0; k <= duration_s * rig.sample_rate_hz; ++k) {
+    const double t = k / rig.sample_rate_hz;
+    if (sim.Raw(Motion(t), raw)) out.Write(t, raw);
+  }
+  out.Close();
+  return path;
+}
+
+std::vector<Frame> ReadFrames(const std::string& path, const RigConfig& rig) {
+  SourceOptions opt;
+  opt.sample_rate_hz = rig.sample_rate_hz;
+  auto source = OpenSource(path, opt);
+  std::vector<Frame> frames;
+  Frame f;
+  while (source->Next(f) == ReadStatus::kFrame) frames.push_back(f);
+  return frames;
+}
+
+bool SameValue(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+
+struct Collector {
+  std::vector<std::string> order;  // channel of every message, in arrival order
+  std::vector<rocklab::raw_frame_t> raw;
+  std::vector<rocklab::block_state_t> theta;
+  std::vector<rocklab::table_state_t> table;
+  std::vector<rocklab::event_t> events;
+  std::vector<rocklab::health_t> health;
+  std::vector<rocklab::daq_config_t> config;
+  void OnRaw(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::raw_frame_t* m) {
+    order.push_back(c);
+    raw.push_back(*m);
+  }
+  void OnTheta(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::block_state_t* m) {
+    order.push_back(c);
+    theta.push_back(*m);
+  }
+  void OnTable(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::table_state_t* m) {
+    order.push_back(c);
+    table.push_back(*m);
+  }
+  void OnEvent(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::event_t* m) {
+    order.push_back(c);
+    events.push_back(*m);
+  }
+  void OnHealth(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::health_t* m) {
+    order.push_back(c);
+    health.push_back(*m);
+  }
+  void OnConfig(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::daq_config_t* m) {
+    order.push_back(c);
+    config.push_back(*m);
+  }
+  void Subscribe(lcm::LCM& lcm) {
+    lcm.subscribe("RL_RAW", &Collector::OnRaw, this);
+    lcm.subscribe("RL_THETA", &Collector::OnTheta, this);
+    lcm.subscribe("RL_TABLE", &Collector::OnTable, this);
+    lcm.subscribe("RL_EVENT", &Collector::OnEvent, this);
+    lcm.subscribe("RL_HEALTH", &Collector::OnHealth, this);
+    lcm.subscribe("RL_DAQ_CONFIG", &Collector::OnConfig, this);
+  }
+};
+
+// Runs the node on memq:// and collects everything it published.
+std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& input, double speed,
+                                     std::atomic<bool>& stop, DaqNodeStats* stats = nullptr,
+                                     int stop_after_ms = -1) {
+  lcm::LCM lcm("memq://");
+  auto c = std::make_unique<Collector>();
+  c->Subscribe(lcm);
+  DaqNodeConfig config;
+  config.rig = rig;
+  config.input = input;
+  config.speed = speed;
+  DaqNode node(config, &lcm);
+  std::thread stopper;
+  if (stop_after_ms >= 0) {
+    stopper = std::thread([&stop, stop_after_ms] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(stop_after_ms));
+      stop = true;
+    });
+  }
+  node.Run(stop);
+  if (stopper.joinable()) stopper.join();
+  while (lcm.handleTimeout(0) > 0) {
+  }
+  if (stats != nullptr) *stats = node.stats();
+  return c;
+}
+
+TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "node.csv", 1.0);
+  const auto frames = ReadFrames(input, rig);
+  std::atomic<bool> stop{false};
+  DaqNodeStats stats;
+  const auto c = RunOnMemq(rig, input, 0, stop, &stats);
+
+  ASSERT_EQ(c->raw.size(), frames.size());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    ASSERT_EQ(c->raw[i].seq, frames[i].seq);
+    ASSERT_EQ(c->raw[i].utime, frames[i].utime());
+    ASSERT_EQ(c->raw[i].values.size(), frames[i].values.size());
+    for (size_t k = 0; k < frames[i].values.size(); ++k) {
+      ASSERT_TRUE(SameValue(c->raw[i].values[k], frames[i].values[k])) << i << " " << k;
+    }
+  }
+  // The description comes before the first frame.
+  ASSERT_FALSE(c->config.empty());
+  EXPECT_LT(std::find(c->order.begin(), c->order.end(), "RL_DAQ_CONFIG") - c->order.begin(),
+            std::find(c->order.begin(), c->order.end(), "RL_RAW") - c->order.begin());
+  EXPECT_EQ(c->config[0].channel_names, RigSimulator(rig, {}, 0).channel_names());
+  EXPECT_EQ(c->config[0].channel_sensors[0], "mirror.s");
+
+  // RL_THETA and RL_TABLE equal a direct Processor run on the same frames.
+  test::CollectSink direct;
+  Processor proc(rig, RigSimulator(rig, {}, 0).channel_names(), input, direct);
+  for (const Frame& f : frames) proc.Process(f);
+  proc.Finish();
+  ASSERT_EQ(c->theta.size(), direct.block.size());
+  for (size_t i = 0; i < direct.block.size(); ++i) {
+    EXPECT_EQ(c->theta[i].utime, direct.block[i].utime);
+    EXPECT_TRUE(SameValue(c->theta[i].theta, direct.block[i].theta));
+    EXPECT_TRUE(SameValue(c->theta[i].theta_dot, direct.block[i].theta_dot));
+    EXPECT_EQ(c->theta[i].flags, direct.block[i].flags);
+  }
+  EXPECT_EQ(c->table.size(), direct.table.size());
+  // Simulated drops: GAP events, counted in the last health message.
+  ASSERT_FALSE(c->health.empty());
+  const auto& last = c->health.back();
+  EXPECT_EQ(last.state, "stopped");
+  EXPECT_EQ(last.count_in, static_cast<int64_t>(frames.size()));
+  EXPECT_EQ(last.gaps, proc.sequence().gaps);
+  EXPECT_EQ(last.dropped, proc.sequence().missing);
+  int gap_events = 0;
+  for (const auto& e : c->events) gap_events += e.kind == rocklab::event_t::GAP;
+  EXPECT_EQ(gap_events, proc.sequence().gaps);
+  EXPECT_EQ(stats.publish_errors, 0);
+  EXPECT_FALSE(stats.stopped_early);
+}
+
+TEST(DaqNode, StopFlagEndsTheRunAndPublishesWhatWasRead) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "stop.csv", 5.0);
+  std::atomic<bool> stop{false};
+  DaqNodeStats stats;
+  // Real time: 5 s of data, stopped after 0.3 s.
+  const auto c = RunOnMemq(rig, input, 1.0, stop, &stats, 300);
+  EXPECT_TRUE(stats.stopped_early);
+  EXPECT_GT(stats.frames_read, 0);
+  EXPECT_LT(stats.frames_read, 2000);
+  EXPECT_EQ(static_cast<int64_t>(c->raw.size()), stats.frames_read);
+  // Every frame read is reconstructed, the delayed tail flushed.
+  EXPECT_EQ(static_cast<int64_t>(c->theta.size()), stats.frames_read);
+  EXPECT_EQ(c->health.back().state, "stopped");
+}
+
+TEST(DaqNode, SpeedFactorPacesOnTheSampleClock) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "pace.csv", 1.0);
+  const auto frames = ReadFrames(input, rig);
+  std::atomic<bool> stop{false};
+  const auto start = std::chrono::steady_clock::now();
+  RunOnMemq(rig, input, 4.0, stop);
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // A lower bound only (no timing upper bounds in tests): at 4x the last
+  // frame is not published before (t_last - t_first) / 4 host seconds.
+  EXPECT_GE(elapsed, (frames.back().time_s - frames.front().time_s) / 4.0);
+}
+
+// In a child process: a private network namespace with multicast on lo,
+// lcm-logger recording udpm://...?ttl=0 while the node publishes, then the
+// log decoded back. Exit 77 = no namespace (skip), 0 = pass.
+int UdpmChild(const RigConfig& rig, const std::string& input, const std::string& log_path) {
+  if (unshare(CLONE_NEWNET) != 0) {
+    std::cerr << "unshare(CLONE_NEWNET): " << std::strerror(errno) << "\n";
+    return 77;
+  }
+  if (std::system("ip link set lo up && ip link set lo multicast on && "
+                  "ip route add 224.0.0.0/4 dev lo") != 0) {
+    std::cerr << "cannot set up lo in the namespace\n";
+    return 77;
+  }
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  // The logger's socket buffer holds ~1 s of this stream (4 MB, the host's
+  // rmem_max), so a busy machine delaying lcm-logger does not drop packets.
+  const std::string url_option = "--lcm-url=" + url + "&recv_buf_size=4194304";
+  const pid_t logger = fork();
+  if (logger == 0) {
+    execlp("lcm-logger", "lcm-logger", "-f", url_option.c_str(), log_path.c_str(), nullptr);
+    _exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  DaqNodeConfig config;
+  config.rig = rig;
+  config.input = input;
+  config.speed = 2.0;
+  config.lcm_url = url;
+  {
+    DaqNode node(config);
+    std::atomic<bool> stop{false};
+    node.Run(stop);
+    if (node.stats().publish_errors != 0) {
+      std::cerr << node.stats().publish_errors << " publish errors\n";
+      return 1;
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  kill(logger, SIGINT);
+  int status = 0;
+  waitpid(logger, &status, 0);
+  if (!WIFEXITED(status)) {
+    std::cerr << "lcm-logger did not exit cleanly\n";
+    return 1;
+  }
+  const auto want = ReadFrames(input, rig);
+  const auto got = ReadFrames(log_path, rig);
+  if (got.size() != want.size()) {
+    std::cerr << "log has " << got.size() << " frames, the file " << want.size() << "; first seqs:";
+    for (size_t i = 0; i < 3 && i < got.size(); ++i) std::cerr << " " << got[i].seq;
+    std::cerr << "; last: " << (got.empty() ? -1 : got.back().seq) << "; missing:";
+    for (size_t i = 0, j = 0; i < want.size(); ++i) {
+      if (j < got.size() && got[j].seq == want[i].seq) {
+        ++j;
+      } else {
+        std::cerr << " " << want[i].seq;
+      }
+    }
+    std::cerr << "\n";
+    return 1;
+  }
+  for (size_t i = 0; i < want.size(); ++i) {
+    bool same = got[i].seq == want[i].seq && got[i].utime() == want[i].utime() &&
+                got[i].values.size() == want[i].values.size();
+    for (size_t k = 0; same && k < want[i].values.size(); ++k) {
+      same = SameValue(got[i].values[k], want[i].values[k]);
+    }
+    if (!same) {
+      std::cerr << "frame " << i << " differs\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
+TEST(DaqNode, UdpmInAPrivateNamespaceRecordedByLcmLoggerDecodesToTheSameFrames) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "udpm.csv", 0.5);
+  const std::string log_path = test::ScratchDir() + "/udpm.lcmlog";
+  std::cout.flush();
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) _exit(UdpmChild(rig, input, log_path));
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "no private network namespace (needs root): udpm test skipped";
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "see the child's messages above";
+}
+
+}  // namespace
+}  // namespace rocklab::daq
