@@ -1,6 +1,8 @@
 // Rig configuration: the bundled example loads with the values written in it
 // (oracle: the file itself), and every error names file, line and key (oracle:
 // the line numbers of the hand-written snippets below).
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -107,6 +109,27 @@ TEST(RigConfig, MissingFileNamesIt) {
   } catch (const std::runtime_error& e) {
     EXPECT_STREQ(e.what(), "/nonexistent/rig.toml: cannot open the rig file");
   }
+}
+
+}  // namespace
+}  // namespace rocklab::daq
+
+namespace rocklab::daq {
+namespace {
+
+// The README's complete example is the bundled rig file (oracle: the file).
+TEST(RigConfig, ReadmeExampleIsTheBundledRigFile) {
+  std::ifstream readme(std::string(ROCKLAB_SOURCE_DIR) + "/daq/README.md");
+  std::stringstream text;
+  text << readme.rdbuf();
+  const std::string s = text.str();
+  const size_t begin = s.find("```toml\n");
+  ASSERT_NE(begin, std::string::npos);
+  const size_t end = s.find("```\n", begin + 8);
+  std::ifstream rig(test::LabRigPath());
+  std::stringstream rig_text;
+  rig_text << rig.rdbuf();
+  EXPECT_EQ(s.substr(begin + 8, end - begin - 8), rig_text.str());
 }
 
 }  // namespace
