@@ -11,13 +11,13 @@ struct _generic_N_Vector;
 
 namespace rocklab::model::detail {
 
-/// A small ODE y' = f(t, y) with two root functions g(t, y).
+/// A small ODE y' = f(t, y) with three root functions g(t, y).
 class OdeSystem {
  public:
   virtual ~OdeSystem() = default;
   /// Right-hand side; returns 0 on success, > 0 for a recoverable failure.
   virtual int Rhs(double t_s, const double* y, double* ydot) = 0;
-  /// The two root functions.
+  /// The three root functions.
   virtual int Roots(double t_s, const double* y, double* g) = 0;
 };
 
@@ -27,7 +27,7 @@ class OdeSystem {
 /// not stability, bounds the step). No Jacobian, no matrix, high order.
 class Cvode {
  public:
-  static constexpr int kRoots = 2;
+  static constexpr int kRoots = 3;
 
   /// @param n number of equations (<= 3 here)
   /// @param atol absolute tolerances, one per equation
@@ -38,7 +38,7 @@ class Cvode {
 
   /// Restart at t0_s from y0 (n values); clears the integration history.
   void ReInit(double t0_s, const double* y0);
-  /// Root directions (+1 rising, -1 falling, 0 both) for the two roots.
+  /// Root directions (+1 rising, -1 falling, 0 both) for the three roots.
   void SetRootDirection(std::array<int, kRoots> direction);
 
   enum class Result { kReached, kRoot };

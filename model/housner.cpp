@@ -31,6 +31,7 @@ class HousnerModel final : public CvodeRockingModel {
   void RockingRoots(const double* y, double* g) const override {
     g[0] = y[0];
     g[1] = side_ * y[0] - kPi / 2;
+    g[2] = 1.0;  // no switch
   }
   int ImpactRootDirection() const override { return side_ > 0 ? -1 : +1; }
   void InitialState(double theta0, double theta_dot0, int side, double* y) override {

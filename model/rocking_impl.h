@@ -27,7 +27,8 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   // --- supplied by the formulation -----------------------------------------
   /// Equations while rocking; u_g'' from table_accel(t).
   virtual void RockingRhs(double t_s, const double* y, double* ydot) = 0;
-  /// g[0]: impact, g[1]: overturn (rising through zero).
+  /// g[0]: impact, g[1]: overturn (rising through zero), g[2]: a switch of
+  /// the formulation's own (rising through zero; a constant when it has none).
   virtual void RockingRoots(const double* y, double* g) const = 0;
   /// Direction of the impact root for the current state (the overturn root rises).
   virtual int ImpactRootDirection() const = 0;
@@ -39,6 +40,9 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   /// True when the model should go back to rest at this impact for a reason
   /// of its own (besides the impact-interval rule).
   virtual bool RestAtImpact(const double* /*y*/) const { return false; }
+  /// Called when g[2] rises through zero (no impact at the same time); may
+  /// change y in place; returns whether the integrator must be re-initialised.
+  virtual bool ApplySwitch(double* /*y*/) { return false; }
   /// theta, theta_dot, chi, psi of y into state_ (energy is filled by the base).
   virtual void FillState(const double* y) = 0;
 

@@ -88,6 +88,9 @@ void ModelOptions::Validate() const {
   if (!std::isfinite(atol) || atol <= 0.0) bad("atol", "finite and > 0", atol);
   if (!std::isfinite(max_step_s) || max_step_s <= 0.0) bad("max_step_s", "finite and > 0 s", max_step_s);
   if (!std::isfinite(l) || l <= 0.0) bad("l", "finite and > 0", l);
+  if (!std::isfinite(complex_resolved_energy) || complex_resolved_energy < 0.0) {
+    bad("complex_resolved_energy", "finite and >= 0", complex_resolved_energy);
+  }
   if (!std::isfinite(rest_impact_interval_s) || rest_impact_interval_s < 0.0) {
     bad("rest_impact_interval_s", "finite and >= 0 s", rest_impact_interval_s);
   }
@@ -188,15 +191,16 @@ void CvodeRockingModel::EnterRest(double t_s) {
   rest_checked_ = false;
   for (double& v : y_) v = 0.0;
   cvode_->ReInit(t_s, y_);
-  // Root 0: u_g'' rising through +g tan(alpha); root 1: falling through -g tan(alpha).
-  cvode_->SetRootDirection({+1, -1});
+  // Root 0: u_g'' rising through +g tan(alpha); root 1: falling through -g
+  // tan(alpha); root 2 unused at rest.
+  cvode_->SetRootDirection({+1, -1, +1});
 }
 
 void CvodeRockingModel::StartRocking(double t_s, double theta0, double theta_dot0, int side) {
   state_.regime = Regime::kRocking;
   InitialState(theta0, theta_dot0, side, y_);
   cvode_->ReInit(t_s, y_);
-  cvode_->SetRootDirection({ImpactRootDirection(), +1});
+  cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
   UpdateState(t_s, y_);
 }
 
@@ -229,6 +233,7 @@ int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
     const double ug = table_accel(t_s);
     g[0] = ug - uplift_accel_mps2_;
     g[1] = ug + uplift_accel_mps2_;
+    g[2] = 1.0;
   }
   return 0;
 }
@@ -278,6 +283,15 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       Emit(t, EventKind::kOverturn, state_.theta);
       continue;
     }
+    if (found[0] == 0) {
+      // Only the formulation's switch root.
+      if (ApplySwitch(y_)) {
+        cvode_->ReInit(t, y_);
+        cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+        UpdateState(t, y_);
+      }
+      continue;
+    }
     // An impact.
     ++state_.impacts;
     Emit(t, EventKind::kImpact, state_.theta_dot);
@@ -291,7 +305,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
     }
     if (ApplyImpact(y_)) {
       cvode_->ReInit(t, y_);
-      cvode_->SetRootDirection({ImpactRootDirection(), +1});
+      cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
       UpdateState(t, y_);
     }
   }

@@ -52,6 +52,12 @@ struct ModelOptions {
   double atol{1e-12};       ///< CVODE absolute tolerance on theta (rad) and theta_dot (rad/s)
   double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
   double l{3e-4};           ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
+  /// Complex formulation: eq. (10) is integrated while its regularised energy
+  /// is resolved, i.e. at least this multiple of the floor V_min ~ l^(2/3)
+  /// (back below half of it at a crossing); below, its l -> 0 limit
+  /// (Housner's equations in chi, psi). 0: eq. (10) throughout once lifted
+  /// off. 1; >= 0.
+  double complex_resolved_energy{16.0};
   /// Return to rest when two impacts come closer than this, s.
   double rest_impact_interval_s{2e-3};
   /// @throws std::invalid_argument naming the option.
