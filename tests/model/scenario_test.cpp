@@ -25,6 +25,8 @@
 namespace rocklab::model {
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 struct Scenario {
   const char* name;
   BlockParams params;
@@ -90,14 +92,6 @@ void CheckGolden(const Scenario& s) {
   std::printf("%s: max |theta - golden| = %.3e rad over %zu samples\n", s.name, worst_theta, i);
 }
 
-double Peak(const Trajectory& t, double from_s, double to_s) {
-  double peak = 0.0;
-  for (std::size_t i = 0; i < t.time_s.size(); ++i) {
-    if (t.time_s[i] >= from_s && t.time_s[i] <= to_s) peak = std::max(peak, std::abs(t.theta[i]));
-  }
-  return peak;
-}
-
 const ModelEvent* FirstUplift(const Trajectory& t) {
   for (const auto& e : t.events) {
     if (e.kind == EventKind::kUplift) return &e;
@@ -119,14 +113,41 @@ TEST(ScenarioTest, ExcitationsExceedTheUpliftThreshold) {
 TEST(ScenarioTest, HousnerFigure7Golden) { CheckGolden(kFig7); }
 TEST(ScenarioTest, HousnerFigure8Golden) { CheckGolden(kFig8); }
 
+// The sample where |theta| peaks over [from_s, to_s], or the first sample.
+std::size_t PeakIndex(const Trajectory& t, double from_s, double to_s) {
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < t.time_s.size(); ++i) {
+    if (t.time_s[i] >= from_s && t.time_s[i] <= to_s && std::abs(t.theta[i]) > std::abs(t.theta[best])) best = i;
+  }
+  return best;
+}
+
+double Peak(const Trajectory& t, double from_s, double to_s) { return std::abs(t.theta[PeakIndex(t, from_s, to_s)]); }
+
+// True when the complex model integrates eq. (10) at time_s, not its l -> 0
+// limit below the resolution floor (model/complex.cpp), which keeps psi on a
+// multiple of pi; eq. (10) turns psi at l/chi^2 > 0 all the time.
+bool ComplexResolvedAt(const Scenario& s, const ModelOptions& options, double time_s) {
+  auto model = RockingModel::Create(ModelKind::kComplex, s.params, options);
+  const auto excitation = ParseExcitation(s.excitation);
+  model->Reset(0.0, 0.0, 0.0);
+  model->AdvanceTo(time_s, *excitation);
+  const double psi = model->state().psi;
+  return model->state().regime == Regime::kRocking && std::abs(psi - kPi * std::round(psi / kPi)) > 1e-9;
+}
+
 // ORACLE: Housner. Uplift is decided by the same rest-regime root finding in
 // both models: TOLERANCE 1e-9 s (CVODE's root tolerance ~1e-13 s; the two
-// integrators take different steps). Peak |theta|, over the first 0.5 s and
-// the whole 20 s, with l = 3e-5 (the default 3e-4 leaves the complex model
-// on a different attractor after ~1 s in this chaotic-looking transient):
-// TOLERANCE 10 %, for the start offset alpha chi0 = 4.9e-4 rad of the
-// complex formulation and its O(l^(2/3)) regularisation of ~200 impacts
-// (measured: 0.5 s peaks 0.02346 vs 0.02461, 4.7 %).
+// integrators take different steps). The first excursion (peak at 0.14 s) is
+// below the complex formulation's resolution floor at l = 3e-5 and is
+// integrated in its l -> 0 limit (model/complex.cpp); eq. (10) takes over at
+// 0.23 s and carries 99 % of the rocking time. So the peak |theta| is
+// compared over [0, 20] s and over [1, 20] s, where every sample is eq. (10),
+// with l = 3e-5 (the default 3e-4 leaves the complex model on a different
+// long-term response after ~1 s: peak 0.041 rad at 7.7 s): TOLERANCE 10 %,
+// for the O(l^(2/3)) regularisation of ~200 crossings (measured: 0.02461 vs
+// 0.02461 over [0, 20] s, the first excursion, in the limit; 0.01453 vs
+// 0.01428 over [1, 20] s, eq. (10), 1.7 %).
 TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) {
   ModelOptions o;
   o.l = 3e-5;
@@ -135,30 +156,51 @@ TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) {
   ASSERT_NE(FirstUplift(h), nullptr);
   ASSERT_NE(FirstUplift(c), nullptr);
   EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9);
-  for (double to_s : {0.5, 20.0}) {
-    const double ph = Peak(h, 0.0, to_s), pc = Peak(c, 0.0, to_s);
-    std::printf("fig8 peak |theta| over [0, %.1f] s: housner %.5f complex %.5f\n", to_s, ph, pc);
-    EXPECT_NEAR(pc / ph, 1.0, 0.10) << to_s;
+  for (double from_s : {0.0, 1.0}) {
+    const double ph = Peak(h, from_s, 20.0), pc = Peak(c, from_s, 20.0);
+    std::printf("fig8 peak |theta| over [%.0f, 20] s: housner %.5f complex %.5f\n", from_s, ph, pc);
+    EXPECT_NEAR(pc / ph, 1.0, 0.10) << from_s;
   }
+  EXPECT_TRUE(ComplexResolvedAt(kFig8, o, 1.0));
+  EXPECT_TRUE(ComplexResolvedAt(kFig8, o, c.time_s[PeakIndex(c, 1.0, 20.0)]));
 }
 
-// ORACLE: Housner, uplift time as above (TOLERANCE 1e-9 s).
-// The peak is NOT compared: figure 7's excitation is marginal (peak table
-// acceleration 2.58 m/s^2 against g tan(alpha) = 2.35 m/s^2) and Housner's
-// response begins with ~10 chatter impacts of |theta_dot| ~ 0.01-0.02 rad/s.
-// Their energy lies below the complex formulation's regularisation floor
-// (the minimum of its effective potential, ~l^(2/3)) for any l >= 3e-6, so
-// the complex model goes back to rest there while Housner's block is pumped
-// up to 0.038 rad; measured complex peak 0.026 rad at l = 3e-4, under 1e-3
-// rad at l = 3e-5. See the report of the model work.
-TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7UpliftTime) {
+// ORACLE: Housner, uplift time as above (TOLERANCE 1e-9 s), and peak |theta|
+// over [0, 8] s for l = 3e-4 (default), 3e-5 and 3e-6.
+// The excitation is marginal (peak table acceleration 2.58 m/s^2 against
+// g tan(alpha) = 2.35 m/s^2): Housner's block first chatters (~10 impacts at
+// |theta_dot| 0.01-0.02 rad/s, energy ~1e-5 M g R) and is then pumped up to
+// 0.0385 rad at 2.99 s. That chatter lies below the complex formulation's
+// resolution floor (V_min ~ l^(2/3)) for every l tried (3e-4 .. 1e-10), where
+// eq. (10) cannot follow it (before the l -> 0 hand-off the complex model went
+// back to rest there: peak 0.026 rad at l = 3e-4, < 1e-3 rad at l <= 1e-4);
+// the model integrates its l -> 0 limit there and eq. (10) from 2.87 s
+// (l = 3e-4), 2.86 s (3e-5), 2.65 s (3e-6), i.e. through the peak excursion,
+// which the test checks.
+// TOLERANCE 3 %: Housner's own peak moves by that much for perturbations far
+// below what the experiment or eq. (10) can resolve (measured: alpha +1e-4
+// -3.3 %, mu -1e-3 -0.9 %, the whole state at 2.30 s scaled by 1 +- 1e-2
+// -1.3 %/+0.2 %, by 1 +- 0.1 -7.6 %; rtol 1e-8..1e-12, max step 5e-4 s and a
+// 1 ms shift of the excitation change < 0.03 %). Measured complex/Housner
+// with the default hand-off: 0.9992, 0.9994, 0.9996 at the three l, and
+// within 2 % for every l from 3e-4 down to 1e-7.
+TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7) {
   const Trajectory h = RunScenario(kFig7, ModelKind::kHousner);
-  const Trajectory c = RunScenario(kFig7, ModelKind::kComplex);
   ASSERT_NE(FirstUplift(h), nullptr);
-  ASSERT_NE(FirstUplift(c), nullptr);
-  EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9);
-  std::printf("fig7 uplift %.6f s; peak |theta| housner %.5f complex %.5f (not compared)\n",
-              FirstUplift(h)->time_s, Peak(h, 0, 8), Peak(c, 0, 8));
+  const double ph = Peak(h, 0.0, 8.0);
+  for (double l : {3e-4, 3e-5, 3e-6}) {
+    ModelOptions o;
+    o.l = l;
+    const Trajectory c = RunScenario(kFig7, ModelKind::kComplex, o);
+    ASSERT_NE(FirstUplift(c), nullptr);
+    EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9) << l;
+    const std::size_t peak = PeakIndex(c, 0.0, 8.0);
+    const double pc = std::abs(c.theta[peak]);
+    std::printf("fig7 l %g: uplift %.6f s; peak |theta| housner %.5f complex %.5f at %.2f s (ratio %.4f)\n", l,
+                FirstUplift(c)->time_s, ph, pc, c.time_s[peak], pc / ph);
+    EXPECT_NEAR(pc / ph, 1.0, 0.03) << l;
+    EXPECT_TRUE(ComplexResolvedAt(kFig7, o, c.time_s[peak])) << l;
+  }
 }
 
 }  // namespace
