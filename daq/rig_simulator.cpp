@@ -150,7 +150,8 @@ void RawFileWriter::Number(double v) {
     out_ << "NaN";
     return;
   }
-  std::snprintf(buf, sizeof buf, "%.17g", v);
+  // 10 significant digits: finer than any sensor's resolution.
+  std::snprintf(buf, sizeof buf, "%.10g", v);
   if (decimal_comma_) {
     for (char* c = buf; *c != '\0'; ++c) {
       if (*c == '.') *c = ',';

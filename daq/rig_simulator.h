@@ -76,7 +76,7 @@ class RigSimulator {
 
 /// Writes raw samples as CSV (header `time,<channels>`) or LabVIEW .lvm (tab
 /// separated, decimal comma optional, X_Value column; a new segment can be
-/// started at any sample). Decimal text with 17 significant digits.
+/// started at any sample). Decimal text with 10 significant digits.
 class RawFileWriter {
  public:
   enum class Format { kCsv, kLvm };

@@ -11,9 +11,13 @@ namespace rocklab::tools {
 void RegisterParams(CLI::App& app, CommandRun& run);
 void RegisterSimulate(CLI::App& app, CommandRun& run);
 void RegisterDemo(CLI::App& app, CommandRun& run);
+void RegisterFit(CLI::App& app, CommandRun& run);
 void RegisterReplay(CLI::App& app, CommandRun& run);
 void RegisterModel(CLI::App& app, CommandRun& run);
 void RegisterCompare(CLI::App& app, CommandRun& run);
+void RegisterSynth(CLI::App& app, CommandRun& run);
+void RegisterReconstruct(CLI::App& app, CommandRun& run);
+void RegisterDaq(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -28,9 +32,13 @@ int main(int argc, char** argv) {
       &RegisterParams,
       &RegisterSimulate,
       &RegisterDemo,
+      &RegisterFit,
       &RegisterReplay,
       &RegisterModel,
       &RegisterCompare,
+      &RegisterSynth,
+      &RegisterReconstruct,
+      &RegisterDaq,
   };
   for (CommandRegistrar add : commands) add(app, run);
 
