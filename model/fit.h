@@ -1,0 +1,201 @@
+#pragma once
+/// @file
+/// Identification of the block parameters (alpha, p, mu) from a recorded test.
+///
+/// - Impacts method (the paper's section 4, free rocking): impact times and
+///   peaks from the record, least squares of the measured against the
+///   predicted half-intervals over (alpha, p) with the corrected quarter time
+///   (ERRATA item 2; eq. 13 as an option), the admissible-alpha check, mu_n
+///   by eq. (14) (ERRATA item 7).
+/// - Trajectory method (beyond the paper): least squares of the Housner
+///   model's theta(t) against the whole record over (alpha, p, mu), free or
+///   driven by the recorded table acceleration.
+/// Both use Eigen's Levenberg-Marquardt (unsupported/Eigen/LevenbergMarquardt)
+/// with central finite differences.
+
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "model/block.h"
+#include "model/record.h"
+
+namespace rocklab::model {
+
+/// The record cannot give an answer (never rocks, overturns, too few impacts,
+/// alpha outside the admissible band, a fit that does not converge). The
+/// message says why in one line, naming the record.
+class FitError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class QuarterTime { kExact, kSlender };
+enum class FitMethod { kImpacts, kTrajectory };
+/// "exact" / "slender"; "impacts" / "trajectory".
+const char* ToString(QuarterTime q);
+const char* ToString(FitMethod m);
+/// @throws std::invalid_argument for another name.
+QuarterTime ParseQuarterTime(const std::string& name);
+FitMethod ParseFitMethod(const std::string& name);
+
+/// Quarter time T(r), s: QuarterTimeExact or QuarterTimeSlender.
+double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r);
+
+/// Block geometry of the test (a rectangle 2b x 2h with an optional 45 degree
+/// base chamfer, as in RectangleBlock).
+struct FitGeometry {
+  double width_m{};    ///< 2b, m
+  double height_m{};   ///< 2h, m
+  double chamfer_m{};  ///< chamfer leg, m
+};
+
+/// The admissible alpha band: alpha of the geometry with b -> b -+ band_m
+/// (the paper's rule: +-1 cm on b).
+struct AlphaBand {
+  double lo{};         ///< rad
+  double geometric{};  ///< rad
+  double hi{};         ///< rad
+  double band_m{};     ///< m
+};
+/// @throws std::invalid_argument for a geometry RectangleBlock rejects or a
+///         band that leaves no positive half-width.
+AlphaBand AdmissibleAlphaBand(const FitGeometry& geometry, double band_m);
+
+/// How impacts and peaks are found in a free-rocking record.
+struct FeatureOptions {
+  /// Zero-crossing hysteresis, rad; 0: 5 x the estimated noise.
+  double hysteresis_rad{0.0};
+  /// Samples within this time of a crossing enter its fit (at most a quarter
+  /// of the distance to the neighbouring crossings), s.
+  double crossing_window_s{0.02};
+  /// Peaks below this end the usable decay, rad; 0: 20 x the estimated noise.
+  double min_peak_rad{0.0};
+  /// A hold of at least this long before the first impact makes the release
+  /// identifiable, s.
+  double min_hold_s{0.05};
+  /// |theta| beyond this is an overturn when no geometry is known, rad.
+  double overturn_rad{1.0};
+};
+
+/// Impacts and peaks of a free-rocking record.
+struct FreeRockingFeatures {
+  double noise_rad{};       ///< estimated white-noise standard deviation of theta, rad
+  double hysteresis_rad{};  ///< used, rad
+  double min_peak_rad{};    ///< used, rad
+  /// Impact times t_1..t_N (zero crossings, sub-sample), s.
+  std::vector<double> impact_time_s;
+  /// Peak |theta| after each impact, rad: peak_rad[i] lies between
+  /// impact_time_s[i] and impact_time_s[i + 1] (size N - 1).
+  std::vector<double> peak_rad;
+  /// r_0, the peak before the first impact (the release amplitude, or a
+  /// fitted peak when the record starts before a peak), rad.
+  std::optional<double> r0_rad;
+  /// Sign of theta before the first impact (+1 or -1; 0 when it never rocks).
+  int first_sign{};
+  /// Release time, s, when the record holds the block before letting go.
+  std::optional<double> release_time_s;
+  /// Its standard error from the onset fit, s.
+  double release_time_stderr_s{};
+  std::size_t hold_start_index{};  ///< first sample of the hold (when released)
+  double max_abs_theta{};          ///< rad
+  double max_abs_theta_time_s{};   ///< s
+};
+
+/// Finds the impacts (zero crossings with hysteresis, located by a two-sided
+/// local quadratic least-squares fit with a common root), the peaks (local
+/// quartic fit) and the release (onset fit after a hold).
+/// Does not judge the result (FitImpacts does).
+FreeRockingFeatures ExtractFreeRocking(const RockingRecord& record, const FeatureOptions& options);
+
+/// One line of the per-impact table.
+struct ImpactRow {
+  int n{};                          ///< impact number (0: the release)
+  double time_s{};                  ///< impact (or release) time, s
+  std::optional<double> peak_rad;   ///< r_n, peak |theta| after it, rad
+  std::optional<double> mu_n;       ///< eq. (14), 1
+  std::optional<double> tau_s;      ///< measured quarter time tau_n*, s
+  std::optional<double> residual_s; ///< T(r_n) - tau_n* at the solution, s
+};
+
+/// One Levenberg-Marquardt iteration, for progress displays.
+struct FitProgress {
+  int iteration{};
+  int evaluations{};         ///< residual evaluations so far (model runs for trajectory)
+  double rms{};              ///< RMS residual (s for impacts, rad for trajectory)
+  Eigen::VectorXd x;         ///< current parameters (alpha, p[, mu[, release time]])
+  double elapsed_s{};        ///< wall clock since the fit started, s
+};
+
+struct FitOptions {
+  QuarterTime quarter_time{QuarterTime::kExact};
+  /// Geometry: start values of the trajectory method, the admissible band and
+  /// the theoretical row of the output.
+  std::optional<FitGeometry> geometry;
+  double alpha_band_m{0.01};  ///< +- on b, m
+  FeatureOptions features;
+  /// Fewest impacts the impacts method accepts (>= 3).
+  int min_impacts{4};
+  /// Pair the release-to-first-impact time with r_0 when the release is
+  /// identifiable: a hold, and a release time whose standard error from the
+  /// onset fit is at most max_release_stderr_s (the precision of a crossing;
+  /// a worse release time would dominate the sum of squares).
+  bool use_release{true};
+  double max_release_stderr_s{5e-4};  ///< s
+  /// Trajectory method: CVODE relative tolerance of the Housner model.
+  double rtol{1e-8};
+  /// Trajectory method: start from these instead of impacts/geometry.
+  std::optional<BlockParams> start;
+  /// Largest number of residual evaluations (the trajectory method runs the
+  /// model once per evaluation).
+  int max_evaluations{600};
+  /// Called after every LM iteration (may be empty). Must not throw.
+  std::function<void(const FitProgress&)> on_progress;
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+};
+
+struct FitResult {
+  FitMethod method{FitMethod::kImpacts};
+  QuarterTime quarter_time{QuarterTime::kExact};
+  BlockParams params;            ///< fitted alpha (rad), p (rad/s), mu (1)
+  double mu_spread{};            ///< impacts: standard deviation of the mu_n, 1; trajectory: NaN
+  double alpha_stderr{};         ///< rad
+  double p_stderr{};             ///< rad/s
+  double mu_stderr{};            ///< trajectory only (impacts: NaN), 1
+  double alpha_p_correlation{};  ///< from s^2 (J^T J)^-1 at the solution, in [-1, 1]
+  Eigen::MatrixXd covariance;    ///< of the fitted parameters, in their order
+  double rms_residual{};         ///< s (impacts) or rad (trajectory)
+  int residuals{};               ///< number of residuals
+  int dof{};                     ///< residuals - parameters
+  int iterations{};
+  int evaluations{};
+  double runtime_s{};            ///< wall clock, s
+  std::optional<AlphaBand> band;
+  std::optional<BlockParams> theory;  ///< from the geometry
+  FreeRockingFeatures features;       ///< impacts method (and trajectory from a free record)
+  std::vector<ImpactRow> impacts;     ///< impacts method
+  std::optional<double> release_time_s;  ///< trajectory from a hold: fitted release time, s
+  bool forced{};                      ///< trajectory: driven by the table record
+  std::vector<std::string> warnings;
+};
+
+/// The paper's procedure on a free-rocking record.
+/// @throws FitError when the record never rocks, overturns, has fewer than
+///         min_impacts usable impacts, the fit fails, or alpha falls outside
+///         the admissible band (with geometry).
+FitResult FitImpacts(const RockingRecord& record, const FitOptions& options);
+
+/// Fits (alpha, p, mu) to theta(t) of the whole record with the Housner
+/// model (rtol options.rtol), driven by the record's table acceleration
+/// when it has one. The record must start at rest (forced) or from a held
+/// release (free; the release time is fitted too). Start values: options.start,
+/// else the impacts method (free records), else the geometry.
+/// @throws FitError as FitImpacts, or when there is no start value.
+FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options);
+
+}  // namespace rocklab::model

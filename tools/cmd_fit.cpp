@@ -1,0 +1,242 @@
+// rocklab fit: block parameters (alpha, p, mu) from a recorded test, by the
+// paper's impacts method (free rocking) or a least-squares fit of the whole
+// trajectory (free or forced).
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "daq/rig_config.h"
+#include "model/fit.h"
+#include "model/record.h"
+#include "tools/cli.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct FitCliOptions {
+  std::string input;
+  std::string rig;
+  double width_m{};
+  double height_m{};
+  double chamfer_m{};
+  std::string accel_csv;
+  std::string method{"impacts"};
+  std::string quarter_time{"exact"};
+  double alpha_band_m{0.01};
+  int min_impacts{4};
+  bool json{};
+  bool quiet{};
+  std::string out_json;
+};
+
+nlohmann::json Optional(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json Optional(const std::optional<double>& v) {
+  return v && std::isfinite(*v) ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
+  nlohmann::json impacts = nlohmann::json::array();
+  for (const model::ImpactRow& row : r.impacts) {
+    impacts.push_back({{"n", row.n},
+                       {"time", Optional(row.time_s)},
+                       {"peak", Optional(row.peak_rad)},
+                       {"mu_n", Optional(row.mu_n)},
+                       {"tau", Optional(row.tau_s)},
+                       {"residual", Optional(row.residual_s)}});
+  }
+  nlohmann::json j = {
+      {"input", o.input},
+      {"method", model::ToString(r.method)},
+      {"quarter_time", r.method == model::FitMethod::kImpacts ? nlohmann::json(model::ToString(r.quarter_time))
+                                                             : nlohmann::json(nullptr)},
+      {"alpha", r.params.alpha},
+      {"p", r.params.p},
+      {"mu", r.params.mu},
+      {"mu_spread", Optional(r.mu_spread)},
+      {"alpha_stderr", Optional(r.alpha_stderr)},
+      {"p_stderr", Optional(r.p_stderr)},
+      {"mu_stderr", Optional(r.mu_stderr)},
+      {"alpha_p_correlation", Optional(r.alpha_p_correlation)},
+      {"rms_residual", r.rms_residual},
+      {"residuals", r.residuals},
+      {"iterations", r.iterations},
+      {"evaluations", r.evaluations},
+      {"runtime", r.runtime_s},
+      {"forced", r.forced},
+      {"noise", r.features.noise_rad},
+      {"release_time", r.method == model::FitMethod::kTrajectory ? Optional(r.release_time_s)
+                                                                : Optional(r.features.release_time_s)},
+      {"impacts", impacts},
+      {"warnings", r.warnings},
+      {"units",
+       {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"alpha_stderr", "rad"},
+        {"p_stderr", "rad/s"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"}, {"residual", "s"},
+        {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
+        {"release_time", "s"}, {"runtime", "s"}}}};
+  if (r.theory) {
+    j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
+  } else {
+    j["theory"] = nullptr;
+  }
+  if (r.band) {
+    j["alpha_band"] = {{"lo", r.band->lo}, {"hi", r.band->hi}, {"band_m", r.band->band_m}};
+  } else {
+    j["alpha_band"] = nullptr;
+  }
+  return j;
+}
+
+void PrintText(const FitCliOptions& o, const model::FitResult& r) {
+  std::printf("rocklab fit: %s, method %s%s%s, %d residuals, %d iterations, %.2f s\n",
+              o.input.c_str(), model::ToString(r.method),
+              r.method == model::FitMethod::kImpacts ? ", quarter time " : "",
+              r.method == model::FitMethod::kImpacts ? model::ToString(r.quarter_time) : "",
+              r.residuals, r.iterations, r.runtime_s);
+  std::printf("\n%-10s %11s %11s %8s %10s\n", "", "alpha (rad)", "p (rad/s)", "mu", "mu_spread");
+  std::printf("%-10s %11.4f %11.4f %8.4f %10s\n", "fitted", r.params.alpha, r.params.p,
+              r.params.mu, std::isfinite(r.mu_spread) ? std::to_string(r.mu_spread).substr(0, 6).c_str() : "-");
+  std::printf("%-10s %11.4f %11.4f %8s\n", "std error", r.alpha_stderr, r.p_stderr,
+              std::isfinite(r.mu_stderr) ? std::to_string(r.mu_stderr).substr(0, 6).c_str() : "-");
+  if (r.theory) {
+    std::printf("%-10s %11.4f %11.4f %8.4f   (geometry)\n", "theory", r.theory->alpha, r.theory->p,
+                r.theory->mu);
+  }
+  if (r.band) {
+    std::printf("admissible alpha [%.4f, %.4f] rad (b +- %.3g m)\n", r.band->lo, r.band->hi, r.band->band_m);
+  }
+  std::printf("alpha-p correlation %.3f (%s)\n", r.alpha_p_correlation,
+              std::abs(r.alpha_p_correlation) > 0.9
+                  ? "strong: other (alpha, p) pairs along a ridge give nearly the same response"
+                  : "moderate");
+  std::printf("rms residual %.3g %s, noise %.3g rad\n",
+              r.method == model::FitMethod::kImpacts ? r.rms_residual * 1e3 : r.rms_residual,
+              r.method == model::FitMethod::kImpacts ? "ms" : "rad", r.features.noise_rad);
+  if (r.release_time_s) std::printf("fitted release time %.4f s\n", *r.release_time_s);
+  if (!r.impacts.empty()) {
+    std::printf("\n%3s %10s %11s %8s %9s %13s\n", "n", "time (s)", "peak (rad)", "mu_n", "tau* (s)",
+                "residual (ms)");
+    auto cell = [](const std::optional<double>& v, const char* fmt, double scale) {
+      char buf[32];
+      if (!v) return std::string("-");
+      std::snprintf(buf, sizeof buf, fmt, *v * scale);
+      return std::string(buf);
+    };
+    for (const model::ImpactRow& row : r.impacts) {
+      std::printf("%3d %10s %11s %8s %9s %13s\n", row.n,
+                  std::isfinite(row.time_s) ? cell(row.time_s, "%.4f", 1).c_str() : "-",
+                  cell(row.peak_rad, "%.5f", 1).c_str(), cell(row.mu_n, "%.4f", 1).c_str(),
+                  cell(row.tau_s, "%.4f", 1).c_str(), cell(row.residual_s, "%+.3f", 1e3).c_str());
+    }
+  }
+  for (const std::string& w : r.warnings) std::printf("note: %s\n", w.c_str());
+}
+
+int RunFit(const FitCliOptions& o) {
+  model::FitOptions fo;
+  try {
+    fo.quarter_time = model::ParseQuarterTime(o.quarter_time);
+  } catch (const std::invalid_argument&) {
+    throw UsageError("--quarter-time must be exact or slender, got '" + o.quarter_time + "'");
+  }
+  model::FitMethod method{};
+  try {
+    method = model::ParseFitMethod(o.method);
+  } catch (const std::invalid_argument&) {
+    throw UsageError("--method must be impacts or trajectory, got '" + o.method + "'");
+  }
+  Require(o.alpha_band_m >= 0.0, "--alpha-band-m", ">= 0 m", o.alpha_band_m);
+  Require(o.min_impacts >= 3, "--min-impacts", ">= 3", o.min_impacts);
+  fo.alpha_band_m = o.alpha_band_m;
+  fo.min_impacts = o.min_impacts;
+
+  const bool has_dims = o.width_m != 0.0 || o.height_m != 0.0;
+  if (!o.rig.empty() && has_dims) throw UsageError("give either --rig or --width/--height, not both");
+  if (!o.rig.empty()) {
+    daq::RigConfig rig;
+    try {
+      rig = daq::LoadRigConfig(o.rig);
+    } catch (const std::exception& e) {
+      throw UsageError(e.what());
+    }
+    if (!(rig.block.width_m > 0.0 && rig.block.height_m > 0.0)) {
+      throw UsageError("--rig " + o.rig + " has no block geometry (block.width_m, block.height_m)");
+    }
+    fo.geometry = model::FitGeometry{rig.block.width_m, rig.block.height_m, rig.block.chamfer_m};
+  } else if (has_dims) {
+    Require(o.width_m > 0.0, "--width", "> 0 m", o.width_m);
+    Require(o.height_m > 0.0, "--height", "> 0 m", o.height_m);
+    Require(o.chamfer_m >= 0.0, "--chamfer", ">= 0 m", o.chamfer_m);
+    fo.geometry = model::FitGeometry{o.width_m, o.height_m, o.chamfer_m};
+  }
+  if (fo.geometry) {
+    try {
+      (void)model::AdmissibleAlphaBand(*fo.geometry, fo.alpha_band_m);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("geometry: ") + e.what());
+    }
+  }
+
+  model::FitResult result;
+  try {
+    model::RockingRecord record = model::ReadRecord(o.input);
+    if (!o.accel_csv.empty()) model::AddTableCsv(o.accel_csv, record);
+    if (method == model::FitMethod::kTrajectory && !o.quiet) {
+      fo.on_progress = [](const model::FitProgress& p) {
+        std::fprintf(stderr, "fit: iteration %d, %d model runs, rms %.3e rad, alpha %.5f p %.5f mu %.5f (%.1f s)\n",
+                     p.iteration, p.evaluations, p.rms, p.x(0), p.x(1), p.x(2), p.elapsed_s);
+      };
+    }
+    result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
+                                                  : model::FitTrajectory(record, fo);
+  } catch (const model::RecordError& e) {
+    throw UsageError(e.what());
+  } catch (const model::FitError& e) {
+    throw UsageError(e.what());
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+
+  const nlohmann::json j = ResultJson(o, result);
+  if (!o.out_json.empty()) {
+    std::ofstream out(o.out_json);
+    out << j.dump(2) << "\n";
+    if (!out) throw std::runtime_error(o.out_json + ": cannot write");
+  }
+  if (o.json) {
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    PrintText(o, result);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterFit(CLI::App& app, CommandRun& run) {
+  auto opts = std::make_shared<FitCliOptions>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("fit", "fit alpha, p, mu to a recorded test (impacts or trajectory)");
+  cmd->add_option("--input", opts->input,
+                  "CSV with header time,theta (s, rad; extra columns allowed) or rocklab LCM log "
+                  "(RL_THETA, RL_TABLE)")
+      ->required();
+  cmd->add_option("--rig", opts->rig, "rig TOML giving the block geometry");
+  cmd->add_option("--width", opts->width_m, "block width 2b, m");
+  cmd->add_option("--height", opts->height_m, "block height 2h, m");
+  cmd->add_option("--chamfer", opts->chamfer_m, "45 degree base chamfer leg, m");
+  cmd->add_option("--accel", opts->accel_csv, "table acceleration CSV time,accel (s, m/s^2) for a CSV record");
+  cmd->add_option("--method", opts->method, "impacts (paper, free rocking) | trajectory (whole record)");
+  cmd->add_option("--quarter-time", opts->quarter_time, "impacts method: exact (corrected eq. 12) | slender (eq. 13)");
+  cmd->add_option("--alpha-band-m", opts->alpha_band_m, "admissible error on b, m (default 0.01)");
+  cmd->add_option("--min-impacts", opts->min_impacts, "fewest impacts accepted (default 4)");
+  cmd->add_flag("--json", opts->json, "print the result as JSON");
+  cmd->add_flag("--quiet", opts->quiet, "no progress lines on stderr");
+  cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");
+  cmd->callback([opts, &run] { run = [opts] { return RunFit(*opts); }; });
+}
+
+}  // namespace rocklab::tools
