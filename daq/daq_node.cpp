@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <thread>
 
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -62,8 +63,19 @@ struct DaqNode::Impl : ProcessorSink {
   int64_t health_in{0}, health_out{0};  // counts at the last health
   Pacer pacer{0};
 
+  // Messages published since the last frame was paced. The flush at the end
+  // (and after a long gap) releases up to m delayed samples at once; LCM
+  // subscribers queue only 30 messages by default (lcm-logger included), so
+  // when paced the node spreads such a burst: 1 ms after every kBurst.
+  static constexpr int kBurst = 16;
+  int burst{0};
+
   template <class Msg>
   void Publish(const std::string& channel, const Msg& msg) {
+    if (config.speed > 0 && ++burst > kBurst) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      burst = 1;
+    }
     if (lcm->publish(channel, &msg) == 0) {
       ++stats.published;
     } else {
@@ -243,6 +255,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       m.stats.stopped_early = true;
     }
     ++m.stats.frames_read;
+    m.burst = 0;
     m.newest_utime = frame.utime();
     if (!(frame.time_s < next_config_s)) {  // first frame, then every config_period_s
       m.config_msg.utime = m.newest_utime;

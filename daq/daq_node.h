@@ -11,6 +11,9 @@
 /// Shutdown order: stop reading; flush the delayed RL_THETA / RL_TABLE
 /// samples of what was read; publish a last RL_HEALTH with state "stopped";
 /// return. LCM handles are never dispatched here (the node only publishes).
+/// When paced, a burst of more than 16 messages between two frames (the
+/// differentiators' flush at the end or after a long gap) is spread at 1 ms
+/// per 16 messages, below LCM's default subscriber queue of 30.
 
 #include <atomic>
 #include <cstdint>

@@ -1,4 +1,4 @@
-// `rocklab synth` -> `rocklab reconstruct` through the binary. Oracles: the
+// `rocklab synth` -> `rocklab reconstruct`, and `rocklab daq`, through the binary. Oracles: the
 // truth file synth writes (the model's theta and the injected faults) and the
 // noise synth injects (the lab rig's typical figures times --noise-scale).
 #include <cmath>
@@ -11,10 +11,12 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
 
 #include "daq/reconstruction.h"
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
+#include "rocklab/health_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
 namespace rocklab::daq {
@@ -222,6 +224,49 @@ TEST(SynthReconstruct, BadOptionsAndInputsExitWithUsageErrors) {
   EXPECT_NE(err.find("channel 'mirror_n' (sensor 'mirror.n') is not in " + wrong), std::string::npos) << err;
   EXPECT_EQ(Rocklab("reconstruct --rig /nonexistent.toml --input " + wrong + " --out /tmp/z.csv", &err), 2);
   EXPECT_EQ(err, "rocklab: --rig: /nonexistent.toml: cannot open the rig file\n");
+}
+
+}  // namespace
+}  // namespace rocklab::daq
+
+namespace rocklab::daq {
+namespace {
+
+// `rocklab daq` in a private network namespace (udpm, ttl=0) recorded by
+// lcm-logger, stopped by SIGINT half way: exit 0, every frame read was
+// published (RL_RAW count = the frames the final health reports), and the
+// last RL_HEALTH says "stopped". Skips when no namespace can be made.
+TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
+  if (std::system("unshare -n true 2>/dev/null") != 0) {
+    GTEST_SKIP() << "no private network namespace (needs root): daq command test skipped";
+  }
+  const std::string raw = Synth("daq.csv", "--seed 2");  // 3 s of data
+  const std::string log = test::ScratchDir() + "/daq.lcmlog";
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  const std::string script =
+      "ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo || exit 77\n"
+      "lcm-logger -f --lcm-url='" + url + "&recv_buf_size=4194304' " + log + " >/dev/null 2>&1 &\n"
+      "logger=$!\nsleep 0.5\n" +
+      std::string(ROCKLAB_BINARY) + " daq --rig " + test::LabRigPath() + " --input " + raw +
+      " --speed 1 --lcm-url '" + url + "' 2>/dev/null &\n"
+      "daq=$!\nsleep 1\nkill -INT $daq\nwait $daq\nrc=$?\nsleep 0.5\nkill -INT $logger\nwait $logger\nexit $rc\n";
+  const std::string script_path = test::WriteFile("daq.sh", script);
+  const int status = std::system(("unshare -n sh " + script_path).c_str());
+  ASSERT_NE(WEXITSTATUS(status), 77) << "cannot set up lo in the namespace";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+
+  lcm::LogFile in(log, "r");
+  ASSERT_TRUE(in.good());
+  int64_t raw_frames = 0;
+  rocklab::health_t last;
+  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    if (ev->channel == "RL_RAW") ++raw_frames;
+    if (ev->channel == "RL_HEALTH") last.decode(ev->data, 0, ev->datalen);
+  }
+  EXPECT_EQ(last.state, "stopped");
+  EXPECT_GT(raw_frames, 0);
+  EXPECT_LT(raw_frames, 2900);  // stopped before the end of the 3 s file
+  EXPECT_EQ(last.count_in, raw_frames);
 }
 
 }  // namespace
