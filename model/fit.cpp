@@ -833,25 +833,49 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   x(1) = start_params.p;
   x(2) = start_params.mu;
   if (from_hold) x(3) = *f.release_time_s;
+  // Whether and when a forced block uplifts hinges on alpha (|u_g''| >
+  // g tan(alpha)), so the cost is rugged in alpha and LM can stop in a local
+  // minimum. When the first fit does not get down to the noise (1.5 x the
+  // estimated noise), it restarts from the best points of a coarse alpha scan
+  // (+-15 % in 2.5 % steps, p and mu held) and keeps the lowest cost.
+  std::vector<Eigen::VectorXd> starts{x};
   if (out.forced && !options.start) {
-    // Whether and when a forced block uplifts hinges on alpha (|u_g''| >
-    // g tan(alpha)): from a start that never uplifts, the residuals do not
-    // depend on the parameters and LM has no gradient. A coarse scan of
-    // alpha (+-15 %, p and mu held) picks a start that rocks.
+    std::vector<std::pair<double, double>> scan;  // (cost, alpha)
     Eigen::VectorXd trial = x;
     Eigen::VectorXd fv(functor.values());
-    double best = std::numeric_limits<double>::infinity();
-    const double a0 = x(0);
     for (int i = -6; i <= 6; ++i) {
-      trial(0) = a0 * (1.0 + 0.025 * i);
+      if (i == 0) continue;
+      trial(0) = x(0) * (1.0 + 0.025 * i);
       functor(trial, fv);
-      if (fv.squaredNorm() < best) {
-        best = fv.squaredNorm();
-        x(0) = trial(0);
-      }
+      scan.emplace_back(fv.squaredNorm(), trial(0));
+    }
+    std::sort(scan.begin(), scan.end());
+    for (std::size_t i = 0; i < 3 && i < scan.size(); ++i) {
+      trial(0) = scan[i].second;
+      starts.push_back(trial);
     }
   }
-  const LmOutcome lm = RunLm(functor, x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
+  LmOutcome lm;
+  bool have = false;
+  int restarts = 0;
+  int evaluations = 0;
+  for (const Eigen::VectorXd& x_start : starts) {
+    LmOutcome trial = RunLm(functor, x_start, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
+    evaluations = *functor.count_;
+    if (!have || (LmConverged(trial.status) && trial.residuals.squaredNorm() < lm.residuals.squaredNorm()) ||
+        !LmConverged(lm.status)) {
+      lm = std::move(trial);
+      have = true;
+    }
+    const double rms = std::sqrt(lm.residuals.squaredNorm() / static_cast<double>(lm.residuals.size()));
+    if (LmConverged(lm.status) && rms <= 1.5 * f.noise_rad) break;
+    ++restarts;
+  }
+  lm.evaluations = evaluations;
+  if (restarts > 0) {
+    out.warnings.push_back("restarted " + std::to_string(std::min<int>(restarts, static_cast<int>(starts.size()) - 1)) +
+                           " time(s) from an alpha scan (first fit above the noise level)");
+  }
   if (!LmConverged(lm.status)) {
     throw FitError(record.source + ": the trajectory fit did not converge in " +
                    std::to_string(lm.evaluations) + " model runs (status " +

@@ -1,0 +1,304 @@
+// Parameter identification (model/fit.h) and record reading (model/record.h).
+// Oracle throughout: records synthesised by the Housner model on CVODE
+// (rtol 1e-10) with known (alpha, p, mu), sampled like a test, with seeded
+// Gaussian noise of 0.02 degrees (the figure).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "model/fit.h"
+#include "model/record.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/table_state_t.hpp"
+#include "tests/model/fit_synthetic.h"
+
+namespace rocklab::test {
+namespace {
+
+using model::BlockParams;
+using model::FitError;
+using model::FitOptions;
+using model::RecordError;
+
+// Table 2 block 1 (ERRATA item 10: p = 3.884 rad/s), geometry of Table 1 row 1.
+const BlockParams kBlock1{0.235, 3.884, 0.937};
+const model::FitGeometry kBlock1Geometry{0.247, 1.0, 0.0};
+
+std::string TempPath(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / "rocklab_fit_test";
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
+
+// Oracle: the model's own impact events (CVODE root finding, ~1e-10 s). On
+// a noise-free 500 Hz record the two-sided crossing fit must find them to a
+// thousandth of the 2 ms sample period (measured: 3.5e-7 s).
+TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.0, 1);
+  model::ModelOptions mo;
+  mo.rtol = 1e-10;
+  auto m = model::RockingModel::Create(model::ModelKind::kHousner, kBlock1, mo);
+  struct Zero final : model::Forcing {
+    double TableAcceleration(double) const override { return 0.0; }
+  } zero;
+  m->Reset(0.3, 0.6 * kBlock1.alpha, 0.0);
+  m->AdvanceTo(8.3, zero);
+  const auto f = model::ExtractFreeRocking(rec, {});
+  ASSERT_GE(f.impact_time_s.size(), 20u);
+  std::size_t i = 0;
+  for (const auto& e : m->events()) {
+    if (e.kind != model::EventKind::kImpact || i >= f.impact_time_s.size()) continue;
+    EXPECT_NEAR(f.impact_time_s[i], e.time_s, 2e-6) << "impact " << i + 1;
+    ++i;
+  }
+  // The hold makes the release identifiable; r0 is the hold level (1e-6 rad:
+  // the onset fit averages 150 noise-free samples).
+  ASSERT_TRUE(f.release_time_s && f.r0_rad);
+  EXPECT_NEAR(*f.r0_rad, 0.6 * kBlock1.alpha, 1e-6);
+}
+
+// The acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise;
+// alpha and p within 1 %, mu within 0.005, for three seeds (measured worst:
+// alpha -0.31 %, p +0.17 %, mu 0.9370 +- 1e-4). The release time is only
+// known to ~4 ms at this noise, so the release pair is not used (a warning
+// says so) and the fit rests on 20 inter-impact half intervals.
+TEST(FitImpacts, RecoversBlock1FromNoisyFreeRocking) {
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, seed);
+    FitOptions o;
+    o.geometry = kBlock1Geometry;
+    const auto r = model::FitImpacts(rec, o);
+    EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.01) << "seed " << seed;
+    EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.01) << "seed " << seed;
+    EXPECT_NEAR(r.params.mu, kBlock1.mu, 0.005) << "seed " << seed;
+    EXPECT_GE(r.impacts.size(), 15u);
+    // The standard errors must cover the actual error (3 sigma).
+    EXPECT_LT(std::abs(r.params.alpha - kBlock1.alpha), 3 * r.alpha_stderr) << "seed " << seed;
+    EXPECT_LT(std::abs(r.params.p - kBlock1.p), 3 * r.p_stderr) << "seed " << seed;
+    // The paper's conclusion (different sets give the same response): for
+    // r << alpha, T ~ sqrt(2 r / alpha) / p depends on alpha p^2 only, so the
+    // estimates are strongly anti-correlated (measured -0.986).
+    EXPECT_LT(r.alpha_p_correlation, -0.95) << "seed " << seed;
+    EXPECT_GT(r.alpha_p_correlation, -1.0);
+  }
+}
+
+// Eq. (13) against the exact quarter time on a stocky block: block 4
+// (ERRATA item 9: alpha = 0.31, p = 5.21 rad/s), released from 0.6 alpha,
+// noise-free, inter-impact pairs only. The exact form recovers the truth
+// (to 0.01 %, measured 0.009 %); the slender form over-estimates alpha by
+// +1.36 % and under-estimates p by -1.39 %: that is its bias, asserted to
+// +-0.1 % (the exact fit's own residual error is 0.01 %).
+TEST(FitImpacts, SlenderQuarterTimeBiasesAStockyBlock) {
+  const BlockParams block4{0.31, 5.21, 0.926};
+  const auto rec = SyntheticFree(block4, 0.6 * block4.alpha, 0.3, 6.0, 500, 0.0, 1);
+  FitOptions o;
+  o.use_release = false;
+  const auto exact = model::FitImpacts(rec, o);
+  o.quarter_time = model::QuarterTime::kSlender;
+  const auto slender = model::FitImpacts(rec, o);
+  EXPECT_NEAR(exact.params.alpha / block4.alpha, 1.0, 1e-3);
+  EXPECT_NEAR(exact.params.p / block4.p, 1.0, 1e-3);
+  EXPECT_NEAR(slender.params.alpha / block4.alpha - 1.0, +0.0136, 1e-3);
+  EXPECT_NEAR(slender.params.p / block4.p - 1.0, -0.0139, 1e-3);
+  EXPECT_GT(slender.rms_residual, 2 * exact.rms_residual);
+}
+
+// The trajectory method on a synthetic forced test: block 1 from rest on a
+// Hanning sine (10 mm, 3.3 Hz, 4 s from 0.5 s), 7 s of theta at 250 Hz with
+// 0.02 deg noise, table acceleration at 500 Hz. Start from the geometry of
+// Table 1 row 1 (alpha 0.242, p 3.780, mu 0.914: 3 %, 3 %, 2.5 % off).
+// Within 1 % on all three (measured: -0.017 %, +0.004 %, -0.004 %).
+TEST(FitTrajectory, RecoversBlock1FromAForcedTest) {
+  const auto ex = model::ParseExcitation("hanning:amp=0.010,freq=3.3,duration=4,start=0.5");
+  const auto rec = SyntheticForced(kBlock1, *ex, 7.0, 250, 500, 0.02, 7);
+  FitOptions o;
+  o.geometry = kBlock1Geometry;
+  int progress_lines = 0;
+  o.on_progress = [&](const model::FitProgress&) { ++progress_lines; };
+  const auto r = model::FitTrajectory(rec, o);
+  EXPECT_TRUE(r.forced);
+  EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.01);
+  EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.01);
+  EXPECT_NEAR(r.params.mu / kBlock1.mu, 1.0, 0.01);
+  // The residual is the noise (0.02 deg = 3.49e-4 rad) when the model fits.
+  EXPECT_NEAR(r.rms_residual, 0.02 * kDeg, 0.1 * 0.02 * kDeg);
+  EXPECT_GT(progress_lines, 0);
+}
+
+// --- error cases: each a FitError / RecordError with a clear message -------
+
+TEST(FitErrors, TooFewImpacts) {
+  // 1.5 s after the release: two impacts of block 1 (0.70 s and 1.37 s).
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 1.5, 500, 0.02, 4, "short.csv");
+  try {
+    model::FitImpacts(rec, {});
+    FAIL() << "no error";
+  } catch (const FitError& e) {
+    EXPECT_NE(std::string(e.what()).find("short.csv: only 2 usable impacts"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FitErrors, NeverRocks) {
+  // Held at 0.6 alpha for the whole record: never released.
+  auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 5.0, 0.0, 500, 0.02, 5, "held.csv");
+  try {
+    model::FitImpacts(rec, {});
+    FAIL() << "no error";
+  } catch (const FitError& e) {
+    EXPECT_NE(std::string(e.what()).find("never rocks"), std::string::npos) << e.what();
+  }
+  // At rest with a table that does not move it (0.5 m/s^2 < g tan alpha).
+  const auto ex = model::ParseExcitation("sine:amp=0.001,freq=3.5,duration=3");
+  const auto rest = SyntheticForced(kBlock1, *ex, 4.0, 250, 500, 0.02, 6);
+  FitOptions o;
+  o.geometry = kBlock1Geometry;
+  EXPECT_THROW(model::FitTrajectory(rest, o), FitError);
+}
+
+TEST(FitErrors, Overturns) {
+  // Released beyond alpha: it falls over (the model stops at pi/2).
+  const auto rec = SyntheticFree(kBlock1, 1.05 * kBlock1.alpha, 0.3, 3.0, 500, 0.02, 8, "fell.csv");
+  for (bool geometry : {false, true}) {
+    FitOptions o;
+    if (geometry) o.geometry = kBlock1Geometry;
+    try {
+      model::FitImpacts(rec, o);
+      FAIL() << "no error";
+    } catch (const FitError& e) {
+      EXPECT_NE(std::string(e.what()).find("overturns"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(FitErrors, AlphaOutsideTheAdmissibleBandIsRejected) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, 1);
+  FitOptions o;
+  o.geometry = model::FitGeometry{0.40, 1.0, 0.0};  // alpha 0.38: block 1 is not this block
+  try {
+    model::FitImpacts(rec, o);
+    FAIL() << "no error";
+  } catch (const FitError& e) {
+    EXPECT_NE(std::string(e.what()).find("outside the admissible band"), std::string::npos) << e.what();
+  }
+  // A configurable band: +-10 cm on b admits it.
+  o.alpha_band_m = 0.10;
+  EXPECT_NO_THROW(model::FitImpacts(rec, o));
+}
+
+TEST(RecordErrors, GapAndNonMonotonicTime) {
+  auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 2.0, 500, 0.02, 9, "gap.csv");
+  auto gap = rec;
+  gap.time_s.erase(gap.time_s.begin() + 500, gap.time_s.begin() + 510);
+  gap.theta.erase(gap.theta.begin() + 500, gap.theta.begin() + 510);
+  gap.line.erase(gap.line.begin() + 500, gap.line.begin() + 510);
+  try {
+    model::CheckRecord(gap);
+    FAIL() << "no error";
+  } catch (const RecordError& e) {
+    // Line 512: the first sample after the 10 removed (line = index + 2).
+    EXPECT_NE(std::string(e.what()).find("gap.csv:512: theta record has a gap"), std::string::npos)
+        << e.what();
+  }
+  auto back = rec;
+  std::swap(back.time_s[300], back.time_s[301]);
+  try {
+    model::CheckRecord(back);
+    FAIL() << "no error";
+  } catch (const RecordError& e) {
+    EXPECT_NE(std::string(e.what()).find("gap.csv:303: theta time does not increase"), std::string::npos)
+        << e.what();
+  }
+}
+
+// --- readers ----------------------------------------------------------------
+
+// Oracle: the values written. A reconstruct-style CSV (extra columns, theta
+// not second) is read by name; a ragged row and a NaN theta name their line.
+TEST(RecordReaders, CsvByColumnName) {
+  const std::string path = TempPath("reconstruct.csv");
+  {
+    std::ofstream out(path);
+    out << "time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,out_of_plane,flags\n";
+    for (int k = 0; k < 50; ++k) {
+      out << k * 0.002 << "," << 0.001 * k << ",0,0,0,0,0,0,0\n";
+    }
+  }
+  const auto r = model::ReadRecord(path);
+  ASSERT_EQ(r.size(), 50u);
+  EXPECT_DOUBLE_EQ(r.theta[49], 0.049);
+  EXPECT_DOUBLE_EQ(r.time_s[10], 0.02);
+  EXPECT_FALSE(r.has_table());
+  {
+    std::ofstream out(path, std::ios::app);
+    out << "0.1,nan,0,0,0,0,0,0,0\n";
+  }
+  try {
+    model::ReadRecord(path);
+    FAIL() << "no error";
+  } catch (const RecordError& e) {
+    EXPECT_NE(std::string(e.what()).find("reconstruct.csv:52: theta is not a number"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Oracle: a log written here with lcm::LogFile; theta and table samples come
+// back with their times; a skipped seq is a gap naming the event.
+TEST(RecordReaders, LcmLogWithThetaAndTable) {
+  const std::string path = TempPath("test.lcmlog");
+  auto write = [&](bool with_gap) {
+    lcm::LogFile log(path, "w");
+    ASSERT_TRUE(log.good());
+    int64_t eventnum = 0;
+    for (int k = 0; k < 100; ++k) {
+      if (with_gap && k == 60) continue;
+      rocklab::block_state_t b{};
+      b.utime = 1000000 + k * 2000;
+      b.seq = k;
+      b.theta = 0.01 * std::sin(0.1 * k);
+      rocklab::table_state_t t{};
+      t.utime = b.utime;
+      t.seq = k;
+      t.acceleration = 0.5 * k;
+      for (int which = 0; which < 2; ++which) {
+        std::vector<uint8_t> buf(which == 0 ? b.getEncodedSize() : t.getEncodedSize());
+        if (which == 0) {
+          b.encode(buf.data(), 0, static_cast<int>(buf.size()));
+        } else {
+          t.encode(buf.data(), 0, static_cast<int>(buf.size()));
+        }
+        lcm::LogEvent ev{};
+        ev.eventnum = eventnum++;
+        ev.timestamp = b.utime;
+        ev.channel = which == 0 ? "RL_THETA" : "RL_TABLE";
+        ev.datalen = static_cast<int32_t>(buf.size());
+        ev.data = buf.data();
+        ASSERT_EQ(log.writeEvent(&ev), 0);
+      }
+    }
+  };
+  write(false);
+  const auto r = model::ReadRecord(path);
+  ASSERT_EQ(r.size(), 100u);
+  ASSERT_TRUE(r.has_table());
+  EXPECT_NEAR(r.time_s[99], 1.198, 1e-12);
+  EXPECT_DOUBLE_EQ(r.theta[10], 0.01 * std::sin(1.0));
+  EXPECT_DOUBLE_EQ(r.table_accel_mps2[99], 49.5);
+  write(true);
+  try {
+    model::ReadRecord(path);
+    FAIL() << "no error";
+  } catch (const RecordError& e) {
+    EXPECT_NE(std::string(e.what()).find("sequence jumps from 59 to 61"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":event 120"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rocklab::test
