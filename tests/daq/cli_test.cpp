@@ -235,7 +235,8 @@ namespace {
 // `rocklab daq` in a private network namespace (udpm, ttl=0) recorded by
 // lcm-logger, stopped by SIGINT half way: exit 0, every frame read was
 // published (RL_RAW count = the frames the final health reports), and the
-// last RL_HEALTH says "stopped". Skips when no namespace can be made.
+// last RL_HEALTH says "stopped". Skips when no namespace can be made. The
+// logger runs at a higher priority (see the udpm test in daq_node_test.cpp).
 TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   if (std::system("unshare -n true 2>/dev/null") != 0) {
     GTEST_SKIP() << "no private network namespace (needs root): daq command test skipped";
@@ -245,7 +246,8 @@ TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   const std::string script =
       "ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo || exit 77\n"
-      "lcm-logger -f --lcm-url='" + url + "&recv_buf_size=4194304' " + log + " >/dev/null 2>&1 &\n"
+      "rt=; chrt -f 10 true 2>/dev/null && rt='chrt -f 10'\n"
+      "$rt lcm-logger -f --lcm-url='" + url + "&recv_buf_size=4194304' " + log + " >/dev/null 2>&1 &\n"
       "logger=$!\nsleep 0.5\n" +
       std::string(ROCKLAB_BINARY) + " daq --rig " + test::LabRigPath() + " --input " + raw +
       " --speed 1 --lcm-url '" + url + "' 2>/dev/null &\n"

@@ -237,14 +237,23 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
   const std::string url_option = "--lcm-url=" + url + "&recv_buf_size=4194304";
   const pid_t logger = fork();
   if (logger == 0) {
-    execlp("lcm-logger", "lcm-logger", "-f", url_option.c_str(), log_path.c_str(), nullptr);
+    // LCM queues 30 messages per subscription and lcm-logger 1.3.1 cannot
+    // raise that: on a loaded 2-core machine (ctest -j) a logger that waits
+    // ~10 ms for the CPU loses packets. A real-time priority keeps this test
+    // about our frames, not about the scheduler; without the right to it,
+    // the logger runs as usual.
+    execlp("sh", "sh", "-c",
+           ("chrt -f 10 true 2>/dev/null && exec chrt -f 10 lcm-logger -f '" + url_option + "' " +
+            log_path + "; exec lcm-logger -f '" + url_option + "' " + log_path)
+               .c_str(),
+           nullptr);
     _exit(127);
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   DaqNodeConfig config;
   config.rig = rig;
   config.input = input;
-  config.speed = 2.0;
+  config.speed = 1.0;
   config.lcm_url = url;
   {
     DaqNode node(config);
