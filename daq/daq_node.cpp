@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -69,6 +70,7 @@ struct DaqNode::Impl : ProcessorSink {
   // when paced the node spreads such a burst: 1 ms after every kBurst.
   static constexpr int kBurst = 16;
   int burst{0};
+  std::vector<uint8_t> encoded;
 
   template <class Msg>
   void Publish(const std::string& channel, const Msg& msg) {
@@ -76,7 +78,11 @@ struct DaqNode::Impl : ProcessorSink {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       burst = 1;
     }
-    if (lcm->publish(channel, &msg) == 0) {
+    // Encoded into a reused buffer: LCM's typed publish allocates one per call.
+    const int size = msg.getEncodedSize();
+    if (encoded.size() < static_cast<size_t>(size)) encoded.resize(size);
+    if (msg.encode(encoded.data(), 0, size) == size &&
+        lcm->publish(channel, encoded.data(), static_cast<unsigned>(size)) == 0) {
       ++stats.published;
     } else {
       ++stats.publish_errors;

@@ -1,6 +1,5 @@
 // rocklab LCM logs: raw_frame_t events on RL_RAW, decoded with the channel
 // names of the first RL_DAQ_CONFIG event in the log.
-#include <cctype>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -8,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "daq/source.h"
+#include "daq/text_util.h"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 
@@ -88,15 +88,6 @@ class LcmLogSource final : public Source {
   SourceStats stats_;
 };
 
-bool EndsWith(const std::string& s, const std::string& suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (size_t i = 0; i < suffix.size(); ++i) {
-    const char c = s[s.size() - suffix.size() + i];
-    if (std::tolower(static_cast<unsigned char>(c)) != suffix[i]) return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOptions& options) {
@@ -104,8 +95,8 @@ std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOp
 }
 
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options) {
-  if (EndsWith(path, ".csv")) return OpenCsvSource(path, options);
-  if (EndsWith(path, ".lvm")) return OpenLvmSource(path, options);
+  if (detail::HasExtension(path, ".csv")) return OpenCsvSource(path, options);
+  if (detail::HasExtension(path, ".lvm")) return OpenLvmSource(path, options);
   return OpenLcmLogSource(path, options);
 }
 

@@ -25,18 +25,6 @@ constexpr FlagEvent kFlagEvents[] = {
     {kFlagDisagree, rocklab::event_t::DISAGREE, "mirror-camera disagreement"},
 };
 
-// Whether the quantity behind a flag was measured at this sample.
-bool Measured(const BlockState& s, int32_t flag) {
-  switch (flag) {
-    case kFlagSliding: return std::isfinite(s.sliding);
-    case kFlagJump: return std::isfinite(s.jump);
-    case kFlagTwist: return std::isfinite(s.twist);
-    case kFlagOutOfPlane: return std::isfinite(s.out_of_plane) || std::isfinite(s.tilt);
-    case kFlagDisagree: return std::isfinite(s.theta_mirror) && std::isfinite(s.theta_camera);
-    default: return false;
-  }
-}
-
 double FlagValue(const BlockState& s, int32_t flag) {
   switch (flag) {
     case kFlagSliding: return s.sliding;
@@ -128,7 +116,7 @@ void Processor::Process(const Frame& frame) {
 
 void Processor::CheckEdges(const BlockState& state) {
   for (const FlagEvent& f : kFlagEvents) {
-    if (!Measured(state, f.flag)) continue;  // hold the last known state
+    if (!(state.checked & f.flag)) continue;  // unmeasured: hold the last known state
     const bool now = (state.flags & f.flag) != 0;
     const bool before = (held_flags_ & f.flag) != 0;
     if (now == before) continue;

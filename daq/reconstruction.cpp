@@ -140,6 +140,7 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
 
   // Lateral LEDs: rigid fit of the valid ones.
   out.theta_camera = out.sliding = out.jump = out.fit_rms_m = kNaN;
+  out.sigma_theta_camera = out.sigma_pivot_m = kNaN;
   int used = 0;
   for (const Led& led : leds_) {
     const double x = led.x.Value(frame);
@@ -168,8 +169,28 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
       const double pivot_z = std::sin(fit.phi) * bx + fit.tz;
       // No table channel: a fixed base. An invalid table sample: sliding unknown.
       const double table = has_table_displacement() ? out.table_displacement : 0.0;
-      out.sliding = pivot_x - bx - table;
-      out.jump = pivot_z;
+      // Predicted noise for the LEDs used (isotropic sigma per coordinate):
+      // rotation sigma / sqrt(S), pivot sigma sqrt(1/n + d^2 / S), with S the
+      // spread of the LEDs about their centroid c and d = |pivot - c|.
+      double cx = 0, cz = 0;
+      for (int i = 0; i < used; ++i) {
+        cx += model_xz_[2 * i];
+        cz += model_xz_[2 * i + 1];
+      }
+      cx /= used;
+      cz /= used;
+      double spread = 0;
+      for (int i = 0; i < used; ++i) {
+        spread += std::pow(model_xz_[2 * i] - cx, 2) + std::pow(model_xz_[2 * i + 1] - cz, 2);
+      }
+      const double d2 = (bx - cx) * (bx - cx) + cz * cz;
+      out.sigma_theta_camera = checks_.led_sigma_m / std::sqrt(spread);
+      out.sigma_pivot_m = checks_.led_sigma_m * std::sqrt(1.0 / used + d2 / spread);
+      // A pivot too noisy for a tolerance is reported unmeasured, not guessed.
+      const double reach = checks_.sigmas * out.sigma_pivot_m;
+      out.sliding = reach <= checks_.sliding_m ? pivot_x - bx - table : kNaN;
+      out.jump = reach <= checks_.jump_m ? pivot_z : kNaN;
+      if (reach > checks_.sliding_m || reach > checks_.jump_m) ++counts_.imprecise_pivot_frames;
     } else {
       ++counts_.no_camera_frames;
       out.flags |= kFlagNoCamera;
@@ -194,14 +215,23 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
   if (!std::isfinite(out.theta)) ++counts_.no_theta_frames;
 
   // "The channels other than theta must be either functions of theta or zero."
-  // A NaN quantity fails no check (it is flagged as missing instead).
-  if (std::abs(out.sliding) > checks_.sliding_m) out.flags |= kFlagSliding;
-  if (std::abs(out.jump) > checks_.jump_m) out.flags |= kFlagJump;
-  if (std::abs(out.twist) > checks_.twist_rad) out.flags |= kFlagTwist;
-  if (std::abs(out.out_of_plane) > checks_.out_of_plane_m || std::abs(out.tilt) > checks_.tilt_rad) {
-    out.flags |= kFlagOutOfPlane;
-  }
-  if (std::abs(out.theta_mirror - out.theta_camera) > checks_.disagree_rad) out.flags |= kFlagDisagree;
+  // A quantity that is NaN (unmeasured) is not checked.
+  auto check = [&out](int32_t flag, bool measured, bool exceeded) {
+    if (!measured) return;
+    out.checked |= flag;
+    if (exceeded) out.flags |= flag;
+  };
+  check(kFlagSliding, std::isfinite(out.sliding), std::abs(out.sliding) > checks_.sliding_m);
+  check(kFlagJump, std::isfinite(out.jump), std::abs(out.jump) > checks_.jump_m);
+  check(kFlagTwist, std::isfinite(out.twist), std::abs(out.twist) > checks_.twist_rad);
+  check(kFlagOutOfPlane, std::isfinite(out.out_of_plane) || std::isfinite(out.tilt),
+        std::abs(out.out_of_plane) > checks_.out_of_plane_m || std::abs(out.tilt) > checks_.tilt_rad);
+  // Disagreement is judged only where the two angles are precise enough.
+  const double sigma_mirror = checks_.mirror_sigma_m / (2 * mirror_.lever_m);
+  check(kFlagDisagree,
+        std::isfinite(out.theta_mirror) && std::isfinite(out.theta_camera) &&
+            checks_.sigmas * std::hypot(sigma_mirror, out.sigma_theta_camera) <= checks_.disagree_rad,
+        std::abs(out.theta_mirror - out.theta_camera) > checks_.disagree_rad);
 }
 
 }  // namespace rocklab::daq

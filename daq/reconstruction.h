@@ -39,11 +39,14 @@ struct BlockState {
   double out_of_plane{};  ///< mean out-of-plane displacement of the LED pair, m
   double tilt{};          ///< out-of-plane tilt from the mirror's orthogonal spot, rad
   double fit_rms_m{};     ///< RMS residual of the rigid fit, m
+  double sigma_theta_camera{};  ///< predicted noise of theta_camera for the LEDs used, rad
+  double sigma_pivot_m{};       ///< predicted noise of the pivot position (per axis), m
   double table_displacement{};  ///< calibrated table displacement, m (NaN if none)
   double table_acceleration{};  ///< calibrated accelerometer, m/s^2 (NaN if none)
   int32_t leds_used{};
   int32_t leds_invalid{};  ///< configured LEDs left out of the fit at this sample
   int32_t flags{};
+  int32_t checked{};  ///< the check flags (sliding .. disagree) that were evaluated at this sample
 };
 
 /// A least-squares rigid 2-D transform world = R(phi) model + t, phi
@@ -63,6 +66,7 @@ struct ReconstructionCounts {
   int64_t invalid_led_samples{};     ///< LED (x, z) pairs left out of fits
   int64_t invalid_mirror_samples{};  ///< frames with no valid mirror spot
   int64_t no_camera_frames{};        ///< frames with fewer than min_leds LEDs
+  int64_t imprecise_pivot_frames{};  ///< fits whose pivot is too noisy for the sliding/jump checks
   int64_t no_theta_frames{};         ///< frames with neither mirror nor camera theta
 };
 

@@ -237,10 +237,12 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
 
   if (const toml::table* t = r.Table(root, "", "checks", false)) {
     CheckTolerances& c = rig.checks;
-    const char* keys[] = {"sliding_m", "jump_m", "twist_rad", "out_of_plane_m", "tilt_rad",
-                          "disagree_rad"};
-    double* fields[] = {&c.sliding_m, &c.jump_m, &c.twist_rad, &c.out_of_plane_m, &c.tilt_rad,
-                        &c.disagree_rad};
+    const char* keys[] = {"sliding_m", "jump_m",      "twist_rad",      "out_of_plane_m",
+                          "tilt_rad",  "disagree_rad", "led_sigma_m", "mirror_sigma_m",
+                          "sigmas"};
+    double* fields[] = {&c.sliding_m,   &c.jump_m,       &c.twist_rad,
+                        &c.out_of_plane_m, &c.tilt_rad,  &c.disagree_rad,
+                        &c.led_sigma_m, &c.mirror_sigma_m, &c.sigmas};
     for (size_t i = 0; i < std::size(keys); ++i) {
       *fields[i] = r.Double(*t, "checks", keys[i], *fields[i]);
       r.Check(*fields[i] > 0, *t, "checks", keys[i], "must be > 0");

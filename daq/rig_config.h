@@ -72,6 +72,12 @@ struct CheckTolerances {
   double tilt_rad{0.01};        ///< |out-of-plane tilt from the mirror's orthogonal spot|, rad
   double disagree_rad{0.005};   ///< |theta_mirror - theta_camera|, rad
   int min_leds{2};              ///< fewest valid LEDs for the rigid fit; >= 2
+  /// Noise of the sensors (standard deviation after calibration), and how many
+  /// of the predicted standard deviations a tolerance must span for its check
+  /// to be made at a sample (else the quantity is reported unmeasured).
+  double led_sigma_m{2e-4};     ///< each LED coordinate, m
+  double mirror_sigma_m{1e-4};  ///< mirror spot coordinate, m
+  double sigmas{5.0};           ///< > 0
 };
 
 /// Block geometry (needed for the pivot positions) and optional parameters.

@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "daq/text_util.h"
+
 namespace rocklab::daq {
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -114,11 +116,7 @@ bool RigSimulator::Raw(const TrueMotion& motion, std::vector<double>& raw) {
 }
 
 RawFileWriter::Format RawFileWriter::FormatOf(const std::string& path) {
-  const size_t n = path.size();
-  if (n >= 4 && (path.compare(n - 4, 4, ".lvm") == 0 || path.compare(n - 4, 4, ".LVM") == 0)) {
-    return Format::kLvm;
-  }
-  return Format::kCsv;
+  return detail::HasExtension(path, ".lvm") ? Format::kLvm : Format::kCsv;
 }
 
 RawFileWriter::RawFileWriter(const std::string& path, Format format,

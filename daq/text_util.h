@@ -8,6 +8,9 @@
 
 namespace rocklab::daq::detail {
 
+/// Whether `path` ends with `extension` (e.g. ".lvm"), ignoring ASCII case.
+bool HasExtension(const std::string& path, const std::string& extension);
+
 /// Removes surrounding spaces, tabs and a trailing '\r'.
 std::string_view Trim(std::string_view s);
 

@@ -328,3 +328,47 @@ TEST(Sequence, DroppedSamplesAreCountedAsGapsNeverHidden) {
 
 }  // namespace
 }  // namespace rocklab::daq
+
+namespace rocklab::daq {
+namespace {
+
+// Oracle: the predicted noise of the pivot for the LEDs used,
+// sigma_led sqrt(1/n + d^2/S) (S the LEDs' spread about their centroid, d
+// the pivot's distance to it). Lab rig, theta >= 0 (pivot at x = +0.125):
+// all four LEDs: 2e-4 sqrt(1/4 + (0.125^2 + 0.5^2) / 0.53) = 0.173 mm, 5
+// sigma = 0.87 mm <= 1 mm: checked. The high pair only: 2e-4 sqrt(1/2 +
+// (0.125^2 + 0.85^2) / 0.02) = 1.22 mm: sliding and jump unmeasured.
+TEST(Checks, PivotTooNoisyForTheToleranceIsReportedUnmeasured) {
+  const RigConfig rig = LabRig();
+  auto frames = test::SimulateFrames(rig, {}, 1, 0.01, Motion);
+  for (int col = 2; col < 6; ++col) frames[5].values[col] = std::nan("");  // hide L1, L2
+  const auto run = Process(rig, frames);
+  const BlockState& all = run->sink.block[4];
+  const BlockState& high = run->sink.block[5];
+  EXPECT_NEAR(all.sigma_pivot_m, 2e-4 * std::sqrt(0.25 + (0.125 * 0.125 + 0.25) / 0.53), 1e-12);
+  EXPECT_TRUE(all.checked & kFlagSliding);
+  EXPECT_NEAR(high.sigma_pivot_m, 2e-4 * std::sqrt(0.5 + (0.125 * 0.125 + 0.85 * 0.85) / 0.02), 1e-12);
+  EXPECT_EQ(high.leds_used, 2);
+  EXPECT_TRUE(std::isnan(high.sliding));
+  EXPECT_TRUE(std::isnan(high.jump));
+  EXPECT_FALSE(high.checked & (kFlagSliding | kFlagJump));
+  EXPECT_TRUE(std::isfinite(high.theta_camera));  // the angle is still measured
+  EXPECT_EQ(run->recon.imprecise_pivot_frames, 1);
+}
+
+// A long clean run with typical noise, occlusions and drops: no check flag
+// and no check event in 60 s (60 000 samples; each check spans >= 5 sigma,
+// false-alarm probability < 6e-7 per sample and check).
+TEST(Checks, NoFalseFlagInAMinuteOfCleanRocking) {
+  const RigConfig rig = LabRig();
+  const auto frames = test::SimulateFrames(rig, SimulatorNoise::Typical(), 21, 60.0, Motion);
+  const auto run = Process(rig, frames);
+  constexpr int32_t kChecks = kFlagSliding | kFlagJump | kFlagTwist | kFlagOutOfPlane | kFlagDisagree;
+  int flagged = 0;
+  for (const BlockState& s : run->sink.block) flagged += (s.flags & kChecks) != 0;
+  EXPECT_EQ(flagged, 0);
+  for (const auto& e : run->sink.events) EXPECT_EQ(e.kind, int8_t{rocklab::event_t::GAP});
+}
+
+}  // namespace
+}  // namespace rocklab::daq
