@@ -41,7 +41,7 @@ int RunDaq(const DaqOptions& o) {
   try {
     node = std::make_unique<daq::DaqNode>(config);
   } catch (const std::exception& e) {
-    throw UsageError(std::string("--input: ") + e.what());
+    throw UsageError(e.what());  // names the input file (and line) or the LCM URL
   }
   node->Run(stop);
   const daq::DaqNodeStats& s = node->stats();
