@@ -142,13 +142,7 @@ struct DaqNode::Impl : ProcessorSink {
   // Problems of the source itself (bad rows and values) also go out as events.
   void OnSourceProblem(const Problem& p) {
     OnProblem(p);
-    rocklab::event_t msg;
-    msg.utime = newest_utime;
-    msg.source = "daq";
-    msg.kind = rocklab::event_t::BAD_SAMPLE;
-    msg.value = 1;
-    msg.detail = ToString(p);
-    Publish(ch_event, msg);
+    OnEvent(DaqEvent{newest_utime, rocklab::event_t::BAD_SAMPLE, 1, ToString(p)});
   }
 
   void BuildConfigMessage() {
