@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <iostream>
 #include <thread>
 
@@ -315,6 +316,38 @@ TEST(DaqNode, UdpmInAPrivateNamespaceRecordedByLcmLoggerDecodesToTheSameFrames) 
   ASSERT_TRUE(WIFEXITED(status));
   if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "no private network namespace (needs root): udpm test skipped";
   EXPECT_EQ(WEXITSTATUS(status), 0) << "see the child's messages above";
+}
+
+}  // namespace
+}  // namespace rocklab::daq
+
+namespace rocklab::daq {
+namespace {
+
+// A malformed row and a text value: both reach RL_EVENT as BAD_SAMPLE with
+// file and line, the health counts them, and every other frame is published.
+TEST(DaqNode, SourceProblemsArePublishedAsEventsWithFileAndLine) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string good = MakeRawCsv(rig, "good.csv", 0.2);
+  std::ifstream in(good);
+  std::string text, line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n == 10) line = line.substr(0, line.rfind(','));        // ragged: one field short
+    if (n == 20) line.replace(line.find(',') + 1, 1, "x");      // text in mirror_s
+    text += line + "\n";
+  }
+  const std::string bad = test::WriteFile("bad_node.csv", text);
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, bad, 0, stop);
+  std::vector<std::string> details;
+  for (const auto& e : c->events) {
+    if (e.kind == rocklab::event_t::BAD_SAMPLE) details.push_back(e.detail);
+  }
+  ASSERT_EQ(details.size(), 2u);
+  EXPECT_EQ(details[0].rfind(bad + ":10: row has 14 fields, the header has 15", 0), 0u) << details[0];
+  EXPECT_EQ(details[1].rfind(bad + ":20: column 'mirror_s': '", 0), 0u) << details[1];
+  EXPECT_EQ(c->health.back().bad_samples, 2);
+  EXPECT_EQ(c->raw.size(), ReadFrames(good, rig).size() - 1);  // only the ragged row is missing
 }
 
 }  // namespace
