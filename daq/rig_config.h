@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The rig configuration: one TOML file per shake-table set-up (format in
-/// daq/README.md). Loaded once at start-up; every error names the file, the
+/// the Acquisition section of README.md). Loaded once at start-up; every error names the file, the
 /// line and the key ("rig.toml:12: key 'mirror.lever_m' must be > 0").
 
 #include <limits>
@@ -16,7 +16,7 @@ namespace rocklab::daq {
 /// strictly inside (raw_min, raw_max): a sensor at its rail is saturated.
 struct ChannelConfig {
   std::string name;    ///< column name in the raw file (CSV/LVM header, RL_DAQ_CONFIG)
-  std::string sensor;  ///< role, one of the sensor names in daq/README.md
+  std::string sensor;  ///< role, one of the sensor names in the Acquisition section of README.md
   double gain{1.0};    ///< physical unit per raw unit
   double offset{0.0};  ///< physical unit
   std::string unit;    ///< physical unit after calibration ("m", "m/s^2")

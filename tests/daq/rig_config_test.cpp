@@ -119,7 +119,7 @@ namespace {
 
 // The README's complete example is the bundled rig file (oracle: the file).
 TEST(RigConfig, ReadmeExampleIsTheBundledRigFile) {
-  std::ifstream readme(std::string(ROCKLAB_SOURCE_DIR) + "/daq/README.md");
+  std::ifstream readme(std::string(ROCKLAB_SOURCE_DIR) + "/README.md");
   std::stringstream text;
   text << readme.rdbuf();
   const std::string s = text.str();
