@@ -1,5 +1,7 @@
 #include "model/block.h"
 
+#include "model/numbers.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -9,17 +11,11 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+using detail::ExactText;
+using detail::kPi;
 
 [[noreturn]] void Bad(const std::string& what, const std::string& rule, double value) {
-  throw std::invalid_argument(what + " must be " + rule + " (got " + Num(value) + ")");
+  throw std::invalid_argument(what + " must be " + rule + " (got " + ExactText(value) + ")");
 }
 
 }  // namespace

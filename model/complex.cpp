@@ -47,14 +47,14 @@
 // Whenever the motion is resolved the model is eq. (10) unchanged.
 
 #include <algorithm>
+
+#include "model/numbers.h"
 #include <cmath>
 
 #include "model/rocking_impl.h"
 
 namespace rocklab::model::detail {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Hand-off radius in units of chi_m (see the block comment above).
 constexpr double kResolvedChi = 6.0;

@@ -1,5 +1,7 @@
 #include "model/excitation.h"
 
+#include "model/numbers.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -13,14 +15,8 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+using detail::ExactText;
+using detail::kPi;
 
 // Parses the whole of `text` as a double; false when anything is left over.
 bool ParseDouble(const std::string& text, double* value) {
@@ -125,7 +121,7 @@ class Sum final : public Excitation {
 void SineSpec::Validate() const {
   auto bad = [](const char* key, const char* rule, double v) {
     throw std::invalid_argument(std::string("excitation ") + key + " must be " + rule + " (got " +
-                                Num(v) + ")");
+                                ExactText(v) + ")");
   };
   if (!std::isfinite(amplitude_m) || amplitude_m < 0.0) bad("amp", "finite and >= 0 m", amplitude_m);
   if (!std::isfinite(frequency_hz) || frequency_hz <= 0.0) bad("freq", "finite and > 0 Hz", frequency_hz);
@@ -215,7 +211,7 @@ SampledAcceleration::SampledAcceleration(std::vector<double> time_s, std::vector
       throw std::invalid_argument("SampledAcceleration: accel_mps2" + at + " is not finite");
     }
     if (i > 0 && !(time_[i] > time_[i - 1])) {
-      throw std::invalid_argument("SampledAcceleration: time_s" + at + " = " + Num(time_[i]) +
+      throw std::invalid_argument("SampledAcceleration: time_s" + at + " = " + ExactText(time_[i]) +
                                   " is not after the previous sample");
     }
   }
@@ -261,7 +257,7 @@ SampledAcceleration ReadAccelerationCsv(const std::string& path) {
       if (!std::isfinite(v[k])) fail(line_no, std::string(names[k]) + " '" + fields[k] + "' is not finite");
     }
     if (!time.empty() && !(v[0] > time.back())) {
-      fail(line_no, "time " + Num(v[0]) + " s is not after the previous sample " + Num(time.back()) + " s");
+      fail(line_no, "time " + ExactText(v[0]) + " s is not after the previous sample " + ExactText(time.back()) + " s");
     }
     time.push_back(v[0]);
     accel.push_back(v[1]);

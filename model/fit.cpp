@@ -1,5 +1,7 @@
 #include "model/fit.h"
 
+#include "model/numbers.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,7 +21,7 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using detail::kPi;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string Num(double v, int digits = 6) {

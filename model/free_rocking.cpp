@@ -1,5 +1,7 @@
 #include "model/free_rocking.h"
 
+#include "model/numbers.h"
+
 #include <array>
 #include <cmath>
 #include <sstream>
@@ -9,18 +11,12 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+using detail::ExactText;
+using detail::kPi;
 
 [[noreturn]] void Bad(const char* function, const char* what, const char* rule, double value) {
   throw std::invalid_argument(std::string(function) + ": " + what + " must be " + rule + " (got " +
-                              Num(value) + ")");
+                              ExactText(value) + ")");
 }
 
 // 20-point Gauss-Legendre nodes and weights on [-1, 1], computed once by

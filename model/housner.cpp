@@ -5,12 +5,12 @@
 
 #include <cmath>
 
+#include "model/numbers.h"
+
 #include "model/rocking_impl.h"
 
 namespace rocklab::model::detail {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 class HousnerModel final : public CvodeRockingModel {
  public:

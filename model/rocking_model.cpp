@@ -1,5 +1,7 @@
 #include "model/rocking_model.h"
 
+#include "model/numbers.h"
+
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -12,14 +14,8 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+using detail::ExactText;
+using detail::kPi;
 
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> logger = [] {
@@ -82,7 +78,7 @@ ModelKind ParseModelKind(const std::string& name) {
 void ModelOptions::Validate() const {
   auto bad = [](const char* name, const char* rule, double v) {
     throw std::invalid_argument(std::string("ModelOptions.") + name + " must be " + rule + " (got " +
-                                Num(v) + ")");
+                                ExactText(v) + ")");
   };
   if (!std::isfinite(rtol) || rtol <= 0.0 || rtol >= 1.0) bad("rtol", "in (0, 1)", rtol);
   if (!std::isfinite(atol) || atol <= 0.0) bad("atol", "finite and > 0", atol);
@@ -109,8 +105,8 @@ std::unique_ptr<RockingModel> RockingModel::Create(ModelKind kind, const BlockPa
 
 void RockingModel::Step(double t_s, double table_accel_mps2) {
   if (!std::isfinite(t_s) || !std::isfinite(table_accel_mps2)) {
-    throw std::invalid_argument("Step: t_s and table_accel_mps2 must be finite (got " + Num(t_s) +
-                                ", " + Num(table_accel_mps2) + ")");
+    throw std::invalid_argument("Step: t_s and table_accel_mps2 must be finite (got " + ExactText(t_s) +
+                                ", " + ExactText(table_accel_mps2) + ")");
   }
   const SegmentForcing forcing = has_step_sample_
                                      ? SegmentForcing(last_step_time_s_, last_step_accel_, t_s, table_accel_mps2)
@@ -124,10 +120,10 @@ void RockingModel::Step(double t_s, double table_accel_mps2) {
 Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, double theta0,
                     double theta_dot0, double duration_s, double rate_hz) {
   if (!std::isfinite(duration_s) || duration_s < 0.0) {
-    throw std::invalid_argument("Simulate: duration_s must be finite and >= 0 (got " + Num(duration_s) + ")");
+    throw std::invalid_argument("Simulate: duration_s must be finite and >= 0 (got " + ExactText(duration_s) + ")");
   }
   if (!std::isfinite(rate_hz) || rate_hz <= 0.0) {
-    throw std::invalid_argument("Simulate: rate_hz must be finite and > 0 (got " + Num(rate_hz) + ")");
+    throw std::invalid_argument("Simulate: rate_hz must be finite and > 0 (got " + ExactText(rate_hz) + ")");
   }
   model.Reset(t0_s, theta0, theta_dot0);
   // The small allowance keeps e.g. 4 s * 100 Hz from losing its last sample
@@ -167,10 +163,10 @@ void CvodeRockingModel::Init(int n, const double* atol) {
 void CvodeRockingModel::Reset(double t0_s, double theta0, double theta_dot0) {
   if (!std::isfinite(t0_s)) throw std::invalid_argument("Reset: t0_s is not finite");
   if (!std::isfinite(theta0) || std::abs(theta0) >= kPi / 2) {
-    throw std::invalid_argument("Reset: theta0 must be finite with |theta0| < pi/2 (got " + Num(theta0) + ")");
+    throw std::invalid_argument("Reset: theta0 must be finite with |theta0| < pi/2 (got " + ExactText(theta0) + ")");
   }
   if (!std::isfinite(theta_dot0)) {
-    throw std::invalid_argument("Reset: theta_dot0 is not finite (got " + Num(theta_dot0) + ")");
+    throw std::invalid_argument("Reset: theta_dot0 is not finite (got " + ExactText(theta_dot0) + ")");
   }
   events_.clear();
   ResetStepHistory();
@@ -240,8 +236,8 @@ int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
 
 void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
   if (!std::isfinite(t_s) || t_s < state_.time_s) {
-    throw std::invalid_argument("AdvanceTo: t_s (" + Num(t_s) + ") is before the current time (" +
-                                Num(state_.time_s) + ")");
+    throw std::invalid_argument("AdvanceTo: t_s (" + ExactText(t_s) + ") is before the current time (" +
+                                ExactText(state_.time_s) + ")");
   }
   forcing_ = &forcing;
   while (true) {
