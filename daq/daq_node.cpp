@@ -103,6 +103,7 @@ struct DaqNode::Impl : ProcessorSink {
     theta_msg.leds_used = s.leds_used;
     theta_msg.flags = s.flags;
     Publish(ch_theta, theta_msg);
+    Notify(config.on_theta, theta_msg, "on_theta");
   }
 
   void OnTableState(const TableState& t) override {
@@ -113,6 +114,17 @@ struct DaqNode::Impl : ProcessorSink {
     table_msg.acceleration = t.acceleration;
     table_msg.accel_source = t.accel_source;
     Publish(ch_table, table_msg);
+    Notify(config.on_table, table_msg, "on_table");
+  }
+
+  template <class Msg>
+  void Notify(const std::function<void(const Msg&)>& observer, const Msg& msg, const char* what) {
+    if (!observer) return;
+    try {
+      observer(msg);
+    } catch (const std::exception& e) {
+      OnProblem(Problem{Location{&config.input, 0}, what + std::string(" observer: ") + e.what()});
+    }
   }
 
   void OnEvent(const DaqEvent& e) override {

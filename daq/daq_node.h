@@ -17,10 +17,13 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
 #include "daq/rig_config.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/table_state_t.hpp"
 
 namespace lcm {
 class LCM;
@@ -36,6 +39,12 @@ struct DaqNodeConfig {
   std::string prefix{"RL_"};     ///< channel names are prefix + DAQ_CONFIG, RAW, ...
   double config_period_s{5.0};   ///< RL_DAQ_CONFIG repeat, sample-clock s
   double health_period_s{1.0};   ///< RL_HEALTH period, host s
+  /// Optional observers, called synchronously in Run()'s thread with exactly
+  /// the RL_TABLE / RL_THETA message just published (same values, same
+  /// order), so a caller can connect later stages by direct calls. They must
+  /// not throw (an exception is caught, logged and counted as a problem).
+  std::function<void(const rocklab::table_state_t&)> on_table;
+  std::function<void(const rocklab::block_state_t&)> on_theta;
   /// @throws std::invalid_argument naming the field.
   void Validate() const;
 };

@@ -287,6 +287,14 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
       }
     }
     v->model->ClearEvents();
+    if (config_.on_state) {
+      try {
+        config_.on_state(v->msg);
+      } catch (const std::exception& e) {
+        ++failures_;
+        Log()->error("variant '{}': on_state observer: {}", v->spec.name, e.what());
+      }
+    }
   }
 }
 

@@ -20,6 +20,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -60,6 +61,11 @@ struct ModelNodeConfig {
   std::vector<VariantSpec> variants;  ///< at least one
   double rest_threshold_rad{2e-3};    ///< |theta| at start below this: at rest, rad
   double health_period_s{1.0};        ///< RL_HEALTH period, host time, s
+  /// Optional observer, called synchronously with each RL_MODEL_<name>
+  /// message right after it is published (also when there is no publisher),
+  /// so a caller can feed the comparator by direct calls. Must not throw (an
+  /// exception is caught, logged and counted as a failure).
+  std::function<void(const rocklab::model_state_t&)> on_state;
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -18,6 +18,7 @@ void RegisterCompare(CLI::App& app, CommandRun& run);
 void RegisterSynth(CLI::App& app, CommandRun& run);
 void RegisterReconstruct(CLI::App& app, CommandRun& run);
 void RegisterDaq(CLI::App& app, CommandRun& run);
+void RegisterRun(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -39,6 +40,7 @@ int main(int argc, char** argv) {
       &RegisterSynth,
       &RegisterReconstruct,
       &RegisterDaq,
+      &RegisterRun,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

@@ -1,0 +1,197 @@
+// `rocklab run`: daq, model and compare in one process, through the binary.
+// Oracles: the parameters the bundled synthetic test was generated with
+// (data/samples/README.md), the payloads of the same run at another speed,
+// and the node shutdown order written in tools/cmd_run.cpp.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+
+#include "rocklab/health_t.hpp"
+#include "tests/tools/run_cli.h"
+
+namespace rocklab::pipeline {
+namespace {
+
+const std::string kSource = ROCKLAB_SOURCE_DIR;
+const std::string kBlock1Rig = kSource + "/data/rigs/block1_rig.toml";
+const std::string kFig7 = kSource + "/data/samples/fig7_block1.csv";
+const std::string kLabRig = kSource + "/data/rigs/lab_rig.toml";
+const std::string kFreeRocking = kSource + "/data/samples/free_rocking.csv";
+
+std::map<std::string, nlohmann::json> SummaryByName(const std::string& path) {
+  std::map<std::string, nlohmann::json> out;
+  const nlohmann::json doc = nlohmann::json::parse(test::ReadFile(path));
+  for (const auto& v : doc.at("variants")) {
+    out[v.at("name").get<std::string>()] = v;
+  }
+  return out;
+}
+
+// A forced synthetic test of block 1 (complex model, alpha 0.235, p 3.884,
+// mu 0.937, lab noise, seed 8) under a Hanning 10 mm, 3.3 Hz table motion
+// (peak 4.3 m/s^2, well above the uplift threshold g tan(alpha) = 2.35 m/s^2)
+// through the whole pipeline over memq.
+// Oracle: with the parameters it was made with, the model follows the
+// measurement up to (a) the DAQ's theta error, nrms 7e-4 measured with
+// `rocklab reconstruct` against the truth file (the mirror's 2.5e-5 rad
+// against a 0.044 rad peak), and (b) the model's timing sensitivity to the
+// noisy table acceleration (accelerometer noise shifts uplift and every
+// impact): measured nrms 0.0097 (seed 8) and 0.0110 (seed 7) with a mean
+// |impact timing error| of 2.7 ms. Bound 0.025: 2.5x the measured value,
+// i.e. impact timing errors up to ~6 ms. mu off by 0.03 (0.907) loses 3 % of
+// the rocking speed at each of ~90 impacts: measured 0.070, asserted above
+// 2x the bound. The bundled figure-7 demo (6 mm) is NOT used for this bound:
+// its peak acceleration is only 10 % above the uplift threshold, and the
+// first small rocking cycles then depend on the noise (README: run section).
+TEST(RocklabRun, TrueParametersTrackTheMeasurementAndWrongMuDoesNot) {
+  const std::string dir = test::ScratchDir("run_nrms");
+  const std::string raw = dir + "/forced.csv";
+  const test::CliResult synth = test::RunCli(
+      {"synth", "--rig", kBlock1Rig, "--model", "complex", "--alpha", "0.235", "--p", "3.884",
+       "--mu", "0.937", "--excitation", "hanning:amp=0.010,freq=3.3,duration=4,start=0.5",
+       "--duration", "7", "--rate", "1000", "--seed", "8", "--out", raw, "--truth",
+       dir + "/forced.truth.csv"});
+  ASSERT_EQ(synth.exit_code, 0) << synth.err;
+  const std::string summary = dir + "/summary.json";
+  const test::CliResult r = test::RunCli(
+      {"run", "--rig", kBlock1Rig, "--input", raw, "--max",
+       "--variant", "true_c:complex:alpha=0.235,p=3.884,mu=0.937",
+       "--variant", "mu_off:complex:alpha=0.235,p=3.884,mu=0.907",
+       "--summary", summary});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("true_c"), std::string::npos) << r.out;  // the summary table
+  const auto s = SummaryByName(summary);
+  ASSERT_EQ(s.size(), 2u);
+  constexpr double kBound = 0.025;
+  EXPECT_LT(s.at("true_c").at("nrms").get<double>(), kBound);
+  EXPECT_GT(s.at("true_c").at("samples").get<int>(), 6900);  // every sample paired
+  EXPECT_GT(s.at("mu_off").at("nrms").get<double>(), 2 * kBound);
+}
+
+// The bundled demo runs end to end: every measured sample is paired with
+// every variant. Oracle: the file's 6996 rows (7 s at 1 kHz, 5 dropped).
+TEST(RocklabRun, BundledDemoPairsEverySample) {
+  const std::string summary = test::ScratchDir("run_demo") + "/summary.json";
+  const test::CliResult r = test::RunCli(
+      {"run", "--rig", kBlock1Rig, "--input", kFig7, "--max", "--variant",
+       "fitted:complex:alpha=0.235,p=3.884,mu=0.937", "--variant", "theory:housner:theoretical",
+       "--summary", summary});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto s = SummaryByName(summary);
+  ASSERT_EQ(s.size(), 2u);
+  for (const auto& [name, v] : s) {
+    EXPECT_EQ(v.at("samples").get<int>(), 6996) << name;
+    EXPECT_EQ(v.at("unmatched_model").get<int>(), 0) << name;
+  }
+}
+
+// LCM log -> (channel, payload) of the channels the determinism law covers.
+std::vector<std::pair<std::string, std::string>> ModelAndComparePayloads(const std::string& path) {
+  lcm::LogFile log(path, "r");
+  EXPECT_TRUE(log.good()) << path;
+  std::vector<std::pair<std::string, std::string>> out;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    if (ev->channel.rfind("RL_MODEL_", 0) == 0 || ev->channel.rfind("RL_COMPARE_", 0) == 0) {
+      out.emplace_back(ev->channel,
+                       std::string(static_cast<const char*>(ev->data), ev->datalen));
+    }
+  }
+  return out;
+}
+
+// Issue 4 item 5: the same input gives byte-identical RL_MODEL_* and
+// RL_COMPARE_* payloads at --max, --speed 10 and --speed 1. Oracle: the
+// --max run; exact equality (every message is stamped with the sample clock,
+// and the stages are connected by direct calls in one thread, so the host
+// clock must not reach any of these payloads). Input: the 1 s free-rocking
+// sample, so the paced run takes about 1 s.
+TEST(RocklabRun, ModelAndComparePayloadsAreTheSameAtEverySpeed) {
+  const std::string dir = test::ScratchDir("run_speeds");
+  std::vector<std::vector<std::pair<std::string, std::string>>> runs;
+  for (const std::vector<std::string>& speed :
+       {std::vector<std::string>{"--max"}, {"--speed", "10"}, {"--speed", "1"}}) {
+    const std::string log = dir + "/run" + std::to_string(runs.size()) + ".lcm";
+    std::vector<std::string> args = {"run", "--rig", kLabRig, "--input", kFreeRocking,
+                                     "--log", log};
+    args.insert(args.end(), speed.begin(), speed.end());
+    const test::CliResult r = test::RunCli(args);
+    ASSERT_EQ(r.exit_code, 0) << speed[0] << ": " << r.err;
+    runs.push_back(ModelAndComparePayloads(log));
+  }
+  ASSERT_GT(runs[0].size(), 1500u);  // two variants x ~1 s at 1 kHz, plus RL_COMPARE_*
+  int compares = 0;
+  for (const auto& [channel, payload] : runs[0]) compares += channel.rfind("RL_COMPARE_", 0) == 0;
+  EXPECT_GT(compares, 20);  // 20 Hz x 2 variants x ~1 s
+  for (std::size_t i = 1; i < runs.size(); ++i) {
+    ASSERT_EQ(runs[i].size(), runs[0].size()) << "run " << i;
+    for (std::size_t k = 0; k < runs[0].size(); ++k) {
+      ASSERT_EQ(runs[i][k].first, runs[0][k].first) << "run " << i << " message " << k;
+      ASSERT_EQ(runs[i][k].second, runs[0][k].second)
+          << "run " << i << " message " << k << " on " << runs[0][k].first;
+    }
+  }
+}
+
+// SIGTERM to a paced run: exit 0 after the shutdown order of cmd_run.cpp.
+// Oracle: in the --log, the last RL_HEALTH of each node (daq, model,
+// compare) says "stopped", the daq's comes before the model's and the
+// comparator's, the run stopped early (fewer frames than the 7 s input),
+// and the summary table is still printed.
+TEST(RocklabRun, SigtermExitsZeroAfterFinalHealth) {
+  const std::string dir = test::ScratchDir("run_sigterm");
+  const std::string log = dir + "/run.lcm";
+  const std::string out = dir + "/stdout";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string binary = ROCKLAB_BINARY;
+    if (!freopen(out.c_str(), "w", stdout) || !freopen("/dev/null", "w", stderr)) _exit(126);
+    execl(binary.c_str(), binary.c_str(), "run", "--rig", kBlock1Rig.c_str(), "--input",
+          kFig7.c_str(), "--speed", "1", "--log", log.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+
+  lcm::LogFile in(log, "r");
+  ASSERT_TRUE(in.good());
+  std::map<std::string, rocklab::health_t> last;
+  std::map<std::string, int64_t> last_index;
+  int64_t index = 0, raw = 0;
+  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    ++index;
+    if (ev->channel == "RL_RAW") ++raw;
+    if (ev->channel != "RL_HEALTH") continue;
+    rocklab::health_t h;
+    ASSERT_GE(h.decode(ev->data, 0, ev->datalen), 0);
+    last[h.node] = h;
+    last_index[h.node] = index;
+  }
+  for (const char* node : {"daq", "model", "compare"}) {
+    ASSERT_EQ(last.count(node), 1u) << node;
+    EXPECT_EQ(last[node].state, "stopped") << node;
+  }
+  EXPECT_LT(last_index["daq"], last_index["model"]);
+  EXPECT_LT(last_index["model"], last_index["compare"]);
+  EXPECT_GT(raw, 500);   // ran about 1.5 s ...
+  EXPECT_LT(raw, 6000);  // ... of the 7 s input
+  EXPECT_EQ(last["daq"].count_in, raw);  // every frame read was published
+  EXPECT_NE(test::ReadFile(out).find("housner"), std::string::npos);  // summary printed
+}
+
+}  // namespace
+}  // namespace rocklab::pipeline
