@@ -137,11 +137,6 @@ int RunAll(RunCommand& c) {
   model_cfg.variants = BuildVariants(c.variants, rig);
   model_cfg.on_state = [&compare](const rocklab::model_state_t& m) { compare.HandleModel(m); };
   model::ModelNode model(model_cfg, tap.bus());
-  for (const model::VariantSpec& v : model_cfg.variants) {
-    std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
-                 v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
-                 v.params_source.c_str());
-  }
 
   // RL_THETA held for the model until a table sample is not behind it.
   constexpr std::size_t kMaxHeld = 1 << 16;  // far above any differentiator delay
@@ -171,6 +166,11 @@ int RunAll(RunCommand& c) {
     daq = std::make_unique<daq::DaqNode>(daq_cfg, tap.bus());
   } catch (const std::exception& e) {
     throw UsageError(std::string("--input: ") + e.what());
+  }
+  for (const model::VariantSpec& v : model_cfg.variants) {
+    std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
+                 v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
+                 v.params_source.c_str());
   }
   daq->Run(stop);
   model.Finish();

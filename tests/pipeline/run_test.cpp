@@ -193,5 +193,20 @@ TEST(RocklabRun, SigtermExitsZeroAfterFinalHealth) {
   EXPECT_NE(test::ReadFile(out).find("housner"), std::string::npos);  // summary printed
 }
 
+// Start-up errors are usage errors (exit 2) on one line naming the option.
+// Oracle: the CLI's error convention (tools/cli.h).
+TEST(RocklabRun, StartUpErrorsNameTheOption) {
+  test::CliResult r = test::RunCli({"run", "--rig", kLabRig, "--input", "/nonexistent.csv", "--max"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "rocklab: --input: /nonexistent.csv: cannot open the input file\n");
+  r = test::RunCli({"run", "--rig", kLabRig, "--input", kFreeRocking, "--speed", "-1"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "rocklab: --speed must be >= 0, got -1\n");
+  r = test::RunCli({"run", "--rig", kLabRig, "--input", kFreeRocking, "--max", "--log",
+                    "/nonexistent/x.lcm"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "rocklab: --log: cannot write '/nonexistent/x.lcm'\n");
+}
+
 }  // namespace
 }  // namespace rocklab::pipeline
