@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "rocklab/comparison_t.hpp"
@@ -23,9 +24,10 @@ double HostNowS() {
 
 std::shared_ptr<spdlog::logger> Log() {
   // Shared: spdlog's registry hands out shared_ptr loggers.
+  // stderr: stdout carries the commands' own output (summary tables).
   static std::shared_ptr<spdlog::logger> log = [] {
     auto l = spdlog::get("compare");
-    return l ? l : spdlog::default_logger()->clone("compare");
+    return l ? l : spdlog::stderr_color_mt("compare");
   }();
   return log;
 }
@@ -254,7 +256,7 @@ void CompareNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
   PublishHealth("running");
   while (!stop.load()) {
     if (subscriber.handleTimeout(100) < 0) {
-      Log()->error("LCM handleTimeout failed");
+      if (!stop.load()) Log()->error("LCM handleTimeout failed");  // a stop signal interrupts it
       break;
     }
     CheckStale();

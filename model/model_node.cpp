@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "rocklab/event_t.hpp"
@@ -21,9 +22,10 @@ double HostNowS() {
 
 std::shared_ptr<spdlog::logger> Log() {
   // Shared: spdlog's registry hands out shared_ptr loggers.
+  // stderr: stdout carries the commands' own output (summary tables).
   static std::shared_ptr<spdlog::logger> log = [] {
     auto l = spdlog::get("model_node");
-    return l ? l : spdlog::default_logger()->clone("model_node");
+    return l ? l : spdlog::stderr_color_mt("model_node");
   }();
   return log;
 }
@@ -184,7 +186,7 @@ struct ModelNode::Variant {
 };
 
 ModelNode::ModelNode(const ModelNodeConfig& config, lcm::LCM* publisher)
-    : config_(config), publisher_(publisher) {
+    : config_(config), publisher_(publisher), theta_history_(kThetaHistory) {
   config_.Validate();
   for (const VariantSpec& spec : config_.variants) {
     auto v = std::make_unique<Variant>();
@@ -230,7 +232,25 @@ void ModelNode::Start(const rocklab::block_state_t& theta) {
 }
 
 void ModelNode::HandleTheta(const rocklab::block_state_t& msg) {
-  latest_theta_ = msg;  // plain data: no allocation
+  // Time going back starts a new run: the old thetas cannot start it.
+  if (theta_count_ > 0 && msg.utime < ThetaAt(theta_count_ - 1).utime) theta_count_ = 0;
+  theta_history_[theta_count_ % theta_history_.size()] = msg;  // plain data: no allocation
+  ++theta_count_;
+}
+
+const rocklab::block_state_t& ModelNode::ThetaAt(std::size_t i) const {
+  return theta_history_[i % theta_history_.size()];
+}
+
+const rocklab::block_state_t* ModelNode::StartTheta(std::int64_t table_utime) const {
+  // The DAQ delays RL_TABLE more than RL_THETA (its differentiators' half
+  // windows), so the theta of this table sample is usually behind the newest.
+  const std::size_t kept = std::min(theta_count_, theta_history_.size());
+  for (std::size_t back = 1; back <= kept; ++back) {
+    const rocklab::block_state_t& t = ThetaAt(theta_count_ - back);
+    if (t.utime <= table_utime) return &t;
+  }
+  return nullptr;
 }
 
 void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
@@ -243,13 +263,13 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   last_table_utime_ = msg.utime;
   ++table_count_;
   if (!started_) {
-    // Start from the newest RL_THETA that is not ahead of this table sample
-    // (after a reset, one from the old run is ahead and is not used).
-    if (!latest_theta_ || latest_theta_->utime > msg.utime) {
+    // Start from the newest RL_THETA that is not ahead of this table sample.
+    const rocklab::block_state_t* theta = StartTheta(msg.utime);
+    if (!theta) {
       ++skipped_before_start_;
       return;
     }
-    Start(*latest_theta_);
+    Start(*theta);
   }
   // Model time counts from the start: with epoch utimes (~1.7e9 s) a double
   // resolves only ~2e-7 s, and CVODE's root location would degrade with it.
@@ -338,7 +358,7 @@ void ModelNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
   PublishHealth("running");
   while (!stop.load()) {
     if (subscriber.handleTimeout(100) < 0) {
-      Log()->error("LCM handleTimeout failed");
+      if (!stop.load()) Log()->error("LCM handleTimeout failed");  // a stop signal interrupts it
       break;
     }
     const double now = HostNowS();

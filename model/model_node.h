@@ -11,7 +11,8 @@
 /// final RL_HEALTH "stopped" goes out.
 ///
 /// Start and reset: at the first table sample with an RL_THETA not ahead of
-/// it, the variants start at that RL_THETA's utime from its theta and
+/// it (the newest such among the last 1024 RL_THETA: the DAQ delays RL_TABLE
+/// more than RL_THETA), the variants start at that RL_THETA's utime from its theta and
 /// theta_dot (|theta| below rest_threshold_rad counts as at rest, so sensor
 /// noise does not start a free rocking). Table samples before the start are
 /// skipped and counted. A table utime that goes backwards (a replay
@@ -107,7 +108,13 @@ class ModelNode {
   lcm::LCM* publisher_;  // not owned
   std::vector<std::unique_ptr<Variant>> variants_;
   bool started_{};
-  std::optional<rocklab::block_state_t> latest_theta_;  // newest RL_THETA
+  // The newest RL_THETA messages, a ring: the start state is the newest one
+  // not ahead of the table sample, and RL_THETA runs ahead of RL_TABLE.
+  static constexpr std::size_t kThetaHistory = 1024;  // > any differentiator delay difference
+  std::vector<rocklab::block_state_t> theta_history_;
+  std::size_t theta_count_{};  // pushed since the last time-going-back
+  const rocklab::block_state_t& ThetaAt(std::size_t i) const;
+  const rocklab::block_state_t* StartTheta(std::int64_t table_utime) const;
   std::int64_t last_table_utime_{INT64_MIN};
   std::int64_t start_utime_{};  // model time 0, us
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};

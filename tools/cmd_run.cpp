@@ -5,7 +5,7 @@
 // model and the comparator, and the model's observer hands each RL_MODEL
 // message to the comparator: the stages are connected by direct calls, so the
 // offline path pays no LCM dispatch per sample per stage and nothing is
-// queued between stages beyond the model's start alignment (below).
+// queued between stages.
 //
 // LCM is a tap: every node publishes on an in-process memq:// bus. With no
 // --log and no network URL nobody subscribes, and memq drops each message at
@@ -15,13 +15,6 @@
 // drained after every table and theta sample, so it holds a handful of
 // messages at most whatever the input's length.
 //
-// Model start alignment: the DAQ delays RL_THETA by the theta differentiator's
-// half window and RL_TABLE by the table differentiator's (5 and 50 samples on
-// the lab rig), so RL_THETA runs ahead of RL_TABLE. The model starts from the
-// newest RL_THETA not ahead of a table sample; the thetas are therefore held
-// (at most the difference of the delays, capped) and handed to the model just
-// before the table sample they are not ahead of.
-//
 // Shutdown (SIGINT/SIGTERM set the stop flag, DaqNode::Run polls it): the DAQ
 // stops reading, flushes its delayed samples through the stages and publishes
 // its last RL_HEALTH "stopped"; then the model and the comparator finish
@@ -30,7 +23,6 @@
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
-#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -138,10 +130,6 @@ int RunAll(RunCommand& c) {
   model_cfg.on_state = [&compare](const rocklab::model_state_t& m) { compare.HandleModel(m); };
   model::ModelNode model(model_cfg, tap.bus());
 
-  // RL_THETA held for the model until a table sample is not behind it.
-  constexpr std::size_t kMaxHeld = 1 << 16;  // far above any differentiator delay
-  std::deque<rocklab::block_state_t> held;
-
   daq::DaqNodeConfig daq_cfg;
   daq_cfg.rig = rig;
   daq_cfg.input = c.input;
@@ -149,15 +137,10 @@ int RunAll(RunCommand& c) {
   daq_cfg.on_theta = [&](const rocklab::block_state_t& theta) {
     compare.HandleTheta(theta);
     compare.CheckStale();
-    if (held.size() == kMaxHeld) held.pop_front();
-    held.push_back(theta);
+    model.HandleTheta(theta);
     tap.Drain();
   };
   daq_cfg.on_table = [&](const rocklab::table_state_t& table) {
-    while (!held.empty() && held.front().utime <= table.utime) {
-      model.HandleTheta(held.front());
-      held.pop_front();
-    }
     model.HandleTable(table);
     tap.Drain();
   };

@@ -71,6 +71,25 @@ TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
   EXPECT_EQ(node.latest(0).regime, +rocklab::model_state_t::REGIME_ROCKING);
 }
 
+// Oracle: the DAQ's own timing: it sends each RL_THETA 45 samples before the
+// RL_TABLE of the same sample (its differentiators' half windows, 5 and 50
+// ms at 1 kHz). The node must still start at the first table sample, from
+// the RL_THETA of that sample, not skip the record.
+TEST(ModelNode, StartsWhenThetaRunsAheadOfTheTable) {
+  ModelNode node(Config("h:housner:theoretical"), nullptr);
+  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
+  direct->Reset(0.0, 0.1, 0.0);
+  SampledAcceleration none({0.0, 10.0}, {0.0, 0.0});
+  for (int k = 0; k < 45; ++k) node.HandleTheta(Theta(1000 * k, k == 0 ? 0.1 : 0.5));
+  for (int k = 0; k < 1000; ++k) {
+    node.HandleTheta(Theta(1000 * (k + 45), 0.5));  // ahead: must not be the start
+    node.HandleTable(Table(1000 * k, 0.0));
+    direct->AdvanceTo(static_cast<double>(1000 * k) * 1e-6, none);  // the node's arithmetic
+    ASSERT_NEAR(node.latest(0).theta, direct->state().theta, 1e-12) << "sample " << k;
+  }
+  EXPECT_EQ(node.skipped_before_start(), 0);
+}
+
 // Oracle: the node's reset rule: table time going back restarts the
 // variants from the next RL_THETA, so a replayed record gives the same
 // states the second time.
