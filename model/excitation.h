@@ -18,6 +18,12 @@ class Forcing {
   virtual double TableAcceleration(double t_s) const = 0;
 };
 
+/// No table motion: u_g'' = 0 everywhere (free rocking).
+class NoTableMotion final : public Forcing {
+ public:
+  double TableAcceleration(double) const override { return 0.0; }
+};
+
 /// A table motion known in closed form: displacement and its exact derivatives.
 class Excitation : public Forcing {
  public:

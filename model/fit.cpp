@@ -706,11 +706,6 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
 
 namespace {
 
-class ZeroForcing final : public Forcing {
- public:
-  double TableAcceleration(double) const override { return 0.0; }
-};
-
 // Residuals theta_model(t_k) - theta_k over the samples [first, n) for
 // x = (alpha, p, mu[, release time]). Before a fitted release the model
 // holds at the release level.
@@ -825,7 +820,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   if (record.has_table()) {
     forcing = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2);
   } else {
-    forcing = std::make_unique<ZeroForcing>();
+    forcing = std::make_unique<NoTableMotion>();
   }
   const std::size_t first = from_hold ? f.hold_start_index : 0;
   const double theta0 = from_hold ? f.first_sign * *f.r0_rad : 0.0;

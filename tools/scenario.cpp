@@ -26,11 +26,6 @@ class SumForcing : public model::Forcing {
   std::unique_ptr<model::Forcing> b_;
 };
 
-class NoForcing : public model::Forcing {
- public:
-  double TableAcceleration(double) const override { return 0.0; }
-};
-
 }  // namespace
 
 void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
@@ -99,7 +94,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
                              std::string("accel:") + o.accel_csv;
   }
   if (!forcing) {
-    forcing = std::make_unique<NoForcing>();
+    forcing = std::make_unique<model::NoTableMotion>();
     s.forcing_description = "none (free rocking)";
   }
   s.forcing = std::move(forcing);

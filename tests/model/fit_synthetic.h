@@ -24,9 +24,7 @@ inline model::RockingRecord SyntheticFree(const model::BlockParams& truth, doubl
   model::ModelOptions mo;
   mo.rtol = 1e-10;
   auto m = model::RockingModel::Create(model::ModelKind::kHousner, truth, mo);
-  struct Zero final : model::Forcing {
-    double TableAcceleration(double) const override { return 0.0; }
-  } zero;
+  const model::NoTableMotion zero;
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_deg * kDeg);
   model::RockingRecord r;

@@ -44,9 +44,7 @@ TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
   model::ModelOptions mo;
   mo.rtol = 1e-10;
   auto m = model::RockingModel::Create(model::ModelKind::kHousner, kBlock1, mo);
-  struct Zero final : model::Forcing {
-    double TableAcceleration(double) const override { return 0.0; }
-  } zero;
+  const model::NoTableMotion zero;
   m->Reset(0.3, 0.6 * kBlock1.alpha, 0.0);
   m->AdvanceTo(8.3, zero);
   const auto f = model::ExtractFreeRocking(rec, {});
