@@ -13,7 +13,15 @@ packages=(
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev
   iproute2 util-linux
+  libcpp-httplib-dev gnuplot-nox
 )
+# Node.js and npm fetch the monitor's charting library at build time; a
+# machine that already has a Node.js with npm (nodesource, say) keeps it.
+command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
+# The browser tests drive Debian's headless Chromium; only tools/test.sh asks.
+if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
+  packages+=(chromium chromium-driver fonts-dejavu-core)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

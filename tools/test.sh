@@ -4,6 +4,6 @@
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${ROCKLAB_BUILD_DIR:-$here/build}
-bash "$here/tools/setup.sh"
+ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
 cd "$build"
 ctest --output-on-failure -j "$(nproc)" "$@"
