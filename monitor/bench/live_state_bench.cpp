@@ -59,6 +59,14 @@ class Pipeline {
       compares_.push_back(Encode(std::string("RL_COMPARE_") + name, c));
     }
   }
+  /// Feeds milliseconds up to `ms` (exclusive): a 60 s window and a second.
+  void FillWindow(LiveState& s, std::int64_t ms = 61'000) {
+    while (next_ < ms) Feed(s, next_++);
+  }
+  /// Feeds the next millisecond; returns the messages fed.
+  int FeedNext(LiveState& s) { return Feed(s, next_++); }
+
+ private:
   /// Feeds millisecond k; returns the messages fed.
   int Feed(LiveState& s, std::int64_t k) {
     const std::int64_t utime = k * 1000;
@@ -76,7 +84,7 @@ class Pipeline {
     return n;
   }
 
- private:
+  std::int64_t next_{};
   Payload theta_;
   std::vector<Payload> models_, compares_;
 };
@@ -91,10 +99,9 @@ long MaxRssKb() {
 void BM_IngestSteadyState(benchmark::State& state) {
   LiveState s;
   Pipeline p;
-  std::int64_t k = 0;
-  for (; k < 61'000; ++k) p.Feed(s, k);
+  p.FillWindow(s);
   std::int64_t messages = 0;
-  for (auto _ : state) messages += p.Feed(s, k++);
+  for (auto _ : state) messages += p.FeedNext(s);
   state.SetItemsProcessed(messages);
 }
 BENCHMARK(BM_IngestSteadyState);
@@ -103,8 +110,7 @@ BENCHMARK(BM_IngestSteadyState);
 // comparison series as JSON text.
 void BM_FullSnapshotJson(benchmark::State& state) {
   LiveState s;
-  Pipeline p;
-  for (std::int64_t k = 0; k < 61'000; ++k) p.Feed(s, k);
+  Pipeline().FillWindow(s);
   std::size_t bytes = 0;
   for (auto _ : state) {
     bytes = s.Snapshot().dump().size();
@@ -118,13 +124,12 @@ BENCHMARK(BM_FullSnapshotJson)->Unit(benchmark::kMillisecond);
 void BM_UpdateJson100ms(benchmark::State& state) {
   LiveState s;
   Pipeline p;
-  std::int64_t k = 0;
-  for (; k < 61'000; ++k) p.Feed(s, k);
+  p.FillWindow(s);
   std::size_t bytes = 0;
   for (auto _ : state) {
     state.PauseTiming();
     const std::uint64_t cursor = s.cursor();
-    for (int i = 0; i < 100; ++i) p.Feed(s, k++);
+    for (int i = 0; i < 100; ++i) p.FeedNext(s);
     state.ResumeTiming();
     bytes = s.UpdateSince(cursor).dump().size();
     benchmark::DoNotOptimize(bytes);
@@ -139,9 +144,9 @@ void BM_OneHourMemory(benchmark::State& state) {
   for (auto _ : state) {
     LiveState s;
     Pipeline p;
-    for (std::int64_t k = 0; k < 120'000; ++k) p.Feed(s, k);  // two windows: every ring full
+    p.FillWindow(s, 120'000);  // two windows: every ring full
     const long after_two_minutes = MaxRssKb();
-    for (std::int64_t k = 120'000; k < 3'600'000; ++k) p.Feed(s, k);
+    p.FillWindow(s, 3'600'000);
     state.counters["max_rss_kb_after_2min"] = static_cast<double>(after_two_minutes);
     state.counters["max_rss_kb_after_1h"] = static_cast<double>(MaxRssKb());
   }
