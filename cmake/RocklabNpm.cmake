@@ -4,7 +4,8 @@
 #   rocklab_npm_ci(<source dir> <build dir> <comment> [BYPRODUCTS files...])
 #
 # copies package.json and package-lock.json to <build dir>, runs `npm ci`
-# there, and touches <build dir>/npm-ci.stamp: depend on that file.
+# there (devDependencies included, whatever NODE_ENV says), and touches
+# <build dir>/npm-ci.stamp: depend on that file.
 find_program(ROCKLAB_NPM npm)
 
 function(rocklab_npm_ci src build comment)
@@ -19,7 +20,7 @@ function(rocklab_npm_ci src build comment)
     BYPRODUCTS ${arg_BYPRODUCTS}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${build}
     COMMAND ${CMAKE_COMMAND} -E copy_if_different ${src}/package.json ${src}/package-lock.json ${build}
-    COMMAND ${ROCKLAB_NPM} ci --ignore-scripts --no-audit --no-fund --loglevel=error
+    COMMAND ${ROCKLAB_NPM} ci --include=dev --ignore-scripts --no-audit --no-fund --loglevel=error
     COMMAND ${CMAKE_COMMAND} -E touch ${build}/npm-ci.stamp
     DEPENDS ${src}/package.json ${src}/package-lock.json
     WORKING_DIRECTORY ${build}

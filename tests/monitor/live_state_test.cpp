@@ -243,7 +243,7 @@ TEST(LiveState, EventsAreCappedAndCounted) {
   ASSERT_EQ(ev.size(), 10u);
   EXPECT_EQ(snap.at("counters").at("dropped").at("events").get<std::int64_t>(), 990);
   EXPECT_EQ(ev.back().at("kind"), "impact");
-  EXPECT_EQ(ev.back().at("code").get<int>(), rocklab::event_t::IMPACT);
+  EXPECT_EQ(ev.back().at("code").get<int>(), int{rocklab::event_t::IMPACT});
   EXPECT_EQ(ev.back().at("source"), "fit");
   EXPECT_DOUBLE_EQ(ev.back().at("value").get<double>(), -0.1 * 999);
   EXPECT_DOUBLE_EQ(ev.back().at("t").get<double>(), 0.999);
