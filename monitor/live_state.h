@@ -8,8 +8,9 @@
 ///
 /// Threading: Ingest (the LCM thread) and Snapshot/UpdateSince (the HTTP
 /// threads) may run concurrently; one mutex guards the state. Ingest does not
-/// allocate once the series rings are full (a bounded window), except for
-/// text fields of events and health messages longer than any seen before.
+/// allocate once the series rings are full (a bounded window), except for the
+/// first message of a new channel, variant or node and for text fields longer
+/// than any seen before.
 ///
 /// Memory bound (finite window): every series (the measured theta, each
 /// variant's theta, each variant's comparison) holds at most
