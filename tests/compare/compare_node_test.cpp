@@ -14,29 +14,13 @@
 
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
+#include "tests/tools/lcm_messages.h"
 
 namespace rocklab::compare {
 namespace {
 
-rocklab::block_state_t Theta(std::int64_t utime, double theta, std::int32_t flags = 0) {
-  rocklab::block_state_t m{};
-  m.utime = utime;
-  m.theta = theta;
-  m.flags = flags;
-  return m;
-}
-
-rocklab::model_state_t Model(const std::string& name, std::int64_t utime, double theta) {
-  rocklab::model_state_t m{};
-  m.utime = utime;
-  m.name = name;
-  m.model = "housner";
-  m.theta = theta;
-  m.alpha = 0.235;
-  m.p = 3.884;
-  m.mu = 0.937;
-  return m;
-}
+using test::Model;
+using test::Theta;
 
 struct Tap {
   void OnCompare(const lcm::ReceiveBuffer*, const std::string& channel,
