@@ -118,6 +118,19 @@ bool WriteAll(int fd, const std::string& text) {
   return ok;
 }
 
+// Layout in pixels: the caption sits under the x label, one line per entry;
+// the plot takes the rest. Sizes follow the font size, whichever face renders it.
+struct Layout {
+  Layout(FigureFormat format, std::size_t caption_lines)
+      : font_pt(format == FigureFormat::kSvg ? 11.0 : 10.0),
+        line_px(1.6 * font_pt),
+        caption_px(line_px * (static_cast<double>(caption_lines) + 0.5)),
+        bottom_px(caption_px + 3.2 * line_px) {}  // tick labels and the x label above
+  /// Height the figure needs: the bottom, a plot of 100 px, the title above.
+  int min_height_px() const { return static_cast<int>(std::ceil(bottom_px + 100 + 3 * line_px)); }
+  double font_pt, line_px, caption_px, bottom_px;
+};
+
 }  // namespace
 
 void ThetaFigure::AddCurve(ThetaCurve curve) {
@@ -131,12 +144,9 @@ void ThetaFigure::AddCurve(ThetaCurve curve) {
 
 std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format, int width_px,
                                 int height_px) const {
-  // Layout in pixels: the caption sits under the x label, one line per entry;
-  // the plot takes the rest. Sizes follow the font, whichever face renders it.
-  const double font_pt = format == FigureFormat::kSvg ? 11.0 : 10.0;
-  const double line_px = 1.6 * font_pt;
-  const double caption_px = line_px * (static_cast<double>(caption_.size()) + 0.5);
-  const double bottom_px = caption_px + 3.2 * line_px;  // tick labels and the x label above
+  const Layout layout(format, caption_.size());
+  const double font_pt = layout.font_pt, line_px = layout.line_px;
+  const double caption_px = layout.caption_px, bottom_px = layout.bottom_px;
   const double h = static_cast<double>(height_px);
 
   std::string s;
@@ -213,6 +223,13 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
   if (width_px < 200 || height_px < 200) {
     throw std::invalid_argument("figure size must be at least 200x200 px, got " +
                                 std::to_string(width_px) + "x" + std::to_string(height_px));
+  }
+  const int min_height_px = Layout(format, caption_.size()).min_height_px();
+  if (height_px < min_height_px) {
+    throw std::invalid_argument("a figure with " + std::to_string(caption_.size()) +
+                                " caption lines must be at least " +
+                                std::to_string(min_height_px) + " px high, got " +
+                                std::to_string(height_px));
   }
   const std::string script = Script(out_path, format, width_px, height_px);
   std::error_code ignored;

@@ -51,7 +51,8 @@ class ThetaFigure {
   /// @returns gnuplot's warnings (empty when it had none), one per line.
   /// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
   ///   or leaves no output file; std::invalid_argument when the figure has no
-  ///   curve or the size is below 200 px.
+  ///   curve, the size is below 200 px, or the height leaves less than 100 px
+  ///   for the plot beside the caption lines.
   std::string Write(const std::string& out_path, FigureFormat format, int width_px,
                     int height_px) const;
 

@@ -142,6 +142,10 @@ TEST(ReportFigure, BadCurvesAndSizesAreRefused) {
   EXPECT_THROW(f.Write("x.svg", FigureFormat::kSvg, 800, 600), std::invalid_argument);  // no curve
   f.AddCurve(Curve("experiment", 10, 1.0, true));
   EXPECT_THROW(f.Write("x.svg", FigureFormat::kSvg, 199, 600), std::invalid_argument);
+  // Twelve caption lines (one per variant of a large comparison) leave no
+  // room for the plot in 300 px.
+  for (int i = 0; i < 12; ++i) f.AddCaptionLine("variant " + std::to_string(i));
+  EXPECT_THROW(f.Write("x.svg", FigureFormat::kSvg, 800, 300), std::invalid_argument);
 }
 
 }  // namespace
