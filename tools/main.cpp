@@ -19,6 +19,7 @@ void RegisterSynth(CLI::App& app, CommandRun& run);
 void RegisterReconstruct(CLI::App& app, CommandRun& run);
 void RegisterDaq(CLI::App& app, CommandRun& run);
 void RegisterRun(CLI::App& app, CommandRun& run);
+void RegisterMonitor(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -41,6 +42,7 @@ int main(int argc, char** argv) {
       &RegisterReconstruct,
       &RegisterDaq,
       &RegisterRun,
+      &RegisterMonitor,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

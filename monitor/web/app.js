@@ -1,0 +1,416 @@
+// rocklab monitor page: theta measured and modelled, the error and its
+// windowed RMS (uPlot charts), flags as shaded bands and events as markers
+// (uPlot hooks), the latest comparison numbers, node health, counters.
+//
+// Two modes:
+//  - live (`rocklab monitor`): an EventSource on api/events receives a full
+//    LiveState snapshot first, then incremental updates (new points, events
+//    and flag changes, at 10 Hz while anything changes); the page keeps only
+//    the window (window_s of sample clock) in its arrays, so it does not grow
+//    over hours.
+//  - static (`rocklab report`): when `window.ROCKLAB_SNAPSHOT` is defined
+//    before this script runs (a LiveState Snapshot() object inlined in the
+//    page), the page renders it once and opens no connection.
+// The JSON schema is documented in monitor/live_state.h.
+//
+// For tests and scripts, `window.rocklabMonitor` exposes the uPlot instances
+// (`plots.theta`, `plots.error`), `updates` (messages applied), `mode` and
+// `dataLengths()` (points per chart series).
+(function () {
+  'use strict';
+
+  const FLAG_FILL = {
+    sliding: 'rgba(230, 120, 0, 0.18)',
+    jump: 'rgba(200, 0, 0, 0.18)',
+    twist: 'rgba(140, 0, 200, 0.18)',
+    stale: 'rgba(110, 110, 110, 0.25)',
+  };
+  const MARKER = {  // events drawn as markers on the time axis
+    uplift: {color: '#1565c0', letter: 'U'},
+    rest: {color: '#2e7d32', letter: 'R'},
+    overturn: {color: '#c62828', letter: 'O'},
+  };
+  const PALETTE = ['#d62728', '#1f77b4', '#2ca02c', '#ff7f0e', '#9467bd', '#8c564b', '#e377c2',
+    '#17becf', '#bcbd22', '#7f7f7f'];
+  const MAX_EVENT_ROWS = 60;     // rows in the events table
+  const MAX_EVENTS = 2000;       // events kept by the page (the server keeps at most 1000)
+  const COMPARISON_FIELDS = ['error', 'rms_window', 'rms_total', 'nrms', 'peak_error',
+    'impact_timing_error', 'correlation'];
+  const HEALTH_FIELDS = ['rate_in_hz', 'rate_out_hz', 'count_in', 'count_out', 'dropped', 'gaps',
+    'bad_samples', 'lag_s'];
+
+  // What the page holds: the same shape as a snapshot, in arrays it trims.
+  const held = {
+    record: null,
+    windowS: null,         // null: the whole record (static mode)
+    tLatest: null,
+    measured: {t: [], theta: []},
+    variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest}
+    flags: new Map(),      // interval id -> {flag, source, start, end}
+    events: [],
+    health: [],
+    config: null,
+    counters: null,
+  };
+  const plots = {theta: null, error: null};
+  let plottedVariants = '';  // the variant list the plots were built for
+  let updates = 0;
+  let mode = 'starting';
+  let renderPending = false;
+
+  // %.6g as C's printf writes it (the comparator's numbers at six digits).
+  function fmtG(x, precision) {
+    const p = precision || 6;
+    if (x === null || x === undefined) return '—';
+    if (typeof x === 'boolean') return x ? 'yes' : 'no';
+    if (typeof x !== 'number') return String(x);
+    if (!Number.isFinite(x)) return Number.isNaN(x) ? 'nan' : (x > 0 ? 'inf' : '-inf');
+    if (x === 0) return '0';
+    const strip = (s) => (s.indexOf('.') >= 0 ? s.replace(/0+$/, '').replace(/\.$/, '') : s);
+    const exponential = x.toExponential(p - 1);
+    const e = parseInt(exponential.slice(exponential.indexOf('e') + 1), 10);
+    if (e < -4 || e >= p) {
+      const mantissa = strip(exponential.slice(0, exponential.indexOf('e')));
+      return mantissa + 'e' + (e < 0 ? '-' : '+') + String(Math.abs(e)).padStart(2, '0');
+    }
+    return strip(x.toFixed(p - 1 - e));
+  }
+
+  // -- applying snapshots and updates ----------------------------------------
+
+  function append(to, from, keys) {
+    for (const [mine, theirs] of keys) {
+      const src = from[theirs] || [];
+      for (let i = 0; i < src.length; i++) to[mine].push(src[i]);
+    }
+  }
+
+  function variantFor(name) {
+    let v = held.variants.get(name);
+    if (!v) {
+      v = {meta: {name: name}, color: PALETTE[held.variants.size % PALETTE.length],
+        theta: {t: [], theta: []}, cmp: {t: [], err: [], rms: []}, latest: null};
+      held.variants.set(name, v);
+    }
+    return v;
+  }
+
+  function reset() {
+    held.measured = {t: [], theta: []};
+    held.variants = new Map();
+    held.flags = new Map();
+    held.events = [];
+  }
+
+  function apply(msg) {
+    if (msg.full || msg.record !== held.record) reset();
+    held.record = msg.record;
+    held.windowS = msg.window_s;
+    held.tLatest = msg.t_latest;
+    append(held.measured, msg.measured, [['t', 't'], ['theta', 'theta_deg']]);
+    for (const mv of msg.variants) {
+      const v = variantFor(mv.name);
+      v.meta = mv;
+      v.latest = mv.latest;
+      append(v.theta, mv.theta, [['t', 't'], ['theta', 'theta_deg']]);
+      append(v.cmp, mv.comparison, [['t', 't'], ['err', 'error_deg'], ['rms', 'rms_window_deg']]);
+    }
+    for (const f of msg.flags) held.flags.set(f.id, f);
+    for (const e of msg.events) held.events.push(e);
+    held.health = msg.health;
+    held.config = msg.config;
+    held.counters = msg.counters;
+    trim();
+    updates++;
+  }
+
+  // First index whose t is >= cutoff (t increasing).
+  function firstFrom(t, cutoff) {
+    let lo = 0, hi = t.length;
+    while (lo < hi) {
+      const mid = (lo + hi) >> 1;
+      if (t[mid] < cutoff) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+  }
+
+  function trimSeries(s, cutoff) {
+    const n = firstFrom(s.t, cutoff);
+    if (n > 0) for (const key of Object.keys(s)) s[key].splice(0, n);
+  }
+
+  // Keeps what lies in the window, as the server does.
+  function trim() {
+    if (held.events.length > MAX_EVENTS) held.events.splice(0, held.events.length - MAX_EVENTS);
+    if (held.windowS === null || held.tLatest === null) return;
+    const cutoff = held.tLatest - held.windowS;
+    trimSeries(held.measured, cutoff);
+    for (const v of held.variants.values()) {
+      trimSeries(v.theta, cutoff);
+      trimSeries(v.cmp, cutoff);
+    }
+    for (const [id, f] of held.flags) {
+      if (f.end !== null && f.end < cutoff) held.flags.delete(id);
+    }
+    const firstEvent = held.events.findIndex((e) => e.t >= cutoff);
+    held.events.splice(0, firstEvent < 0 ? held.events.length : firstEvent);
+  }
+
+  // -- charts -------------------------------------------------------------------
+
+  // Flags as shaded bands behind the series, events as markers: one uPlot
+  // plugin, drawn with the plot's own scales.
+  function flagsAndEvents() {
+    return {
+      hooks: {
+        drawClear: [(u) => {
+          const ctx = u.ctx;
+          const {top, height} = u.bbox;
+          ctx.save();
+          for (const f of held.flags.values()) {
+            const end = f.end === null ? held.tLatest : f.end;
+            if (end === null) continue;
+            const x0 = u.valToPos(f.start, 'x', true);
+            const x1 = u.valToPos(end, 'x', true);
+            ctx.fillStyle = FLAG_FILL[f.flag] || FLAG_FILL.stale;
+            ctx.fillRect(x0, top, Math.max(x1 - x0, 1), height);
+          }
+          ctx.restore();
+        }],
+        draw: [(u) => {
+          const ctx = u.ctx;
+          const {left, top, width, height} = u.bbox;
+          const px = window.devicePixelRatio || 1;
+          ctx.save();
+          ctx.font = Math.round(10 * px) + 'px sans-serif';
+          ctx.textAlign = 'center';
+          for (const e of held.events) {
+            const x = u.valToPos(e.t, 'x', true);
+            if (x < left || x > left + width) continue;
+            if (e.kind === 'impact') {  // a small triangle in the variant's colour
+              const v = held.variants.get(e.source);
+              ctx.fillStyle = v ? v.color : '#555';
+              ctx.beginPath();
+              ctx.moveTo(x, top + 2 * px);
+              ctx.lineTo(x - 4 * px, top + 9 * px);
+              ctx.lineTo(x + 4 * px, top + 9 * px);
+              ctx.fill();
+            } else if (MARKER[e.kind]) {
+              const m = MARKER[e.kind];
+              ctx.strokeStyle = m.color;
+              ctx.fillStyle = m.color;
+              ctx.setLineDash([4 * px, 3 * px]);
+              ctx.lineWidth = px;
+              ctx.beginPath();
+              ctx.moveTo(x, top + 12 * px);
+              ctx.lineTo(x, top + height);
+              ctx.stroke();
+              ctx.fillText(m.letter, x, top + 22 * px);
+            }
+          }
+          ctx.restore();
+        }],
+      },
+    };
+  }
+
+  function chartWidth(el) {
+    return Math.max(300, el.clientWidth || 900);
+  }
+
+  function makePlot(el, yLabel, series) {
+    el.textContent = '';
+    const options = {
+      width: chartWidth(el),
+      height: 300,
+      scales: {x: {time: false}},
+      axes: [{label: 'time (s)'}, {label: yLabel}],
+      series: [{label: 't (s)', value: (u, v) => (v === null ? '—' : v.toFixed(3))}].concat(series),
+      cursor: {drag: {x: true, y: false}},
+      legend: {live: true},
+      plugins: [flagsAndEvents()],
+    };
+    return new uPlot(options, [[]].concat(series.map(() => [])), el);
+  }
+
+  function buildPlots() {
+    const names = Array.from(held.variants.keys());
+    const key = names.join('\n');
+    if (plots.theta && key === plottedVariants) return;
+    plottedVariants = key;
+    if (plots.theta) plots.theta.destroy();
+    if (plots.error) plots.error.destroy();
+    const thetaSeries = [{label: 'measured', stroke: '#111', width: 1.6, spanGaps: true}];
+    const errorSeries = [];
+    for (const [name, v] of held.variants) {
+      thetaSeries.push({label: name, stroke: v.color, width: 1.2, spanGaps: true});
+      errorSeries.push({label: name + ' error', stroke: v.color, width: 1.2, spanGaps: true});
+      errorSeries.push({label: name + ' rms', stroke: v.color, width: 1.6, dash: [6, 4], spanGaps: true});
+    }
+    plots.theta = makePlot(document.getElementById('theta-chart'), 'θ (deg)', thetaSeries);
+    plots.error = makePlot(document.getElementById('error-chart'), 'error (deg)', errorSeries);
+  }
+
+  function renderCharts() {
+    buildPlots();
+    const thetaTables = [[held.measured.t, held.measured.theta]];
+    const errorTables = [];
+    for (const v of held.variants.values()) {
+      thetaTables.push([v.theta.t, v.theta.theta]);
+      errorTables.push([v.cmp.t, v.cmp.err, v.cmp.rms]);
+    }
+    // uPlot.join aligns the series on one x array (they share the sample
+    // clock's decimation grid, so it mostly merges equal times).
+    plots.theta.setData(uPlot.join(thetaTables));
+    plots.error.setData(errorTables.length ? uPlot.join(errorTables) : [[]]);
+  }
+
+  // -- tables ---------------------------------------------------------------------
+
+  function cell(row, text, attrs, cls) {
+    const td = document.createElement('td');
+    td.textContent = text;
+    if (cls) td.className = cls;
+    for (const [k, v] of Object.entries(attrs || {})) td.setAttribute(k, v);
+    row.appendChild(td);
+    return td;
+  }
+
+  function renderComparison() {
+    const body = document.querySelector('#comparison tbody');
+    body.textContent = '';
+    for (const [name, v] of held.variants) {
+      const row = document.createElement('tr');
+      row.setAttribute('data-variant', name);
+      const first = cell(row, '', {'data-variant': name, 'data-field': 'name'});
+      const swatch = document.createElement('span');
+      swatch.className = 'swatch';
+      swatch.style.background = v.color;
+      first.appendChild(swatch);
+      first.appendChild(document.createTextNode(name));
+      const m = v.meta;
+      cell(row, m.model || '—', {'data-variant': name, 'data-field': 'model'}, 'text');
+      for (const f of ['alpha', 'p', 'mu']) cell(row, fmtG(m[f]), {'data-variant': name, 'data-field': f});
+      const l = v.latest || {};
+      cell(row, l.samples === undefined ? '—' : String(l.samples), {'data-variant': name, 'data-field': 'samples'});
+      cell(row, fmtG(l.valid), {'data-variant': name, 'data-field': 'valid'}, l.valid === false ? 'invalid' : '');
+      for (const f of COMPARISON_FIELDS) cell(row, fmtG(l[f]), {'data-variant': name, 'data-field': f});
+      body.appendChild(row);
+    }
+  }
+
+  function renderHealth() {
+    const body = document.querySelector('#health tbody');
+    body.textContent = '';
+    for (const h of held.health) {
+      const row = document.createElement('tr');
+      row.setAttribute('data-node', h.node);
+      cell(row, h.node, {'data-node': h.node, 'data-field': 'node'});
+      cell(row, h.state, {'data-node': h.node, 'data-field': 'state'}, 'text');
+      for (const f of HEALTH_FIELDS) cell(row, fmtG(h[f]), {'data-node': h.node, 'data-field': f});
+      body.appendChild(row);
+    }
+  }
+
+  function renderEvents() {
+    const body = document.querySelector('#events tbody');
+    body.textContent = '';
+    const n = held.events.length;
+    for (let i = n - 1; i >= Math.max(0, n - MAX_EVENT_ROWS); i--) {
+      const e = held.events[i];
+      const row = document.createElement('tr');
+      cell(row, e.t.toFixed(3));
+      cell(row, e.source, {}, 'text');
+      cell(row, e.kind, {}, 'text');
+      cell(row, fmtG(e.value));
+      cell(row, e.detail, {}, 'text');
+      body.appendChild(row);
+    }
+  }
+
+  function renderCounters() {
+    const body = document.querySelector('#counters tbody');
+    body.textContent = '';
+    const c = held.counters;
+    if (!c) return;
+    for (const [channel, count] of Object.entries(c.messages)) {
+      const row = document.createElement('tr');
+      cell(row, channel, {'data-channel': channel, 'data-field': 'channel'});
+      cell(row, String(count), {'data-channel': channel, 'data-field': 'messages'});
+      cell(row, String(c.decode_errors[channel] || 0), {'data-channel': channel, 'data-field': 'decode_errors'});
+      body.appendChild(row);
+    }
+    const dropped = Object.entries(c.dropped).filter(([, n]) => n > 0);
+    document.getElementById('dropped').textContent = dropped.length
+      ? 'dropped by the monitor: ' + dropped.map(([k, n]) => k + ' ' + n).join(', ') : '';
+  }
+
+  function renderHeader() {
+    const c = held.config;
+    const parts = [];
+    if (c) {
+      parts.push('rig ' + c.rig_name, 'calibration ' + c.calibration_id);
+      if (c.sample_rate_hz !== null) parts.push(fmtG(c.sample_rate_hz) + ' Hz');
+      if (c.alpha !== null) parts.push('alpha ' + fmtG(c.alpha) + ' rad, p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+    }
+    document.getElementById('rig').textContent = c ? parts.join(' · ') : 'no RL_DAQ_CONFIG yet';
+    document.getElementById('clock').textContent =
+      (held.tLatest === null ? 't —' : 't ' + held.tLatest.toFixed(2) + ' s') +
+      (held.windowS === null ? ' · whole record' : ' · window ' + held.windowS + ' s');
+  }
+
+  function render() {
+    renderPending = false;
+    renderCharts();
+    renderComparison();
+    renderHealth();
+    renderEvents();
+    renderCounters();
+    renderHeader();
+  }
+
+  function scheduleRender() {
+    if (renderPending) return;
+    renderPending = true;
+    // At most one render per frame; a hidden tab renders when shown again.
+    requestAnimationFrame(render);
+  }
+
+  function setStatus(state, text) {
+    mode = state;
+    const el = document.getElementById('status');
+    el.setAttribute('data-status', state);
+    el.textContent = text;
+  }
+
+  window.addEventListener('resize', () => {
+    for (const p of [plots.theta, plots.error]) {
+      if (p) p.setSize({width: chartWidth(p.root.parentNode), height: 300});
+    }
+  });
+
+  window.rocklabMonitor = {
+    plots: plots,
+    get updates() { return updates; },
+    get mode() { return mode; },
+    dataLengths: () => ({
+      theta: plots.theta ? plots.theta.data.map((a) => a.length) : [],
+      error: plots.error ? plots.error.data.map((a) => a.length) : [],
+    }),
+    fmtG: fmtG,
+  };
+
+  if (window.ROCKLAB_SNAPSHOT !== undefined) {
+    setStatus('static', 'recorded test');
+    apply(window.ROCKLAB_SNAPSHOT);
+    render();
+    return;
+  }
+  const source = new EventSource('api/events');
+  source.onopen = () => setStatus('live', 'live');
+  source.onerror = () => setStatus('reconnecting', 'reconnecting…');
+  source.onmessage = (event) => {
+    apply(JSON.parse(event.data));
+    scheduleRender();
+  };
+})();

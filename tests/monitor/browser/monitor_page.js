@@ -1,0 +1,109 @@
+// Opens the rocklab monitor page in Debian's headless Chromium (through
+// playwright-core, which downloads no browser) while a test replays into it,
+// then reports what the page shows. Run by tests/monitor/browser_test.cpp:
+//
+//   node monitor_page.js URL OUT.json SCREENSHOT.png READY_FILE DONE_FILE PROFILE_DIR
+//
+// 1. opens URL in a fresh profile and waits for the live event stream;
+// 2. writes READY_FILE (the test then starts the replay) and waits for
+//    DONE_FILE (the replay has ended);
+// 3. waits until the table shows, for every variant, the sample count of the
+//    server's final snapshot (the page caught up with the last RL_COMPARE);
+// 4. writes OUT.json: the table cells (data-variant, data-field -> text), the
+//    uPlot data lengths, the update count, console errors; saves a screenshot.
+'use strict';
+
+const fs = require('fs');
+const http = require('http');
+const path = require('path');
+const {chromium} = require('playwright-core');
+
+const [url, outPath, screenshotPath, readyFile, doneFile, profileDir] = process.argv.slice(2);
+const STEP_TIMEOUT_MS = 20000;  // a bound on each wait, not a measurement
+const consoleErrors = [];       // the page's console errors and uncaught exceptions
+
+function sleep(ms) {
+  return new Promise((resolve) => setTimeout(resolve, ms));
+}
+
+async function waitForFile(file) {
+  const deadline = Date.now() + 60000;
+  while (!fs.existsSync(file)) {
+    if (Date.now() > deadline) throw new Error('no ' + file + ' within 60 s');
+    await sleep(50);
+  }
+}
+
+function getJson(address) {
+  return new Promise((resolve, reject) => {
+    http.get(address, (res) => {
+      let body = '';
+      res.setEncoding('utf8');
+      res.on('data', (chunk) => { body += chunk; });
+      res.on('end', () => {
+        try { resolve(JSON.parse(body)); } catch (e) { reject(e); }
+      });
+    }).on('error', reject);
+  });
+}
+
+async function main() {
+  const context = await chromium.launchPersistentContext(profileDir, {
+    executablePath: '/usr/bin/chromium',
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    viewport: {width: 1400, height: 1000},
+  });
+  try {
+    const page = context.pages()[0] || await context.newPage();
+    page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+    page.on('pageerror', (e) => consoleErrors.push(String(e)));
+    await page.goto(url, {timeout: STEP_TIMEOUT_MS});
+    await page.waitForFunction(() => window.rocklabMonitor && window.rocklabMonitor.mode === 'live',
+      null, {timeout: STEP_TIMEOUT_MS});
+    fs.writeFileSync(readyFile, 'ready\n');
+
+    await waitForFile(doneFile);
+    const snapshot = await getJson(url + 'api/snapshot');
+    const expected = {};
+    for (const v of snapshot.variants) {
+      if (v.latest) expected[v.name] = String(v.latest.samples);
+    }
+    await page.waitForFunction((want) => {
+      for (const [name, samples] of Object.entries(want)) {
+        const td = document.querySelector(`td[data-variant="${name}"][data-field="samples"]`);
+        if (!td || td.textContent !== samples) return false;
+      }
+      return window.rocklabMonitor.dataLengths().theta.length > 1;
+    }, expected, {timeout: STEP_TIMEOUT_MS});
+
+    const shown = await page.evaluate(() => {
+      const cells = {};
+      for (const td of document.querySelectorAll('td[data-variant][data-field]')) {
+        const v = td.getAttribute('data-variant');
+        (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      const health = {};
+      for (const td of document.querySelectorAll('td[data-node][data-field]')) {
+        const n = td.getAttribute('data-node');
+        (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      return {cells, health, dataLengths: window.rocklabMonitor.dataLengths(),
+        updates: window.rocklabMonitor.updates, mode: window.rocklabMonitor.mode};
+    });
+    fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
+    await page.screenshot({path: screenshotPath, fullPage: true});
+    shown.consoleErrors = consoleErrors;
+    shown.serverVariants = Object.keys(expected);
+    fs.writeFileSync(outPath, JSON.stringify(shown, null, 2) + '\n');
+  } finally {
+    await context.close();
+  }
+}
+
+main().catch((e) => {
+  console.error('monitor_page.js: ' + (e && e.stack ? e.stack : e));
+  if (consoleErrors.length) console.error('page console errors:\n' + consoleErrors.join('\n'));
+  process.exit(1);
+});

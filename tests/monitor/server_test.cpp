@@ -1,0 +1,350 @@
+// The monitor's HTTP server on 127.0.0.1 (port 0), through cpp-httplib's
+// client and raw request lines: it serves exactly its embedded assets with
+// their types, 404 for anything else (unknown paths, directories, traversal
+// attempts), 405 for methods other than GET and HEAD, the snapshot as JSON
+// and the event stream (a full snapshot, then updates). Oracle: the embedded
+// table (monitor/assets.h) and the LiveState fed by the test.
+#include "monitor/server.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <condition_variable>
+#include <chrono>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include "monitor/assets.h"
+#include "monitor/live_state.h"
+#include "tests/tools/lcm_messages.h"
+
+namespace rocklab::monitor {
+namespace {
+
+using nlohmann::json;
+
+template <class Msg>
+void Feed(LiveState& s, const std::string& channel, const Msg& m) {
+  std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  ASSERT_TRUE(s.Ingest(channel, b.data(), static_cast<int>(b.size())));
+}
+
+// A response whose headers and Content-Length body have arrived.
+bool Complete(const std::string& response) {
+  const std::size_t end = response.find("\r\n\r\n");
+  if (end == std::string::npos) return false;
+  const std::size_t at = response.find("Content-Length: ");
+  if (at == std::string::npos || at > end) return false;  // read until the server closes
+  const std::size_t length = std::stoul(response.substr(at + 16));
+  return response.size() >= end + 4 + length;
+}
+
+// One request as written, one response as read (to its Content-Length, or
+// until the server closes).
+// Returns the status code of the response's first line, 0 if none.
+int RawRequest(int port, const std::string& request, std::string* response = nullptr) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return 0;
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  timeval timeout{10, 0};  // a bound against a hung test, not a measurement
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  std::string text;
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
+      write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
+    char buf[4096];
+    ssize_t n = 0;
+    while (!Complete(text) && (n = read(fd, buf, sizeof buf)) > 0) {
+      text.append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  close(fd);
+  if (response) *response = text;
+  if (text.rfind("HTTP/1.1 ", 0) != 0 || text.size() < 12) return 0;
+  return std::stoi(text.substr(9, 3));
+}
+
+std::string Get(const std::string& target) {
+  return "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+}
+
+class MonitorServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override { Serve({}); }
+
+  void Serve(ServerOptions options) {
+    if (server_) server_->Stop();
+    options.port = 0;
+    server_ = std::make_unique<MonitorServer>(state_, options);
+    server_->Start();
+  }
+  int port() const { return server_->port(); }
+
+  LiveState state_;
+  std::unique_ptr<MonitorServer> server_;
+};
+
+TEST_F(MonitorServerTest, BindsLoopbackAndPicksAFreePort) {
+  EXPECT_EQ(ServerOptions{}.host, "127.0.0.1");
+  EXPECT_GT(port(), 0);
+  EXPECT_EQ(server_->url(), "http://127.0.0.1:" + std::to_string(port()) + "/");
+  ServerOptions taken;
+  taken.port = port();
+  try {
+    MonitorServer second(state_, taken);
+    ADD_FAILURE() << "bound a port in use";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("127.0.0.1:" + std::to_string(port())), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(MonitorServerTest, ServesEveryEmbeddedAssetWithItsType) {
+  std::set<std::string> paths;
+  for (const Asset& a : AllAssets()) paths.insert(std::string(a.path));
+  EXPECT_EQ(paths, (std::set<std::string>{"/index.html", "/app.js", "/style.css",
+                                           "/uPlot.iife.min.js", "/uPlot.min.css"}));
+  httplib::Client client("127.0.0.1", port());
+  for (const Asset& a : AllAssets()) {
+    const auto res = client.Get(std::string(a.path).c_str());
+    ASSERT_TRUE(res) << a.path;
+    EXPECT_EQ(res->status, 200) << a.path;
+    EXPECT_EQ(res->get_header_value("Content-Type"), a.content_type) << a.path;
+    EXPECT_EQ(res->body, a.body) << a.path;
+    EXPECT_FALSE(a.body.empty()) << a.path;
+    EXPECT_EQ(res->get_header_value("X-Content-Type-Options"), "nosniff");
+  }
+  const auto root = client.Get("/");
+  ASSERT_TRUE(root);
+  EXPECT_EQ(root->status, 200);
+  EXPECT_EQ(root->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  EXPECT_EQ(root->body, FindAsset("/index.html")->body);
+  EXPECT_NE(root->body.find("app.js"), std::string::npos);
+  // Query strings do not change what is served.
+  const auto query = client.Get("/app.js?v=2");
+  ASSERT_TRUE(query);
+  EXPECT_EQ(query->body, FindAsset("/app.js")->body);
+}
+
+TEST_F(MonitorServerTest, HeadAnswersHeadersOnly) {
+  httplib::Client client("127.0.0.1", port());
+  const auto res = client.Head("/app.js");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  EXPECT_TRUE(res->body.empty());
+  EXPECT_EQ(res->get_header_value("Content-Type"), "text/javascript; charset=utf-8");
+  EXPECT_EQ(res->get_header_value("Content-Length"), std::to_string(FindAsset("/app.js")->body.size()));
+}
+
+TEST_F(MonitorServerTest, UnknownPathsAndDirectoriesAre404) {
+  for (const char* path : {"/nope", "/index.htm", "/app.js.map", "/favicon.ico", "/api", "/api/",
+                           "/api/snapshot/x", "/API/SNAPSHOT", "/web/", "/web/index.html",
+                           "/monitor/web/", "/node_modules/", "/node_modules/uplot/dist/",
+                           "/uplot/dist/uPlot.iife.min.js", "//", "/./", "/index.html/"}) {
+    std::string response;
+    EXPECT_EQ(RawRequest(port(), Get(path), &response), 404) << path << "\n" << response;
+    EXPECT_EQ(response.find("Index of"), std::string::npos) << path;
+  }
+}
+
+// Whatever the spelling, a traversal attempt gets 404 or 400 and never the
+// bytes of a file outside the embedded table (nor of an asset reached by an
+// indirect path: there is no normalisation).
+TEST_F(MonitorServerTest, TraversalAttemptsNeverServeAFile) {
+  const std::string source = ROCKLAB_SOURCE_DIR;
+  const std::vector<std::string> targets = {
+      "/../CMakeLists.txt", "/../../../../../../etc/passwd", "/..%2f..%2f..%2fetc%2fpasswd",
+      "/%2e%2e/%2e%2e/%2e%2e/etc/passwd", "/%2E%2E/%2E%2E/etc/passwd",
+      "/%2F..%2F..%2F..%2Fetc%2Fpasswd", "/..%5c..%5c..%5cetc%5cpasswd", "/..\\..\\etc\\passwd",
+      "/%252e%252e/%252e%252e/etc/passwd", "/.%2e/.%2e/etc/passwd", "/./app.js",
+      "/web/../index.html", "/%2e/app.js", "/app.js/../index.html", "/etc/passwd",
+      "//etc/passwd", "/" + source + "/CMakeLists.txt", source + "/monitor/web/index.html",
+      "http://127.0.0.1/etc/passwd", "file:///etc/passwd", "/app.js%00.html",
+      "/%c0%ae%c0%ae/%c0%ae%c0%ae/etc/passwd", "etc/passwd", "*"};
+  for (const std::string& target : targets) {
+    std::string response;
+    const int status = RawRequest(port(), Get(target), &response);
+    EXPECT_TRUE(status == 404 || status == 400) << target << " -> " << status << "\n" << response;
+    EXPECT_EQ(response.find("root:"), std::string::npos) << target;
+    EXPECT_EQ(response.find("cmake_minimum_required"), std::string::npos) << target;
+    EXPECT_EQ(response.find("<!doctype html>"), std::string::npos) << target;
+    EXPECT_EQ(response.find("rocklab monitor page"), std::string::npos) << target;  // app.js
+  }
+}
+
+TEST_F(MonitorServerTest, MethodsOtherThanGetAndHeadAre405) {
+  httplib::Client client("127.0.0.1", port());
+  std::vector<httplib::Result> results;
+  results.push_back(client.Post("/", "x", "text/plain"));
+  results.push_back(client.Put("/app.js", "x", "text/plain"));
+  results.push_back(client.Delete("/app.js"));
+  results.push_back(client.Patch("/api/snapshot", "x", "text/plain"));
+  results.push_back(client.Options("/"));
+  results.push_back(client.Post("/nope", "x", "text/plain"));
+  for (const auto& res : results) {
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 405);
+    EXPECT_EQ(res->get_header_value("Allow"), "GET, HEAD");
+  }
+  for (const char* method : {"TRACE", "CONNECT"}) {
+    std::string response;
+    EXPECT_EQ(RawRequest(port(), std::string(method) +
+                                     " / HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n",
+                         &response),
+              405)
+        << method << "\n" << response;
+  }
+  // A method HTTP does not define is refused by the request parser itself.
+  EXPECT_EQ(RawRequest(port(), "BREW / HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"), 400);
+}
+
+TEST_F(MonitorServerTest, SnapshotIsTheLiveStateAsJson) {
+  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  Feed(state_, "RL_MODEL_fit", test::Model("fit", 1'000'000, 0.02));
+  httplib::Client client("127.0.0.1", port());
+  const auto res = client.Get("/api/snapshot");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  EXPECT_EQ(res->get_header_value("Content-Type"), "application/json");
+  EXPECT_EQ(res->get_header_value("Cache-Control"), "no-store");
+  const json snap = json::parse(res->body);
+  EXPECT_EQ(snap.at("schema"), "rocklab.monitor.v1");
+  EXPECT_EQ(snap.at("measured").at("t").size(), 1u);
+  ASSERT_EQ(snap.at("variants").size(), 1u);
+  EXPECT_EQ(snap.at("variants")[0].at("name"), "fit");
+  EXPECT_EQ(snap.at("variants")[0].at("alpha").get<double>(), 0.235);
+}
+
+// Reads an event stream on its own thread; the test waits for its events.
+class StreamReader {
+ public:
+  StreamReader(int port, const std::string& path) : client_("127.0.0.1", port) {
+    client_.set_read_timeout(10, 0);  // a bound against a hung test
+    thread_ = std::thread([this, path] {
+      auto res = client_.Get(path.c_str(), [this](const char* data, std::size_t n) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        text_.append(data, n);
+        cv_.notify_all();
+        return !closing_;
+      });
+      std::lock_guard<std::mutex> lock(mutex_);
+      status_ = res ? res->status : -1;
+      ended_ = true;
+      cv_.notify_all();
+    });
+  }
+  ~StreamReader() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closing_ = true;
+    }
+    client_.stop();
+    thread_.join();
+  }
+
+  /// The `index`-th "data:" event as JSON, null if the stream ended first.
+  json Event(std::size_t index) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    std::vector<json> events;
+    cv_.wait_for(lock, std::chrono::seconds(10), [&] {
+      events = Parse(text_);
+      return events.size() > index || ended_;
+    });
+    return events.size() > index ? events[index] : json();
+  }
+  /// Waits until the stream ends; its HTTP status.
+  int EndStatus() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait_for(lock, std::chrono::seconds(10), [&] { return ended_; });
+    return ended_ ? status_ : 0;
+  }
+  std::string text() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return text_;
+  }
+
+ private:
+  static std::vector<json> Parse(const std::string& text) {
+    std::vector<json> out;
+    std::size_t pos = 0;
+    for (std::size_t end; (end = text.find("\n\n", pos)) != std::string::npos; pos = end + 2) {
+      const std::string block = text.substr(pos, end - pos);
+      const std::size_t data = block.find("data: ");
+      if (data != std::string::npos) out.push_back(json::parse(block.substr(data + 6)));
+    }
+    return out;
+  }
+
+  httplib::Client client_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::string text_;
+  bool closing_{}, ended_{};
+  int status_{};
+};
+
+TEST_F(MonitorServerTest, EventStreamSendsTheSnapshotThenUpdates) {
+  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  StreamReader stream(port(), "/api/events");
+  const json first = stream.Event(0);
+  ASSERT_FALSE(first.is_null()) << stream.text();
+  EXPECT_TRUE(first.at("full").get<bool>());
+  EXPECT_EQ(first.at("measured").at("t").size(), 1u);
+  EXPECT_NE(stream.text().find("retry: "), std::string::npos);
+
+  Feed(state_, "RL_THETA", test::Theta(1'100'000, 0.02));
+  const json second = stream.Event(1);
+  ASSERT_FALSE(second.is_null()) << stream.text();
+  EXPECT_FALSE(second.at("full").get<bool>());
+  ASSERT_EQ(second.at("measured").at("t").size(), 1u);  // only the new point
+  EXPECT_DOUBLE_EQ(second.at("measured").at("t")[0].get<double>(), 0.1);
+  EXPECT_GT(second.at("cursor").get<std::uint64_t>(), first.at("cursor").get<std::uint64_t>());
+}
+
+TEST_F(MonitorServerTest, StreamsBeyondTheLimitGet503AndStopEndsTheOthers) {
+  ServerOptions one;
+  one.max_streams = 1;
+  Serve(one);
+  StreamReader first(port(), "/api/events");
+  ASSERT_FALSE(first.Event(0).is_null());
+  httplib::Client client("127.0.0.1", port());
+  const auto second = client.Get("/api/events");
+  ASSERT_TRUE(second);
+  EXPECT_EQ(second->status, 503);
+  // Files and the snapshot are still served while the stream is open.
+  const auto page = client.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  server_->Stop();
+  EXPECT_EQ(first.EndStatus(), 200);  // the stream ended when the server stopped
+}
+
+TEST(MonitorServerOptions, AreValidated) {
+  LiveState state;
+  auto bad = [&state](auto change) {
+    ServerOptions o;
+    change(o);
+    EXPECT_THROW(MonitorServer(state, o), std::invalid_argument);
+  };
+  bad([](ServerOptions& o) { o.port = -1; });
+  bad([](ServerOptions& o) { o.port = 65536; });
+  bad([](ServerOptions& o) { o.host = ""; });
+  bad([](ServerOptions& o) { o.push_period_s = 0; });
+  bad([](ServerOptions& o) { o.max_streams = 0; });
+}
+
+}  // namespace
+}  // namespace rocklab::monitor
