@@ -126,6 +126,13 @@ TEST(MonitorBrowser, PageShowsTheReplayAndTheComparatorsNumbers) {
       EXPECT_TRUE(SameAtSixDigits(cells.at(param), v.at(param).get<double>())) << param;
     }
   }
+  // Static mode (the report's): the same numbers and charts from the
+  // inlined final snapshot, without a single request.
+  const json& still = shown.at("static");
+  EXPECT_EQ(still.at("mode"), "static");
+  EXPECT_TRUE(still.at("requests").empty()) << still.at("requests").dump(2);
+  EXPECT_EQ(still.at("cells"), shown.at("cells"));
+  EXPECT_EQ(still.at("dataLengths"), lengths);
   // Every node's health reached the page.
   for (const char* node : {"daq", "model", "compare"}) {
     EXPECT_TRUE(shown.at("health").contains(node)) << node;

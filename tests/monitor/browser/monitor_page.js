@@ -10,7 +10,10 @@
 // 3. waits until the table shows, for every variant, the sample count of the
 //    server's final snapshot (the page caught up with the last RL_COMPARE);
 // 4. writes OUT.json: the table cells (data-variant, data-field -> text), the
-//    uPlot data lengths, the update count, console errors; saves a screenshot.
+//    uPlot data lengths, the update count, console errors; saves a screenshot;
+// 5. renders the page in static mode (files and the final snapshot inlined,
+//    as `rocklab report` does) and adds what it shows, and the requests it
+//    made, as "static".
 'use strict';
 
 const fs = require('fs');
@@ -34,17 +37,51 @@ async function waitForFile(file) {
   }
 }
 
-function getJson(address) {
+async function getJson(address) {
+  return JSON.parse(await getText(address));
+}
+
+// What the page shows, read in the page: table cells by data attributes,
+// the uPlot data lengths, the update count and the mode.
+function collectShown() {
+  const cells = {};
+  for (const td of document.querySelectorAll('td[data-variant][data-field]')) {
+    const v = td.getAttribute('data-variant');
+    (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
+  const health = {};
+  for (const td of document.querySelectorAll('td[data-node][data-field]')) {
+    const n = td.getAttribute('data-node');
+    (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
+  return {cells, health, dataLengths: window.rocklabMonitor.dataLengths(),
+    updates: window.rocklabMonitor.updates, mode: window.rocklabMonitor.mode};
+}
+
+function getText(address) {
   return new Promise((resolve, reject) => {
     http.get(address, (res) => {
       let body = '';
       res.setEncoding('utf8');
       res.on('data', (chunk) => { body += chunk; });
-      res.on('end', () => {
-        try { resolve(JSON.parse(body)); } catch (e) { reject(e); }
-      });
+      res.on('end', () => resolve(body));
     }).on('error', reject);
   });
+}
+
+// The page with its files and a snapshot inlined (no network at all).
+async function staticHtml(base, snapshot) {
+  const file = (name) => getText(base + name);
+  const [html, app, style, uplot, uplotCss] = await Promise.all(
+    [file('index.html'), file('app.js'), file('style.css'), file('uPlot.iife.min.js'), file('uPlot.min.css')]);
+  const data = JSON.stringify(snapshot).replace(/</g, '\\u003c');
+  // Function replacements: the inlined code may hold "$&"-like sequences.
+  return html
+    .replace('<link rel="stylesheet" href="uPlot.min.css">', () => '<style>' + uplotCss + '</style>')
+    .replace('<link rel="stylesheet" href="style.css">', () => '<style>' + style + '</style>')
+    .replace('<script src="uPlot.iife.min.js"></script>', () => '<script>' + uplot + '</script>')
+    .replace('<script src="app.js"></script>',
+      () => '<script>window.ROCKLAB_SNAPSHOT = ' + data + ';</script><script>' + app + '</script>');
 }
 
 async function main() {
@@ -78,24 +115,24 @@ async function main() {
       return window.rocklabMonitor.dataLengths().theta.length > 1;
     }, expected, {timeout: STEP_TIMEOUT_MS});
 
-    const shown = await page.evaluate(() => {
-      const cells = {};
-      for (const td of document.querySelectorAll('td[data-variant][data-field]')) {
-        const v = td.getAttribute('data-variant');
-        (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
-      }
-      const health = {};
-      for (const td of document.querySelectorAll('td[data-node][data-field]')) {
-        const n = td.getAttribute('data-node');
-        (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
-      }
-      return {cells, health, dataLengths: window.rocklabMonitor.dataLengths(),
-        updates: window.rocklabMonitor.updates, mode: window.rocklabMonitor.mode};
-    });
+    const shown = await page.evaluate(collectShown);
     fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
     await page.screenshot({path: screenshotPath, fullPage: true});
-    shown.consoleErrors = consoleErrors;
     shown.serverVariants = Object.keys(expected);
+
+    // Static mode, as `rocklab report` uses the page: the same files inlined
+    // with the final snapshot as window.ROCKLAB_SNAPSHOT; it must render that
+    // and request nothing.
+    const staticPage = await context.newPage();
+    const requests = [];
+    staticPage.on('request', (r) => { if (!r.url().startsWith('data:')) requests.push(r.url()); });
+    staticPage.on('pageerror', (e) => consoleErrors.push('static page: ' + String(e)));
+    await staticPage.setContent(await staticHtml(url, snapshot));
+    await staticPage.waitForFunction(() => window.rocklabMonitor && window.rocklabMonitor.mode === 'static',
+      null, {timeout: STEP_TIMEOUT_MS});
+    shown.static = await staticPage.evaluate(collectShown);
+    shown.static.requests = requests;
+    shown.consoleErrors = consoleErrors;
     fs.writeFileSync(outPath, JSON.stringify(shown, null, 2) + '\n');
   } finally {
     await context.close();
