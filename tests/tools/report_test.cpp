@@ -5,6 +5,7 @@
 // parameters of each RL_MODEL_ variant, the last nrms of each RL_COMPARE_,
 // the table peaks of RL_TABLE); the degree (180/pi per rad); the SVG read
 // back with an XML parser; the PNG format's signature and IHDR size.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
