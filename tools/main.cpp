@@ -20,6 +20,7 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run);
 void RegisterDaq(CLI::App& app, CommandRun& run);
 void RegisterRun(CLI::App& app, CommandRun& run);
 void RegisterMonitor(CLI::App& app, CommandRun& run);
+void RegisterReport(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -43,6 +44,7 @@ int main(int argc, char** argv) {
       &RegisterDaq,
       &RegisterRun,
       &RegisterMonitor,
+      &RegisterReport,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

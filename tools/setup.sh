@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev
   iproute2 util-linux
   libcpp-httplib-dev gnuplot-nox
+  libexpat1-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.

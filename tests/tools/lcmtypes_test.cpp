@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -118,6 +120,35 @@ TEST(LcmTypes, StateEventAndHealthRoundTripOverMemq) {
   health.state = "running";
   health.gaps = 2;
   EXPECT_EQ(RoundTrip(lcm, "RL_HEALTH", health).gaps, 2);
+}
+
+// lcm-gen's decoder (lcm_coretypes.h) writes doubles through int64_t
+// pointers. Oracle: the encoded values. Without -fno-strict-aliasing on
+// rocklab::lcmtypes, GCC -O2 returns the zeros of a message value-initialised
+// just before decode() in a loop like this one (seen with the report's
+// RL_TABLE peaks).
+double PeakAcceleration(const std::vector<std::vector<std::uint8_t>>& payloads) {
+  double peak = 0.0;
+  for (const auto& b : payloads) {
+    rocklab::table_state_t m{};
+    if (m.decode(b.data(), 0, static_cast<int>(b.size())) < 0) return -1.0;
+    peak = std::fmax(peak, std::fabs(m.acceleration));
+  }
+  return peak;
+}
+
+TEST(LcmTypes, DecodeIntoAFreshlyInitialisedMessageReadsItsDoubles) {
+  std::vector<std::vector<std::uint8_t>> payloads;
+  for (int i = 0; i < 4; ++i) {
+    rocklab::table_state_t sent{};
+    sent.utime = 1000 * i;
+    sent.seq = i;
+    sent.acceleration = 0.5 * i;  // peak 1.5
+    payloads.emplace_back(static_cast<std::size_t>(sent.getEncodedSize()));
+    const int size = static_cast<int>(payloads.back().size());
+    ASSERT_EQ(sent.encode(payloads.back().data(), 0, size), size);
+  }
+  EXPECT_EQ(PeakAcceleration(payloads), 1.5);
 }
 
 }  // namespace

@@ -1,0 +1,90 @@
+// A `rocklab report` page in a real headless Chromium (Debian's, driven by
+// playwright-core: tests/tools/report_page.js), opened from disk with every
+// network request refused: the page is self-contained and draws the record.
+// Oracles: the snapshot inlined in the page (its series lengths, variants
+// and their final sample counts) and the absence of any request. Saves a
+// screenshot: build/test-artifacts/report.png.
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/tools/run_cli.h"
+
+namespace rocklab::tools {
+namespace {
+
+using nlohmann::json;
+
+const std::string kSource = ROCKLAB_SOURCE_DIR;
+constexpr const char* kChromium = "/usr/bin/chromium";
+
+TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
+  if (access(kChromium, X_OK) != 0) {
+    GTEST_SKIP() << "no " << kChromium << " (Debian package chromium; tools/test.sh installs it): "
+                 << "browser test skipped";
+  }
+  const std::string dir = test::ScratchDir("report_browser");
+  const std::string log = dir + "/fig7.lcm";
+  const test::CliResult run = test::RunCli(
+      {"run", "--rig", kSource + "/data/rigs/block1_rig.toml", "--input",
+       kSource + "/data/samples/fig7_block1.csv", "--max", "--variant",
+       "fitted:complex:alpha=0.235,p=3.884,mu=0.937", "--variant", "theory:housner:theoretical",
+       "--log", log});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string html = dir + "/report.html";
+  const test::CliResult report = test::RunCli({"report", log, "--out", html});
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+
+  const std::string artifacts = ROCKLAB_ARTIFACT_DIR;
+  std::filesystem::create_directories(artifacts);
+  const std::string screenshot = artifacts + "/report.png";
+  std::filesystem::remove(screenshot);
+  const std::string command = "NODE_PATH='" ROCKLAB_BROWSER_DIR "/node_modules' '" ROCKLAB_NODE
+                              "' '" + kSource + "/tests/tools/report_page.js' '" + html + "' '" +
+                              dir + "/shown.json' '" + screenshot + "' >'" + dir +
+                              "/node.out' 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << test::ReadFile(dir + "/node.out");
+
+  const json shown = json::parse(test::ReadFile(dir + "/shown.json"));
+  EXPECT_EQ(shown.at("mode"), "static");
+  EXPECT_TRUE(shown.at("requests").empty()) << shown.at("requests").dump(2);
+  EXPECT_TRUE(shown.at("consoleErrors").empty()) << shown.at("consoleErrors").dump(2);
+  EXPECT_EQ(shown.at("title"), "rocklab report: fig7.lcm");
+
+  // The theta chart holds the time axis, the measured series and one per
+  // variant, over the snapshot's points (the model and measured samples
+  // share the sample clock, so the axis is the measured series' times).
+  const std::string page = test::ReadFile(html);
+  const std::string head = "window.ROCKLAB_SNAPSHOT = ";
+  const std::size_t at = page.find(head);
+  ASSERT_NE(at, std::string::npos);
+  const json snap = json::parse(page.substr(at + head.size(), page.find(";</script>", at) - at - head.size()));
+  const json& theta = shown.at("dataLengths").at("theta");
+  ASSERT_EQ(theta.size(), 2 + snap.at("variants").size()) << theta.dump();
+  std::set<double> times;
+  for (const json& t : snap.at("measured").at("t")) times.insert(t.get<double>());
+  for (const json& v : snap.at("variants")) {
+    for (const json& t : v.at("theta").at("t")) times.insert(t.get<double>());
+  }
+  for (const json& n : theta) EXPECT_EQ(n.get<std::size_t>(), times.size()) << theta.dump();
+
+  // The comparison table shows every variant with its final sample count.
+  for (const json& v : snap.at("variants")) {
+    const std::string name = v.at("name");
+    ASSERT_TRUE(shown.at("cells").contains(name)) << shown.at("cells").dump(2);
+    EXPECT_EQ(shown.at("cells").at(name).at("samples").get<std::string>(),
+              std::to_string(v.at("latest").at("samples").get<long>()));
+    EXPECT_EQ(shown.at("cells").at(name).at("model").get<std::string>(),
+              v.at("model").get<std::string>());
+  }
+  EXPECT_TRUE(std::filesystem::exists(screenshot));
+}
+
+}  // namespace
+}  // namespace rocklab::tools

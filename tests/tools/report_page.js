@@ -1,0 +1,66 @@
+// Opens a `rocklab report` page from disk in Debian's headless Chromium
+// (through playwright-core, installed for the monitor's browser test) with
+// every network request refused and recorded, then reports what the page
+// shows. Run by tests/tools/report_browser_test.cpp:
+//
+//   node report_page.js REPORT.html OUT.json SCREENSHOT.png
+//
+// OUT.json: the page's mode, the uPlot data lengths, the comparison table
+// cells (data-variant, data-field -> text), the requests made other than
+// for the file itself, and console errors.
+'use strict';
+
+const fs = require('fs');
+const path = require('path');
+const {pathToFileURL} = require('url');
+const {chromium} = require('playwright-core');
+
+const [reportPath, outPath, screenshotPath] = process.argv.slice(2);
+const STEP_TIMEOUT_MS = 20000;  // a bound on each wait, not a measurement
+
+async function main() {
+  const browser = await chromium.launch({
+    executablePath: '/usr/bin/chromium',
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run',
+      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+  });
+  const consoleErrors = [];
+  const requests = [];  // anything but the report file itself and data: URLs
+  try {
+    const page = await browser.newPage({viewport: {width: 1400, height: 1000}});
+    const fileUrl = pathToFileURL(path.resolve(reportPath)).href;
+    page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+    page.on('pageerror', (e) => consoleErrors.push(String(e)));
+    await page.route('**/*', (route) => {
+      const url = route.request().url();
+      if (url === fileUrl || url.startsWith('data:')) return route.continue();
+      requests.push(url);
+      return route.abort();
+    });
+    await page.goto(fileUrl, {timeout: STEP_TIMEOUT_MS});
+    await page.waitForFunction(() => window.rocklabMonitor && window.rocklabMonitor.mode === 'static' &&
+      window.rocklabMonitor.dataLengths().theta.length > 1, null, {timeout: STEP_TIMEOUT_MS});
+    const shown = await page.evaluate(() => {
+      const cells = {};
+      for (const td of document.querySelectorAll('td[data-variant][data-field]')) {
+        const v = td.getAttribute('data-variant');
+        (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
+        cells, title: document.title};
+    });
+    fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
+    await page.screenshot({path: screenshotPath, fullPage: true});
+    shown.requests = requests;
+    shown.consoleErrors = consoleErrors;
+    fs.writeFileSync(outPath, JSON.stringify(shown, null, 2) + '\n');
+  } finally {
+    await browser.close();
+  }
+}
+
+main().catch((e) => {
+  console.error('report_page.js: ' + (e && e.stack ? e.stack : e));
+  process.exit(1);
+});

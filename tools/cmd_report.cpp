@@ -1,0 +1,136 @@
+// rocklab report LOG.lcm --out report.html [--png FILE] [--svg FILE]
+// [--size WxH] [--series-rate HZ]: a recorded test as a self-contained page
+// (the live monitor's views over the whole record) and a static figure like
+// the paper's figures 6 to 8.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <regex>
+#include <string>
+#include <utility>
+
+#include "tools/cli.h"
+#include "tools/report.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct ReportCommand {
+  std::string log_path;
+  std::string out_html;
+  std::string png_path;
+  std::string svg_path;
+  std::string size{"1000x650"};
+  ReportOptions options;
+};
+
+// The folder `file` goes into exists and may be written (checked before the
+// log is read, so a typo costs nothing).
+void RequireOutputFolder(const std::string& option, const std::string& file) {
+  if (file.empty()) return;
+  std::filesystem::path folder = std::filesystem::path(file).parent_path();
+  if (folder.empty()) folder = ".";
+  if (!std::filesystem::is_directory(folder)) {
+    throw UsageError(option + ": folder '" + folder.string() + "' does not exist (for '" + file +
+                     "')");
+  }
+  if (::access(folder.c_str(), W_OK) != 0) {
+    throw UsageError(option + ": folder '" + folder.string() + "' is not writable (for '" + file +
+                     "')");
+  }
+}
+
+std::pair<int, int> ParseSize(const std::string& text) {
+  static const std::regex kSize("([0-9]{1,5})x([0-9]{1,5})");
+  std::smatch m;
+  if (!std::regex_match(text, m, kSize) || std::stoi(m[1]) < 200 || std::stoi(m[2]) < 200) {
+    throw UsageError("--size must be WIDTHxHEIGHT in pixels, each at least 200, got '" + text + "'");
+  }
+  return {std::stoi(m[1]), std::stoi(m[2])};
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write '" + path + "'");
+}
+
+void DrawFigure(const ThetaFigure& figure, const std::string& path, FigureFormat format,
+                std::pair<int, int> size) {
+  if (path.empty()) return;
+  std::string warnings;
+  try {
+    warnings = figure.Write(path, format, size.first, size.second);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--size: ") + e.what());
+  }
+  if (!warnings.empty()) std::fprintf(stderr, "report: gnuplot: %s\n", warnings.c_str());
+  std::fprintf(stderr, "report: wrote %s\n", path.c_str());
+}
+
+int RunReport(const ReportCommand& c) {
+  const std::pair<int, int> size = ParseSize(c.size);
+  Require(c.options.series_rate_hz > 0 && std::isfinite(c.options.series_rate_hz),
+          "--series-rate", "> 0 Hz", c.options.series_rate_hz);
+  RequireOutputFolder("--out", c.out_html);
+  RequireOutputFolder("--png", c.png_path);
+  RequireOutputFolder("--svg", c.svg_path);
+
+  RecordReport record;
+  try {
+    record = ReadRecordLog(c.log_path, c.options);
+  } catch (const ReportInputError& e) {
+    throw UsageError(e.what());
+  }
+  std::fprintf(stderr, "report: %s: %lld events, %lld that did not decode\n", c.log_path.c_str(),
+               static_cast<long long>(record.events), static_cast<long long>(record.decode_errors));
+  std::int64_t dropped = 0;
+  for (const auto& [what, n] : record.snapshot.at("counters").at("dropped").items()) {
+    dropped += n.get<std::int64_t>();
+  }
+  if (dropped > 0) {
+    std::fprintf(stderr, "report: %lld items beyond the page's limits were left out: %s\n",
+                 static_cast<long long>(dropped),
+                 record.snapshot.at("counters").at("dropped").dump().c_str());
+  }
+  const int records = record.snapshot.value("record", 1);
+  if (records > 1) {
+    std::fprintf(stderr,
+                 "report: the sample clock goes back %d times in the log (a replay restarted?): "
+                 "the report shows the last record only\n",
+                 records - 1);
+  }
+
+  WriteText(c.out_html, ReportPage(record));
+  std::fprintf(stderr, "report: wrote %s\n", c.out_html.c_str());
+  if (!c.svg_path.empty() || !c.png_path.empty()) {
+    const ThetaFigure figure = ReportFigure(record);
+    DrawFigure(figure, c.svg_path, FigureFormat::kSvg, size);
+    DrawFigure(figure, c.png_path, FigureFormat::kPng, size);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterReport(CLI::App& app, CommandRun& run) {
+  auto c = std::make_shared<ReportCommand>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("report", "a recorded test as a web page and a figure");
+  cmd->add_option("log", c->log_path, "LCM log of the test (rocklab run --log, lcm-logger)")
+      ->required();
+  cmd->add_option("--out", c->out_html, "the page (HTML, self-contained)")->required();
+  cmd->add_option("--png", c->png_path, "the figure as PNG");
+  cmd->add_option("--svg", c->svg_path, "the figure as SVG");
+  cmd->add_option("--size", c->size, "figure size WIDTHxHEIGHT, px")->capture_default_str();
+  cmd->add_option("--series-rate", c->options.series_rate_hz,
+                  "points kept per second of each series, Hz")
+      ->capture_default_str();
+  cmd->callback([c, &run] { run = [c] { return RunReport(*c); }; });
+}
+
+}  // namespace rocklab::tools

@@ -1,0 +1,194 @@
+#include "tools/report.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "monitor/live_state.h"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::tools {
+namespace {
+
+using nlohmann::json;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Format(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return buf;
+}
+
+// A number of the snapshot; NaN where it is null (the snapshot's NaN) or absent.
+double Number(const json& object, const char* key) {
+  if (!object.is_object()) return kNaN;
+  const auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>() : kNaN;
+}
+
+std::string Text(const json& object, const char* key) {
+  if (!object.is_object()) return {};
+  const auto it = object.find(key);
+  return it != object.end() && it->is_string() ? it->get<std::string>() : std::string();
+}
+
+// {"t": [..], "<values>": [..]} of the snapshot as a curve (null -> NaN).
+ThetaCurve Curve(const json& series, const char* values, std::string title, bool reference) {
+  ThetaCurve c;
+  c.title = std::move(title);
+  c.reference = reference;
+  if (!series.is_object() || !series.contains("t") || !series.contains(values)) return c;
+  const json& t = series.at("t");
+  const json& v = series.at(values);
+  const std::size_t n = std::min(t.size(), v.size());
+  c.time_s.reserve(n);
+  c.theta_deg.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    c.time_s.push_back(t[i].is_number() ? t[i].get<double>() : kNaN);
+    c.theta_deg.push_back(v[i].is_number() ? v[i].get<double>() : kNaN);
+  }
+  return c;
+}
+
+std::string ModelName(const std::string& model) {
+  if (model == "complex") return "complex formulation";
+  if (model == "housner") return "Housner model";
+  return model.empty() ? std::string("model unknown") : model;
+}
+
+}  // namespace
+
+void TablePeaks::Add(const rocklab::table_state_t& m) {
+  ++samples;
+  if (std::isfinite(m.acceleration)) accel_mps2 = std::fmax(accel_mps2, std::fabs(m.acceleration));
+  if (std::isfinite(m.displacement)) disp_m = std::fmax(disp_m, std::fabs(m.displacement));
+}
+
+RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& options) {
+  if (std::filesystem::is_directory(log_path)) {
+    throw ReportInputError("cannot read LCM log '" + log_path + "': it is a folder");
+  }
+  {
+    std::ifstream probe(log_path, std::ios::binary);
+    if (!probe) {
+      throw ReportInputError("cannot read LCM log '" + log_path + "': " + std::strerror(errno));
+    }
+  }
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) throw ReportInputError("cannot read LCM log '" + log_path + "'");
+
+  // LiveState keeps events and flag intervals in rings sized up front: a
+  // first pass counts RL_EVENT so the page lists every one of them (flag and
+  // stale intervals open and close with events, so the same bound holds).
+  std::size_t event_count = 0;
+  {
+    const std::string event_channel = options.channel_prefix + "EVENT";
+    lcm::LogFile scan(log_path, "r");
+    while (const lcm::LogEvent* ev = scan.readNextEvent()) event_count += ev->channel == event_channel;
+  }
+  monitor::LiveOptions live_options;
+  live_options.window_s = std::numeric_limits<double>::infinity();  // the whole record
+  live_options.series_rate_hz = options.series_rate_hz;
+  live_options.channel_prefix = options.channel_prefix;
+  live_options.max_events = std::max(live_options.max_events, event_count);
+  live_options.max_intervals = std::max(live_options.max_intervals, event_count);
+  monitor::LiveState live(live_options);
+
+  RecordReport r;
+  r.log_path = log_path;
+  const std::string table_channel = options.channel_prefix + "TABLE";
+  rocklab::table_state_t table{};  // decoding buffer, reused
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    ++r.events;
+    live.Ingest(ev->channel, ev->data, ev->datalen);  // counts every channel
+    if (ev->channel != table_channel) continue;
+    if (table.decode(ev->data, 0, ev->datalen) < 0) {
+      ++r.table.decode_errors;
+    } else {
+      r.table.Add(table);
+    }
+  }
+  if (r.events == 0) {
+    throw ReportInputError("'" + log_path + "' is not an LCM log (no LCM event in it)");
+  }
+  r.snapshot = live.Snapshot();
+  const json& counters = r.snapshot.at("counters");
+  const std::string theta_channel = options.channel_prefix + "THETA";
+  const std::int64_t theta_count = counters.at("messages").value(theta_channel, std::int64_t{0});
+  if (theta_count == 0) {
+    throw ReportInputError("'" + log_path + "' has no " + theta_channel + " message (" +
+                           std::to_string(r.events) +
+                           " events on other channels): no measured theta to report");
+  }
+  if (r.snapshot.at("measured").at("t").empty()) {
+    throw ReportInputError("'" + log_path + "': none of its " + std::to_string(theta_count) + " " +
+                           theta_channel + " messages decodes as rocklab::block_state_t");
+  }
+  for (const auto& [channel, n] : counters.at("decode_errors").items()) {
+    r.decode_errors += n.get<std::int64_t>();
+  }
+  r.decode_errors += r.table.decode_errors;
+  return r;
+}
+
+std::vector<std::string> CaptionLines(const RecordReport& record) {
+  const json& s = record.snapshot;
+  std::vector<std::string> lines;
+  for (const json& v : s.at("variants")) {
+    const std::string model = Text(v, "model");
+    std::string line = Text(v, "name") + ": " + ModelName(model);
+    line += Format(", alpha %.6g rad, p %.6g rad/s, mu %.6g", Number(v, "alpha"), Number(v, "p"),
+                   Number(v, "mu"));
+    if (model == "complex") line += Format(", l %.6g", Number(v, "l"));
+    const double nrms = Number(v.value("latest", json()), "nrms");
+    line += std::isfinite(nrms) ? Format("; nrms %.3g", nrms) : std::string("; not compared");
+    lines.push_back(line);
+  }
+
+  const json config = s.value("config", json());
+  const std::string rig = Text(config, "rig_name");
+  std::string scenario = "rig " + (rig.empty() ? std::string("unknown (no RL_DAQ_CONFIG)") : rig);
+  const std::string calibration = Text(config, "calibration_id");
+  if (!calibration.empty()) scenario += ", calibration " + calibration;
+  const json& measured_t = s.at("measured").at("t");
+  const double t_first = !measured_t.empty() && measured_t[0].is_number() ? measured_t[0].get<double>() : 0.0;
+  const double t_latest = Number(s, "t_latest");
+  scenario += Format("; record %.3f s", std::isfinite(t_latest) ? t_latest - t_first : 0.0);
+  if (record.table.samples > 0) {
+    scenario += Format("; peak table acceleration %.4g m/s^2, peak table displacement %.4g mm",
+                       record.table.accel_mps2, record.table.disp_m * 1e3);
+  } else {
+    scenario += "; no table record (RL_TABLE)";
+  }
+  lines.push_back(scenario);
+  return lines;
+}
+
+ThetaFigure ReportFigure(const RecordReport& record) {
+  const json& s = record.snapshot;
+  ThetaFigure figure;
+  figure.set_title("rocking angle theta: experiment and models (" +
+                   std::filesystem::path(record.log_path).filename().string() + ")");
+  figure.AddCurve(Curve(s.at("measured"), "theta_deg", "experiment", true));
+  for (const json& v : s.at("variants")) {
+    figure.AddCurve(Curve(v.value("theta", json()), "theta_deg",
+                          Text(v, "name") + " (" + ModelName(Text(v, "model")) + ")", false));
+  }
+  for (std::string& line : CaptionLines(record)) figure.AddCaptionLine(std::move(line));
+  return figure;
+}
+
+}  // namespace rocklab::tools

@@ -1,0 +1,66 @@
+#pragma once
+/// @file
+/// The static figure of a recorded test, like the paper's figures 6 to 8:
+/// theta in degrees against time in seconds, the experiment and each model
+/// variant overlaid, with caption lines below the plot. gnuplot draws it: the
+/// script and the curves (as inline data blocks) go to gnuplot's standard
+/// input through a pipe; nothing is plotted by hand.
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rocklab::tools {
+
+/// gnuplot could not be started, failed, or wrote no file. The message is
+/// one line naming the output file and gnuplot's own complaint.
+class FigureError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class FigureFormat { kSvg, kPng };
+
+/// One curve of theta against time.
+struct ThetaCurve {
+  std::string title;              ///< legend entry (printed as is, no markup)
+  std::vector<double> time_s;     ///< s since the record's start
+  std::vector<double> theta_deg;  ///< degrees, one per time_s; NaN leaves a gap
+  bool reference{};               ///< the experiment: drawn first style, black
+};
+
+/// Collects curves and caption lines and draws them with gnuplot.
+class ThetaFigure {
+ public:
+  /// @throws std::invalid_argument when time_s and theta_deg differ in length.
+  void AddCurve(ThetaCurve curve);
+  void AddCaptionLine(std::string line) { caption_.push_back(std::move(line)); }
+  void set_title(std::string title) { title_ = std::move(title); }
+  /// The gnuplot program: a name looked up on PATH (default "gnuplot") or a path.
+  void set_gnuplot(std::string program) { gnuplot_ = std::move(program); }
+
+  const std::vector<ThetaCurve>& curves() const { return curves_; }
+  const std::vector<std::string>& caption() const { return caption_; }
+
+  /// The whole gnuplot script Write sends (terminal, layout, data blocks, plot).
+  /// Precondition: width_px, height_px >= 200.
+  std::string Script(const std::string& out_path, FigureFormat format, int width_px,
+                     int height_px) const;
+
+  /// Runs gnuplot on Script(...) and checks that it wrote `out_path`.
+  /// @returns gnuplot's warnings (empty when it had none), one per line.
+  /// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
+  ///   or leaves no output file; std::invalid_argument when the figure has no
+  ///   curve, the size is below 200 px, or the height leaves less than 100 px
+  ///   for the plot beside the caption lines.
+  std::string Write(const std::string& out_path, FigureFormat format, int width_px,
+                    int height_px) const;
+
+ private:
+  std::vector<ThetaCurve> curves_;
+  std::vector<std::string> caption_;
+  std::string title_;
+  std::string gnuplot_{"gnuplot"};
+};
+
+}  // namespace rocklab::tools
