@@ -19,6 +19,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,8 @@ const std::string kRig = kSource + "/data/rigs/block1_rig.toml";
 const std::string kUrl = test::kUdpmUrl;
 // Block 1 with the parameters the record is made with (data/samples/README.md).
 const std::string kFitted = "fitted:complex:alpha=0.235,p=3.884,mu=0.937";
+// The DAQ's channels (RL_EVENT and RL_HEALTH are every node's).
+const std::string kDaqChannels = "RL_(DAQ_CONFIG|RAW|TABLE|THETA|EVENT|HEALTH)";
 
 // A forced test of block 1 (complex model, Table 2's parameters, lab noise,
 // seed 8) under a Hanning-windowed 10 mm, 3.3 Hz table motion from 0.2 s:
@@ -155,16 +158,11 @@ class Watch {
   int syncs_sent_{}, sync_seen_{};
 };
 
-// A rocklab command in the background; its output in DIR/NAME.out|.err.
+// A rocklab command in the background and where its output goes.
 struct Proc {
   pid_t pid{-1};
   std::string out, err;
 };
-Proc Start(const std::string& dir, const std::string& name, const std::vector<std::string>& args) {
-  Proc p{-1, dir + "/" + name + ".out", dir + "/" + name + ".err"};
-  p.pid = test::StartCli(args, p.out, p.err);
-  return p;
-}
 std::vector<std::string> ModelArgs(const std::vector<std::string>& variants) {
   std::vector<std::string> a = {"model", "--rig", kRig, "--lcm-url", kUrl};
   for (const auto& v : variants) a.insert(a.end(), {"--variant", v});
@@ -220,6 +218,39 @@ std::pair<std::int64_t, std::int64_t> CopyDaqMessages(const std::string& in,
   return {tables, thetas};
 }
 
+// Each test: a private network namespace (skipped where none can be made),
+// the test's Watch in it, a scratch folder and a synthetic record.
+class MultiProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string why = test::EnterPrivateNetwork();
+    if (!why.empty()) GTEST_SKIP() << why;
+    watch_ = std::make_unique<Watch>();  // after entering the namespace
+    ASSERT_TRUE(watch_->good());
+  }
+  /// The scratch folder DIR and a record of `record_s` seconds in it.
+  void Prepare(const std::string& name, double record_s) {
+    dir = test::ScratchDir(name);
+    raw = SynthRecord(dir, record_s);
+  }
+  /// lcm-logger writing the `channels` to DIR/NAME (a failure and -1 when
+  /// it does not start).
+  pid_t StartLogger(const std::string& name, const std::string& channels) {
+    const pid_t pid = test::StartLcmLogger(dir + "/" + name, channels);
+    EXPECT_GT(pid, 0) << test::ReadFile(dir + "/" + name + ".err");
+    return pid;
+  }
+  /// A rocklab command; its output in DIR/NAME.out and .err.
+  Proc Start(const std::string& name, const std::vector<std::string>& args) {
+    Proc p{-1, dir + "/" + name + ".out", dir + "/" + name + ".err"};
+    p.pid = test::StartCli(args, p.out, p.err);
+    return p;
+  }
+
+  std::unique_ptr<Watch> watch_;
+  std::string dir, raw;
+};
+
 // Issue 4: daq, model and compare as processes over udpm, lcm-logger
 // recording; lcm-logplayer replays the DAQ's messages of that log into
 // fresh model and compare processes: the two summaries must be equal.
@@ -232,25 +263,21 @@ std::pair<std::int64_t, std::int64_t> CopyDaqMessages(const std::string& in,
 // So no tolerance: any difference is a lost or reordered message. The
 // counts are checked first so that a loss is reported as one. Both must
 // also equal `rocklab run --max` on the same file, for the same reason.
-TEST(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
-  const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
-  const std::string dir = test::ScratchDir("mp_replay");
-  const std::string raw = SynthRecord(dir, 4.0);
-  Watch watch;
-  ASSERT_TRUE(watch.good());
+TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
+  Prepare("mp_replay", 4.0);
+  Watch& watch = *watch_;
   const std::string live_log = dir + "/live.lcm";
-  const pid_t logger = test::StartLcmLogger(live_log);
-  ASSERT_GT(logger, 0) << test::ReadFile(live_log + ".err");
+  const pid_t logger = StartLogger("live.lcm", kDaqChannels);
+  ASSERT_GT(logger, 0);
 
-  // Live: the DAQ at twice the sample clock.
+  // Live: the DAQ at the sample clock; lcm-logger records the DAQ's channels.
   const std::vector<std::string> variants = {kFitted, "housner:housner:theoretical"};
-  Proc model = Start(dir, "model_a", ModelArgs(variants));
-  Proc compare = Start(dir, "compare_a",
+  Proc model = Start("model_a", ModelArgs(variants));
+  Proc compare = Start("compare_a",
                        {"compare", "--lcm-url", kUrl, "--summary", dir + "/A.json"});
   ASSERT_TRUE(watch.UntilHealth("model") && watch.UntilHealth("compare"))
       << test::ReadFile(model.err) << test::ReadFile(compare.err);
-  Proc daq = Start(dir, "daq", {"daq", "--rig", kRig, "--input", raw, "--speed", "2",
+  Proc daq = Start("daq", {"daq", "--rig", kRig, "--input", raw, "--speed", "1",
                                 "--lcm-url", kUrl});
   EXPECT_EQ(test::StopProcess(daq.pid, 0), 0) << test::ReadFile(daq.err);
   ASSERT_TRUE(watch.Until([&] { return watch.health.count("daq") &&
@@ -272,8 +299,8 @@ TEST(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
 
   // Replay: LCM's lcm-logplayer (its default speed, 1: the recorded pace).
   ASSERT_TRUE(watch.Forget());
-  model = Start(dir, "model_b", ModelArgs(variants));
-  compare = Start(dir, "compare_b", {"compare", "--lcm-url", kUrl, "--summary", dir + "/B.json"});
+  model = Start("model_b", ModelArgs(variants));
+  compare = Start("compare_b", {"compare", "--lcm-url", kUrl, "--summary", dir + "/B.json"});
   ASSERT_TRUE(watch.UntilHealth("model") && watch.UntilHealth("compare"));
   const pid_t player = test::StartProcess({"lcm-logplayer", "--lcm-url=" + kUrl, daq_log},
                                           dir + "/player.out", dir + "/player.err");
@@ -314,32 +341,28 @@ TEST(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
 // exactly the measured theta of that utime (or 0 at rest), i.e. it started
 // from the measurement of its first table sample although RL_THETA runs
 // 45 ms ahead of RL_TABLE.
-TEST(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
-  const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
-  const std::string dir = test::ScratchDir("mp_kill");
-  const std::string raw = SynthRecord(dir, 5.0);
-  Watch watch;
-  ASSERT_TRUE(watch.good());
+TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
+  Prepare("mp_kill", 5.0);
+  Watch& watch = *watch_;
   const std::string log = dir + "/kill.lcm";
-  const pid_t logger = test::StartLcmLogger(log);
-  ASSERT_GT(logger, 0) << test::ReadFile(log + ".err");
+  const pid_t logger = StartLogger("kill.lcm", "RL_(THETA|MODEL_fitted|COMPARE_fitted|EVENT)");
+  ASSERT_GT(logger, 0);
 
-  Proc model = Start(dir, "model_1", ModelArgs({kFitted}));
-  Proc compare = Start(dir, "compare", {"compare", "--lcm-url", kUrl, "--stale", "0.3"});
+  Proc model = Start("model_1", ModelArgs({kFitted}));
+  Proc compare = Start("compare", {"compare", "--lcm-url", kUrl, "--stale", "0.3"});
   ASSERT_TRUE(watch.UntilHealth("model") && watch.UntilHealth("compare"));
-  Proc daq = Start(dir, "daq", {"daq", "--rig", kRig, "--input", raw, "--speed", "1",
+  Proc daq = Start("daq", {"daq", "--rig", kRig, "--input", raw, "--speed", "1",
                                 "--lcm-url", kUrl});
-  // 1.8 s of the record compared (the block rocks from about 1.5 s), then the model dies.
+  // 1.6 s of the record compared (the block rocks from about 1.5 s), then the model dies.
   ASSERT_TRUE(watch.Until([&] {
     const auto c = watch.compare.find("RL_COMPARE_fitted");
-    return c != watch.compare.end() && c->second.utime >= watch.first_theta_utime + 1'800'000;
+    return c != watch.compare.end() && c->second.utime >= watch.first_theta_utime + 1'600'000;
   })) << test::ReadFile(model.err);
   EXPECT_EQ(test::StopProcess(model.pid, SIGKILL), 128 + SIGKILL);
   ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event_t::STALE, "fitted"); }));
   EXPECT_FALSE(watch.HasEvent(rocklab::event_t::RECOVERED, "fitted"));
 
-  model = Start(dir, "model_2", ModelArgs({kFitted}));
+  model = Start("model_2", ModelArgs({kFitted}));
   ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event_t::RECOVERED, "fitted"); }))
       << test::ReadFile(model.err);
   std::int64_t recovered_utime = 0;
@@ -401,13 +424,9 @@ TEST(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
 // Oracles: the exit codes, the last RL_HEALTH of each node, the DAQ's
 // frame count against RL_RAW in the log (what was read was published), and
 // the comparator's summary table on stdout.
-TEST(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
-  const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
-  const std::string dir = test::ScratchDir("mp_sigterm");
-  const std::string raw = SynthRecord(dir, 5.0);
-  Watch watch;
-  ASSERT_TRUE(watch.good());
+TEST_F(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
+  Prepare("mp_sigterm", 5.0);
+  Watch& watch = *watch_;
 
   auto last_health = [](const std::string& log, std::map<std::string, std::size_t>* order,
                         std::int64_t* raw_frames) {
@@ -428,12 +447,12 @@ TEST(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
 
   // The three nodes as processes.
   const std::string log = dir + "/nodes.lcm";
-  pid_t logger = test::StartLcmLogger(log);
-  ASSERT_GT(logger, 0) << test::ReadFile(log + ".err");
-  Proc model = Start(dir, "model", ModelArgs({kFitted}));
-  Proc compare = Start(dir, "compare", {"compare", "--lcm-url", kUrl});
+  pid_t logger = StartLogger("nodes.lcm", "RL_(RAW|HEALTH)");
+  ASSERT_GT(logger, 0);
+  Proc model = Start("model", ModelArgs({kFitted}));
+  Proc compare = Start("compare", {"compare", "--lcm-url", kUrl});
   ASSERT_TRUE(watch.UntilHealth("model") && watch.UntilHealth("compare"));
-  Proc daq = Start(dir, "daq", {"daq", "--rig", kRig, "--input", raw, "--lcm-url", kUrl});
+  Proc daq = Start("daq", {"daq", "--rig", kRig, "--input", raw, "--lcm-url", kUrl});
   ASSERT_TRUE(watch.Until(flowing)) << test::ReadFile(daq.err);
   EXPECT_EQ(test::StopProcess(daq.pid, SIGTERM), 0) << test::ReadFile(daq.err);
   ASSERT_TRUE(watch.Until([&] { return watch.health["daq"].state == "stopped"; }));
@@ -455,9 +474,9 @@ TEST(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
   // rocklab run over udpm.
   ASSERT_TRUE(watch.Forget());
   const std::string run_log = dir + "/run.lcm";
-  logger = test::StartLcmLogger(run_log);
-  ASSERT_GT(logger, 0) << test::ReadFile(run_log + ".err");
-  Proc run = Start(dir, "run", {"run", "--rig", kRig, "--input", raw, "--variant", kFitted,
+  logger = StartLogger("run.lcm", "RL_(RAW|HEALTH)");
+  ASSERT_GT(logger, 0);
+  Proc run = Start("run", {"run", "--rig", kRig, "--input", raw, "--variant", kFitted,
                                 "--lcm-url", kUrl});
   ASSERT_TRUE(watch.Until(flowing)) << test::ReadFile(run.err);
   EXPECT_EQ(test::StopProcess(run.pid, SIGTERM), 0) << test::ReadFile(run.err);

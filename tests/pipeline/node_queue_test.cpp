@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <thread>
 
@@ -74,51 +75,53 @@ class Burst {
   std::atomic<bool> stop_{false};
 };
 
-// The node's LCM: a socket buffer for the whole burst (the host's rmem_max).
-const std::string kNodeUrl = std::string(test::kUdpmUrl) + "&recv_buf_size=4194304";
+// Sample k of a 1 kHz stream on `channel`: utime and seq set, the rest zero.
+template <class Msg>
+void PublishSample(lcm::LCM& out, const std::string& channel, int k) {
+  Msg msg{};
+  msg.utime = 1000 * static_cast<std::int64_t>(k);
+  msg.seq = k;
+  out.publish(channel, &msg);
+}
 
-TEST(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
-  const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
-  lcm::LCM lcm(kNodeUrl);
-  ASSERT_TRUE(lcm.good());
+// A private network namespace and the node's LCM, with a socket buffer for
+// the whole burst (the host's rmem_max).
+class NodeQueue : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string why = test::EnterPrivateNetwork();
+    if (!why.empty()) GTEST_SKIP() << why;
+    lcm_ = std::make_unique<lcm::LCM>(std::string(test::kUdpmUrl) + "&recv_buf_size=4194304");
+    ASSERT_TRUE(lcm_->good());
+  }
+  std::unique_ptr<lcm::LCM> lcm_;
+};
+
+TEST_F(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
   model::ModelNodeConfig config;
   model::VariantSpec v;
   v.name = "h";
   v.kind = model::ModelKind::kHousner;
   v.params = {0.245, 3.78, 0.91};
   config.variants = {v};
-  model::ModelNode node(config, &lcm);
+  model::ModelNode node(config, lcm_.get());
   // One RL_THETA at rest, then 1 kHz table samples of zero acceleration.
-  Burst burst(lcm, "RL_TABLE", [](lcm::LCM& out, int k) {
-    if (k == 0) {
-      rocklab::block_state_t theta{};
-      out.publish("RL_THETA", &theta);
-    }
-    rocklab::table_state_t table{};
-    table.utime = 1000 * static_cast<std::int64_t>(k);
-    table.seq = k;
-    out.publish("RL_TABLE", &table);
+  Burst burst(*lcm_, "RL_TABLE", [](lcm::LCM& out, int k) {
+    if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
+    PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
   });
-  node.Run(lcm, burst.stop());
+  node.Run(*lcm_, burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.table_count(), kBurst);
   EXPECT_EQ(node.failures(), 0);
 }
 
-TEST(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBusy) {
-  const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
-  lcm::LCM lcm(kNodeUrl);
-  ASSERT_TRUE(lcm.good());
-  compare::CompareNode node(compare::CompareNodeConfig{}, &lcm);
-  Burst burst(lcm, "RL_THETA", [](lcm::LCM& out, int k) {
-    rocklab::block_state_t theta{};
-    theta.utime = 1000 * static_cast<std::int64_t>(k);
-    theta.seq = k;
-    out.publish("RL_THETA", &theta);
+TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBusy) {
+  compare::CompareNode node(compare::CompareNodeConfig{}, lcm_.get());
+  Burst burst(*lcm_, "RL_THETA", [](lcm::LCM& out, int k) {
+    PublishSample<rocklab::block_state_t>(out, "RL_THETA", k);
   });
-  node.Run(lcm, burst.stop());
+  node.Run(*lcm_, burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.theta_count(), kBurst);
 }

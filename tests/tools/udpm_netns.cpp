@@ -30,9 +30,12 @@ std::string EnterPrivateNetwork() {
   return "";
 }
 
-pid_t StartLcmLogger(const std::string& log_path) {
+pid_t StartLcmLogger(const std::string& log_path, const std::string& channels) {
+  // LCM anchors a subscription regex as ^...$: the outer parentheses keep
+  // the alternation inside.
   const std::string logger = std::string("lcm-logger -f --lcm-url='") + kUdpmUrl +
-                             "&recv_buf_size=4194304' '" + log_path + "'";
+                             "&recv_buf_size=4194304' --channel='((" + channels +
+                             ")|TEST_PROBE)' '" + log_path + "'";
   const std::string script =
       "chrt -f 10 true 2>/dev/null && exec chrt -f 10 " + logger + "; exec " + logger;
   ::unlink(log_path.c_str());

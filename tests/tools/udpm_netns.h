@@ -20,13 +20,15 @@ inline constexpr const char* kUdpmUrl = "udpm://239.255.76.67:7667?ttl=0";
 std::string EnterPrivateNetwork();
 
 /// Starts lcm-logger -f on kUdpmUrl (with a 4 MB socket buffer) writing
-/// `log_path`, at real-time priority (chrt -f 10) when allowed: LCM 1.3.1
-/// queues 30 messages per subscription and lcm-logger cannot raise that, so
-/// a logger that waits ~10 ms for a loaded CPU loses packets. Returns once
-/// the logger records (it publishes TEST_PROBE messages until the log file
-/// grows; lcm-logger flushes every 100 ms), or -1 when it does not within
-/// 10 s. Its own output goes to `log_path`.out and .err.
-pid_t StartLcmLogger(const std::string& log_path);
+/// `log_path`, recording the channels that match `channels` (an LCM
+/// channel regex; TEST_PROBE is added), at real-time priority (chrt -f 10)
+/// when allowed. LCM 1.3.1 queues 30 messages per subscription and
+/// lcm-logger cannot raise that: a logger that waits 10 ms for a loaded CPU
+/// loses packets of a 3-message-per-ms stream, so record only what the test
+/// reads. Returns once the logger records (it publishes TEST_PROBE messages
+/// until the log file grows; lcm-logger flushes every 100 ms), or -1 when it
+/// does not within 10 s. Its own output goes to `log_path`.out and .err.
+pid_t StartLcmLogger(const std::string& log_path, const std::string& channels = ".*");
 
 /// Stops a logger of StartLcmLogger once it has written what was published
 /// before this call: publishes TEST_PROBE "sync" messages until one is in
