@@ -42,6 +42,7 @@ void CompareNodeConfig::Validate() const {
   check(std::isfinite(stale_after_s) && stale_after_s > 0, "stale_after_s");
   check(std::isfinite(health_period_s) && health_period_s > 0, "health_period_s");
   check(align_capacity >= 2, "align_capacity");
+  check(subscriber_queue >= 1, "subscriber_queue");
   comparator.Validate();
 }
 
@@ -253,6 +254,8 @@ void CompareNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
       subscriber.subscribe(config_.channel_prefix + "THETA", &CompareNode::OnTheta, this);
   lcm::Subscription* model =
       subscriber.subscribe(config_.channel_prefix + "MODEL_.*", &CompareNode::OnModel, this);
+  theta->setQueueCapacity(config_.subscriber_queue);
+  model->setQueueCapacity(config_.subscriber_queue);
   PublishHealth("running");
   while (!stop.load()) {
     if (subscriber.handleTimeout(100) < 0) {

@@ -34,6 +34,10 @@ struct CompareNodeConfig {
   double stale_after_s{1.0};       ///< host time without input before a stale event, s; > 0
   double health_period_s{1.0};     ///< RL_HEALTH period, host time, s; > 0
   std::size_t align_capacity{8192};///< samples buffered per side while waiting for a match
+  /// Messages each LCM subscription of Run() may hold before LCM drops
+  /// (silently). LCM's own default, 30, is 15 ms of two 1 kHz models on the
+  /// one RL_MODEL_* subscription. 8192 is ~4 s of two models at 1 kHz. >= 1.
+  int subscriber_queue{8192};
   /// DAQ flags that make a pair invalid (1-DOF model not applicable):
   /// sliding | jump | twist by default.
   std::int32_t invalid_flags{rocklab::block_state_t::FLAG_SLIDING |

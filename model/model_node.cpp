@@ -175,6 +175,7 @@ void ModelNodeConfig::Validate() const {
   if (!(health_period_s > 0) || !std::isfinite(health_period_s)) {
     throw std::invalid_argument("model node option health_period_s out of range");
   }
+  if (subscriber_queue < 1) throw std::invalid_argument("model node option subscriber_queue out of range");
 }
 
 struct ModelNode::Variant {
@@ -355,6 +356,8 @@ void ModelNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
       subscriber.subscribe(config_.channel_prefix + "TABLE", &ModelNode::OnTable, this);
   lcm::Subscription* theta =
       subscriber.subscribe(config_.channel_prefix + "THETA", &ModelNode::OnTheta, this);
+  table->setQueueCapacity(config_.subscriber_queue);
+  theta->setQueueCapacity(config_.subscriber_queue);
   PublishHealth("running");
   while (!stop.load()) {
     if (subscriber.handleTimeout(100) < 0) {

@@ -62,6 +62,11 @@ struct ModelNodeConfig {
   std::vector<VariantSpec> variants;  ///< at least one
   double rest_threshold_rad{2e-3};    ///< |theta| at start below this: at rest, rad
   double health_period_s{1.0};        ///< RL_HEALTH period, host time, s
+  /// Messages each LCM subscription of Run() may hold before LCM drops
+  /// (silently). LCM's own default, 30, is 30 ms of a 1 kHz RL_TABLE: one
+  /// scheduling hiccup of a loaded machine. 4096 is ~4 s at 1 kHz, a few
+  /// hundred kB at most. >= 1.
+  int subscriber_queue{4096};
   /// Optional observer, called synchronously with each RL_MODEL_<name>
   /// message right after it is published (also when there is no publisher),
   /// so a caller can feed the comparator by direct calls. Must not throw (an

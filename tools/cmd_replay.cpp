@@ -1,5 +1,10 @@
-// rocklab replay LOG.lcm: re-publish a recorded log (speed, max, channel
-// filter, loop, time window).
+// rocklab replay: two forms.
+//   rocklab replay LOG.lcm [--speed X | --max] [--channels REGEX] [--loop] [--start S] [--end S] [--lcm-url URL]
+//     re-publishes a recorded log (speed, max, channel filter, loop, time window);
+//   rocklab replay --rig RIG.toml --input RAW [--speed X | --max] [--lcm-url URL]
+//     sends a raw file (CSV, LVM or LCM log of RL_RAW) through the DAQ stage:
+//     the code path of `rocklab daq` (RunDaqStage), so it publishes what the
+//     DAQ publishes.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -8,6 +13,7 @@
 
 #include "tools/cli.h"
 #include "tools/log_replay.h"
+#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -16,9 +22,13 @@ struct ReplayCommand {
   std::string log_path;
   ReplayOptions replay;
   std::string lcm_url;
+  std::string rig_path;
+  std::string input;
+  // Options of the LOG form that were given (they make no sense with --rig).
+  std::string log_only_given;
 };
 
-int RunReplay(const ReplayCommand& c) {
+int RunLogReplay(const ReplayCommand& c) {
   try {
     c.replay.Validate();
   } catch (const std::invalid_argument& e) {
@@ -43,21 +53,59 @@ int RunReplay(const ReplayCommand& c) {
   return counts.failed == 0 ? 0 : kFailureExit;
 }
 
+int RunReplay(const ReplayCommand& c) {
+  const bool raw_form = !c.rig_path.empty() || !c.input.empty();
+  if (!c.log_path.empty() && raw_form) {
+    throw UsageError("replay: give either LOG.lcm (a recorded log) or --rig RIG.toml --input RAW "
+                     "(a raw file through the DAQ stage), not both");
+  }
+  if (!raw_form) {
+    if (c.log_path.empty()) {
+      throw UsageError("replay: give LOG.lcm (a recorded log) or --rig RIG.toml --input RAW "
+                       "(a raw file through the DAQ stage)");
+    }
+    return RunLogReplay(c);
+  }
+  if (c.rig_path.empty()) throw UsageError("replay: --input needs --rig RIG.toml");
+  if (c.input.empty()) throw UsageError("replay: --rig needs --input RAW (CSV, LVM or LCM log)");
+  if (!c.log_only_given.empty()) {
+    throw UsageError("replay: " + c.log_only_given +
+                     " applies to LOG.lcm only, not to --rig --input (the DAQ stage plays the "
+                     "whole raw file)");
+  }
+  DaqStageOptions daq;
+  daq.rig_path = c.rig_path;
+  daq.input = c.input;
+  daq.speed = c.replay.speed;
+  daq.max_speed = c.replay.max_speed;
+  daq.lcm_url = c.lcm_url;
+  return RunDaqStage(daq, "replay");
+}
+
 }  // namespace
 
 void RegisterReplay(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<ReplayCommand>();  // shared: owned by the callback
-  CLI::App* cmd = app.add_subcommand("replay", "re-publish a recorded LCM log");
-  cmd->add_option("log", c->log_path, "LCM log file")->required();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "re-publish a recorded LCM log, or send a raw file through the DAQ stage");
+  cmd->add_option("log", c->log_path, "LCM log file (re-published as recorded)");
+  cmd->add_option("--rig", c->rig_path, "rig configuration (TOML), with --input");
+  cmd->add_option("--input", c->input, "raw file (.csv, .lvm or LCM log) for the DAQ stage, with --rig");
   auto* speed = cmd->add_option("--speed", c->replay.speed, "pace factor (1 = as recorded)");
   cmd->add_flag("--max", c->replay.max_speed, "as fast as possible")->excludes(speed);
-  cmd->add_option("--channels", c->replay.channels, "regex of the channels to publish")
+  cmd->add_option("--channels", c->replay.channels, "LOG only: regex of the channels to publish")
       ->capture_default_str();
-  cmd->add_flag("--loop", c->replay.loop, "start again at the end");
-  cmd->add_option("--start", c->replay.start_s, "window start, s after the first event");
-  cmd->add_option("--end", c->replay.end_s, "window end, s after the first event");
+  cmd->add_flag("--loop", c->replay.loop, "LOG only: start again at the end");
+  cmd->add_option("--start", c->replay.start_s, "LOG only: window start, s after the first event");
+  cmd->add_option("--end", c->replay.end_s, "LOG only: window end, s after the first event");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
-  cmd->callback([c, &run] { run = [c] { return RunReplay(*c); }; });
+  cmd->callback([c, cmd, &run] {
+    c->log_only_given.clear();
+    for (const char* name : {"--channels", "--loop", "--start", "--end"}) {
+      if (cmd->count(name) > 0 && c->log_only_given.empty()) c->log_only_given = name;
+    }
+    run = [c] { return RunReplay(*c); };
+  });
 }
 
 }  // namespace rocklab::tools

@@ -130,10 +130,7 @@ int RunAll(RunCommand& c) {
   model_cfg.on_state = [&compare](const rocklab::model_state_t& m) { compare.HandleModel(m); };
   model::ModelNode model(model_cfg, tap.bus());
 
-  daq::DaqNodeConfig daq_cfg;
-  daq_cfg.rig = rig;
-  daq_cfg.input = c.input;
-  daq_cfg.speed = c.speed;
+  daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
   daq_cfg.on_theta = [&](const rocklab::block_state_t& theta) {
     compare.HandleTheta(theta);
     compare.CheckStale();

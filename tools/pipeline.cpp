@@ -1,6 +1,8 @@
 #include "tools/pipeline.h"
 
 #include <cmath>
+#include <cstdio>
+#include <memory>
 
 #include "model/block.h"
 #include "tools/cli.h"
@@ -17,6 +19,42 @@ daq::RigConfig LoadRig(const std::string& path) {
 
 model::BlockParams TheoreticalParams(const daq::RigConfig& rig) {
   return model::RectangleBlock(rig.block.width_m, rig.block.height_m, rig.block.chamfer_m).params();
+}
+
+daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& input, double speed) {
+  daq::DaqNodeConfig config;
+  config.rig = rig;
+  const model::BlockParams theory = TheoreticalParams(rig);
+  if (!config.rig.block.alpha) config.rig.block.alpha = theory.alpha;
+  if (!config.rig.block.p) config.rig.block.p = theory.p;
+  if (!config.rig.block.mu) config.rig.block.mu = theory.mu;
+  config.input = input;
+  config.speed = speed;
+  return config;
+}
+
+int RunDaqStage(const DaqStageOptions& o, const char* what) {
+  Require(std::isfinite(o.speed) && o.speed > 0, "--speed", "> 0", o.speed);
+  daq::DaqNodeConfig config = DaqConfigFor(LoadRig(o.rig_path), o.input, o.max_speed ? 0.0 : o.speed);
+  config.lcm_url = o.lcm_url;
+  config.prefix = o.prefix;
+  const std::atomic<bool>& stop = InstallStopSignals();
+  std::unique_ptr<daq::DaqNode> node;
+  try {
+    node = std::make_unique<daq::DaqNode>(config);
+  } catch (const std::exception& e) {
+    throw UsageError(e.what());  // names the input file (and line) or the LCM URL
+  }
+  node->Run(stop);
+  const daq::DaqNodeStats& s = node->stats();
+  std::fprintf(stderr,
+               "%s: %lld frames read, %lld messages published (%lld failed), %lld gaps "
+               "(%lld samples missing), %lld bad samples%s\n",
+               what, static_cast<long long>(s.frames_read), static_cast<long long>(s.published),
+               static_cast<long long>(s.publish_errors), static_cast<long long>(s.gaps),
+               static_cast<long long>(s.missing), static_cast<long long>(s.bad_samples),
+               s.stopped_early ? ", stopped by signal" : "");
+  return 0;
 }
 
 std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,

@@ -1,6 +1,9 @@
 // `rocklab synth` -> `rocklab reconstruct`, and `rocklab daq`, through the binary. Oracles: the
 // truth file synth writes (the model's theta and the injected faults) and the
 // noise synth injects (the lab rig's typical figures times --noise-scale).
+#include <signal.h>
+
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -8,6 +11,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -18,6 +22,8 @@
 #include "daq/rig_simulator.h"
 #include "rocklab/health_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/tools/run_cli.h"
+#include "tests/tools/udpm_netns.h"
 
 namespace rocklab::daq {
 namespace {
@@ -236,26 +242,21 @@ namespace {
 // lcm-logger, stopped by SIGINT half way: exit 0, every frame read was
 // published (RL_RAW count = the frames the final health reports), and the
 // last RL_HEALTH says "stopped". Skips when no namespace can be made. The
-// logger runs at a higher priority (see the udpm test in daq_node_test.cpp).
+// logger runs at a higher priority (tests/tools/udpm_netns.h).
 TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
-  if (std::system("unshare -n true 2>/dev/null") != 0) {
-    GTEST_SKIP() << "no private network namespace (needs root): daq command test skipped";
-  }
   const std::string raw = Synth("daq.csv", "--seed 2");  // 3 s of data
+  const std::string why = rocklab::test::EnterPrivateNetwork();
+  if (!why.empty()) GTEST_SKIP() << why;
   const std::string log = test::ScratchDir() + "/daq.lcmlog";
-  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
-  const std::string script =
-      "ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo || exit 77\n"
-      "rt=; chrt -f 10 true 2>/dev/null && rt='chrt -f 10'\n"
-      "$rt lcm-logger -f --lcm-url='" + url + "&recv_buf_size=4194304' " + log + " >/dev/null 2>&1 &\n"
-      "logger=$!\nsleep 0.5\n" +
-      std::string(ROCKLAB_BINARY) + " daq --rig " + test::LabRigPath() + " --input " + raw +
-      " --speed 1 --lcm-url '" + url + "' 2>/dev/null &\n"
-      "daq=$!\nsleep 1\nkill -INT $daq\nwait $daq\nrc=$?\nsleep 0.5\nkill -INT $logger\nwait $logger\nexit $rc\n";
-  const std::string script_path = test::WriteFile("daq.sh", script);
-  const int status = std::system(("unshare -n sh " + script_path).c_str());
-  ASSERT_NE(WEXITSTATUS(status), 77) << "cannot set up lo in the namespace";
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const pid_t logger = rocklab::test::StartLcmLogger(log);
+  ASSERT_GT(logger, 0) << "lcm-logger did not start";
+  const pid_t daq = rocklab::test::StartCli(
+      {"daq", "--rig", test::LabRigPath(), "--input", raw, "--speed", "1", "--lcm-url",
+       rocklab::test::kUdpmUrl},
+      test::ScratchDir() + "/daq.out", test::ScratchDir() + "/daq.err");
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // about a third of the file
+  EXPECT_EQ(rocklab::test::StopProcess(daq, SIGINT), 0);
+  EXPECT_EQ(rocklab::test::StopLcmLogger(logger, log), 0);
 
   lcm::LogFile in(log, "r");
   ASSERT_TRUE(in.good());

@@ -3,15 +3,12 @@
 // run directly on the same frames (RL_THETA must equal it bit for bit, at any
 // speed). The udpm:// test runs in a private network namespace with ttl=0 and
 // skips when one cannot be made (DESIGN.md, "Networking in tests").
-#include <sched.h>
-#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <thread>
@@ -30,6 +27,7 @@
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/tools/udpm_netns.h"
 
 namespace rocklab::daq {
 namespace {
@@ -223,39 +221,22 @@ TEST(DaqNode, SpeedFactorPacesOnTheSampleClock) {
 // lcm-logger recording udpm://...?ttl=0 while the node publishes, then the
 // log decoded back. Exit 77 = no namespace (skip), 0 = pass.
 int UdpmChild(const RigConfig& rig, const std::string& input, const std::string& log_path) {
-  if (unshare(CLONE_NEWNET) != 0) {
-    std::cerr << "unshare(CLONE_NEWNET): " << std::strerror(errno) << "\n";
+  const std::string why = rocklab::test::EnterPrivateNetwork();
+  if (!why.empty()) {
+    std::cerr << why << "\n";
     return 77;
   }
-  if (std::system("ip link set lo up && ip link set lo multicast on && "
-                  "ip route add 224.0.0.0/4 dev lo") != 0) {
-    std::cerr << "cannot set up lo in the namespace\n";
-    return 77;
+  // The logger at real-time priority (see tests/tools/udpm_netns.h).
+  const pid_t logger = rocklab::test::StartLcmLogger(log_path);
+  if (logger < 0) {
+    std::cerr << "lcm-logger did not start\n";
+    return 1;
   }
-  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
-  // The logger's socket buffer holds ~1 s of this stream (4 MB, the host's
-  // rmem_max), so a busy machine delaying lcm-logger does not drop packets.
-  const std::string url_option = "--lcm-url=" + url + "&recv_buf_size=4194304";
-  const pid_t logger = fork();
-  if (logger == 0) {
-    // LCM queues 30 messages per subscription and lcm-logger 1.3.1 cannot
-    // raise that: on a loaded 2-core machine (ctest -j) a logger that waits
-    // ~10 ms for the CPU loses packets. A real-time priority keeps this test
-    // about our frames, not about the scheduler; without the right to it,
-    // the logger runs as usual.
-    execlp("sh", "sh", "-c",
-           ("chrt -f 10 true 2>/dev/null && exec chrt -f 10 lcm-logger -f '" + url_option + "' " +
-            log_path + "; exec lcm-logger -f '" + url_option + "' " + log_path)
-               .c_str(),
-           nullptr);
-    _exit(127);
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   DaqNodeConfig config;
   config.rig = rig;
   config.input = input;
   config.speed = 1.0;
-  config.lcm_url = url;
+  config.lcm_url = rocklab::test::kUdpmUrl;
   {
     DaqNode node(config);
     std::atomic<bool> stop{false};
@@ -265,11 +246,7 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
       return 1;
     }
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  kill(logger, SIGINT);
-  int status = 0;
-  waitpid(logger, &status, 0);
-  if (!WIFEXITED(status)) {
+  if (rocklab::test::StopLcmLogger(logger, log_path) != 0) {
     std::cerr << "lcm-logger did not exit cleanly\n";
     return 1;
   }

@@ -11,10 +11,14 @@
 
 namespace rocklab::test {
 
-CliResult RunCli(const std::vector<std::string>& args) {
-  const std::string dir = ScratchDir("cli_capture");
-  const std::string out_path = dir + "/stdout";
-  const std::string err_path = dir + "/stderr";
+pid_t StartProcess(const std::vector<std::string>& args, const std::string& out_path,
+                   const std::string& err_path) {
+  // Everything the child needs is built before fork: the caller may have
+  // threads (LCM's), and the child only calls async-signal-safe functions.
+  std::vector<std::string> copy = args;
+  std::vector<char*> argv;
+  for (std::string& a : copy) argv.push_back(a.data());
+  argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error("fork failed");
   if (pid == 0) {
@@ -22,15 +26,24 @@ CliResult RunCli(const std::vector<std::string>& args) {
     const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(out, 1);
     dup2(err, 2);
-    std::vector<char*> argv;
-    std::string binary = ROCKLAB_BINARY;
-    argv.push_back(binary.data());
-    std::vector<std::string> copy = args;
-    for (std::string& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(binary.c_str(), argv.data());
+    execvp(argv[0], argv.data());
     _exit(127);
   }
+  return pid;
+}
+
+pid_t StartCli(const std::vector<std::string>& args, const std::string& out_path,
+               const std::string& err_path) {
+  std::vector<std::string> argv = {ROCKLAB_BINARY};
+  argv.insert(argv.end(), args.begin(), args.end());
+  return StartProcess(argv, out_path, err_path);
+}
+
+CliResult RunCli(const std::vector<std::string>& args) {
+  const std::string dir = ScratchDir("cli_capture");
+  const std::string out_path = dir + "/stdout";
+  const std::string err_path = dir + "/stderr";
+  const pid_t pid = StartCli(args, out_path, err_path);
   int status = 0;
   waitpid(pid, &status, 0);
   CliResult r;

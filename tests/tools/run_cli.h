@@ -1,6 +1,8 @@
 #pragma once
 // Runs the rocklab binary as a user would and captures what it prints.
 
+#include <sys/types.h>
+
 #include <string>
 #include <vector>
 
@@ -14,6 +16,14 @@ struct CliResult {
 
 /// Runs ROCKLAB_BINARY with `args` (each passed as one argument, no shell).
 CliResult RunCli(const std::vector<std::string>& args);
+
+/// Starts `argv` (argv[0] found on PATH) in the background, its stdout and
+/// stderr into the two files; returns its pid (the caller waits for it).
+pid_t StartProcess(const std::vector<std::string>& argv, const std::string& out_path,
+                   const std::string& err_path);
+/// StartProcess of ROCKLAB_BINARY with `args`.
+pid_t StartCli(const std::vector<std::string>& args, const std::string& out_path,
+               const std::string& err_path);
 
 /// A folder of this process under the test's working directory.
 std::string ScratchDir(const std::string& name);

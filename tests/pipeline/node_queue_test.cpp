@@ -1,0 +1,130 @@
+// The model and compare nodes over udpm:// keep what arrives while they are
+// busy. LCM 1.3.1 queues 30 messages per subscription by default and drops
+// the rest silently (its receive thread discards what no subscription has
+// room for): 30 ms of a 1 kHz stream, one scheduling hiccup of a loaded
+// machine. Each test holds the node's thread inside a handler while a burst
+// of 1000 messages arrives, then lets it run. Oracle: the node's own input
+// counter equals the burst. Private network namespace per test
+// (tests/tools/udpm_netns.h).
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "compare/compare_node.h"
+#include "model/model_node.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/table_state_t.hpp"
+#include "tests/tools/udpm_netns.h"
+
+namespace rocklab::pipeline {
+namespace {
+
+constexpr int kBurst = 1000;
+
+// Subscribed on the node's own LCM instance, so its handlers run on the
+// node's thread. On the node's first RL_HEALTH (sent right after it
+// subscribed) it publishes the burst from another instance and holds the
+// node's thread until a third instance has received the whole burst (by
+// then the node's socket has it too, and LCM's receive thread queues it);
+// then a TEST_DONE marker, which the node dispatches after everything
+// queued before it, stops the node.
+class Burst {
+ public:
+  Burst(lcm::LCM& node_lcm, std::string channel,
+        std::function<void(lcm::LCM&, int)> publish_one)
+      : channel_(std::move(channel)), publish_one_(std::move(publish_one)) {
+    node_lcm.subscribe("RL_HEALTH", &Burst::OnHealth, this);
+    node_lcm.subscribe("TEST_DONE", &Burst::OnDone, this);
+    lcm::Subscription* s = probe_.subscribe(channel_, &Burst::OnProbe, this);
+    s->setQueueCapacity(kBurst + 100);
+  }
+  const std::atomic<bool>& stop() const { return stop_; }
+  int probed() const { return probed_; }
+
+ private:
+  void OnHealth(const lcm::ReceiveBuffer*, const std::string&, const rocklab::health_t*) {
+    if (sent_) return;
+    sent_ = true;
+    for (int k = 0; k < kBurst; ++k) {
+      publish_one_(publisher_, k);
+      // 16 messages a millisecond, as the DAQ spreads its bursts: the test
+      // is about LCM's queue, not about the kernel's socket buffers.
+      if (k % 16 == 15) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (probed_ < kBurst && std::chrono::steady_clock::now() < deadline) probe_.handleTimeout(50);
+    publisher_.publish("TEST_DONE", "done", 4);
+  }
+  void OnDone(const lcm::ReceiveBuffer*, const std::string&) { stop_ = true; }
+  void OnProbe(const lcm::ReceiveBuffer*, const std::string&) { ++probed_; }
+
+  std::string channel_;
+  std::function<void(lcm::LCM&, int)> publish_one_;
+  lcm::LCM publisher_{test::kUdpmUrl};
+  lcm::LCM probe_{std::string(test::kUdpmUrl) + "&recv_buf_size=4194304"};
+  bool sent_{};
+  int probed_{};
+  std::atomic<bool> stop_{false};
+};
+
+// Sample k of a 1 kHz stream on `channel`: utime and seq set, the rest zero.
+template <class Msg>
+void PublishSample(lcm::LCM& out, const std::string& channel, int k) {
+  Msg msg{};
+  msg.utime = 1000 * static_cast<std::int64_t>(k);
+  msg.seq = k;
+  out.publish(channel, &msg);
+}
+
+// A private network namespace and the node's LCM, with a socket buffer for
+// the whole burst (the host's rmem_max).
+class NodeQueue : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string why = test::EnterPrivateNetwork();
+    if (!why.empty()) GTEST_SKIP() << why;
+    lcm_ = std::make_unique<lcm::LCM>(std::string(test::kUdpmUrl) + "&recv_buf_size=4194304");
+    ASSERT_TRUE(lcm_->good());
+  }
+  std::unique_ptr<lcm::LCM> lcm_;
+};
+
+TEST_F(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
+  model::ModelNodeConfig config;
+  model::VariantSpec v;
+  v.name = "h";
+  v.kind = model::ModelKind::kHousner;
+  v.params = {0.245, 3.78, 0.91};
+  config.variants = {v};
+  model::ModelNode node(config, lcm_.get());
+  // One RL_THETA at rest, then 1 kHz table samples of zero acceleration.
+  Burst burst(*lcm_, "RL_TABLE", [](lcm::LCM& out, int k) {
+    if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
+    PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
+  });
+  node.Run(*lcm_, burst.stop());
+  EXPECT_EQ(burst.probed(), kBurst);
+  EXPECT_EQ(node.table_count(), kBurst);
+  EXPECT_EQ(node.failures(), 0);
+}
+
+TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBusy) {
+  compare::CompareNode node(compare::CompareNodeConfig{}, lcm_.get());
+  Burst burst(*lcm_, "RL_THETA", [](lcm::LCM& out, int k) {
+    PublishSample<rocklab::block_state_t>(out, "RL_THETA", k);
+  });
+  node.Run(*lcm_, burst.stop());
+  EXPECT_EQ(burst.probed(), kBurst);
+  EXPECT_EQ(node.theta_count(), kBurst);
+}
+
+}  // namespace
+}  // namespace rocklab::pipeline
