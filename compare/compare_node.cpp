@@ -1,15 +1,14 @@
 #include "compare/compare_node.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "common/node_support.h"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
@@ -17,18 +16,10 @@
 namespace rocklab::compare {
 namespace {
 
-double HostNowS() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
+using common::HostNowS;
 
 std::shared_ptr<spdlog::logger> Log() {
-  // Shared: spdlog's registry hands out shared_ptr loggers.
-  // stderr: stdout carries the commands' own output (summary tables).
-  static std::shared_ptr<spdlog::logger> log = [] {
-    auto l = spdlog::get("compare");
-    return l ? l : spdlog::stderr_color_mt("compare");
-  }();
+  static const std::shared_ptr<spdlog::logger> log = common::NamedLogger("compare");
   return log;
 }
 
@@ -264,6 +255,8 @@ void CompareNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
     }
     CheckStale();
   }
+  // What arrived before the stop is still compared (bounded: the queues' size).
+  common::DispatchQueued(subscriber, 2 * config_.subscriber_queue);
   subscriber.unsubscribe(theta);
   subscriber.unsubscribe(model);
   Finish();

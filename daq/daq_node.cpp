@@ -8,12 +8,12 @@
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "daq/pacer.h"
 #include "daq/processor.h"
 #include "daq/source.h"
+#include "common/node_support.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
@@ -26,11 +26,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::shared_ptr<spdlog::logger> Logger() {
-  // spdlog's registry hands out shared loggers; one named logger per module.
-  auto logger = spdlog::get("daq");
-  return logger ? logger : spdlog::stderr_color_mt("daq");
-}
+std::shared_ptr<spdlog::logger> Logger() { return common::NamedLogger("daq"); }
 
 }  // namespace
 

@@ -1,32 +1,23 @@
 #include "model/model_node.h"
 
-#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "common/node_support.h"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
 
 namespace rocklab::model {
 namespace {
 
-double HostNowS() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
+using common::HostNowS;
 
 std::shared_ptr<spdlog::logger> Log() {
-  // Shared: spdlog's registry hands out shared_ptr loggers.
-  // stderr: stdout carries the commands' own output (summary tables).
-  static std::shared_ptr<spdlog::logger> log = [] {
-    auto l = spdlog::get("model_node");
-    return l ? l : spdlog::stderr_color_mt("model_node");
-  }();
+  static const std::shared_ptr<spdlog::logger> log = common::NamedLogger("model_node");
   return log;
 }
 
@@ -370,6 +361,8 @@ void ModelNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
       PublishHealth(started_ ? "running" : "waiting");
     }
   }
+  // What arrived before the stop is still handled (bounded: the queues' size).
+  common::DispatchQueued(subscriber, 2 * config_.subscriber_queue);
   subscriber.unsubscribe(table);
   subscriber.unsubscribe(theta);
   Finish();

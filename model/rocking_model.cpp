@@ -1,8 +1,8 @@
 #include "model/rocking_model.h"
 
+#include "common/node_support.h"
 #include "model/numbers.h"
 
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <cmath>
@@ -18,10 +18,7 @@ using detail::ExactText;
 using detail::kPi;
 
 std::shared_ptr<spdlog::logger> Log() {
-  static const std::shared_ptr<spdlog::logger> logger = [] {
-    auto existing = spdlog::get("model");
-    return existing ? existing : spdlog::stderr_color_mt("model");
-  }();
+  static const std::shared_ptr<spdlog::logger> logger = common::NamedLogger("model");
   return logger;
 }
 
