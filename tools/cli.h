@@ -33,6 +33,14 @@ using CommandRegistrar = void (*)(CLI::App& app, CommandRun& run);
 /// poll it in their loops), and ignores SIGPIPE. Idempotent.
 const std::atomic<bool>& InstallStopSignals();
 
+/// The LCM URL a subscribing node opens for `url` (empty: LCM_DEFAULT_URL,
+/// else LCM's own default udpm://239.255.76.67:7667?ttl=0). A udpm URL
+/// without recv_buf_size gets recv_buf_size=4194304 (bytes; the kernel caps
+/// it at net.core.rmem_max): the default 208 KiB socket buffer holds only
+/// some 50 ms of a 1 kHz test's datagrams, and what overflows it is lost
+/// before LCM sees it. Other URLs are returned as they are.
+std::string SubscriberUrl(const std::string& url);
+
 /// Throws UsageError("<option> must be <what>, got <value>") unless ok.
 void Require(bool ok, const std::string& option, const std::string& what, double value);
 

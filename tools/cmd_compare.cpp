@@ -21,8 +21,9 @@ struct CompareCommand {
 int RunCompare(CompareCommand& c) {
   ValidateCompareOptions(c.config);
   const std::atomic<bool>& stop = InstallStopSignals();
-  lcm::LCM lcm(c.config.lcm_url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.config.lcm_url + "'");
+  const std::string url = SubscriberUrl(c.config.lcm_url);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
   compare::CompareNode node(c.config, &lcm);
   node.Run(lcm, stop);
   const auto summary = node.Summary();

@@ -24,8 +24,9 @@ int RunModel(const ModelCommand& c) {
   model::ModelNodeConfig cfg;
   cfg.variants = BuildVariants(c.variants, rig);
   const std::atomic<bool>& stop = InstallStopSignals();
-  lcm::LCM lcm(c.lcm_url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.lcm_url + "'");
+  const std::string url = SubscriberUrl(c.lcm_url);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
   model::ModelNode node(cfg, &lcm);
   for (const model::VariantSpec& v : cfg.variants) {
     std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",

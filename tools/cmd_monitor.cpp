@@ -72,8 +72,9 @@ int RunMonitor(const MonitorCommand& c) {
   live.window_s = c.window_s;
   monitor::LiveState state(live);
 
-  lcm::LCM lcm(c.lcm_url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.lcm_url + "'");
+  const std::string url = SubscriberUrl(c.lcm_url);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
   const std::atomic<bool>& stop = InstallStopSignals();
 
   std::unique_ptr<monitor::MonitorServer> server;

@@ -402,6 +402,8 @@
 
   if (window.ROCKLAB_SNAPSHOT !== undefined) {
     setStatus('static', 'recorded test');
+    const heading = document.querySelector('h1');
+    if (heading) heading.textContent = 'rocklab report';
     apply(window.ROCKLAB_SNAPSHOT);
     render();
     return;
