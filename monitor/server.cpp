@@ -24,6 +24,12 @@ const char* const kSecurityPolicy =
 
 constexpr std::size_t kMaxRequestBody = 1024;  // bytes; nothing here takes a body
 
+// Text from the bus (node names, event details, channel names) need not be
+// UTF-8: invalid bytes become U+FFFD instead of an exception in a server thread.
+std::string Dump(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 }  // namespace
 
 void ServerOptions::Validate() const {
@@ -88,7 +94,7 @@ void MonitorServer::Impl::Routes() {
   server.Get(".*", [this](const httplib::Request& req, httplib::Response& res) {
     if (req.path == "/api/snapshot") {
       res.set_header("Cache-Control", "no-store");
-      res.set_content(state.Snapshot().dump() + "\n", "application/json");
+      res.set_content(Dump(state.Snapshot()) + "\n", "application/json");
       return;
     }
     if (req.path == "/api/events") {
@@ -133,7 +139,7 @@ void MonitorServer::Impl::Stream(httplib::Response& res) {
           const nlohmann::json full = state.UpdateSince(0);
           s.cursor = full.at("cursor").get<std::uint64_t>();
           // retry: the browser reconnects after a second when the server restarts.
-          return write("retry: 1000\ndata: " + full.dump() + "\n\n");
+          return write("retry: 1000\ndata: " + Dump(full) + "\n\n");
         }
         if (!Wait(options.push_period_s)) {
           sink.done();
@@ -142,7 +148,7 @@ void MonitorServer::Impl::Stream(httplib::Response& res) {
         if (state.cursor() != s.cursor) {
           const nlohmann::json update = state.UpdateSince(s.cursor);
           s.cursor = update.at("cursor").get<std::uint64_t>();
-          return write("data: " + update.dump() + "\n\n");
+          return write("data: " + Dump(update) + "\n\n");
         }
         const std::chrono::duration<double> quiet = std::chrono::steady_clock::now() - s.last_write;
         if (quiet.count() >= options.keepalive_period_s) return write(": quiet\n\n");

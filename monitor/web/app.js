@@ -140,9 +140,10 @@
   }
 
   // Keeps what lies in the window, as the server does.
+  // A static record (window null) keeps every event it was given.
   function trim() {
-    if (held.events.length > MAX_EVENTS) held.events.splice(0, held.events.length - MAX_EVENTS);
     if (held.windowS === null || held.tLatest === null) return;
+    if (held.events.length > MAX_EVENTS) held.events.splice(0, held.events.length - MAX_EVENTS);
     const cutoff = held.tLatest - held.windowS;
     trimSeries(held.measured, cutoff);
     for (const v of held.variants.values()) {

@@ -25,6 +25,7 @@
 
 #include "monitor/assets.h"
 #include "monitor/live_state.h"
+#include "rocklab/health_t.hpp"
 #include "tests/tools/lcm_messages.h"
 
 namespace rocklab::monitor {
@@ -295,6 +296,28 @@ class StreamReader {
   bool closing_{}, ended_{};
   int status_{};
 };
+
+// Text from the bus need not be UTF-8 (a node name, an event's detail).
+// Oracle: the snapshot and the stream still answer, with U+FFFD in place of
+// the invalid byte; the server process lives on.
+TEST_F(MonitorServerTest, TextThatIsNotUtf8IsReplacedNotFatal) {
+  rocklab::health_t h{};
+  h.utime = 1'000'000;
+  h.node = "daq\xff";
+  h.state = "running";
+  Feed(state_, "RL_HEALTH", h);
+  httplib::Client client("127.0.0.1", port());
+  const auto res = client.Get("/api/snapshot");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  const json snap = json::parse(res->body);
+  ASSERT_EQ(snap.at("health").size(), 1u);
+  EXPECT_EQ(snap.at("health")[0].at("node"), "daq\xef\xbf\xbd");
+  StreamReader stream(port(), "/api/events");
+  const json first = stream.Event(0);
+  ASSERT_FALSE(first.is_null()) << stream.text();
+  EXPECT_EQ(first.at("health")[0].at("node"), "daq\xef\xbf\xbd");
+}
 
 TEST_F(MonitorServerTest, EventStreamSendsTheSnapshotThenUpdates) {
   Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
