@@ -21,9 +21,9 @@ double HostNowS() {
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
 
-int DispatchQueued(lcm::LCM& lcm, int max_messages) {
+int DispatchQueued(lcm::LCM& lcm, int max_messages, int quiet_ms) {
   int dispatched = 0;
-  while (dispatched < max_messages && lcm.handleTimeout(0) > 0) ++dispatched;
+  while (dispatched < max_messages && lcm.handleTimeout(quiet_ms) > 0) ++dispatched;
   return dispatched;
 }
 

@@ -20,12 +20,14 @@ std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
 /// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
 double HostNowS();
 
-/// Dispatches what LCM has already received for `lcm`'s subscriptions and
-/// not yet handed out, without waiting: a node stopping on SIGINT/SIGTERM
-/// handles everything that arrived before the signal. Stops after
-/// `max_messages` (messages still arriving must not keep it from stopping)
-/// or at the first LCM error.
+/// Dispatches what LCM has received for `lcm`'s subscriptions and not yet
+/// handed out: a node stopping on SIGINT/SIGTERM handles everything that
+/// arrived before the signal. It waits up to `quiet_ms` for each next message
+/// (datagrams already in the socket but not yet in LCM's queue, LCM's receive
+/// thread being a little behind), so it returns `quiet_ms` after the last
+/// one; after `max_messages` (messages still arriving must not keep it from
+/// stopping); or at the first LCM error.
 /// @return the messages dispatched.
-int DispatchQueued(lcm::LCM& lcm, int max_messages);
+int DispatchQueued(lcm::LCM& lcm, int max_messages, int quiet_ms = 20);
 
 }  // namespace rocklab::common

@@ -248,7 +248,8 @@ TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   const std::string why = rocklab::test::EnterPrivateNetwork();
   if (!why.empty()) GTEST_SKIP() << why;
   const std::string log = test::ScratchDir() + "/daq.lcmlog";
-  const pid_t logger = rocklab::test::StartLcmLogger(log);
+  // Only what the test reads: lcm-logger keeps 30 messages and drops the rest.
+  const pid_t logger = rocklab::test::StartLcmLogger(log, "RL_RAW|RL_HEALTH");
   ASSERT_GT(logger, 0) << "lcm-logger did not start";
   const pid_t daq = rocklab::test::StartCli(
       {"daq", "--rig", test::LabRigPath(), "--input", raw, "--speed", "1", "--lcm-url",
