@@ -454,7 +454,8 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
   AssignText(e.detail, m.detail);
   if (!events.push_back(e)) ++dropped_events;
 
-  if (m.kind == rocklab::event_t::STALE && open_stale.find(m.source) == open_stale.end()) {
+  // Keyed by the stored (bounded) source text, as the interval holds it.
+  if (m.kind == rocklab::event_t::STALE && open_stale.find(e.source) == open_stale.end()) {
     if (open_stale.size() < options.max_nodes) {
       const std::uint64_t id = OpenInterval(kStaleFlag, m.source, m.utime);
       open_stale.emplace(intervals[intervals.size() - 1].source, id);
@@ -465,7 +466,7 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
     // RECOVERED closes the source's stale interval when one is open (the DAQ
     // also sends RECOVERED when a sliding/twist check passes again; those
     // flags come from RL_THETA instead).
-    auto it = open_stale.find(m.source);
+    auto it = open_stale.find(e.source);
     if (it != open_stale.end()) {
       CloseInterval(it->second, m.utime);
       open_stale.erase(it);

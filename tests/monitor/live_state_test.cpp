@@ -304,6 +304,21 @@ TEST(LiveState, StaleIntervalsFromEvents) {
   EXPECT_EQ(snap.at("events")[1].at("kind"), "recovered");
 }
 
+// A source longer than the state keeps (its text is cut) still pairs its
+// STALE and RECOVERED: one interval, closed.
+TEST(LiveState, StaleIntervalOfALongSourceCloses) {
+  LiveState s;
+  using E = rocklab::event_t;
+  const std::string source(1000, 'm');
+  Feed(s, "RL_THETA", Theta(kT0, 0.0));
+  Feed(s, "RL_EVENT", Event(kT0 + 1'000'000, source, E::STALE, 1.0));
+  Feed(s, "RL_EVENT", Event(kT0 + 1'500'000, source, E::STALE, 1.5));
+  Feed(s, "RL_EVENT", Event(kT0 + 2'000'000, source, E::RECOVERED, 0));
+  const json flags = s.Snapshot().at("flags");
+  ASSERT_EQ(flags.size(), 1u) << flags.dump();
+  EXPECT_DOUBLE_EQ(flags[0].at("end").get<double>(), 2.0);
+}
+
 TEST(LiveState, DecodeErrorsAreCountedPerChannelNeverThrown) {
   LiveState s;
   const std::vector<std::uint8_t> garbage{1, 2, 3, 4, 5};
