@@ -2,11 +2,7 @@
 // on it, exits 0 on SIGTERM and SIGINT, and refuses bad options with exit 2
 // and a message naming the option. Oracle: the contract in the issue
 // (`rocklab monitor: serving http://127.0.0.1:PORT/`, 127.0.0.1 by default).
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <string>
 #include <vector>
@@ -20,59 +16,31 @@
 namespace rocklab::monitor {
 namespace {
 
-// The monitor as a child process whose stdout the test reads.
+// The monitor as a child process; its output in the test's scratch folder.
 class MonitorProcess {
  public:
-  explicit MonitorProcess(const std::vector<std::string>& args) {
-    int out[2];
-    if (pipe(out) != 0) return;
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(out[1], 1);
-      close(out[0]);
-      close(out[1]);
-      std::vector<std::string> copy = args;
-      std::string binary = ROCKLAB_BINARY;
-      std::vector<char*> argv{binary.data()};
-      for (std::string& a : copy) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv(binary.c_str(), argv.data());
-      _exit(127);
-    }
-    close(out[1]);
-    out_ = out[0];
-  }
+  explicit MonitorProcess(const std::vector<std::string>& args)
+      : out_(test::ScratchDir("monitor_cli") + "/" + std::to_string(++count_) + ".out"),
+        pid_(test::StartCli(args, out_, out_ + ".err")) {}
   ~MonitorProcess() {
-    if (pid_ > 0 && !waited_) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (out_ >= 0) close(out_);
+    if (pid_ > 0) test::StopProcess(pid_, SIGKILL);
   }
 
-  /// The first stdout line (without the newline); empty when it exits first
-  /// or prints nothing within 20 s (a bound against a hung test).
-  std::string FirstLine() {
-    std::string line;
-    char c = 0;
-    pollfd p{out_, POLLIN, 0};
-    while (poll(&p, 1, 20000) > 0 && read(out_, &c, 1) == 1 && c != '\n') line += c;
-    return line;
-  }
+  /// The line the monitor prints when it serves; empty when it prints none
+  /// within 20 s (a bound against a hung test).
+  std::string FirstLine() const { return test::WaitForLine(out_, "rocklab monitor: "); }
 
   /// Sends `signal` and returns the exit code (128 + signal if killed by one).
   int Stop(int signal) {
-    kill(pid_, signal);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    waited_ = true;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    const int code = test::StopProcess(pid_, signal);
+    pid_ = -1;
+    return code;
   }
 
  private:
-  pid_t pid_{-1};
-  int out_{-1};
-  bool waited_{};
+  static inline int count_ = 0;
+  std::string out_;
+  pid_t pid_;
 };
 
 // "rocklab monitor: serving http://127.0.0.1:PORT/" -> PORT, 0 if not that.

@@ -25,6 +25,15 @@ pid_t StartProcess(const std::vector<std::string>& argv, const std::string& out_
 pid_t StartCli(const std::vector<std::string>& args, const std::string& out_path,
                const std::string& err_path);
 
+/// Sends `signal` (0: none) to `pid` and waits for it, at most `timeout_s`,
+/// then SIGKILLs it. Returns its exit code, 128 + the signal that ended it,
+/// or -1 when it had to be killed after the timeout.
+int StopProcess(pid_t pid, int signal, double timeout_s = 20.0);
+
+/// The first line of the file at `path` that starts with `prefix`, once it
+/// is there (a process writing it); empty after `timeout_s`.
+std::string WaitForLine(const std::string& path, const std::string& prefix, double timeout_s = 20.0);
+
 /// A folder of this process under the test's working directory.
 std::string ScratchDir(const std::string& name);
 

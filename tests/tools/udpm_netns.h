@@ -8,6 +8,8 @@
 
 #include <string>
 
+#include "tests/tools/run_cli.h"  // StartCli, StopProcess
+
 namespace rocklab::test {
 
 /// LCM's default multicast group with ttl=0, for every udpm test.
@@ -37,9 +39,5 @@ pid_t StartLcmLogger(const std::string& log_path, const std::string& channels = 
 /// within 10 s (the logger is then stopped all the same).
 int StopLcmLogger(pid_t logger, const std::string& log_path);
 
-/// Sends `signal` (0: none) to `pid` and waits for it, at most `timeout_s`,
-/// then SIGKILLs it. Returns its exit code, 128 + the signal that ended it,
-/// or -1 when it had to be killed after the timeout.
-int StopProcess(pid_t pid, int signal, double timeout_s = 20.0);
 
 }  // namespace rocklab::test
