@@ -92,6 +92,24 @@ void PublishSample(lcm::LCM& out, const std::string& channel, int k) {
   out.publish(channel, &msg);
 }
 
+// One Housner variant of the lab block (alpha rad, p rad/s, mu).
+model::ModelNodeConfig OneHousnerVariant() {
+  model::ModelNodeConfig config;
+  model::VariantSpec v;
+  v.name = "h";
+  v.kind = model::ModelKind::kHousner;
+  v.params = {0.245, 3.78, 0.91};
+  config.variants = {v};
+  return config;
+}
+
+// The model node's burst: one RL_THETA at rest, then 1 kHz table samples of
+// zero acceleration.
+void PublishRestThenTable(lcm::LCM& out, int k) {
+  if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
+  PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
+}
+
 // A private network namespace and the node's LCM, with a socket buffer for
 // the whole burst (the host's rmem_max).
 class NodeQueue : public ::testing::Test {
@@ -106,18 +124,8 @@ class NodeQueue : public ::testing::Test {
 };
 
 TEST_F(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
-  model::ModelNodeConfig config;
-  model::VariantSpec v;
-  v.name = "h";
-  v.kind = model::ModelKind::kHousner;
-  v.params = {0.245, 3.78, 0.91};
-  config.variants = {v};
-  model::ModelNode node(config, lcm_.get());
-  // One RL_THETA at rest, then 1 kHz table samples of zero acceleration.
-  Burst burst(*lcm_, "RL_TABLE", [](lcm::LCM& out, int k) {
-    if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
-    PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
-  });
+  model::ModelNode node(OneHousnerVariant(), lcm_.get());
+  Burst burst(*lcm_, "RL_TABLE", &PublishRestThenTable);
   node.Run(*lcm_, burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.table_count(), kBurst);
@@ -138,20 +146,10 @@ TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBus
 // still handled, so the final health and summary cover it. Oracle: the
 // node's input counter equals the burst.
 TEST_F(NodeQueue, ModelNodeStoppedWithABurstQueuedHandlesItBeforeFinishing) {
-  model::ModelNodeConfig config;
-  model::VariantSpec v;
-  v.name = "h";
-  v.kind = model::ModelKind::kHousner;
-  v.params = {0.245, 3.78, 0.91};
-  config.variants = {v};
-  model::ModelNode node(config, lcm_.get());
+  model::ModelNode node(OneHousnerVariant(), lcm_.get());
   Burst burst(
       *lcm_, "RL_TABLE",
-      [](lcm::LCM& out, int k) {
-        if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
-        PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
-      },
-      StopBy::kStopWhileQueued);
+      &PublishRestThenTable, StopBy::kStopWhileQueued);
   node.Run(*lcm_, burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.table_count(), kBurst);
