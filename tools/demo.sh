@@ -16,4 +16,6 @@ SPDLOG_LEVEL=${SPDLOG_LEVEL:-warn} "$build/tools/rocklab" run \
   --variant fitted_complex:complex:$fitted --variant fitted_housner:housner:$fitted \
   --variant theory_complex:complex:theoretical --variant theory_housner:housner:theoretical \
   --log "$out/fig7_block1.lcm" --summary "$out/summary.json"
+# The write-up: the monitor's page for the whole test, and the figure.
+"$build/tools/rocklab" report "$out/fig7_block1.lcm" --out "$out/report.html" --svg "$out/fig7_block1.svg"
 echo "summary: $out/summary.json; every message: $out/fig7_block1.lcm (lcm-logplayer, rocklab replay)"
