@@ -28,8 +28,9 @@ class OdeSystem {
 class Cvode {
  public:
   static constexpr int kRoots = 3;
+  static constexpr int kMaxEquations = 4;
 
-  /// @param n number of equations (<= 3 here)
+  /// @param n number of equations, 1 .. kMaxEquations
   /// @param atol absolute tolerances, one per equation
   Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s);
   ~Cvode();
@@ -44,7 +45,21 @@ class Cvode {
   enum class Result { kReached, kRoot };
   /// Integrates towards tout_s, never evaluating the right-hand side beyond
   /// it (CVodeSetStopTime). Stops at the first root. The solution is in y().
+  /// When CVODE gives up (repeated error-test or convergence failures, as at
+  /// a jump of the forcing nobody declared) it restarts from the last step
+  /// it completed (with a fresh history) and goes on; when that fails again
+  /// at the same time it restarts 16 ulp later (a jump right there); it
+  /// throws when that fails too.
   Result Advance(double tout_s);
+
+  /// Solver work since construction, summed over every ReInit.
+  struct Stats {
+    long steps{};             ///< internal steps taken
+    long rhs_evals{};         ///< right-hand side evaluations
+    long error_test_fails{};  ///< local error test failures
+    long recoveries{};        ///< restarts after CVODE gave up (see Advance)
+  };
+  Stats stats() const;
   /// Which roots were found by the last Advance returning kRoot (+1/-1 the
   /// direction, 0 not found).
   std::array<int, kRoots> RootsFound();
@@ -57,9 +72,13 @@ class Cvode {
   struct Handles;
   static int RhsThunk(double t, _generic_N_Vector* y, _generic_N_Vector* ydot, void* user);
   static int RootThunk(double t, _generic_N_Vector* y, double* g, void* user);
+  void AddCounters();  // moves CVODE's counters (reset by ReInit) into done_
   std::unique_ptr<Handles> h_;
   int n_{};
   double t_{};
+  Stats done_;  // work before the last ReInit
+  double last_failure_t_{-1e300};  // where Advance last restarted after a failure, s
+  bool nudged_{false};             // that restart was moved past the failure time
 };
 
 }  // namespace rocklab::model::detail

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -39,6 +40,13 @@ std::string Trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
+// The first of start, start + duration strictly after t (+inf when none).
+double NextEnd(const SineSpec& s, double t) {
+  if (s.start_s > t) return s.start_s;
+  const double end = s.start_s + s.duration_s;
+  return end > t ? end : std::numeric_limits<double>::infinity();
+}
+
 // u = U sin(w (t - start)) on [start, start + duration].
 class Sine final : public Excitation {
  public:
@@ -52,6 +60,7 @@ class Sine final : public Excitation {
   double TableAcceleration(double t) const override {
     return Inside(t) ? -s_.amplitude_m * w_ * w_ * std::sin(w_ * (t - s_.start_s)) : 0.0;
   }
+  double NextDiscontinuity(double t) const override { return NextEnd(s_, t); }
 
  private:
   bool Inside(double t) const { return t >= s_.start_s && t <= s_.start_s + s_.duration_s; }
@@ -80,6 +89,9 @@ class HanningSine final : public Excitation {
     return s_.amplitude_m * (WindowD2(t) * std::sin(ph) + 2 * WindowD1(t) * w_ * std::cos(ph) -
                              Window(t) * w_ * w_ * std::sin(ph));
   }
+  // The window's second derivative is pi^2 / (2 a^2) at both ends: the
+  // acceleration jumps there unless sin(ph) happens to vanish.
+  double NextDiscontinuity(double t) const override { return NextEnd(s_, t); }
 
  private:
   bool Inside(double t) const { return t >= s_.start_s && t <= s_.start_s + s_.duration_s; }
@@ -110,6 +122,11 @@ class Sum final : public Excitation {
     double s = 0.0;
     for (const auto& p : parts_) s += p->TableAcceleration(t);
     return s;
+  }
+  double NextDiscontinuity(double t) const override {
+    double next = std::numeric_limits<double>::infinity();
+    for (const auto& p : parts_) next = std::min(next, p->NextDiscontinuity(t));
+    return next;
   }
 
  private:
@@ -225,6 +242,12 @@ double SampledAcceleration::TableAcceleration(double t_s) const {
   const std::size_t i = static_cast<std::size_t>(it - time_.begin());
   const double w = (t_s - time_[i - 1]) / (time_[i] - time_[i - 1]);
   return accel_[i - 1] + w * (accel_[i] - accel_[i - 1]);
+}
+
+double SampledAcceleration::NextDiscontinuity(double t_s) const {
+  if (time_.front() > t_s) return time_.front();
+  if (time_.back() > t_s) return time_.back();
+  return std::numeric_limits<double>::infinity();
 }
 
 SampledAcceleration ReadAccelerationCsv(const std::string& path) {

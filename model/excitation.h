@@ -3,6 +3,7 @@
 /// Table motions that drive the models: analytic sines (ERRATA item 11) and
 /// sampled acceleration records.
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +17,15 @@ class Forcing {
   virtual ~Forcing() = default;
   /// Table acceleration u_g'' at time t_s (s), m/s^2.
   virtual double TableAcceleration(double t_s) const = 0;
+  /// The first time strictly after t_s (s) where u_g'' may jump (the end of
+  /// a motion or of a record), +infinity when there is none. The models stop
+  /// their integrator there and restart it on the other side, so a jump is
+  /// never integrated across. Where a forcing jumps without saying so, the
+  /// integrator still recovers (it restarts where its error test failed),
+  /// at a higher cost. At a jump time the value may be either side's.
+  virtual double NextDiscontinuity(double /*t_s*/) const {
+    return std::numeric_limits<double>::infinity();
+  }
 };
 
 /// No table motion: u_g'' = 0 everywhere (free rocking).
@@ -25,6 +35,8 @@ class NoTableMotion final : public Forcing {
 };
 
 /// A table motion known in closed form: displacement and its exact derivatives.
+/// Its acceleration may jump at the start and the end of the motion (they
+/// are its discontinuities).
 class Excitation : public Forcing {
  public:
   virtual double Displacement(double t_s) const = 0;  ///< m
@@ -71,6 +83,9 @@ class SampledAcceleration : public Forcing {
   ///         non-increasing time or a non-finite value (naming the index).
   SampledAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2);
   double TableAcceleration(double t_s) const override;
+  /// The first and last sample times (where the record starts and stops
+  /// against the zero outside it); linear interpolation is continuous inside.
+  double NextDiscontinuity(double t_s) const override;
   double start_s() const { return time_.front(); }
   double end_s() const { return time_.back(); }
 

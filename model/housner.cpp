@@ -50,7 +50,9 @@ class HousnerModel final : public CvodeRockingModel {
     state_.theta_dot = y[1];
     state_.chi = std::abs(y[0]) / params_.alpha;
     state_.psi = side_ > 0 ? 0.0 : kPi;
+    state_.equations = Equations::kHousner;
   }
+  Equations RestEquations() const override { return Equations::kHousner; }
 
  private:
   int side_{+1};

@@ -3,6 +3,7 @@
 // Housner and complex models (rest -> uplift -> rocking -> impacts -> rest or
 // overturn, ERRATA item 6). Derived classes supply the equations.
 
+#include <algorithm>
 #include <limits>
 #include <memory>
 
@@ -18,6 +19,7 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   const ModelState& state() const final { return state_; }
   const BlockParams& params() const final { return params_; }
   const ModelOptions& options() const final { return options_; }
+  SolverStats solver_stats() const final;
 
  protected:
   CvodeRockingModel(const BlockParams& params, const ModelOptions& options);
@@ -43,10 +45,18 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   /// Called when g[2] rises through zero (no impact at the same time); may
   /// change y in place; returns whether the integrator must be re-initialised.
   virtual bool ApplySwitch(double* /*y*/) { return false; }
-  /// theta, theta_dot, chi, psi of y into state_ (energy is filled by the base).
+  /// theta, theta_dot, chi, psi and equations of y into state_ (energy is
+  /// filled by the base).
   virtual void FillState(const double* y) = 0;
+  /// The equations an uplift from rest starts with.
+  virtual Equations RestEquations() const = 0;
 
-  double table_accel(double t_s) const { return forcing_->TableAcceleration(t_s); }
+  /// u_g'' at t_s, evaluated inside the current segment between two stops of
+  /// the integrator: at a stop that is a jump of the forcing, the side of
+  /// the segment being integrated (t is moved by one ulp at most).
+  double table_accel(double t_s) const {
+    return forcing_->TableAcceleration(std::min(std::max(t_s, segment_lo_s_), segment_hi_s_));
+  }
 
   BlockParams params_;
   ModelOptions options_;
@@ -59,6 +69,10 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   void StartRocking(double t_s, double theta0, double theta_dot0, int side);
   void Emit(double t_s, EventKind kind, double value);
   void UpdateState(double t_s, const double* y);
+  // Sets the segment [t_from, t_to] table_accel evaluates in.
+  void SetSegment(double t_from_s, double t_to_s);
+  // Restarts the integrator at a jump of the forcing at t_s.
+  void RestartAtDiscontinuity(double t_s);
 
   int n_{};
   std::unique_ptr<Cvode> cvode_;
@@ -66,7 +80,13 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   double uplift_accel_mps2_{};       // g tan(alpha)
   double last_impact_s_{-std::numeric_limits<double>::infinity()};
   bool rest_checked_{false};         // uplift criterion checked at the current rest time
-  double y_[3]{};                    // scratch state, no allocation on the stepping path
+  double segment_lo_s_{};            // table_accel clamps its time to [lo, hi]
+  double segment_hi_s_{};
+  long restarts_{};                  // restarts at declared discontinuities since Reset
+  double rocking_time_s_{};          // since Reset, s
+  double eq10_time_s_{};             // since Reset, s
+  Cvode::Stats stats_at_reset_;
+  double y_[Cvode::kMaxEquations]{};  // scratch state, no allocation on the stepping path
 };
 
 std::unique_ptr<RockingModel> MakeHousner(const BlockParams& params, const ModelOptions& options);

@@ -66,6 +66,15 @@ const char* ToString(EventKind kind) {
   return "?";
 }
 
+const char* ToString(Equations equations) {
+  switch (equations) {
+    case Equations::kHousner: return "housner";
+    case Equations::kEq10: return "eq10";
+    case Equations::kLimit: return "limit";
+  }
+  return "?";
+}
+
 ModelKind ParseModelKind(const std::string& name) {
   if (name == "housner") return ModelKind::kHousner;
   if (name == "complex") return ModelKind::kComplex;
@@ -169,6 +178,9 @@ void CvodeRockingModel::Reset(double t0_s, double theta0, double theta_dot0) {
   ResetStepHistory();
   state_ = ModelState{};
   last_impact_s_ = -std::numeric_limits<double>::infinity();
+  restarts_ = 0;
+  rocking_time_s_ = eq10_time_s_ = 0.0;
+  stats_at_reset_ = cvode_->stats();
   if (theta0 == 0.0 && theta_dot0 == 0.0) {
     EnterRest(t0_s);
     return;
@@ -181,12 +193,53 @@ void CvodeRockingModel::EnterRest(double t_s) {
   state_.time_s = t_s;
   state_.theta = state_.theta_dot = state_.chi = state_.psi = state_.energy = 0.0;
   state_.regime = Regime::kRest;
+  state_.equations = RestEquations();
   rest_checked_ = false;
   for (double& v : y_) v = 0.0;
   cvode_->ReInit(t_s, y_);
   // Root 0: u_g'' rising through +g tan(alpha); root 1: falling through -g
   // tan(alpha); root 2 unused at rest.
   cvode_->SetRootDirection({+1, -1, +1});
+}
+
+SolverStats CvodeRockingModel::solver_stats() const {
+  const Cvode::Stats now = cvode_->stats();
+  SolverStats s;
+  s.steps = now.steps - stats_at_reset_.steps;
+  s.rhs_evals = now.rhs_evals - stats_at_reset_.rhs_evals;
+  s.error_test_fails = now.error_test_fails - stats_at_reset_.error_test_fails;
+  s.recoveries = now.recoveries - stats_at_reset_.recoveries;
+  s.restarts = restarts_;
+  s.rocking_time_s = rocking_time_s_;
+  s.eq10_time_s = eq10_time_s_;
+  if (rocking_time_s_ > 0.0) {
+    s.eq10_fraction = eq10_time_s_ / rocking_time_s_;
+  } else {
+    s.eq10_fraction = RestEquations() == Equations::kEq10 ? 1.0 : 0.0;
+  }
+  return s;
+}
+
+void CvodeRockingModel::SetSegment(double t_from_s, double t_to_s) {
+  const double inf = std::numeric_limits<double>::infinity();
+  segment_lo_s_ = std::nextafter(t_from_s, inf);
+  segment_hi_s_ = std::nextafter(t_to_s, -inf);
+  if (segment_lo_s_ > segment_hi_s_) {  // a segment of two ulps or less: no clamping
+    segment_lo_s_ = -inf;
+    segment_hi_s_ = inf;
+  }
+}
+
+void CvodeRockingModel::RestartAtDiscontinuity(double t_s) {
+  ++restarts_;
+  if (state_.regime == Regime::kRest) {
+    rest_checked_ = false;  // the criterion is checked again on the far side
+    cvode_->ReInit(t_s, y_);
+    cvode_->SetRootDirection({+1, -1, +1});
+  } else {
+    cvode_->ReInit(t_s, y_);
+    cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+  }
 }
 
 void CvodeRockingModel::StartRocking(double t_s, double theta0, double theta_dot0, int side) {
@@ -242,6 +295,12 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       state_.time_s = t_s;  // the state stays frozen at the overturn
       break;
     }
+    // Integrate up to t_s or the forcing's next jump, whichever comes first;
+    // at a jump the integrator restarts (its history must not span it).
+    const double t_jump = forcing.NextDiscontinuity(state_.time_s);
+    const bool stop_at_jump = t_jump <= t_s;
+    const double t_stop = stop_at_jump ? t_jump : t_s;
+    SetSegment(state_.time_s, t_stop);
     if (state_.regime == Regime::kRest) {
       if (!rest_checked_) {
         // Root finding sees crossings only: check the criterion where rest starts.
@@ -255,9 +314,14 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         }
       }
       if (state_.time_s >= t_s) break;
-      const Cvode::Result r = cvode_->Advance(t_s);
+      const Cvode::Result r = cvode_->Advance(t_stop);
       state_.time_s = cvode_->t_s();
-      if (r == Cvode::Result::kReached) break;
+      if (r == Cvode::Result::kReached) {
+        if (!stop_at_jump) break;
+        for (int i = 0; i < n_; ++i) y_[i] = 0.0;
+        RestartAtDiscontinuity(t_stop);
+        continue;
+      }
       const auto found = cvode_->RootsFound();
       const double t = cvode_->t_s();
       Emit(t, EventKind::kUplift, table_accel(t));
@@ -265,11 +329,19 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       continue;
     }
     if (state_.time_s >= t_s) break;
-    const Cvode::Result r = cvode_->Advance(t_s);
+    const double t_from = state_.time_s;
+    const Equations equations = state_.equations;
+    const Cvode::Result r = cvode_->Advance(t_stop);
     const double t = cvode_->t_s();
+    rocking_time_s_ += t - t_from;
+    if (equations == Equations::kEq10) eq10_time_s_ += t - t_from;
     for (int i = 0; i < n_; ++i) y_[i] = cvode_->y()[i];
     UpdateState(t, y_);
-    if (r == Cvode::Result::kReached) break;
+    if (r == Cvode::Result::kReached) {
+      if (!stop_at_jump) break;
+      RestartAtDiscontinuity(t_stop);
+      continue;
+    }
     const auto found = cvode_->RootsFound();
     if (found[1] != 0) {
       state_.regime = Regime::kOverturned;
@@ -283,6 +355,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
         UpdateState(t, y_);
       }
+      if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
       continue;
     }
     // An impact.
@@ -301,6 +374,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
       UpdateState(t, y_);
     }
+    if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
   }
   forcing_ = nullptr;
 }

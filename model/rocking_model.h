@@ -16,12 +16,18 @@ namespace rocklab::model {
 enum class ModelKind { kHousner, kComplex };
 enum class Regime { kRest, kRocking, kOverturned };
 enum class EventKind { kUplift, kImpact, kRest, kOverturn };
+/// The equations that produced a sample: Housner's model, the paper's
+/// eq. (10) (complex formulation), or eq. (10)'s l -> 0 limit (the opt-in
+/// hand-off of the complex model, ModelOptions::complex_resolved_energy).
+enum class Equations { kHousner, kEq10, kLimit };
 
 /// "housner" / "complex"; "rest" / "rocking" / "overturned";
 /// "uplift" / "impact" / "rest" / "overturn".
 const char* ToString(ModelKind kind);
 const char* ToString(Regime regime);
 const char* ToString(EventKind kind);
+/// "housner" / "eq10" / "limit".
+const char* ToString(Equations equations);
 /// @throws std::invalid_argument for a name other than housner or complex.
 ModelKind ParseModelKind(const std::string& name);
 
@@ -40,24 +46,45 @@ struct ModelState {
   double theta{};      ///< rocking angle, rad; > 0 about the +x corner
   double theta_dot{};  ///< rad/s
   double chi{};        ///< |theta| / alpha (complex: the integrated modulus), 1
-  double psi{};        ///< complex formulation phase, rad (housner: 0 for theta >= 0, pi otherwise)
+  double psi{};        ///< complex formulation phase, rad, in (-pi, pi] (housner: 0 for theta >= 0, pi otherwise)
   double energy{};     ///< E / (M g R) = theta_dot^2 / (2 p^2) + cos(alpha - |theta|) - cos(alpha), 1
   int impacts{};       ///< impacts since Reset
   Regime regime{Regime::kRest};
+  /// The equations integrated up to this sample (at rest: those the next
+  /// uplift starts with).
+  Equations equations{Equations::kHousner};
 };
+
+/// Work of the integrator and where the rocking time went, since Reset.
+struct SolverStats {
+  long steps{};             ///< CVODE internal steps
+  long rhs_evals{};         ///< right-hand side evaluations
+  long error_test_fails{};  ///< CVODE local error test failures
+  long restarts{};          ///< restarts at discontinuities the forcing declared
+  long recoveries{};        ///< restarts after CVODE gave up at an undeclared jump
+  double rocking_time_s{};  ///< time spent rocking, s
+  double eq10_time_s{};     ///< of which integrated by eq. (10), s
+  /// eq10_time_s / rocking_time_s; 1 when nothing rocked and the model is
+  /// eq. (10), 0 for Housner.
+  double eq10_fraction{};
+};
+
+/// Default l: see the README's models section for the convergence study.
+inline constexpr double kDefaultL = 1e-10;
 
 /// Integration and regime knobs.
 struct ModelOptions {
   double rtol{1e-10};       ///< CVODE relative tolerance, 1
   double atol{1e-12};       ///< CVODE absolute tolerance on theta (rad) and theta_dot (rad/s)
   double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
-  double l{3e-4};           ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
-  /// Complex formulation: eq. (10) is integrated while its regularised energy
-  /// is resolved, i.e. at least this multiple of the floor V_min ~ l^(2/3)
-  /// (back below half of it at a crossing); below, its l -> 0 limit
-  /// (Housner's equations in chi, psi). 0: eq. (10) throughout once lifted
-  /// off. 1; >= 0.
-  double complex_resolved_energy{16.0};
+  double l{kDefaultL};      ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
+  /// Complex formulation, opt-in approximation (0, the default: off, eq. (10)
+  /// throughout). K > 0: below K V_min, V_min ~ l^(2/3) the floor of eq.
+  /// (10)'s regularised energy, the model integrates eq. (10)'s l -> 0 limit
+  /// (Housner's equations) instead, starting there at uplift and going back
+  /// to eq. (10) above K V_min (and to the limit at a crossing below K V_min
+  /// / 2). 1; >= 0.
+  double complex_resolved_energy{0.0};
   /// Return to rest when two impacts come closer than this, s.
   double rest_impact_interval_s{2e-3};
   /// @throws std::invalid_argument naming the option.
@@ -95,6 +122,8 @@ class RockingModel {
   virtual ModelKind kind() const = 0;
   virtual const BlockParams& params() const = 0;
   virtual const ModelOptions& options() const = 0;
+  /// Solver work and the share of eq. (10), since Reset.
+  virtual SolverStats solver_stats() const = 0;
 
   /// Events since Reset (or since the last ClearEvents).
   const std::vector<ModelEvent>& events() const { return events_; }

@@ -148,9 +148,8 @@ TEST(RockingModelTest, UpliftTimeByRootFinding) {
 // against QuarterTimeExact, and the energy ratio across the first impact
 // against mu^2. TOLERANCE: the error must fall monotonically with l and be
 // below 1e-4 s at l = 3e-4 (ERRATA quotes 3e-5 s there, 8e-4 s at 1e-2).
-// complex_resolved_energy = 0 keeps eq. (10) for every l (with the default
-// 16, this motion, 5.5 V_min at l = 1e-2, would be left to the l -> 0
-// limit); the test below checks the default changes nothing at l <= 1e-3.
+// complex_resolved_energy = 0 (the default) keeps eq. (10) for every l;
+// the default l (1e-10) is tested in complex_test.cpp.
 TEST(ComplexTest, ConvergesToHousnerAsLFalls) {
   const double a = kBlock1.alpha, p = kBlock1.p, mu = kBlock1.mu;
   const double t1 = QuarterTimeExact(a, p, a / 2);
@@ -179,13 +178,14 @@ TEST(ComplexTest, ConvergesToHousnerAsLFalls) {
   EXPECT_LT(last_energy_error / (mu * mu), 1e-2);
 }
 
-// ORACLE: the pure eq. (10) run (complex_resolved_energy = 0). With the
-// default hand-off to the l -> 0 limit below the resolution floor, a motion
-// the formulation resolves (free rocking from alpha/2: 0.375 in units of
-// alpha^2 M g R against 16 V_min = 0.24 at l = 1e-3, 0.11 at l = 3e-4) stays
-// eq. (10) through the first impact: the same impact time and state.
-// TOLERANCE: exact (the same operations) up to 1e-12.
-TEST(ComplexTest, DefaultHandOffLeavesResolvedMotionToEquation10) {
+// ORACLE: the pure eq. (10) run (complex_resolved_energy = 0, the default).
+// With the opt-in hand-off to the l -> 0 limit below the resolution floor
+// (complex_resolved_energy = 16), a motion the formulation resolves (free
+// rocking from alpha/2: 0.375 in units of alpha^2 M g R against 16 V_min =
+// 0.24 at l = 1e-3, 0.11 at l = 3e-4) stays eq. (10) through the first
+// impact: the same impact time and state. TOLERANCE: exact (the same
+// operations) up to 1e-12.
+TEST(ComplexTest, HandOffLeavesResolvedMotionToEquation10) {
   const double a = kBlock1.alpha;
   for (double l : {1e-3, 3e-4}) {
     ModelState states[2];
@@ -193,7 +193,7 @@ TEST(ComplexTest, DefaultHandOffLeavesResolvedMotionToEquation10) {
     for (int pure = 0; pure < 2; ++pure) {
       ModelOptions o;
       o.l = l;
-      if (pure) o.complex_resolved_energy = 0.0;
+      o.complex_resolved_energy = pure ? 0.0 : 16.0;
       auto m = RockingModel::Create(ModelKind::kComplex, kBlock1, o);
       m->Reset(0.0, a / 2, 0.0);
       m->AdvanceTo(0.6, kNoForcing);
@@ -208,6 +208,7 @@ TEST(ComplexTest, DefaultHandOffLeavesResolvedMotionToEquation10) {
     EXPECT_NEAR(states[0].theta_dot, states[1].theta_dot, 1e-12) << l;
     // eq. (10): psi has drifted off the multiples of pi the limit keeps.
     EXPECT_GT(std::abs(states[0].psi - kPi * std::round(states[0].psi / kPi)), 1e-9) << l;
+    EXPECT_EQ(states[0].equations, Equations::kEq10) << l;
   }
 }
 

@@ -25,7 +25,6 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 struct Scenario {
   const char* name;
@@ -124,84 +123,47 @@ std::size_t PeakIndex(const Trajectory& t, double from_s, double to_s) {
 
 double Peak(const Trajectory& t, double from_s, double to_s) { return std::abs(t.theta[PeakIndex(t, from_s, to_s)]); }
 
-// True when the complex model integrates eq. (10) at time_s, not its l -> 0
-// limit below the resolution floor (model/complex.cpp), which keeps psi on a
-// multiple of pi; eq. (10) turns psi at l/chi^2 > 0 all the time.
-bool ComplexResolvedAt(const Scenario& s, const ModelOptions& options, double time_s) {
-  auto model = RockingModel::Create(ModelKind::kComplex, s.params, options);
-  const auto excitation = ParseExcitation(s.excitation);
-  model->Reset(0.0, 0.0, 0.0);
-  model->AdvanceTo(time_s, *excitation);
-  const double psi = model->state().psi;
-  return model->state().regime == Regime::kRocking && std::abs(psi - kPi * std::round(psi / kPi)) > 1e-9;
+int Impacts(const Trajectory& t) {
+  int n = 0;
+  for (const auto& e : t.events) n += e.kind == EventKind::kImpact;
+  return n;
 }
 
-// ORACLE: Housner. Uplift is decided by the same rest-regime root finding in
-// both models: TOLERANCE 1e-9 s (CVODE's root tolerance ~1e-13 s; the two
-// integrators take different steps). The first excursion (peak at 0.14 s) is
-// below the complex formulation's resolution floor at l = 3e-5 and is
-// integrated in its l -> 0 limit (model/complex.cpp); eq. (10) takes over at
-// 0.23 s and carries 99 % of the rocking time. So the peak |theta| is
-// compared over [0, 20] s and over [1, 20] s, where every sample is eq. (10),
-// with l = 3e-5 (the default 3e-4 leaves the complex model on a different
-// long-term response after ~1 s: peak 0.041 rad at 7.7 s): TOLERANCE 10 %,
-// for the O(l^(2/3)) regularisation of ~200 crossings (measured: 0.02461 vs
-// 0.02461 over [0, 20] s, the first excursion, in the limit; 0.01453 vs
-// 0.01428 over [1, 20] s, eq. (10), 1.7 %).
-TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) {
-  ModelOptions o;
-  o.l = 3e-5;
-  const Trajectory h = RunScenario(kFig8, ModelKind::kHousner);
-  const Trajectory c = RunScenario(kFig8, ModelKind::kComplex, o);
+// ORACLE: an independent exact integration of Housner's equations (scipy,
+// tolerances 1e-10, issue 10): figure 7 peak |theta| 0.038490 rad, figure 8
+// 0.024721 rad and 199 impacts; rocklab's Housner model sampled at 1 kHz
+// must give them (TOLERANCE 5e-6 rad: the 1 kHz sampling of the peak,
+// theta'' h^2 / 8 < 4e-7 rad, and the printed digits). The complex model at
+// its defaults (eq. (10) throughout, l = 1e-10) must meet Housner's limit
+// (issue 10): peak within 1 %, impact count within 3 %, the same uplift time
+// (the same rest-regime root finding: 1e-9 s), eq. (10) for all of the
+// rocking time. Measured: figure 7 -0.09 %, 92 against 92 impacts; figure 8
+// -0.01 %, 199 against 199 (README, "The models", for other l). Figure 7 is
+// the sensitive one: Housner's own peak moves by 3 % for perturbations of
+// 1e-4 in alpha; at l = 1e-9 the complex model misses it by 1.2 %.
+void CheckComplexAgainstHousner(const Scenario& s, double oracle_peak, int oracle_impacts) {
+  auto housner = RockingModel::Create(ModelKind::kHousner, s.params);
+  auto complex = RockingModel::Create(ModelKind::kComplex, s.params);
+  const auto excitation = ParseExcitation(s.excitation);
+  const Trajectory h = Simulate(*housner, *excitation, 0.0, 0.0, 0.0, s.duration_s, 1000.0);
+  const Trajectory c = Simulate(*complex, *excitation, 0.0, 0.0, 0.0, s.duration_s, 1000.0);
+  const double ph = Peak(h, 0.0, s.duration_s), pc = Peak(c, 0.0, s.duration_s);
+  std::printf("%s: peak |theta| housner %.6f complex %.6f (%+.3f %%), impacts %d / %d, eq. (10) %.3f\n", s.name, ph,
+              pc, 100 * (pc / ph - 1), Impacts(h), Impacts(c), complex->solver_stats().eq10_fraction);
+  EXPECT_NEAR(ph, oracle_peak, 5e-6);
+  if (oracle_impacts > 0) {
+    EXPECT_EQ(Impacts(h), oracle_impacts);
+  }
   ASSERT_NE(FirstUplift(h), nullptr);
   ASSERT_NE(FirstUplift(c), nullptr);
   EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9);
-  for (double from_s : {0.0, 1.0}) {
-    const double ph = Peak(h, from_s, 20.0), pc = Peak(c, from_s, 20.0);
-    std::printf("fig8 peak |theta| over [%.0f, 20] s: housner %.5f complex %.5f\n", from_s, ph, pc);
-    EXPECT_NEAR(pc / ph, 1.0, 0.10) << from_s;
-  }
-  EXPECT_TRUE(ComplexResolvedAt(kFig8, o, 1.0));
-  EXPECT_TRUE(ComplexResolvedAt(kFig8, o, c.time_s[PeakIndex(c, 1.0, 20.0)]));
+  EXPECT_NEAR(pc / ph, 1.0, 0.01);
+  EXPECT_NEAR(static_cast<double>(Impacts(c)) / Impacts(h), 1.0, 0.03);
+  EXPECT_EQ(complex->solver_stats().eq10_fraction, 1.0);
 }
 
-// ORACLE: Housner, uplift time as above (TOLERANCE 1e-9 s), and peak |theta|
-// over [0, 8] s for l = 3e-4 (default), 3e-5 and 3e-6.
-// The excitation is marginal (peak table acceleration 2.58 m/s^2 against
-// g tan(alpha) = 2.35 m/s^2): Housner's block first chatters (~10 impacts at
-// |theta_dot| 0.01-0.02 rad/s, energy ~1e-5 M g R) and is then pumped up to
-// 0.0385 rad at 2.99 s. That chatter lies below the complex formulation's
-// resolution floor (V_min ~ l^(2/3)) for every l tried (3e-4 .. 1e-10), where
-// eq. (10) cannot follow it (before the l -> 0 hand-off the complex model went
-// back to rest there: peak 0.026 rad at l = 3e-4, < 1e-3 rad at l <= 1e-4);
-// the model integrates its l -> 0 limit there and eq. (10) from 2.87 s
-// (l = 3e-4), 2.86 s (3e-5), 2.65 s (3e-6), i.e. through the peak excursion,
-// which the test checks.
-// TOLERANCE 3 %: Housner's own peak moves by that much for perturbations far
-// below what the experiment or eq. (10) can resolve (measured: alpha +1e-4
-// -3.3 %, mu -1e-3 -0.9 %, the whole state at 2.30 s scaled by 1 +- 1e-2
-// -1.3 %/+0.2 %, by 1 +- 0.1 -7.6 %; rtol 1e-8..1e-12, max step 5e-4 s and a
-// 1 ms shift of the excitation change < 0.03 %). Measured complex/Housner
-// with the default hand-off: 0.9992, 0.9994, 0.9996 at the three l, and
-// within 2 % for every l from 3e-4 down to 1e-7.
-TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7) {
-  const Trajectory h = RunScenario(kFig7, ModelKind::kHousner);
-  ASSERT_NE(FirstUplift(h), nullptr);
-  const double ph = Peak(h, 0.0, 8.0);
-  for (double l : {3e-4, 3e-5, 3e-6}) {
-    ModelOptions o;
-    o.l = l;
-    const Trajectory c = RunScenario(kFig7, ModelKind::kComplex, o);
-    ASSERT_NE(FirstUplift(c), nullptr);
-    EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9) << l;
-    const std::size_t peak = PeakIndex(c, 0.0, 8.0);
-    const double pc = std::abs(c.theta[peak]);
-    std::printf("fig7 l %g: uplift %.6f s; peak |theta| housner %.5f complex %.5f at %.2f s (ratio %.4f)\n", l,
-                FirstUplift(c)->time_s, ph, pc, c.time_s[peak], pc / ph);
-    EXPECT_NEAR(pc / ph, 1.0, 0.03) << l;
-    EXPECT_TRUE(ComplexResolvedAt(kFig7, o, c.time_s[peak])) << l;
-  }
-}
+TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) { CheckComplexAgainstHousner(kFig8, 0.024721, 199); }
+TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7) { CheckComplexAgainstHousner(kFig7, 0.038490, 0); }
 
 }  // namespace
 }  // namespace rocklab::model
