@@ -129,8 +129,10 @@ VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParam
         has_mu = true;
       } else if (key == "l") {
         v.options.l = value;
+      } else if (key == "handoff") {  // opt-in l -> 0 hand-off of the complex model
+        v.options.complex_resolved_energy = value;
       } else {
-        throw std::invalid_argument(where + ": unknown key '" + key + "' (expected alpha, p, mu, l)");
+        throw std::invalid_argument(where + ": unknown key '" + key + "' (expected alpha, p, mu, l, handoff)");
       }
       start = comma + 1;
     }

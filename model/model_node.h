@@ -48,7 +48,9 @@ struct VariantSpec {
 
 /// Parses `NAME:MODEL:PARAMS`, MODEL housner|complex, PARAMS `theoretical`
 /// (then `theoretical` must hold the rig's geometric parameters),
-/// `alpha=A,p=P,mu=M[,l=L]` (rad, rad/s, 1, 1), or a JSON file with the keys
+/// `alpha=A,p=P,mu=M[,l=L][,handoff=K]` (rad, rad/s, 1, 1, 1; handoff: the
+/// complex model's opt-in l -> 0 hand-off below K V_min, 0 = off, see
+/// ModelOptions::complex_resolved_energy), or a JSON file with the keys
 /// alpha, p, mu (and optionally l), as `rocklab fit --out` writes it.
 /// @throws std::invalid_argument naming the variant and the part that is wrong.
 VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParams>& theoretical);

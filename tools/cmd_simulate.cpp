@@ -1,6 +1,7 @@
 // rocklab simulate: one model on one scenario, written as CSV.
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <memory>
 #include <string>
 
@@ -19,7 +20,9 @@ struct SimulateOptions {
   bool json{};
 };
 
-nlohmann::json SummaryJson(const ScenarioOptions& o, const Scenario& s, const RunSummary& r) {
+nlohmann::json SummaryJson(const ScenarioOptions& o, const Scenario& s, const RunSummary& r,
+                           double cpu_s) {
+  const model::SolverStats stats = s.model->solver_stats();
   auto optional = [](const std::optional<double>& v) {
     return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
   };
@@ -40,9 +43,18 @@ nlohmann::json SummaryJson(const ScenarioOptions& o, const Scenario& s, const Ru
           {"overturned", r.overturned},
           {"overturn_time", optional(r.overturn_time_s)},
           {"final_regime", model::ToString(s.model->state().regime)},
+          {"complex_handoff", o.model == "complex" ? nlohmann::json(o.complex_handoff) : nlohmann::json(nullptr)},
+          {"eq10_fraction", stats.eq10_fraction},
+          {"rocking_time", stats.rocking_time_s},
+          {"steps", stats.steps},
+          {"rhs_evals", stats.rhs_evals},
+          {"error_test_fails", stats.error_test_fails},
+          {"restarts", stats.restarts},
+          {"recoveries", stats.recoveries},
+          {"cpu_time", cpu_s},
           {"units", {{"alpha", "rad"}, {"p", "rad/s"}, {"theta0", "rad"}, {"duration", "s"},
                      {"rate", "Hz"}, {"uplift_time", "s"}, {"peak_abs_theta", "rad"},
-                     {"peak_time", "s"}, {"overturn_time", "s"}}}};
+                     {"peak_time", "s"}, {"overturn_time", "s"}, {"rocking_time", "s"}, {"cpu_time", "s"}}}};
 }
 
 int RunSimulate(const SimulateOptions& o) {
@@ -50,14 +62,16 @@ int RunSimulate(const SimulateOptions& o) {
   OutputFile out(o.out_csv);
   std::FILE* f = out.get();
   std::fprintf(f, "time,theta,theta_dot\n");
+  const std::clock_t cpu0 = std::clock();
   const RunSummary r = RunScenario(s, o.scenario, [f](double t, double theta, double theta_dot) {
     std::fprintf(f, "%.9g,%.12g,%.12g\n", t, theta, theta_dot);
   });
+  const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
   out.Close();
   if (!o.events_csv.empty()) WriteEventsCsv(o.events_csv, s.model->events());
 
   if (o.json) {
-    std::printf("%s\n", SummaryJson(o.scenario, s, r).dump(2).c_str());
+    std::printf("%s\n", SummaryJson(o.scenario, s, r, cpu_s).dump(2).c_str());
   } else {
     std::printf("%s model, alpha %.4f rad, p %.4f rad/s, mu %.4f; excitation %s\n",
                 o.scenario.model.c_str(), o.scenario.alpha, o.scenario.p, o.scenario.mu,
@@ -70,6 +84,11 @@ int RunSimulate(const SimulateOptions& o) {
     std::printf("  peak |theta| %.5f rad (%.3f deg) at %.4f s, %d impacts%s\n",
                 r.peak_abs_theta, r.peak_abs_theta * 180.0 / M_PI, r.peak_time_s, r.impacts,
                 r.overturned ? ", OVERTURNED" : "");
+    if (s.model->kind() == model::ModelKind::kComplex) {
+      const model::SolverStats stats = s.model->solver_stats();
+      std::printf("  eq. (10) for %.1f %% of the rocking time%s\n", 100.0 * stats.eq10_fraction,
+                  o.scenario.complex_handoff > 0 ? " (l -> 0 hand-off on)" : "");
+    }
     std::printf("  %zu rows written to %s\n", r.samples, o.out_csv.c_str());
   }
   return 0;

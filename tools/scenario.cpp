@@ -20,6 +20,9 @@ class SumForcing : public model::Forcing {
   double TableAcceleration(double t_s) const override {
     return a_->TableAcceleration(t_s) + b_->TableAcceleration(t_s);
   }
+  double NextDiscontinuity(double t_s) const override {
+    return std::min(a_->NextDiscontinuity(t_s), b_->NextDiscontinuity(t_s));
+  }
 
  private:
   std::unique_ptr<model::Forcing> a_;
@@ -44,6 +47,11 @@ void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
   cmd.add_option("--duration", o.duration_s, "simulated time, s, >= 0")->required();
   cmd.add_option("--rate", o.rate_hz, "output rate, Hz, > 0")->required();
   cmd.add_option("--l", o.l, "complex formulation momentum, > 0")->capture_default_str();
+  cmd.add_option("--complex-handoff", o.complex_handoff,
+                 "complex formulation, opt-in approximation: integrate eq. (10)'s l -> 0 limit "
+                 "(Housner's equations) below K times the energy floor V_min ~ l^(2/3); "
+                 "0 (default): eq. (10) throughout")
+      ->capture_default_str();
 }
 
 Scenario BuildScenario(const ScenarioOptions& o) {
@@ -63,6 +71,8 @@ Scenario BuildScenario(const ScenarioOptions& o) {
           o.duration_s);
   Require(std::isfinite(o.rate_hz) && o.rate_hz > 0, "--rate", "> 0 Hz", o.rate_hz);
   Require(std::isfinite(o.l) && o.l > 0, "--l", "> 0", o.l);
+  Require(std::isfinite(o.complex_handoff) && o.complex_handoff >= 0, "--complex-handoff", ">= 0",
+          o.complex_handoff);
   Require(o.duration_s * o.rate_hz < 1e9, "--duration", "such that duration * rate < 1e9 rows",
           o.duration_s);
 
@@ -101,6 +111,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
 
   model::ModelOptions mo;
   mo.l = o.l;
+  mo.complex_resolved_energy = o.complex_handoff;
   s.model = model::RockingModel::Create(kind, {o.alpha, o.p, o.mu}, mo);
   return s;
 }

@@ -28,10 +28,13 @@ struct ScenarioOptions {
   double duration_s{};                  ///< s
   double rate_hz{};                     ///< output rate, Hz
   double l{model::ModelOptions{}.l};    ///< complex formulation momentum, 1
+  /// Complex formulation, opt-in approximation: the l -> 0 limit below this
+  /// multiple of the energy floor V_min (0: off, eq. (10) throughout), 1.
+  double complex_handoff{0.0};
 };
 
 /// Adds --model --alpha --p --mu --theta0 --excitation --accel --duration
-/// --rate --l to `cmd`, storing into `options` (which must outlive parsing).
+/// --rate --l --complex-handoff to `cmd`, storing into `options` (which must outlive parsing).
 void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& options);
 
 /// A scenario ready to run: the model and its forcing.
