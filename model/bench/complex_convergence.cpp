@@ -5,7 +5,7 @@
 // Housner's, the energy ratio across the first impact against its exact
 // l -> 0 value mu^(2/w)), the share of eq. (10) and the solver's work.
 //
-//   rocklab_complex_convergence [--l 1e-4,1e-5,...] [--handoff K]
+//   rocklab_complex_convergence [--l 1e-4,1e-5,...] [--handoff K] [--rtol R]
 //
 // Figures are printed, never asserted (the tests assert the default l).
 #include <chrono>
@@ -97,15 +97,18 @@ std::vector<double> ParseList(const char* text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<double> ls{1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9};
+  std::vector<double> ls{1e-4, 1e-6, 1e-8, 1e-9, 3e-10, 1e-10, 3e-11, 1e-11};
   double handoff = 0.0;
+  double rtol = 0.0;  // 0: ModelOptions' default
   for (int i = 1; i + 1 < argc; i += 2) {
     if (std::strcmp(argv[i], "--l") == 0) {
       ls = ParseList(argv[i + 1]);
     } else if (std::strcmp(argv[i], "--handoff") == 0) {
       handoff = std::strtod(argv[i + 1], nullptr);
+    } else if (std::strcmp(argv[i], "--rtol") == 0) {
+      rtol = std::strtod(argv[i + 1], nullptr);
     } else {
-      std::fprintf(stderr, "usage: %s [--l L1,L2,...] [--handoff K]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--l L1,L2,...] [--handoff K] [--rtol R]\n", argv[0]);
       return 2;
     }
   }
@@ -129,7 +132,7 @@ int main(int argc, char** argv) {
     ModelOptions o;
     o.l = l;
     o.complex_resolved_energy = handoff;
-    if (std::getenv("RTOL")) o.rtol = std::atof(std::getenv("RTOL"));
+    if (rtol > 0) o.rtol = rtol;
     const Run c7 = Scenario(ModelKind::kComplex, b1, fig7, 8.0, o);
     const Run c8 = Scenario(ModelKind::kComplex, b2, fig8, 20.0, o);
     const Run cf = FreeRocking(ModelKind::kComplex, b1, o);
