@@ -75,7 +75,10 @@ inline constexpr double kDefaultL = 1e-10;
 /// Integration and regime knobs.
 struct ModelOptions {
   double rtol{1e-10};       ///< CVODE relative tolerance, 1
-  double atol{1e-12};       ///< CVODE absolute tolerance on theta (rad) and theta_dot (rad/s)
+  /// CVODE absolute tolerance on theta (rad) and theta_dot (rad/s); the
+  /// complex model uses at most 1e-7 l on its (x, y) plane, where a crossing
+  /// passes the origin at the distance ~ l.
+  double atol{1e-12};
   double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
   double l{kDefaultL};      ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
   /// Complex formulation, opt-in approximation (0, the default: off, eq. (10)
