@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "model/cvode.h"
 #include "model/excitation.h"
 #include "model/free_rocking.h"
 #include "model/rocking_model.h"
@@ -86,6 +87,74 @@ Run FreeRocking(ModelKind kind, const BlockParams& b, const ModelOptions& o) {
   return r;
 }
 
+// eq. (10) in its printed polar form (chi, dchi/dtau, psi), free rocking,
+// on the same CVODE wrapper and tolerances as the model: the cost and
+// accuracy the Cartesian form is compared with.
+class PolarFree final : public rocklab::model::detail::OdeSystem {
+ public:
+  PolarFree(const BlockParams& b, double l) : b_(b), l_(l), d_(2 * std::log(b.mu) / kPi) {}
+  int Rhs(double, const double* y, double* ydot) override {
+    const double a = b_.alpha, p = b_.p, chi = y[0], chi2 = chi * chi;
+    const double chi_dot = y[1] / p;
+    ydot[0] = y[1];
+    ydot[1] = p * p * (l_ * l_ / (chi2 * chi) - std::sin(a - a * chi) / a + d_ * l_ * chi_dot / chi2);
+    ydot[2] = p * l_ / chi2;
+    return 0;
+  }
+  int Roots(double, const double*, double* g) override {
+    g[0] = g[1] = g[2] = 1.0;
+    return 0;
+  }
+
+ private:
+  BlockParams b_;
+  double l_, d_;
+};
+
+// Free rocking of block 1 from alpha/2 to 0.6 s (one impact): energy ratio
+// and CVODE steps, polar against the model (Cartesian).
+void PolarAgainstCartesian(const std::vector<double>& ls, double rtol) {
+  const BlockParams b{0.235, 3.884, 0.937};
+  const double a = b.alpha, e0 = std::cos(a / 2) - std::cos(a);
+  const double mu = b.mu, w = std::sqrt(1 - std::pow(std::log(mu) / kPi, 2));
+  const double limit = std::pow(mu, 2 / w);
+  std::printf("\none impact of free rocking (block 1 from alpha/2, to 0.6 s): polar (chi, psi) against the model's (x, y)\n");
+  std::printf("%8s | %12s %8s %8s | %12s %8s %8s\n", "l", "polar dE/lim", "steps", "cpu s", "xy dE/lim", "steps",
+              "cpu s");
+  for (double l : ls) {
+    ModelOptions o;
+    o.l = l;
+    if (rtol > 0) o.rtol = rtol;
+    PolarFree polar(b, l);
+    const double atol[3] = {o.atol / a, o.atol / a, o.atol};
+    rocklab::model::detail::Cvode cvode(3, polar, o.rtol, atol, o.max_step_s);
+    const double y0[3] = {0.5, 0.0, 0.0};
+    cvode.ReInit(0.0, y0);
+    double c0 = Cpu();
+    std::string polar_ratio = "failed";
+    try {
+      cvode.Advance(0.6);
+      const double* y = cvode.y();
+      const double theta = a * y[0] * std::cos(y[2]);
+      const double theta_dot = a * (y[1] * std::cos(y[2]) - b.p * l * std::sin(y[2]) / y[0]);
+      const double e = theta_dot * theta_dot / (2 * b.p * b.p) + std::cos(a - std::abs(theta)) - std::cos(a);
+      char text[32];
+      std::snprintf(text, sizeof text, "%+.2e", e / e0 / limit - 1);
+      polar_ratio = text;
+    } catch (const std::exception&) {
+    }
+    const double polar_cpu = Cpu() - c0;
+    const long polar_steps = cvode.stats().steps;
+    auto m = RockingModel::Create(ModelKind::kComplex, b, o);
+    c0 = Cpu();
+    m->Reset(0.0, a / 2, 0.0);
+    m->AdvanceTo(0.6, rocklab::model::NoTableMotion());
+    const double xy_cpu = Cpu() - c0;
+    std::printf("%8.1e | %12s %8ld %8.3f | %+12.2e %8ld %8.3f\n", l, polar_ratio.c_str(), polar_steps, polar_cpu,
+                m->state().energy / e0 / limit - 1, m->solver_stats().steps, xy_cpu);
+  }
+}
+
 std::vector<double> ParseList(const char* text) {
   std::vector<double> out;
   std::stringstream in(text);
@@ -146,5 +215,6 @@ int main(int argc, char** argv) {
                 cf.energy_ratio / ratio_limit - 1, dt, cf.cpu_s);
     std::fflush(stdout);
   }
+  PolarAgainstCartesian(ls, rtol);
   return 0;
 }
