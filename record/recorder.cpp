@@ -86,10 +86,20 @@ void Recorder::OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& chan
   if (it != self->ids_.end()) {
     id = it->second;
   } else {
-    id = static_cast<int32_t>(self->names_.size());
-    self->ids_.emplace(channel, id);
-    self->names_.push_back(channel);
-    self->produced_.emplace_back();
+    // No exception may cross LCM's C code: a channel that cannot be added
+    // (out of memory) is counted as a drop.
+    try {
+      id = static_cast<int32_t>(self->names_.size());
+      self->names_.push_back(channel);
+      self->produced_.emplace_back();
+      self->ids_.emplace(channel, id);
+    } catch (const std::exception&) {
+      self->names_.resize(static_cast<std::size_t>(id));
+      self->produced_.resize(static_cast<std::size_t>(id));
+      ++self->drops_total_;
+      ++self->unregistered_drops_;
+      return;
+    }
   }
   ProducerChannel& c = self->produced_[static_cast<std::size_t>(id)];
   ++c.received;
@@ -185,6 +195,7 @@ RecorderStats Recorder::Stats() const {
     s.bytes = writer_.bytes();
     s.write_error = writer_.error();
   }
+  s.dropped += unregistered_drops_;
   s.queue_bytes = queue_.capacity_bytes();
   s.queue_high_water_bytes = queue_.high_water_bytes();
   return s;

@@ -127,6 +127,7 @@ class Recorder {
   std::vector<ProducerChannel> produced_;
   int64_t drops_reported_{0};
   int64_t drops_total_{0};
+  int64_t unregistered_drops_{0};  // events of a channel that could not be added
   // The writer thread's: counts and sequence state per channel id.
   std::vector<ChannelStats> written_;
   std::atomic<int64_t> write_failures_{0};
