@@ -21,6 +21,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run);
 void RegisterRun(CLI::App& app, CommandRun& run);
 void RegisterMonitor(CLI::App& app, CommandRun& run);
 void RegisterReport(CLI::App& app, CommandRun& run);
+void RegisterRecord(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
       &RegisterRun,
       &RegisterMonitor,
       &RegisterReport,
+      &RegisterRecord,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

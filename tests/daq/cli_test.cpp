@@ -239,25 +239,23 @@ namespace rocklab::daq {
 namespace {
 
 // `rocklab daq` in a private network namespace (udpm, ttl=0) recorded by
-// lcm-logger, stopped by SIGINT half way: exit 0, every frame read was
+// rocklab record, stopped by SIGINT half way: exit 0, every frame read was
 // published (RL_RAW count = the frames the final health reports), and the
-// last RL_HEALTH says "stopped". Skips when no namespace can be made. The
-// logger runs at a higher priority (tests/tools/udpm_netns.h).
+// last RL_HEALTH says "stopped". Skips when no namespace can be made.
 TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   const std::string raw = Synth("daq.csv", "--seed 2");  // 3 s of data
   const std::string why = rocklab::test::EnterPrivateNetwork();
   if (!why.empty()) GTEST_SKIP() << why;
   const std::string log = test::ScratchDir() + "/daq.lcmlog";
-  // Only what the test reads: lcm-logger keeps 30 messages and drops the rest.
-  const pid_t logger = rocklab::test::StartLcmLogger(log, "RL_RAW|RL_HEALTH");
-  ASSERT_GT(logger, 0) << "lcm-logger did not start";
+  const pid_t logger = rocklab::test::StartRecorder(log, "RL_RAW|RL_HEALTH");
+  ASSERT_GT(logger, 0) << "rocklab record did not start";
   const pid_t daq = rocklab::test::StartCli(
       {"daq", "--rig", test::LabRigPath(), "--input", raw, "--speed", "1", "--lcm-url",
        rocklab::test::kUdpmUrl},
       test::ScratchDir() + "/daq.out", test::ScratchDir() + "/daq.err");
   std::this_thread::sleep_for(std::chrono::seconds(1));  // about a third of the file
   EXPECT_EQ(rocklab::test::StopProcess(daq, SIGINT), 0);
-  EXPECT_EQ(rocklab::test::StopLcmLogger(logger, log), 0);
+  EXPECT_EQ(rocklab::test::StopRecorder(logger, log), 0);
 
   lcm::LogFile in(log, "r");
   ASSERT_TRUE(in.good());

@@ -218,7 +218,7 @@ TEST(DaqNode, SpeedFactorPacesOnTheSampleClock) {
 }
 
 // In a child process: a private network namespace with multicast on lo,
-// lcm-logger recording udpm://...?ttl=0 while the node publishes, then the
+// rocklab record recording udpm://...?ttl=0 while the node publishes, then the
 // log decoded back. Exit 77 = no namespace (skip), 0 = pass.
 int UdpmChild(const RigConfig& rig, const std::string& input, const std::string& log_path) {
   const std::string why = rocklab::test::EnterPrivateNetwork();
@@ -226,10 +226,9 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
     std::cerr << why << "\n";
     return 77;
   }
-  // The logger at real-time priority (see tests/tools/udpm_netns.h).
-  const pid_t logger = rocklab::test::StartLcmLogger(log_path);
+  const pid_t logger = rocklab::test::StartRecorder(log_path);
   if (logger < 0) {
-    std::cerr << "lcm-logger did not start\n";
+    std::cerr << "rocklab record did not start\n";
     return 1;
   }
   DaqNodeConfig config;
@@ -246,8 +245,8 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
       return 1;
     }
   }
-  if (rocklab::test::StopLcmLogger(logger, log_path) != 0) {
-    std::cerr << "lcm-logger did not exit cleanly\n";
+  if (rocklab::test::StopRecorder(logger, log_path) != 0) {
+    std::cerr << "rocklab record did not exit cleanly\n";
     return 1;
   }
   const auto want = ReadFrames(input, rig);
@@ -280,7 +279,7 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
   return 0;
 }
 
-TEST(DaqNode, UdpmInAPrivateNamespaceRecordedByLcmLoggerDecodesToTheSameFrames) {
+TEST(DaqNode, UdpmInAPrivateNamespaceRecordedDecodesToTheSameFrames) {
   const RigConfig rig = LoadRigConfig(test::LabRigPath());
   const std::string input = MakeRawCsv(rig, "udpm.csv", 0.5);
   const std::string log_path = test::ScratchDir() + "/udpm.lcmlog";

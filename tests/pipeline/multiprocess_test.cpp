@@ -1,11 +1,11 @@
 // The pipeline as separate processes over udpm://, each test in its own
 // private network namespace (tests/tools/udpm_netns.h), so ctest can run
 // them in parallel: `rocklab daq`, `rocklab model` and `rocklab compare`
-// with lcm-logger recording; LCM's own lcm-logplayer replaying the DAQ's
+// with rocklab record recording; LCM's own lcm-logplayer replaying the DAQ's
 // messages into fresh model and compare processes; a model killed and
 // restarted mid-run; SIGTERM to every node.
 //
-// Start-up order: lcm-logger first (StartLcmLogger returns once it
+// Start-up order: the recorder first (StartRecorder returns once it
 // records), then the subscribers, each waited for until its first RL_HEALTH
 // (published right after it subscribed), then the publisher. Before a node
 // is stopped the test waits until its RL_HEALTH counts say it has handled
@@ -233,10 +233,10 @@ class MultiProcess : public ::testing::Test {
     dir = test::ScratchDir(name);
     raw = SynthRecord(dir, record_s);
   }
-  /// lcm-logger writing the `channels` to DIR/NAME (a failure and -1 when
+  /// rocklab record writing the `channels` to DIR/NAME (a failure and -1 when
   /// it does not start).
   pid_t StartLogger(const std::string& name, const std::string& channels) {
-    const pid_t pid = test::StartLcmLogger(dir + "/" + name, channels);
+    const pid_t pid = test::StartRecorder(dir + "/" + name, channels);
     EXPECT_GT(pid, 0) << test::ReadFile(dir + "/" + name + ".err");
     return pid;
   }
@@ -251,7 +251,7 @@ class MultiProcess : public ::testing::Test {
   std::string dir, raw;
 };
 
-// Issue 4: daq, model and compare as processes over udpm, lcm-logger
+// Issue 4: daq, model and compare as processes over udpm, rocklab record
 // recording; lcm-logplayer replays the DAQ's messages of that log into
 // fresh model and compare processes: the two summaries must be equal.
 // Oracle: exact equality of the two summary JSON documents. Both
@@ -270,7 +270,7 @@ TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
   const pid_t logger = StartLogger("live.lcm", kDaqChannels);
   ASSERT_GT(logger, 0);
 
-  // Live: the DAQ at the sample clock; lcm-logger records the DAQ's channels.
+  // Live: the DAQ at the sample clock; rocklab record records the DAQ's channels.
   const std::vector<std::string> variants = {kFitted, "housner:housner:theoretical"};
   Proc model = Start("model_a", ModelArgs(variants));
   Proc compare = Start("compare_a",
@@ -289,12 +289,12 @@ TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
   const std::int64_t live_tables = watch.tables, live_thetas = watch.thetas;
   EXPECT_EQ(test::StopProcess(compare.pid, SIGTERM), 0) << test::ReadFile(compare.err);
   EXPECT_EQ(test::StopProcess(model.pid, SIGTERM), 0) << test::ReadFile(model.err);
-  EXPECT_EQ(test::StopLcmLogger(logger, live_log), 0);
+  EXPECT_EQ(test::StopRecorder(logger, live_log), 0);
 
   const std::string daq_log = dir + "/daq_only.lcm";
   const auto [tables, thetas] = CopyDaqMessages(live_log, daq_log);
-  ASSERT_EQ(tables, live_tables) << "lcm-logger lost RL_TABLE messages";
-  ASSERT_EQ(thetas, live_thetas) << "lcm-logger lost RL_THETA messages";
+  ASSERT_EQ(tables, live_tables) << "the recorder lost RL_TABLE messages";
+  ASSERT_EQ(thetas, live_thetas) << "the recorder lost RL_THETA messages";
   ASSERT_GT(tables, 3900);  // 4 s at 1 kHz, 0.1 % dropped by synth
 
   // Replay: LCM's lcm-logplayer (its default speed, 1: the recorded pace).
@@ -374,7 +374,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   EXPECT_EQ(test::StopProcess(daq.pid, 0), 0) << test::ReadFile(daq.err);
   EXPECT_EQ(test::StopProcess(model.pid, SIGTERM), 0) << test::ReadFile(model.err);
   EXPECT_EQ(test::StopProcess(compare.pid, SIGTERM), 0) << test::ReadFile(compare.err);
-  EXPECT_EQ(test::StopLcmLogger(logger, log), 0);
+  EXPECT_EQ(test::StopRecorder(logger, log), 0);
 
   // From the log: the restarted model's first message, after the longest
   // silence of RL_MODEL_fitted, against RL_THETA of the same utime.
@@ -423,7 +423,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
 }
 
 // Issue 4: SIGTERM to every node as a process exits 0 after a final
-// RL_HEALTH "stopped", read from an lcm-logger log: rocklab daq, model and
+// RL_HEALTH "stopped", read from a rocklab record log: rocklab daq, model and
 // compare mid-run, then rocklab run over udpm (all three nodes in one
 // process: their "stopped" in the shutdown order of tools/cmd_run.cpp).
 // Oracles: the exit codes, the last RL_HEALTH of each node, the DAQ's
@@ -464,7 +464,7 @@ TEST_F(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
   EXPECT_EQ(test::StopProcess(model.pid, SIGTERM), 0) << test::ReadFile(model.err);
   EXPECT_EQ(test::StopProcess(compare.pid, SIGTERM), 0) << test::ReadFile(compare.err);
   ASSERT_TRUE(watch.Until([&] { return watch.health["compare"].state == "stopped"; }));
-  EXPECT_EQ(test::StopLcmLogger(logger, log), 0);
+  EXPECT_EQ(test::StopRecorder(logger, log), 0);
   std::map<std::string, std::size_t> order;
   std::int64_t raw_frames = 0;
   auto last = last_health(log, &order, &raw_frames);
@@ -486,7 +486,7 @@ TEST_F(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
   ASSERT_TRUE(watch.Until(flowing)) << test::ReadFile(run.err);
   EXPECT_EQ(test::StopProcess(run.pid, SIGTERM), 0) << test::ReadFile(run.err);
   ASSERT_TRUE(watch.Until([&] { return watch.health["compare"].state == "stopped"; }));
-  EXPECT_EQ(test::StopLcmLogger(logger, run_log), 0);
+  EXPECT_EQ(test::StopRecorder(logger, run_log), 0);
   order.clear();
   last = last_health(run_log, &order, &raw_frames);
   for (const char* node : {"daq", "model", "compare"}) {

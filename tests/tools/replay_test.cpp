@@ -199,11 +199,10 @@ std::vector<std::pair<std::string, std::string>> DaqMessages(const std::string& 
 }
 
 // `rocklab replay --rig --input` over udpm in a private network namespace,
-// recorded by lcm-logger. Oracle: the DAQ's messages of `rocklab run --log`
+// recorded by rocklab record. Oracle: the DAQ's messages of `rocklab run --log`
 // on the same file (the same DaqNode, stages in one process), byte for byte
 // and in order: every message carries the sample clock, never the host's.
-// At the sample clock's pace (--speed 1): lcm-logger, which must record every
-// channel here, keeps only 30 messages and loses some at twice that rate.
+// At the sample clock's pace (--speed 1).
 TEST(ReplayRaw, PublishesWhatTheDaqStageOfRunPublishes) {
   const std::string dir = test::ScratchDir("replay_raw");
   const std::string run_log = dir + "/run.lcm";
@@ -213,13 +212,13 @@ TEST(ReplayRaw, PublishesWhatTheDaqStageOfRunPublishes) {
   const std::string why = test::EnterPrivateNetwork();
   if (!why.empty()) GTEST_SKIP() << why;
   const std::string log = dir + "/replay.lcm";
-  const pid_t logger = test::StartLcmLogger(log);
+  const pid_t logger = test::StartRecorder(log);
   ASSERT_GT(logger, 0) << test::ReadFile(log + ".err");
   const pid_t replay = test::StartCli({"replay", "--rig", kLabRig, "--input", kFreeRocking,
                                        "--speed", "1", "--lcm-url", test::kUdpmUrl},
                                       dir + "/replay.out", dir + "/replay.err");
   EXPECT_EQ(test::StopProcess(replay, 0), 0) << test::ReadFile(dir + "/replay.err");
-  EXPECT_EQ(test::StopLcmLogger(logger, log), 0);
+  EXPECT_EQ(test::StopRecorder(logger, log), 0);
 
   const auto want = DaqMessages(run_log);
   const auto got = DaqMessages(log);

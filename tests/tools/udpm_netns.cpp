@@ -30,16 +30,13 @@ std::string EnterPrivateNetwork() {
   return "";
 }
 
-pid_t StartLcmLogger(const std::string& log_path, const std::string& channels) {
+pid_t StartRecorder(const std::string& log_path, const std::string& channels) {
   // LCM anchors a subscription regex as ^...$: the outer parentheses keep
   // the alternation inside.
-  const std::string logger = std::string("lcm-logger -f --lcm-url='") + kUdpmUrl +
-                             "&recv_buf_size=4194304' --channel='((" + channels +
-                             ")|TEST_PROBE)' '" + log_path + "'";
-  const std::string script =
-      "chrt -f 10 true 2>/dev/null && exec chrt -f 10 " + logger + "; exec " + logger;
   ::unlink(log_path.c_str());
-  const pid_t pid = StartProcess({"sh", "-c", script}, log_path + ".out", log_path + ".err");
+  const pid_t pid = StartCli({"record", log_path, "--force", "--lcm-url", kUdpmUrl, "--channels",
+                              "((" + channels + ")|TEST_PROBE)"},
+                             log_path + ".out", log_path + ".err");
   lcm::LCM probe(kUdpmUrl);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (probe.good() && std::chrono::steady_clock::now() < deadline) {
@@ -48,7 +45,7 @@ pid_t StartLcmLogger(const std::string& log_path, const std::string& channels) {
     struct stat st {};
     if (::stat(log_path.c_str(), &st) == 0 && st.st_size > 0) return pid;
     int status = 0;
-    if (waitpid(pid, &status, WNOHANG) == pid) return -1;  // the logger died
+    if (waitpid(pid, &status, WNOHANG) == pid) return -1;  // the recorder died
   }
   StopProcess(pid, SIGKILL, 5.0);
   return -1;
@@ -68,7 +65,7 @@ bool LogHasSyncProbe(const std::string& log_path) {
 }
 }  // namespace
 
-int StopLcmLogger(pid_t logger, const std::string& log_path) {
+int StopRecorder(pid_t recorder, const std::string& log_path) {
   lcm::LCM probe(kUdpmUrl);
   bool synced = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
@@ -77,7 +74,7 @@ int StopLcmLogger(pid_t logger, const std::string& log_path) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     synced = LogHasSyncProbe(log_path);
   }
-  const int code = StopProcess(logger, SIGINT);
+  const int code = StopProcess(recorder, SIGINT);
   return synced ? code : -1;
 }
 

@@ -1,0 +1,505 @@
+// Independent oracles for the forced response of rocklab's Housner model
+// (issue 16, point 1). Nothing here calls rocklab's model code except the
+// model under test through its public API (model/rocking_model.h); the table
+// motions, the reference integrator and the closed forms are written here from
+// ERRATA items 5, 6 and 11 and the README's definition of the excitations.
+// The golden files of scenario_test.cpp stay as a regression check only.
+//
+// 1. Closed form: the linearised slender block under a rectangular pulse of
+//    table acceleration. Housner's equation (ERRATA 5) on the +x corner,
+//      theta'' = -p^2 [ sin(alpha - theta) + (u_g''/g) cos(alpha - theta) ],
+//    linearised for alpha, theta << 1 (sin x ~ x, cos x ~ 1):
+//      theta'' = p^2 (theta - alpha - u_g''/g).
+//    A block at rest under u_g'' = -A (A > g tan alpha) from t = 0 lifts off
+//    at once on its +x corner (ERRATA 6: u_g'' < -g tan alpha gives theta > 0).
+//    With e = A/g - alpha, theta(0) = theta'(0) = 0:
+//      theta(t) = e (cosh(p t) - 1),   theta'(t) = e p sinh(p t),  t <= td.
+//    After the pulse (s = t - td), theta'' = p^2 (theta - alpha):
+//      theta - alpha = -c cosh(p s) + d sinh(p s),
+//      c = alpha - theta(td) > 0,  d = theta'(td) / p.
+//    For d < c this is -sqrt(c^2 - d^2) cosh(p (s - s*)) with
+//    tanh(p s*) = d / c: the peak is alpha - sqrt(c^2 - d^2) at s = s*, and
+//    the first impact (theta = 0) at cosh(p (s - s*)) = alpha / sqrt(c^2 - d^2),
+//      t_impact = td + s* + acosh(alpha / sqrt(c^2 - d^2)) / p,
+//    which is eq. (13) of the paper, T(r) = acosh(1 / (1 - r/alpha)) / p,
+//    for the peak r (ERRATA 2). For the constant pulse (td -> infinity) the
+//    block leaves as theta = e (cosh(p t) - 1) and never comes back.
+//    The nonlinear model departs from these by O(alpha^2) relative: on
+//    [0, 2 alpha], sin x = x (1 - x^2/6 + ...) and cos x = 1 - x^2/2 + ...
+//
+// 2. A reference integrator: Housner's equation above (both corners), the
+//    rest/uplift rule of ERRATA 6 (rest until |u_g''| > g tan alpha, uplift
+//    towards -sgn(u_g'')), impacts at theta = 0 with theta' <- mu theta', the
+//    corner switching, and back to rest when two impacts come closer than
+//    2 ms (the README's rule), integrated by classical fixed-step RK4 at
+//    h = 1e-5 s (2 M steps for figure 8's 20 s: 0.6 s at -O2), events
+//    located by bisection of the step length (to 1e-14 s).
+//    Its error is measured in ReferenceIntegratorConvergesAtFourthOrder: the
+//    same run at 2h differs by D, so the h run is within D/15 (RK4's error
+//    scales as h^4). It reproduces the figure 8 and figure 7 figures the issue
+//    quotes from a third, independent RK4 (peak 0.024721 rad and 199 impacts;
+//    peak 0.038490 rad) and the closed forms of (1) in its linearised mode.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <vector>
+
+#include "model/rocking_model.h"
+
+namespace rocklab::model {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kG = 9.81;  // m/s^2, the g of the model library (model/block.h)
+
+// ---------------------------------------------------------------------------
+// Table motions, from the README (`--excitation`) and ERRATA 11, written here.
+// u(t) = U W(t) sin(w (t - start)) on [start, start + duration], zero outside,
+// W = 1 (sine) or the Hanning window (1 + cos(pi x / a)) / 2, x = t - tc,
+// a = duration / 2, tc = start + a. Returns u''(t), m/s^2:
+//   u'' = U [ W'' sin + 2 W' w cos - W w^2 sin ],
+//   W' = -(pi / 2a) sin(pi x / a),  W'' = -(pi^2 / 2a^2) cos(pi x / a).
+struct TableMotion {
+  double amp_m{};
+  double freq_hz{};
+  double duration_s{};
+  double start_s{};
+  bool hanning{};
+  // At the ends u'' can jump (the window's W'' is not zero there): `left`
+  // picks the limit from the left, else from the right.
+  double Accel(double t, bool left = false) const {
+    const double end = start_s + duration_s;
+    if (left ? (t <= start_s || t > end) : (t < start_s || t >= end)) return 0.0;
+    const double w = 2 * kPi * freq_hz;
+    const double ph = w * (t - start_s);
+    double win = 1, d1 = 0, d2 = 0;
+    if (hanning) {
+      const double a = duration_s / 2, x = t - (start_s + a), k = kPi / a;
+      win = 0.5 * (1 + std::cos(k * x));
+      d1 = -0.5 * k * std::sin(k * x);
+      d2 = -0.5 * k * k * std::cos(k * x);
+    }
+    return amp_m * (d2 * std::sin(ph) + 2 * d1 * w * std::cos(ph) - win * w * w * std::sin(ph));
+  }
+};
+
+// Figure 7: block 1 (Table 2, p of Table 2: ERRATA 10) under
+// hanning:amp=0.006,freq=3.3,duration=4,start=0.5 over 8 s; figure 8: block 2
+// under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (tools/scenario.*,
+// tests/model/scenario_test.cpp, README).
+struct Case {
+  const char* name;
+  BlockParams params;
+  TableMotion motion;
+  const char* spec;
+  double duration_s;
+};
+const Case kFig7{"fig7", {0.235, 3.884, 0.937}, {0.006, 3.3, 4.0, 0.5, true},
+                 "hanning:amp=0.006,freq=3.3,duration=4,start=0.5", 8.0};
+const Case kFig8{"fig8", {0.168, 3.767, 0.942}, {0.006, 5.0, 20.0, 0.0, false},
+                 "sine:amp=0.006,freq=5,duration=20,start=0", 20.0};
+
+// ---------------------------------------------------------------------------
+// The reference integrator.
+struct RefOptions {
+  double h_s{1e-5};             // RK4 step, s
+  bool linearised{false};       // sin x -> x, cos x -> 1 (the closed forms' equation)
+  double rest_interval_s{2e-3};  // impacts closer than this: rest
+  double sample_rate_hz{100};   // theta sampled at k / rate (steps land on them)
+  std::vector<double> breaks_s;  // discontinuities of the forcing (steps land on them), s
+};
+
+struct RefResult {
+  std::vector<double> sample_theta;  // rad, at k / rate
+  std::vector<double> impact_times;  // s
+  std::vector<double> uplift_times;  // s
+  double peak{};                     // max |theta| over every step, rad
+  double peak_time{};                // s
+};
+
+// Table acceleration u_g''(t), m/s^2; at a discontinuity, the limit from the
+// left when `left` (an RK4 stage at a step's end), else from the right.
+using Accel = std::function<double(double t, bool left)>;
+
+class Reference {
+ public:
+  Reference(const BlockParams& b, Accel accel, RefOptions o) : b_(b), accel_(std::move(accel)), o_(o) {}
+
+  RefResult Run(double duration_s) {
+    RefResult r;
+    const double thr = kG * std::tan(b_.alpha);
+    double t = 0, th = 0, w = 0, last_impact = -1e300;
+    int side = 0;  // 0: at rest, else the corner (+1: +x)
+    std::size_t k = 0;
+    const double dt_sample = 1.0 / o_.sample_rate_hz;
+    auto next_sample = [&] { return static_cast<double>(k) * dt_sample; };
+    const double t_end = duration_s * (1 + 1e-12);
+    while (true) {
+      while (k < static_cast<std::size_t>(1e9) && next_sample() <= t + 1e-12 && next_sample() <= t_end) {
+        r.sample_theta.push_back(th);
+        ++k;
+      }
+      if (next_sample() > t_end) break;
+      double h = std::min(o_.h_s, next_sample() - t);
+      for (double b : o_.breaks_s) {
+        if (b > t + 1e-15 && b - t < h) h = b - t;
+      }
+      if (side == 0) {
+        // At rest: the criterion where rest starts, then its first crossing.
+        auto over = [&](double tt) { return std::abs(accel_(tt, false)) - thr; };
+        if (over(t) > 0) {
+          side = accel_(t, false) > 0 ? -1 : +1;
+          r.uplift_times.push_back(t);
+          continue;
+        }
+        if (over(t + h) <= 0) {
+          t += h;
+          continue;
+        }
+        double lo = t, hi = t + h;  // over(lo) <= 0 < over(hi)
+        while (hi - lo > 1e-14) {
+          const double mid = 0.5 * (lo + hi);
+          (over(mid) > 0 ? hi : lo) = mid;
+        }
+        t = hi;  // the block is free where the criterion holds
+        side = accel_(t, false) > 0 ? -1 : +1;
+        r.uplift_times.push_back(t);
+        continue;
+      }
+      double th1 = 0, w1 = 0;
+      Rk4(t, th, w, side, h, th1, w1);
+      if (side * th1 > 0) {
+        t += h;
+        th = th1;
+        w = w1;
+        if (std::abs(th) > r.peak) {
+          r.peak = std::abs(th);
+          r.peak_time = t;
+        }
+        if (std::abs(th) >= kPi / 2) break;  // overturned (not in these scenarios)
+        continue;
+      }
+      // theta reached 0 within the step: bisect its length.
+      double lo = 0, hi = h;
+      while (hi - lo > 1e-14) {
+        const double mid = 0.5 * (lo + hi);
+        Rk4(t, th, w, side, mid, th1, w1);
+        (side * th1 > 0 ? lo : hi) = mid;
+      }
+      Rk4(t, th, w, side, hi, th1, w1);
+      t += hi;
+      r.impact_times.push_back(t);
+      if (t - last_impact < o_.rest_interval_s) {
+        side = 0;
+        th = w = 0;
+        last_impact = -1e300;
+        continue;
+      }
+      last_impact = t;
+      th = 0;
+      w = b_.mu * w1;
+      side = -side;
+    }
+    return r;
+  }
+
+ private:
+  double Acc(double t, double th, int side, bool left = false) const {
+    const double phi = b_.alpha * side - th;
+    const double a = accel_(t, left) / kG;
+    if (o_.linearised) return -b_.p * b_.p * (phi + a);
+    return -b_.p * b_.p * (std::sin(phi) + a * std::cos(phi));
+  }
+  void Rk4(double t, double th, double w, int side, double h, double& th1, double& w1) const {
+    const double k1x = w, k1v = Acc(t, th, side);
+    const double k2x = w + 0.5 * h * k1v, k2v = Acc(t + 0.5 * h, th + 0.5 * h * k1x, side);
+    const double k3x = w + 0.5 * h * k2v, k3v = Acc(t + 0.5 * h, th + 0.5 * h * k2x, side);
+    const double k4x = w + h * k3v, k4v = Acc(t + h, th + h * k3x, side, true);
+    th1 = th + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x);
+    w1 = w + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+  }
+
+  BlockParams b_;
+  Accel accel_;
+  RefOptions o_;
+};
+
+RefResult RunReference(const Case& c, RefOptions o = {}) {
+  const TableMotion m = c.motion;
+  o.breaks_s = {m.start_s, m.start_s + m.duration_s};
+  return Reference(c.params, [m](double t, bool left) { return m.Accel(t, left); }, o).Run(c.duration_s);
+}
+
+// rocklab's Housner model on the same case, sampled at 100 Hz.
+Trajectory RunRocklab(const Case& c) {
+  auto model = RockingModel::Create(ModelKind::kHousner, c.params);
+  const auto excitation = ParseExcitation(c.spec);
+  return Simulate(*model, *excitation, 0.0, 0.0, 0.0, c.duration_s, 100.0);
+}
+
+std::vector<double> Times(const Trajectory& t, EventKind kind) {
+  std::vector<double> out;
+  for (const auto& e : t.events) {
+    if (e.kind == kind) out.push_back(e.time_s);
+  }
+  return out;
+}
+
+double MaxAbsDiff(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+  return worst;
+}
+
+double MaxAbs(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+// Oracle: the test's own table motion against the library's (both from the
+// README's definition; ERRATA 11: the exact second derivative).
+// Tolerance: 1e-9 m/s^2 on peaks of 2.6 and 5.9 m/s^2 (round-off of two
+// different but exact formulas).
+TEST(OracleTest, TableMotionsAgreeWithTheLibrarys) {
+  for (const Case* c : {&kFig7, &kFig8}) {
+    const auto e = ParseExcitation(c->spec);
+    for (double t = 0; t <= c->duration_s; t += 1e-3) {
+      ASSERT_NEAR(e->TableAcceleration(t), c->motion.Accel(t), 1e-9) << c->name << " t " << t;
+    }
+  }
+}
+
+// Oracle: RK4's global error scales as h^4, so |x(h) - x(2h)| = 15 |x(h) -
+// x_exact| to leading order: the h = 1e-5 s run's error is the difference
+// to the 2e-5 s run over 15. Measured: figure 8 (20 s, 199 impacts, 2 M
+// steps) impact times differ by 3.8e-12 s and theta samples by 2.3e-12 rad;
+// figure 7 (8 s, 92 impacts) by 1.2e-10 s and 1.0e-11 rad. The reference is
+// thus good to ~1e-11 s and ~1e-12 rad, far below the tolerances of the
+// comparisons below. (Steps land on the forcing's discontinuities, e.g. the
+// end of the Hanning window, and a stage there takes the one-sided value of
+// its step: without that the error was 1.4e-7 s, first order.) Asserted
+// with a margin of ~10 for other compilers and libm: 1e-9 s, 1e-9 rad.
+TEST(OracleTest, ReferenceIntegratorConvergesAtFourthOrder) {
+  for (const Case* c : {&kFig8, &kFig7}) {
+    const RefResult fine = RunReference(*c);
+    RefOptions coarse_options;
+    coarse_options.h_s = 2e-5;
+    const RefResult coarse = RunReference(*c, coarse_options);
+    ASSERT_EQ(fine.impact_times.size(), coarse.impact_times.size()) << c->name;
+    const double dt = MaxAbsDiff(fine.impact_times, coarse.impact_times);
+    const double dth = MaxAbsDiff(fine.sample_theta, coarse.sample_theta);
+    std::printf("%s: reference h vs 2h: impact times %.3e s, theta %.3e rad\n", c->name, dt, dth);
+    EXPECT_LT(dt, 1e-9) << c->name;
+    EXPECT_LT(dth, 1e-9) << c->name;
+  }
+}
+
+// Oracle: the figures of a third, independent RK4 quoted in issue 16: figure
+// 8 peaks at 0.024721 rad (first excursion) with 199 impacts in 20 s, figure
+// 7 at 0.038490 rad. The quoted figures are cut, not rounded, to six decimals
+// (this reference gives 0.0247214 and 0.0384908 rad): each peak must lie in
+// [quoted, quoted + 1e-6) rad.
+TEST(OracleTest, ReferenceReproducesTheQuotedFigures) {
+  const RefResult f8 = RunReference(kFig8);
+  std::printf("reference fig8: peak %.7f rad at %.4f s, %zu impacts, uplift %.6f s\n", f8.peak, f8.peak_time,
+              f8.impact_times.size(), f8.uplift_times.empty() ? -1.0 : f8.uplift_times[0]);
+  EXPECT_GE(f8.peak, 0.024721);
+  EXPECT_LT(f8.peak, 0.024722);
+  EXPECT_EQ(f8.impact_times.size(), 199u);
+  const RefResult f7 = RunReference(kFig7);
+  std::printf("reference fig7: peak %.7f rad at %.4f s, %zu impacts\n", f7.peak, f7.peak_time,
+              f7.impact_times.size());
+  EXPECT_GE(f7.peak, 0.038490);
+  EXPECT_LT(f7.peak, 0.038491);
+}
+
+// Oracle: the reference integrator. rocklab's Housner model (CVODE, rtol
+// 1e-10, root finding) must give the same uplift, the same impacts at the
+// same times, and the same theta at every 100 Hz sample.
+// Measured (this machine): figure 8 impact times within 1.1e-10 s, theta
+// within 3.9e-11 rad. Figure 7 within 2.4e-7 s and 2.1e-8 rad: its table
+// acceleration jumps by 7e-3 m/s^2 where the Hanning window ends (4.5 s; the
+// window's second derivative is not zero there), which CVODE steps across
+// (max step 1e-3 s); up to 4.5 s the two agree to ~1e-10 s.
+// Tolerances: figure 8 1e-8 s and 1e-9 rad, figure 7 1e-6 s and 1e-7 rad:
+// ~100x and ~4x the measured, for CVODE's step choices on other platforms.
+// A wrong term is far outside them: replacing cos(alpha sgn(theta) - theta)
+// by cos(alpha sgn(theta)) in Housner's forcing term (applied to
+// model/housner.cpp, run, reverted) moves figure 8's impacts by up to
+// 1.5e-3 s and theta by 6.1e-4 rad, figure 7's by 1.5e-3 s and 1.8e-4 rad.
+// (The closed-form tests below do not see it: at alpha = 0.01 the term is
+// within their O(alpha^2) allowance.)
+struct Tolerance {
+  double time_s, theta_rad;
+};
+
+void CompareWithReference(const Case& c, Tolerance tol) {
+  const RefResult ref = RunReference(c);
+  const Trajectory got = RunRocklab(c);
+  const auto impacts = Times(got, EventKind::kImpact);
+  const auto uplifts = Times(got, EventKind::kUplift);
+  ASSERT_EQ(got.theta.size(), ref.sample_theta.size()) << c.name;
+  const double dth = MaxAbsDiff(got.theta, ref.sample_theta);
+  const double dt = MaxAbsDiff(impacts, ref.impact_times);
+  const double du = MaxAbsDiff(uplifts, ref.uplift_times);
+  std::printf("%s: rocklab vs reference: %zu/%zu impacts, max |dt| %.3e s, uplift |dt| %.3e s, "
+              "max |dtheta| %.3e rad, peaks %.7f/%.7f rad\n",
+              c.name, impacts.size(), ref.impact_times.size(), dt, du, dth, MaxAbs(got.theta),
+              MaxAbs(ref.sample_theta));
+  EXPECT_EQ(impacts.size(), ref.impact_times.size()) << c.name;
+  EXPECT_EQ(uplifts.size(), ref.uplift_times.size()) << c.name;
+  EXPECT_LT(dt, tol.time_s) << c.name;
+  EXPECT_LT(du, tol.time_s) << c.name;
+  EXPECT_LT(dth, tol.theta_rad) << c.name;
+  EXPECT_NEAR(MaxAbs(got.theta), MaxAbs(ref.sample_theta), tol.theta_rad) << c.name;
+}
+
+TEST(OracleTest, HousnerFigure8MatchesTheReference) { CompareWithReference(kFig8, {1e-8, 1e-9}); }
+TEST(OracleTest, HousnerFigure7MatchesTheReference) { CompareWithReference(kFig7, {1e-6, 1e-7}); }
+
+// ---------------------------------------------------------------------------
+// Closed forms (the derivation is at the top of the file).
+
+// u_g'' = -A on [0, td] (td < 0: for ever), zero after: the block lifts off at
+// t = 0 towards +x.
+class RectPulse final : public Forcing {
+ public:
+  RectPulse(double a_mps2, double td_s) : a_(a_mps2), td_(td_s) {}
+  double TableAcceleration(double t) const override { return (td_ < 0 || t <= td_) ? -a_ : 0.0; }
+
+ private:
+  double a_, td_;
+};
+
+struct PulseClosedForm {
+  double peak, peak_time, impact_time;
+};
+
+// The pulse's height A = (1 + excess) g alpha and length td = ptd / p.
+PulseClosedForm ClosedForm(double alpha, double p, double excess, double ptd) {
+  const double e = excess * alpha;  // A/g - alpha
+  const double th1 = e * (std::cosh(ptd) - 1), d = e * std::sinh(ptd);
+  const double c = alpha - th1;
+  const double q = std::sqrt(c * c - d * d);
+  const double s_star = std::atanh(d / c) / p;
+  return {alpha - q, ptd / p + s_star, ptd / p + s_star + std::acosh(alpha / q) / p};
+}
+
+// Oracle: the closed form against the reference integrator in its linearised
+// mode (same equation: exact up to RK4's error, ~1e-12 at h = 1e-5 s; the
+// pulse's end is a step boundary). Tolerance 1e-9 (rad and s).
+TEST(OracleTest, ReferenceMatchesTheLinearisedClosedForm) {
+  const double alpha = 0.05, p = 4.0, excess = 0.5, ptd = 1.0;
+  const double a = (1 + excess) * kG * alpha;
+  const double td = ptd / p;
+  RefOptions o;
+  o.linearised = true;
+  o.sample_rate_hz = 1000;
+  o.breaks_s = {td};
+  const auto pulse = [=](double t, bool left) { return (left ? t <= td : t < td) ? -a : 0.0; };
+  const RefResult r = Reference({alpha, p, 0.9}, pulse, o).Run(1.5);
+  const PulseClosedForm cf = ClosedForm(alpha, p, excess, ptd);
+  ASSERT_GE(r.impact_times.size(), 1u);
+  EXPECT_NEAR(r.impact_times[0], cf.impact_time, 1e-9);
+  EXPECT_NEAR(r.peak, cf.peak, 1e-9);
+  EXPECT_NEAR(r.peak_time, cf.peak_time, 1e-5);  // the step grid (h = 1e-5 s) places the peak
+}
+
+struct PulseRun {
+  double peak{}, impact_time{};
+};
+
+PulseRun RunPulse(double alpha, double p, double excess, double ptd) {
+  const double a = (1 + excess) * kG * alpha, td = ptd / p;
+  auto model = RockingModel::Create(ModelKind::kHousner, {alpha, p, 0.9});
+  const RectPulse pulse(a, td);
+  model->Reset(0.0, 0.0, 0.0);
+  model->AdvanceTo(td, pulse);  // the discontinuity on a step boundary
+  PulseRun r;
+  for (int i = 1; i <= 40000; ++i) {  // 1e-4 s steps for the peak: error theta'' dt^2 / 8 < 1e-9 rad
+    model->AdvanceTo(td + i * 1e-4, pulse);
+    r.peak = std::max(r.peak, std::abs(model->state().theta));
+    if (model->state().impacts > 0) break;
+  }
+  for (const auto& e : model->events()) {
+    if (e.kind == EventKind::kImpact) {
+      r.impact_time = e.time_s;
+      break;
+    }
+  }
+  return r;
+}
+
+// Oracle: the closed form of the linearised slender block under a
+// rectangular pulse (A = 1.5 g alpha for 1 / p: peak 0.57 alpha, first
+// impact 3.6 / p after lift-off).
+// Tolerance, from the linearisation: while the pulse acts the push is
+// p^2 [(A/g) cos(phi) - sin(phi)], phi = alpha - theta in [0.43 alpha,
+// alpha], against p^2 [A/g - phi] linearised; the difference is at most
+// p^2 [(A/g) alpha^2 / 2 + alpha^3 / 6] = p^2 (0.75 + 0.17) alpha^3, i.e.
+// 1.83 alpha^2 of the net push e = A/g - alpha = 0.5 alpha (after the pulse,
+// sin against its argument: alpha^2 / 6). The relative errors of the peak and
+// of the impact time are then at most S * 1.83 alpha^2, with S their
+// sensitivity to e (d ln / d ln e of the closed form, computed below: 2.2
+// and 1.8). Measured: 1.0 S alpha^2 for both at alpha = 0.01 and 0.02, and
+// the errors scale as alpha^2 (ratio 4.0 between the two; asserted 4 +- 0.5),
+// which ties the model to the closed form rather than to a coincidence at
+// one alpha.
+TEST(OracleTest, SlenderBlockUnderRectangularPulseMatchesTheClosedForm) {
+  const double p = 4.0, excess = 0.5, ptd = 1.0;
+  double err_peak[2] = {}, err_time[2] = {};
+  const double alphas[2] = {0.01, 0.02};
+  for (int i = 0; i < 2; ++i) {
+    const double alpha = alphas[i];
+    const PulseClosedForm cf = ClosedForm(alpha, p, excess, ptd);
+    const PulseClosedForm nudged = ClosedForm(alpha, p, excess * (1 + 1e-6), ptd);
+    const double s_peak = std::abs(nudged.peak / cf.peak - 1) / 1e-6;
+    const double s_time = std::abs(nudged.impact_time / cf.impact_time - 1) / 1e-6;
+    const PulseRun run = RunPulse(alpha, p, excess, ptd);
+    err_peak[i] = std::abs(run.peak / cf.peak - 1);
+    err_time[i] = std::abs(run.impact_time / cf.impact_time - 1);
+    std::printf("alpha %.2f: peak %.9f vs %.9f, impact %.9f vs %.9f s (relative %.2e = %.2f S alpha^2, "
+                "%.2e = %.2f S alpha^2; S %.2f, %.2f)\n",
+                alpha, run.peak, cf.peak, run.impact_time, cf.impact_time, err_peak[i],
+                err_peak[i] / (s_peak * alpha * alpha), err_time[i], err_time[i] / (s_time * alpha * alpha), s_peak,
+                s_time);
+    EXPECT_LT(err_peak[i], s_peak * 1.83 * alpha * alpha) << alpha;
+    EXPECT_LT(err_time[i], s_time * 1.83 * alpha * alpha) << alpha;
+  }
+  EXPECT_NEAR(err_peak[1] / err_peak[0], 4.0, 0.5);
+  EXPECT_NEAR(err_time[1] / err_time[0], 4.0, 0.5);
+}
+
+// Oracle: the constant push's closed form theta = e (cosh(p t) - 1), while
+// theta <= alpha. Tolerance: relative 1.83 alpha^2 (the push's error, as
+// above; theta is proportional to e here, S = 1; measured 1.16 alpha^2); and
+// the rest criterion: just below g tan(alpha) the block does not move.
+TEST(OracleTest, SlenderBlockUnderConstantPushMatchesTheClosedForm) {
+  const double alpha = 0.01, p = 4.0, excess = 0.5;
+  auto model = RockingModel::Create(ModelKind::kHousner, {alpha, p, 0.9});
+  const RectPulse push((1 + excess) * kG * alpha, -1);
+  model->Reset(0.0, 0.0, 0.0);
+  double worst = 0;
+  for (double t = 0.05;; t += 0.05) {
+    const double expected = excess * alpha * (std::cosh(p * t) - 1);
+    if (expected > alpha) break;
+    model->AdvanceTo(t, push);
+    worst = std::max(worst, std::abs(model->state().theta / expected - 1));
+  }
+  std::printf("constant push: worst relative error %.2e\n", worst);
+  EXPECT_LT(worst, 1.83 * alpha * alpha);
+
+  auto still = RockingModel::Create(ModelKind::kHousner, {alpha, p, 0.9});
+  const RectPulse below(kG * std::tan(alpha) * (1 - 1e-9), -1);
+  still->Reset(0.0, 0.0, 0.0);
+  still->AdvanceTo(5.0, below);
+  EXPECT_EQ(still->state().regime, Regime::kRest);
+  EXPECT_EQ(still->state().theta, 0.0);
+}
+
+}  // namespace
+}  // namespace rocklab::model

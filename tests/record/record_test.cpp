@@ -1,0 +1,388 @@
+// rocklab::record: the queue, the LCM log writer and its rotation, and the
+// recorder over memq://. The logs are read back with LCM's own reader
+// (lcm::LogFile), an implementation independent of the writer.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "record/event_queue.h"
+#include "record/log_writer.h"
+#include "record/recorder.h"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::record {
+namespace {
+
+struct Event {
+  int64_t number{};
+  int64_t utime{};
+  std::string channel;
+  std::string data;
+};
+
+// Every event of an LCM log, read by LCM's reader.
+std::vector<Event> ReadLog(const std::string& path) {
+  std::vector<Event> out;
+  lcm::LogFile log(path, "r");
+  EXPECT_TRUE(log.good()) << path;
+  if (!log.good()) return out;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    out.push_back({ev->eventnum, ev->timestamp, ev->channel,
+                   std::string(static_cast<const char*>(ev->data), static_cast<std::size_t>(ev->datalen))});
+  }
+  return out;
+}
+
+std::string Scratch(const std::string& name) {
+  const std::string dir = "record_test_files-" + std::to_string(::getpid());  // ctest runs tests in parallel
+  ::mkdir(dir.c_str(), 0755);
+  const std::string path = dir + "/" + name;
+  ::unlink(path.c_str());
+  return path;
+}
+
+std::string Payload(int i, std::size_t size) {
+  std::string s(size, '\0');
+  for (std::size_t k = 0; k < size; ++k) s[k] = static_cast<char>((i * 31 + static_cast<int>(k) * 7) & 0xFF);
+  return s;
+}
+
+int64_t FileSize(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? st.st_size : -1;
+}
+
+// Oracle: FIFO order and content; a full queue refuses (and keeps what it
+// holds) instead of blocking. Record size: 24 + channel + payload, 8-aligned.
+TEST(EventQueueTest, RefusesWhenFullAndKeepsOrder) {
+  EventQueue q(1024);
+  ASSERT_EQ(EventQueue::RecordBytes(3, 100), 128u);
+  int pushed = 0;
+  while (q.Push(pushed, 1000 + pushed, "CH" + std::to_string(pushed % 10), Payload(pushed, 100).data(), 100)) {
+    ++pushed;
+  }
+  EXPECT_EQ(pushed, 8);  // 8 x 128 bytes fill 1024
+  EXPECT_FALSE(q.Push(99, 0, "X", "y", 1));
+  std::vector<int> seen;
+  const int n = q.PopBatch(
+      [&](const EventView& ev) {
+        EXPECT_EQ(ev.utime, 1000 + ev.channel_id);
+        EXPECT_EQ(std::string(ev.channel), "CH" + std::to_string(ev.channel_id % 10));
+        EXPECT_EQ(std::string(reinterpret_cast<const char*>(ev.data), ev.size), Payload(ev.channel_id, 100));
+        seen.push_back(ev.channel_id);
+      },
+      std::chrono::milliseconds(0));
+  EXPECT_EQ(n, 8);
+  EXPECT_EQ(seen, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_EQ(q.high_water_bytes(), 1024u);
+  EXPECT_FALSE(q.Push(1, 0, "X", Payload(0, 2000).data(), 2000));  // larger than the ring
+  EXPECT_EQ(q.PopBatch([](const EventView&) {}, std::chrono::milliseconds(0)), 0);
+  q.Close();
+  EXPECT_EQ(q.PopBatch([](const EventView&) {}, std::chrono::milliseconds(0)), -1);
+}
+
+// Oracle: events of varying sizes pushed and popped in interleaved batches
+// wrap around the ring many times; every one comes out once, in order,
+// unchanged.
+TEST(EventQueueTest, WrapsAroundWithoutLosingOrCorrupting) {
+  EventQueue q(4096);
+  int next_push = 0, next_pop = 0;
+  for (int round = 0; round < 200; ++round) {
+    for (int k = 0; k < 1 + round % 7; ++k) {
+      const std::size_t size = static_cast<std::size_t>((next_push * 37) % 300);
+      if (!q.Push(next_push, next_push, "C", Payload(next_push, size).data(), static_cast<uint32_t>(size))) break;
+      ++next_push;
+    }
+    q.PopBatch(
+        [&](const EventView& ev) {
+          ASSERT_EQ(ev.channel_id, next_pop);
+          const std::size_t size = static_cast<std::size_t>((next_pop * 37) % 300);
+          ASSERT_EQ(std::string(reinterpret_cast<const char*>(ev.data), ev.size), Payload(next_pop, size));
+          ++next_pop;
+        },
+        std::chrono::milliseconds(0));
+  }
+  EXPECT_EQ(next_pop, next_push);
+  EXPECT_GT(next_push, 500);  // ~60 ring lengths went through
+}
+
+// Oracle: the LCM log format written out by hand (sync word 0xEDA1DA01,
+// int64 event number, int64 timestamp, int32 channel length, int32 data
+// length, channel, data; big-endian), and LCM's reader on the same file.
+TEST(LogWriterTest, WritesTheLcmLogFormat) {
+  const std::string path = Scratch("format.lcm");
+  {
+    LogFileWriter w(path, false);
+    ASSERT_TRUE(w.Write(0x0102030405060708LL, 0x1122334455667788LL, "AB", reinterpret_cast<const uint8_t*>("xyz"), 3));
+    ASSERT_TRUE(w.Write(1, 0x1122334455667789LL, "RL_RAW", reinterpret_cast<const uint8_t*>(""), 0));
+    EXPECT_EQ(w.bytes(), 28 + 2 + 3 + 28 + 6);
+    ASSERT_TRUE(w.Close());
+  }
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string first("\xED\xA1\xDA\x01"
+                          "\x01\x02\x03\x04\x05\x06\x07\x08"
+                          "\x11\x22\x33\x44\x55\x66\x77\x88"
+                          "\x00\x00\x00\x02"
+                          "\x00\x00\x00\x03"
+                          "ABxyz",
+                          33);
+  ASSERT_EQ(bytes.size(), 33u + 34u);
+  EXPECT_EQ(bytes.substr(0, 33), first);
+  const auto events = ReadLog(path);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].channel, "RL_RAW");
+  EXPECT_EQ(events[1].utime, 0x1122334455667789LL);
+  EXPECT_EQ(events[1].data, "");
+}
+
+// Oracle: a recording never replaces another one silently.
+TEST(LogWriterTest, RefusesAnExistingFileUnlessOverwriting) {
+  const std::string path = Scratch("exists.lcm");
+  { std::ofstream(path) << "keep"; }
+  try {
+    LogFileWriter w(path, false);
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--force"), std::string::npos) << e.what();
+  }
+  { LogFileWriter w(path, true); }
+  EXPECT_EQ(FileSize(path), 0);
+  EXPECT_THROW(LogFileWriter("no_such_dir/x.lcm", true), std::runtime_error);
+}
+
+TEST(LogWriterTest, RotatedNamesArePredictable) {
+  EXPECT_EQ(RotatedPath("test.lcm", 0), "test.0000.lcm");
+  EXPECT_EQ(RotatedPath("dir.d/test.lcm", 12), "dir.d/test.0012.lcm");
+  EXPECT_EQ(RotatedPath("dir.d/test", 3), "dir.d/test.0003");
+  EXPECT_EQ(RotatedPath("test", 10000), "test.10000");
+  EXPECT_EQ(RotatedPath(".hidden", 1), ".hidden.0001");
+}
+
+// Events through a rotating writer; returns what was written, in order.
+std::vector<Event> WriteSeries(RotatingLogWriter& w, int n, int64_t dt_us, std::size_t size) {
+  std::vector<Event> sent;
+  for (int i = 0; i < n; ++i) {
+    Event e{i, 1'000'000 + i * dt_us, i % 3 ? "RL_THETA" : "RL_RAW", Payload(i, size + static_cast<std::size_t>(i % 5))};
+    EXPECT_TRUE(w.Write(e.utime, e.channel, reinterpret_cast<const uint8_t*>(e.data.data()),
+                        static_cast<uint32_t>(e.data.size())));
+    sent.push_back(e);
+  }
+  EXPECT_TRUE(w.Close());
+  return sent;
+}
+
+// Oracle: the concatenation of the rotated files is the series sent, event
+// for event (no event lost or repeated, numbers continuing), and no file
+// passes the size limit.
+TEST(LogWriterTest, RotatesBySizeWithoutLosingOrRepeating) {
+  RotationOptions o;
+  o.path = Scratch("size.lcm");
+  o.rotate_bytes = 4000;
+  o.overwrite = true;
+  RotatingLogWriter w(o);
+  const auto sent = WriteSeries(w, 500, 1000, 100);
+  std::vector<Event> got;
+  ASSERT_GT(w.files().size(), 10u);
+  for (std::size_t i = 0; i < w.files().size(); ++i) {
+    EXPECT_EQ(w.files()[i], RotatedPath(o.path, static_cast<int>(i)));
+    EXPECT_LE(FileSize(w.files()[i]), 4000) << w.files()[i];
+    if (i + 1 < w.files().size()) {  // each but the last filled up to the last event that fits
+      EXPECT_GT(FileSize(w.files()[i]), 4000 - (28 + 8 + 104)) << w.files()[i];
+    }
+    for (auto& e : ReadLog(w.files()[i])) got.push_back(e);
+  }
+  ASSERT_EQ(got.size(), sent.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].number, static_cast<int64_t>(i));
+    EXPECT_EQ(got[i].utime, sent[i].utime);
+    EXPECT_EQ(got[i].channel, sent[i].channel);
+    EXPECT_EQ(got[i].data, sent[i].data);
+  }
+  EXPECT_EQ(w.events(), 500);
+}
+
+// Oracle: with 10 ms between events and 0.25 s per file, each file holds the
+// events of [k * 0.25, (k + 1) * 0.25) s after its first: 25 events.
+TEST(LogWriterTest, RotatesByTime) {
+  RotationOptions o;
+  o.path = Scratch("time.lcm");
+  o.rotate_seconds = 0.25;
+  o.overwrite = true;
+  RotatingLogWriter w(o);
+  WriteSeries(w, 100, 10'000, 10);
+  ASSERT_EQ(w.files().size(), 4u);
+  for (const auto& f : w.files()) {
+    const auto events = ReadLog(f);
+    ASSERT_EQ(events.size(), 25u) << f;
+    EXPECT_LT(events.back().utime - events.front().utime, 250'000) << f;
+  }
+}
+
+// Oracle: timestamps never decrease in the log, whatever the host clock did.
+TEST(LogWriterTest, TimestampsNeverDecrease) {
+  RotationOptions o;
+  o.path = Scratch("clock.lcm");
+  o.overwrite = true;
+  RotatingLogWriter w(o);
+  for (int64_t t : {100, 200, 150, 300}) ASSERT_TRUE(w.Write(t, "C", reinterpret_cast<const uint8_t*>("x"), 1));
+  ASSERT_TRUE(w.Close());
+  const auto events = ReadLog(o.path);
+  ASSERT_EQ(events.size(), 4u);
+  EXPECT_EQ(events[2].utime, 200);
+  EXPECT_EQ(events[3].utime, 300);
+}
+
+TEST(LogWriterTest, RejectsBadOptions) {
+  RotationOptions o;
+  o.path = "x.lcm";
+  o.rotate_bytes = -1;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+  o.rotate_bytes = 0;
+  o.rotate_seconds = -2;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+}
+
+std::string RawFrame(int64_t seq) {
+  rocklab::raw_frame_t m{};
+  m.utime = seq * 1000;
+  m.seq = seq;
+  m.num_channels = 2;
+  m.values = {0.5, static_cast<double>(seq)};
+  std::string buf(static_cast<std::size_t>(m.getEncodedSize()), '\0');
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  return buf;
+}
+
+void HandleAll(lcm::LCM& lcm) {
+  while (lcm.handleTimeout(0) > 0) {
+  }
+}
+
+// Oracle: counts of what the test published, channel by channel; sequence
+// numbers of raw_frame_t (0 1 2 5 6 6 4 7: 2 -> 5 skips two, 6 repeats, 4
+// goes back, 4 -> 7 skips two); a channel outside the regex is not recorded; the log holds the
+// published events in order.
+TEST(RecorderTest, CountsChannelsAndSequenceGapsOverMemq) {
+  lcm::LCM lcm("memq://");
+  ASSERT_TRUE(lcm.good());
+  RecorderOptions o;
+  o.out_path = Scratch("memq.lcm");
+  o.channels = "RL_.*";
+  Recorder rec(lcm, o);
+  std::vector<Event> sent;
+  for (int64_t seq : {0, 1, 2, 5, 6, 6, 4, 7}) {
+    const std::string raw = RawFrame(seq);
+    lcm.publish("RL_RAW", raw.data(), static_cast<unsigned>(raw.size()));
+    sent.push_back({0, 0, "RL_RAW", raw});
+    lcm.publish("RL_EVENT", "e", 1);
+    sent.push_back({0, 0, "RL_EVENT", "e"});
+    lcm.publish("OTHER", "o", 1);
+    HandleAll(lcm);
+  }
+  rec.Stop();
+  const RecorderStats s = rec.Stats();
+  ASSERT_EQ(s.channels.size(), 2u);
+  EXPECT_EQ(s.channels[0].name, "RL_RAW");
+  EXPECT_EQ(s.channels[0].count, 8);
+  EXPECT_EQ(s.channels[0].received, 8);
+  EXPECT_EQ(s.channels[0].dropped, 0);
+  EXPECT_TRUE(s.channels[0].has_seq);
+  EXPECT_EQ(s.channels[0].seq_gaps, 2);     // 2 -> 5 and 4 -> 7
+  EXPECT_EQ(s.channels[0].seq_missing, 4);
+  EXPECT_EQ(s.channels[0].seq_back, 2);     // 6 again, then 4
+  EXPECT_EQ(s.channels[1].name, "RL_EVENT");
+  EXPECT_EQ(s.channels[1].count, 8);
+  EXPECT_FALSE(s.channels[1].has_seq);
+  EXPECT_EQ(s.events, 16);
+  EXPECT_EQ(s.dropped, 0);
+  ASSERT_EQ(s.files, std::vector<std::string>{o.out_path});
+  const auto got = ReadLog(o.out_path);
+  ASSERT_EQ(got.size(), sent.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].channel, sent[i].channel);
+    EXPECT_EQ(got[i].data, sent[i].data);
+    if (i > 0) {
+      EXPECT_GE(got[i].utime, got[i - 1].utime);
+    }
+  }
+  const std::string json = SummaryJson(s);
+  for (const char* key : {"\"channels\"", "\"name\"", "\"count\"", "\"dropped\"", "\"seq_gaps\"", "\"files\""}) {
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  }
+}
+
+// Oracle: nothing read is lost without a counter. A queue far smaller than
+// the burst (64 KiB against 20 000 x 1 KiB) while the writer runs: for every
+// channel, written + dropped = received = published, and the log holds
+// exactly the written events, in order (their sequence numbers increase).
+TEST(RecorderTest, EveryEventIsWrittenOrCounted) {
+  lcm::LCM lcm("memq://");
+  RecorderOptions o;
+  o.out_path = Scratch("burst.lcm");
+  o.queue_bytes = 1 << 16;
+  o.rotate_bytes = 1 << 20;
+  Recorder rec(lcm, o);
+  rocklab::table_state_t m{};
+  std::string buf;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    m.seq = i;
+    m.utime = i;
+    buf.assign(static_cast<std::size_t>(m.getEncodedSize()), '\0');
+    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    buf.resize(1024, 'p');  // padding after the encoding: the seq is still read
+    lcm.publish("RL_TABLE", buf.data(), static_cast<unsigned>(buf.size()));
+    HandleAll(lcm);
+  }
+  rec.Stop();
+  const RecorderStats s = rec.Stats();
+  ASSERT_EQ(s.channels.size(), 1u);
+  const ChannelStats& c = s.channels[0];
+  std::printf("burst: %lld written, %lld dropped, %lld gaps, queue high water %zu of %zu bytes\n",
+              static_cast<long long>(c.count), static_cast<long long>(c.dropped),
+              static_cast<long long>(c.seq_gaps), s.queue_high_water_bytes, s.queue_bytes);
+  EXPECT_EQ(c.received, n);
+  EXPECT_EQ(c.count + c.dropped, n);
+  // The recorder's own drops show in the sequence numbers: before the first
+  // written, in the gaps, after the last.
+  if (c.count > 0) {
+    EXPECT_EQ(c.first_seq + c.seq_missing + (n - 1 - c.last_seq), c.dropped);
+  }
+  int64_t in_log = 0, last = -1;
+  for (const auto& f : s.files) {
+    for (const auto& e : ReadLog(f)) {
+      rocklab::table_state_t d{};
+      ASSERT_GE(d.decode(e.data.data(), 0, static_cast<int>(e.data.size())), 0);
+      EXPECT_GT(d.seq, last);
+      last = d.seq;
+      ++in_log;
+    }
+  }
+  EXPECT_EQ(in_log, c.count);
+}
+
+TEST(RecorderTest, RejectsBadOptions) {
+  lcm::LCM lcm("memq://");
+  RecorderOptions o;
+  o.out_path = Scratch("bad.lcm");
+  o.queue_bytes = 100;
+  EXPECT_THROW(Recorder(lcm, o), std::invalid_argument);
+  o.queue_bytes = 1 << 20;
+  o.out_path = "no_such_dir/x.lcm";
+  EXPECT_THROW(Recorder(lcm, o), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace rocklab::record

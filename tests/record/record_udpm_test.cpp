@@ -1,0 +1,118 @@
+// `rocklab record` as the lab runs it: a process recording udpm:// (in a
+// private network namespace on loopback, ttl=0: DESIGN.md), stopped by
+// SIGINT, and its command-line errors.
+#include <signal.h>
+
+#include <chrono>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+
+#include "rocklab/raw_frame_t.hpp"
+#include "tests/tools/run_cli.h"
+#include "tests/tools/udpm_netns.h"
+
+namespace rocklab::test {
+namespace {
+
+std::string EncodeRaw(int64_t seq) {
+  rocklab::raw_frame_t m{};
+  m.utime = seq * 1000;
+  m.seq = seq;
+  m.num_channels = 16;
+  m.values.assign(16, 0.25 * static_cast<double>(seq));
+  std::string buf(static_cast<std::size_t>(m.getEncodedSize()), '\0');
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  return buf;
+}
+
+// Oracle: what the test published. 20 000 RL_RAW frames (the size of a lab
+// rig's frame) at 10 kHz with seq 100..104 never sent (a source gap of 5),
+// plus RL_EVENT and a channel outside --channels. The recorder, rotating
+// every 500 kB, must write every frame sent, in order, across its files,
+// count one gap of 5, drop nothing, and name its files LOG's stem.NNNN.lcm.
+TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
+  const std::string why = EnterPrivateNetwork();
+  if (!why.empty()) GTEST_SKIP() << why;
+  const std::string dir = ScratchDir("record_udpm");
+  const std::string log = dir + "/rec.lcm", summary = dir + "/rec.json";
+  const pid_t pid = StartCli({"record", log, "--channels", "RL_.*", "--rotate-size", "500000", "--summary", summary,
+                              "--force", "--lcm-url", kUdpmUrl},
+                             dir + "/out", dir + "/err");
+  ASSERT_FALSE(WaitForLine(dir + "/err", "rocklab record: recording").empty()) << ReadFile(dir + "/err");
+  lcm::LCM lcm(kUdpmUrl);
+  ASSERT_TRUE(lcm.good());
+  std::vector<std::string> sent;
+  const int n = 20000;
+  for (int64_t seq = 0; seq < n; ++seq) {
+    if (seq >= 100 && seq < 105) continue;
+    sent.push_back(EncodeRaw(seq));
+    lcm.publish("RL_RAW", sent.back().data(), static_cast<unsigned>(sent.back().size()));
+    if (seq % 1000 == 0) lcm.publish("RL_EVENT", "e", 1);
+    lcm.publish("NOT_RECORDED", "x", 1);
+    if (seq % 10 == 9) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the datagrams reach the socket
+  EXPECT_EQ(StopProcess(pid, SIGINT), 0) << ReadFile(dir + "/err");
+  const auto j = nlohmann::json::parse(ReadFile(summary));
+  ASSERT_EQ(j["channels"].size(), 2u) << j.dump();
+  const auto& raw = j["channels"][0];
+  EXPECT_EQ(raw["name"], "RL_RAW");
+  EXPECT_EQ(raw["count"], n - 5);
+  EXPECT_EQ(raw["dropped"], 0);
+  EXPECT_EQ(raw["seq_gaps"], 1);
+  EXPECT_EQ(raw["seq_missing"], 5);
+  EXPECT_EQ(raw["seq_back"], 0);
+  EXPECT_EQ(j["channels"][1]["name"], "RL_EVENT");
+  EXPECT_EQ(j["channels"][1]["count"], 20);
+  EXPECT_EQ(j["dropped"], 0);
+  const auto files = j["files"].get<std::vector<std::string>>();
+  ASSERT_GE(files.size(), 5u);  // ~2.9 MB in 500 kB files
+  std::size_t next = 0;
+  int64_t last_event = -1, last_utime = 0;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/rec.%04zu.lcm", i);
+    EXPECT_EQ(files[i], dir + name);
+    lcm::LogFile f(files[i], "r");
+    ASSERT_TRUE(f.good()) << files[i];
+    while (const lcm::LogEvent* ev = f.readNextEvent()) {
+      EXPECT_EQ(ev->eventnum, last_event + 1);
+      EXPECT_GE(ev->timestamp, last_utime);
+      last_event = ev->eventnum;
+      last_utime = ev->timestamp;
+      if (ev->channel != "RL_RAW") continue;
+      ASSERT_LT(next, sent.size());
+      EXPECT_EQ(std::string(static_cast<const char*>(ev->data), static_cast<std::size_t>(ev->datalen)), sent[next])
+          << "frame " << next;
+      ++next;
+    }
+  }
+  EXPECT_EQ(next, sent.size());
+}
+
+// Oracle: the README's contract for bad input: one line naming the file or
+// option, exit code 2 (memq://, so no network is needed).
+TEST(RecordUdpmTest, BadOptionsAndExistingLogsAreUsageErrors) {
+  const std::string dir = ScratchDir("record_cli");
+  const std::string log = dir + "/exists.lcm";
+  WriteFile(log, "an earlier test");
+  CliResult r = RunCli({"record", log, "--lcm-url", "memq://"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(log), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--force"), std::string::npos) << r.err;
+  EXPECT_EQ(ReadFile(log), "an earlier test");
+  r = RunCli({"record", dir + "/x.lcm", "--rotate-seconds", "-1", "--lcm-url", "memq://"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--rotate-seconds"), std::string::npos) << r.err;
+  r = RunCli({"record", dir + "/no_such_dir/x.lcm", "--lcm-url", "memq://"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("no_such_dir/x.lcm"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace rocklab::test

@@ -1,0 +1,154 @@
+// rocklab record: the lab's LCM recorder (record/recorder.h): every event of
+// the channels asked for, to an LCM log (rotated by size or time), with
+// per-channel counts, losses and sequence gaps, and a summary on
+// SIGINT/SIGTERM.
+//
+// Threading model: this thread runs LCM's dispatch (handleTimeout, 100 ms),
+// whose handler only copies each event into the recorder's queue; the
+// recorder's writer thread writes the file. Every second this thread warns
+// (once) when events were dropped. On SIGINT/SIGTERM (the handlers only set
+// the stop flag): dispatch what LCM already holds, Stop (the writer writes
+// what is queued, flushes, closes), print the summary, write --summary.
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/node_support.h"
+#include "record/recorder.h"
+#include "tools/cli.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct RecordCommand {
+  record::RecorderOptions options;
+  std::string lcm_url;
+  std::string summary_json;
+  double queue_mb{64};
+};
+
+long long RmemMax() {
+  std::ifstream in("/proc/sys/net/core/rmem_max");
+  long long v = -1;
+  in >> v;
+  return in ? v : -1;
+}
+
+// The udpm socket buffer asked for when the URL names none: 16 MiB (~3 s of
+// a 5x replay of a 1 kHz test, ~5 MB/s of datagrams), but no more than
+// net.core.rmem_max, which caps it anyway (4 MiB on the 2-core test machine;
+// the kernel doubles what it grants for its bookkeeping). Sets `asked`.
+std::string RecorderUrl(const std::string& url, long long& asked) {
+  std::string out = SubscriberUrl(url);
+  asked = 0;
+  const std::string given = "recv_buf_size=4194304";  // SubscriberUrl's
+  if (out.rfind("udpm://", 0) == 0 && url.find("recv_buf_size=") == std::string::npos) {
+    const long long rmem = RmemMax();
+    asked = rmem > 0 ? std::min(16LL << 20, rmem) : 16LL << 20;
+    const auto at = out.find(given);
+    if (at != std::string::npos) out.replace(at, given.size(), "recv_buf_size=" + std::to_string(asked));
+  }
+  return out;
+}
+
+void PrintSummary(const record::RecorderStats& s) {
+  std::fprintf(stderr, "rocklab record: %lld events written (%lld received, %lld dropped), %lld bytes in %zu file%s\n",
+               static_cast<long long>(s.events), static_cast<long long>(s.received),
+               static_cast<long long>(s.dropped), static_cast<long long>(s.bytes), s.files.size(),
+               s.files.size() == 1 ? "" : "s");
+  std::fprintf(stderr, "  %-28s %10s %8s %8s %8s\n", "channel", "count", "dropped", "seq_gaps", "missing");
+  for (const auto& c : s.channels) {
+    std::fprintf(stderr, "  %-28s %10lld %8lld %8s %8s\n", c.name.c_str(), static_cast<long long>(c.count),
+                 static_cast<long long>(c.dropped), c.has_seq ? std::to_string(c.seq_gaps).c_str() : "-",
+                 c.has_seq ? std::to_string(c.seq_missing).c_str() : "-");
+  }
+}
+
+int RunRecord(RecordCommand& c) {
+  Require(c.queue_mb >= 0.0625 && c.queue_mb <= 65536, "--queue-mb", "in [0.0625, 65536] MiB", c.queue_mb);
+  c.options.queue_bytes = static_cast<std::size_t>(c.queue_mb * 1048576.0);
+  try {
+    c.options.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  if (!c.summary_json.empty()) {
+    std::ofstream probe(c.summary_json, std::ios::app);
+    if (!probe) throw UsageError("--summary: cannot write '" + c.summary_json + "'");
+  }
+  const std::atomic<bool>& stop = InstallStopSignals();
+  long long asked = 0;
+  const std::string url = RecorderUrl(c.lcm_url, asked);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
+  const auto log = common::NamedLogger("record");
+  if (asked > 0 && asked < (16LL << 20)) {
+    log->info("net.core.rmem_max caps the udpm socket buffer at {} bytes (raise it for more)", asked);
+  }
+  std::unique_ptr<record::Recorder> recorder;
+  try {
+    recorder = std::make_unique<record::Recorder>(lcm, c.options);
+  } catch (const std::runtime_error& e) {
+    throw UsageError(e.what());
+  }
+  std::fprintf(stderr, "rocklab record: recording '%s' from %s to %s\n", c.options.channels.c_str(), url.c_str(),
+               c.options.out_path.c_str());
+  double last_check = common::HostNowS();
+  int failures = 0;
+  while (!stop.load()) {
+    if (lcm.handleTimeout(100) < 0) {
+      // A signal interrupts LCM's wait: -1 then is no failure.
+      if (stop.load()) break;
+      if (++failures >= 10) {
+        log->error("LCM failed 10 times in a row while receiving; stopping");
+        break;
+      }
+      continue;
+    }
+    failures = 0;
+    const double now = common::HostNowS();
+    if (now - last_check >= 1.0) {
+      last_check = now;
+      if (const int64_t d = recorder->DropsSince(); d > 0) {
+        log->warn("{} events dropped in the last second (queue full or write errors; counted per channel)", d);
+      }
+    }
+  }
+  common::DispatchQueued(lcm, 1 << 22);
+  recorder->Stop();
+  const record::RecorderStats stats = recorder->Stats();
+  PrintSummary(stats);
+  if (!c.summary_json.empty()) {
+    std::ofstream out(c.summary_json, std::ios::trunc);
+    out << record::SummaryJson(stats);
+    if (!out) {
+      std::fprintf(stderr, "rocklab: --summary: cannot write '%s'\n", c.summary_json.c_str());
+      return kFailureExit;
+    }
+  }
+  return stats.write_error.empty() ? 0 : kFailureExit;
+}
+
+}  // namespace
+
+void RegisterRecord(CLI::App& app, CommandRun& run) {
+  auto c = std::make_shared<RecordCommand>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("record", "record LCM channels to a log, counting every loss");
+  cmd->add_option("LOG", c->options.out_path, "output LCM log (with rotation: LOG's stem.NNNN.ext)")->required();
+  cmd->add_option("--channels", c->options.channels, "LCM channel regex, matched against the whole name")
+      ->capture_default_str();
+  cmd->add_option("--rotate-size", c->options.rotate_bytes, "start a new file before one passes BYTES (0: never)");
+  cmd->add_option("--rotate-seconds", c->options.rotate_seconds,
+                  "start a new file every S seconds of receipt time (0: never)");
+  cmd->add_option("--summary", c->summary_json, "summary JSON written at the end");
+  cmd->add_option("--queue-mb", c->queue_mb, "the recorder's queue, MiB")->capture_default_str();
+  cmd->add_flag("--force", c->options.overwrite, "replace existing log files");
+  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  cmd->callback([c, &run] { run = [c] { return RunRecord(*c); }; });
+}
+
+}  // namespace rocklab::tools
