@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/lcm_log.h"
+
 namespace rocklab::tools {
 
 void ReplayOptions::Validate() const {
@@ -19,51 +21,33 @@ void ReplayOptions::Validate() const {
   }
 }
 
-ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, lcm::LCM& lcm,
-                       const std::atomic<bool>& stop) {
+ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, common::Bus& bus,
+                       const std::atomic<bool>& stop,
+                       const std::function<void(const std::string&)>& on_problem) {
   o.Validate();
-  const std::regex filter(o.channels);
+  common::LogReaderOptions read;
+  read.channels = o.channels;
+  read.start_s = o.start_s;
+  read.end_s = o.end_s;
+  if (on_problem) read.on_problem = [&on_problem](const common::LogProblem& p) { on_problem(ToString(p)); };
+  common::LogReader log(log_path, read);  // throws naming the file
+  const std::int64_t window_start =
+      log.first_timestamp_us() + static_cast<std::int64_t>(std::llround(o.start_s * 1e6));
+
   ReplayCounts counts;
-  std::map<std::string, bool> matches;  // channel -> passes the filter (regex once per channel)
-
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) throw std::runtime_error("cannot read LCM log '" + log_path + "'");
-  const lcm::LogEvent* first = log.readNextEvent();
-  if (!first) throw std::runtime_error("LCM log '" + log_path + "' has no events");
-  const std::int64_t log_t0 = first->timestamp;
-  const std::int64_t window_start = log_t0 + static_cast<std::int64_t>(std::llround(o.start_s * 1e6));
-  const std::int64_t window_end =
-      o.end_s < 0 ? INT64_MAX : log_t0 + static_cast<std::int64_t>(std::llround(o.end_s * 1e6));
-
+  common::LogEvent ev;
   using Clock = std::chrono::steady_clock;
   while (!stop.load()) {
     ++counts.passes;
-    if (counts.passes > 1 || o.start_s > 0) {
-      // seekToTimestamp lands near the time: skip what is before the window.
-      if (log.seekToTimestamp(window_start) != 0 && log.seekToTimestamp(log_t0) != 0) {
-        throw std::runtime_error("cannot seek in LCM log '" + log_path + "'");
-      }
-    } else if (log.seekToTimestamp(log_t0) != 0) {
-      throw std::runtime_error("cannot seek in LCM log '" + log_path + "'");
-    }
+    if (counts.passes > 1) log.Rewind();
     const Clock::time_point wall0 = Clock::now();
     bool any = false;
-    while (!stop.load()) {
-      const lcm::LogEvent* ev = log.readNextEvent();
-      if (!ev || ev->timestamp > window_end) break;
-      if (ev->timestamp < window_start) continue;
+    while (!stop.load() && log.Next(ev)) {
       any = true;
-      ++counts.read;
-      auto it = matches.find(ev->channel);
-      if (it == matches.end()) {
-        it = matches.emplace(ev->channel, std::regex_match(ev->channel, filter)).first;
-      }
-      if (!it->second) {
-        ++counts.filtered;
-        continue;
-      }
       if (!o.max_speed) {
-        const double due_s = static_cast<double>(ev->timestamp - window_start) * 1e-6 / o.speed;
+        // An event stamped before the window's start or an earlier event
+        // (logs whose stamps go back) is due at once.
+        const double due_s = static_cast<double>(ev.timestamp_us - window_start) * 1e-6 / o.speed;
         const auto due = wall0 + std::chrono::duration_cast<Clock::duration>(
                                      std::chrono::duration<double>(due_s));
         // Sleep in slices so a stop request is honoured within 50 ms.
@@ -72,15 +56,21 @@ ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, lcm:
         }
         if (stop.load()) break;
       }
-      if (lcm.publish(ev->channel, ev->data, static_cast<unsigned>(ev->datalen)) == 0) {
+      if (bus.Publish(ev.channel, ev.data.data(), static_cast<int>(ev.data.size()))) {
         ++counts.published;
-        ++counts.per_channel[ev->channel];
+        ++counts.per_channel[ev.channel];
       } else {
         ++counts.failed;
       }
     }
     if (!o.loop || !any) break;
   }
+  const common::LogReadCounts& n = log.counts();
+  counts.read = n.delivered + n.filtered;
+  counts.filtered = n.filtered;
+  counts.damaged_regions = n.damaged_regions;
+  counts.damaged_bytes = n.damaged_bytes;
+  counts.damaged_events = n.damaged_events;
   return counts;
 }
 

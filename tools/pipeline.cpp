@@ -9,6 +9,14 @@
 
 namespace rocklab::tools {
 
+std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url) {
+  try {
+    return std::make_unique<common::LcmBus>(url);
+  } catch (const std::runtime_error&) {
+    throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
+  }
+}
+
 daq::RigConfig LoadRig(const std::string& path) {
   try {
     return daq::LoadRigConfig(path);
@@ -33,15 +41,26 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
   return config;
 }
 
+int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
+  if (s.damaged_regions == 0) return 0;
+  std::fprintf(stderr,
+               "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the rest "
+               "was read\n",
+               what, input.c_str(), static_cast<long long>(s.damaged_regions),
+               s.damaged_regions == 1 ? "" : "s", static_cast<long long>(s.damaged_bytes),
+               static_cast<long long>(s.damaged_events));
+  return kFailureExit;
+}
+
 int RunDaqStage(const DaqStageOptions& o, const char* what) {
   Require(std::isfinite(o.speed) && o.speed > 0, "--speed", "> 0", o.speed);
   daq::DaqNodeConfig config = DaqConfigFor(LoadRig(o.rig_path), o.input, o.max_speed ? 0.0 : o.speed);
-  config.lcm_url = o.lcm_url;
   config.prefix = o.prefix;
   const std::atomic<bool>& stop = InstallStopSignals();
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(o.lcm_url);
   std::unique_ptr<daq::DaqNode> node;
   try {
-    node = std::make_unique<daq::DaqNode>(config);
+    node = std::make_unique<daq::DaqNode>(config, *bus);
   } catch (const std::exception& e) {
     throw UsageError(e.what());  // names the input file (and line) or the LCM URL
   }
@@ -54,7 +73,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what) {
                static_cast<long long>(s.publish_errors), static_cast<long long>(s.gaps),
                static_cast<long long>(s.missing), static_cast<long long>(s.bad_samples),
                s.stopped_early ? ", stopped by signal" : "");
-  return 0;
+  return ReportDamage(s, o.input, what);
 }
 
 std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,

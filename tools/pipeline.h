@@ -3,17 +3,23 @@
 // command line, shared by `rocklab daq`, `model`, `compare`, `run` and
 // `replay --rig`.
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
+#include "common/bus.h"
 #include "compare/compare_node.h"
 #include "daq/daq_node.h"
 #include "daq/rig_config.h"
 #include "model/model_node.h"
 
 namespace rocklab::tools {
+
+/// An LcmBus on `url` (empty: LCM's default).
+/// @throws UsageError("--lcm-url: cannot open LCM at '<url>'").
+std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url);
 
 /// Loads the rig file; errors become UsageError naming file, line and key.
 daq::RigConfig LoadRig(const std::string& path);
@@ -38,9 +44,15 @@ struct DaqStageOptions {
   std::string prefix{"RL_"};
 };
 /// Runs the DAQ node until the input ends or SIGINT/SIGTERM, then prints its
-/// counts on stderr (`<what>: N frames read, ...`); returns the exit code (0).
+/// counts on stderr (`<what>: N frames read, ...`); returns the exit code (0;
+/// kFailureExit when the input was a damaged LCM log: see ReportDamage).
 /// @throws UsageError naming the option (bad rig, input, speed or LCM URL).
 int RunDaqStage(const DaqStageOptions& options, const char* what);
+
+/// A damaged LCM log input: prints "<what>: <input> is damaged: N regions
+/// skipped (B bytes, E events lost)" on stderr and returns kFailureExit;
+/// otherwise returns 0. (Each region was reported with its offset as read.)
+int ReportDamage(const daq::DaqNodeStats& stats, const std::string& input, const char* what);
 
 /// Variants from `--variant NAME:MODEL:PARAMS` options; none given: Housner
 /// and the complex formulation with the theoretical parameters. Errors

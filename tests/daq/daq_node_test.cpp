@@ -17,6 +17,8 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "daq/daq_node.h"
+
+#include "common/bus.h"
 #include "daq/processor.h"
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
@@ -76,37 +78,20 @@ struct Collector {
   std::vector<rocklab::event_t> events;
   std::vector<rocklab::health_t> health;
   std::vector<rocklab::daq_config_t> config;
-  void OnRaw(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::raw_frame_t* m) {
-    order.push_back(c);
-    raw.push_back(*m);
+  template <class Msg>
+  void Add(common::Bus& bus, const char* channel, std::vector<Msg>& into) {
+    bus.Subscribe<Msg>(channel, [this, &into](const std::string& c, const Msg& m) {
+      order.push_back(c);
+      into.push_back(m);
+    });
   }
-  void OnTheta(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::block_state_t* m) {
-    order.push_back(c);
-    theta.push_back(*m);
-  }
-  void OnTable(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::table_state_t* m) {
-    order.push_back(c);
-    table.push_back(*m);
-  }
-  void OnEvent(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::event_t* m) {
-    order.push_back(c);
-    events.push_back(*m);
-  }
-  void OnHealth(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::health_t* m) {
-    order.push_back(c);
-    health.push_back(*m);
-  }
-  void OnConfig(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::daq_config_t* m) {
-    order.push_back(c);
-    config.push_back(*m);
-  }
-  void Subscribe(lcm::LCM& lcm) {
-    lcm.subscribe("RL_RAW", &Collector::OnRaw, this);
-    lcm.subscribe("RL_THETA", &Collector::OnTheta, this);
-    lcm.subscribe("RL_TABLE", &Collector::OnTable, this);
-    lcm.subscribe("RL_EVENT", &Collector::OnEvent, this);
-    lcm.subscribe("RL_HEALTH", &Collector::OnHealth, this);
-    lcm.subscribe("RL_DAQ_CONFIG", &Collector::OnConfig, this);
+  void Subscribe(common::Bus& bus) {
+    Add(bus, "RL_RAW", raw);
+    Add(bus, "RL_THETA", theta);
+    Add(bus, "RL_TABLE", table);
+    Add(bus, "RL_EVENT", events);
+    Add(bus, "RL_HEALTH", health);
+    Add(bus, "RL_DAQ_CONFIG", config);
   }
 };
 
@@ -114,14 +99,14 @@ struct Collector {
 std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& input, double speed,
                                      std::atomic<bool>& stop, DaqNodeStats* stats = nullptr,
                                      int stop_after_ms = -1) {
-  lcm::LCM lcm("memq://");
+  common::LcmBus lcm("memq://");
   auto c = std::make_unique<Collector>();
   c->Subscribe(lcm);
   DaqNodeConfig config;
   config.rig = rig;
   config.input = input;
   config.speed = speed;
-  DaqNode node(config, &lcm);
+  DaqNode node(config, lcm);
   std::thread stopper;
   if (stop_after_ms >= 0) {
     stopper = std::thread([&stop, stop_after_ms] {
@@ -131,7 +116,7 @@ std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& in
   }
   node.Run(stop);
   if (stopper.joinable()) stopper.join();
-  while (lcm.handleTimeout(0) > 0) {
+  while (lcm.HandleTimeout(0) > 0) {
   }
   if (stats != nullptr) *stats = node.stats();
   return c;
@@ -236,9 +221,9 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
   config.rig = rig;
   config.input = input;
   config.speed = 1.0;
-  config.lcm_url = rocklab::test::kUdpmUrl;
   {
-    DaqNode node(config);
+    common::LcmBus bus(rocklab::test::kUdpmUrl);
+    DaqNode node(config, bus);
     std::atomic<bool> stop{false};
     node.Run(stop);
     if (node.stats().publish_errors != 0) {
