@@ -51,7 +51,7 @@ class LcmLogSource final : public Source {
         on_problem_(Problem{{&path_, p.offset},
                             "damaged LCM log region at byte offset " + std::to_string(p.offset) + " (" +
                                 std::to_string(p.bytes) + " bytes, " + std::to_string(p.events) +
-                                " events skipped): " + p.what});
+                                (p.events == 1 ? " event" : " events") + " skipped): " + p.what});
       }
     };
     log_ = std::make_unique<common::LogReader>(path, std::move(read));

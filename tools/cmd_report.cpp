@@ -14,10 +14,19 @@
 #include <utility>
 
 #include "tools/cli.h"
-#include "tools/report.h"
+#include "report/report.h"
 
 namespace rocklab::tools {
 namespace {
+
+using report::FigureFormat;
+using report::ReadRecordLog;
+using report::RecordReport;
+using report::ReportFigure;
+using report::ReportInputError;
+using report::ReportOptions;
+using report::ReportPage;
+using report::ThetaFigure;
 
 struct ReportCommand {
   std::string log_path;

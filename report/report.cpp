@@ -1,4 +1,4 @@
-#include "tools/report.h"
+#include "report/report.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -17,7 +17,7 @@
 #include "monitor/live_state.h"
 #include "rocklab/table_state_t.hpp"
 
-namespace rocklab::tools {
+namespace rocklab::report {
 namespace {
 
 using nlohmann::json;
@@ -193,4 +193,4 @@ ThetaFigure ReportFigure(const RecordReport& record) {
   return figure;
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

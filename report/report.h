@@ -15,13 +15,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tools/report_figure.h"
+#include "report/report_figure.h"
 
 namespace rocklab {
 class table_state_t;
 }
 
-namespace rocklab::tools {
+namespace rocklab::report {
 
 /// The log cannot be reported: unreadable, not an LCM log, or no RL_THETA.
 /// The message is one line naming the file.
@@ -78,4 +78,4 @@ ThetaFigure ReportFigure(const RecordReport& record);
 /// @throws std::runtime_error when a monitor asset is missing from the build.
 std::string ReportPage(const RecordReport& record);
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report
