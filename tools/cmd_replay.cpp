@@ -10,11 +10,15 @@
 #include <string>
 
 #include "tools/cli.h"
-#include "tools/log_replay.h"
+#include "pipeline/log_replay.h"
 #include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
+
+using pipeline::ReplayCounts;
+using pipeline::ReplayLog;
+using pipeline::ReplayOptions;
 
 struct ReplayCommand {
   std::string log_path;
@@ -84,7 +88,7 @@ int RunReplay(const ReplayCommand& c) {
   daq.speed = c.replay.speed;
   daq.max_speed = c.replay.max_speed;
   daq.lcm_url = c.lcm_url;
-  return RunDaqStage(daq, "replay");
+  return RunDaqStage(daq, "replay", InstallStopSignals());
 }
 
 }  // namespace

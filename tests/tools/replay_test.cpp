@@ -1,7 +1,7 @@
 // Log replay: payloads byte for byte and in order, channel filter, time
 // window, loop, pacing, and errors naming the file; `replay --rig --input`:
 // a raw file through the DAQ stage, and the usage errors of the two forms.
-#include "tools/log_replay.h"
+#include "pipeline/log_replay.h"
 
 #include <signal.h>
 
@@ -21,7 +21,7 @@
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
 namespace {
 
 // A log of 30 events, 10 ms apart, cycling over three channels; payload k
@@ -351,4 +351,4 @@ TEST(ReplayRaw, PublishesWhatTheDaqStageOfRunPublishes) {
 }
 
 }  // namespace
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

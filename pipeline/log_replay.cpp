@@ -1,4 +1,4 @@
-#include "tools/log_replay.h"
+#include "pipeline/log_replay.h"
 
 #include <chrono>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "common/lcm_log.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
 
 void ReplayOptions::Validate() const {
   if (!(speed > 0) || !std::isfinite(speed)) throw std::invalid_argument("--speed must be > 0");
@@ -74,4 +74,4 @@ ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, comm
   return counts;
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

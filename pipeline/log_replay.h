@@ -17,7 +17,7 @@
 
 #include "common/bus.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
 
 struct ReplayOptions {
   double speed{1.0};          ///< 1 = recorded pace; > 0
@@ -50,4 +50,4 @@ ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& options
                        const std::atomic<bool>& stop,
                        const std::function<void(const std::string&)>& on_problem = {});
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline
