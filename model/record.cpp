@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "common/lcm_log.h"
+#include "common/text.h"
 
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -28,12 +29,7 @@ std::string Num(double v) {
   throw RecordError(where + ": " + what);
 }
 
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
+std::string Trim(const std::string& s) { return std::string(common::Trim(s)); }
 
 std::vector<std::string> SplitCsv(const std::string& line) {
   std::vector<std::string> out;
@@ -45,19 +41,9 @@ std::vector<std::string> SplitCsv(const std::string& line) {
 }
 
 // Parses the whole field as a number ("nan" parses, as NaN); false otherwise.
-bool ParseDouble(const std::string& s, double& v) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  v = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size();
-}
+bool ParseDouble(const std::string& s, double& v) { return common::ParseDouble(s, v); }
 
-bool StartsWithLcmSyncWord(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char b[4] = {};
-  if (!in.read(reinterpret_cast<char*>(b), 4)) return false;
-  return b[0] == 0xED && b[1] == 0xA1 && b[2] == 0xDA && b[3] == 0x01;
-}
+bool StartsWithLcmSyncWord(const std::string& path) { return common::StartsWithLcmSync(path); }
 
 std::string Where(const std::string& source, int64_t line, bool lcm) {
   return source + (lcm ? ":event " : ":") + std::to_string(line);

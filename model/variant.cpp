@@ -7,18 +7,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/text.h"
+
 namespace rocklab::model {
 namespace {
 
 double ParseNumber(const std::string& text, const std::string& what) {
-  std::size_t used = 0;
   double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v)) {
+  if (!common::ParseDouble(text, v) || !std::isfinite(v)) {
     throw std::invalid_argument(what + ": '" + text + "' is not a number");
   }
   return v;
