@@ -173,6 +173,30 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
   EXPECT_FALSE(stats.stopped_early);
 }
 
+// Issue 11: the RL_THETA and RL_TABLE of a sample go out together, RL_THETA
+// first, so no subscriber has to hold either back. Oracle: every RL_TABLE
+// is the message right after an RL_THETA of the same seq (the simulated
+// drops included: a dropped sample has neither).
+TEST(DaqNode, ThetaAndTableOfASampleArePublishedTogether) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "pairs.csv", 1.0);
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, input, 0, stop);
+  ASSERT_FALSE(c->table.empty());
+  ASSERT_EQ(c->theta.size(), c->table.size());
+  std::size_t theta_i = 0, table_i = 0;
+  for (std::size_t i = 0; i < c->order.size(); ++i) {
+    if (c->order[i] == "RL_THETA") ++theta_i;
+    if (c->order[i] != "RL_TABLE") continue;
+    ASSERT_GT(i, 0u);
+    ASSERT_EQ(c->order[i - 1], "RL_THETA") << "message " << i;
+    ASSERT_EQ(c->table[table_i].seq, c->theta[theta_i - 1].seq) << "table " << table_i;
+    ASSERT_EQ(c->table[table_i].utime, c->theta[theta_i - 1].utime) << "table " << table_i;
+    ++table_i;
+  }
+  EXPECT_EQ(table_i, c->table.size());
+}
+
 TEST(DaqNode, StopFlagEndsTheRunAndPublishesWhatWasRead) {
   const RigConfig rig = LoadRigConfig(test::LabRigPath());
   const std::string input = MakeRawCsv(rig, "stop.csv", 5.0);
