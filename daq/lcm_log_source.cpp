@@ -66,7 +66,8 @@ class LcmLogSource final : public Source {
     while (log_->Next(ev_)) {
       if (ev_.channel != raw_channel_) continue;
       ++stats_.rows;
-      if (msg_.decode(ev_.data.data(), 0, static_cast<int>(ev_.data.size())) < 0) {
+      if (!ChannelCountFits() ||
+          msg_.decode(ev_.data.data(), 0, static_cast<int>(ev_.data.size())) < 0) {
         Bad(ev_.number, "RL_RAW event does not decode as raw_frame_t (skipped)");
         continue;
       }
@@ -87,6 +88,17 @@ class LcmLogSource final : public Source {
   }
 
  private:
+  // raw_frame_t's decoder resizes `values` to num_channels before reading
+  // them: refuse a count the payload cannot hold (fingerprint, utime, seq,
+  // num_channels, then 8 bytes per value) before it allocates.
+  bool ChannelCountFits() const {
+    const std::vector<uint8_t>& b = ev_.data;
+    if (b.size() < 28) return false;
+    const int32_t n = static_cast<int32_t>((uint32_t{b[24]} << 24) | (uint32_t{b[25]} << 16) |
+                                           (uint32_t{b[26]} << 8) | uint32_t{b[27]});
+    return n >= 0 && 28 + 8 * static_cast<int64_t>(n) <= static_cast<int64_t>(b.size());
+  }
+
   void Bad(int64_t event, const std::string& what) {
     ++stats_.bad_rows;
     if (on_problem_) on_problem_(Problem{{&path_, event}, what});
