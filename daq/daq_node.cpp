@@ -225,7 +225,10 @@ const DaqNodeStats& DaqNode::stats() const { return impl_->stats; }
 void DaqNode::Run(const std::atomic<bool>& stop) {
   Impl& m = *impl_;
   m.last_health = Clock::now();
-  m.PublishHealth("starting");
+  // RL_HEALTH "starting" goes out with the first frame, stamped with its
+  // sample clock (a message stamped 0 before an epoch-based clock would put
+  // a log's first event decades before the rest).
+  bool started = false;
   double next_config_s = std::numeric_limits<double>::quiet_NaN();
   Frame frame;
   while (true) {
@@ -234,6 +237,11 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       break;
     }
     if (m.source->Next(frame) == ReadStatus::kEnd) break;
+    if (!started) {
+      started = true;
+      m.newest_utime = frame.utime();
+      m.PublishHealth("starting");
+    }
     if (!m.pacer.WaitFor(frame.time_s, stop)) {
       // Stopped while waiting: this frame was read, so it is still published.
       m.stats.stopped_early = true;
@@ -258,6 +266,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
     }
     if (m.stats.stopped_early) break;
   }
+  if (!started) m.PublishHealth("starting");                             // an empty input
   if (std::isnan(next_config_s)) m.Publish(m.ch_config, m.config_msg);  // an empty input
   m.PublishHealth("stopping");
   m.processor->Finish();

@@ -197,6 +197,32 @@ TEST(DaqNode, ThetaAndTableOfASampleArePublishedTogether) {
   EXPECT_EQ(table_i, c->table.size());
 }
 
+// Oracle: the first frame's sample clock. RL_HEALTH "starting" carries it
+// (not 0), so a log of the run does not begin decades before its data when
+// the clock is an epoch's (here 1.7e9 s).
+TEST(DaqNode, StartingHealthCarriesTheFirstFramesSampleClock) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  std::ifstream in(MakeRawCsv(rig, "epoch_src.csv", 0.2));
+  std::string text, line;
+  for (bool header = true; std::getline(in, line); header = false) {
+    if (!header) {
+      const std::size_t comma = line.find(',');
+      char t[64];
+      std::snprintf(t, sizeof t, "%.6f", 1.7e9 + std::stod(line.substr(0, comma)));
+      line = t + line.substr(comma);
+    }
+    text += line + "\n";
+  }
+  const std::string input = test::WriteFile("epoch.csv", text);
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, input, 0, stop);
+  ASSERT_FALSE(c->raw.empty());
+  ASSERT_FALSE(c->health.empty());
+  EXPECT_EQ(c->health.front().state, "starting");
+  EXPECT_EQ(c->health.front().utime, c->raw.front().utime);
+  EXPECT_GT(c->raw.front().utime, 1'600'000'000'000'000);
+}
+
 TEST(DaqNode, StopFlagEndsTheRunAndPublishesWhatWasRead) {
   const RigConfig rig = LoadRigConfig(test::LabRigPath());
   const std::string input = MakeRawCsv(rig, "stop.csv", 5.0);
