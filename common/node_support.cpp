@@ -5,6 +5,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "common/bus.h"
+
 namespace rocklab::common {
 
 std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name) {
@@ -21,10 +23,22 @@ double HostNowS() {
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
 
-int DispatchQueued(lcm::LCM& lcm, int max_messages, int quiet_ms) {
+bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<void()>& periodic,
+                 int drain_max, const std::string& log_name, int quiet_ms) {
+  bool ok = true;
+  while (!stop.load()) {
+    if (bus.HandleTimeout(100) < 0) {
+      if (!stop.load()) {  // a stop signal interrupts the wait: not an error
+        NamedLogger(log_name)->error("the bus failed to receive");
+        ok = false;
+      }
+      break;
+    }
+    if (periodic) periodic();
+  }
   int dispatched = 0;
-  while (dispatched < max_messages && lcm.handleTimeout(quiet_ms) > 0) ++dispatched;
-  return dispatched;
+  while (dispatched < drain_max && bus.HandleTimeout(quiet_ms) > 0) ++dispatched;
+  return ok;
 }
 
 }  // namespace rocklab::common

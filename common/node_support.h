@@ -2,15 +2,29 @@
 /// @file
 /// What the nodes share: one named stderr logger per module, the host's
 /// monotonic clock (rates, timeouts and health periods only: message times
-/// come from the acquisition sample clock), and the end of a subscriber loop.
+/// come from the acquisition sample clock), and the loop of a node.
+///
+/// Every node has one shape:
+///   class XNode {
+///    public:
+///     XNode(XNodeConfig config, common::Bus& bus);  // subscribes; throws on bad config
+///     void Run(const std::atomic<bool>& stop);      // RunNodeLoop, then Finish
+///     void Finish();                                // last messages, RL_HEALTH "stopped"
+///   };
+/// and its shutdown order written above the class. On a DirectBus (`rocklab
+/// run`) nobody calls Run for the subscribing nodes: the source node's Run
+/// drives them through the bus, and the command calls their Finish.
 
+#include <atomic>
+#include <functional>
 #include <memory>
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
 #include <spdlog/logger.h>
 
 namespace rocklab::common {
+
+class Bus;
 
 /// The logger named `name` from spdlog's registry, created on stderr (stdout
 /// carries the commands' own output) the first time it is asked for. Safe
@@ -20,14 +34,15 @@ std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
 /// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
 double HostNowS();
 
-/// Dispatches what LCM has received for `lcm`'s subscriptions and not yet
-/// handed out: a node stopping on SIGINT/SIGTERM handles everything that
-/// arrived before the signal. It waits up to `quiet_ms` for each next message
-/// (datagrams already in the socket but not yet in LCM's queue, LCM's receive
-/// thread being a little behind), so it returns `quiet_ms` after the last
-/// one; after `max_messages` (messages still arriving must not keep it from
-/// stopping); or at the first LCM error.
-/// @return the messages dispatched.
-int DispatchQueued(lcm::LCM& lcm, int max_messages, int quiet_ms = 20);
+/// The loop of every subscribing node: handles `bus` with a 100 ms timeout
+/// until `stop`, calling `periodic` after every wait, so health and stale
+/// checks run when nothing arrives. Then it dispatches what arrived before
+/// the stop (a node stopping on SIGINT/SIGTERM handles it): it waits up to
+/// `quiet_ms` for each next message (datagrams already in the socket but
+/// not yet in LCM's queue), and stops after `drain_max` messages (messages
+/// still arriving must not keep it from stopping) or at a bus error.
+/// @return false when the bus failed before the stop (logged to `log_name`).
+bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<void()>& periodic,
+                 int drain_max, const std::string& log_name, int quiet_ms = 20);
 
 }  // namespace rocklab::common

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/node_support.h"
+#include "common/units.h"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
@@ -39,16 +40,17 @@ void CompareNodeConfig::Validate() const {
 
 struct CompareNode::Variant {
   Variant(const CompareNodeConfig& c, const rocklab::model_state_t& first)
-      : name(first.name), model(first.model), alpha(first.alpha), p(first.p), mu(first.mu),
-        comparator(c.comparator), pending(c.align_capacity) {}
-  std::string name, model;
+      : name(first.name), model(first.model), channel(c.channel_prefix + "COMPARE_" + first.name),
+        alpha(first.alpha), p(first.p), mu(first.mu), comparator(c.comparator),
+        pending(c.align_capacity) {}
+  std::string name, model, channel;
   double alpha, p, mu;
   Comparator comparator;
   struct Pending {
     std::int64_t utime{};
     double theta{};
   };
-  Ring<Pending> pending;  // model samples newer than every measured one
+  common::Ring<Pending> pending;  // model samples newer than every measured one
   std::int64_t pairs{};
   std::int64_t unmatched_model{};
   std::int64_t last_pub_utime{INT64_MIN};
@@ -57,13 +59,26 @@ struct CompareNode::Variant {
   bool stale{};
 };
 
-CompareNode::CompareNode(const CompareNodeConfig& config, lcm::LCM* publisher)
-    : config_(config), publisher_(publisher), measured_(config.align_capacity) {
+CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
+    : config_(config), bus_(bus), measured_(config.align_capacity) {
   config_.Validate();
   last_theta_host_s_ = last_health_host_s_ = HostNowS();
+  subscriptions_.push_back(bus_.Subscribe<rocklab::block_state_t>(
+      config_.channel_prefix + "THETA",
+      [this](const std::string&, const rocklab::block_state_t& m) {
+        HandleTheta(m);
+        CheckStale();  // on a DirectBus nobody runs the idle loop
+      },
+      config_.subscriber_queue));
+  subscriptions_.push_back(bus_.Subscribe<rocklab::model_state_t>(
+      config_.channel_prefix + "MODEL_.*",
+      [this](const std::string&, const rocklab::model_state_t& m) { HandleModel(m); },
+      config_.subscriber_queue));
 }
 
-CompareNode::~CompareNode() = default;
+CompareNode::~CompareNode() {
+  for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
+}
 
 CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state_t& msg) {
   auto it = variants_.find(msg.name);
@@ -152,7 +167,6 @@ void CompareNode::PublishCompare(Variant& v) {
   const ComparisonMetrics& m = v.comparator.metrics();
   v.last_pub_utime = m.utime;
   v.dirty = false;
-  if (!publisher_) return;
   rocklab::comparison_t out;
   out.utime = m.utime;
   out.name = v.name;
@@ -166,7 +180,7 @@ void CompareNode::PublishCompare(Variant& v) {
   out.correlation = m.correlation;
   out.valid = m.valid;
   out.samples = m.samples;
-  publisher_->publish(config_.channel_prefix + "COMPARE_" + v.name, &out);
+  bus_.Publish(v.channel, out);
   ++published_;
 }
 
@@ -174,18 +188,16 @@ void CompareNode::PublishEvent(std::int8_t kind, const std::string& source, doub
                                const std::string& detail) {
   Log()->log(kind == rocklab::event_t::RECOVERED ? spdlog::level::info : spdlog::level::warn,
              "{}: {}", source, detail);
-  if (!publisher_) return;
   rocklab::event_t ev;
   ev.utime = newest_utime_;
   ev.source = source;
   ev.kind = kind;
   ev.value = value;
   ev.detail = detail;
-  publisher_->publish(config_.channel_prefix + "EVENT", &ev);
+  bus_.Publish(config_.channel_prefix + "EVENT", ev);
 }
 
 void CompareNode::PublishHealth(const char* state) {
-  if (!publisher_) return;
   rocklab::health_t h{};
   h.utime = newest_utime_;
   h.node = "compare";
@@ -194,9 +206,9 @@ void CompareNode::PublishHealth(const char* state) {
   h.count_out = published_;
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
-  h.dropped = dropped;
+  h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
-  publisher_->publish(config_.channel_prefix + "HEALTH", &h);
+  bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }
 
 void CompareNode::CheckStale() {
@@ -222,43 +234,9 @@ void CompareNode::CheckStale() {
   }
 }
 
-void CompareNode::OnTheta(const lcm::ReceiveBuffer*, const std::string&,
-                          const rocklab::block_state_t* msg) {
-  try {
-    HandleTheta(*msg);
-  } catch (const std::exception& e) {
-    Log()->error("RL_THETA handler: {}", e.what());
-  }
-}
-
-void CompareNode::OnModel(const lcm::ReceiveBuffer*, const std::string& channel,
-                          const rocklab::model_state_t* msg) {
-  try {
-    HandleModel(*msg);
-  } catch (const std::exception& e) {
-    Log()->error("{} handler: {}", channel, e.what());
-  }
-}
-
-void CompareNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
-  lcm::Subscription* theta =
-      subscriber.subscribe(config_.channel_prefix + "THETA", &CompareNode::OnTheta, this);
-  lcm::Subscription* model =
-      subscriber.subscribe(config_.channel_prefix + "MODEL_.*", &CompareNode::OnModel, this);
-  theta->setQueueCapacity(config_.subscriber_queue);
-  model->setQueueCapacity(config_.subscriber_queue);
+void CompareNode::Run(const std::atomic<bool>& stop) {
   PublishHealth("running");
-  while (!stop.load()) {
-    if (subscriber.handleTimeout(100) < 0) {
-      if (!stop.load()) Log()->error("LCM handleTimeout failed");  // a stop signal interrupts it
-      break;
-    }
-    CheckStale();
-  }
-  // What arrived before the stop is still compared (bounded: the queues' size).
-  common::DispatchQueued(subscriber, 2 * config_.subscriber_queue);
-  subscriber.unsubscribe(theta);
-  subscriber.unsubscribe(model);
+  common::RunNodeLoop(bus_, stop, [this] { CheckStale(); }, 2 * config_.subscriber_queue, "compare");
   Finish();
 }
 
@@ -290,7 +268,7 @@ void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::
   std::fprintf(out, "%-20s %-8s %8s %8s %6s %11s %9s %7s %9s %11s %11s %7s\n", "variant", "model",
                "alpha", "p", "mu", "rms_deg", "max_deg", "nrms", "corr", "timing_s",
                "peak_deg", "valid%");
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  constexpr double kDeg = common::kDegPerRad;
   for (const VariantSummary& s : summary) {
     const ComparisonMetrics& m = s.metrics;
     const double valid_pct =

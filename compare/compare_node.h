@@ -5,11 +5,17 @@
 /// configurable rate of the sample clock, reports stale inputs, and writes a
 /// summary at the end.
 ///
-/// Threading: single-threaded. Run() loops on lcm.handleTimeout so that the
-/// stale checks and health messages run when nothing arrives; the LCM
-/// handlers only call the Handle* entry points, which the all-in-one run may
-/// also call directly (LCM then is only a tap). Shutdown: the stop flag ends
-/// the loop, a final RL_COMPARE per variant and a final RL_HEALTH go out.
+/// Threading: single-threaded; handlers run where the bus dispatches. Run()
+/// loops on the bus (common::RunNodeLoop) so that the stale checks and
+/// health messages run when nothing arrives; on a DirectBus (`rocklab run`)
+/// each RL_THETA also runs the stale checks. Shutdown order (Run): the stop
+/// flag ends the loop; what arrived before it is compared; Finish publishes
+/// a final RL_COMPARE per variant and a final RL_HEALTH; the destructor
+/// unsubscribes.
+///
+/// Alignment: a model sample is paired with the measured sample of the same
+/// utime. The rings below hold what one side has that the other has not yet
+/// sent: over udpm the model process runs behind the DAQ by its queue.
 
 #include <atomic>
 #include <cstdint>
@@ -18,24 +24,21 @@
 #include <string>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
-
+#include "common/bus.h"
+#include "common/ring.h"
 #include "compare/comparator.h"
-#include "compare/ring.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/model_state_t.hpp"
 
 namespace rocklab::compare {
 
 struct CompareNodeConfig {
-  std::string lcm_url;             ///< empty: LCM's default (LCM_DEFAULT_URL)
   std::string channel_prefix{"RL_"};
   double publish_rate_hz{20.0};    ///< RL_COMPARE_* rate in sample-clock time, Hz; > 0
   double stale_after_s{1.0};       ///< host time without input before a stale event, s; > 0
   double health_period_s{1.0};     ///< RL_HEALTH period, host time, s; > 0
   std::size_t align_capacity{8192};///< samples buffered per side while waiting for a match
-  /// Messages each LCM subscription of Run() may hold before LCM drops
-  /// (silently). LCM's own default, 30, is 15 ms of two 1 kHz models on the
+  /// Messages each subscription may hold before a queued bus (LcmBus) drops. LCM's own default, 30, is 15 ms of two 1 kHz models on the
   /// one RL_MODEL_* subscription. 8192 is ~4 s of two models at 1 kHz. >= 1.
   int subscriber_queue{8192};
   /// DAQ flags that make a pair invalid (1-DOF model not applicable):
@@ -60,23 +63,22 @@ struct VariantSummary {
 
 class CompareNode {
  public:
-  /// @param publisher where RL_COMPARE_*, RL_EVENT and RL_HEALTH go; not
-  ///        owned, must outlive the node (may be null: nothing is published).
+  /// Subscribes RL_THETA and RL_MODEL_* on `bus`, which RL_COMPARE_*,
+  /// RL_EVENT and RL_HEALTH go to. `bus` is not owned and must outlive the node.
   /// @throws std::invalid_argument for an invalid configuration.
-  CompareNode(const CompareNodeConfig& config, lcm::LCM* publisher);
+  CompareNode(const CompareNodeConfig& config, common::Bus& bus);
   ~CompareNode();
   CompareNode(const CompareNode&) = delete;
   CompareNode& operator=(const CompareNode&) = delete;
 
-  /// Direct-call entry points (also used by the LCM handlers).
+  /// What the handlers call.
   void HandleTheta(const rocklab::block_state_t& msg);
   void HandleModel(const rocklab::model_state_t& msg);
 
-  /// Subscribes on `subscriber` and dispatches until `stop`; checks staleness
-  /// and sends health while idle.
-  void Run(lcm::LCM& subscriber, const std::atomic<bool>& stop);
+  /// Loops on the bus until `stop` (stale checks and health while idle), then Finish.
+  void Run(const std::atomic<bool>& stop);
 
-  /// Stale checks against the host clock; Run calls it, a direct-call user may.
+  /// Stale checks against the host clock (and the periodic RL_HEALTH).
   void CheckStale();
   /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
   void Finish();
@@ -99,11 +101,10 @@ class CompareNode {
   void PublishEvent(std::int8_t kind, const std::string& source, double value,
                     const std::string& detail);
   void PublishHealth(const char* state);
-  void OnTheta(const lcm::ReceiveBuffer*, const std::string&, const rocklab::block_state_t* msg);
-  void OnModel(const lcm::ReceiveBuffer*, const std::string&, const rocklab::model_state_t* msg);
 
   CompareNodeConfig config_;
-  lcm::LCM* publisher_;  // not owned
+  common::Bus& bus_;  // not owned
+  std::vector<common::Bus::SubscriptionId> subscriptions_;
   std::map<std::string, std::unique_ptr<Variant>> variants_;
   std::vector<Variant*> order_;  // variants in order of appearance
 
@@ -113,7 +114,7 @@ class CompareNode {
     double theta{};
     bool valid{};
   };
-  Ring<Measured> measured_;
+  common::Ring<Measured> measured_;
 
   std::int64_t theta_count_{}, model_count_{}, published_{};
   std::int64_t theta_out_of_order_{};  // RL_THETA not newer than the last: dropped, counted

@@ -7,9 +7,9 @@
 #include <thread>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/bus.h"
 #include "daq/pacer.h"
 #include "daq/processor.h"
 #include "daq/source.h"
@@ -39,8 +39,7 @@ void DaqNodeConfig::Validate() const {
 
 struct DaqNode::Impl : ProcessorSink {
   DaqNodeConfig config;
-  std::unique_ptr<lcm::LCM> own_lcm;
-  lcm::LCM* lcm{};
+  common::Bus* bus{};  // not owned
   std::shared_ptr<spdlog::logger> log = Logger();
   std::unique_ptr<Source> source;
   std::unique_ptr<Processor> processor;
@@ -66,7 +65,6 @@ struct DaqNode::Impl : ProcessorSink {
   // when paced the node spreads such a burst: 1 ms after every kBurst.
   static constexpr int kBurst = 16;
   int burst{0};
-  std::vector<uint8_t> encoded;
 
   template <class Msg>
   void Publish(const std::string& channel, const Msg& msg) {
@@ -74,11 +72,7 @@ struct DaqNode::Impl : ProcessorSink {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       burst = 1;
     }
-    // Encoded into a reused buffer: LCM's typed publish allocates one per call.
-    const int size = msg.getEncodedSize();
-    if (encoded.size() < static_cast<size_t>(size)) encoded.resize(size);
-    if (msg.encode(encoded.data(), 0, size) == size &&
-        lcm->publish(channel, encoded.data(), static_cast<unsigned>(size)) == 0) {
+    if (bus->Publish(channel, msg)) {  // encoded into the bus's reused buffer
       ++stats.published;
     } else {
       ++stats.publish_errors;
@@ -99,7 +93,6 @@ struct DaqNode::Impl : ProcessorSink {
     theta_msg.leds_used = s.leds_used;
     theta_msg.flags = s.flags;
     Publish(ch_theta, theta_msg);
-    Notify(config.on_theta, theta_msg, "on_theta");
   }
 
   void OnTableState(const TableState& t) override {
@@ -110,17 +103,6 @@ struct DaqNode::Impl : ProcessorSink {
     table_msg.acceleration = t.acceleration;
     table_msg.accel_source = t.accel_source;
     Publish(ch_table, table_msg);
-    Notify(config.on_table, table_msg, "on_table");
-  }
-
-  template <class Msg>
-  void Notify(const std::function<void(const Msg&)>& observer, const Msg& msg, const char* what) {
-    if (!observer) return;
-    try {
-      observer(msg);
-    } catch (const std::exception& e) {
-      OnProblem(Problem{Location{&config.input, 0}, what + std::string(" observer: ") + e.what()});
-    }
   }
 
   void OnEvent(const DaqEvent& e) override {
@@ -195,6 +177,9 @@ struct DaqNode::Impl : ProcessorSink {
     stats.gaps = processor->sequence().gaps;
     stats.missing = processor->sequence().missing;
     stats.bad_samples = src.bad_rows + src.bad_values + counts.rejected;
+    stats.damaged_regions = src.damaged_regions;
+    stats.damaged_bytes = src.damaged_bytes;
+    stats.damaged_events = src.damaged_events;
     health_msg.dropped = stats.missing;  // samples lost before reaching the node
     health_msg.gaps = stats.gaps;
     health_msg.bad_samples = stats.bad_samples;
@@ -206,20 +191,11 @@ struct DaqNode::Impl : ProcessorSink {
   }
 };
 
-DaqNode::DaqNode(DaqNodeConfig config, lcm::LCM* lcm) : impl_(std::make_unique<Impl>()) {
+DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_unique<Impl>()) {
   config.Validate();
   Impl& m = *impl_;
   m.config = std::move(config);
-  if (lcm != nullptr) {
-    m.lcm = lcm;
-  } else {
-    m.own_lcm = std::make_unique<lcm::LCM>(m.config.lcm_url);
-    if (!m.own_lcm->good()) {
-      throw std::runtime_error("daq: cannot open LCM URL '" +
-                               (m.config.lcm_url.empty() ? std::string("(default)") : m.config.lcm_url) + "'");
-    }
-    m.lcm = m.own_lcm.get();
-  }
+  m.bus = &bus;
   const std::string& p = m.config.prefix;
   m.ch_config = p + "DAQ_CONFIG";
   m.ch_raw = p + "RAW";
@@ -249,7 +225,10 @@ const DaqNodeStats& DaqNode::stats() const { return impl_->stats; }
 void DaqNode::Run(const std::atomic<bool>& stop) {
   Impl& m = *impl_;
   m.last_health = Clock::now();
-  m.PublishHealth("starting");
+  // RL_HEALTH "starting" goes out with the first frame, stamped with its
+  // sample clock (a message stamped 0 before an epoch-based clock would put
+  // a log's first event decades before the rest).
+  bool started = false;
   double next_config_s = std::numeric_limits<double>::quiet_NaN();
   Frame frame;
   while (true) {
@@ -258,6 +237,11 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       break;
     }
     if (m.source->Next(frame) == ReadStatus::kEnd) break;
+    if (!started) {
+      started = true;
+      m.newest_utime = frame.utime();
+      m.PublishHealth("starting");
+    }
     if (!m.pacer.WaitFor(frame.time_s, stop)) {
       // Stopped while waiting: this frame was read, so it is still published.
       m.stats.stopped_early = true;
@@ -282,6 +266,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
     }
     if (m.stats.stopped_early) break;
   }
+  if (!started) m.PublishHealth("starting");                             // an empty input
   if (std::isnan(next_config_s)) m.Publish(m.ch_config, m.config_msg);  // an empty input
   m.PublishHealth("stopping");
   m.processor->Finish();

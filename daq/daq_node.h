@@ -10,23 +10,23 @@
 /// Run() polls before every frame and while pacing (every 20 ms at most).
 /// Shutdown order: stop reading; flush the delayed RL_THETA / RL_TABLE
 /// samples of what was read; publish a last RL_HEALTH with state "stopped";
-/// return. LCM handles are never dispatched here (the node only publishes).
+/// return. The bus is never handled here (the node only publishes; on a
+/// DirectBus its Publish drives the subscribed stages of `rocklab run`).
+/// RL_THETA and RL_TABLE of a sample go out together, RL_THETA first (the
+/// Processor pairs them), so no subscriber has to align them.
 /// When paced, a burst of more than 16 messages between two frames (the
 /// differentiators' flush at the end or after a long gap) is spread at 1 ms
 /// per 16 messages, below LCM's default subscriber queue of 30.
 
 #include <atomic>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <string>
 
 #include "daq/rig_config.h"
-#include "rocklab/block_state_t.hpp"
-#include "rocklab/table_state_t.hpp"
 
-namespace lcm {
-class LCM;
+namespace rocklab::common {
+class Bus;
 }
 
 namespace rocklab::daq {
@@ -35,16 +35,9 @@ struct DaqNodeConfig {
   RigConfig rig;
   std::string input;             ///< CSV, LVM or LCM log
   double speed{1.0};             ///< sample-clock s per host s; 0 = as fast as possible
-  std::string lcm_url;           ///< empty: LCM's default (LCM_DEFAULT_URL or its built-in)
   std::string prefix{"RL_"};     ///< channel names are prefix + DAQ_CONFIG, RAW, ...
   double config_period_s{5.0};   ///< RL_DAQ_CONFIG repeat, sample-clock s
   double health_period_s{1.0};   ///< RL_HEALTH period, host s
-  /// Optional observers, called synchronously in Run()'s thread with exactly
-  /// the RL_TABLE / RL_THETA message just published (same values, same
-  /// order), so a caller can connect later stages by direct calls. They must
-  /// not throw (an exception is caught, logged and counted as a problem).
-  std::function<void(const rocklab::table_state_t&)> on_table;
-  std::function<void(const rocklab::block_state_t&)> on_theta;
   /// @throws std::invalid_argument naming the field.
   void Validate() const;
 };
@@ -58,17 +51,19 @@ struct DaqNodeStats {
   int64_t missing{};         ///< samples lost in gaps
   int64_t bad_samples{};     ///< bad rows + bad values + duplicate / out-of-order frames
   int64_t problems{};        ///< problems reported (each logged, at most one line a second)
+  int64_t damaged_regions{}; ///< LCM log input: damaged regions skipped (each also a problem)
+  int64_t damaged_bytes{};   ///< LCM log input: bytes in them
+  int64_t damaged_events{};  ///< LCM log input: events lost in them
   bool stopped_early{};      ///< stop was requested before the end of the input
 };
 
 class DaqNode {
  public:
   /// Opens the source and binds the rig's channels to it.
-  /// @param lcm non-owning, may be null: the node then creates its own LCM
-  ///        instance on config.lcm_url. Must outlive the node.
-  /// @throws std::runtime_error / std::invalid_argument on a bad input file,
-  ///         a rig channel the input lacks, or an LCM URL that does not open.
-  explicit DaqNode(DaqNodeConfig config, lcm::LCM* lcm = nullptr);
+  /// @param bus where every message goes; not owned, must outlive the node.
+  /// @throws std::runtime_error / std::invalid_argument on a bad input file
+  ///         or a rig channel the input lacks.
+  DaqNode(DaqNodeConfig config, common::Bus& bus);
   ~DaqNode();
   DaqNode(const DaqNode&) = delete;
   DaqNode& operator=(const DaqNode&) = delete;

@@ -1,10 +1,12 @@
 // rocklab LCM logs: raw_frame_t events on RL_RAW, decoded with the channel
-// names of the first RL_DAQ_CONFIG event in the log.
+// names of the first RL_DAQ_CONFIG event in the log. Read in file order by
+// common::LogReader; a damaged region is a problem (file, byte offset) and is
+// counted in SourceStats::damaged_*.
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
-#include <lcm/lcm-cpp.hpp>
+#include "common/lcm_log.h"
 
 #include "daq/source.h"
 #include "daq/text_util.h"
@@ -21,13 +23,14 @@ class LcmLogSource final : public Source {
     rate_hz_ = options.sample_rate_hz;
     {
       // First pass: the channel description (sent at start and every few
-      // seconds, so it may come after the first frames).
-      lcm::LogFile scan(path, "r");
-      if (!scan.good()) throw std::runtime_error(path + ": cannot open the LCM log");
-      while (const lcm::LogEvent* ev = scan.readNextEvent()) {
-        if (ev->channel != options.config_channel) continue;
-        rocklab::daq_config_t config;
-        if (config.decode(ev->data, 0, ev->datalen) < 0) continue;
+      // seconds, so it may come after the first frames). Damage is reported
+      // by the second pass only.
+      common::LogReader scan(path);  // throws naming the file
+      common::LogEvent ev;
+      rocklab::daq_config_t config;
+      while (scan.Next(ev)) {
+        if (ev.channel != options.config_channel) continue;
+        if (config.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) < 0) continue;
         names_ = config.channel_names;
         if (config.sample_rate_hz > 0) rate_hz_ = config.sample_rate_hz;
         break;
@@ -39,8 +42,19 @@ class LcmLogSource final : public Source {
                                " event names the channels, and no fallback names were given");
     }
     if (!(rate_hz_ > 0)) throw std::runtime_error(path + ": no sample rate (config or rig)");
-    log_ = std::make_unique<lcm::LogFile>(path, "r");
-    if (!log_->good()) throw std::runtime_error(path + ": cannot open the LCM log");
+    common::LogReaderOptions read;
+    read.on_problem = [this](const common::LogProblem& p) {
+      stats_.damaged_regions += 1;
+      stats_.damaged_bytes += p.bytes;
+      stats_.damaged_events += p.events;
+      if (on_problem_) {
+        on_problem_(Problem{{&path_, p.offset},
+                            "damaged LCM log region at byte offset " + std::to_string(p.offset) + " (" +
+                                std::to_string(p.bytes) + " bytes, " + std::to_string(p.events) +
+                                (p.events == 1 ? " event" : " events") + " skipped): " + p.what});
+      }
+    };
+    log_ = std::make_unique<common::LogReader>(path, std::move(read));
   }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
@@ -49,23 +63,24 @@ class LcmLogSource final : public Source {
   const std::string& path() const override { return path_; }
 
   ReadStatus Next(Frame& frame) override {
-    while (const lcm::LogEvent* ev = log_->readNextEvent()) {
-      if (ev->channel != raw_channel_) continue;
+    while (log_->Next(ev_)) {
+      if (ev_.channel != raw_channel_) continue;
       ++stats_.rows;
-      if (msg_.decode(ev->data, 0, ev->datalen) < 0) {
-        Bad(ev->eventnum, "RL_RAW event does not decode as raw_frame_t (skipped)");
+      if (!ChannelCountFits() ||
+          msg_.decode(ev_.data.data(), 0, static_cast<int>(ev_.data.size())) < 0) {
+        Bad(ev_.number, "RL_RAW event does not decode as raw_frame_t (skipped)");
         continue;
       }
       if (static_cast<size_t>(msg_.num_channels) != names_.size()) {
         std::ostringstream what;
         what << "raw frame has " << msg_.num_channels << " channels, the config names "
              << names_.size() << " (skipped)";
-        Bad(ev->eventnum, what.str());
+        Bad(ev_.number, what.str());
         continue;
       }
       frame.seq = msg_.seq;
       frame.time_s = static_cast<double>(msg_.utime) * 1e-6;
-      frame.line = ev->eventnum;
+      frame.line = ev_.number;
       frame.values.assign(msg_.values.begin(), msg_.values.end());
       return ReadStatus::kFrame;
     }
@@ -73,6 +88,17 @@ class LcmLogSource final : public Source {
   }
 
  private:
+  // raw_frame_t's decoder resizes `values` to num_channels before reading
+  // them: refuse a count the payload cannot hold (fingerprint, utime, seq,
+  // num_channels, then 8 bytes per value) before it allocates.
+  bool ChannelCountFits() const {
+    const std::vector<uint8_t>& b = ev_.data;
+    if (b.size() < 28) return false;
+    const int32_t n = static_cast<int32_t>((uint32_t{b[24]} << 24) | (uint32_t{b[25]} << 16) |
+                                           (uint32_t{b[26]} << 8) | uint32_t{b[27]});
+    return n >= 0 && 28 + 8 * static_cast<int64_t>(n) <= static_cast<int64_t>(b.size());
+  }
+
   void Bad(int64_t event, const std::string& what) {
     ++stats_.bad_rows;
     if (on_problem_) on_problem_(Problem{{&path_, event}, what});
@@ -83,7 +109,8 @@ class LcmLogSource final : public Source {
   ProblemCallback on_problem_;
   std::vector<std::string> names_;
   double rate_hz_{};
-  std::unique_ptr<lcm::LogFile> log_;
+  std::unique_ptr<common::LogReader> log_;
+  common::LogEvent ev_;       // reused: keeps its buffers' capacity
   rocklab::raw_frame_t msg_;  // reused: decode keeps the vector's capacity
   SourceStats stats_;
 };

@@ -1,5 +1,6 @@
 #include "daq/processor.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -46,7 +47,9 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
       has_table_(reconstructor_.has_table_displacement() || reconstructor_.has_accelerometer()),
       has_accelerometer_(reconstructor_.has_accelerometer()),
       theta_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
-      table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz) {}
+      table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz),
+      ready_theta_(2 * static_cast<std::size_t>(std::max(theta_.sg.delay_samples(), table_.sg.delay_samples())) + 2),
+      ready_table_(ready_theta_.capacity()) {}
 
 Processor::Stream::Stream(int half_window, int order, double dt_s)
     : sg(half_window, order, dt_s),
@@ -137,7 +140,16 @@ void Processor::Drain() {
     if (!theta_.real[slot]) continue;
     BlockState& state = theta_.pending[slot];
     state.theta_dot = out.d1;
-    sink_.OnBlockState(state);
+    if (!has_table_) {
+      sink_.OnBlockState(state);
+      continue;
+    }
+    if (ready_theta_.full()) {  // Pair left the table ring empty: nothing to wait for
+      sink_.OnBlockState(ready_theta_.front());
+      ready_theta_.pop_front();
+    }
+    ready_theta_.push_back(state);
+    Pair(false);
   }
   while (table_.sg.Pop(out)) {
     const size_t slot = out.index % table_.pending.size();
@@ -156,14 +168,40 @@ void Processor::Drain() {
       t.acceleration = out.d2;
       t.accel_source = rocklab::table_state_t::ACCEL_DIFFERENTIATED;
     }
-    sink_.OnTableState(t);
+    if (ready_table_.full()) {  // Pair left the theta ring empty
+      sink_.OnTableState(ready_table_.front());
+      ready_table_.pop_front();
+    }
+    ready_table_.push_back(t);
+    Pair(false);
   }
+}
+
+void Processor::Pair(bool flush) {
+  // Both rings are in sample order: the lower seq at the fronts goes first;
+  // one without its partner (the other stream skipped that sample) goes alone.
+  while (!ready_theta_.empty() && !ready_table_.empty()) {
+    const int64_t a = ready_theta_.front().seq;
+    const int64_t b = ready_table_.front().seq;
+    if (a <= b) {
+      sink_.OnBlockState(ready_theta_.front());
+      ready_theta_.pop_front();
+    }
+    if (b <= a) {
+      sink_.OnTableState(ready_table_.front());
+      ready_table_.pop_front();
+    }
+  }
+  if (!flush) return;
+  for (; !ready_theta_.empty(); ready_theta_.pop_front()) sink_.OnBlockState(ready_theta_.front());
+  for (; !ready_table_.empty(); ready_table_.pop_front()) sink_.OnTableState(ready_table_.front());
 }
 
 void Processor::Finish() {
   theta_.sg.Finish();
   table_.sg.Finish();
   Drain();
+  Pair(true);
 }
 
 }  // namespace rocklab::daq

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/ring.h"
 #include "daq/reconstruction.h"
 #include "daq/rig_config.h"
 #include "daq/savitzky_golay.h"
@@ -37,9 +38,12 @@ struct DaqEvent {
   std::string detail;
 };
 
-/// Receives the pipeline's outputs, in sample order per stream. Block and
-/// table states are delayed by their differentiator's half window (one out
-/// per frame in); events are immediate. Implementations must not throw.
+/// Receives the pipeline's outputs, in sample order. Block and table states
+/// are delayed by the longer of the two differentiators' half windows and
+/// come together: the block state of a sample, then its table state (a
+/// sample that has only one of them, e.g. a rig without a table channel,
+/// gives that one alone). Events are immediate. Implementations must not
+/// throw.
 class ProcessorSink {
  public:
   virtual ~ProcessorSink() = default;
@@ -92,6 +96,9 @@ class Processor {
     void Gap(int64_t missing, double next_value);
   };
   void Drain();
+  // Sends the ready block and table states of the same samples together
+  // (all that are ready when `flush`).
+  void Pair(bool flush);
   void Event(int64_t utime, int8_t kind, double value, std::string detail);
   void CheckEdges(const BlockState& state);
 
@@ -103,6 +110,10 @@ class Processor {
   bool has_accelerometer_;
   Stream theta_;
   Stream table_;
+  // Outputs waiting for the other stream's output of their sample; each
+  // holds at most the difference of the two delays (sized for the larger).
+  common::Ring<BlockState> ready_theta_;
+  common::Ring<TableState> ready_table_;
   BlockState current_;
   int32_t held_flags_{0};  // check flags as last measured (for event edges)
   ProcessorCounts counts_;

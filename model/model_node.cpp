@@ -1,10 +1,9 @@
 #include "model/model_node.h"
 
+#include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <stdexcept>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "common/node_support.h"
@@ -19,20 +18,6 @@ using common::HostNowS;
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> log = common::NamedLogger("model_node");
   return log;
-}
-
-double ParseNumber(const std::string& text, const std::string& what) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v)) {
-    throw std::invalid_argument(what + ": '" + text + "' is not a number");
-  }
-  return v;
 }
 
 std::int8_t RegimeCode(Regime r) {
@@ -55,103 +40,6 @@ std::int8_t EventCode(EventKind k) {
 }
 
 }  // namespace
-
-BlockParams ReadParamsJson(const std::string& path, double* l) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument("cannot read parameter file '" + path + "'");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw std::invalid_argument(path + ": not JSON: " + e.what());
-  }
-  auto get = [&](const char* key) {
-    if (!j.is_object() || !j.contains(key) || !j.at(key).is_number()) {
-      throw std::invalid_argument(path + ": key '" + key + "' missing or not a number");
-    }
-    return j.at(key).get<double>();
-  };
-  BlockParams p{get("alpha"), get("p"), get("mu")};
-  if (l && j.is_object() && j.contains("l") && j.at("l").is_number()) *l = j.at("l").get<double>();
-  try {
-    p.Validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(path + ": " + e.what());
-  }
-  return p;
-}
-
-VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParams>& theoretical) {
-  const std::string where = "variant '" + text + "'";
-  const std::size_t c1 = text.find(':');
-  const std::size_t c2 = c1 == std::string::npos ? c1 : text.find(':', c1 + 1);
-  if (c2 == std::string::npos) {
-    throw std::invalid_argument(where + ": expected NAME:MODEL:PARAMS");
-  }
-  VariantSpec v;
-  v.name = text.substr(0, c1);
-  if (v.name.empty()) throw std::invalid_argument(where + ": empty NAME");
-  for (char ch : v.name) {
-    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_') {
-      throw std::invalid_argument(where + ": NAME may hold only letters, digits and _");
-    }
-  }
-  try {
-    v.kind = ParseModelKind(text.substr(c1 + 1, c2 - c1 - 1));
-  } catch (const std::invalid_argument&) {
-    throw std::invalid_argument(where + ": MODEL must be housner or complex");
-  }
-  const std::string params = text.substr(c2 + 1);
-  if (params == "theoretical") {
-    if (!theoretical) {
-      throw std::invalid_argument(where + ": 'theoretical' needs the block geometry in the rig file");
-    }
-    v.params = *theoretical;
-    v.params_source = "theoretical";
-  } else if (params.find('=') != std::string::npos) {
-    bool has_alpha = false, has_p = false, has_mu = false;
-    std::size_t start = 0;
-    while (start <= params.size()) {
-      const std::size_t comma = std::min(params.find(',', start), params.size());
-      const std::string item = params.substr(start, comma - start);
-      const std::size_t eq = item.find('=');
-      if (eq == std::string::npos) throw std::invalid_argument(where + ": '" + item + "' is not KEY=VALUE");
-      const std::string key = item.substr(0, eq);
-      const double value = ParseNumber(item.substr(eq + 1), where + ": " + key);
-      if (key == "alpha") {
-        v.params.alpha = value;
-        has_alpha = true;
-      } else if (key == "p") {
-        v.params.p = value;
-        has_p = true;
-      } else if (key == "mu") {
-        v.params.mu = value;
-        has_mu = true;
-      } else if (key == "l") {
-        v.options.l = value;
-      } else if (key == "handoff") {  // opt-in l -> 0 hand-off of the complex model
-        v.options.complex_resolved_energy = value;
-      } else {
-        throw std::invalid_argument(where + ": unknown key '" + key + "' (expected alpha, p, mu, l, handoff)");
-      }
-      start = comma + 1;
-    }
-    if (!has_alpha || !has_p || !has_mu) {
-      throw std::invalid_argument(where + ": needs alpha, p and mu");
-    }
-    v.params_source = "command line";
-  } else {
-    v.params = ReadParamsJson(params, &v.options.l);
-    v.params_source = params;
-  }
-  try {
-    v.params.Validate();
-    v.options.Validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(where + ": " + e.what());
-  }
-  return v;
-}
 
 void ModelNodeConfig::Validate() const {
   if (variants.empty()) throw std::invalid_argument("model node: no variant configured");
@@ -179,8 +67,7 @@ struct ModelNode::Variant {
   bool failed{};
 };
 
-ModelNode::ModelNode(const ModelNodeConfig& config, lcm::LCM* publisher)
-    : config_(config), publisher_(publisher), theta_history_(kThetaHistory) {
+ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus) : config_(config), bus_(bus) {
   config_.Validate();
   for (const VariantSpec& spec : config_.variants) {
     auto v = std::make_unique<Variant>();
@@ -195,16 +82,28 @@ ModelNode::ModelNode(const ModelNodeConfig& config, lcm::LCM* publisher)
     v->msg.l = spec.kind == ModelKind::kComplex ? spec.options.l : 0.0;
     variants_.push_back(std::move(v));
   }
+  event_channel_ = config_.channel_prefix + "EVENT";
+  health_channel_ = config_.channel_prefix + "HEALTH";
   last_health_host_s_ = HostNowS();
+  subscriptions_.push_back(bus_.Subscribe<rocklab::table_state_t>(
+      config_.channel_prefix + "TABLE",
+      [this](const std::string&, const rocklab::table_state_t& m) { HandleTable(m); },
+      config_.subscriber_queue));
+  subscriptions_.push_back(bus_.Subscribe<rocklab::block_state_t>(
+      config_.channel_prefix + "THETA",
+      [this](const std::string&, const rocklab::block_state_t& m) { HandleTheta(m); },
+      config_.subscriber_queue));
 }
 
-ModelNode::~ModelNode() = default;
+ModelNode::~ModelNode() {
+  for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
+}
 
 std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
 const rocklab::model_state_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
-void ModelNode::Start(const rocklab::block_state_t& theta) {
+void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
   const bool at_rest = !std::isfinite(theta.theta) || std::abs(theta.theta) < config_.rest_threshold_rad;
   const double theta0 = at_rest ? 0.0 : theta.theta;
   const double theta_dot0 = at_rest || !std::isfinite(theta.theta_dot) ? 0.0 : theta.theta_dot;
@@ -220,31 +119,25 @@ void ModelNode::Start(const rocklab::block_state_t& theta) {
     }
   }
   started_ = true;
-  start_utime_ = theta.utime;
-  Log()->info("variants start at utime {} from theta {:.5f} rad{}", theta.utime, theta0,
+  start_utime_ = start_utime;
+  Log()->info("variants start at utime {} from theta {:.5f} rad{}", start_utime, theta0,
               at_rest ? " (at rest)" : "");
 }
 
 void ModelNode::HandleTheta(const rocklab::block_state_t& msg) {
-  // Time going back starts a new run: the old thetas cannot start it.
-  if (theta_count_ > 0 && msg.utime < ThetaAt(theta_count_ - 1).utime) theta_count_ = 0;
-  theta_history_[theta_count_ % theta_history_.size()] = msg;  // plain data: no allocation
-  ++theta_count_;
+  last_theta_ = msg;  // plain data and short strings: no allocation
+  have_theta_ = true;
 }
 
-const rocklab::block_state_t& ModelNode::ThetaAt(std::size_t i) const {
-  return theta_history_[i % theta_history_.size()];
-}
-
-const rocklab::block_state_t* ModelNode::StartTheta(std::int64_t table_utime) const {
-  // The DAQ delays RL_TABLE more than RL_THETA (its differentiators' half
-  // windows), so the theta of this table sample is usually behind the newest.
-  const std::size_t kept = std::min(theta_count_, theta_history_.size());
-  for (std::size_t back = 1; back <= kept; ++back) {
-    const rocklab::block_state_t& t = ThetaAt(theta_count_ - back);
-    if (t.utime <= table_utime) return &t;
-  }
-  return nullptr;
+void ModelNode::PublishEvent(std::int64_t utime, std::int8_t kind, double value,
+                             const std::string& detail) {
+  rocklab::event_t ev;
+  ev.utime = utime;
+  ev.source = "model";
+  ev.kind = kind;
+  ev.value = value;
+  ev.detail = detail;
+  bus_.Publish(event_channel_, ev);
 }
 
 void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
@@ -252,18 +145,40 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     if (msg.utime == last_table_utime_) return;  // duplicate: the DAQ already counted it
     ++resets_;
     started_ = false;
+    have_theta_ = have_theta_ && last_theta_.utime <= msg.utime;  // an old run's theta cannot start it
     Log()->info("table time went back from {} to {} us: reset", last_table_utime_, msg.utime);
   }
   last_table_utime_ = msg.utime;
   ++table_count_;
+  // A bad (non-finite) sample: hold the last finite acceleration, count it,
+  // report the first of each stretch.
+  double accel = msg.acceleration;
+  if (!std::isfinite(accel)) {
+    ++bad_table_samples_;
+    ++bad_in_stretch_;
+    accel = held_accel_mps2_;
+    if (!in_bad_stretch_) {
+      in_bad_stretch_ = true;
+      PublishEvent(msg.utime, rocklab::event_t::BAD_SAMPLE, 1,
+                   "table acceleration is not finite: the models hold the last value");
+    }
+  } else {
+    if (in_bad_stretch_) {
+      in_bad_stretch_ = false;
+      PublishEvent(msg.utime, rocklab::event_t::RECOVERED, 0,
+                   "table acceleration finite again after " + std::to_string(bad_in_stretch_) +
+                       " bad samples");
+      bad_in_stretch_ = 0;
+    }
+    held_accel_mps2_ = accel;
+  }
   if (!started_) {
-    // Start from the newest RL_THETA that is not ahead of this table sample.
-    const rocklab::block_state_t* theta = StartTheta(msg.utime);
-    if (!theta) {
+    if (!have_theta_) {
       ++skipped_before_start_;
       return;
     }
-    Start(*theta);
+    // The newest RL_THETA is this sample's; in an older log it may be ahead.
+    Start(last_theta_, std::min(last_theta_.utime, msg.utime));
   }
   // Model time counts from the start: with epoch utimes (~1.7e9 s) a double
   // resolves only ~2e-7 s, and CVODE's root location would degrade with it.
@@ -271,7 +186,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   for (auto& v : variants_) {
     if (v->failed) continue;
     try {
-      v->model->Step(t_s, msg.acceleration);
+      v->model->Step(t_s, accel);
     } catch (const std::exception& e) {
       v->failed = true;
       ++failures_;
@@ -287,86 +202,47 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     v->msg.energy = st.energy;
     v->msg.impact_count = st.impacts;
     v->msg.regime = RegimeCode(st.regime);
-    if (publisher_) {
-      publisher_->publish(v->channel, &v->msg);
-      ++published_;
-      for (const ModelEvent& e : v->model->events()) {
-        rocklab::event_t ev;
-        ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
-        ev.source = v->spec.name;
-        ev.kind = EventCode(e.kind);
-        ev.value = e.value;
-        ev.detail = ToString(e.kind);
-        publisher_->publish(config_.channel_prefix + "EVENT", &ev);
-      }
+    bus_.Publish(v->channel, v->msg);
+    ++published_;
+    for (const ModelEvent& e : v->model->events()) {
+      rocklab::event_t ev;
+      ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
+      ev.source = v->spec.name;
+      ev.kind = EventCode(e.kind);
+      ev.value = e.value;
+      ev.detail = ToString(e.kind);
+      bus_.Publish(event_channel_, ev);
     }
     v->model->ClearEvents();
-    if (config_.on_state) {
-      try {
-        config_.on_state(v->msg);
-      } catch (const std::exception& e) {
-        ++failures_;
-        Log()->error("variant '{}': on_state observer: {}", v->spec.name, e.what());
-      }
-    }
   }
 }
 
 void ModelNode::PublishHealth(const char* state) {
-  if (!publisher_) return;
   rocklab::health_t h{};
   h.utime = last_table_utime_ == INT64_MIN ? 0 : last_table_utime_;
   h.node = "model";
   h.state = state;
   h.count_in = table_count_;
   h.count_out = published_;
-  h.dropped = skipped_before_start_;
-  h.bad_samples = failures_;
+  // Dropped: table samples before the start and messages that did not decode.
+  h.dropped = skipped_before_start_ + bus_.decode_error_count();
+  h.bad_samples = failures_ + bad_table_samples_;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
-  publisher_->publish(config_.channel_prefix + "HEALTH", &h);
+  bus_.Publish(health_channel_, h);
 }
 
-void ModelNode::OnTable(const lcm::ReceiveBuffer*, const std::string&,
-                        const rocklab::table_state_t* msg) {
-  try {
-    HandleTable(*msg);
-  } catch (const std::exception& e) {
-    Log()->error("RL_TABLE handler: {}", e.what());
-  }
-}
-
-void ModelNode::OnTheta(const lcm::ReceiveBuffer*, const std::string&,
-                        const rocklab::block_state_t* msg) {
-  try {
-    HandleTheta(*msg);
-  } catch (const std::exception& e) {
-    Log()->error("RL_THETA handler: {}", e.what());
-  }
-}
-
-void ModelNode::Run(lcm::LCM& subscriber, const std::atomic<bool>& stop) {
-  lcm::Subscription* table =
-      subscriber.subscribe(config_.channel_prefix + "TABLE", &ModelNode::OnTable, this);
-  lcm::Subscription* theta =
-      subscriber.subscribe(config_.channel_prefix + "THETA", &ModelNode::OnTheta, this);
-  table->setQueueCapacity(config_.subscriber_queue);
-  theta->setQueueCapacity(config_.subscriber_queue);
+void ModelNode::Run(const std::atomic<bool>& stop) {
   PublishHealth("running");
-  while (!stop.load()) {
-    if (subscriber.handleTimeout(100) < 0) {
-      if (!stop.load()) Log()->error("LCM handleTimeout failed");  // a stop signal interrupts it
-      break;
-    }
-    const double now = HostNowS();
-    if (now - last_health_host_s_ >= config_.health_period_s) {
-      last_health_host_s_ = now;
-      PublishHealth(started_ ? "running" : "waiting");
-    }
-  }
-  // What arrived before the stop is still handled (bounded: the queues' size).
-  common::DispatchQueued(subscriber, 2 * config_.subscriber_queue);
-  subscriber.unsubscribe(table);
-  subscriber.unsubscribe(theta);
+  common::RunNodeLoop(
+      bus_, stop,
+      [this] {
+        const double now = HostNowS();
+        if (now - last_health_host_s_ >= config_.health_period_s) {
+          last_health_host_s_ = now;
+          PublishHealth(started_ ? "running" : "waiting");
+        }
+      },
+      2 * config_.subscriber_queue, "model_node");
   Finish();
 }
 

@@ -7,7 +7,10 @@
 #include <fstream>
 #include <sstream>
 
-#include <lcm/lcm-cpp.hpp>
+#include <memory>
+
+#include "common/lcm_log.h"
+#include "common/text.h"
 
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -26,12 +29,7 @@ std::string Num(double v) {
   throw RecordError(where + ": " + what);
 }
 
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
+std::string Trim(const std::string& s) { return std::string(common::Trim(s)); }
 
 std::vector<std::string> SplitCsv(const std::string& line) {
   std::vector<std::string> out;
@@ -43,19 +41,9 @@ std::vector<std::string> SplitCsv(const std::string& line) {
 }
 
 // Parses the whole field as a number ("nan" parses, as NaN); false otherwise.
-bool ParseDouble(const std::string& s, double& v) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  v = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size();
-}
+bool ParseDouble(const std::string& s, double& v) { return common::ParseDouble(s, v); }
 
-bool StartsWithLcmSyncWord(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char b[4] = {};
-  if (!in.read(reinterpret_cast<char*>(b), 4)) return false;
-  return b[0] == 0xED && b[1] == 0xA1 && b[2] == 0xDA && b[3] == 0x01;
-}
+bool StartsWithLcmSyncWord(const std::string& path) { return common::StartsWithLcmSync(path); }
 
 std::string Where(const std::string& source, int64_t line, bool lcm) {
   return source + (lcm ? ":event " : ":") + std::to_string(line);
@@ -147,8 +135,20 @@ RockingRecord ReadThetaCsv(const std::string& path) {
 }
 
 RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& options) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw RecordError(path + ": cannot open the LCM log");
+  // A damaged region of the log loses samples: an error here, as a gap is.
+  common::LogReaderOptions read;
+  std::string damage;  // the first damaged region
+  read.on_problem = [&damage](const common::LogProblem& p) {
+    if (damage.empty()) damage = ToString(p);
+  };
+  std::unique_ptr<common::LogReader> log;
+  try {
+    log = std::make_unique<common::LogReader>(path, read);
+  } catch (const std::runtime_error& e) {
+    throw RecordError(path + ": cannot open the LCM log (" + e.what() + ")");
+  }
+  common::LogEvent event;
+  const common::LogEvent* ev = &event;
   RockingRecord r;
   r.source = path;
   std::vector<int64_t> table_line;
@@ -158,46 +158,49 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
   int64_t last_table_seq = 0;
   bool any_block = false;
   bool any_table = false;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+  while (log->Next(event)) {
+    if (!damage.empty()) break;  // reported below, before any gap it causes
+    const int datalen = static_cast<int>(ev->data.size());
     if (ev->channel == options.theta_channel) {
-      if (block.decode(ev->data, 0, ev->datalen) < 0) {
-        Fail(Where(path, ev->eventnum, true),
+      if (block.decode(ev->data.data(), 0, datalen) < 0) {
+        Fail(Where(path, ev->number, true),
              options.theta_channel + " event does not decode as rocklab::block_state_t");
       }
       if (any_block && block.seq != last_block_seq + 1) {
-        Fail(Where(path, ev->eventnum, true),
+        Fail(Where(path, ev->number, true),
              options.theta_channel + " sequence jumps from " + std::to_string(last_block_seq) +
                  " to " + std::to_string(block.seq) + ": samples are missing (a gap)");
       }
       if (!std::isfinite(block.theta)) {
-        Fail(Where(path, ev->eventnum, true),
+        Fail(Where(path, ev->number, true),
              "theta is not a number (a lost sample: fit a stretch of the test without it)");
       }
       any_block = true;
       last_block_seq = block.seq;
       r.time_s.push_back(static_cast<double>(block.utime) * 1e-6);
       r.theta.push_back(block.theta);
-      r.line.push_back(ev->eventnum);
+      r.line.push_back(ev->number);
     } else if (ev->channel == options.table_channel) {
-      if (table.decode(ev->data, 0, ev->datalen) < 0) {
-        Fail(Where(path, ev->eventnum, true),
+      if (table.decode(ev->data.data(), 0, datalen) < 0) {
+        Fail(Where(path, ev->number, true),
              options.table_channel + " event does not decode as rocklab::table_state_t");
       }
       if (any_table && table.seq != last_table_seq + 1) {
-        Fail(Where(path, ev->eventnum, true),
+        Fail(Where(path, ev->number, true),
              options.table_channel + " sequence jumps from " + std::to_string(last_table_seq) +
                  " to " + std::to_string(table.seq) + ": samples are missing (a gap)");
       }
       if (!std::isfinite(table.acceleration)) {
-        Fail(Where(path, ev->eventnum, true), "table acceleration is not a number");
+        Fail(Where(path, ev->number, true), "table acceleration is not a number");
       }
       any_table = true;
       last_table_seq = table.seq;
       r.table_time_s.push_back(static_cast<double>(table.utime) * 1e-6);
       r.table_accel_mps2.push_back(table.acceleration);
-      table_line.push_back(ev->eventnum);
+      table_line.push_back(ev->number);
     }
   }
+  if (!damage.empty()) throw RecordError(damage + "; fit a stretch of the test without it");
   if (!any_block) {
     throw RecordError(path + ": no " + options.theta_channel + " (rocklab::block_state_t) events");
   }

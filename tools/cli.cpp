@@ -2,7 +2,6 @@
 
 #include <csignal>
 #include <cstdlib>
-#include <sstream>
 
 namespace rocklab::tools {
 
@@ -30,14 +29,6 @@ const std::atomic<bool>& InstallStopSignals() {
   sigaction(SIGTERM, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
   return g_stop;
-}
-
-void Require(bool ok, const std::string& option, const std::string& what, double value) {
-  if (ok) return;
-  std::ostringstream msg;
-  msg.precision(17);
-  msg << option << " must be " << what << ", got " << value;
-  throw UsageError(msg.str());
 }
 
 }  // namespace rocklab::tools

@@ -10,14 +10,15 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pipeline/option_error.h"
+
 namespace rocklab::tools {
 
 /// A bad command line or a non-physical value: main prints `rocklab: <what>`
-/// on one line and exits with kUsageExit.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+/// on one line and exits with kUsageExit. (The pipeline library's error, so
+/// the library and the commands name options the same way.)
+using UsageError = pipeline::OptionError;
+using pipeline::Require;
 
 inline constexpr int kUsageExit = 2;    ///< bad option, value or input file
 inline constexpr int kFailureExit = 1;  ///< the command ran and failed
@@ -41,7 +42,5 @@ const std::atomic<bool>& InstallStopSignals();
 /// before LCM sees it. Other URLs are returned as they are.
 std::string SubscriberUrl(const std::string& url);
 
-/// Throws UsageError("<option> must be <what>, got <value>") unless ok.
-void Require(bool ok, const std::string& option, const std::string& what, double value);
 
 }  // namespace rocklab::tools

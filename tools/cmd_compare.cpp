@@ -4,8 +4,6 @@
 #include <memory>
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "compare/compare_node.h"
 #include "tools/cli.h"
 #include "tools/pipeline.h"
@@ -15,17 +13,16 @@ namespace {
 
 struct CompareCommand {
   compare::CompareNodeConfig config;
+  std::string lcm_url;
   std::string summary_json;
 };
 
 int RunCompare(CompareCommand& c) {
   ValidateCompareOptions(c.config);
   const std::atomic<bool>& stop = InstallStopSignals();
-  const std::string url = SubscriberUrl(c.config.lcm_url);
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
-  compare::CompareNode node(c.config, &lcm);
-  node.Run(lcm, stop);
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(SubscriberUrl(c.lcm_url));
+  compare::CompareNode node(c.config, *bus);
+  node.Run(stop);
   const auto summary = node.Summary();
   compare::CompareNode::PrintSummary(summary, stdout);
   if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, c.summary_json);
@@ -39,7 +36,7 @@ void RegisterCompare(CLI::App& app, CommandRun& run) {
   CLI::App* cmd = app.add_subcommand("compare", "live error between experiment and models (LCM node)");
   AddCompareOptions(*cmd, c->config);
   cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file");
-  cmd->add_option("--lcm-url", c->config.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
   cmd->callback([c, &run] { run = [c] { return RunCompare(*c); }; });
 }
 

@@ -21,7 +21,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
   cmd->add_flag("--max", opts->max_speed, "as fast as possible")->excludes(speed);
   cmd->add_option("--lcm-url", opts->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
   cmd->add_option("--prefix", opts->prefix, "channel prefix")->capture_default_str();
-  cmd->callback([opts, &run] { run = [opts] { return RunDaqStage(*opts, "daq"); }; });
+  cmd->callback([opts, &run] { run = [opts] { return RunDaqStage(*opts, "daq", InstallStopSignals()); }; });
 }
 
 }  // namespace rocklab::tools

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "common/units.h"
 #include "tools/cli.h"
 #include "tools/scenario.h"
 
@@ -52,7 +53,7 @@ int RunDemo(const DemoOptions& o) {
     char uplift[32] = "none";
     if (r.uplift_time_s) std::snprintf(uplift, sizeof uplift, "%.4f", *r.uplift_time_s);
     std::printf("%-8s  %10s  %14.4f  %8.3f  %7d  %-10s  %s\n", name, uplift,
-                r.peak_abs_theta * 180.0 / M_PI, r.peak_time_s, r.impacts,
+                r.peak_abs_theta * common::kDegPerRad, r.peak_time_s, r.impacts,
                 model::ToString(s.model->state().regime), path.c_str());
   }
   return 0;

@@ -4,8 +4,6 @@
 #include <string>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "model/model_node.h"
 #include "tools/cli.h"
 #include "tools/pipeline.h"
@@ -25,15 +23,14 @@ int RunModel(const ModelCommand& c) {
   cfg.variants = BuildVariants(c.variants, rig);
   const std::atomic<bool>& stop = InstallStopSignals();
   const std::string url = SubscriberUrl(c.lcm_url);
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
-  model::ModelNode node(cfg, &lcm);
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(url);
+  model::ModelNode node(cfg, *bus);
   for (const model::VariantSpec& v : cfg.variants) {
     std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
                  v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
                  v.params_source.c_str());
   }
-  node.Run(lcm, stop);
+  node.Run(stop);
   std::fprintf(stderr, "model: %lld table samples, %lld before the start, %lld resets, %lld failures\n",
                static_cast<long long>(node.table_count()),
                static_cast<long long>(node.skipped_before_start()),

@@ -1,32 +1,19 @@
-// rocklab monitor: the live theory-versus-experiment page.
-//
-// Threading model: the main thread subscribes the RL_ channels and loops on
-// lcm.handleTimeout, each message going into the LiveState (decoded there,
-// under its mutex); cpp-httplib's threads serve the page, the snapshot and
-// the event streams, reading the LiveState. Nothing is published.
-//
-// Shutdown (SIGINT/SIGTERM set the stop flag, polled every 100 ms): the LCM
-// loop ends, the server ends its event streams, stops listening and joins;
-// exit 0.
+// rocklab monitor: the live theory-versus-experiment page: a
+// monitor::MonitorNode on an LcmBus (threading and shutdown order are
+// written in monitor/monitor_node.h). SIGINT/SIGTERM set the stop flag;
+// exit 0 (1 when the bus failed).
 #include <atomic>
 #include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
-
-#include "monitor/live_state.h"
-#include "monitor/server.h"
+#include "monitor/monitor_node.h"
 #include "tools/cli.h"
+#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
-
-// Messages LCM may queue for the monitor while an HTTP thread holds the
-// state (LCM's default is 30: a full snapshot takes milliseconds, during
-// which a 1 kHz pipeline sends several hundred messages).
-constexpr int kQueueCapacity = 100000;
 
 struct MonitorCommand {
   std::string lcm_url;
@@ -53,54 +40,27 @@ void ParseHttp(const std::string& text, monitor::ServerOptions& o) {
   if (o.port > 65535) throw bad();
 }
 
-class Feeder {
- public:
-  explicit Feeder(monitor::LiveState& state) : state_(state) {}
-  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    state_.Ingest(channel, rbuf->data, static_cast<int>(rbuf->data_size));  // never throws
-  }
-
- private:
-  monitor::LiveState& state_;
-};
-
 int RunMonitor(const MonitorCommand& c) {
   Require(c.window_s > 0 && c.window_s <= 24 * 3600, "--window", "in (0, 86400] s", c.window_s);
-  monitor::ServerOptions server_options;
-  ParseHttp(c.http, server_options);
-  monitor::LiveOptions live;
-  live.window_s = c.window_s;
-  monitor::LiveState state(live);
-
-  const std::string url = SubscriberUrl(c.lcm_url);
-  lcm::LCM lcm(url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
+  monitor::MonitorNodeConfig config;
+  ParseHttp(c.http, config.server);
+  config.live.window_s = c.window_s;
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(SubscriberUrl(c.lcm_url));
   const std::atomic<bool>& stop = InstallStopSignals();
-
-  std::unique_ptr<monitor::MonitorServer> server;
+  std::unique_ptr<monitor::MonitorNode> node;
   try {
-    server = std::make_unique<monitor::MonitorServer>(state, server_options);
+    node = std::make_unique<monitor::MonitorNode>(config, *bus);
   } catch (const std::exception& e) {
     throw UsageError(std::string("--http: ") + e.what());
   }
-  Feeder feeder(state);
-  lcm::Subscription* sub = lcm.subscribe(live.channel_prefix + ".*", &Feeder::OnMessage, &feeder);
-  sub->setQueueCapacity(kQueueCapacity);
-  server->Start();
-  std::printf("rocklab monitor: serving %s\n", server->url().c_str());
+  node->Start();
+  std::printf("rocklab monitor: serving %s\n", node->url().c_str());
   std::fflush(stdout);
-
-  int exit_code = 0;
-  while (!stop.load()) {
-    if (lcm.handleTimeout(100) < 0 && !stop.load()) {  // a stop signal interrupts it
-      std::fprintf(stderr, "rocklab monitor: LCM receive failed\n");
-      exit_code = kFailureExit;
-      break;
-    }
+  if (!node->Run(stop)) {
+    std::fprintf(stderr, "rocklab monitor: LCM receive failed\n");
+    return kFailureExit;
   }
-  lcm.unsubscribe(sub);
-  server->Stop();
-  return exit_code;
+  return 0;
 }
 
 }  // namespace

@@ -9,14 +9,16 @@
 #include <memory>
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "tools/cli.h"
-#include "tools/log_replay.h"
+#include "pipeline/log_replay.h"
 #include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
+
+using pipeline::ReplayCounts;
+using pipeline::ReplayLog;
+using pipeline::ReplayOptions;
 
 struct ReplayCommand {
   std::string log_path;
@@ -35,11 +37,11 @@ int RunLogReplay(const ReplayCommand& c) {
     throw UsageError(e.what());
   }
   const std::atomic<bool>& stop = InstallStopSignals();
-  lcm::LCM lcm(c.lcm_url);
-  if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + c.lcm_url + "'");
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(c.lcm_url);
   ReplayCounts counts;
   try {
-    counts = ReplayLog(c.log_path, c.replay, lcm, stop);
+    counts = ReplayLog(c.log_path, c.replay, *bus, stop,
+                       [](const std::string& problem) { std::fprintf(stderr, "replay: %s\n", problem.c_str()); });
   } catch (const std::runtime_error& e) {
     throw UsageError(e.what());
   }
@@ -50,7 +52,14 @@ int RunLogReplay(const ReplayCommand& c) {
   for (const auto& [channel, n] : counts.per_channel) {
     std::fprintf(stderr, "  %-28s %lld\n", channel.c_str(), static_cast<long long>(n));
   }
-  return counts.failed == 0 ? 0 : kFailureExit;
+  if (counts.damaged_regions > 0) {
+    // Everything readable was published; the exit code says the log is damaged.
+    std::fprintf(stderr, "replay: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)\n",
+                 c.log_path.c_str(), static_cast<long long>(counts.damaged_regions),
+                 counts.damaged_regions == 1 ? "" : "s", static_cast<long long>(counts.damaged_bytes),
+                 static_cast<long long>(counts.damaged_events));
+  }
+  return counts.failed == 0 && counts.damaged_regions == 0 ? 0 : kFailureExit;
 }
 
 int RunReplay(const ReplayCommand& c) {
@@ -79,7 +88,7 @@ int RunReplay(const ReplayCommand& c) {
   daq.speed = c.replay.speed;
   daq.max_speed = c.replay.max_speed;
   daq.lcm_url = c.lcm_url;
-  return RunDaqStage(daq, "replay");
+  return RunDaqStage(daq, "replay", InstallStopSignals());
 }
 
 }  // namespace

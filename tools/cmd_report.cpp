@@ -14,10 +14,19 @@
 #include <utility>
 
 #include "tools/cli.h"
-#include "tools/report.h"
+#include "report/report.h"
 
 namespace rocklab::tools {
 namespace {
+
+using report::FigureFormat;
+using report::ReadRecordLog;
+using report::RecordReport;
+using report::ReportFigure;
+using report::ReportInputError;
+using report::ReportOptions;
+using report::ReportPage;
+using report::ThetaFigure;
 
 struct ReportCommand {
   std::string log_path;
@@ -89,6 +98,15 @@ int RunReport(const ReportCommand& c) {
   }
   std::fprintf(stderr, "report: %s: %lld events, %lld that did not decode\n", c.log_path.c_str(),
                static_cast<long long>(record.events), static_cast<long long>(record.decode_errors));
+  for (const std::string& problem : record.problems) std::fprintf(stderr, "report: %s\n", problem.c_str());
+  if (record.damaged_regions > 0) {
+    std::fprintf(stderr,
+                 "report: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the "
+                 "page shows the rest\n",
+                 c.log_path.c_str(), static_cast<long long>(record.damaged_regions),
+                 record.damaged_regions == 1 ? "" : "s", static_cast<long long>(record.damaged_bytes),
+                 static_cast<long long>(record.damaged_events));
+  }
   std::int64_t dropped = 0;
   for (const auto& [what, n] : record.snapshot.at("counters").at("dropped").items()) {
     dropped += n.get<std::int64_t>();
@@ -113,7 +131,7 @@ int RunReport(const ReportCommand& c) {
     DrawFigure(figure, c.svg_path, FigureFormat::kSvg, size);
     DrawFigure(figure, c.png_path, FigureFormat::kPng, size);
   }
-  return 0;
+  return record.damaged_regions == 0 ? 0 : kFailureExit;
 }
 
 }  // namespace

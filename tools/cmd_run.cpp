@@ -1,25 +1,25 @@
 // rocklab run: daq, model and compare in one process.
 //
-// Threading model: one thread, the caller's. DaqNode::Run reads and paces the
-// input; its observers hand each RL_TABLE / RL_THETA message straight to the
-// model and the comparator, and the model's observer hands each RL_MODEL
-// message to the comparator: the stages are connected by direct calls, so the
-// offline path pays no LCM dispatch per sample per stage and nothing is
-// queued between stages.
+// Threading model: one thread, the caller's. The three nodes are the ones
+// `rocklab daq`, `model` and `compare` run, on a common::DirectBus: the
+// DaqNode's Run reads and paces the input, and every message it publishes is
+// handed synchronously to the subscribed stages (RL_THETA to the comparator
+// and the model, RL_TABLE to the model, whose RL_MODEL_* go to the
+// comparator) before Publish returns. Nothing is queued between stages, so
+// nothing can be dropped between them and memory does not grow with the input.
 //
-// LCM is a tap: every node publishes on an in-process memq:// bus. With no
-// --log and no network URL nobody subscribes, and memq drops each message at
-// publish. With --log or a udpm:// URL, one catch-all subscription on the bus
-// writes each message to the log (timestamp = the message's utime, so the log
-// replays at the recorded pace) and forwards it to the network; the bus is
-// drained after every table and theta sample, so it holds a handful of
-// messages at most whatever the input's length.
+// Taps: with --log a common::LogWritingBus wraps the direct bus and writes
+// every published message to the log as it is published (stamped with the
+// newest sample-clock utime so far: the stamps never go back, so the log
+// replays in order at the recorded pace); with a udpm:// URL one catch-all
+// subscription on the direct bus forwards every message to the network.
 //
 // Shutdown (SIGINT/SIGTERM set the stop flag, DaqNode::Run polls it): the DAQ
 // stops reading, flushes its delayed samples through the stages and publishes
 // its last RL_HEALTH "stopped"; then the model and the comparator finish
-// (their last RL_HEALTH "stopped", the comparator's last RL_COMPARE_*), the
-// bus is drained and the log closed; the summary is printed; exit 0.
+// (their last RL_HEALTH "stopped", the comparator's last RL_COMPARE_*); the
+// log is closed; the summary is printed; exit 0 (1 when the log could not be
+// written or the input was a damaged LCM log).
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
@@ -27,8 +27,7 @@
 #include <string>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
-
+#include "common/lcm_log.h"
 #include "compare/compare_node.h"
 #include "daq/daq_node.h"
 #include "model/model_node.h"
@@ -52,98 +51,43 @@ struct RunCommand {
 
 bool IsMemq(const std::string& url) { return url.rfind("memq://", 0) == 0; }
 
-// The in-process bus and what listens to it: the log and the network.
-class Tap {
- public:
-  Tap(const std::string& url, const std::string& log_path) {
-    if (!bus_.good()) throw std::runtime_error("cannot open LCM memq://");
-    if (!IsMemq(url)) {
-      net_ = std::make_unique<lcm::LCM>(url);
-      if (!net_->good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
-    }
-    if (!log_path.empty()) {
-      log_ = std::make_unique<lcm::LogFile>(log_path, "w");
-      if (!log_->good()) throw UsageError("--log: cannot write '" + log_path + "'");
-    }
-    if (net_ || log_) subscription_ = bus_.subscribe(".*", &Tap::OnMessage, this);
-  }
-  ~Tap() {
-    if (subscription_) bus_.unsubscribe(subscription_);
-  }
-  Tap(const Tap&) = delete;
-  Tap& operator=(const Tap&) = delete;
-
-  lcm::LCM* bus() { return &bus_; }
-
-  /// Dispatches every message waiting on the bus (none when nobody listens).
-  void Drain() {
-    if (!subscription_) return;
-    while (bus_.handleTimeout(0) > 0) {
-    }
-  }
-
-  std::int64_t log_errors() const { return log_errors_; }
-  std::int64_t forward_errors() const { return forward_errors_; }
-
- private:
-  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    if (log_) {
-      // Every rocklab type starts with its 8-byte fingerprint, then
-      // int64_t utime (big-endian): the log is stamped with the sample clock.
-      std::int64_t utime = 0;
-      if (rbuf->data_size >= 16) {
-        const auto* b = static_cast<const std::uint8_t*>(rbuf->data) + 8;
-        std::uint64_t u = 0;
-        for (int i = 0; i < 8; ++i) u = (u << 8) | b[i];
-        utime = static_cast<std::int64_t>(u);
-      }
-      lcm::LogEvent ev{};
-      ev.eventnum = event_number_++;
-      ev.timestamp = utime;
-      ev.channel = channel;
-      ev.datalen = static_cast<std::int32_t>(rbuf->data_size);
-      ev.data = rbuf->data;
-      if (log_->writeEvent(&ev) != 0) ++log_errors_;
-    }
-    if (net_ && net_->publish(channel, rbuf->data, rbuf->data_size) != 0) ++forward_errors_;
-  }
-
-  lcm::LCM bus_{"memq://"};
-  std::unique_ptr<lcm::LCM> net_;
-  std::unique_ptr<lcm::LogFile> log_;
-  lcm::Subscription* subscription_{};
-  std::int64_t event_number_{}, log_errors_{}, forward_errors_{};
-};
-
 int RunAll(RunCommand& c) {
   const daq::RigConfig rig = LoadRig(c.rig_path);
   if (c.max) c.speed = 0;
   Require(c.speed >= 0, "--speed", ">= 0", c.speed);
   ValidateCompareOptions(c.compare);
   const std::atomic<bool>& stop = InstallStopSignals();
-  Tap tap(c.lcm_url, c.log_path);
+  common::DirectBus direct;
+  std::unique_ptr<common::LcmBus> net;
+  std::int64_t forward_errors = 0;
+  if (!IsMemq(c.lcm_url)) {
+    net = OpenLcmBus(c.lcm_url);
+    direct.SubscribeRaw(".*", [&net, &forward_errors](const std::string& channel, const void* data, int size) {
+      if (!net->Publish(channel, data, size)) ++forward_errors;
+    });
+  }
+  std::unique_ptr<common::LogWriter> log;
+  std::unique_ptr<common::LogWritingBus> logged;
+  if (!c.log_path.empty()) {
+    try {
+      log = std::make_unique<common::LogWriter>(c.log_path);
+    } catch (const std::runtime_error&) {
+      throw UsageError("--log: cannot write '" + c.log_path + "'");
+    }
+    logged = std::make_unique<common::LogWritingBus>(direct, *log);
+  }
+  common::Bus& bus = logged ? static_cast<common::Bus&>(*logged) : direct;
 
-  compare::CompareNode compare(c.compare, tap.bus());
-
+  // Subscription order is dispatch order: the comparator sees an RL_THETA
+  // before the model steps with the RL_TABLE that follows it.
+  compare::CompareNode compare(c.compare, bus);
   model::ModelNodeConfig model_cfg;
   model_cfg.variants = BuildVariants(c.variants, rig);
-  model_cfg.on_state = [&compare](const rocklab::model_state_t& m) { compare.HandleModel(m); };
-  model::ModelNode model(model_cfg, tap.bus());
-
-  daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
-  daq_cfg.on_theta = [&](const rocklab::block_state_t& theta) {
-    compare.HandleTheta(theta);
-    compare.CheckStale();
-    model.HandleTheta(theta);
-    tap.Drain();
-  };
-  daq_cfg.on_table = [&](const rocklab::table_state_t& table) {
-    model.HandleTable(table);
-    tap.Drain();
-  };
+  model::ModelNode model(model_cfg, bus);
+  const daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
   std::unique_ptr<daq::DaqNode> daq;
   try {
-    daq = std::make_unique<daq::DaqNode>(daq_cfg, tap.bus());
+    daq = std::make_unique<daq::DaqNode>(daq_cfg, bus);
   } catch (const std::exception& e) {
     throw UsageError(std::string("--input: ") + e.what());
   }
@@ -155,24 +99,31 @@ int RunAll(RunCommand& c) {
   daq->Run(stop);
   model.Finish();
   compare.Finish();
-  tap.Drain();
+  if (log) log->Close();
 
   const daq::DaqNodeStats& s = daq->stats();
   std::fprintf(stderr,
                "run: %lld frames, %lld table samples to the model (%lld before its start), "
-               "%lld model failures%s\n",
+               "%lld model failures, %lld bad table samples held%s\n",
                static_cast<long long>(s.frames_read), static_cast<long long>(model.table_count()),
                static_cast<long long>(model.skipped_before_start()),
-               static_cast<long long>(model.failures()), s.stopped_early ? " (stopped)" : "");
-  if (tap.log_errors() > 0 || tap.forward_errors() > 0) {
+               static_cast<long long>(model.failures()),
+               static_cast<long long>(model.bad_table_samples()), s.stopped_early ? " (stopped)" : "");
+  const std::int64_t log_errors = log ? log->write_errors() : 0;
+  if (log_errors > 0 || forward_errors > 0) {
     std::fprintf(stderr, "run: %lld log write errors, %lld network publish errors\n",
-                 static_cast<long long>(tap.log_errors()),
-                 static_cast<long long>(tap.forward_errors()));
+                 static_cast<long long>(log_errors), static_cast<long long>(forward_errors));
+  }
+  if (bus.decode_error_count() > 0 || bus.handler_error_count() > 0) {
+    std::fprintf(stderr, "run: %lld messages did not decode, %lld handler errors\n",
+                 static_cast<long long>(bus.decode_error_count()),
+                 static_cast<long long>(bus.handler_error_count()));
   }
   const auto summary = compare.Summary();
   compare::CompareNode::PrintSummary(summary, stdout);
   if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, c.summary_json);
-  return tap.log_errors() > 0 ? kFailureExit : 0;
+  const int damaged = ReportDamage(s, c.input, "run");
+  return log_errors > 0 ? kFailureExit : damaged;
 }
 
 }  // namespace

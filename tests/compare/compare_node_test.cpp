@@ -1,4 +1,4 @@
-// The comparator node over memq://: alignment by utime whichever side comes
+// The comparator node on an in-process bus: alignment by utime whichever side comes
 // first, RL_COMPARE_<name> at the configured sample-clock rate, stale and
 // recovered events, the summary.
 #include "compare/compare_node.h"
@@ -22,36 +22,32 @@ namespace {
 using test::Model;
 using test::Theta;
 
+// What the node publishes, as received on the bus.
 struct Tap {
-  void OnCompare(const lcm::ReceiveBuffer*, const std::string& channel,
-                 const rocklab::comparison_t* m) {
-    channels.push_back(channel);
-    compares.push_back(*m);
-  }
-  void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const rocklab::event_t* m) {
-    events.push_back(*m);
+  void Listen(common::Bus& bus) {
+    bus.Subscribe<rocklab::comparison_t>(
+        "RL_COMPARE_.*", [this](const std::string& channel, const rocklab::comparison_t& m) {
+          channels.push_back(channel);
+          compares.push_back(m);
+        });
+    bus.Subscribe<rocklab::event_t>(
+        "RL_EVENT", [this](const std::string&, const rocklab::event_t& m) { events.push_back(m); });
   }
   std::vector<std::string> channels;
   std::vector<rocklab::comparison_t> compares;
   std::vector<rocklab::event_t> events;
 };
 
-void Drain(lcm::LCM& lcm) {
-  while (lcm.handleTimeout(0) > 0) {
-  }
-}
-
 // Oracle: a model that is the measurement plus 0.01 rad has RMS 0.01 rad
 // whatever order the two arrive in; at 1 kHz samples and a 20 Hz publish
 // rate, one RL_COMPARE per 50 samples (sample clock, not host time).
 TEST(CompareNode, AlignsEitherOrderAndPublishesAtTheSampleClockRate) {
-  lcm::LCM lcm("memq://");
-  ASSERT_TRUE(lcm.good());
+  common::DirectBus bus;
   Tap tap;
-  lcm.subscribe("RL_COMPARE_.*", &Tap::OnCompare, &tap);
+  tap.Listen(bus);
   CompareNodeConfig cfg;
   cfg.publish_rate_hz = 20.0;
-  CompareNode node(cfg, &lcm);
+  CompareNode node(cfg, bus);
   for (int k = 0; k < 1000; ++k) {
     const std::int64_t utime = 1000 * k;
     const double th = 0.05 * std::sin(0.01 * k);
@@ -64,7 +60,6 @@ TEST(CompareNode, AlignsEitherOrderAndPublishesAtTheSampleClockRate) {
     }
   }
   node.Finish();
-  Drain(lcm);
   const auto summary = node.Summary();
   ASSERT_EQ(summary.size(), 1u);
   EXPECT_EQ(summary[0].metrics.samples, 1000);
@@ -82,18 +77,17 @@ TEST(CompareNode, AlignsEitherOrderAndPublishesAtTheSampleClockRate) {
 // Oracle: the DAQ's sliding flag marks pairs invalid; they leave the RMS
 // untouched and RL_COMPARE says valid = false while it lasts.
 TEST(CompareNode, SlidingFlagMakesPairsInvalid) {
-  lcm::LCM lcm("memq://");
+  common::DirectBus bus;
   Tap tap;
-  lcm.subscribe("RL_COMPARE_.*", &Tap::OnCompare, &tap);
+  tap.Listen(bus);
   CompareNodeConfig cfg;
   cfg.publish_rate_hz = 1000.0;
-  CompareNode node(cfg, &lcm);
+  CompareNode node(cfg, bus);
   for (int k = 0; k < 100; ++k) {
     const bool sliding = k >= 40 && k < 60;
     node.HandleTheta(Theta(1000 * k, 0.0, sliding ? rocklab::block_state_t::FLAG_SLIDING : 0));
     node.HandleModel(Model("a", 1000 * k, sliding ? 1.0 : 0.0));
   }
-  Drain(lcm);
   EXPECT_EQ(node.Summary()[0].metrics.rms_total, 0.0);
   EXPECT_EQ(node.Summary()[0].metrics.valid_samples, 80);
   ASSERT_EQ(tap.compares.size(), 100u);
@@ -104,7 +98,8 @@ TEST(CompareNode, SlidingFlagMakesPairsInvalid) {
 // Oracle: model samples whose measured sample never comes, and measured
 // samples before a model starts, are counted, never silently lost.
 TEST(CompareNode, UnmatchedSamplesAreCounted) {
-  CompareNode node(CompareNodeConfig{}, nullptr);
+  common::DirectBus bus;
+  CompareNode node(CompareNodeConfig{}, bus);
   for (int k = 0; k < 10; ++k) node.HandleTheta(Theta(1000 * k, 0.0));      // before the model
   for (int k = 10; k < 20; ++k) {
     if (k != 15) node.HandleTheta(Theta(1000 * k, 0.0));                     // 15 lost by the DAQ
@@ -121,25 +116,23 @@ TEST(CompareNode, UnmatchedSamplesAreCounted) {
 // gives one STALE event; input again gives RECOVERED. Margins are wide
 // (stale after 50 ms, checked after 300 ms) so a loaded machine cannot flip it.
 TEST(CompareNode, StaleAndRecoveredEvents) {
-  lcm::LCM lcm("memq://");
+  common::DirectBus bus;
   Tap tap;
-  lcm.subscribe("RL_EVENT", &Tap::OnEvent, &tap);
+  tap.Listen(bus);
   CompareNodeConfig cfg;
   cfg.stale_after_s = 0.05;
-  CompareNode node(cfg, &lcm);
+  CompareNode node(cfg, bus);
   node.HandleTheta(Theta(0, 0.0));
   node.HandleModel(Model("m", 0, 0.0));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   node.CheckStale();
   node.CheckStale();  // once only
-  Drain(lcm);
   ASSERT_EQ(tap.events.size(), 2u);  // daq and model m
   EXPECT_EQ(tap.events[0].kind, +rocklab::event_t::STALE);  // + : LCM constants have no definition to bind a reference to
   EXPECT_EQ(tap.events[0].source, "daq");
   EXPECT_EQ(tap.events[1].source, "m");
   node.HandleTheta(Theta(1000, 0.0));
   node.HandleModel(Model("m", 1000, 0.0));
-  Drain(lcm);
   ASSERT_EQ(tap.events.size(), 4u);
   EXPECT_EQ(tap.events[2].kind, +rocklab::event_t::RECOVERED);
   EXPECT_EQ(tap.events[3].kind, +rocklab::event_t::RECOVERED);
@@ -147,7 +140,8 @@ TEST(CompareNode, StaleAndRecoveredEvents) {
 
 // Oracle: the documented JSON keys, with the values the comparator holds.
 TEST(CompareNode, SummaryJsonNamesItsQuantities) {
-  CompareNode node(CompareNodeConfig{}, nullptr);
+  common::DirectBus bus;
+  CompareNode node(CompareNodeConfig{}, bus);
   for (int k = 0; k < 10; ++k) {
     node.HandleTheta(Theta(1000 * k, 0.1));
     node.HandleModel(Model("fit", 1000 * k, 0.12));

@@ -17,6 +17,8 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "daq/daq_node.h"
+
+#include "common/bus.h"
 #include "daq/processor.h"
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
@@ -76,37 +78,20 @@ struct Collector {
   std::vector<rocklab::event_t> events;
   std::vector<rocklab::health_t> health;
   std::vector<rocklab::daq_config_t> config;
-  void OnRaw(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::raw_frame_t* m) {
-    order.push_back(c);
-    raw.push_back(*m);
+  template <class Msg>
+  void Add(common::Bus& bus, const char* channel, std::vector<Msg>& into) {
+    bus.Subscribe<Msg>(channel, [this, &into](const std::string& c, const Msg& m) {
+      order.push_back(c);
+      into.push_back(m);
+    });
   }
-  void OnTheta(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::block_state_t* m) {
-    order.push_back(c);
-    theta.push_back(*m);
-  }
-  void OnTable(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::table_state_t* m) {
-    order.push_back(c);
-    table.push_back(*m);
-  }
-  void OnEvent(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::event_t* m) {
-    order.push_back(c);
-    events.push_back(*m);
-  }
-  void OnHealth(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::health_t* m) {
-    order.push_back(c);
-    health.push_back(*m);
-  }
-  void OnConfig(const lcm::ReceiveBuffer*, const std::string& c, const rocklab::daq_config_t* m) {
-    order.push_back(c);
-    config.push_back(*m);
-  }
-  void Subscribe(lcm::LCM& lcm) {
-    lcm.subscribe("RL_RAW", &Collector::OnRaw, this);
-    lcm.subscribe("RL_THETA", &Collector::OnTheta, this);
-    lcm.subscribe("RL_TABLE", &Collector::OnTable, this);
-    lcm.subscribe("RL_EVENT", &Collector::OnEvent, this);
-    lcm.subscribe("RL_HEALTH", &Collector::OnHealth, this);
-    lcm.subscribe("RL_DAQ_CONFIG", &Collector::OnConfig, this);
+  void Subscribe(common::Bus& bus) {
+    Add(bus, "RL_RAW", raw);
+    Add(bus, "RL_THETA", theta);
+    Add(bus, "RL_TABLE", table);
+    Add(bus, "RL_EVENT", events);
+    Add(bus, "RL_HEALTH", health);
+    Add(bus, "RL_DAQ_CONFIG", config);
   }
 };
 
@@ -114,14 +99,14 @@ struct Collector {
 std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& input, double speed,
                                      std::atomic<bool>& stop, DaqNodeStats* stats = nullptr,
                                      int stop_after_ms = -1) {
-  lcm::LCM lcm("memq://");
+  common::LcmBus lcm("memq://");
   auto c = std::make_unique<Collector>();
   c->Subscribe(lcm);
   DaqNodeConfig config;
   config.rig = rig;
   config.input = input;
   config.speed = speed;
-  DaqNode node(config, &lcm);
+  DaqNode node(config, lcm);
   std::thread stopper;
   if (stop_after_ms >= 0) {
     stopper = std::thread([&stop, stop_after_ms] {
@@ -131,7 +116,7 @@ std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& in
   }
   node.Run(stop);
   if (stopper.joinable()) stopper.join();
-  while (lcm.handleTimeout(0) > 0) {
+  while (lcm.HandleTimeout(0) > 0) {
   }
   if (stats != nullptr) *stats = node.stats();
   return c;
@@ -188,6 +173,56 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
   EXPECT_FALSE(stats.stopped_early);
 }
 
+// Issue 11: the RL_THETA and RL_TABLE of a sample go out together, RL_THETA
+// first, so no subscriber has to hold either back. Oracle: every RL_TABLE
+// is the message right after an RL_THETA of the same seq (the simulated
+// drops included: a dropped sample has neither).
+TEST(DaqNode, ThetaAndTableOfASampleArePublishedTogether) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string input = MakeRawCsv(rig, "pairs.csv", 1.0);
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, input, 0, stop);
+  ASSERT_FALSE(c->table.empty());
+  ASSERT_EQ(c->theta.size(), c->table.size());
+  std::size_t theta_i = 0, table_i = 0;
+  for (std::size_t i = 0; i < c->order.size(); ++i) {
+    if (c->order[i] == "RL_THETA") ++theta_i;
+    if (c->order[i] != "RL_TABLE") continue;
+    ASSERT_GT(i, 0u);
+    ASSERT_EQ(c->order[i - 1], "RL_THETA") << "message " << i;
+    ASSERT_EQ(c->table[table_i].seq, c->theta[theta_i - 1].seq) << "table " << table_i;
+    ASSERT_EQ(c->table[table_i].utime, c->theta[theta_i - 1].utime) << "table " << table_i;
+    ++table_i;
+  }
+  EXPECT_EQ(table_i, c->table.size());
+}
+
+// Oracle: the first frame's sample clock. RL_HEALTH "starting" carries it
+// (not 0), so a log of the run does not begin decades before its data when
+// the clock is an epoch's (here 1.7e9 s).
+TEST(DaqNode, StartingHealthCarriesTheFirstFramesSampleClock) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  std::ifstream in(MakeRawCsv(rig, "epoch_src.csv", 0.2));
+  std::string text, line;
+  for (bool header = true; std::getline(in, line); header = false) {
+    if (!header) {
+      const std::size_t comma = line.find(',');
+      char t[64];
+      std::snprintf(t, sizeof t, "%.6f", 1.7e9 + std::stod(line.substr(0, comma)));
+      line = t + line.substr(comma);
+    }
+    text += line + "\n";
+  }
+  const std::string input = test::WriteFile("epoch.csv", text);
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, input, 0, stop);
+  ASSERT_FALSE(c->raw.empty());
+  ASSERT_FALSE(c->health.empty());
+  EXPECT_EQ(c->health.front().state, "starting");
+  EXPECT_EQ(c->health.front().utime, c->raw.front().utime);
+  EXPECT_GT(c->raw.front().utime, 1'600'000'000'000'000);
+}
+
 TEST(DaqNode, StopFlagEndsTheRunAndPublishesWhatWasRead) {
   const RigConfig rig = LoadRigConfig(test::LabRigPath());
   const std::string input = MakeRawCsv(rig, "stop.csv", 5.0);
@@ -235,9 +270,9 @@ int UdpmChild(const RigConfig& rig, const std::string& input, const std::string&
   config.rig = rig;
   config.input = input;
   config.speed = 1.0;
-  config.lcm_url = rocklab::test::kUdpmUrl;
   {
-    DaqNode node(config);
+    common::LcmBus bus(rocklab::test::kUdpmUrl);
+    DaqNode node(config, bus);
     std::atomic<bool> stop{false};
     node.Run(stop);
     if (node.stats().publish_errors != 0) {

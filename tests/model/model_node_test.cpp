@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "common/bus.h"
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
 
@@ -29,6 +30,8 @@ rocklab::block_state_t Theta(std::int64_t utime, double theta) {
   return m;
 }
 
+using common::DirectBus;
+
 ModelNodeConfig Config(const std::string& variant) {
   ModelNodeConfig c;
   c.variants.push_back(ParseVariant(variant, kBlock1));
@@ -40,7 +43,8 @@ ModelNodeConfig Config(const std::string& variant) {
 // sample equals a model reset to 0.1 rad and advanced to the same times
 // (same calls, same arithmetic: equal to 1e-12 rad).
 TEST(ModelNode, FreeRockingFromTheMeasuredStartMatchesTheLibrary) {
-  ModelNode node(Config("h:housner:theoretical"), nullptr);
+  DirectBus bus;
+  ModelNode node(Config("h:housner:theoretical"), bus);
   const std::int64_t t0 = 1'700'000'000'000'000;  // an epoch utime: model time counts from it
   node.HandleTheta(Theta(t0, 0.1));
   auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
@@ -62,7 +66,8 @@ TEST(ModelNode, FreeRockingFromTheMeasuredStartMatchesTheLibrary) {
 // above g tan(alpha) = 2.35 m/s^2 lifts it towards theta < 0 (ERRATA item 5);
 // table samples before the first RL_THETA are skipped and counted.
 TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
-  ModelNode node(Config("c:complex:theoretical"), nullptr);
+  DirectBus bus;
+  ModelNode node(Config("c:complex:theoretical"), bus);
   node.HandleTable(Table(0, 0.0));  // before any RL_THETA
   node.HandleTheta(Theta(1000, 5e-4));
   for (int k = 1; k <= 500; ++k) node.HandleTable(Table(1000 * k, k < 100 ? 0.0 : 3.0));
@@ -71,18 +76,18 @@ TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
   EXPECT_EQ(node.latest(0).regime, +rocklab::model_state_t::REGIME_ROCKING);
 }
 
-// Oracle: the DAQ's own timing: it sends each RL_THETA 45 samples before the
-// RL_TABLE of the same sample (its differentiators' half windows, 5 and 50
-// ms at 1 kHz). The node must still start at the first table sample, from
-// the RL_THETA of that sample, not skip the record.
-TEST(ModelNode, StartsWhenThetaRunsAheadOfTheTable) {
-  ModelNode node(Config("h:housner:theoretical"), nullptr);
+// Oracle: the DAQ publishes the RL_THETA and RL_TABLE of a sample together,
+// RL_THETA first: the node starts at the first table sample from the theta
+// of that sample (0.1 rad), not from a later one, and matches the library
+// reset to it.
+TEST(ModelNode, StartsFromTheThetaPublishedWithTheTableSample) {
+  DirectBus bus;
+  ModelNode node(Config("h:housner:theoretical"), bus);
   auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
   direct->Reset(0.0, 0.1, 0.0);
   SampledAcceleration none({0.0, 10.0}, {0.0, 0.0});
-  for (int k = 0; k < 45; ++k) node.HandleTheta(Theta(1000 * k, k == 0 ? 0.1 : 0.5));
   for (int k = 0; k < 1000; ++k) {
-    node.HandleTheta(Theta(1000 * (k + 45), 0.5));  // ahead: must not be the start
+    node.HandleTheta(Theta(1000 * k, k == 0 ? 0.1 : 0.5));
     node.HandleTable(Table(1000 * k, 0.0));
     direct->AdvanceTo(static_cast<double>(1000 * k) * 1e-6, none);  // the node's arithmetic
     ASSERT_NEAR(node.latest(0).theta, direct->state().theta, 1e-12) << "sample " << k;
@@ -90,11 +95,46 @@ TEST(ModelNode, StartsWhenThetaRunsAheadOfTheTable) {
   EXPECT_EQ(node.skipped_before_start(), 0);
 }
 
+// Oracle: a saturated table channel gives NaN accelerations: the node holds
+// the last finite value, so its theta equals a library model fed that held
+// value (same calls, 1e-12 rad); the variant goes on (no failure), the bad
+// samples are counted, and one RL_EVENT BAD_SAMPLE opens the stretch and
+// one RECOVERED closes it.
+TEST(ModelNode, NonFiniteTableSampleHoldsTheLastValueAndTheVariantGoesOn) {
+  DirectBus bus;
+  std::vector<rocklab::event_t> events;
+  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+    if (e.source == "model") events.push_back(e);
+  });
+  ModelNode node(Config("h:housner:theoretical"), bus);
+  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
+  direct->Reset(0.0, 0.0, 0.0);
+  node.HandleTheta(Theta(0, 0.0));
+  const double nan = std::nan("");
+  for (int k = 0; k < 600; ++k) {
+    // 3 m/s^2 (above g tan(alpha)) until sample 200, NaN from 200 to 299.
+    const double sent = k < 200 ? 3.0 : (k < 300 ? nan : 0.0);
+    const double used = k < 300 ? 3.0 : 0.0;
+    node.HandleTable(Table(1000 * k, sent));
+    direct->Step(static_cast<double>(1000 * k) * 1e-6, used);
+    ASSERT_NEAR(node.latest(0).theta, direct->state().theta, 1e-12) << "sample " << k;
+  }
+  EXPECT_EQ(node.failures(), 0);
+  EXPECT_EQ(node.bad_table_samples(), 100);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, +rocklab::event_t::BAD_SAMPLE);
+  EXPECT_EQ(events[0].utime, 200'000);
+  EXPECT_EQ(events[1].kind, +rocklab::event_t::RECOVERED);
+  EXPECT_EQ(events[1].utime, 300'000);
+  EXPECT_NE(events[1].detail.find("100 bad samples"), std::string::npos) << events[1].detail;
+}
+
 // Oracle: the node's reset rule: table time going back restarts the
 // variants from the next RL_THETA, so a replayed record gives the same
 // states the second time.
 TEST(ModelNode, TimeGoingBackResetsAndReplaysIdentically) {
-  ModelNode node(Config("h:housner:alpha=0.235,p=3.884,mu=0.937"), nullptr);
+  DirectBus bus;
+  ModelNode node(Config("h:housner:alpha=0.235,p=3.884,mu=0.937"), bus);
   std::vector<double> first, second;
   for (int pass = 0; pass < 2; ++pass) {
     node.HandleTheta(Theta(0, 0.12));
@@ -107,40 +147,33 @@ TEST(ModelNode, TimeGoingBackResetsAndReplaysIdentically) {
   EXPECT_EQ(first, second);
 }
 
-struct Tap {
-  void OnModel(const lcm::ReceiveBuffer*, const std::string& channel,
-               const rocklab::model_state_t*) {
-    channels.push_back(channel);
-  }
-  void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const rocklab::event_t* m) {
-    if (m->kind == rocklab::event_t::IMPACT) ++impacts;
-  }
-  std::vector<std::string> channels;
-  int impacts{};
-};
-
 // Oracle: the channel contract RL_MODEL_<name>, one message per table
 // sample per variant, and an RL_EVENT per impact the model counts.
 TEST(ModelNode, PublishesEveryVariantAndItsImpacts) {
-  lcm::LCM lcm("memq://");
-  ASSERT_TRUE(lcm.good());
-  Tap tap;
-  lcm.subscribe("RL_MODEL_.*", &Tap::OnModel, &tap);
-  lcm.subscribe("RL_EVENT", &Tap::OnEvent, &tap);
+  common::LcmBus bus("memq://");
+  std::vector<std::string> channels;
+  int impacts = 0;
+  bus.Subscribe<rocklab::model_state_t>(
+      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state_t&) {
+        channels.push_back(channel);
+      });
+  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& m) {
+    if (m.kind == rocklab::event_t::IMPACT) ++impacts;
+  });
   ModelNodeConfig cfg = Config("fit:housner:alpha=0.235,p=3.884,mu=0.937");
   cfg.variants.push_back(ParseVariant("theory:complex:theoretical", BlockParams{0.242, 3.780, 0.914}));
-  ModelNode node(cfg, &lcm);
+  ModelNode node(cfg, bus);
   node.HandleTheta(Theta(0, 0.1));
   for (int k = 0; k < 1000; ++k) {
     node.HandleTable(Table(2000 * k, 0.0));
-    while (lcm.handleTimeout(0) > 0) {
+    while (bus.HandleTimeout(0) > 0) {
     }
   }
-  ASSERT_EQ(tap.channels.size(), 2000u);
-  EXPECT_EQ(tap.channels[0], "RL_MODEL_fit");
-  EXPECT_EQ(tap.channels[1], "RL_MODEL_theory");
-  EXPECT_EQ(tap.impacts, node.latest(0).impact_count + node.latest(1).impact_count);
-  EXPECT_GT(tap.impacts, 0);
+  ASSERT_EQ(channels.size(), 2000u);
+  EXPECT_EQ(channels[0], "RL_MODEL_fit");
+  EXPECT_EQ(channels[1], "RL_MODEL_theory");
+  EXPECT_EQ(impacts, node.latest(0).impact_count + node.latest(1).impact_count);
+  EXPECT_GT(impacts, 0);
 }
 
 // Oracle: the documented syntax NAME:MODEL:PARAMS and its errors.
@@ -175,7 +208,8 @@ TEST(ModelNode, VariantSyntax) {
   fails_naming("a:housner:missing.json", "missing.json");
   ModelNodeConfig twice = Config("x:housner:theoretical");
   twice.variants.push_back(twice.variants[0]);
-  EXPECT_THROW(ModelNode(twice, nullptr), std::invalid_argument);
+  DirectBus bus;
+  EXPECT_THROW(ModelNode(twice, bus), std::invalid_argument);
 }
 
 }  // namespace

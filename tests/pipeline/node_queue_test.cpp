@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/bus.h"
 #include "compare/compare_node.h"
 #include "model/model_node.h"
 #include "rocklab/block_state_t.hpp"
@@ -41,11 +42,11 @@ enum class StopBy { kMarker, kStopWhileQueued };
 
 class Burst {
  public:
-  Burst(lcm::LCM& node_lcm, std::string channel,
+  Burst(common::Bus& node_bus, std::string channel,
         std::function<void(lcm::LCM&, int)> publish_one, StopBy stop_by = StopBy::kMarker)
       : channel_(std::move(channel)), publish_one_(std::move(publish_one)), stop_by_(stop_by) {
-    node_lcm.subscribe("RL_HEALTH", &Burst::OnHealth, this);
-    node_lcm.subscribe("TEST_DONE", &Burst::OnDone, this);
+    node_bus.SubscribeRaw("RL_HEALTH", [this](const std::string&, const void*, int) { OnHealth(); });
+    node_bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; });
     lcm::Subscription* s = probe_.subscribe(channel_, &Burst::OnProbe, this);
     s->setQueueCapacity(kBurst + 100);
   }
@@ -53,7 +54,7 @@ class Burst {
   int probed() const { return probed_; }
 
  private:
-  void OnHealth(const lcm::ReceiveBuffer*, const std::string&, const rocklab::health_t*) {
+  void OnHealth() {
     if (sent_) return;
     sent_ = true;
     for (int k = 0; k < kBurst; ++k) {
@@ -70,7 +71,6 @@ class Burst {
     }
     publisher_.publish("TEST_DONE", "done", 4);
   }
-  void OnDone(const lcm::ReceiveBuffer*, const std::string&) { stop_ = true; }
   void OnProbe(const lcm::ReceiveBuffer*, const std::string&) { ++probed_; }
 
   std::string channel_;
@@ -117,27 +117,26 @@ class NodeQueue : public ::testing::Test {
   void SetUp() override {
     const std::string why = test::EnterPrivateNetwork();
     if (!why.empty()) GTEST_SKIP() << why;
-    lcm_ = std::make_unique<lcm::LCM>(std::string(test::kUdpmUrl) + "&recv_buf_size=4194304");
-    ASSERT_TRUE(lcm_->good());
+    bus_ = std::make_unique<common::LcmBus>(std::string(test::kUdpmUrl) + "&recv_buf_size=4194304");
   }
-  std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<common::LcmBus> bus_;
 };
 
 TEST_F(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
-  model::ModelNode node(OneHousnerVariant(), lcm_.get());
-  Burst burst(*lcm_, "RL_TABLE", &PublishRestThenTable);
-  node.Run(*lcm_, burst.stop());
+  model::ModelNode node(OneHousnerVariant(), *bus_);
+  Burst burst(*bus_, "RL_TABLE", &PublishRestThenTable);
+  node.Run(burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.table_count(), kBurst);
   EXPECT_EQ(node.failures(), 0);
 }
 
 TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBusy) {
-  compare::CompareNode node(compare::CompareNodeConfig{}, lcm_.get());
-  Burst burst(*lcm_, "RL_THETA", [](lcm::LCM& out, int k) {
+  compare::CompareNode node(compare::CompareNodeConfig{}, *bus_);
+  Burst burst(*bus_, "RL_THETA", [](lcm::LCM& out, int k) {
     PublishSample<rocklab::block_state_t>(out, "RL_THETA", k);
   });
-  node.Run(*lcm_, burst.stop());
+  node.Run(burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.theta_count(), kBurst);
 }
@@ -146,22 +145,22 @@ TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBus
 // still handled, so the final health and summary cover it. Oracle: the
 // node's input counter equals the burst.
 TEST_F(NodeQueue, ModelNodeStoppedWithABurstQueuedHandlesItBeforeFinishing) {
-  model::ModelNode node(OneHousnerVariant(), lcm_.get());
+  model::ModelNode node(OneHousnerVariant(), *bus_);
   Burst burst(
-      *lcm_, "RL_TABLE",
+      *bus_, "RL_TABLE",
       &PublishRestThenTable, StopBy::kStopWhileQueued);
-  node.Run(*lcm_, burst.stop());
+  node.Run(burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.table_count(), kBurst);
 }
 
 TEST_F(NodeQueue, CompareNodeStoppedWithABurstQueuedComparesItBeforeFinishing) {
-  compare::CompareNode node(compare::CompareNodeConfig{}, lcm_.get());
+  compare::CompareNode node(compare::CompareNodeConfig{}, *bus_);
   Burst burst(
-      *lcm_, "RL_THETA",
+      *bus_, "RL_THETA",
       [](lcm::LCM& out, int k) { PublishSample<rocklab::block_state_t>(out, "RL_THETA", k); },
       StopBy::kStopWhileQueued);
-  node.Run(*lcm_, burst.stop());
+  node.Run(burst.stop());
   EXPECT_EQ(burst.probed(), kBurst);
   EXPECT_EQ(node.theta_count(), kBurst);
 }

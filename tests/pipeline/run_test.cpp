@@ -16,6 +16,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 
+#include "rocklab/block_state_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "tests/tools/run_cli.h"
 
@@ -140,6 +141,40 @@ TEST(RocklabRun, ModelAndComparePayloadsAreTheSameAtEverySpeed) {
           << "run " << i << " message " << k << " on " << runs[0][k].first;
     }
   }
+}
+
+// Issue 11: the demo's log has stamps that never go back (the newest
+// sample-clock utime so far), every payload keeps its own utime, and
+// `rocklab replay` publishes every event of it. Oracle: the events counted
+// in the file by liblcm's own reader.
+TEST(RocklabRun, LogStampsNeverGoBackAndReplayPublishesEveryEvent) {
+  const std::string dir = test::ScratchDir("run_log_order");
+  const std::string log = dir + "/demo.lcm";
+  const test::CliResult r =
+      test::RunCli({"run", "--rig", kBlock1Rig, "--input", kFig7, "--max", "--log", log});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  lcm::LogFile in(log, "r");
+  ASSERT_TRUE(in.good());
+  std::int64_t events = 0, back = 0, previous = INT64_MIN, utime_behind_stamp = 0;
+  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    ++events;
+    back += ev->timestamp < previous;
+    previous = ev->timestamp;
+    if (ev->channel == "RL_THETA") {
+      rocklab::block_state_t m;
+      ASSERT_GE(m.decode(ev->data, 0, ev->datalen), 0);
+      EXPECT_LE(m.utime, ev->timestamp);
+      utime_behind_stamp += m.utime < ev->timestamp;
+    }
+  }
+  EXPECT_GT(events, 30000);  // 7 s at 1 kHz: RL_RAW, RL_THETA, RL_TABLE, two RL_MODEL_*, ...
+  EXPECT_EQ(back, 0);
+  const test::CliResult replay = test::RunCli({"replay", log, "--max", "--lcm-url", "memq://"});
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  EXPECT_NE(replay.err.find("replayed " + std::to_string(events) + " events (" +
+                            std::to_string(events) + " read"),
+            std::string::npos)
+      << replay.err;
 }
 
 // SIGTERM to a paced run: exit 0 after the shutdown order of cmd_run.cpp.

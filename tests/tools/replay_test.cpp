@@ -1,13 +1,18 @@
 // Log replay: payloads byte for byte and in order, channel filter, time
 // window, loop, pacing, and errors naming the file; `replay --rig --input`:
 // a raw file through the DAQ stage, and the usage errors of the two forms.
-#include "tools/log_replay.h"
+#include "pipeline/log_replay.h"
 
 #include <signal.h>
 
 #include <gtest/gtest.h>
 
+#include <lcm/lcm-cpp.hpp>
+
 #include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -16,7 +21,7 @@
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
 namespace {
 
 // A log of 30 events, 10 ms apart, cycling over three channels; payload k
@@ -38,22 +43,15 @@ std::string WriteLog(const std::string& name) {
   return path;
 }
 
-struct Catch {
-  void On(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    got.push_back(channel + ":" + std::string(static_cast<const char*>(rbuf->data), rbuf->data_size));
-  }
-  std::vector<std::string> got;
-};
-
 std::vector<std::string> Play(const std::string& path, const ReplayOptions& o, ReplayCounts* counts) {
-  lcm::LCM lcm("memq://");
-  Catch c;
-  lcm.subscribe(".*", &Catch::On, &c);
+  common::DirectBus bus;
+  std::vector<std::string> got;
+  bus.SubscribeRaw(".*", [&got](const std::string& channel, const void* data, int size) {
+    got.push_back(channel + ":" + std::string(static_cast<const char*>(data), size));
+  });
   std::atomic<bool> stop{false};
-  *counts = ReplayLog(path, o, lcm, stop);
-  while (lcm.handleTimeout(0) > 0) {
-  }
-  return c.got;
+  *counts = ReplayLog(path, o, bus, stop);
+  return got;
 }
 
 // Oracle: the log as written: every event, in order, payload unchanged.
@@ -94,7 +92,7 @@ TEST(Replay, LoopPlaysAgainUntilStopped) {
   o.max_speed = true;
   o.loop = true;
   o.end_s = 0.045;  // events 0..4
-  lcm::LCM lcm("memq://");
+  common::DirectBus lcm;
   std::atomic<bool> stop{false};
   std::thread stopper([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -132,6 +130,127 @@ TEST(Replay, BadInputsNameTheProblem) {
   const test::CliResult speed = test::RunCli({"replay", WriteLog("s.lcm"), "--speed", "0"});
   EXPECT_EQ(speed.exit_code, 2);
   EXPECT_NE(speed.err.find("--speed"), std::string::npos) << speed.err;
+}
+
+// A log as `rocklab run --log` wrote them before its stamps kept in order:
+// RL_HEALTH "starting" stamped 0, the one start-of-test RL_DAQ_CONFIG, then
+// 5 s of 1 kHz RL_RAW (sample k stamped k ms), each followed by the RL_THETA
+// of 45 samples earlier (the differentiators' delay): the stamps go back
+// after every RL_RAW. Payloads are the sample number as text.
+std::string WriteDemoLikeLog(const std::string& name, int samples = 5000) {
+  const std::string path = test::ScratchDir("replay") + "/" + name;
+  lcm::LogFile log(path, "w");
+  std::int64_t number = 0;
+  auto put = [&](const char* channel, std::int64_t stamp, const std::string& payload) {
+    lcm::LogEvent ev{};
+    ev.eventnum = number++;
+    ev.timestamp = stamp;
+    ev.channel = channel;
+    ev.datalen = static_cast<std::int32_t>(payload.size());
+    ev.data = const_cast<char*>(payload.data());
+    log.writeEvent(&ev);
+  };
+  put("RL_HEALTH", 0, "starting");
+  put("RL_DAQ_CONFIG", 0, "config");
+  for (int k = 0; k < samples; ++k) {
+    put("RL_RAW", 1000LL * k, std::to_string(k));
+    if (k >= 45) put("RL_THETA", 1000LL * (k - 45), std::to_string(k - 45));
+  }
+  return path;
+}
+
+// Oracle: the count of events written (2 + 5000 + 4955): every one is
+// published, the start-of-test RL_DAQ_CONFIG first among the data.
+TEST(Replay, EveryEventOfALogWhoseStampsGoBack) {
+  ReplayOptions o;
+  o.max_speed = true;
+  common::DirectBus lcm;
+  std::atomic<bool> stop{false};
+  const ReplayCounts n = ReplayLog(WriteDemoLikeLog("demo_like.lcm"), o, lcm, stop);
+  EXPECT_EQ(n.published, 2 + 5000 + 4955);
+  EXPECT_EQ(n.per_channel.at("RL_DAQ_CONFIG"), 1);
+  EXPECT_EQ(n.per_channel.at("RL_HEALTH"), 1);
+  EXPECT_EQ(n.per_channel.at("RL_RAW"), 5000);
+  EXPECT_EQ(n.damaged_regions, 0);
+}
+
+// Oracle: the window [2 s, 3 s] holds RL_RAW 2000 to 3000, both ends
+// included: 1001 of them, and RL_THETA of the same stamps (also 1001).
+TEST(Replay, WindowReturnsEveryRawFrameOfIt) {
+  ReplayOptions o;
+  o.max_speed = true;
+  o.start_s = 2;
+  o.end_s = 3;
+  common::DirectBus lcm;
+  std::atomic<bool> stop{false};
+  const ReplayCounts n = ReplayLog(WriteDemoLikeLog("window_2_3.lcm"), o, lcm, stop);
+  EXPECT_EQ(n.per_channel.at("RL_RAW"), 1001);
+  EXPECT_EQ(n.per_channel.at("RL_THETA"), 1001);
+  EXPECT_EQ(n.published, 2002);
+}
+
+// Oracle: every pass plays the whole log again, so each publishes the
+// start-of-test RL_DAQ_CONFIG (the last, stopped pass may not reach it).
+TEST(Replay, EveryLoopPassPublishesTheStartOfTestConfig) {
+  ReplayOptions o;
+  o.max_speed = true;
+  o.loop = true;
+  common::DirectBus lcm;
+  std::atomic<bool> stop{false};
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    stop.store(true);
+  });
+  const ReplayCounts n = ReplayLog(WriteDemoLikeLog("loop_config.lcm", 200), o, lcm, stop);
+  stopper.join();
+  ASSERT_GE(n.passes, 3);
+  EXPECT_GE(n.per_channel.at("RL_DAQ_CONFIG"), n.passes - 1);
+  EXPECT_LE(n.per_channel.at("RL_DAQ_CONFIG"), n.passes);
+  EXPECT_GE(n.published, static_cast<std::int64_t>(n.passes - 1) * (2 + 200 + 155));
+}
+
+// Oracle: one flipped sync bit (event 20's first byte) and a tail cut 10
+// bytes into the last event lose exactly those two events; both regions
+// are reported with their offsets, and the CLI exits 1 after publishing the
+// rest.
+TEST(Replay, FlippedSyncBitAndCutTailAreReportedAndTheRestPublished) {
+  const std::string path = WriteLog("damaged.lcm");
+  // Every event of WriteLog: 28-byte header, channel, 4-byte payload.
+  std::int64_t offset20 = 0, offset29 = 0, at = 0;
+  const char* channels[] = {"RL_THETA", "RL_TABLE", "OTHER"};
+  for (int k = 0; k < 30; ++k) {
+    if (k == 20) offset20 = at;
+    if (k == 29) offset29 = at;
+    at += 28 + static_cast<std::int64_t>(std::strlen(channels[k % 3])) + 4;
+  }
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(offset20);
+    f.put(static_cast<char>(0xED ^ 0x01));
+  }
+  std::filesystem::resize_file(path, static_cast<std::uintmax_t>(offset29 + 10));
+  ReplayOptions o;
+  o.max_speed = true;
+  common::DirectBus lcm;
+  std::atomic<bool> stop{false};
+  std::vector<std::string> problems;
+  const ReplayCounts n =
+      ReplayLog(path, o, lcm, stop, [&](const std::string& p) { problems.push_back(p); });
+  EXPECT_EQ(n.published, 28);
+  EXPECT_EQ(n.damaged_regions, 2);
+  EXPECT_EQ(n.damaged_events, 2);
+  ASSERT_EQ(problems.size(), 2u);
+  EXPECT_NE(problems[0].find("damaged region at byte offset " + std::to_string(offset20)),
+            std::string::npos) << problems[0];
+  EXPECT_NE(problems[1].find("damaged region at byte offset " + std::to_string(offset29)),
+            std::string::npos) << problems[1];
+
+  const test::CliResult r = test::RunCli({"replay", path, "--max", "--lcm-url", "memq://"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("damaged region at byte offset " + std::to_string(offset20)),
+            std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("replayed 28 events"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2 regions skipped"), std::string::npos) << r.err;
 }
 
 const std::string kLabRig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
@@ -231,4 +350,4 @@ TEST(ReplayRaw, PublishesWhatTheDaqStageOfRunPublishes) {
 }
 
 }  // namespace
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

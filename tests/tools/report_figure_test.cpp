@@ -2,7 +2,7 @@
 // Oracles: the curves and captions handed in (read back from the SVG with an
 // XML parser), the PNG format's signature and IHDR size, and the documented
 // failure messages.
-#include "tools/report_figure.h"
+#include "report/report_figure.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "tests/tools/figure_probe.h"
 #include "tests/tools/run_cli.h"
 
-namespace rocklab::tools {
+namespace rocklab::report {
 namespace {
 
 // A damped rocking-like curve with n samples at 100 Hz.
@@ -149,4 +149,4 @@ TEST(ReportFigure, BadCurvesAndSizesAreRefused) {
 }
 
 }  // namespace
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

@@ -3,16 +3,21 @@
 /// Re-publishes a recorded LCM log, paced by the log's event timestamps at a
 /// speed factor or as fast as possible, with a channel filter, a time window
 /// and looping (what lcm-logplayer lacks). Payloads go out byte for byte, so
-/// what downstream nodes compute does not depend on the speed.
+/// what downstream nodes compute does not depend on the speed. The log is
+/// read in file order by common::LogReader: every event of the window is
+/// published, also in logs whose stamps go back (an event stamped before an
+/// earlier one goes out at once); damaged regions are skipped, counted and
+/// reported with their file offsets.
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 
-#include <lcm/lcm-cpp.hpp>
+#include "common/bus.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
 
 struct ReplayOptions {
   double speed{1.0};          ///< 1 = recorded pace; > 0
@@ -31,13 +36,18 @@ struct ReplayCounts {
   std::int64_t filtered{};   ///< events left out by the channel filter
   std::int64_t failed{};     ///< publish calls that failed
   int passes{};              ///< times the window was played
+  std::int64_t damaged_regions{};  ///< damaged regions skipped (each counted once)
+  std::int64_t damaged_bytes{};    ///< bytes in them
+  std::int64_t damaged_events{};   ///< events lost in them
   std::map<std::string, std::int64_t> per_channel;  ///< published, per channel
 };
 
-/// Plays `log_path` into `lcm` until the window ends (or forever with loop)
-/// or `stop` is set.
+/// Plays `log_path` onto `bus` until the window ends (or forever with loop)
+/// or `stop` is set. Each damaged region goes to `on_problem` (once) as
+/// common::ToString(LogProblem) text; empty: counted only.
 /// @throws std::runtime_error naming the file when it cannot be read.
-ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& options, lcm::LCM& lcm,
-                       const std::atomic<bool>& stop);
+ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& options, common::Bus& bus,
+                       const std::atomic<bool>& stop,
+                       const std::function<void(const std::string&)>& on_problem = {});
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

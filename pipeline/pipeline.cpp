@@ -1,19 +1,26 @@
-#include "tools/pipeline.h"
+#include "pipeline/pipeline.h"
 
 #include <cmath>
 #include <cstdio>
 #include <memory>
 
 #include "model/block.h"
-#include "tools/cli.h"
 
-namespace rocklab::tools {
+namespace rocklab::pipeline {
+
+std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url) {
+  try {
+    return std::make_unique<common::LcmBus>(url);
+  } catch (const std::runtime_error&) {
+    throw OptionError("--lcm-url: cannot open LCM at '" + url + "'");
+  }
+}
 
 daq::RigConfig LoadRig(const std::string& path) {
   try {
     return daq::LoadRigConfig(path);
   } catch (const std::exception& e) {
-    throw UsageError(std::string("--rig: ") + e.what());
+    throw OptionError(std::string("--rig: ") + e.what());
   }
 }
 
@@ -33,17 +40,27 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
   return config;
 }
 
-int RunDaqStage(const DaqStageOptions& o, const char* what) {
+int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
+  if (s.damaged_regions == 0) return 0;
+  std::fprintf(stderr,
+               "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the rest "
+               "was read\n",
+               what, input.c_str(), static_cast<long long>(s.damaged_regions),
+               s.damaged_regions == 1 ? "" : "s", static_cast<long long>(s.damaged_bytes),
+               static_cast<long long>(s.damaged_events));
+  return 1;  // the command failed (tools::kFailureExit)
+}
+
+int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {
   Require(std::isfinite(o.speed) && o.speed > 0, "--speed", "> 0", o.speed);
   daq::DaqNodeConfig config = DaqConfigFor(LoadRig(o.rig_path), o.input, o.max_speed ? 0.0 : o.speed);
-  config.lcm_url = o.lcm_url;
   config.prefix = o.prefix;
-  const std::atomic<bool>& stop = InstallStopSignals();
+  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(o.lcm_url);
   std::unique_ptr<daq::DaqNode> node;
   try {
-    node = std::make_unique<daq::DaqNode>(config);
+    node = std::make_unique<daq::DaqNode>(config, *bus);
   } catch (const std::exception& e) {
-    throw UsageError(e.what());  // names the input file (and line) or the LCM URL
+    throw OptionError(e.what());  // names the input file (and line) or the LCM URL
   }
   node->Run(stop);
   const daq::DaqNodeStats& s = node->stats();
@@ -54,7 +71,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what) {
                static_cast<long long>(s.publish_errors), static_cast<long long>(s.gaps),
                static_cast<long long>(s.missing), static_cast<long long>(s.bad_samples),
                s.stopped_early ? ", stopped by signal" : "");
-  return 0;
+  return ReportDamage(s, o.input, what);
 }
 
 std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,
@@ -67,25 +84,17 @@ std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& te
     try {
       out.push_back(model::ParseVariant(s, theory));
     } catch (const std::invalid_argument& e) {
-      throw UsageError(std::string("--variant: ") + e.what());
+      throw OptionError(std::string("--variant: ") + e.what());
     }
   }
   for (std::size_t i = 0; i < out.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
       if (out[i].name == out[j].name) {
-        throw UsageError("--variant: name '" + out[i].name + "' used twice");
+        throw OptionError("--variant: name '" + out[i].name + "' used twice");
       }
     }
   }
   return out;
-}
-
-void AddCompareOptions(CLI::App& cmd, compare::CompareNodeConfig& c) {
-  cmd.add_option("--compare-rate", c.publish_rate_hz, "RL_COMPARE_* rate, sample-clock Hz")
-      ->capture_default_str();
-  cmd.add_option("--window", c.comparator.window_s, "sliding RMS window, s")->capture_default_str();
-  cmd.add_option("--stale", c.stale_after_s, "seconds without input before a stale event")
-      ->capture_default_str();
 }
 
 void ValidateCompareOptions(const compare::CompareNodeConfig& c) {
@@ -97,4 +106,4 @@ void ValidateCompareOptions(const compare::CompareNodeConfig& c) {
           c.stale_after_s);
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

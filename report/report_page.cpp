@@ -9,9 +9,9 @@
 #include <string_view>
 
 #include "monitor/assets.h"
-#include "tools/report.h"
+#include "report/report.h"
 
-namespace rocklab::tools {
+namespace rocklab::report {
 namespace {
 
 const monitor::Asset& Asset(const std::string& reference) {
@@ -105,4 +105,4 @@ std::string ReportPage(const RecordReport& record) {
   return html;
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

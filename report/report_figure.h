@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace rocklab::tools {
+namespace rocklab::report {
 
 /// gnuplot could not be started, failed, or wrote no file. The message is
 /// one line naming the output file and gnuplot's own complaint.
@@ -63,4 +63,4 @@ class ThetaFigure {
   std::string gnuplot_{"gnuplot"};
 };
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

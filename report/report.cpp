@@ -1,4 +1,4 @@
-#include "tools/report.h"
+#include "report/report.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -10,12 +10,14 @@
 #include <fstream>
 #include <limits>
 
-#include <lcm/lcm-cpp.hpp>
+#include <memory>
+
+#include "common/lcm_log.h"
 
 #include "monitor/live_state.h"
 #include "rocklab/table_state_t.hpp"
 
-namespace rocklab::tools {
+namespace rocklab::report {
 namespace {
 
 using nlohmann::json;
@@ -78,27 +80,25 @@ void TablePeaks::Add(const rocklab::table_state_t& m) {
 }
 
 RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& options) {
-  if (std::filesystem::is_directory(log_path)) {
-    throw ReportInputError("cannot read LCM log '" + log_path + "': it is a folder");
+  RecordReport r;
+  r.log_path = log_path;
+  common::LogReaderOptions read;
+  read.on_problem = [&r](const common::LogProblem& p) { r.problems.push_back(ToString(p)); };
+  std::unique_ptr<common::LogReader> log;
+  try {
+    log = std::make_unique<common::LogReader>(log_path, read);
+  } catch (const std::runtime_error& e) {
+    throw ReportInputError(e.what());
   }
-  {
-    std::ifstream probe(log_path, std::ios::binary);
-    if (!probe) {
-      throw ReportInputError("cannot read LCM log '" + log_path + "': " + std::strerror(errno));
-    }
-  }
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) throw ReportInputError("cannot read LCM log '" + log_path + "'");
 
   // LiveState keeps events and flag intervals in rings sized up front: a
   // first pass counts RL_EVENT so the page lists every one of them (flag and
   // stale intervals open and close with events, so the same bound holds).
   std::size_t event_count = 0;
-  {
-    const std::string event_channel = options.channel_prefix + "EVENT";
-    lcm::LogFile scan(log_path, "r");
-    while (const lcm::LogEvent* ev = scan.readNextEvent()) event_count += ev->channel == event_channel;
-  }
+  common::LogEvent ev;
+  const std::string event_channel = options.channel_prefix + "EVENT";
+  while (log->Next(ev)) event_count += ev.channel == event_channel;
+  log->Rewind();
   monitor::LiveOptions live_options;
   live_options.window_s = std::numeric_limits<double>::infinity();  // the whole record
   live_options.series_rate_hz = options.series_rate_hz;
@@ -107,20 +107,22 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
   live_options.max_intervals = std::max(live_options.max_intervals, event_count);
   monitor::LiveState live(live_options);
 
-  RecordReport r;
-  r.log_path = log_path;
   const std::string table_channel = options.channel_prefix + "TABLE";
   rocklab::table_state_t table{};  // decoding buffer, reused
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+  while (log->Next(ev)) {
     ++r.events;
-    live.Ingest(ev->channel, ev->data, ev->datalen);  // counts every channel
-    if (ev->channel != table_channel) continue;
-    if (table.decode(ev->data, 0, ev->datalen) < 0) {
+    const int size = static_cast<int>(ev.data.size());
+    live.Ingest(ev.channel, ev.data.data(), size);  // counts every channel
+    if (ev.channel != table_channel) continue;
+    if (table.decode(ev.data.data(), 0, size) < 0) {
       ++r.table.decode_errors;
     } else {
       r.table.Add(table);
     }
   }
+  r.damaged_regions = log->counts().damaged_regions;
+  r.damaged_bytes = log->counts().damaged_bytes;
+  r.damaged_events = log->counts().damaged_events;
   if (r.events == 0) {
     throw ReportInputError("'" + log_path + "' is not an LCM log (no LCM event in it)");
   }
@@ -191,4 +193,4 @@ ThetaFigure ReportFigure(const RecordReport& record) {
   return figure;
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

@@ -15,13 +15,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tools/report_figure.h"
+#include "report/report_figure.h"
 
 namespace rocklab {
 class table_state_t;
 }
 
-namespace rocklab::tools {
+namespace rocklab::report {
 
 /// The log cannot be reported: unreadable, not an LCM log, or no RL_THETA.
 /// The message is one line naming the file.
@@ -51,10 +51,15 @@ struct RecordReport {
   TablePeaks table;
   std::int64_t events{};       ///< LCM events read
   std::int64_t decode_errors{};///< events of known channels that did not decode (all channels)
+  std::int64_t damaged_regions{};  ///< damaged regions of the log skipped
+  std::int64_t damaged_bytes{};    ///< bytes in them
+  std::int64_t damaged_events{};   ///< events lost in them
+  std::vector<std::string> problems;  ///< one line per damaged region, with its file offset
 };
 
 /// Reads the whole log, streaming: memory grows with the decimated series
-/// only, never with the number of events.
+/// only, never with the number of events. Damaged regions are skipped and
+/// listed in `problems` (the rest is read).
 /// @throws ReportInputError naming the file when it cannot be read, holds no
 ///   LCM event, or has no RL_THETA message.
 RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& options = {});
@@ -73,4 +78,4 @@ ThetaFigure ReportFigure(const RecordReport& record);
 /// @throws std::runtime_error when a monitor asset is missing from the build.
 std::string ReportPage(const RecordReport& record);
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

@@ -1,4 +1,4 @@
-#include "tools/report_figure.h"
+#include "report/report_figure.h"
 
 #include <fcntl.h>
 #include <pthread.h>
@@ -17,7 +17,7 @@
 
 extern char** environ;
 
-namespace rocklab::tools {
+namespace rocklab::report {
 namespace {
 
 // Text inside a gnuplot single-quoted string: '' is a quote, nothing else is
@@ -297,4 +297,4 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
   return Warnings(err);
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::report

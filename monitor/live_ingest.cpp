@@ -1,0 +1,141 @@
+// LiveState: one LCM message into the state (decoded with the reused
+// buffers, bounded, counted).
+#include "monitor/live_state_impl.h"
+
+namespace rocklab::monitor {
+
+bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int size) {
+  ++seq;
+  ChannelCount* count = CountFor(channel);
+  if (count) ++count->messages;
+  if (!StartsWith(channel, options.channel_prefix)) return false;
+  const std::string_view kind = channel.substr(options.channel_prefix.size());
+  bool known = true;
+  bool ok = false;
+  try {
+    if (kind == "THETA") {
+      ok = IngestTheta(data, size);
+    } else if (StartsWith(kind, "MODEL_") && kind.size() > 6) {
+      ok = IngestModel(kind.substr(6), data, size);
+    } else if (StartsWith(kind, "COMPARE_") && kind.size() > 8) {
+      ok = IngestCompare(kind.substr(8), data, size);
+    } else if (kind == "EVENT") {
+      ok = IngestEvent(data, size);
+    } else if (kind == "HEALTH") {
+      ok = IngestHealth(data, size);
+    } else if (kind == "DAQ_CONFIG") {
+      ok = IngestConfig(data, size);
+    } else {
+      known = false;
+    }
+  } catch (const std::exception&) {
+    ok = false;  // a generated decoder refusing a length: a decode error like any other
+  }
+  if (known && !ok && count) ++count->decode_errors;
+  return known && ok;
+}
+
+bool LiveState::Impl::IngestTheta(const void* data, int size) {
+  if (!DecodeSample(theta_msg, data, size)) return false;
+  const rocklab::block_state_t& m = theta_msg;
+  AddPoint(measured, m.utime, m.theta * kDegPerRad, 0.0);
+  for (std::size_t i = 0; i < kFlagBits.size(); ++i) {
+    const bool raised = (m.flags & kFlagBits[i].bit) != 0;
+    if (raised && open_flags[i] == 0) {
+      open_flags[i] = OpenInterval(static_cast<std::int8_t>(i), "daq", m.utime);
+    } else if (!raised && open_flags[i] != 0) {
+      CloseInterval(open_flags[i], m.utime);
+      open_flags[i] = 0;
+    }
+  }
+  return true;
+}
+
+bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int size) {
+  if (!DecodeSample(model_msg, data, size)) return false;
+  Variant* v = VariantFor(name);
+  if (!v) return true;  // counted in dropped.variants
+  v->has_params = true;
+  v->params = model_msg;  // copies reuse the strings' capacity
+  AddPoint(v->theta, model_msg.utime, model_msg.theta * kDegPerRad, 0.0);
+  return true;
+}
+
+bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int size) {
+  if (!DecodeSample(compare_msg, data, size)) return false;
+  Variant* v = VariantFor(name);
+  if (!v) return true;
+  const rocklab::comparison_t& m = compare_msg;
+  AddPoint(v->comparison, m.utime, m.error * kDegPerRad, m.rms_window * kDegPerRad);
+  v->has_latest = true;
+  v->latest = m;
+  return true;
+}
+
+bool LiveState::Impl::IngestEvent(const void* data, int size) {
+  if (event_msg.decode(data, 0, size) < 0) return false;
+  const rocklab::event_t& m = event_msg;
+  if (!has_clock) {
+    has_clock = true;
+    t0_utime = latest_utime = m.utime;
+  }
+  latest_utime = std::max(latest_utime, m.utime);
+  // Filled in place, then copied into the ring's slot: the copy reuses the
+  // slot's string capacity once the ring has gone round.
+  Event& e = event_scratch;
+  e.seq = seq;
+  e.utime = m.utime;
+  AssignText(e.source, m.source);
+  e.kind = m.kind;
+  e.value = m.value;
+  AssignText(e.detail, m.detail);
+  if (!events.push_back(e)) ++dropped_events;
+
+  // Keyed by the stored (bounded) source text, as the interval holds it.
+  if (m.kind == rocklab::event_t::STALE && open_stale.find(e.source) == open_stale.end()) {
+    if (open_stale.size() < options.max_nodes) {
+      const std::uint64_t id = OpenInterval(kStaleFlag, m.source, m.utime);
+      open_stale.emplace(intervals[intervals.size() - 1].source, id);
+    } else {
+      ++dropped_intervals;
+    }
+  } else if (m.kind == rocklab::event_t::RECOVERED) {
+    // RECOVERED closes the source's stale interval when one is open (the DAQ
+    // also sends RECOVERED when a sliding/twist check passes again; those
+    // flags come from RL_THETA instead).
+    auto it = open_stale.find(e.source);
+    if (it != open_stale.end()) {
+      CloseInterval(it->second, m.utime);
+      open_stale.erase(it);
+    }
+  }
+  return true;
+}
+
+bool LiveState::Impl::IngestHealth(const void* data, int size) {
+  if (health_msg.decode(data, 0, size) < 0) return false;
+  auto it = health.find(health_msg.node);
+  if (it == health.end()) {
+    if (health.size() >= options.max_nodes) {
+      ++dropped_nodes;
+      return true;
+    }
+    it = health.emplace(health_msg.node, rocklab::health_t{}).first;
+  }
+  it->second = health_msg;
+  return true;
+}
+
+bool LiveState::Impl::IngestConfig(const void* data, int size) {
+  if (!DaqConfigCountFits(data, size) || config_msg.decode(data, 0, size) < 0) return false;
+  has_config = true;
+  AssignText(rig_name, config_msg.rig_name);
+  AssignText(calibration_id, config_msg.calibration_id);
+  sample_rate_hz = config_msg.sample_rate_hz;
+  alpha = config_msg.alpha;
+  p = config_msg.p;
+  mu = config_msg.mu;
+  return true;
+}
+
+}  // namespace rocklab::monitor

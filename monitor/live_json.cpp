@@ -1,0 +1,146 @@
+// LiveState: the state as the page's JSON (a full snapshot or what changed
+// since a cursor).
+#include "monitor/live_state_impl.h"
+
+namespace rocklab::monitor {
+
+json LiveState::Impl::Update(std::uint64_t cursor) const {
+  const bool full = cursor == 0 || cursor < record_start_seq;
+  const bool windowed = std::isfinite(options.window_s) && has_clock;
+  const std::int64_t from_utime =
+      windowed ? latest_utime - static_cast<std::int64_t>(std::llround(options.window_s * 1e6))
+               : std::numeric_limits<std::int64_t>::min();
+  auto first = [&](const Series& s) { return full ? s.FirstFrom(from_utime) : s.FirstAfter(cursor); };
+  auto number = [](double x) { return std::isfinite(x) ? json(x) : json(nullptr); };
+
+  // One series as {"t": [...], "<a_name>": [...] (, "<b_name>": [...])}.
+  auto series = [&](const Series& s, const char* a_name, const char* b_name) {
+    json t = json::array(), a = json::array(), b = json::array();
+    for (std::size_t i = first(s); i < s.size(); ++i) {
+      t.push_back(T(s[i].utime));
+      a.push_back(number(s[i].a));
+      if (b_name) b.push_back(number(s[i].b));
+    }
+    json out = {{"t", std::move(t)}, {a_name, std::move(a)}};
+    if (b_name) out[b_name] = std::move(b);
+    return out;
+  };
+
+  json doc;
+  doc["schema"] = "rocklab.monitor.v1";
+  doc["full"] = full;
+  doc["cursor"] = seq;
+  doc["record"] = record;
+  doc["t0_utime"] = has_clock ? json(t0_utime) : json(nullptr);
+  doc["t_latest"] = has_clock ? json(T(latest_utime)) : json(nullptr);
+  doc["window_s"] = number(options.window_s);
+  doc["series_rate_hz"] = options.series_rate_hz;
+  doc["measured"] = series(measured, "theta_deg", nullptr);
+
+  json variant_list = json::array();
+  for (const auto& v : variants) {
+    json j = {{"name", v->name}};
+    if (v->has_params) {
+      j["model"] = v->params.model;
+      j["alpha"] = number(v->params.alpha);
+      j["p"] = number(v->params.p);
+      j["mu"] = number(v->params.mu);
+      j["l"] = number(v->params.l);
+    } else {
+      for (const char* k : {"model", "alpha", "p", "mu", "l"}) j[k] = nullptr;
+    }
+    j["theta"] = series(v->theta, "theta_deg", nullptr);
+    j["comparison"] = series(v->comparison, "error_deg", "rms_window_deg");
+    if (v->has_latest) {
+      const rocklab::comparison_t& m = v->latest;
+      j["latest"] = {{"utime", m.utime},
+                     {"t", T(m.utime)},
+                     {"error", number(m.error)},
+                     {"rms_window", number(m.rms_window)},
+                     {"window_s", number(m.window_s)},
+                     {"rms_total", number(m.rms_total)},
+                     {"nrms", number(m.nrms)},
+                     {"peak_error", number(m.peak_error)},
+                     {"impact_timing_error", number(m.impact_timing_error)},
+                     {"correlation", number(m.correlation)},
+                     {"valid", m.valid != 0},
+                     {"samples", m.samples}};
+    } else {
+      j["latest"] = nullptr;
+    }
+    variant_list.push_back(std::move(j));
+  }
+  doc["variants"] = std::move(variant_list);
+
+  json flags = json::array();
+  for (std::size_t i = 0; i < intervals.size(); ++i) {
+    const Interval& iv = intervals[i];
+    const bool wanted = full ? (iv.open || iv.end >= from_utime) : iv.seq > cursor;
+    if (!wanted) continue;
+    flags.push_back({{"id", iv.id},
+                     {"flag", FlagName(iv.flag)},
+                     {"source", iv.source},
+                     {"start", T(iv.start)},
+                     {"end", iv.open ? json(nullptr) : json(T(iv.end))}});
+  }
+  doc["flags"] = std::move(flags);
+
+  json event_list = json::array();
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    const Event& e = events[i];
+    if (full ? e.utime < from_utime : e.seq <= cursor) continue;
+    event_list.push_back({{"t", T(e.utime)},
+                          {"utime", e.utime},
+                          {"source", e.source},
+                          {"kind", EventKindName(e.kind)},
+                          {"code", e.kind},
+                          {"value", number(e.value)},
+                          {"detail", e.detail}});
+  }
+  doc["events"] = std::move(event_list);
+
+  json health_list = json::array();
+  for (const auto& [node, h] : health) {
+    health_list.push_back({{"node", node}, {"state", h.state}, {"utime", h.utime},
+                           {"rate_in_hz", number(h.rate_in_hz)}, {"rate_out_hz", number(h.rate_out_hz)},
+                           {"count_in", h.count_in}, {"count_out", h.count_out},
+                           {"dropped", h.dropped}, {"gaps", h.gaps}, {"bad_samples", h.bad_samples},
+                           {"lag_s", number(h.lag_s)}});
+  }
+  doc["health"] = std::move(health_list);
+
+  doc["config"] = has_config ? json{{"rig_name", rig_name},
+                                    {"calibration_id", calibration_id},
+                                    {"sample_rate_hz", number(sample_rate_hz)},
+                                    {"alpha", number(alpha)},
+                                    {"p", number(p)},
+                                    {"mu", number(mu)}}
+                             : json(nullptr);
+
+  json messages = json::object(), decode_errors = json::object();
+  for (const auto& [channel, c] : channels) {
+    messages[channel] = c.messages;
+    decode_errors[channel] = c.decode_errors;
+  }
+  doc["counters"] = {{"messages", std::move(messages)},
+                     {"decode_errors", std::move(decode_errors)},
+                     {"dropped",
+                      {{"out_of_order", dropped_out_of_order},
+                       {"events", dropped_events},
+                       {"intervals", dropped_intervals},
+                       {"variants", dropped_variants},
+                       {"nodes", dropped_nodes},
+                       {"channels", dropped_channels}}}};
+  doc["units"] = {{"t", "s"}, {"t_latest", "s"}, {"t0_utime", "us"}, {"utime", "us"},
+                  {"window_s", "s"}, {"series_rate_hz", "Hz"}, {"theta_deg", "deg"},
+                  {"error_deg", "deg"}, {"rms_window_deg", "deg"}, {"error", "rad"},
+                  {"rms_window", "rad"}, {"rms_total", "rad"}, {"nrms", "1"},
+                  {"peak_error", "rad"}, {"impact_timing_error", "s"}, {"correlation", "1"},
+                  {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"},
+                  {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
+                  {"lag_s", "s"}, {"start", "s"}, {"end", "s"},
+                  {"value", "per event kind, see lcm_types/event.lcm"}};
+  return doc;
+}
+
+}  // namespace rocklab::monitor

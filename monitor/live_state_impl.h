@@ -1,0 +1,368 @@
+#pragma once
+// Private to monitor/live_state*.cpp: LiveState's state (LiveState::Impl) and
+// the helpers its three parts share. The parts: live_state.cpp (options,
+// the public calls and their lock), live_ingest.cpp (a message into the
+// state), live_json.cpp (the state as the page's JSON).
+
+#include "monitor/live_state.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "common/ring.h"
+#include "common/units.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/model_state_t.hpp"
+
+namespace rocklab::monitor {
+namespace live_detail {
+
+
+using nlohmann::json;
+using common::Ring;
+using common::kDegPerRad;
+constexpr std::size_t kGrowingInitialCapacity = 4096;
+constexpr std::size_t kMaxTextBytes = 256;  // event details and names are cut here
+
+inline bool StartsWith(std::string_view s, std::string_view prefix) {
+  return s.size() >= prefix.size() && s.substr(0, prefix.size()) == prefix;
+}
+
+// The block-state flags the page shows as bands, in this order.
+struct FlagBit {
+  std::int32_t bit;
+  const char* name;
+};
+constexpr std::array<FlagBit, 3> kFlagBits{{{rocklab::block_state_t::FLAG_SLIDING, "sliding"},
+                                            {rocklab::block_state_t::FLAG_JUMP, "jump"},
+                                            {rocklab::block_state_t::FLAG_TWIST, "twist"}}};
+constexpr std::int8_t kStaleFlag = static_cast<std::int8_t>(kFlagBits.size());  // index past the bits
+
+inline const char* FlagName(std::int8_t flag) {
+  return flag == kStaleFlag ? "stale" : kFlagBits[static_cast<std::size_t>(flag)].name;
+}
+
+inline const char* EventKindName(std::int8_t kind) {
+  switch (kind) {
+    case rocklab::event_t::UPLIFT: return "uplift";
+    case rocklab::event_t::IMPACT: return "impact";
+    case rocklab::event_t::REST: return "rest";
+    case rocklab::event_t::OVERTURN: return "overturn";
+    case rocklab::event_t::SLIDING: return "sliding";
+    case rocklab::event_t::TWIST: return "twist";
+    case rocklab::event_t::GAP: return "gap";
+    case rocklab::event_t::STALE: return "stale";
+    case rocklab::event_t::JUMP: return "jump";
+    case rocklab::event_t::OUT_OF_PLANE: return "out_of_plane";
+    case rocklab::event_t::DISAGREE: return "disagree";
+    case rocklab::event_t::RECOVERED: return "recovered";
+    case rocklab::event_t::BAD_SAMPLE: return "bad_sample";
+    default: return "unknown";
+  }
+}
+
+// Assigns at most kMaxTextBytes: a text field of a message cannot grow the state.
+inline void AssignText(std::string& to, const std::string& from) {
+  to.assign(from, 0, std::min(from.size(), kMaxTextBytes));
+}
+
+// daq_config_t holds num_channels-long arrays that its generated decoder
+// resizes before reading them: refuse a count the payload cannot hold.
+inline bool DaqConfigCountFits(const void* data, int size) {
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  long pos = 16;  // fingerprint, utime
+  auto int32_at = [&](long at, std::int32_t& out) {
+    if (at < 0 || at + 4 > size) return false;
+    out = static_cast<std::int32_t>((std::uint32_t{b[at]} << 24) | (std::uint32_t{b[at + 1]} << 16) |
+                                    (std::uint32_t{b[at + 2]} << 8) | std::uint32_t{b[at + 3]});
+    return true;
+  };
+  for (int text = 0; text < 2; ++text) {  // rig_name, calibration_id
+    std::int32_t len = 0;
+    if (!int32_at(pos, len) || len < 1) return false;
+    pos += 4 + len;
+  }
+  pos += 8;  // sample_rate_hz
+  std::int32_t n = 0;
+  if (!int32_at(pos, n) || n < 0) return false;
+  // Each channel takes at least three 5-byte strings and two doubles.
+  constexpr long kMinChannelBytes = 3 * 5 + 2 * 8;
+  return static_cast<long>(n) * kMinChannelBytes <= size - (pos + 4);
+}
+
+// One point of a series: two values at one sample-clock time.
+struct Point {
+  std::uint64_t seq{};   // LiveState change number when stored
+  std::int64_t utime{};  // sample clock, us
+  double a{};
+  double b{};
+};
+
+// A decimated time series in a ring: at most one point per 1/rate slot of
+// the sample clock (the first sample of the slot). A growing series (the
+// whole record) doubles its ring when full.
+class Series {
+ public:
+  Series(std::size_t capacity, bool grows) : ring_(capacity), grows_(grows) {}
+
+  enum class Outcome { kStored, kDecimated, kOutOfOrder };
+  Outcome Add(std::uint64_t seq, std::int64_t utime, std::int64_t t0, double period_us, double a,
+              double b) {
+    const auto slot = static_cast<std::int64_t>(std::floor(static_cast<double>(utime - t0) / period_us));
+    if (!ring_.empty()) {
+      if (utime <= ring_.back().utime) return Outcome::kOutOfOrder;
+      if (slot <= last_slot_) return Outcome::kDecimated;
+    }
+    if (grows_ && ring_.full()) Grow();
+    ring_.push_back(Point{seq, utime, a, b});
+    last_slot_ = slot;
+    return Outcome::kStored;
+  }
+
+  void Clear() {
+    while (!ring_.empty()) ring_.pop_front();
+  }
+
+  std::size_t size() const { return ring_.size(); }
+  const Point& operator[](std::size_t i) const { return ring_[i]; }
+
+  // Index of the first point to output: the first after `cursor` (an
+  // update), or the first at or after `from_utime` (a full answer).
+  std::size_t FirstAfter(std::uint64_t cursor) const {
+    std::size_t i = ring_.size();
+    while (i > 0 && ring_[i - 1].seq > cursor) --i;
+    return i;
+  }
+  std::size_t FirstFrom(std::int64_t from_utime) const {
+    std::size_t lo = 0, hi = ring_.size();
+    while (lo < hi) {
+      const std::size_t mid = (lo + hi) / 2;
+      if (ring_[mid].utime < from_utime) {
+        lo = mid + 1;
+      } else {
+        hi = mid;
+      }
+    }
+    return lo;
+  }
+
+ private:
+  void Grow() {
+    Ring<Point> bigger(ring_.capacity() * 2);
+    for (std::size_t i = 0; i < ring_.size(); ++i) bigger.push_back(ring_[i]);
+    ring_ = std::move(bigger);
+  }
+
+  Ring<Point> ring_;
+  bool grows_;
+  std::int64_t last_slot_{};
+};
+
+struct Interval {
+  std::uint64_t id{};
+  std::uint64_t seq{};  // change number of its opening or closing
+  std::int8_t flag{};   // index in kFlagBits, or kStaleFlag
+  std::string source;
+  std::int64_t start{}, end{};  // sample clock, us
+  bool open{};
+};
+
+struct Event {
+  std::uint64_t seq{};
+  std::int64_t utime{};
+  std::string source;
+  std::int8_t kind{};
+  double value{};
+  std::string detail;
+};
+
+struct ChannelCount {
+  std::int64_t messages{};
+  std::int64_t decode_errors{};
+};
+
+}  // namespace live_detail
+
+// The state's types by their short names in the three parts (a private header).
+using namespace live_detail;  // NOLINT(google-build-using-namespace)
+
+struct LiveState::Impl {
+  struct Variant {
+    Variant(std::string_view n, std::size_t capacity, bool grows)
+        : name(n), theta(capacity, grows), comparison(capacity, grows) {}
+    std::string name;
+    bool has_params{};
+    rocklab::model_state_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l
+    Series theta;       // a: theta, deg
+    Series comparison;  // a: error, deg; b: rms_window, deg
+    bool has_latest{};
+    rocklab::comparison_t latest;
+  };
+
+  explicit Impl(const LiveOptions& o)
+      : options(o),
+        grows(!std::isfinite(o.window_s)),
+        capacity(grows ? kGrowingInitialCapacity
+                       : static_cast<std::size_t>(std::ceil(o.window_s * o.series_rate_hz)) + 2),
+        period_us(1e6 / o.series_rate_hz),
+        measured(capacity, grows),
+        intervals(o.max_intervals),
+        events(o.max_events) {}
+
+  // -- ingestion ------------------------------------------------------------
+
+  bool Ingest(std::string_view channel, const void* data, int size);
+  bool IngestTheta(const void* data, int size);
+  bool IngestModel(std::string_view name, const void* data, int size);
+  bool IngestCompare(std::string_view name, const void* data, int size);
+  bool IngestEvent(const void* data, int size);
+  bool IngestHealth(const void* data, int size);
+  bool IngestConfig(const void* data, int size);
+
+  ChannelCount* CountFor(std::string_view channel) {
+    auto it = channels.find(channel);
+    if (it != channels.end()) return &it->second;
+    if (channels.size() >= options.max_channels) {
+      ++dropped_channels;
+      return nullptr;
+    }
+    return &channels.emplace(std::string(channel), ChannelCount{}).first->second;
+  }
+
+  Variant* VariantFor(std::string_view name) {
+    auto it = by_name.find(name);
+    if (it != by_name.end()) return it->second;
+    if (variants.size() >= options.max_variants) {
+      ++dropped_variants;
+      return nullptr;
+    }
+    variants.push_back(std::make_unique<Variant>(name, capacity, grows));
+    by_name.emplace(std::string(name), variants.back().get());
+    return variants.back().get();
+  }
+
+  // A sample-clock reading of a series: sets t0, starts a new record when
+  // the clock went back by more than new_record_after_s.
+  void SeeSampleClock(std::int64_t utime) {
+    if (has_clock && static_cast<double>(utime) <
+                         static_cast<double>(latest_utime) - options.new_record_after_s * 1e6) {
+      NewRecord();
+    }
+    if (!has_clock) {
+      has_clock = true;
+      t0_utime = latest_utime = utime;
+    }
+    latest_utime = std::max(latest_utime, utime);
+  }
+
+  // Decodes a message of a series into `msg` and reads its sample clock.
+  template <class Msg>
+  bool DecodeSample(Msg& msg, const void* data, int size) {
+    if (msg.decode(data, 0, size) < 0) return false;
+    SeeSampleClock(msg.utime);
+    return true;
+  }
+
+  void NewRecord() {
+    ++record;
+    record_start_seq = seq;  // the change being ingested belongs to the new record
+    has_clock = false;
+    measured.Clear();
+    variants.clear();
+    by_name.clear();
+    while (!intervals.empty()) intervals.pop_front();
+    while (!events.empty()) events.pop_front();
+    open_flags.fill(0);
+    open_stale.clear();
+  }
+
+  void AddPoint(Series& s, std::int64_t utime, double a, double b) {
+    if (s.Add(seq, utime, t0_utime, period_us, a, b) == Series::Outcome::kOutOfOrder) {
+      ++dropped_out_of_order;
+    }
+  }
+
+  std::uint64_t OpenInterval(std::int8_t flag, const std::string& source, std::int64_t utime) {
+    Interval& iv = interval_scratch;
+    iv.id = ++last_interval_id;
+    iv.seq = seq;
+    iv.flag = flag;
+    AssignText(iv.source, source);
+    iv.start = iv.end = utime;
+    iv.open = true;
+    if (!intervals.push_back(iv)) ++dropped_intervals;
+    return iv.id;
+  }
+
+  void CloseInterval(std::uint64_t id, std::int64_t utime) {
+    for (std::size_t i = intervals.size(); i > 0; --i) {
+      Interval& iv = intervals[i - 1];
+      if (iv.id == id) {
+        iv.open = false;
+        iv.end = utime;
+        iv.seq = seq;
+        return;
+      }
+    }  // pushed out of the ring while open: nothing to close
+  }
+
+  // -- output -----------------------------------------------------------------
+
+  json Update(std::uint64_t cursor) const;
+  double T(std::int64_t utime) const { return static_cast<double>(utime - t0_utime) * 1e-6; }
+
+  const LiveOptions options;
+  const bool grows;
+  const std::size_t capacity;
+  const double period_us;
+
+  std::uint64_t seq{};  // change number: one per ingested message
+  std::uint64_t record{1};
+  std::uint64_t record_start_seq{};
+  bool has_clock{};
+  std::int64_t t0_utime{}, latest_utime{};
+
+  Series measured;  // a: theta, deg
+  std::vector<std::unique_ptr<Variant>> variants;  // in order of appearance
+  std::map<std::string, Variant*, std::less<>> by_name;
+
+  Ring<Interval> intervals;
+  Interval interval_scratch;
+  std::uint64_t last_interval_id{};
+  std::array<std::uint64_t, kFlagBits.size()> open_flags{};  // interval id, 0: none
+  std::map<std::string, std::uint64_t, std::less<>> open_stale;  // source -> interval id
+
+  Ring<Event> events;
+  Event event_scratch;
+  std::map<std::string, rocklab::health_t, std::less<>> health;  // by node
+
+  bool has_config{};
+  std::string rig_name, calibration_id;
+  double sample_rate_hz{}, alpha{}, p{}, mu{};
+
+  std::map<std::string, ChannelCount, std::less<>> channels;
+  std::int64_t dropped_out_of_order{}, dropped_intervals{}, dropped_events{},
+      dropped_variants{}, dropped_nodes{}, dropped_channels{};
+
+  // Decoding buffers, reused: strings keep their capacity.
+  rocklab::block_state_t theta_msg;
+  rocklab::model_state_t model_msg;
+  rocklab::comparison_t compare_msg;
+  rocklab::event_t event_msg;
+  rocklab::health_t health_msg;
+  rocklab::daq_config_t config_msg;
+};
+
+}  // namespace rocklab::monitor

@@ -1,0 +1,70 @@
+#pragma once
+/// @file
+/// The pipeline's nodes as the commands build them: their configurations
+/// from the rig file and the option values, the DAQ stage on its own bus,
+/// and the end-of-run damage report. Shared by `rocklab daq`, `model`,
+/// `compare`, `run`, `monitor` and `replay --rig`. Errors are OptionError
+/// naming the option.
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/bus.h"
+#include "compare/compare_node.h"
+#include "daq/daq_node.h"
+#include "daq/rig_config.h"
+#include "model/model_node.h"
+#include "pipeline/option_error.h"
+
+namespace rocklab::pipeline {
+
+/// An LcmBus on `url` (empty: LCM's default).
+/// @throws OptionError("--lcm-url: cannot open LCM at '<url>'").
+std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url);
+
+/// Loads the rig file; errors become OptionError naming file, line and key.
+daq::RigConfig LoadRig(const std::string& path);
+
+/// The block's geometric ("theoretical") parameters: alpha, p and mu from
+/// the rig's width, height and chamfer (Table 1's way).
+model::BlockParams TheoreticalParams(const daq::RigConfig& rig);
+
+/// The DAQ node's configuration for `input` at `speed` (sample-clock s per
+/// host s; 0 = as fast as possible). RL_DAQ_CONFIG carries alpha, p and mu:
+/// the rig's where it gives them, else its geometry's (TheoreticalParams).
+daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& input, double speed);
+
+/// The DAQ stage as a command runs it on its own LCM: `rocklab daq` and
+/// `rocklab replay --rig` (one code path).
+struct DaqStageOptions {
+  std::string rig_path;
+  std::string input;
+  double speed{1.0};        ///< sample-clock s per host s; > 0
+  bool max_speed{};         ///< as fast as possible (speed ignored)
+  std::string lcm_url;      ///< empty: LCM's default (LCM_DEFAULT_URL or its own)
+  std::string prefix{"RL_"};
+};
+/// Runs the DAQ node until the input ends or `stop`, then prints its
+/// counts on stderr (`<what>: N frames read, ...`); returns the exit code (0;
+/// 1, the command failed, when the input was a damaged LCM log: ReportDamage).
+/// @throws OptionError naming the option (bad rig, input, speed or LCM URL).
+int RunDaqStage(const DaqStageOptions& options, const char* what, const std::atomic<bool>& stop);
+
+/// A damaged LCM log input: prints "<what>: <input> is damaged: N regions
+/// skipped (B bytes, E events lost)" on stderr and returns 1 (the command
+/// failed); otherwise returns 0. (Each region was reported with its offset as read.)
+int ReportDamage(const daq::DaqNodeStats& stats, const std::string& input, const char* what);
+
+/// Variants from `--variant NAME:MODEL:PARAMS` options; none given: Housner
+/// and the complex formulation with the theoretical parameters. Errors
+/// become OptionError naming --variant.
+std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,
+                                              const daq::RigConfig& rig);
+
+/// Checks the comparator's options; throws OptionError naming the option
+/// (--compare-rate, --window, --stale).
+void ValidateCompareOptions(const compare::CompareNodeConfig& config);
+
+}  // namespace rocklab::pipeline

@@ -1,0 +1,147 @@
+// The transport seam: typed publish/subscribe on the direct and LCM buses,
+// guarded decoding (short, foreign and hostile payloads counted per channel
+// and dropped, never thrown into the transport), handler exceptions caught
+// and counted, and the log-writing decorator.
+#include "common/bus.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+#include "common/lcm_log.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+
+namespace rocklab::common {
+namespace {
+
+rocklab::block_state_t Theta(std::int64_t utime, double theta) {
+  rocklab::block_state_t m{};
+  m.utime = utime;
+  m.theta = theta;
+  return m;
+}
+
+// A raw_frame_t whose num_channels says -1: lcm-gen's decoder asks the
+// vector for SIZE_MAX elements and throws std::length_error.
+std::vector<std::uint8_t> HostileRawFrame() {
+  rocklab::raw_frame_t m{};
+  m.utime = 1;
+  m.num_channels = 0;
+  std::vector<std::uint8_t> b(m.getEncodedSize());
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  // fingerprint 8, utime 8, seq 8: num_channels at byte 24.
+  for (int i = 24; i < 28; ++i) b[i] = 0xff;
+  return b;
+}
+
+// Oracle: what was published, in order, to every matching subscription in
+// the order they were made; a handler publishing inside a dispatch does not
+// disturb the message being dispatched.
+TEST(DirectBus, DeliversTypedMessagesSynchronouslyInSubscriptionOrder) {
+  DirectBus bus;
+  std::vector<std::string> seen;
+  bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string& c, const rocklab::block_state_t& m) {
+    seen.push_back("first " + c + " " + std::to_string(m.utime));
+    if (m.utime == 1) bus.Publish("RL_THETA_ECHO", Theta(100, 0.5));  // nested
+  });
+  bus.Subscribe<rocklab::block_state_t>("RL_THETA.*", [&](const std::string& c, const rocklab::block_state_t& m) {
+    seen.push_back("second " + c + " " + std::to_string(m.utime) + " " + std::to_string(m.theta));
+  });
+  EXPECT_TRUE(bus.Publish("RL_THETA", Theta(1, 0.25)));
+  EXPECT_TRUE(bus.Publish("OTHER", Theta(2, 0.0)));
+  const std::vector<std::string> expected = {
+      "first RL_THETA 1", "second RL_THETA_ECHO 100 0.500000", "second RL_THETA 1 0.250000"};
+  EXPECT_EQ(seen, expected);
+  EXPECT_EQ(bus.decode_error_count(), 0);
+}
+
+// Oracle: the guard's contract: a short payload (decode < 0), another
+// type's payload (fingerprint mismatch) and a hostile length (length_error)
+// are each counted on their channel and dropped; a throwing handler is
+// counted and the next subscriber still gets the message; nothing throws
+// out of Publish.
+TEST(DirectBus, UndecodableMessagesAndHandlerExceptionsAreCountedNotThrown) {
+  DirectBus bus;
+  int thetas = 0, frames = 0, after_throw = 0;
+  bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++thetas; });
+  bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
+    ++frames;
+    if (m.seq == 7) throw std::runtime_error("handler bug");
+  });
+  bus.SubscribeRaw("RL_RAW", [&](const std::string&, const void*, int) { ++after_throw; });
+
+  const char shortish[5] = {1, 2, 3, 4, 5};
+  EXPECT_NO_THROW(bus.Publish("RL_THETA", shortish, 5));
+  rocklab::raw_frame_t frame{};
+  frame.seq = 7;
+  EXPECT_NO_THROW(bus.Publish("RL_THETA", frame));  // another type
+  const std::vector<std::uint8_t> hostile = HostileRawFrame();
+  EXPECT_NO_THROW(bus.Publish("RL_RAW", hostile.data(), static_cast<int>(hostile.size())));
+  EXPECT_NO_THROW(bus.Publish("RL_RAW", frame));  // decodes; its handler throws
+  EXPECT_NO_THROW(bus.Publish("RL_THETA", Theta(3, 0.1)));
+
+  EXPECT_EQ(thetas, 1);
+  EXPECT_EQ(frames, 1);
+  EXPECT_EQ(after_throw, 2);  // raw handlers get every payload
+  EXPECT_EQ(bus.decode_errors().at("RL_THETA"), 2);
+  EXPECT_EQ(bus.decode_errors().at("RL_RAW"), 1);
+  EXPECT_EQ(bus.handler_errors().at("RL_RAW"), 1);
+  EXPECT_EQ(bus.decode_error_count(), 3);
+  EXPECT_EQ(bus.handler_error_count(), 1);
+}
+
+// Oracle: the same guard on LCM's own dispatch (memq://): the hostile
+// payload goes through liblcm and is counted, not thrown out of handleTimeout.
+TEST(LcmBus, GuardedDecodeOnLcmDispatch) {
+  LcmBus bus("memq://");
+  int frames = 0;
+  bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t&) { ++frames; });
+  const std::vector<std::uint8_t> hostile = HostileRawFrame();
+  ASSERT_TRUE(bus.Publish("RL_RAW", hostile.data(), static_cast<int>(hostile.size())));
+  rocklab::raw_frame_t good{};
+  ASSERT_TRUE(bus.Publish("RL_RAW", good));
+  int handled = 0;
+  EXPECT_NO_THROW({
+    while (bus.HandleTimeout(0) > 0) ++handled;
+  });
+  EXPECT_EQ(handled, 2);
+  EXPECT_EQ(frames, 1);
+  EXPECT_EQ(bus.decode_errors().at("RL_RAW"), 1);
+  EXPECT_THROW(LcmBus("nonsense://"), std::runtime_error);
+}
+
+// Oracle: the decorator writes each message as published, stamped with its
+// utime raised to keep the stamps in order, and still delivers it.
+TEST(LogWritingBus, WritesEveryPublishedMessageWithStampsInOrder) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "rocklab_bus_test_log.lcm").string();
+  DirectBus direct;
+  int delivered = 0;
+  direct.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++delivered; });
+  {
+    LogWriter writer(path);
+    LogWritingBus bus(direct, writer);
+    for (std::int64_t utime : {1000, 3000, 2000, 4000}) EXPECT_TRUE(bus.Publish("RL_THETA", Theta(utime, 0.0)));
+    EXPECT_EQ(writer.events(), 4);
+    EXPECT_EQ(writer.raised_stamps(), 1);
+  }
+  EXPECT_EQ(delivered, 4);
+  LogReader reader(path);
+  LogEvent ev;
+  std::vector<std::int64_t> stamps, utimes;
+  while (reader.Next(ev)) {
+    stamps.push_back(ev.timestamp_us);
+    rocklab::block_state_t m;
+    ASSERT_GE(m.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())), 0);
+    utimes.push_back(m.utime);
+  }
+  EXPECT_EQ(stamps, (std::vector<std::int64_t>{1000, 3000, 3000, 4000}));
+  EXPECT_EQ(utimes, (std::vector<std::int64_t>{1000, 3000, 2000, 4000}));  // payloads unchanged
+}
+
+}  // namespace
+}  // namespace rocklab::common
