@@ -77,6 +77,8 @@ void ServerOptions::Validate() const {
   check(max_streams >= 1 && max_streams <= 1024, "max_streams", "1 .. 1024");
   check(max_connections >= 1 && max_connections <= 4096, "max_connections", "1 .. 4096");
   check(max_streams <= max_connections, "max_streams", "<= max_connections");
+  check(max_connections_per_host >= 1 && max_connections_per_host <= max_connections, "max_connections_per_host",
+        "1 .. max_connections");
   check(max_header_bytes >= 1024 && max_header_bytes <= 65536, "max_header_bytes", "1024 .. 65536 bytes");
 }
 
@@ -349,6 +351,8 @@ void MonitorServer::Start() {
       &Impl::Handle, &m,  //
       MHD_OPTION_LISTEN_SOCKET, m.listen_fd,                            //
       MHD_OPTION_CONNECTION_LIMIT, static_cast<unsigned>(limit),        //
+      MHD_OPTION_PER_IP_CONNECTION_LIMIT,
+      static_cast<unsigned>(std::min(limit, m.options.max_connections_per_host)),  //
       MHD_OPTION_CONNECTION_TIMEOUT, timeout_s,                         //
       MHD_OPTION_CONNECTION_MEMORY_LIMIT, pool,                         //
       MHD_OPTION_UNESCAPE_CALLBACK, &KeepEscapes, nullptr,              //

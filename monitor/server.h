@@ -17,9 +17,10 @@
 /// Under load (README, Reliability): one polling thread serves every
 /// connection, so idle or slow clients cost a socket and a bounded buffer,
 /// never a thread. At most max_connections are open (more are refused at
-/// accept); a request's header must fit in max_header_bytes (else 431 and the
-/// connection closes); a connection quiet for idle_timeout_s is closed, in
-/// the middle of a header too. cpp-httplib, used before, gives each
+/// accept), at most max_connections_per_host from one address; a request's
+/// header must fit in max_header_bytes (else 431 and the connection closes);
+/// a connection quiet for idle_timeout_s is closed, in the middle of a
+/// header too. cpp-httplib, used before, gives each
 /// connection a worker thread from a fixed pool and has no bound on the
 /// number of header lines: 1000 idle sockets starved every request and one
 /// client streaming header lines grew the process to 1.8 GB.
@@ -45,7 +46,10 @@ struct ServerOptions {
   std::size_t max_streams{8};     ///< concurrent event streams; more get 503
   /// Open connections at most (idle, reading, streaming); more are refused.
   /// 1 .. 4096, and kept 64 below the process's open-file limit.
-  std::size_t max_connections{512};
+  std::size_t max_connections{1024};
+  /// Open connections from one address at most, so that one host cannot
+  /// take every slot; 1 .. max_connections.
+  std::size_t max_connections_per_host{400};
   /// A connection with no traffic for this long is closed, s; 1 .. 3600.
   double idle_timeout_s{10.0};
   /// Request line and headers of one request, bytes; more gets 431 and a

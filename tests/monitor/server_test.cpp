@@ -473,6 +473,7 @@ TEST_F(MonitorServerTest, IdleConnectionsTimeOutAndTheCapRefusesMore) {
   o.idle_timeout_s = 1;
   o.keepalive_period_s = 0.5;
   o.max_connections = 4;
+  o.max_connections_per_host = 4;
   o.max_streams = 2;
   Serve(o);
   std::vector<int> fds;
@@ -537,7 +538,15 @@ TEST(MonitorServerOptions, AreValidated) {
   bad([](ServerOptions& o) { o.idle_timeout_s = 0.5; });
   bad([](ServerOptions& o) { o.keepalive_period_s = 20; });  // beyond the idle timeout
   bad([](ServerOptions& o) { o.max_header_bytes = 100; });
-  bad([](ServerOptions& o) { o.max_streams = 600; });  // beyond max_connections
+  bad([](ServerOptions& o) { o.max_connections_per_host = 0; });
+  bad([](ServerOptions& o) {
+    o.max_connections = 100;
+    o.max_connections_per_host = 200;
+  });
+  bad([](ServerOptions& o) {  // more streams than connections
+    o.max_connections = 100;
+    o.max_streams = 200;
+  });
 }
 
 }  // namespace
