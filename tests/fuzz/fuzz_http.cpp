@@ -1,9 +1,10 @@
 // Fuzz target: the monitor's HTTP server. One server (port 0 on 127.0.0.1,
 // a LiveState with a few messages) lives for the whole run; each input is
 // written as it is on a fresh connection, the write side is shut, and the
-// answer is read (100 ms for its first byte, then until 20 ms of quiet). libmicrohttpd itself is Debian's binary, not
-// instrumented: the fuzzer's coverage comes from rocklab's routing and
-// stream code, and the run is a robustness test of the parser as built.
+// answer is read (100 ms for its first byte, then until 20 ms of quiet).
+// libmicrohttpd itself is Debian's binary, not instrumented: the fuzzer's
+// coverage comes from rocklab's routing and stream code, and the run is a
+// robustness test of the parser as built.
 // Invariants: an answer, when there is one, is an HTTP/1.x status line, and
 // a 200 never carries a file that is not one of the embedded assets or the
 // API; after every input a plain GET of the page is still answered (200).
