@@ -78,6 +78,13 @@ void Processor::Stream::Gap(int64_t missing, double next_value) {
   }
 }
 
+void Processor::Stream::Restart(bool drop_last) {
+  if (!started) return;
+  if (drop_last && sg.next_index() > 0) real[(sg.next_index() - 1) % real.size()] = 0;
+  sg.Finish();
+  started = false;
+}
+
 void Processor::Event(int64_t utime, int8_t kind, double value, std::string detail) {
   ++counts_.events;
   sink_.OnEvent(DaqEvent{utime, kind, value, std::move(detail)});
@@ -95,7 +102,26 @@ void Processor::Process(const Frame& frame) {
     Event(frame.utime(), rocklab::event_t::BAD_SAMPLE, 1, msg.str());
     return;
   }
-  if (status == SequenceStatus::kGap) {
+  if (status == SequenceStatus::kReanchored) {
+    // A bad timestamp (sequence_checker.h): the segment ends here, and what
+    // was made of an isolated bad frame is withdrawn.
+    std::ostringstream msg;
+    if (sequence_.last_was_bad()) {
+      msg << "the frame before (t = " << last_time_s_ << " s) had a bad timestamp: its gap is withdrawn, "
+          << "its sample not reconstructed";
+      --counts_.reconstructed;
+      ++counts_.rejected;
+    } else {
+      msg << SequenceChecker::kReanchorRun << " frames in a row behind the reference: the sample clock "
+          << "is re-anchored at seq " << frame.seq << ", t = " << frame.time_s << " s";
+    }
+    sink_.OnProblem(Problem{{&source_path_, frame.line}, msg.str()});
+    Event(frame.utime(), rocklab::event_t::BAD_SAMPLE, 1, msg.str());
+    theta_.Restart(sequence_.last_was_bad());
+    table_.Restart(sequence_.last_was_bad());
+    Drain();
+  }
+  if (sequence_.missing() > 0) {
     std::ostringstream msg;
     msg << sequence_.missing() << " samples missing before seq " << frame.seq;
     sink_.OnProblem(Problem{{&source_path_, frame.line}, msg.str()});
@@ -104,6 +130,7 @@ void Processor::Process(const Frame& frame) {
 
   reconstructor_.Reconstruct(frame, current_);
   ++counts_.reconstructed;
+  last_time_s_ = frame.time_s;
   CheckEdges(current_);
   if (current_.flags & kCheckFlags) ++counts_.flagged;
 

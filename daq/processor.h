@@ -94,6 +94,8 @@ class Processor {
     bool started{false};
     void Push(const BlockState& state, double value);
     void Gap(int64_t missing, double next_value);
+    // Ends the segment; with drop_last the last input gives no output.
+    void Restart(bool drop_last);
   };
   void Drain();
   // Sends the ready block and table states of the same samples together
@@ -116,6 +118,7 @@ class Processor {
   common::Ring<TableState> ready_table_;
   BlockState current_;
   int32_t held_flags_{0};  // check flags as last measured (for event edges)
+  double last_time_s_{};   // time of the last reconstructed frame, s
   ProcessorCounts counts_;
 };
 

@@ -1,5 +1,6 @@
 #include "daq/rig_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -8,8 +9,13 @@
 
 #include <toml++/toml.h>
 
+#include "daq/text_util.h"
+
 namespace rocklab::daq {
 namespace {
+
+constexpr double kMaxLengthM = 100.0;  // any length in the rig, m
+constexpr int kMaxLeds = 64;           // LEDs a rigid fit may require
 
 // Reads keys out of the parsed document, naming file, line and key in every
 // error, and rejects keys nobody read (a typo must not be silently ignored).
@@ -53,15 +59,35 @@ class Reader {
     return Double(table, prefix, key, std::nullopt);
   }
 
+  // An integer in [lo, hi], checked before it is narrowed (4294967298 must
+  // not become 2).
   int Int(const toml::table& table, const std::string& prefix, const std::string& key,
-          std::optional<int> fallback) {
+          std::optional<int> fallback, int lo, int hi) {
     const toml::node* node = Get(table, prefix, key);
     if (node == nullptr) {
       if (fallback) return *fallback;
       Fail(LineOf(table), Join(prefix, key), "is missing");
     }
-    if (!node->is_integer()) Fail(LineOf(*node), Join(prefix, key), "must be an integer");
-    return static_cast<int>(*node->value<int64_t>());
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    if (!node->is_integer()) Fail(LineOf(*node), Join(prefix, key), "must be an integer in " + range);
+    const int64_t v = *node->value<int64_t>();
+    if (v < lo || v > hi) {
+      Fail(LineOf(*node), Join(prefix, key), "must be in " + range + ", got " + std::to_string(v));
+    }
+    return static_cast<int>(v);
+  }
+
+  // A number in [lo, hi] (`unit` names the unit in the message).
+  double Bounded(const toml::table& table, const std::string& prefix, const std::string& key,
+                 std::optional<double> fallback, double lo, double hi, const char* unit) {
+    const double v = Double(table, prefix, key, fallback);
+    if (!(v >= lo && v <= hi)) {
+      std::ostringstream msg;
+      msg << "must be in [" << lo << ", " << hi << "]" << unit << ", got " << v;
+      const toml::node* node = table.get(key);
+      Fail(node != nullptr ? LineOf(*node) : LineOf(table), Join(prefix, key), msg.str());
+    }
+    return v;
   }
 
   std::string String(const toml::table& table, const std::string& prefix, const std::string& key,
@@ -120,15 +146,28 @@ class Reader {
 
 void ParseDifferentiator(Reader& r, const toml::table& root, const std::string& key,
                          DifferentiatorConfig& out, double rate_hz) {
+  // Without the table its defaults still meet the rate's bounds (checked,
+  // with the root's line).
   const toml::table* t = r.Table(root, "", key, false);
-  if (t == nullptr) return;
-  out.window_s = r.Double(*t, key, "window_s", out.window_s);
-  out.order = r.Int(*t, key, "order", out.order);
-  r.Check(out.order >= 2 && out.order <= 6, *t, key, "order", "must be in [2, 6]");
-  const long half = std::lround(out.window_s * rate_hz / 2.0);
-  r.Check(out.window_s > 0 && 2 * half + 1 > out.order, *t, key, "window_s",
-          "must hold more samples than order at the sample rate");
-  r.RejectUnknown(*t, key);
+  if (t != nullptr) {
+    out.window_s = r.Double(*t, key, "window_s", out.window_s);
+    out.order = r.Int(*t, key, "order", out.order, 2, kMaxDifferentiatorOrder);
+  }
+  const toml::table& where = t != nullptr ? *t : root;
+  // The window must hold more samples than the order and at most
+  // 2 kMaxHalfWindowSamples + 1 (the filter's cost per sample grows with it).
+  const int min_half = std::max(1, out.order / 2);
+  const double lo = 2.0 * min_half / rate_hz;
+  const double hi = 2.0 * kMaxHalfWindowSamples / rate_hz;
+  const double half = out.window_s * rate_hz / 2.0;
+  if (!(half >= min_half - 0.5 && half < kMaxHalfWindowSamples + 0.5)) {
+    std::ostringstream msg;
+    msg << "must be in [" << lo << ", " << hi << "] s at sample_rate_hz " << rate_hz << " (" << 2 * min_half + 1
+        << " to " << 2 * kMaxHalfWindowSamples + 1 << " samples for order " << out.order << "), got "
+        << out.window_s << (t == nullptr ? " (the default)" : "");
+    r.Check(false, where, key, "window_s", msg.str());
+  }
+  if (t != nullptr) r.RejectUnknown(*t, key);
 }
 
 }  // namespace
@@ -158,8 +197,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   rig.path = path;
   rig.name = r.String(root, "", "name", std::nullopt);
   rig.calibration_id = r.String(root, "", "calibration_id", std::string());
-  rig.sample_rate_hz = r.Double(root, "", "sample_rate_hz", std::nullopt);
-  r.Check(rig.sample_rate_hz > 0, root, "", "sample_rate_hz", "must be > 0");
+  rig.sample_rate_hz = r.Bounded(root, "", "sample_rate_hz", std::nullopt, kMinSampleRateHz,
+                                 kMaxSampleRateHz, " Hz");
 
   // [block]
   {
@@ -167,8 +206,10 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     rig.block.width_m = r.Double(t, "block", "width_m", std::nullopt);
     rig.block.height_m = r.Double(t, "block", "height_m", std::nullopt);
     rig.block.chamfer_m = r.Double(t, "block", "chamfer_m", 0.0);
-    r.Check(rig.block.width_m > 0, t, "block", "width_m", "must be > 0");
-    r.Check(rig.block.height_m > 0, t, "block", "height_m", "must be > 0");
+    r.Check(rig.block.width_m > 0 && rig.block.width_m <= kMaxLengthM, t, "block", "width_m",
+            "must be in (0, 100] m");
+    r.Check(rig.block.height_m > 0 && rig.block.height_m <= kMaxLengthM, t, "block", "height_m",
+            "must be in (0, 100] m");
     r.Check(rig.block.chamfer_m >= 0 && rig.block.chamfer_m < 0.5 * rig.block.width_m &&
                 rig.block.chamfer_m < 0.5 * rig.block.height_m,
             t, "block", "chamfer_m", "must be in [0, min(width, height) / 2)");
@@ -189,9 +230,10 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   if (const toml::table* t = r.Table(root, "", "mirror", false)) {
     rig.mirror.present = true;
     rig.mirror.lever_m = r.Double(*t, "mirror", "lever_m", std::nullopt);
-    r.Check(rig.mirror.lever_m > 0, *t, "mirror", "lever_m", "must be > 0");
-    rig.mirror.rest_s_m = r.Double(*t, "mirror", "rest_s_m", 0.0);
-    rig.mirror.rest_n_m = r.Double(*t, "mirror", "rest_n_m", 0.0);
+    r.Check(rig.mirror.lever_m > 0 && rig.mirror.lever_m <= kMaxLengthM, *t, "mirror", "lever_m",
+            "must be in (0, 100] m");
+    rig.mirror.rest_s_m = r.Bounded(*t, "mirror", "rest_s_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
+    rig.mirror.rest_n_m = r.Bounded(*t, "mirror", "rest_n_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
     r.RejectUnknown(*t, "mirror");
     roles.insert({"mirror.s", "mirror.n"});
   }
@@ -213,8 +255,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
         led.name = r.String(*lt, "camera.led", "name", std::nullopt);
         r.Check(!led.name.empty() && led.name.find('.') == std::string::npos, *lt, "camera.led",
                 "name", "must be non-empty without '.'");
-        led.x_m = r.Double(*lt, "camera.led", "x_m", std::nullopt);
-        led.z_m = r.Double(*lt, "camera.led", "z_m", std::nullopt);
+        led.x_m = r.Bounded(*lt, "camera.led", "x_m", std::nullopt, -kMaxLengthM, kMaxLengthM, " m");
+        led.z_m = r.Bounded(*lt, "camera.led", "z_m", std::nullopt, -kMaxLengthM, kMaxLengthM, " m");
         const std::string role = cam.name + "." + led.name;
         r.Check(roles.count(role + ".x") == 0, *lt, "camera.led", "name",
                 "repeats LED '" + role + "'");
@@ -230,7 +272,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   if (const toml::table* t = r.Table(root, "", "out_of_plane", false)) {
     rig.out_of_plane.present = true;
     rig.out_of_plane.spacing_m = r.Double(*t, "out_of_plane", "spacing_m", std::nullopt);
-    r.Check(rig.out_of_plane.spacing_m > 0, *t, "out_of_plane", "spacing_m", "must be > 0");
+    r.Check(rig.out_of_plane.spacing_m > 0 && rig.out_of_plane.spacing_m <= kMaxLengthM, *t, "out_of_plane",
+            "spacing_m", "must be in (0, 100] m");
     r.RejectUnknown(*t, "out_of_plane");
     roles.insert({"oop.a", "oop.b"});
   }
@@ -243,12 +286,18 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     double* fields[] = {&c.sliding_m,   &c.jump_m,       &c.twist_rad,
                         &c.out_of_plane_m, &c.tilt_rad,  &c.disagree_rad,
                         &c.led_sigma_m, &c.mirror_sigma_m, &c.sigmas};
+    // Upper bounds: far beyond any rig, short of what turns a check off by
+    // overflow (m, rad, or standard deviations for sigmas).
+    const double highs[] = {kMaxLengthM, kMaxLengthM, M_PI, kMaxLengthM, M_PI, M_PI,
+                            kMaxLengthM, kMaxLengthM, 1000.0};
+    const char* units[] = {" m", " m", " rad", " m", " rad", " rad", " m", " m", ""};
     for (size_t i = 0; i < std::size(keys); ++i) {
       *fields[i] = r.Double(*t, "checks", keys[i], *fields[i]);
-      r.Check(*fields[i] > 0, *t, "checks", keys[i], "must be > 0");
+      std::ostringstream range;
+      range << "must be in (0, " << highs[i] << "]" << units[i] << ", got " << *fields[i];
+      r.Check(*fields[i] > 0 && *fields[i] <= highs[i], *t, "checks", keys[i], range.str());
     }
-    c.min_leds = r.Int(*t, "checks", "min_leds", c.min_leds);
-    r.Check(c.min_leds >= 2, *t, "checks", "min_leds", "must be >= 2");
+    c.min_leds = r.Int(*t, "checks", "min_leds", c.min_leds, 2, kMaxLeds);
     r.RejectUnknown(*t, "checks");
   }
 
@@ -269,15 +318,16 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     ch.line = Reader::LineOf(*t);
     ch.name = r.String(*t, "channel", "name", std::nullopt);
     r.Check(!ch.name.empty() && names.insert(ch.name).second, *t, "channel", "name",
-            "must be non-empty and unique, got '" + ch.name + "'");
+            "must be non-empty and unique, got " + detail::Quote(ch.name));
     ch.sensor = r.String(*t, "channel", "sensor", std::nullopt);
     r.Check(roles.count(ch.sensor) == 1, *t, "channel", "sensor",
-            "names an unknown sensor '" + ch.sensor +
-                "' (declare its [mirror], [[camera]] LED or [out_of_plane] first)");
+            "names an unknown sensor " + detail::Quote(ch.sensor) +
+                " (declare its [mirror], [[camera]] LED or [out_of_plane] first)");
     r.Check(used_roles.insert(ch.sensor).second, *t, "channel", "sensor",
-            "maps sensor '" + ch.sensor + "' a second time");
+            "maps sensor " + detail::Quote(ch.sensor) + " a second time");
     ch.gain = r.Double(*t, "channel", "gain", 1.0);
-    r.Check(ch.gain != 0, *t, "channel", "gain", "must not be 0");
+    r.Check(ch.gain != 0 && std::abs(ch.gain) >= 1e-300, *t, "channel", "gain",
+            "must not be 0 (|gain| >= 1e-300)");
     ch.offset = r.Double(*t, "channel", "offset", 0.0);
     ch.unit = r.String(*t, "channel", "unit", std::string(ch.sensor == "table.acceleration" ? "m/s^2" : "m"));
     ch.raw_min = r.Double(*t, "channel", "raw_min", ch.raw_min);

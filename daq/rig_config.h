@@ -11,6 +11,13 @@
 
 namespace rocklab::daq {
 
+/// Ranges the rig file is checked against (README, Acquisition: rig file).
+inline constexpr double kMinSampleRateHz = 1.0;
+inline constexpr double kMaxSampleRateHz = 100000.0;
+/// Largest differentiator half window m, samples (a 2001-sample window).
+inline constexpr int kMaxHalfWindowSamples = 1000;
+inline constexpr int kMaxDifferentiatorOrder = 6;
+
 /// A raw channel and how to turn it into a physical value:
 /// physical = gain * raw + offset. A raw value is valid when finite and
 /// strictly inside (raw_min, raw_max): a sensor at its rail is saturated.
@@ -60,7 +67,7 @@ struct OutOfPlaneConfig {
 /// Savitzky-Golay smoothing differentiator settings.
 struct DifferentiatorConfig {
   double window_s{};  ///< span from first to last sample, s: m = round(window_s * rate / 2), 2m+1 samples
-  int order{};        ///< polynomial order; < number of samples in the window
+  int order{};        ///< polynomial order in [2, 6]; < number of samples in the window
 };
 
 /// Tolerances of the "only rocking" checks.
@@ -95,7 +102,7 @@ struct RigConfig {
   std::string path;  ///< file it was loaded from
   std::string name;
   std::string calibration_id;
-  double sample_rate_hz{};  ///< nominal acquisition rate, Hz; > 0
+  double sample_rate_hz{};  ///< nominal acquisition rate, Hz; in [kMinSampleRateHz, kMaxSampleRateHz]
   std::vector<ChannelConfig> channels;
   MirrorConfig mirror;
   std::vector<CameraConfig> cameras;

@@ -5,68 +5,109 @@
 #include <limits>
 #include <stdexcept>
 
-#include <Eigen/QR>
-
 namespace rocklab::daq {
-namespace {
 
-// weights[d](p, i): derivative d at sample p of `n` uniformly spaced samples
-// from the least-squares polynomial of degree `order`, per unit of dt^d.
-void FitWeights(int n, int order, double dt_s, Eigen::MatrixXd (&weights)[3]) {
-  // Scaled abscissae in [-1, 1] keep the normal equations well conditioned.
-  const double centre = 0.5 * (n - 1);
-  const double scale = std::max(1.0, centre);
-  Eigen::MatrixXd a(n, order + 1);
-  for (int i = 0; i < n; ++i) {
-    const double x = (i - centre) / scale;
-    for (int k = 0; k <= order; ++k) a(i, k) = std::pow(x, k);
+SavitzkyGolay::SavitzkyGolay(int half_window, int order, double dt_s)
+    : m_(half_window), n_(2 * half_window + 1), order_(order), dt_s_(dt_s) {
+  if (half_window < 1 || half_window > kMaxHalfWindow) {
+    throw std::invalid_argument("Savitzky-Golay: half_window must be in [1, " + std::to_string(kMaxHalfWindow) +
+                                "]");
   }
-  // Coefficients = pinv * y.
-  const Eigen::MatrixXd pinv = a.householderQr().solve(Eigen::MatrixXd::Identity(n, n));
+  if (order < 2 || order > kMaxOrder || order >= n_) {
+    throw std::invalid_argument("Savitzky-Golay: order must be in [2, min(6, 2 * half_window)]");
+  }
+  if (!(dt_s > 0) || !std::isfinite(dt_s)) throw std::invalid_argument("Savitzky-Golay: dt_s must be finite and > 0");
+  q_.assign(static_cast<size_t>(n_) * (kMaxOrder + 1), 0.0);
+  y_.assign(n_, 0.0);
+  ring_.assign(n_, 0.0);
+  // Centre weights: with A = Q R, the fit's coefficients are R^-1 Q^T y, so
+  // the estimate v^T c is (Q R^-T v)^T y: w = Q z with R^T z = v.
+  Poly centre;
+  Basis(n_, order_, centre);
+  const int k = order_;
   for (int d = 0; d < 3; ++d) {
-    weights[d].setZero(n, n);
-    const double unit = std::pow(scale * dt_s, d);
-    for (int p = 0; p < n; ++p) {
-      const double x = (p - centre) / scale;
-      Eigen::RowVectorXd v = Eigen::RowVectorXd::Zero(order + 1);
-      for (int k = d; k <= order; ++k) {
-        double factor = 1;
-        for (int j = 0; j < d; ++j) factor *= (k - j);
-        v(k) = factor * std::pow(x, k - d);
-      }
-      weights[d].row(p) = v * pinv / unit;
+    double v[kMaxOrder + 1] = {};
+    // Derivative d of x^c at the centre (x = 0): d! where c = d, else 0.
+    double factorial = 1;
+    for (int j = 2; j <= d; ++j) factorial *= j;
+    v[d] = factorial / std::pow(centre.scale * dt_s_, d);
+    double z[kMaxOrder + 1] = {};
+    for (int c = 0; c <= k; ++c) {  // forward substitution, R^T lower triangular
+      double sum = v[c];
+      for (int j = 0; j < c; ++j) sum -= r_[j][c] * z[j];
+      z[c] = sum / r_[c][c];
+    }
+    centre_[d].setZero(n_);
+    for (int c = 0; c <= k; ++c) {
+      for (int i = 0; i < n_; ++i) centre_[d](i) += q_[static_cast<size_t>(c) * n_ + i] * z[c];
     }
   }
 }
 
-}  // namespace
-
-SavitzkyGolay::SavitzkyGolay(int half_window, int order, double dt_s)
-    : m_(half_window), n_(2 * half_window + 1), order_(order), dt_s_(dt_s) {
-  if (half_window < 1) throw std::invalid_argument("Savitzky-Golay: half_window must be >= 1");
-  if (order < 2 || order >= n_) {
-    throw std::invalid_argument("Savitzky-Golay: order must be in [2, 2 * half_window]");
+void SavitzkyGolay::Basis(int len, int degree, Poly& poly) {
+  poly.len = len;
+  poly.degree = degree;
+  poly.centre = 0.5 * (len - 1);
+  // Scaled abscissae in [-1, 1] keep the basis well conditioned.
+  poly.scale = std::max(1.0, poly.centre);
+  for (int i = 0; i < len; ++i) {
+    const double x = (i - poly.centre) / poly.scale;
+    double power = 1;
+    for (int c = 0; c <= degree; ++c, power *= x) q_[static_cast<size_t>(c) * n_ + i] = power;
   }
-  if (!(dt_s > 0)) throw std::invalid_argument("Savitzky-Golay: dt_s must be > 0");
-  FitWeights(n_, order_, dt_s_, weights_);
-  for (int d = 0; d < 3; ++d) start_weights_[d].setZero(m_, n_);
-  for (int j = 0; j < m_; ++j) {
-    const int len = j + m_ + 1;
-    Eigen::MatrixXd w[3];
-    FitWeights(len, std::min(order_, len - 1), dt_s_, w);
-    for (int d = 0; d < 3; ++d) start_weights_[d].row(j).head(len) = w[d].row(j);
+  for (int c = 0; c <= degree; ++c) {
+    double* qc = &q_[static_cast<size_t>(c) * n_];
+    for (int j = 0; j <= degree; ++j) r_[j][c] = 0;
+    for (int pass = 0; pass < 2; ++pass) {  // twice is enough (Giraud et al.)
+      for (int j = 0; j < c; ++j) {
+        const double* qj = &q_[static_cast<size_t>(j) * n_];
+        double dot = 0;
+        for (int i = 0; i < len; ++i) dot += qj[i] * qc[i];
+        for (int i = 0; i < len; ++i) qc[i] -= dot * qj[i];
+        r_[j][c] += dot;
+      }
+    }
+    double norm = 0;
+    for (int i = 0; i < len; ++i) norm += qc[i] * qc[i];
+    norm = std::sqrt(norm);
+    r_[c][c] = norm;
+    for (int i = 0; i < len; ++i) qc[i] /= norm;
   }
-  ring_.assign(n_, 0.0);
 }
 
-Eigen::VectorXd SavitzkyGolay::CentreWeights(int deriv) const {
-  return weights_[deriv].row(m_).transpose();
+void SavitzkyGolay::Fit(int64_t first, int len, Poly& poly) {
+  Basis(len, std::min(order_, len - 1), poly);
+  for (int i = 0; i < len; ++i) y_[i] = ring_[(first + i) % n_];
+  double b[kMaxOrder + 1] = {};
+  for (int c = 0; c <= poly.degree; ++c) {
+    const double* qc = &q_[static_cast<size_t>(c) * n_];
+    for (int i = 0; i < len; ++i) b[c] += qc[i] * y_[i];
+  }
+  for (int c = poly.degree; c >= 0; --c) {  // back substitution, R upper triangular
+    double sum = b[c];
+    for (int j = c + 1; j <= poly.degree; ++j) sum -= r_[c][j] * poly.coef[j];
+    poly.coef[c] = sum / r_[c][c];
+  }
 }
+
+double SavitzkyGolay::Evaluate(const Poly& poly, int p, int deriv) const {
+  if (poly.len < deriv + 1) return std::numeric_limits<double>::quiet_NaN();
+  const double x = (p - poly.centre) / poly.scale;
+  double sum = 0;
+  double power = 1;  // x^(c - deriv)
+  for (int c = deriv; c <= poly.degree; ++c, power *= x) {
+    double factor = 1;
+    for (int j = 0; j < deriv; ++j) factor *= (c - j);
+    sum += poly.coef[c] * factor * power;
+  }
+  return sum / std::pow(poly.scale * dt_s_, deriv);
+}
+
+Eigen::VectorXd SavitzkyGolay::CentreWeights(int deriv) const { return centre_[deriv]; }
 
 void SavitzkyGolay::Push(double value) {
   if (finished_) {
     finished_ = false;
-    short_segment_ = false;
     seg_start_ = pushed_;
     next_out_ = ready_end_ = pushed_;
   }
@@ -80,47 +121,50 @@ void SavitzkyGolay::Finish() {
   finished_ = true;
   const int64_t count = pushed_ - seg_start_;
   if (count == 0) return;
-  if (count < n_) {
-    short_segment_ = true;
-    const int order = static_cast<int>(std::min<int64_t>(order_, count - 1));
-    FitWeights(static_cast<int>(count), order, dt_s_, short_weights_);
-  }
+  // The last full window (the whole segment when it is shorter) gives the
+  // outputs the centred window cannot reach.
+  tail_first_ = std::max(seg_start_, pushed_ - n_);
+  Fit(tail_first_, static_cast<int>(pushed_ - tail_first_), tail_);
   ready_end_ = pushed_;
-}
-
-double SavitzkyGolay::Dot(const Eigen::MatrixXd& weights, int row, int64_t first, int len) const {
-  double sum = 0;
-  for (int i = 0; i < len; ++i) sum += weights(row, i) * ring_[(first + i) % n_];
-  return sum;
 }
 
 bool SavitzkyGolay::Pop(SgOutput& out) {
   if (next_out_ >= ready_end_) return false;
   out.index = next_out_;
   const int64_t j = next_out_ - seg_start_;  // position in the segment
-  const int64_t count = pushed_ - seg_start_;
-  const Eigen::MatrixXd* w = weights_;
-  int row = 0;
-  int64_t first = pushed_ - n_;
-  int len = n_;
-  if (short_segment_ && j >= count - m_) {
-    // The tail of a finished segment shorter than the window: one fit over it.
-    w = short_weights_;
-    row = static_cast<int>(j);
-    first = seg_start_;
-    len = static_cast<int>(count);
-  } else if (j < m_) {
-    w = start_weights_;
-    row = static_cast<int>(j);
-    first = seg_start_;
-    len = static_cast<int>(j + m_ + 1);
+  if (finished_ && next_out_ >= pushed_ - m_) {
+    const int p = static_cast<int>(next_out_ - tail_first_);
+    out.value = Evaluate(tail_, p, 0);
+    out.d1 = Evaluate(tail_, p, 1);
+    out.d2 = Evaluate(tail_, p, 2);
   } else {
-    row = static_cast<int>(next_out_ - first);  // m, or beyond m after Finish
+    // The window centred on the output (cut at the segment's start). When
+    // outputs lag (several inputs pushed between pops, as when a gap is
+    // bridged) its start may have left the ring: then the latest window
+    // gives the output, off-centre, as at the end of a segment.
+    const int64_t first = j < m_ ? seg_start_ : next_out_ - m_;
+    const int64_t end = j < m_ ? seg_start_ + j + m_ + 1 : next_out_ + m_ + 1;
+    if (first >= pushed_ - n_ && j >= m_) {
+      double s[3] = {0, 0, 0};
+      for (int i = 0; i < n_; ++i) {
+        const double y = ring_[(first + i) % n_];
+        s[0] += centre_[0](i) * y;
+        s[1] += centre_[1](i) * y;
+        s[2] += centre_[2](i) * y;
+      }
+      out.value = s[0];
+      out.d1 = s[1];
+      out.d2 = s[2];
+    } else {
+      const int64_t from = first >= pushed_ - n_ ? first : std::max(seg_start_, pushed_ - n_);
+      const int64_t to = first >= pushed_ - n_ ? end : pushed_;
+      Fit(from, static_cast<int>(to - from), start_);
+      const int p = static_cast<int>(next_out_ - from);
+      out.value = Evaluate(start_, p, 0);
+      out.d1 = Evaluate(start_, p, 1);
+      out.d2 = Evaluate(start_, p, 2);
+    }
   }
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  out.value = Dot(w[0], row, first, len);
-  out.d1 = len >= 2 ? Dot(w[1], row, first, len) : nan;
-  out.d2 = len >= 3 ? Dot(w[2], row, first, len) : nan;
   ++next_out_;
   return true;
 }

@@ -11,6 +11,14 @@
 /// input gets exactly one output. Polynomials up to degree `order` are
 /// reproduced exactly (order is lowered only where a window has fewer than
 /// order+1 samples).
+///
+/// Cost: construction is O(n order^2) time and O(n) memory (n = 2m+1; one
+/// least-squares fit for the centre weights), a centred output O(n), each of
+/// the first m outputs of a segment one fit over its cut window
+/// (O(n order^2)), and Finish one fit whose polynomial gives the last m
+/// outputs. (The first version tabulated every position's weights: O(m n^2)
+/// set-up, 103 s and 245 MB for m = 1000.) half_window is bounded by
+/// kMaxHalfWindow.
 
 #include <cstdint>
 #include <vector>
@@ -28,8 +36,13 @@ struct SgOutput {
 
 class SavitzkyGolay {
  public:
-  /// @param half_window m, samples; >= 1
-  /// @param order polynomial degree; 2 <= order < 2m+1 (the second derivative needs 2)
+  /// Largest half window accepted, samples (a 20001-sample window).
+  static constexpr int kMaxHalfWindow = 10000;
+  /// Largest polynomial order accepted.
+  static constexpr int kMaxOrder = 6;
+
+  /// @param half_window m, samples; 1 <= m <= kMaxHalfWindow
+  /// @param order polynomial degree; 2 <= order <= kMaxOrder, order < 2m+1 (the second derivative needs 2)
   /// @param dt_s sample spacing, s; > 0
   /// @throws std::invalid_argument naming the argument.
   SavitzkyGolay(int half_window, int order, double dt_s);
@@ -39,8 +52,7 @@ class SavitzkyGolay {
   void Push(double value);
   /// Ends the segment (end of data, or a gap): its last m outputs become available.
   void Finish();
-  /// Next available output, oldest first. No allocation except after Finish
-  /// of a segment shorter than the window.
+  /// Next available output, oldest first. No allocation.
   bool Pop(SgOutput& out);
 
   int delay_samples() const { return m_; }
@@ -51,26 +63,41 @@ class SavitzkyGolay {
   Eigen::VectorXd CentreWeights(int deriv) const;
 
  private:
-  // sum_i weights(row, i) * input[first + i], i < len.
-  double Dot(const Eigen::MatrixXd& weights, int row, int64_t first, int len) const;
+  // A least-squares polynomial in x = (p - centre) / scale over a window.
+  struct Poly {
+    double coef[kMaxOrder + 1]{};
+    int degree{};
+    int len{};
+    double centre{};
+    double scale{1};
+  };
+  // Orthonormalises the basis 1, x, .., x^degree over `len` positions in q_
+  // (modified Gram-Schmidt, twice) and keeps R in r_.
+  void Basis(int len, int degree, Poly& poly);
+  // Least-squares polynomial through the `len` inputs from index `first`
+  // (degree min(order_, len - 1)).
+  void Fit(int64_t first, int len, Poly& poly);
+  // Derivative `deriv` of `poly` at window position p, per s^deriv.
+  double Evaluate(const Poly& poly, int p, int deriv) const;
 
   int m_;
   int n_;  // window length 2m+1
   int order_;
   double dt_s_;
-  // Weights for each evaluation position p = 0..n-1 within a full window:
-  // row p of weights_[d] gives derivative d at sample p of the window.
-  Eigen::MatrixXd weights_[3];
-  // Row j: sample j of a segment from the window [0, j+m] (j < m).
-  Eigen::MatrixXd start_weights_[3];
-  Eigen::MatrixXd short_weights_[3];  // for a finished segment shorter than the window
+  Eigen::VectorXd centre_[3];  // weights of the centred estimate, per derivative
+  // Scratch of Fit (sized once): the window's basis, orthonormalised in place.
+  std::vector<double> q_;  // column k at q_[k * n_]
+  std::vector<double> y_;
+  double r_[kMaxOrder + 1][kMaxOrder + 1]{};
+  Poly start_;  // scratch for the first m outputs of a segment
+  Poly tail_;   // the fit (made by Finish) that gives a finished segment's last m outputs
+  int64_t tail_first_{};
   std::vector<double> ring_;
   int64_t pushed_{0};     // inputs since construction
   int64_t seg_start_{0};  // index of the segment's first input
   int64_t next_out_{0};
   int64_t ready_end_{0};  // outputs [next_out_, ready_end_) can be popped
   bool finished_{false};
-  bool short_segment_{false};
 };
 
 }  // namespace rocklab::daq

@@ -2,13 +2,18 @@
 /// @file
 /// Raw sample sources behind one interface: CSV, LabVIEW .lvm and rocklab LCM
 /// logs (RL_RAW). Opening a source reads its header and throws on anything
-/// that stops the read; afterwards Next() never throws: a malformed row is
-/// reported to the problem callback with its file and line, counted, and
-/// skipped (its sample number stays unused, so it shows downstream as a gap),
-/// and a malformed value in a good row becomes NaN (a counted bad sample).
+/// that stops the read. Afterwards a malformed row is reported to the problem
+/// callback with its file and line, counted, and skipped (its sample number
+/// stays unused, so it shows downstream as a gap), and a malformed value in a
+/// good row becomes NaN (a counted bad sample); Next() throws only when the
+/// read cannot go on or has nothing to show (text sources: a read error of
+/// the file, never taken for its end; the end of a file none of whose data
+/// rows could be used). Messages quote input through a bounded, escaped
+/// excerpt (detail::Quote): no raw bytes, no NUL, at most 48 bytes of a field.
 
 #include <cstdint>
 #include <functional>
+#include <istream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -65,7 +70,9 @@ class Source {
   virtual const std::vector<std::string>& channel_names() const = 0;
   /// Nominal sample rate, Hz (from the file's time base where it has one).
   virtual double sample_rate_hz() const = 0;
-  /// Reads the next frame into `frame`, reusing its storage. Never throws.
+  /// Reads the next frame into `frame`, reusing its storage.
+  /// @throws std::runtime_error naming the file when the read cannot go on
+  ///         (see the top of this file); never for a malformed row.
   [[nodiscard]] virtual ReadStatus Next(Frame& frame) = 0;
   virtual const SourceStats& stats() const = 0;
   virtual const std::string& path() const = 0;
@@ -83,6 +90,9 @@ struct SourceOptions {
 };
 
 /// CSV with a header row; a `time` column (s) if present, else time = seq / rate.
+/// A UTF-8 byte order mark before the header is ignored. Times must lie in
+/// [-1e12, 1e12] s (a row outside is skipped); a line longer than 1 MiB is
+/// skipped as a bad row.
 /// @throws std::runtime_error (naming the file and line) when the file cannot be
 ///         opened, is empty, or its header is unusable.
 std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options);
@@ -92,6 +102,12 @@ std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptio
 /// LCM log with raw_frame_t events on options.raw_channel.
 /// @throws std::runtime_error when the log cannot be opened or names no channels.
 std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOptions& options);
+/// The same readers over any stream (tests, fuzzing); `name` stands for the
+/// file in messages.
+std::unique_ptr<Source> OpenCsvStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options);
+std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options);
 /// By extension: .csv, .lvm, anything else is read as an LCM log.
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options);
 

@@ -1,5 +1,6 @@
 // CSV and LabVIEW .lvm sources: one line-oriented reader, two header parsers.
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <optional>
@@ -13,18 +14,28 @@ namespace rocklab::daq {
 namespace {
 
 using detail::ParseNumber;
+using detail::Quote;
 using detail::Split;
 using detail::Trim;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A line longer than this is skipped (a row) or refused (a header): a
+// corrupt file with no line ends must not take the memory of the host.
+constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+// Times beyond +-1e12 s (31 700 years) are corrupt: they would overflow the
+// int64 microseconds every message carries and the sample numbering.
+constexpr double kMaxAbsTimeS = 1e12;
+// Sample rates a file's time base may give, Hz.
+constexpr double kMinRateHz = 1e-6;
+constexpr double kMaxRateHz = 1e6;
 
 // State shared by the text formats: the file, the current line, the column
 // layout of the current block of rows and the time base.
 class TextSource : public Source {
  public:
-  TextSource(const std::string& path, const SourceOptions& options)
-      : path_(path), in_(path, std::ios::binary), on_problem_(options.on_problem) {
-    if (!in_) throw std::runtime_error(path + ": cannot open the input file");
+  TextSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
+      : path_(path), in_(std::move(in)), on_problem_(options.on_problem) {
+    if (!in_ || !*in_) throw std::runtime_error(path + ": cannot open the input file");
   }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
@@ -43,10 +54,55 @@ class TextSource : public Source {
     if (on_problem_) on_problem_(Problem{{&path_, line_no_}, what});
   }
 
+  // Reads the next line into line_ (without its '\n'); false at the end of
+  // the file. A line longer than kMaxLineBytes is cut there (line_too_long_
+  // says so) and the rest of it skipped. A read error is never the end of the
+  // file: it throws, naming the file and the last line read.
   bool ReadLine() {
-    if (!std::getline(in_, line_)) return false;
+    line_.clear();
+    line_too_long_ = false;
+    std::streambuf* buf = in_->rdbuf();
+    bool any = false;
+    try {
+      for (int c = buf->sbumpc(); c != std::char_traits<char>::eof(); c = buf->sbumpc()) {
+        any = true;
+        if (c == '\n') break;
+        if (line_.size() < kMaxLineBytes) {
+          line_.push_back(static_cast<char>(c));
+        } else {
+          line_too_long_ = true;
+        }
+      }
+    } catch (const std::exception& e) {
+      std::ostringstream msg;
+      msg << path_ << ": read error after line " << line_no_ << " (" << e.what()
+          << "): the rest of the file is not read";
+      throw std::runtime_error(msg.str());
+    }
+    if (!any) return false;
     ++line_no_;
+    if (line_no_ == 1) detail::StripByteOrderMark(line_);  // a BOM must not hide the first column
     return true;
+  }
+
+  // A line cut by ReadLine: reported, counted as a bad row.
+  bool SkipLongRow() {
+    if (!line_too_long_) return false;
+    ++stats_.rows;
+    ++stats_.bad_rows;
+    Report("row longer than " + std::to_string(kMaxLineBytes) + " bytes (row skipped)");
+    return true;
+  }
+
+  // End of the data: a file whose every data row was bad is an error, not
+  // an empty record that looks like a success.
+  ReadStatus End() {
+    if (stats_.rows > 0 && frames_ == 0) {
+      std::ostringstream msg;
+      msg << path_ << ": none of the " << stats_.rows << " data rows could be used (each is reported above)";
+      throw std::runtime_error(msg.str());
+    }
+    return ReadStatus::kEnd;
   }
 
   // Parses line_ (already split into fields_) as a data row. `k` is the row's
@@ -68,11 +124,18 @@ class TextSource : public Source {
     if (time_col_ >= 0) {
       if (!ParseNumber(fields_[time_col_], decimal_comma_, t) || !std::isfinite(t)) {
         ++stats_.bad_rows;
-        Report("time '" + std::string(Trim(fields_[time_col_])) + "' is not a finite number (row skipped)");
+        Report("time " + Quote(Trim(fields_[time_col_])) + " is not a finite number (row skipped)");
         return false;
       }
     } else {
       t = x0_s_ + static_cast<double>(k) / rate_hz_;
+    }
+    if (!(std::abs(t) <= kMaxAbsTimeS)) {
+      ++stats_.bad_rows;
+      std::ostringstream msg;
+      msg << "time " << t << " s is outside [-1e12, 1e12] s (row skipped)";
+      Report(msg.str());
+      return false;
     }
     if (!first_time_) first_time_ = t;
     frame.time_s = t;
@@ -84,18 +147,21 @@ class TextSource : public Source {
       if (!ParseNumber(fields_[value_cols_[i]], decimal_comma_, v)) {
         v = kNaN;
         ++stats_.bad_values;
-        Report("column '" + names_[i] + "': '" + std::string(Trim(fields_[value_cols_[i]])) +
-               "' is not a number (sample set to NaN)");
+        Report("column " + Quote(names_[i]) + ": " + Quote(Trim(fields_[value_cols_[i]])) +
+               " is not a number (sample set to NaN)");
       }
       frame.values[i] = v;
     }
+    ++frames_;
     return true;
   }
 
   std::string path_;
-  std::ifstream in_;
+  std::unique_ptr<std::istream> in_;
   ProblemCallback on_problem_;
   std::string line_;
+  bool line_too_long_{false};
+  int64_t frames_{0};  // rows delivered
   std::vector<std::string_view> fields_;
   int64_t line_no_{0};
   SourceStats stats_;
@@ -113,13 +179,17 @@ class TextSource : public Source {
 
 class CsvSource final : public TextSource {
  public:
-  CsvSource(const std::string& path, const SourceOptions& options) : TextSource(path, options) {
+  CsvSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(in), path, options) {
     rate_hz_ = options.sample_rate_hz;
-    if (!(rate_hz_ > 0)) throw std::invalid_argument("CSV source: sample_rate_hz must be > 0");
+    if (!(rate_hz_ >= kMinRateHz && rate_hz_ <= kMaxRateHz)) {
+      throw std::invalid_argument("CSV source: sample_rate_hz must be in [1e-6, 1e6] Hz");
+    }
     // Header: the first non-blank line.
     while (ReadLine()) {
       if (!Trim(line_).empty()) break;
     }
+    if (line_too_long_) Fail("header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
     if (Trim(line_).empty()) Fail("empty file: expected a header row");
     Split(line_, sep_, fields_);
     columns_ = fields_.size();
@@ -127,13 +197,13 @@ class CsvSource final : public TextSource {
       const std::string name(Trim(fields_[i]));
       if (name.empty()) Fail("header column " + std::to_string(i + 1) + " has no name");
       double ignored = 0;
-      if (ParseNumber(name, false, ignored)) Fail("no header row: column name '" + name + "' is a number");
+      if (ParseNumber(name, false, ignored)) Fail("no header row: column name " + Quote(name) + " is a number");
       if (name == "time") {
         time_col_ = static_cast<int>(i);
         continue;
       }
       for (const auto& n : names_) {
-        if (n == name) Fail("column '" + name + "' appears twice in the header");
+        if (n == name) Fail("column " + Quote(name) + " appears twice in the header");
       }
       names_.push_back(name);
       value_cols_.push_back(i);
@@ -142,11 +212,15 @@ class CsvSource final : public TextSource {
 
   ReadStatus Next(Frame& frame) override {
     while (ReadLine()) {
+      if (SkipLongRow()) {
+        ++row_;
+        continue;
+      }
       if (Trim(line_).empty()) continue;
       Split(line_, sep_, fields_);
       if (ParseRow(row_++, frame)) return ReadStatus::kFrame;
     }
-    return ReadStatus::kEnd;
+    return End();
   }
 
  private:
@@ -158,7 +232,8 @@ class CsvSource final : public TextSource {
 // header row and data rows.
 class LvmSource final : public TextSource {
  public:
-  LvmSource(const std::string& path, const SourceOptions& options) : TextSource(path, options) {
+  LvmSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(in), path, options) {
     if (!ReadLine()) Fail("empty file: expected 'LabVIEW Measurement'");
     if (Trim(line_).rfind("LabVIEW Measurement", 0) != 0) Fail("not a LabVIEW Measurement file");
     // File header: key<TAB>value lines up to ***End_of_Header***.
@@ -174,7 +249,7 @@ class LvmSource final : public TextSource {
       if (key == "Separator") {
         if (value == "Tab") sep_ = '\t';
         else if (value == "Comma") sep_ = ',';
-        else Fail("Separator '" + std::string(value) + "' is not Tab or Comma");
+        else Fail("Separator " + Quote(value) + " is not Tab or Comma");
       } else if (key == "Decimal_Separator") {
         decimal_comma_ = (value == ",");
       } else if (key == "X_Columns") {
@@ -189,6 +264,10 @@ class LvmSource final : public TextSource {
 
   ReadStatus Next(Frame& frame) override {
     while (ReadLine()) {
+      if (SkipLongRow()) {
+        if (!skip_segment_) ++segment_rows_;
+        continue;
+      }
       const std::string_view trimmed = Trim(line_);
       if (trimmed.empty()) continue;
       Split(line_, sep_, fields_);
@@ -198,7 +277,7 @@ class LvmSource final : public TextSource {
         --line_no_;
         pending_header_line_ = true;
         EndSegment();
-        if (!ReadSegmentHeaderNoThrow()) return ReadStatus::kEnd;
+        if (!ReadSegmentHeaderNoThrow()) return End();
         continue;
       }
       if (skip_segment_) {
@@ -209,7 +288,7 @@ class LvmSource final : public TextSource {
       if (ParseRow(segment_rows_++, frame)) return ReadStatus::kFrame;
     }
     EndSegment();
-    return ReadStatus::kEnd;
+    return End();
   }
 
  private:
@@ -261,9 +340,21 @@ class LvmSource final : public TextSource {
         if (fields_.size() < 2 || !ParseNumber(fields_[1], decimal_comma_, v)) {
           Fail(std::string(key) + " is not a number");
         }
-        if (key == "X0") x0 = v;
+        if (key == "X0") {
+          if (!(std::abs(v) <= kMaxAbsTimeS)) Fail("X0 must be within [-1e12, 1e12] s");
+          x0 = v;
+        }
         if (key == "Delta_X") dx = v;
-        if (key == "Samples") samples_ = static_cast<int64_t>(v);
+        if (key == "Samples") {
+          // Checked before the conversion: 1e300 has no int64 value. Samples
+          // only cross-checks the rows, so a bad one is a warning.
+          if (v >= 0 && v <= 1e15 && v == std::floor(v)) {
+            samples_ = static_cast<int64_t>(v);
+          } else {
+            ++stats_.warnings;
+            Report("Samples " + Quote(Trim(fields_[1])) + " is not a row count in [0, 1e15] (ignored)");
+          }
+        }
       }
     }
     if (!any) return false;
@@ -271,10 +362,13 @@ class LvmSource final : public TextSource {
     ++segment_;
     segment_done_ = false;
     segment_rows_ = 0;
-    if (!dx || !(*dx > 0)) Fail("segment header has no Delta_X > 0");
+    if (!dx || !(*dx >= 1.0 / kMaxRateHz && *dx <= 1.0 / kMinRateHz)) {
+      Fail("segment header has no Delta_X in [1e-6, 1e6] s");
+    }
     x0_s_ = x0.value_or(0.0);
     // Column header row.
     if (!ReadLine()) Fail("segment has no column header row");
+    if (line_too_long_) Fail("column header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
     Split(line_, sep_, fields_);
     size_t n = fields_.size();
     while (n > 0 && (Trim(fields_[n - 1]).empty() || Trim(fields_[n - 1]) == "Comment")) --n;
@@ -322,11 +416,21 @@ class LvmSource final : public TextSource {
 }  // namespace
 
 std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options) {
-  return std::make_unique<CsvSource>(path, options);
+  return std::make_unique<CsvSource>(std::make_unique<std::ifstream>(path, std::ios::binary), path, options);
 }
 
 std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options) {
-  return std::make_unique<LvmSource>(path, options);
+  return std::make_unique<LvmSource>(std::make_unique<std::ifstream>(path, std::ios::binary), path, options);
+}
+
+std::unique_ptr<Source> OpenCsvStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options) {
+  return std::make_unique<CsvSource>(std::move(in), name, options);
+}
+
+std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options) {
+  return std::make_unique<LvmSource>(std::move(in), name, options);
 }
 
 }  // namespace rocklab::daq

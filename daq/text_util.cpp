@@ -58,4 +58,34 @@ bool ParseNumber(std::string_view field, bool decimal_comma, double& out) {
   return ec == std::errc() && ptr == last;
 }
 
+std::string Quote(std::string_view text, std::size_t max_bytes) {
+  static const char kHex[] = "0123456789abcdef";
+  std::string out = "'";
+  const std::size_t n = text.size() < max_bytes ? text.size() : max_bytes;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '\\' || c == '\'') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    }
+  }
+  out += '\'';
+  if (n < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
+  return out;
+}
+
+bool StripByteOrderMark(std::string& line) {
+  if (line.size() >= 3 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) {
+    line.erase(0, 3);
+    return true;
+  }
+  return false;
+}
+
 }  // namespace rocklab::daq::detail

@@ -136,7 +136,12 @@ struct SideFit {
 // crossing would be biased towards the slower side.
 double FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, double w_before,
                    double w_after) {
-  const auto [lo, hi] = Range(r.time_s, r.time_s[i] - w_before, r.time_s[j] + w_after);
+  // Plain variables, not a structured binding: the lambda captures them, and
+  // clang before 16 cannot capture a binding (the sanitizer build uses clang).
+  const std::pair<std::size_t, std::size_t> range =
+      Range(r.time_s, r.time_s[i] - w_before, r.time_s[j] + w_after);
+  const std::size_t lo = range.first;
+  const std::size_t hi = range.second;
   auto rss = [&](double tc) {
     SideFit before;
     SideFit after;

@@ -73,7 +73,7 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
 }
 
 bool LiveState::Impl::IngestEvent(const void* data, int size) {
-  if (event_msg.decode(data, 0, size) < 0) return false;
+  if (event_msg.decode(data, 0, size) < 0 || !UsableUtime(event_msg.utime)) return false;
   const rocklab::event_t& m = event_msg;
   if (!has_clock) {
     has_clock = true;

@@ -253,6 +253,14 @@ struct LiveState::Impl {
     return variants.back().get();
   }
 
+  // A time from the wire may become the origin: beyond +-2^53 us (285 years)
+  // it is corrupt, and differences of such times overflow int64. Refused as a
+  // decode error (counted per channel).
+  static bool UsableUtime(std::int64_t utime) {
+    constexpr std::int64_t kMaxAbsUtime = std::int64_t{1} << 53;
+    return utime >= -kMaxAbsUtime && utime <= kMaxAbsUtime;
+  }
+
   // A sample-clock reading of a series: sets t0, starts a new record when
   // the clock went back by more than new_record_after_s.
   void SeeSampleClock(std::int64_t utime) {
@@ -270,7 +278,7 @@ struct LiveState::Impl {
   // Decodes a message of a series into `msg` and reads its sample clock.
   template <class Msg>
   bool DecodeSample(Msg& msg, const void* data, int size) {
-    if (msg.decode(data, 0, size) < 0) return false;
+    if (msg.decode(data, 0, size) < 0 || !UsableUtime(msg.utime)) return false;
     SeeSampleClock(msg.utime);
     return true;
   }

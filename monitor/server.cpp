@@ -1,15 +1,25 @@
 #include "monitor/server.h"
 
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <microhttpd.h>
+
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstring>
+#include <list>
 #include <mutex>
 #include <stdexcept>
+#include <string_view>
 #include <thread>
-
-#include <httplib.h>
-#include <sys/socket.h>
 
 #include "monitor/assets.h"
 
@@ -22,7 +32,7 @@ const char* const kSecurityPolicy =
     "img-src 'self' data:; connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; "
     "form-action 'none'";
 
-constexpr std::size_t kMaxRequestBody = 1024;  // bytes; nothing here takes a body
+const char* const kTextPlain = "text/plain; charset=utf-8";
 
 // Text from the bus (node names, event details, channel names) need not be
 // UTF-8: invalid bytes become U+FFFD instead of an exception in a server thread.
@@ -30,173 +40,355 @@ std::string Dump(const nlohmann::json& j) {
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+// Methods HTTP/1.1 defines (RFC 9110 and PATCH): 405 for these, 400 for any
+// other token, as cpp-httplib answered before.
+bool IsHttpMethod(std::string_view m) {
+  for (const char* known : {"GET", "HEAD", "POST", "PUT", "DELETE", "CONNECT", "OPTIONS", "TRACE", "PATCH"}) {
+    if (m == known) return true;
+  }
+  return false;
+}
+
+// Paths are looked up exactly as sent: no percent-decoding, so "%2e%2e" and
+// "%00" stay what they are and find nothing in the embedded table.
+size_t KeepEscapes(void*, MHD_Connection*, char* uri) { return std::strlen(uri); }
+
+// The file-descriptor head room the server leaves to the rest of the process
+// (LCM sockets, logs) below the open-file limit.
+constexpr std::size_t kSpareDescriptors = 64;
+
 }  // namespace
 
 void ServerOptions::Validate() const {
-  auto check = [](bool ok, const char* name) {
-    if (!ok) throw std::invalid_argument(std::string("monitor server option ") + name + " out of range");
+  auto check = [](bool ok, const char* name, const char* range) {
+    if (!ok) {
+      throw std::invalid_argument(std::string("monitor server option ") + name + " out of range (" +
+                                  range + ")");
+    }
   };
-  check(!host.empty(), "host");
-  check(port >= 0 && port <= 65535, "port");
-  check(std::isfinite(push_period_s) && push_period_s > 0, "push_period_s");
-  check(std::isfinite(keepalive_period_s) && keepalive_period_s > 0, "keepalive_period_s");
-  check(max_streams >= 1, "max_streams");
+  check(!host.empty(), "host", "not empty");
+  check(port >= 0 && port <= 65535, "port", "0 .. 65535");
+  check(std::isfinite(push_period_s) && push_period_s > 0 && push_period_s <= 60, "push_period_s",
+        "(0, 60] s");
+  check(std::isfinite(idle_timeout_s) && idle_timeout_s >= 1 && idle_timeout_s <= 3600, "idle_timeout_s",
+        "[1, 3600] s");
+  check(std::isfinite(keepalive_period_s) && keepalive_period_s > 0 && keepalive_period_s < idle_timeout_s,
+        "keepalive_period_s", "(0, idle_timeout_s) s");
+  check(max_streams >= 1 && max_streams <= 1024, "max_streams", "1 .. 1024");
+  check(max_connections >= 1 && max_connections <= 4096, "max_connections", "1 .. 4096");
+  check(max_streams <= max_connections, "max_streams", "<= max_connections");
+  check(max_connections_per_host >= 1 && max_connections_per_host <= max_connections, "max_connections_per_host",
+        "1 .. max_connections");
+  check(max_header_bytes >= 1024 && max_header_bytes <= 65536, "max_header_bytes", "1024 .. 65536 bytes");
 }
 
 struct MonitorServer::Impl {
-  Impl(const LiveState& s, const ServerOptions& o) : state(s), options(o) {}
+  // One event stream: owned by its libmicrohttpd response (freed by its free
+  // callback), listed in `streams` while the response lives.
+  struct Stream {
+    Impl* impl{};
+    MHD_Connection* connection{};  // not owned
+    bool started{};
+    bool suspended{};              // guarded by impl->mutex
+    std::atomic<bool> due{false};  // a push period passed since the last look
+    std::uint64_t cursor{};
+    std::chrono::steady_clock::time_point last_write{};
+    std::string out;  // the message being sent (one snapshot or update at most)
+    std::size_t out_pos{};
+    std::list<Stream*>::iterator entry;
+  };
 
-  void Routes();
-  void Stream(httplib::Response& res);
-  // Waits up to `seconds` or until Stop; returns false when stopping.
-  bool Wait(double seconds) {
-    std::unique_lock<std::mutex> lock(mutex);
-    return !stop_cv.wait_for(lock, std::chrono::duration<double>(seconds), [this] { return stopping; });
+  Impl(const LiveState& s, const ServerOptions& o) : state(s), options(o) {}
+  ~Impl() {
+    if (listen_fd >= 0) close(listen_fd);
+  }
+
+  static MHD_Result Handle(void* cls, MHD_Connection* connection, const char* url, const char* method,
+                           const char* version, const char* upload_data, size_t* upload_data_size,
+                           void** request);
+  MHD_Result Answer(MHD_Connection* connection, std::string_view url, std::string_view method);
+  MHD_Result StartStream(MHD_Connection* connection);
+  static ssize_t ReadStream(void* cls, uint64_t pos, char* buf, size_t max);
+  static void FreeStream(void* cls);
+  void Tick();
+
+  // Queues a response carrying the default headers.
+  MHD_Result Queue(MHD_Connection* connection, unsigned status, MHD_Response* response) {
+    MHD_add_response_header(response, "X-Content-Type-Options", "nosniff");
+    MHD_add_response_header(response, "Content-Security-Policy", kSecurityPolicy);
+    MHD_add_response_header(response, "Referrer-Policy", "no-referrer");
+    MHD_add_response_header(response, "X-Frame-Options", "DENY");
+    const MHD_Result r = MHD_queue_response(connection, status, response);
+    MHD_destroy_response(response);
+    return r;
+  }
+  MHD_Result Text(MHD_Connection* connection, unsigned status, const char* text) {
+    MHD_Response* r = MHD_create_response_from_buffer(std::strlen(text), const_cast<char*>(text),
+                                                      MHD_RESPMEM_PERSISTENT);
+    if (r == nullptr) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", kTextPlain);
+    return Queue(connection, status, r);
   }
 
   const LiveState& state;  // not owned
   const ServerOptions options;
-  httplib::Server server;
+  int listen_fd{-1};  // ours until Start hands it to libmicrohttpd
   int port{};
-  std::thread thread;
+  MHD_Daemon* daemon{};
+  std::thread ticker;
+
   std::mutex mutex;
   std::condition_variable stop_cv;
-  bool stopping{};  // guarded by mutex
-  std::atomic<std::size_t> streams{0};
-  std::atomic<bool> listen_returned{false};
+  bool stopping{};             // guarded by mutex
+  std::list<Stream*> streams;  // guarded by mutex
+  std::condition_variable streams_cv;
 };
 
-void MonitorServer::Impl::Routes() {
-  server.set_payload_max_length(kMaxRequestBody);
-  // SO_REUSEADDR only: cpp-httplib's default SO_REUSEPORT would let a second
-  // monitor bind the same port and share its connections.
-  server.set_socket_options([](socket_t sock) {
-    int yes = 1;
-    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-  });
-  server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
-                              {"Content-Security-Policy", kSecurityPolicy},
-                              {"Referrer-Policy", "no-referrer"},
-                              {"X-Frame-Options", "DENY"}});
-  // Room for every event stream plus a few workers for the files and the API.
-  const std::size_t workers = options.max_streams + 4;
-  server.new_task_queue = [workers] { return new httplib::ThreadPool(workers); };
-
-  // Read-only: GET (and HEAD, which cpp-httplib answers from the GET route).
-  server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
-    if (req.method == "GET" || req.method == "HEAD") return httplib::Server::HandlerResponse::Unhandled;
-    res.status = 405;
-    res.set_header("Allow", "GET, HEAD");
-    res.set_content("method not allowed: the monitor is read-only\n", "text/plain; charset=utf-8");
-    return httplib::Server::HandlerResponse::Handled;
-  });
-
-  server.Get(".*", [this](const httplib::Request& req, httplib::Response& res) {
-    if (req.path == "/api/snapshot") {
-      res.set_header("Cache-Control", "no-store");
-      res.set_content(Dump(state.Snapshot()) + "\n", "application/json");
-      return;
-    }
-    if (req.path == "/api/events") {
-      Stream(res);
-      return;
-    }
-    // Exact lookup in the embedded table: no file system, no normalisation.
-    if (const Asset* a = FindAsset(req.path)) {
-      res.set_header("Cache-Control", "no-cache");
-      res.set_content(a->body.data(), a->body.size(), std::string(a->content_type).c_str());
-      return;
-    }
-    res.status = 404;
-    res.set_content("not found\n", "text/plain; charset=utf-8");
-  });
+MHD_Result MonitorServer::Impl::Handle(void* cls, MHD_Connection* connection, const char* url,
+                                       const char* method, const char*, const char*,
+                                       size_t* upload_data_size, void** request) {
+  Impl& self = *static_cast<Impl*>(cls);
+  if (*request == nullptr) {
+    // First call, with the headers: answer now (nothing here reads a body).
+    *request = &self;
+    return self.Answer(connection, url, method);
+  }
+  *upload_data_size = 0;  // a body after an answer was queued: discarded
+  return MHD_YES;
 }
 
-void MonitorServer::Impl::Stream(httplib::Response& res) {
-  if (streams.fetch_add(1) >= options.max_streams) {
-    streams.fetch_sub(1);
-    res.status = 503;
-    res.set_header("Retry-After", "5");
-    res.set_content("too many event streams\n", "text/plain; charset=utf-8");
-    return;
+MHD_Result MonitorServer::Impl::Answer(MHD_Connection* connection, std::string_view url,
+                                       std::string_view method) {
+  if (method != "GET" && method != "HEAD") {
+    if (!IsHttpMethod(method)) return Text(connection, 400, "bad request\n");
+    MHD_Response* r = MHD_create_response_from_buffer(
+        std::strlen("method not allowed: the monitor is read-only\n"),
+        const_cast<char*>("method not allowed: the monitor is read-only\n"), MHD_RESPMEM_PERSISTENT);
+    if (r == nullptr) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", kTextPlain);
+    MHD_add_response_header(r, "Allow", "GET, HEAD");
+    return Queue(connection, 405, r);
   }
-  res.set_header("Cache-Control", "no-store");
-  res.set_header("X-Accel-Buffering", "no");
-  struct StreamState {
-    bool started{};
-    std::uint64_t cursor{};
-    std::chrono::steady_clock::time_point last_write{};
-  };
-  res.set_chunked_content_provider(
-      "text/event-stream",
-      [this, s = StreamState{}](std::size_t, httplib::DataSink& sink) mutable {
-        auto write = [&](const std::string& text) {
-          s.last_write = std::chrono::steady_clock::now();
-          return sink.write(text.data(), text.size());
-        };
-        if (!s.started) {
-          s.started = true;
-          const nlohmann::json full = state.UpdateSince(0);
-          s.cursor = full.at("cursor").get<std::uint64_t>();
-          // retry: the browser reconnects after a second when the server restarts.
-          return write("retry: 1000\ndata: " + Dump(full) + "\n\n");
-        }
-        if (!Wait(options.push_period_s)) {
-          sink.done();
-          return false;
-        }
-        if (state.cursor() != s.cursor) {
-          const nlohmann::json update = state.UpdateSince(s.cursor);
-          s.cursor = update.at("cursor").get<std::uint64_t>();
-          return write("data: " + Dump(update) + "\n\n");
-        }
+  if (url == "/api/snapshot") {
+    const std::string body = Dump(state.Snapshot()) + "\n";
+    MHD_Response* r = MHD_create_response_from_buffer(body.size(), const_cast<char*>(body.data()),
+                                                      MHD_RESPMEM_MUST_COPY);
+    if (r == nullptr) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", "application/json");
+    MHD_add_response_header(r, "Cache-Control", "no-store");
+    return Queue(connection, 200, r);
+  }
+  if (url == "/api/events") return StartStream(connection);
+  // Exact lookup in the embedded table: no file system, no normalisation.
+  const Asset* a = FindAsset(std::string(url));
+  if (a == nullptr) return Text(connection, 404, "not found\n");
+  MHD_Response* r = MHD_create_response_from_buffer(a->body.size(), const_cast<char*>(a->body.data()),
+                                                    MHD_RESPMEM_PERSISTENT);
+  if (r == nullptr) return MHD_NO;
+  MHD_add_response_header(r, "Content-Type", std::string(a->content_type).c_str());
+  MHD_add_response_header(r, "Cache-Control", "no-cache");
+  return Queue(connection, 200, r);
+}
+
+MHD_Result MonitorServer::Impl::StartStream(MHD_Connection* connection) {
+  auto stream = std::make_unique<Stream>();
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (stopping || streams.size() >= options.max_streams) {
+      MHD_Response* r = MHD_create_response_from_buffer(std::strlen("too many event streams\n"),
+                                                        const_cast<char*>("too many event streams\n"),
+                                                        MHD_RESPMEM_PERSISTENT);
+      if (r == nullptr) return MHD_NO;
+      MHD_add_response_header(r, "Content-Type", kTextPlain);
+      MHD_add_response_header(r, "Retry-After", "5");
+      return Queue(connection, 503, r);
+    }
+    stream->impl = this;
+    stream->connection = connection;
+    streams.push_front(stream.get());
+    stream->entry = streams.begin();
+  }
+  Stream* s = stream.release();  // owned by the response from here
+  // 4 KiB blocks: a snapshot goes out in pieces as the socket takes them.
+  MHD_Response* r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, &ReadStream, s, &FreeStream);
+  if (r == nullptr) {
+    FreeStream(s);
+    return MHD_NO;
+  }
+  MHD_add_response_header(r, "Content-Type", "text/event-stream");
+  MHD_add_response_header(r, "Cache-Control", "no-store");
+  MHD_add_response_header(r, "X-Accel-Buffering", "no");
+  return Queue(connection, 200, r);
+}
+
+// Called by the polling thread whenever the socket can take more. Returns the
+// bytes copied, 0 after suspending the connection until the next tick, or
+// the end of the stream once the server stops.
+ssize_t MonitorServer::Impl::ReadStream(void* cls, uint64_t, char* buf, size_t max) {
+  Stream& s = *static_cast<Stream*>(cls);
+  Impl& self = *s.impl;
+  if (s.out_pos >= s.out.size()) {
+    s.out.clear();
+    s.out_pos = 0;
+    {
+      std::lock_guard<std::mutex> lock(self.mutex);
+      if (self.stopping) return MHD_CONTENT_READER_END_OF_STREAM;
+    }
+    if (!s.started) {
+      s.started = true;
+      const nlohmann::json full = self.state.UpdateSince(0);
+      s.cursor = full.at("cursor").get<std::uint64_t>();
+      // retry: the browser reconnects after a second when the server restarts.
+      s.out = "retry: 1000\ndata: " + Dump(full) + "\n\n";
+    } else if (s.due.exchange(false)) {
+      if (self.state.cursor() != s.cursor) {
+        const nlohmann::json update = self.state.UpdateSince(s.cursor);
+        s.cursor = update.at("cursor").get<std::uint64_t>();
+        s.out = "data: " + Dump(update) + "\n\n";
+      } else {
         const std::chrono::duration<double> quiet = std::chrono::steady_clock::now() - s.last_write;
-        if (quiet.count() >= options.keepalive_period_s) return write(": quiet\n\n");
-        return true;
-      },
-      [this](bool) { streams.fetch_sub(1); });
+        if (quiet.count() >= self.options.keepalive_period_s) s.out = ": quiet\n\n";
+      }
+    }
+    if (s.out.empty()) {
+      // Nothing to send: park the connection until the ticker resumes it.
+      std::lock_guard<std::mutex> lock(self.mutex);
+      if (self.stopping) return MHD_CONTENT_READER_END_OF_STREAM;
+      s.suspended = true;
+      MHD_suspend_connection(s.connection);
+      return 0;
+    }
+    s.last_write = std::chrono::steady_clock::now();
+  }
+  const std::size_t n = std::min(max, s.out.size() - s.out_pos);
+  std::memcpy(buf, s.out.data() + s.out_pos, n);
+  s.out_pos += n;
+  return static_cast<ssize_t>(n);
+}
+
+void MonitorServer::Impl::FreeStream(void* cls) {
+  Stream* s = static_cast<Stream*>(cls);
+  Impl& self = *s->impl;
+  {
+    std::lock_guard<std::mutex> lock(self.mutex);
+    self.streams.erase(s->entry);
+  }
+  self.streams_cv.notify_all();
+  delete s;
+}
+
+// Once per push period: every parked stream looks at the state again.
+void MonitorServer::Impl::Tick() {
+  std::unique_lock<std::mutex> lock(mutex);
+  while (!stopping) {
+    stop_cv.wait_for(lock, std::chrono::duration<double>(options.push_period_s), [this] { return stopping; });
+    for (Stream* s : streams) {
+      s->due = true;
+      if (s->suspended) {
+        s->suspended = false;
+        MHD_resume_connection(s->connection);
+      }
+    }
+  }
 }
 
 MonitorServer::MonitorServer(const LiveState& state, const ServerOptions& options) {
   options.Validate();
   impl_ = std::make_unique<Impl>(state, options);
-  impl_->Routes();
   const std::string where = options.host + ":" + std::to_string(options.port);
-  if (options.port == 0) {
-    impl_->port = impl_->server.bind_to_any_port(options.host);
-    if (impl_->port <= 0) throw std::runtime_error("cannot listen on " + where);
-  } else {
-    if (!impl_->server.bind_to_port(options.host, options.port)) {
-      throw std::runtime_error("cannot listen on " + where + " (in use, or not an address of this host)");
-    }
-    impl_->port = options.port;
+  // The listening socket is made here, so that the port is known (and taken)
+  // before Start, and with SO_REUSEADDR only: SO_REUSEPORT would let a second
+  // monitor bind the same port and share its connections.
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(options.host.c_str(), std::to_string(options.port).c_str(), &hints, &found) != 0 ||
+      found == nullptr) {
+    throw std::runtime_error("cannot listen on " + where + " (not an address of this host)");
   }
+  int fd = -1;
+  for (addrinfo* a = found; a != nullptr && fd < 0; a = a->ai_next) {
+    fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+    if (fd < 0) continue;
+    int yes = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    if (bind(fd, a->ai_addr, a->ai_addrlen) != 0 || listen(fd, 128) != 0) {
+      close(fd);
+      fd = -1;
+    }
+  }
+  freeaddrinfo(found);
+  if (fd < 0) throw std::runtime_error("cannot listen on " + where + " (in use, or not an address of this host)");
+  impl_->listen_fd = fd;
+  sockaddr_storage bound{};
+  socklen_t len = sizeof bound;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&bound), &len);
+  impl_->port = bound.ss_family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(&bound)->sin6_port)
+                                            : ntohs(reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
 }
 
 MonitorServer::~MonitorServer() { Stop(); }
 
 void MonitorServer::Start() {
-  if (impl_->thread.joinable()) return;
-  impl_->listen_returned = false;
-  impl_->thread = std::thread([this] {
-    impl_->server.listen_after_bind();
-    impl_->listen_returned = true;
-  });
-  // cpp-httplib's stop() does nothing before the server runs: wait for it, so
-  // that a Stop() right after Start() cannot leave the thread in accept().
-  while (!impl_->server.is_running() && !impl_->listen_returned) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  Impl& m = *impl_;
+  if (m.daemon != nullptr || m.listen_fd < 0) return;
+  // Connections beyond the open-file limit would fail at accept() anyway;
+  // leave the rest of the process its descriptors.
+  std::size_t limit = m.options.max_connections;
+  rlimit files{};
+  if (getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur != RLIM_INFINITY) {
+    const std::size_t room = files.rlim_cur > kSpareDescriptors + 1 ? files.rlim_cur - kSpareDescriptors : 1;
+    limit = std::min(limit, room);
   }
+  const auto timeout_s = static_cast<unsigned>(std::ceil(m.options.idle_timeout_s));
+  // libmicrohttpd keeps the request line and headers in the connection's
+  // memory pool; the response headers need a little room beside them.
+  const std::size_t pool = m.options.max_header_bytes + 4096;
+  m.daemon = MHD_start_daemon(
+      MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME, 0, nullptr, nullptr,
+      &Impl::Handle, &m,  //
+      MHD_OPTION_LISTEN_SOCKET, m.listen_fd,                            //
+      MHD_OPTION_CONNECTION_LIMIT, static_cast<unsigned>(limit),        //
+      MHD_OPTION_PER_IP_CONNECTION_LIMIT,
+      static_cast<unsigned>(std::min(limit, m.options.max_connections_per_host)),  //
+      MHD_OPTION_CONNECTION_TIMEOUT, timeout_s,                         //
+      MHD_OPTION_CONNECTION_MEMORY_LIMIT, pool,                         //
+      MHD_OPTION_UNESCAPE_CALLBACK, &KeepEscapes, nullptr,              //
+      MHD_OPTION_END);
+  if (m.daemon == nullptr) throw std::runtime_error("cannot start the HTTP server on " + url());
+  m.ticker = std::thread([&m] { m.Tick(); });
 }
 
 void MonitorServer::Stop() {
+  Impl& m = *impl_;
   {
-    std::lock_guard<std::mutex> lock(impl_->mutex);
-    impl_->stopping = true;
+    std::lock_guard<std::mutex> lock(m.mutex);
+    m.stopping = true;
+    // Every parked stream wakes up, sees `stopping` and ends (libmicrohttpd
+    // must not be stopped with a connection suspended).
+    for (Impl::Stream* s : m.streams) {
+      if (s->suspended) {
+        s->suspended = false;
+        MHD_resume_connection(s->connection);
+      }
+    }
   }
-  impl_->stop_cv.notify_all();
-  impl_->server.stop();
-  if (impl_->thread.joinable()) impl_->thread.join();
+  m.stop_cv.notify_all();
+  if (m.ticker.joinable()) m.ticker.join();
+  if (m.daemon == nullptr) return;
+  {
+    // Give the streams' last chunks a moment to leave (a client that reads
+    // nothing is cut off when the daemon stops).
+    std::unique_lock<std::mutex> lock(m.mutex);
+    m.streams_cv.wait_for(lock, std::chrono::seconds(2), [&m] { return m.streams.empty(); });
+  }
+  MHD_quiesce_daemon(m.daemon);
+  MHD_stop_daemon(m.daemon);
+  m.daemon = nullptr;
+  close(m.listen_fd);  // after the stop, as libmicrohttpd's manual asks
+  m.listen_fd = -1;
 }
 
 int MonitorServer::port() const { return impl_->port; }

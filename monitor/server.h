@@ -1,20 +1,34 @@
 #pragma once
 /// @file
-/// The monitor's HTTP server (cpp-httplib): serves the embedded page
-/// (monitor/assets.h) and the LiveState as JSON, read-only.
+/// The monitor's HTTP server (libmicrohttpd, event-driven): serves the
+/// embedded page (monitor/assets.h) and the LiveState as JSON, read-only.
 ///
-/// Routes (GET and HEAD only; any other method gets 405):
+/// Routes (GET and HEAD only; another HTTP method gets 405, a token that is
+/// no HTTP method 400):
 ///   /, /index.html, /app.js, ...  the embedded assets, nothing else (404)
 ///   /api/snapshot                 LiveState::Snapshot() as JSON
 ///   /api/events                   Server-Sent Events: a full snapshot first,
 ///                                 then LiveState::UpdateSince(cursor) every
 ///                                 push period while something changed
-/// There is no file system behind the server: a path is looked up as is in
-/// the embedded table, so traversal attempts and directories find nothing.
+/// There is no file system behind the server: a path is looked up as is (not
+/// even percent-decoded) in the embedded table, so traversal attempts and
+/// directories find nothing.
 ///
-/// Threading: cpp-httplib's listening thread and worker pool; each event
-/// stream holds one worker (hence max_streams). Stop() ends the streams
-/// within a push period, stops listening and joins.
+/// Under load (README, Reliability): one polling thread serves every
+/// connection, so idle or slow clients cost a socket and a bounded buffer,
+/// never a thread. At most max_connections are open (more are refused at
+/// accept), at most max_connections_per_host from one address; a request's
+/// header must fit in max_header_bytes (else 431 and the connection closes);
+/// a connection quiet for idle_timeout_s is closed, in the middle of a
+/// header too. cpp-httplib, used before, gives each
+/// connection a worker thread from a fixed pool and has no bound on the
+/// number of header lines: 1000 idle sockets starved every request and one
+/// client streaming header lines grew the process to 1.8 GB.
+///
+/// Threading: libmicrohttpd's polling thread runs every callback; a ticker
+/// thread resumes the event streams (suspended between pushes) once per push
+/// period. Stop() ends the streams (each gets its last chunk), stops
+/// listening, stops the polling thread and joins both.
 
 #include <cstddef>
 #include <memory>
@@ -28,8 +42,19 @@ struct ServerOptions {
   std::string host{"127.0.0.1"};  ///< address to bind; 127.0.0.1 unless told otherwise
   int port{8080};                 ///< 0 picks a free port; 0..65535
   double push_period_s{0.1};      ///< event-stream update period, s; > 0 (10 Hz)
-  double keepalive_period_s{5.0}; ///< comment line on a quiet stream, s; > 0
+  double keepalive_period_s{5.0}; ///< comment line on a quiet stream, s; > 0, < idle_timeout_s
   std::size_t max_streams{8};     ///< concurrent event streams; more get 503
+  /// Open connections at most (idle, reading, streaming); more are refused.
+  /// 1 .. 4096, and kept 64 below the process's open-file limit.
+  std::size_t max_connections{1024};
+  /// Open connections from one address at most, so that one host cannot
+  /// take every slot; 1 .. max_connections.
+  std::size_t max_connections_per_host{400};
+  /// A connection with no traffic for this long is closed, s; 1 .. 3600.
+  double idle_timeout_s{10.0};
+  /// Request line and headers of one request, bytes; more gets 431 and a
+  /// close. 1024 .. 65536.
+  std::size_t max_header_bytes{8192};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -37,7 +62,7 @@ struct ServerOptions {
 class MonitorServer {
  public:
   /// Binds host:port (not yet serving).
-  /// @param state read by the HTTP threads; not owned, must outlive the server.
+  /// @param state read by the HTTP thread; not owned, must outlive the server.
   /// @throws std::invalid_argument for invalid options, std::runtime_error
   ///         naming host:port when it cannot bind.
   MonitorServer(const LiveState& state, const ServerOptions& options);
@@ -47,6 +72,7 @@ class MonitorServer {
   MonitorServer& operator=(const MonitorServer&) = delete;
 
   /// Serves on a background thread.
+  /// @throws std::runtime_error when libmicrohttpd cannot start.
   void Start();
   /// Ends the event streams, stops listening, joins. Idempotent.
   void Stop();

@@ -13,15 +13,17 @@ packages=(
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev
   iproute2 util-linux
-  libcpp-httplib-dev gnuplot-nox
+  libcpp-httplib-dev libmicrohttpd-dev gnuplot-nox
   libexpat1-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
-# The browser tests drive Debian's headless Chromium; only tools/test.sh asks.
+# The browser tests drive Debian's headless Chromium, and the sanitizer and
+# fuzz pass (tools/test.sh, build-asan/) needs clang with its sanitizer and
+# libFuzzer runtimes; only tools/test.sh asks.
 if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
-  packages+=(chromium chromium-driver fonts-dejavu-core)
+  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -1,9 +1,54 @@
 #!/usr/bin/env bash
 # One command for the whole test suite on a fresh Debian machine: installs
-# what is missing, builds, runs ctest.
+# what is missing, builds, runs ctest (extra arguments go to ctest).
+#
+# Then, under CI=true or with ROCKLAB_ASAN_PASS=1 (ROCKLAB_ASAN_PASS=0 skips
+# it), the sanitizer and fuzz pass in build-asan/: clang with AddressSanitizer,
+# UndefinedBehaviorSanitizer (cmake/RocklabTargets.cmake: which checks) and
+# libFuzzer's instrumentation; the whole suite once more, any sanitizer
+# report failing its test; then every fuzz target of tests/fuzz for
+# ROCKLAB_FUZZ_SECONDS (default 20) s on its corpus. A crash fails the run
+# and leaves the input in build-asan/fuzz-artifacts/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${ROCKLAB_BUILD_DIR:-$here/build}
 ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
-cd "$build"
-ctest --output-on-failure -j "$(nproc)" "$@"
+(cd "$build" && ctest --output-on-failure -j "$(nproc)" "$@")
+
+asan_pass=${ROCKLAB_ASAN_PASS:-}
+if [ -z "$asan_pass" ] && [ "${CI:-}" = "true" ]; then asan_pass=1; fi
+[ "$asan_pass" = "1" ] || exit 0
+
+asan=${ROCKLAB_ASAN_BUILD_DIR:-$here/build-asan}
+# Release with line tables: optimised (the suite runs at a usable speed
+# under ASan) and symbolised reports. Warnings are the plain build's job.
+CXXFLAGS="-gline-tables-only ${CXXFLAGS:-}" ROCKLAB_BUILD_DIR=$asan \
+  ROCKLAB_CMAKE_ARGS="-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release -DROCKLAB_SANITIZE=ON -DROCKLAB_FUZZ=ON -DROCKLAB_LCM_JAVA=OFF -DROCKLAB_WERROR=OFF ${ROCKLAB_CMAKE_ARGS:-}" \
+  ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
+(cd "$asan" && ctest --output-on-failure -j "$(nproc)" "$@")
+
+seconds=${ROCKLAB_FUZZ_SECONDS:-20}
+mkdir -p "$asan/fuzz-artifacts"
+run_fuzzer() {  # target max_len seed dirs...
+  local target=$1 max_len=$2
+  shift 2
+  local work="$asan/fuzz-corpus/$target"
+  mkdir -p "$work"
+  local log="$asan/fuzz-artifacts/$target.log"
+  echo "rocklab fuzz: $target for $seconds s (log: $log)"
+  if ! "$asan/tests/fuzz/fuzz_$target" -max_total_time="$seconds" -max_len="$max_len" -timeout=10 \
+      -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$asan/fuzz-artifacts/$target-" \
+      "$work" "$here/tests/fuzz/corpus/$target" "$@" >"$log" 2>&1; then
+    tail -n 60 "$log"
+    echo "rocklab fuzz: $target failed; the input is in $asan/fuzz-artifacts/" >&2
+    return 1
+  fi
+  grep -E 'stat::(number_of_executed_units|peak_rss_mb)' "$log" || true
+}
+run_fuzzer csv 8192 "$here/data/samples"
+run_fuzzer lvm 8192 "$here/data/samples"
+run_fuzzer rig_config 8192 "$here/data/rigs"
+run_fuzzer live_state 4096
+run_fuzzer http 4096

@@ -232,6 +232,27 @@ TEST(SynthReconstruct, BadOptionsAndInputsExitWithUsageErrors) {
   EXPECT_EQ(err, "rocklab: --rig: /nonexistent.toml: cannot open the rig file\n");
 }
 
+// Issue 12, items 5 and 10: a file none of whose rows can be used, and a
+// read error, end the command with a non-zero exit and a message naming the
+// file (they were exit 0 with nothing, or half the rows, written).
+TEST(SynthReconstruct, UnusableInputsExitNonZeroNamingTheFile) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  std::string header = "time";
+  std::string row = "x";
+  for (const ChannelConfig& c : rig.channels) {
+    header += "," + c.name;
+    row += ",1";
+  }
+  const std::string bad = test::WriteFile("allbad.csv", header + "\n" + row + "\n" + row + "\n");
+  std::string err;
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + bad + " --out /tmp/z.csv", &err), 1);
+  EXPECT_NE(err.find("rocklab: " + bad + ": none of the 2 data rows could be used"), std::string::npos) << err;
+  const std::string dir = test::ScratchDir() + "/folder.csv";
+  ASSERT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + dir + " --out /tmp/z.csv", &err), 2);
+  EXPECT_NE(err.find(dir + ": read error after line 0"), std::string::npos) << err;
+}
+
 }  // namespace
 }  // namespace rocklab::daq
 

@@ -70,7 +70,7 @@ TEST(RigConfig, ErrorsNameFileLineAndKey) {
   std::string text = kMinimal;
   // lever_m on line 7 made negative.
   EXPECT_EQ(Error(std::string(text).replace(text.find("1.5"), 3, "-1")),
-            "rig.toml:7: key 'mirror.lever_m' must be > 0");
+            "rig.toml:7: key 'mirror.lever_m' must be in (0, 100] m");
   // A missing key is reported at its table's line.
   EXPECT_EQ(Error(std::string(text).replace(text.find("lever_m = 1.5\n"), 14, "")),
             "rig.toml:6: key 'mirror.lever_m' is missing");
@@ -92,7 +92,8 @@ TEST(RigConfig, ErrorsNameFileLineAndKey) {
             "rig.toml:12: key 'channel.raw_max' must be > raw_min");
   // A differentiator window too short for its order at the sample rate.
   EXPECT_EQ(Error(std::string(text) + "[theta_dot]\nwindow_s = 0.02\norder = 4\n"),
-            "rig.toml:12: key 'theta_dot.window_s' must hold more samples than order at the sample rate");
+            "rig.toml:12: key 'theta_dot.window_s' must be in [0.04, 20] s at sample_rate_hz 100 (5 to 2001 "
+            "samples for order 4), got 0.02");
 }
 
 TEST(RigConfig, LedNeedsBothCoordinates) {
@@ -130,6 +131,64 @@ TEST(RigConfig, ReadmeExampleIsTheBundledRigFile) {
   std::stringstream rig_text;
   rig_text << rig.rdbuf();
   EXPECT_EQ(s.substr(begin + 8, end - begin - 8), rig_text.str());
+}
+
+}  // namespace
+}  // namespace rocklab::daq
+
+namespace rocklab::daq {
+namespace {
+
+// Item 8 of issue 12: rig values are bounded, the message naming the key and
+// the allowed range. Oracle: the ranges of rig_config.h and README.
+std::string RigError(const std::string& extra, double rate_hz = 1000) {
+  std::ostringstream text;
+  text << "name = \"r\"\nsample_rate_hz = " << rate_hz
+       << "\n[block]\nwidth_m = 0.2\nheight_m = 0.8\n[mirror]\nlever_m = 1.0\n" << extra
+       << "\n[[channel]]\nname = \"s\"\nsensor = \"mirror.s\"\n";
+  try {
+    ParseRigConfig(text.str(), "rig.toml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(RigConfigRanges, ValuesOutOfRangeNameTheKeyAndTheRange) {
+  EXPECT_EQ(RigError("[table]\nwindow_s = 2.5"),
+            "rig.toml:9: key 'table.window_s' must be in [0.004, 2] s at sample_rate_hz 1000 (5 to 2001 "
+            "samples for order 4), got 2.5");
+  EXPECT_EQ(RigError("[table]\norder = 4294967298"),
+            "rig.toml:9: key 'table.order' must be in [2, 6], got 4294967298");
+  EXPECT_EQ(RigError("[checks]\nmin_leds = 4294967298"),
+            "rig.toml:9: key 'checks.min_leds' must be in [2, 64], got 4294967298");
+  EXPECT_EQ(RigError("", 1e308), "rig.toml:2: key 'sample_rate_hz' must be in [1, 100000] Hz, got 1e+308");
+  EXPECT_EQ(RigError("", 0), "rig.toml:2: key 'sample_rate_hz' must be in [1, 100000] Hz, got 0");
+  // The default table window (0.1 s) holds 10001 samples at 100 kHz: named too.
+  EXPECT_NE(RigError("", 100000).find("key 'table.window_s' must be in [4e-05, 0.02] s at sample_rate_hz "
+                                      "100000 (5 to 2001 samples for order 4), got 0.1 (the default)"),
+            std::string::npos)
+      << RigError("", 100000);
+  EXPECT_EQ(RigError("[checks]\nsigmas = 1e9"), "rig.toml:9: key 'checks.sigmas' must be in (0, 1000], got 1e+09");
+}
+
+// Within the bounds, the largest window is cheap to set up: the rig of the
+// report (window_s = 2 at 1 kHz, 103 s and 245 MB before) and 20 kHz with
+// the default table window (205 s before) build their Processor at once.
+TEST(RigConfigRanges, LargestWindowsBuildAProcessor) {
+  for (const auto& [extra, rate] : {std::pair<std::string, double>{"[table]\nwindow_s = 2", 1000},
+                                    std::pair<std::string, double>{"", 20000}}) {
+    std::ostringstream text;
+    text << "name = \"r\"\nsample_rate_hz = " << rate
+         << "\n[block]\nwidth_m = 0.2\nheight_m = 0.8\n[mirror]\nlever_m = 1.0\n" << extra
+         << "\n[[channel]]\nname = \"s\"\nsensor = \"mirror.s\"\n[[channel]]\nname = \"x\"\n"
+            "sensor = \"table.displacement\"\n";
+    const RigConfig rig = ParseRigConfig(text.str(), "rig.toml");
+    EXPECT_EQ(rig.HalfWindow(rig.table), 1000);
+    test::CollectSink sink;
+    Processor p(rig, {"s", "x"}, "in.csv", sink);
+    EXPECT_EQ(p.table_delay_samples(), 1000);
+  }
 }
 
 }  // namespace

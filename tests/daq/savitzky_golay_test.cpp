@@ -6,6 +6,7 @@
 // gets exactly one output, in order, delayed by m samples.
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -106,6 +107,51 @@ TEST(SavitzkyGolay, NoiseGainIsTheNormOfTheWeights) {
   // 1/sqrt(2*800) ~ 2.5 % (1 sigma); 10 % is 4 sigma.
   EXPECT_NEAR(std::sqrt(ss1 / n) / want1, 1.0, 0.10);
   EXPECT_NEAR(std::sqrt(ss2 / n) / want2, 1.0, 0.10);
+}
+
+// Several inputs pushed between pops (the processor bridges a short gap that
+// way), also in a segment's first window: every output still comes from
+// samples of the segment. Oracle: a straight line is reproduced exactly by
+// every fit of degree >= 1, whatever window an output uses.
+TEST(SavitzkyGolay, OutputsThatLagStayExact) {
+  for (int m : {1, 3, 5, 25}) {
+    SavitzkyGolay sg(m, 2, 1e-3);
+    int64_t k = 0;
+    SgOutput o;
+    int checked = 0;
+    for (int step = 0; step < 200; ++step) {
+      const int burst = step % 7 == 3 ? m : 1;  // m inputs at once now and then
+      for (int b = 0; b < burst; ++b, ++k) sg.Push(1.0 + 2.0 * static_cast<double>(k) * 1e-3);
+      while (sg.Pop(o)) {
+        ASSERT_FALSE(std::isnan(o.d1));
+        EXPECT_NEAR(o.value, 1.0 + 2.0 * static_cast<double>(o.index) * 1e-3, 1e-12) << m << " " << o.index;
+        EXPECT_NEAR(o.d1, 2.0, 1e-8) << m << " " << o.index;
+        ++checked;
+      }
+      if (step % 50 == 49) sg.Finish();
+    }
+    EXPECT_GT(checked, 150);
+  }
+}
+
+// The largest window the rig allows (m = 1000) is set up in O(n) and is as
+// exact as a small one. Oracle: a quartic is reproduced.
+TEST(SavitzkyGolay, LargestWindowIsExact) {
+  const int m = 1000;
+  const double dt = 1e-3;
+  SavitzkyGolay sg(m, 4, dt);
+  auto u = [](double t) { return 1e-3 * (1 + 2 * t - 3 * t * t + 0.5 * t * t * t - 0.4 * t * t * t * t); };
+  auto du = [](double t) { return 1e-3 * (2 - 6 * t + 1.5 * t * t - 1.6 * t * t * t); };
+  std::vector<double> x;
+  for (int k = 0; k < 2 * m + 500; ++k) x.push_back(u(k * dt));
+  const auto out = Filter(sg, x);
+  ASSERT_EQ(out.size(), x.size());
+  for (size_t k = 0; k < out.size(); k += 37) {
+    EXPECT_NEAR(out[k].value, u(k * dt), 1e-12) << k;
+    EXPECT_NEAR(out[k].d1, du(k * dt), 1e-9) << k;
+  }
+  EXPECT_THROW(SavitzkyGolay(SavitzkyGolay::kMaxHalfWindow + 1, 2, dt), std::invalid_argument);
+  EXPECT_THROW(SavitzkyGolay(5, 7, dt), std::invalid_argument);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The monitor's HTTP server on 127.0.0.1 (port 0), through cpp-httplib's
-// client and raw request lines: it serves exactly its embedded assets with
+// client and raw request lines, and under load (idle connections, a header
+// flood, time-outs, the connection cap): it serves exactly its embedded assets with
 // their types, 404 for anything else (unknown paths, directories, traversal
 // attempts), 405 for methods other than GET and HEAD, the snapshot as JSON
 // and the event stream (a full snapshot, then updates). Oracle: the embedded
@@ -8,11 +9,17 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <condition_variable>
 #include <chrono>
+#include <climits>
+#include <cstdio>
+#include <fstream>
 #include <mutex>
 #include <set>
 #include <string>
@@ -355,6 +362,165 @@ TEST_F(MonitorServerTest, StreamsBeyondTheLimitGet503AndStopEndsTheOthers) {
   EXPECT_EQ(first.EndStatus(), 200);  // the stream ended when the server stopped
 }
 
+// Connects to 127.0.0.1:port; -1 on failure.
+int Connect(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return -1;
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// Waits up to `seconds` for the server to close `fd` (read returns 0 or an
+// error); whatever it sent before is appended to `got`.
+bool ClosedByServer(int fd, double seconds, std::string* got = nullptr) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  char buf[4096];
+  while (std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 100) <= 0) continue;
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) return true;
+    if (got) got->append(buf, static_cast<std::size_t>(n));
+  }
+  return false;
+}
+
+// Resident memory of this process (the server runs in it), bytes.
+std::size_t ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::size_t pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+// Issue 12, item 3: with cpp-httplib, 1000 idle connections left a GET
+// unanswered after 90 s and one client streaming header lines grew the
+// process by 1.8 GB. Here 300 idle connections and a header flood are open
+// while the page and the snapshot are asked for. Oracles: "answered" is a
+// 200 within 5 s (the goal is well under a second; starved was minutes, so
+// the deadline separates the two without timing anything finely); the
+// flooding client is cut off (431, then closed) after at most
+// max_header_bytes plus what the socket buffers hold, and the process grows
+// by less than 64 MB (the flood is bounded at 8 KiB per connection; 300
+// connections cost their libmicrohttpd pools, 300 x 12 KiB at most).
+TEST_F(MonitorServerTest, HoldsUnderIdleConnectionsAndAHeaderFlood) {
+  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  const std::size_t rss_before = ResidentBytes();
+  std::vector<int> idle;
+  for (int i = 0; i < 300; ++i) {
+    const int fd = Connect(port());
+    ASSERT_GE(fd, 0) << "connection " << i;
+    idle.push_back(fd);
+  }
+  // Half of them have sent an unfinished request line (slow-loris style).
+  for (std::size_t i = 0; i < idle.size(); i += 2) {
+    ASSERT_EQ(send(idle[i], "GET / HT", 8, MSG_NOSIGNAL), 8);
+  }
+  std::atomic<bool> flood_cut{false};
+  std::atomic<std::size_t> flood_sent{0};
+  std::thread flood([this, &flood_cut, &flood_sent] {
+    const int fd = Connect(port());
+    if (fd < 0) return;
+    const std::string start = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n";
+    send(fd, start.data(), start.size(), MSG_NOSIGNAL);
+    const std::string line = "X-Flood: " + std::string(100, 'a') + "\r\n";
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (std::chrono::steady_clock::now() < deadline) {  // bounded in time
+      const ssize_t n = send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        continue;
+      }
+      if (n <= 0) {
+        flood_cut = true;
+        break;
+      }
+      flood_sent += static_cast<std::size_t>(n);
+      if (flood_sent > (std::size_t{64} << 20)) break;  // bounded in bytes: 64 MB is "never cut off"
+    }
+    close(fd);
+  });
+  for (const char* path : {"/", "/api/snapshot"}) {
+    std::string response;
+    const auto start = std::chrono::steady_clock::now();
+    const int status = RawRequest(port(), Get(path), &response);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(status, 200) << path << "\n" << response.substr(0, 200);
+    EXPECT_LT(took, 5.0) << path << ": answered, but after " << took << " s";
+    std::printf("under load: GET %s answered in %.3f s\n", path, took);
+  }
+  flood.join();
+  std::printf("under load: header flood cut off after %zu bytes; resident memory grew by %.1f MB\n",
+              flood_sent.load(), (static_cast<double>(ResidentBytes()) - static_cast<double>(rss_before)) / 1e6);
+  EXPECT_TRUE(flood_cut.load()) << flood_sent.load() << " bytes of header lines accepted";
+  EXPECT_LT(flood_sent.load(), std::size_t{16} << 20);
+  EXPECT_LT(ResidentBytes(), rss_before + (std::size_t{64} << 20));
+  for (int fd : idle) close(fd);
+}
+
+// A connection that sends nothing, or half a request, is closed after
+// idle_timeout_s; one beyond max_connections is refused at once; the server
+// answers again when they are gone. Oracle: the options.
+TEST_F(MonitorServerTest, IdleConnectionsTimeOutAndTheCapRefusesMore) {
+  ServerOptions o;
+  o.idle_timeout_s = 1;
+  o.keepalive_period_s = 0.5;
+  o.max_connections = 4;
+  o.max_connections_per_host = 4;
+  o.max_streams = 2;
+  Serve(o);
+  std::vector<int> fds;
+  for (int i = 0; i < 4; ++i) fds.push_back(Connect(port()));
+  ASSERT_EQ(send(fds[0], "GET / HTTP/1.1\r\nHost", 21, MSG_NOSIGNAL), 21);
+  const int extra = Connect(port());  // accepted by the kernel, closed by the server
+  ASSERT_GE(extra, 0);
+  std::string got;
+  EXPECT_TRUE(ClosedByServer(extra, 5.0, &got));
+  EXPECT_TRUE(got.empty()) << got;
+  close(extra);
+  for (int fd : fds) {
+    std::string partial;
+    EXPECT_TRUE(ClosedByServer(fd, 10.0, &partial)) << "an idle connection was kept open";
+    close(fd);
+  }
+  EXPECT_EQ(RawRequest(port(), Get("/")), 200);
+}
+
+// A header beyond max_header_bytes is refused with 431 and a close.
+TEST_F(MonitorServerTest, OversizedHeaderIs431) {
+  std::string response;
+  const std::string big = "GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'b') + "\r\n\r\n";
+  EXPECT_EQ(RawRequest(port(), big, &response), 431) << response.substr(0, 200);
+}
+
+// Issue 12, item 3: an RL_THETA with utime near INT64_MIN became the
+// monitor's time origin (one point at t = 9.2e12 s, nothing counted). Now
+// it is refused and counted as a decode error of its channel; the origin is
+// the first good message. Oracle: the two good messages' times.
+TEST_F(MonitorServerTest, AWildUtimeDoesNotBecomeTheOrigin) {
+  rocklab::block_state_t wild = test::Theta(INT64_MIN + 5, 0.5);
+  std::vector<std::uint8_t> b(static_cast<std::size_t>(wild.getEncodedSize()));
+  wild.encode(b.data(), 0, static_cast<int>(b.size()));
+  EXPECT_FALSE(state_.Ingest("RL_THETA", b.data(), static_cast<int>(b.size())));
+  Feed(state_, "RL_THETA", test::Theta(2'000'000, 0.01));
+  Feed(state_, "RL_THETA", test::Theta(2'100'000, 0.02));
+  httplib::Client client("127.0.0.1", port());
+  const auto res = client.Get("/api/snapshot");
+  ASSERT_TRUE(res);
+  const json snap = json::parse(res->body);
+  EXPECT_EQ(snap.at("t0_utime").get<std::int64_t>(), 2'000'000);
+  ASSERT_EQ(snap.at("measured").at("t").size(), 2u);
+  EXPECT_DOUBLE_EQ(snap.at("measured").at("t")[1].get<double>(), 0.1);
+  EXPECT_EQ(snap.at("counters").at("decode_errors").at("RL_THETA").get<int>(), 1);
+}
+
 TEST(MonitorServerOptions, AreValidated) {
   LiveState state;
   auto bad = [&state](auto change) {
@@ -367,6 +533,20 @@ TEST(MonitorServerOptions, AreValidated) {
   bad([](ServerOptions& o) { o.host = ""; });
   bad([](ServerOptions& o) { o.push_period_s = 0; });
   bad([](ServerOptions& o) { o.max_streams = 0; });
+  bad([](ServerOptions& o) { o.max_connections = 0; });
+  bad([](ServerOptions& o) { o.max_connections = 5000; });
+  bad([](ServerOptions& o) { o.idle_timeout_s = 0.5; });
+  bad([](ServerOptions& o) { o.keepalive_period_s = 20; });  // beyond the idle timeout
+  bad([](ServerOptions& o) { o.max_header_bytes = 100; });
+  bad([](ServerOptions& o) { o.max_connections_per_host = 0; });
+  bad([](ServerOptions& o) {
+    o.max_connections = 100;
+    o.max_connections_per_host = 200;
+  });
+  bad([](ServerOptions& o) {  // more streams than connections
+    o.max_connections = 100;
+    o.max_streams = 200;
+  });
 }
 
 }  // namespace

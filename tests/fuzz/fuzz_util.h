@@ -1,0 +1,26 @@
+#pragma once
+// Shared by the fuzz targets: a failed invariant stops the run as a crash
+// (libFuzzer saves the input), whatever NDEBUG says.
+
+#include <cstdio>
+#include <cstdlib>
+#include <string_view>
+
+namespace rocklab::fuzz {
+
+[[noreturn]] inline void Violated(const char* what, std::string_view detail = {}) {
+  std::fprintf(stderr, "fuzz invariant violated: %s: %.*s\n", what, static_cast<int>(detail.size()),
+               detail.data());
+  std::abort();
+}
+
+/// A message shown to a user: one line of printable ASCII (inputs are quoted
+/// escaped, README "Reliability"), and bounded in size.
+inline void CheckMessage(std::string_view message, std::size_t max_bytes = 2048) {
+  if (message.size() > max_bytes) Violated("message longer than the bound", message.substr(0, 200));
+  for (unsigned char c : message) {
+    if (c < 0x20 || c > 0x7e) Violated("message with a byte that is not printable ASCII", message);
+  }
+}
+
+}  // namespace rocklab::fuzz
