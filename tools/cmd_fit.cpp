@@ -200,7 +200,8 @@ int RunFit(const FitCliOptions& o) {
       try {
         (void)model::PolygonBlock(fo.geometry->polygon_m);
       } catch (const std::invalid_argument& e) {
-        throw UsageError(o.rig + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " + e.what());
+        throw UsageError(o.rig + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " +
+                         std::string(e.what()).substr(std::string(e.what()).rfind("vertices_m: ", 0) == 0 ? 12 : 0));
       }
     }
   } else if (has_dims) {
