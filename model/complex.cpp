@@ -45,6 +45,13 @@
 // it by up to 10 % at some l with k = 8 and up to 98 % with k = 4 (the
 // hand-off then lets eq. (10) carry excursions only a few chi_m high).
 // Whenever the motion is resolved the model is eq. (10) unchanged.
+//
+// Asymmetric sections (BlockParams::minus): eq. (10) has one alpha, p and mu
+// for both sides and no form for two pivots, so such a block is integrated
+// in the l -> 0 limit throughout, with the parameters of the side it rocks
+// on (psi = 0: +x, psi = pi: -x): chi = |theta| / alpha_side, and at an
+// impact chi_dot <- -mu_new chi_dot alpha_old / alpha_new (theta_dot is
+// continuous up to the restitution of the pivot it lands on).
 
 #include <algorithm>
 
@@ -75,8 +82,9 @@ class ComplexModel final : public CvodeRockingModel {
 
  protected:
   void RockingRhs(double t_s, const double* y, double* ydot) override {
-    const double a = params_.alpha;
-    const double p = params_.p;
+    const SideParams sp = params_.Side(SideOf(y[2]));
+    const double a = sp.alpha;
+    const double p = sp.p;
     const double chi = y[0];
     const double inertial = -table_accel(t_s);
     double chi_ddot = -std::sin(a - a * chi) / a +
@@ -95,7 +103,7 @@ class ComplexModel final : public CvodeRockingModel {
     ydot[2] = p * l / chi2;
   }
   void RockingRoots(const double* y, double* g) const override {
-    g[1] = params_.alpha * y[0] - kPi / 2;
+    g[1] = params_.Side(SideOf(y[2])).alpha * y[0] - kPi / 2;
     if (limit_) {
       g[0] = y[0];                          // falling through chi = 0
       g[2] = y[0] - kResolvedChi * chi_m_;  // rising: maybe resolved
@@ -106,19 +114,22 @@ class ComplexModel final : public CvodeRockingModel {
   }
   int ImpactRootDirection() const override { return limit_ ? -1 : 0; }
   void InitialState(double theta0, double theta_dot0, int side, double* y) override {
-    const double a = params_.alpha;
+    const double a = params_.Side(side).alpha;
     y[0] = std::abs(theta0) / a;
     y[1] = theta0 != 0.0 ? side * theta_dot0 / a : std::abs(theta_dot0) / a;
     y[2] = side > 0 ? 0.0 : kPi;
     // Uplift from rest (and any start the formulation cannot resolve) begins
     // in the l -> 0 limit.
-    limit_ = !(y[0] >= kResolvedChi * chi_m_ && Energy(y, false) >= resolved_energy_);
+    limit_ = !params_.symmetric() || !(y[0] >= kResolvedChi * chi_m_ && Energy(y, false) >= resolved_energy_);
   }
   bool ApplyImpact(double* y) override {
     if (limit_) {
+      const double alpha_old = params_.Side(SideOf(y[2])).alpha;
       y[0] = 0.0;
-      y[1] = -params_.mu * y[1];
       y[2] = Side(y[2] + kPi);
+      const SideParams now = params_.Side(SideOf(y[2]));
+      y[1] = -now.mu * y[1];
+      if (!params_.symmetric()) y[1] *= alpha_old / now.alpha;
       return true;
     }
     const double e = Energy(y, false);
@@ -132,12 +143,12 @@ class ComplexModel final : public CvodeRockingModel {
     return true;
   }
   bool ApplySwitch(double* y) override {
-    if (!limit_ || Energy(y, true) < resolved_energy_) return false;
+    if (!limit_ || !params_.symmetric() || Energy(y, true) < resolved_energy_) return false;
     limit_ = false;
     return true;
   }
   void FillState(const double* y) override {
-    const double a = params_.alpha;
+    const double a = params_.Side(SideOf(y[2])).alpha;
     const double c = std::cos(y[2]);
     state_.chi = y[0];
     state_.psi = y[2];
@@ -159,6 +170,9 @@ class ComplexModel final : public CvodeRockingModel {
   }
   // psi rounded to the nearest multiple of pi (the side it stands for).
   static double Side(double psi) { return kPi * std::round(psi / kPi); }
+  // +1 (the +x pivot) when cos(psi) >= 0, else -1.
+  // A symmetric block has one set: no need to look.
+  int SideOf(double psi) const { return params_.symmetric() || std::cos(psi) >= 0.0 ? +1 : -1; }
 
   double damping_;       // 2 ln(mu) / pi, ERRATA item 3
   double chi_m_{};       // minimum of the effective potential, 1
