@@ -47,7 +47,8 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
                        {"peak", Optional(row.peak_rad)},
                        {"mu_n", Optional(row.mu_n)},
                        {"tau", Optional(row.tau_s)},
-                       {"residual", Optional(row.residual_s)}});
+                       {"residual", Optional(row.residual_s)},
+                       {"residual_noise", Optional(row.noise_s)}});
   }
   nlohmann::json j = {
       {"input", o.input},
@@ -87,7 +88,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
         {"p_stderr", "rad/s"}, {"mu_stderr", "1"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"},
         {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
         {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
-        {"residual_to_noise", "1"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
+        {"residual_to_noise", "1"}, {"residual_noise", "s"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {
@@ -138,7 +139,9 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
                 in_ms ? r.noise_residual * 1e3 : r.noise_residual, in_ms ? "ms" : "rad",
                 r.converged ? "converged" : "NOT converged");
   } else {
-    std::printf("residual / noise not computable: %s\n", r.converged ? "converged" : "NOT converged");
+    std::printf("residual / noise not computable (%d degrees of freedom%s): %s\n", r.dof,
+                r.features.noise_rad > 0.0 ? "" : ", no measurable noise",
+                r.converged ? "converged (least squares)" : "NOT converged");
   }
   if (r.theta_gaps.missing_samples > 0) {
     std::printf("missing samples %lld in %lld gap(s)\n", static_cast<long long>(r.theta_gaps.missing_samples),
