@@ -101,7 +101,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"NotANumber", "x,z\n0,0\n1,0\n1,one\n", "@:4: expected two finite numbers"},
                       BadCase{"Crossing", "x,z\n0,0\n1,1\n1,0\n0,1\n", "@:2: the edge from line 2 to line 3"},
                       BadCase{"Overhang", "x,z\n0,0\n0.1,0\n0.1,0.1\n1,0.1\n1,0.2\n0,0.2\n", "@: centroid x"}),
-    [](const ::testing::TestParamInfo<BadCase>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<BadCase>& param_info) { return param_info.param.name; });
 
 TEST(CliParams, PolygonAndWidthAreExclusive) {
   const std::string dir = ScratchDir("params_both");
