@@ -221,6 +221,25 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     r.Check(!rig.block.p || *rig.block.p > 0, t, "block", "p", "must be > 0 rad/s");
     r.Check(!rig.block.mu || (*rig.block.mu > 0 && *rig.block.mu <= 1), t, "block", "mu",
             "must be in (0, 1]");
+    // polygon = [[x, z], ...]: numbers here; the geometry (simple polygon,
+    // centroid over the base) is checked where the model derives from it.
+    if (const toml::array* poly = r.Array(t, "block", "polygon")) {
+      rig.block.polygon_line = Reader::LineOf(*poly);
+      for (std::size_t i = 0; i < poly->size(); ++i) {
+        const toml::node& vertex = *poly->get(i);
+        const toml::array* xz = vertex.as_array();
+        const auto x = xz != nullptr && xz->size() == 2 ? xz->get(0)->value<double>() : std::nullopt;
+        const auto z = xz != nullptr && xz->size() == 2 ? xz->get(1)->value<double>() : std::nullopt;
+        if (!x || !z || !std::isfinite(*x) || !std::isfinite(*z)) {
+          r.Fail(Reader::LineOf(vertex), "block.polygon",
+                 "vertex " + std::to_string(i) + " must be a pair of finite numbers [x, z] (m)");
+        }
+        rig.block.polygon_m.push_back({*x, *z});
+      }
+      r.Check(rig.block.polygon_m.size() >= 3, t, "block", "polygon", "must list at least 3 [x, z] vertices");
+      r.Check(rig.block.chamfer_m == 0.0, t, "block", "chamfer_m",
+              "must be 0 with block.polygon (the polygon gives the section)");
+    }
     r.RejectUnknown(t, "block");
   }
 

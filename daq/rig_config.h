@@ -4,6 +4,7 @@
 /// the Acquisition section of README.md). Loaded once at start-up; every error names the file, the
 /// line and the key ("rig.toml:12: key 'mirror.lever_m' must be > 0").
 
+#include <array>
 #include <limits>
 #include <optional>
 #include <string>
@@ -95,6 +96,14 @@ struct BlockConfig {
   std::optional<double> alpha;  ///< rad; when absent the model library derives it from the geometry
   std::optional<double> p;      ///< rad/s
   std::optional<double> mu;     ///< 1
+  /// The section as a polygon when it is not a (chamfered) rectangle:
+  /// [x, z] vertices in order, block frame (m), inline in the rig file as
+  /// `polygon = [[x, z], ...]`. Empty: the rectangle width_m x height_m with
+  /// chamfer_m. The model library derives alpha, p and mu per side from it
+  /// (model::PolygonBlock); width_m and height_m still give the box the DAQ's
+  /// checks use (pivots at x = +-pivot_half_width_m()).
+  std::vector<std::array<double, 2>> polygon_m;
+  int polygon_line{};  ///< line of the `polygon` key in the rig file (0: none)
   double pivot_half_width_m() const { return 0.5 * width_m - chamfer_m; }
 };
 

@@ -72,6 +72,55 @@
 // at a crossing with e < K V_min / 2 (leaving it with the energy
 // mu (e - V_min)). Uplift then starts in the limit. Every sample says which
 // equations produced it (ModelState::equations).
+//
+// Asymmetric sections (BlockParams::minus, issue 10 point 5). A section
+// with two different pivots has alpha_s, p_s and the restitution mu_s of an
+// impact landing on pivot s per side (s = +1 the +x pivot, theta > 0; -1 the
+// -x pivot). The model integrates eq. (10) per half-plane: while x is on side
+// s (side_, switched at each crossing of x = 0, which is the impact event
+// already), theta = alpha_s x and the right-hand side above has alpha_s and
+// p_s, i.e. eq. (10) of a symmetric block with side s's parameters. Its l -> 0
+// limit on that side is Housner's equation about pivot s, exactly. What is
+// per crossing:
+// - Damping. Near the origin the damping term dominates (~ v^2 / b against
+//   O(1) for gravity and the table), and the loss of a crossing is spread
+//   symmetrically about x = 0 (half before, half after). For the energy to
+//   leave multiplied by mu_new^(2/w_new), the restitution of the pivot it
+//   lands on, the whole passage takes the damping 2 ln(mu)/pi of the pivot the
+//   motion heads for, sign(dx/dtau): along a crossing x' keeps its sign (the
+//   path is a straight line there, bent only by this term), and x' changes
+//   sign only at the top of an excursion, where chi_dot ~ 0 and the term is
+//   ~ l^2 (a jump of the right-hand side far below CVODE's tolerances).
+// - The crossing x = 0, from side o to side n. theta = 0 on both sides;
+//   theta_dot = alpha x' is continuous when x' <- x' alpha_o / alpha_n. The
+//   rest of the state follows from eq. (10) near the origin: with only the
+//   damping term, (x, y)'' = D l chi_dot / chi^3 (x, y) (normalised) is
+//   invariant under positions * q, velocities / q, normalised time * q^2
+//   (chi^2 psi_dot = l unchanged; Binet's equation for u(psi) is scale-free),
+//   so the passage may be continued on side n from the similar state:
+//   positions / c, normalised velocities * c, with
+//   c = alpha_o p_o / (alpha_n p_n) fixed by theta_dot's continuity. In
+//   physical time: y <- y / c, (x', y') <- (x', y') alpha_o / alpha_n (x = 0
+//   stays; psi is unchanged, so is the turn pi / w_n of the crossing), and the
+//   angular momentum x y' - y x' in side n's normalised time is l again.
+//   The neglected gravity and table terms change the passage at O(b / v^2),
+//   b = l / v: O(l), as for the symmetric block. The integrator restarts there.
+// Hence, in the limit l -> 0, each half-cycle is Housner's about its pivot
+// and an impact multiplies theta_dot by mu_n^(1/w_n) (tests/model/
+// asymmetric_model_test.cpp: free rocking of a right trapezoid against
+// energy conservation and the corrected eq. (12) per side). Its distance
+// from that limit is the integration of strongly damped crossings (mu = 0.72
+// and 0.80), not the restart: measured at the eighth free-rocking impact from
+// alpha/4, l = 1e-10, rtol 1e-10 / 1e-12, the trapezoid 9.8e-5 / 2.1e-5 s, a
+// symmetric block with the +x side's alpha, p, mu = 0.718 7.3e-5 / 8.3e-6 s,
+// that block with the -x side's p 2 % higher 6.6e-5 / 7.5e-6 s, or with the
+// -x side's mu 0.8 2.1e-4 / 7.1e-6 s (block 1, mu = 0.937: 9.5e-5 / 2.6e-6 s).
+// The seed from
+// rest, the rest floor chi_m, V_min and the opt-in hand-off are those of the
+// side the block is on (the hand-off's limit multiplies x' by
+// mu_n alpha_o / alpha_n at an impact). A block whose two sides have the same
+// alpha, p and mu (a symmetric polygon, or BlockParams::minus repeating the +x
+// side) takes exactly the symmetric code path: no restart at a crossing.
 
 #include <algorithm>
 #include <cmath>
@@ -93,20 +142,31 @@ constexpr double kAtolPerL = 1e-7;
 
 class ComplexModel final : public CvodeRockingModel {
  public:
-  ComplexModel(const BlockParams& params, const ModelOptions& options)
-      : CvodeRockingModel(params, options), damping_(2.0 * std::log(params.mu) / kPi) {
-    const double a = params.alpha;
+  ComplexModel(const BlockParams& params, const ModelOptions& options) : CvodeRockingModel(params, options) {
     const double l = options.l;
-    chi_m_ = std::cbrt(l * l * a / std::sin(a));
-    v_min_ = Potential(chi_m_) + 0.5 * l * l / (chi_m_ * chi_m_);
     handoff_ = options.complex_resolved_energy > 0.0;
-    resolved_energy_ = options.complex_resolved_energy * v_min_;
+    double pos = kAtolPerL * l;
+    double vel = kAtolPerL * l * params.p;
+    for (int side : {+1, -1}) {
+      const SideParams sp = params.Side(side);
+      Side& s = sides_[side > 0 ? 0 : 1];
+      s.alpha = sp.alpha;
+      s.p = sp.p;
+      s.p2 = sp.p * sp.p;
+      s.mu = sp.mu;
+      s.damping = 2.0 * std::log(sp.mu) / kPi;
+      s.chi_m = std::cbrt(l * l * sp.alpha / std::sin(sp.alpha));
+      s.v_min = Potential(s, s.chi_m) + 0.5 * l * l / (s.chi_m * s.chi_m);
+      s.resolved_energy = options.complex_resolved_energy * s.v_min;
+      // A crossing passes the origin at the distance l / v (v <~ 1): the
+      // position tolerance must resolve it, and the transverse velocity, ~
+      // l/chi away from the origin, carries the angular momentum l.
+      pos = std::min(pos, options.atol / sp.alpha);
+      vel = std::min({vel, options.atol / sp.alpha, kAtolPerL * l * sp.p});
+    }
+    const SideParams plus = params.Side(+1), minus = params.Side(-1);
+    same_sides_ = plus.alpha == minus.alpha && plus.p == minus.p && plus.mu == minus.mu;
     limit_ = handoff_;
-    // A crossing passes the origin at the distance l / v (v <~ 1): the
-    // position tolerance must resolve it, and the transverse velocity, ~ l/chi
-    // away from the origin, carries the angular momentum l.
-    const double pos = std::min(options.atol / a, kAtolPerL * l);
-    const double vel = std::min(options.atol / a, kAtolPerL * l * params.p);
     const double atol[4] = {pos, pos, vel, vel};
     Init(4, atol);
   }
@@ -114,8 +174,9 @@ class ComplexModel final : public CvodeRockingModel {
 
  protected:
   void RockingRhs(double t_s, const double* y, double* ydot) override {
-    const double a = params_.alpha;
-    const double p2 = params_.p * params_.p;
+    const Side& s = S(side_);
+    const double a = s.alpha;
+    const double p2 = s.p2;
     const double forcing = -table_accel(t_s) / (kGravity * a);  // a / (g alpha)
     ydot[0] = y[2];
     ydot[1] = y[3];
@@ -132,31 +193,37 @@ class ComplexModel final : public CvodeRockingModel {
       ydot[2] = ydot[3] = 0.0;
       return;
     }
-    const double chi_dot = (y[0] * y[2] + y[1] * y[3]) / (chi * params_.p);  // normalised
-    const double force = -std::sin(a - a * chi) / a + damping_ * options_.l * chi_dot / (chi * chi) +
+    const double chi_dot = (y[0] * y[2] + y[1] * y[3]) / (chi * s.p);  // normalised
+    // The restitution of the pivot the motion heads for (see above).
+    const double damping = S(y[2] >= 0.0 ? +1 : -1).damping;
+    const double force = -std::sin(a - a * chi) / a + damping * options_.l * chi_dot / (chi * chi) +
                          forcing * std::cos(a - a * chi) * (y[0] / chi);
     ydot[2] = p2 * force * y[0] / chi;
     ydot[3] = p2 * force * y[1] / chi;
   }
   void RockingRoots(const double* y, double* g) const override {
+    const Side& s = S(side_);
     g[0] = y[0];  // x through 0: psi through pi/2 + k pi
     if (limit_) {
-      g[1] = params_.alpha * std::abs(y[0]) - kPi / 2;
-      g[2] = side_ * y[0] - kResolvedChi * chi_m_;  // rising: maybe resolved
+      g[1] = s.alpha * std::abs(y[0]) - kPi / 2;
+      g[2] = side_ * y[0] - kResolvedChi * s.chi_m;  // rising: maybe resolved
     } else {
-      g[1] = params_.alpha * std::hypot(y[0], y[1]) - kPi / 2;
+      g[1] = s.alpha * std::hypot(y[0], y[1]) - kPi / 2;
       g[2] = 1.0;
     }
   }
-  int ImpactRootDirection() const override { return limit_ ? -side_ : 0; }
+  // x on side s leaves it only through s x falling; a symmetric block in eq.
+  // (10) does not restart at a crossing, so both directions.
+  int ImpactRootDirection() const override { return limit_ || !same_sides_ ? -side_ : 0; }
   void InitialState(double theta0, double theta_dot0, int side, double* y) override {
-    const double a = params_.alpha;
-    const double p = params_.p;
+    const Side& s = S(side);
+    const double a = s.alpha;
+    const double p = s.p;
     const double l = options_.l;
     side_ = side;
     const double x = theta0 / a, u = theta_dot0 / a;
-    limit_ = handoff_ && !(std::abs(x) >= kResolvedChi * chi_m_ &&
-                           Energy(std::abs(x), u, 0.0) >= resolved_energy_);
+    limit_ = handoff_ && !(std::abs(x) >= kResolvedChi * s.chi_m &&
+                           Energy(s, std::abs(x), u, 0.0) >= s.resolved_energy);
     if (limit_) {
       y[0] = x;
       y[1] = 0.0;
@@ -164,7 +231,7 @@ class ComplexModel final : public CvodeRockingModel {
       y[3] = 0.0;
     } else if (theta0 == 0.0 && theta_dot0 == 0.0) {
       // Uplift: a small chi on the uplift side, psi = 0 or pi, chi_dot = 0.
-      const double chi0 = SeedRadius();
+      const double chi0 = SeedRadius(s);
       y[0] = side * chi0;
       y[1] = 0.0;
       y[2] = 0.0;
@@ -182,36 +249,56 @@ class ComplexModel final : public CvodeRockingModel {
     }
   }
   bool ApplyImpact(double* y) override {
+    const Side& from = S(side_);
+    const Side& to = S(-side_);
     if (limit_) {
       y[0] = 0.0;
-      y[2] *= params_.mu;
+      y[2] *= to.mu;
+      if (!same_sides_) y[2] *= from.alpha / to.alpha;  // theta_dot continuous up to mu
       side_ = -side_;
       return true;
     }
-    if (!handoff_) return false;  // the impact is in the ODE
-    const double e = Energy(std::hypot(y[0], y[1]), y[2], y[3]);
-    if (e >= 0.5 * resolved_energy_) return false;
-    // Leave the crossing in the direction of travel, in the l -> 0 limit.
-    const double e_out = params_.mu * std::max(e - v_min_, 0.0);
+    if (!handoff_ || Energy(from, std::hypot(y[0], y[1]), y[2], y[3]) >= 0.5 * from.resolved_energy) {
+      // The impact is in the ODE; an asymmetric block continues on the other
+      // side from the similar state (see above).
+      side_ = -side_;
+      if (same_sides_) return false;
+      const double c = (from.alpha * from.p) / (to.alpha * to.p);
+      const double k = from.alpha / to.alpha;
+      y[0] = 0.0;
+      y[1] /= c;
+      y[2] *= k;
+      y[3] *= k;
+      return true;
+    }
+    // Leave the crossing in the direction of travel, in the l -> 0 limit, with
+    // the energy mu (e - V_min) (in the landing side's units: theta_dot
+    // continuous, normalised speeds * c).
+    const double e = Energy(from, std::hypot(y[0], y[1]), y[2], y[3]);
     side_ = y[2] >= 0.0 ? +1 : -1;
+    const Side& land = S(side_);
+    const double c = (from.alpha * from.p) / (land.alpha * land.p);
+    const double e_out = land.mu * std::max(e - from.v_min, 0.0) * c * c;
     y[0] = y[1] = y[3] = 0.0;
-    y[2] = side_ * params_.p * std::sqrt(2.0 * e_out);
+    y[2] = side_ * land.p * std::sqrt(2.0 * e_out);
     limit_ = true;
     return true;
   }
   bool RestAtImpact(const double* y) const override {
     if (limit_) return false;  // Housner's rule (impact interval) only
-    return Energy(std::hypot(y[0], y[1]), y[2], y[3]) < kRestEnergy * v_min_;
+    const Side& s = S(side_);
+    return Energy(s, std::hypot(y[0], y[1]), y[2], y[3]) < kRestEnergy * s.v_min;
   }
   bool ApplySwitch(double* y) override {
-    if (!limit_ || Energy(std::abs(y[0]), y[2], 0.0) < resolved_energy_) return false;
+    const Side& s = S(side_);
+    if (!limit_ || Energy(s, std::abs(y[0]), y[2], 0.0) < s.resolved_energy) return false;
     y[1] = 0.0;
-    y[3] = params_.p * options_.l / y[0];
+    y[3] = s.p * options_.l / y[0];
     limit_ = false;
     return true;
   }
   void FillState(const double* y) override {
-    const double a = params_.alpha;
+    const double a = S(side_).alpha;
     state_.chi = limit_ ? std::abs(y[0]) : std::hypot(y[0], y[1]);
     state_.psi = limit_ ? (side_ > 0 ? 0.0 : kPi) : std::atan2(y[1], y[0]);
     state_.theta = a * y[0];
@@ -221,26 +308,35 @@ class ComplexModel final : public CvodeRockingModel {
   Equations RestEquations() const override { return handoff_ ? Equations::kLimit : Equations::kEq10; }
 
  private:
+  // What eq. (10) needs of one side (one pivot).
+  struct Side {
+    double alpha{};            // rad
+    double p{};                // rad/s
+    double p2{};               // p^2, rad^2/s^2
+    double mu{};               // restitution of a landing on this pivot, 1
+    double damping{};          // 2 ln(mu) / pi, ERRATA item 3
+    double chi_m{};            // radius of the rest orbit, 1
+    double v_min{};            // the regularised energy there, 1
+    double resolved_energy{};  // hand-off: eq. (10) above it, the limit below half of it, 1
+  };
+  const Side& S(int side) const { return sides_[side > 0 ? 0 : 1]; }
   // sqrt(l) > chi_m = l^(2/3) (alpha / sin alpha)^(1/3) for every l < 1.
-  double SeedRadius() const { return std::max(chi_m_, std::sqrt(options_.l)); }
-  double Potential(double chi) const {
-    const double a = params_.alpha;
+  double SeedRadius(const Side& s) const { return std::max(s.chi_m, std::sqrt(options_.l)); }
+  static double Potential(const Side& s, double chi) {
+    const double a = s.alpha;
     return (std::cos(a - a * chi) - std::cos(a)) / (a * a);
   }
-  // Regularised energy (normalised) at radius chi with velocities u, v
-  // (dx/dtau, dy/dtau).
-  double Energy(double chi, double u, double v) const {
-    const double p2 = params_.p * params_.p;
-    return 0.5 * (u * u + v * v) / p2 + Potential(chi);
+  // Regularised energy (normalised) on side s at radius chi with velocities
+  // u, v (dx/dtau, dy/dtau).
+  static double Energy(const Side& s, double chi, double u, double v) {
+    return 0.5 * (u * u + v * v) / s.p2 + Potential(s, chi);
   }
 
-  double damping_;            // 2 ln(mu) / pi, ERRATA item 3
-  double chi_m_{};            // radius of the rest orbit, 1
-  double v_min_{};            // the regularised energy there, 1
-  bool handoff_{false};       // the opt-in l -> 0 hand-off is on
-  double resolved_energy_{};  // hand-off: eq. (10) above it, the limit below half of it, 1
-  bool limit_{false};         // integrating the l -> 0 limit (hand-off only)
-  int side_{+1};              // limit: the side x is on (+1 / -1)
+  Side sides_[2];            // [0]: the +x pivot (theta > 0), [1]: the -x pivot
+  bool same_sides_{true};    // both sides have the same alpha, p and mu
+  bool handoff_{false};      // the opt-in l -> 0 hand-off is on
+  bool limit_{false};        // integrating the l -> 0 limit (hand-off only)
+  int side_{+1};             // the side x is on (+1 / -1), switched at each crossing
 };
 
 }  // namespace

@@ -38,19 +38,6 @@ double Median(std::vector<double> v) {
   return *mid;
 }
 
-// White-noise standard deviation of theta from the median absolute second
-// difference: for white noise var(d2) = 6 sigma^2, and the smooth motion adds
-// only theta'' dt^2 (about 1e-5 rad at 500 Hz), so the robust scale of d2 is
-// the noise. Impacts (kinks) are a few samples and do not move the median.
-double EstimateNoise(const std::vector<double>& theta) {
-  if (theta.size() < 5) return 0.0;
-  std::vector<double> d2(theta.size() - 2);
-  for (std::size_t k = 1; k + 1 < theta.size(); ++k) {
-    d2[k - 1] = std::abs(theta[k + 1] - 2.0 * theta[k] + theta[k - 1]);
-  }
-  return 1.4826 * Median(std::move(d2)) / std::sqrt(6.0);
-}
-
 // Index range [lo, hi) of the samples with time in [t0, t1].
 std::pair<std::size_t, std::size_t> Range(const std::vector<double>& t, double t0, double t1) {
   const auto lo = std::lower_bound(t.begin(), t.end(), t0) - t.begin();
@@ -103,10 +90,10 @@ double GridThenGolden(const F& f, double a, double b, double step, int per_step)
   return GoldenMin(f, std::max(a, best_x - h), std::min(b, best_x + h));
 }
 
-// Residual sum of squares of theta = s u + c u^2 (through the origin) on
-// one side of a crossing; `ok` false when fewer than 3 samples.
+// Least squares of theta = s u + c u^2 (through the origin) on one side of
+// a crossing; Rss() is syy when fewer than 3 samples.
 struct SideFit {
-  double s1{}, s2{}, s3{}, s4{}, sy{}, suy{}, su2y{}, syy{};
+  double s2{}, s3{}, s4{}, suy{}, su2y{}, syy{};
   int n{};
   void Add(double u, double y) {
     const double u2 = u * u;
@@ -118,14 +105,25 @@ struct SideFit {
     syy += y * y;
     ++n;
   }
-  double Rss() const {
-    // Normal equations [s2 s3; s3 s4] [s; c] = [suy; su2y].
+  // Normal equations [s2 s3; s3 s4] [s; c] = [suy; su2y]; false when singular.
+  bool Solve(double& s, double& c) const {
     const double det = s2 * s4 - s3 * s3;
-    if (n < 3 || !(det > 0.0)) return syy;
-    const double s = (suy * s4 - su2y * s3) / det;
-    const double c = (s2 * su2y - s3 * suy) / det;
+    if (n < 3 || !(det > 0.0)) return false;
+    s = (suy * s4 - su2y * s3) / det;
+    c = (s2 * su2y - s3 * suy) / det;
+    return true;
+  }
+  double Rss() const {
+    double s = 0.0;
+    double c = 0.0;
+    if (!Solve(s, c)) return syy;
     return syy - s * suy - c * su2y;
   }
+};
+
+struct Crossing {
+  double time_s{};
+  double stderr_s{};  // from the noise, s
 };
 
 // Impact time within [t_i, t_j]: the common root tc of two local quadratics
@@ -133,32 +131,61 @@ struct SideFit {
 // after, by least squares over the samples in [t_i - w_before, t_j + w_after].
 // Two sides, because the impact is a kink: the angular velocity is multiplied
 // by mu and the curvature changes sign, so one polynomial through the
-// crossing would be biased towards the slower side.
-double FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, double w_before,
-                   double w_after) {
+// crossing would be biased towards the slower side. The samples need not be
+// equally spaced (a missing sample is bridged). Standard error of tc:
+// sigma^2 (J^T J)^-1 of the five parameters (s_-, c_-, s_+, c_+, tc) at the
+// solution, sigma the record's noise.
+Crossing FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, double w_before,
+                     double w_after, double noise) {
   // Plain variables, not a structured binding: the lambda captures them, and
   // clang before 16 cannot capture a binding (the sanitizer build uses clang).
   const std::pair<std::size_t, std::size_t> range =
       Range(r.time_s, r.time_s[i] - w_before, r.time_s[j] + w_after);
   const std::size_t lo = range.first;
   const std::size_t hi = range.second;
-  auto rss = [&](double tc) {
-    SideFit before;
-    SideFit after;
+  auto sides = [&](double tc, SideFit& before, SideFit& after) {
     for (std::size_t k = lo; k < hi; ++k) {
       const double u = r.time_s[k] - tc;
       (u < 0.0 ? before : after).Add(u, r.theta[k]);
     }
+  };
+  auto rss = [&](double tc) {
+    SideFit before;
+    SideFit after;
+    sides(tc, before, after);
     return before.Rss() + after.Rss();
   };
-  const double dt = (r.time_s[j] - r.time_s[i]) / static_cast<double>(j - i);
+  Crossing out;
+  const double a = r.theta[i];
+  const double b = r.theta[j];
+  const double span = r.time_s[j] - r.time_s[i];
   if (i + 1 == j && (hi - lo) < 6) {
     // Too few samples for the fit: linear interpolation.
-    const double a = r.theta[i];
-    const double b = r.theta[j];
-    return r.time_s[i] + (r.time_s[j] - r.time_s[i]) * a / (a - b);
+    out.time_s = r.time_s[i] + span * a / (a - b);
+    out.stderr_s = noise * span * std::hypot(a, b) / ((a - b) * (a - b));
+    return out;
   }
-  return GridThenGolden(rss, r.time_s[i], r.time_s[j], dt, 8);
+  const double dt = span / static_cast<double>(j - i);
+  out.time_s = GridThenGolden(rss, r.time_s[i], r.time_s[j], dt, 8);
+  SideFit before;
+  SideFit after;
+  sides(out.time_s, before, after);
+  double sm = 0.0, cm = 0.0, sp = 0.0, cp = 0.0;
+  const bool ok = before.Solve(sm, cm) && after.Solve(sp, cp);
+  Eigen::Matrix<double, 5, 5> jtj = Eigen::Matrix<double, 5, 5>::Zero();
+  for (std::size_t k = lo; k < hi && ok; ++k) {
+    const double u = r.time_s[k] - out.time_s;
+    Eigen::Matrix<double, 5, 1> row = Eigen::Matrix<double, 5, 1>::Zero();
+    if (u < 0.0) {
+      row << u, u * u, 0.0, 0.0, -(sm + 2.0 * cm * u);
+    } else {
+      row << 0.0, 0.0, u, u * u, -(sp + 2.0 * cp * u);
+    }
+    jtj += row * row.transpose();
+  }
+  Eigen::FullPivLU<Eigen::Matrix<double, 5, 5>> lu(jtj);
+  out.stderr_s = ok && lu.isInvertible() ? noise * std::sqrt(std::max(0.0, lu.inverse()(4, 4))) : kNaN;
+  return out;
 }
 
 // Least-squares polynomial of degree `degree` in u = (t - centre) / half on
@@ -186,19 +213,26 @@ double PolyValue(const Eigen::VectorXd& c, double u) {
   return v;
 }
 
+struct Peak {
+  double value_rad{};
+  double stderr_rad{};  // from the noise, rad
+};
+
 // Peak of s * theta on [t_a, t_b]: a quartic least-squares fit over the
 // middle half of the interval (free rocking is symmetric about the peak, so
 // the window is centred on the midpoint), maximised by Newton from the
 // centre. A quartic, not a parabola: near the peak theta follows
 // alpha - (alpha - r) cosh(p t), whose t^4 term biases a parabola's apex by
-// about 1e-4 rad over such a window.
-double FitPeak(const RockingRecord& r, double t_a, double t_b, double s) {
+// about 1e-4 rad over such a window. Standard error: the fitted polynomial's
+// at the apex, noise * sqrt(v^T (A^T A)^-1 v) with v = (1, u, .., u^4) (the
+// apex's own shift does not change the value to first order).
+Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double noise) {
   const double centre = (t_a + t_b) / 2;
   const double half = (t_b - t_a) / 4;
   const auto [lo, hi] = Range(r.time_s, centre - half, centre + half);
   double sample_max = -std::numeric_limits<double>::infinity();
   for (std::size_t k = lo; k < hi; ++k) sample_max = std::max(sample_max, s * r.theta[k]);
-  if (hi - lo < 9) return sample_max;
+  if (hi - lo < 9) return {sample_max, noise};
   const Eigen::VectorXd c = PolyFit(r, lo, hi, centre, half, s, 4);
   double u = 0.0;
   for (int it = 0; it < 30; ++it) {
@@ -212,7 +246,18 @@ double FitPeak(const RockingRecord& r, double t_a, double t_b, double s) {
   const double v = PolyValue(c, u);
   // A fit that disagrees wildly with the samples (too few, outliers) is
   // not trusted.
-  return std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max) ? v : sample_max;
+  if (!(std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max))) return {sample_max, noise};
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(5, 5);
+  for (std::size_t k = lo; k < hi; ++k) {
+    const double uk = (r.time_s[k] - centre) / half;
+    Eigen::VectorXd row(5);
+    row << 1.0, uk, uk * uk, uk * uk * uk, uk * uk * uk * uk;
+    ata += row * row.transpose();
+  }
+  Eigen::VectorXd at(5);
+  at << 1.0, u, u * u, u * u * u, u * u * u * u;
+  const double var = at.dot(ata.ldlt().solve(at));
+  return {v, noise * std::sqrt(std::max(0.0, var))};
 }
 
 // Release after a hold: s * theta = c before t_r and c - a (t - t_r)^2
@@ -223,11 +268,12 @@ double FitPeak(const RockingRecord& r, double t_a, double t_b, double s) {
 struct Onset {
   double t_r{};
   double t_r_stderr{};
-  double level{};  // c, rad (magnitude)
+  double level{};         // c, rad (magnitude)
+  double level_var_1{};   // var(c) / sigma^2 at t_r, 1
 };
 Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr_lo, double tr_hi,
                double s) {
-  auto solve = [&](double tr, double* level) {
+  auto solve = [&](double tr, double* level, double* level_var_1 = nullptr) {
     double s00 = 0, s01 = 0, s11 = 0, sy0 = 0, sy1 = 0, syy = 0;
     for (std::size_t k = lo; k < hi; ++k) {
       const double u = std::max(0.0, r.time_s[k] - tr);
@@ -245,13 +291,14 @@ Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr
     const double c = (sy0 * s11 - sy1 * s01) / det;
     const double a = (s00 * sy1 - s01 * sy0) / det;
     if (level) *level = c;
+    if (level_var_1) *level_var_1 = s11 / det;
     return syy - c * sy0 - a * sy1;
   };
   const double dt = (r.time_s[hi - 1] - r.time_s[lo]) / static_cast<double>(hi - lo - 1);
   Onset o;
   auto rss = [&](double tr) { return solve(tr, nullptr); };
   o.t_r = GridThenGolden(rss, tr_lo, tr_hi, dt, 2);
-  const double rss0 = solve(o.t_r, &o.level);
+  const double rss0 = solve(o.t_r, &o.level, &o.level_var_1);
   const double s2 = rss0 / static_cast<double>(hi - lo - 3);
   const double d = dt;
   const double curvature = (rss(o.t_r + d) - 2.0 * rss0 + rss(o.t_r - d)) / (d * d);
@@ -332,8 +379,16 @@ bool LmConverged(Eigen::LevenbergMarquardtSpace::Status s) {
 
 // One measured quarter time and the peak it belongs to.
 struct TauPair {
-  double r{};    // rad
-  double tau{};  // s
+  double r{};       // rad
+  double tau{};     // s
+  // tau = k0 t_c0 + k1 t_c1 (+ a release time): the impacts it is made of,
+  // for the covariance of neighbouring half intervals, which share one.
+  int c0{};
+  int c1{};
+  double k0{};
+  double k1{};
+  double release_var{};  // variance of the release time in tau, s^2
+  double r_se{};         // standard error of r, rad
 };
 
 // Residuals T(r_i; alpha, p) - tau_i*. Outside alpha in (max r, pi/2) the
@@ -386,7 +441,17 @@ double MaxAbsTable(const RockingRecord& r) {
 void SetGeometry(const FitOptions& options, FitResult& out) {
   if (!options.geometry) return;
   const FitGeometry& g = *options.geometry;
-  out.theory = RectangleBlock(g.width_m, g.height_m, g.chamfer_m).params();
+  if (!g.polygon_m.empty()) {
+    const BlockGeometry geometry = PolygonBlock(g.polygon_m);
+    out.theory = BlockParams{geometry.alpha, geometry.p, geometry.mu_general};
+    if (!geometry.symmetric) {
+      out.warnings.push_back("asymmetric section: the fit gives one alpha, p, mu for both sides, compared "
+                             "with the +x side (minus side alpha " + Num(geometry.minus.alpha, 4) +
+                             " rad, p " + Num(geometry.minus.p, 4) + " rad/s)");
+    }
+  } else {
+    out.theory = RectangleBlock(g.width_m, g.height_m, g.chamfer_m).params();
+  }
   out.band = AdmissibleAlphaBand(g, options.alpha_band_m);
 }
 
@@ -404,6 +469,121 @@ void CheckRocks(const RockingRecord& record, const FreeRockingFeatures& f, const
     throw FitError(record.source + ": the block never rocks (max |theta| " + Num(f.max_abs_theta, 3) +
                    " rad, " + std::to_string(f.impact_time_s.size()) +
                    " zero crossings beyond the noise, estimated noise " + Num(f.noise_rad, 3) + " rad)");
+  }
+}
+
+// The verdict on the residual: standard errors withheld below
+// kMinDofForStderr degrees of freedom; the residual the noise alone leaves
+// (the rms of sigma, each residual's standard deviation from the noise);
+// residual_to_noise = sqrt(sum (r_i / sigma_i)^2 / dof), the root of the
+// reduced chi-square (about 1 with a right model); converged.
+void SetNoiseVerdict(const Eigen::VectorXd& residuals, const std::vector<double>& sigma, bool lm_converged,
+                     FitResult& out) {
+  out.stderr_withheld = out.dof < kMinDofForStderr;
+  if (out.stderr_withheld) {
+    out.alpha_stderr = kNaN;
+    out.p_stderr = kNaN;
+    out.mu_stderr = kNaN;
+    out.alpha_p_correlation = kNaN;
+  }
+  double chi2 = 0.0;
+  double sum_var = 0.0;
+  bool ok = out.dof >= 1 && static_cast<Eigen::Index>(sigma.size()) == residuals.size();
+  for (std::size_t i = 0; ok && i < sigma.size(); ++i) {
+    ok = sigma[i] > 0.0 && std::isfinite(sigma[i]);
+    if (!ok) break;
+    const double z = residuals(static_cast<Eigen::Index>(i)) / sigma[i];
+    chi2 += z * z;
+    sum_var += sigma[i] * sigma[i];
+  }
+  out.noise_residual = ok ? std::sqrt(sum_var / static_cast<double>(sigma.size())) : kNaN;
+  out.residual_to_noise = ok ? std::sqrt(chi2 / out.dof) : kNaN;
+  out.converged = lm_converged && !(out.residual_to_noise > kMaxResidualToNoise);
+}
+
+// Notes on what the fit knows: missing samples, withheld standard errors, a
+// residual above the noise. `handled`: what the method did with the gaps.
+void AddVerdictWarnings(FitResult& out, const std::string& handled) {
+  const GapCount& g = out.theta_gaps;
+  if (g.missing_samples > 0) {
+    out.warnings.push_back(std::to_string(g.missing_samples) + " theta sample(s) missing in " +
+                           std::to_string(g.gaps) + " gap(s) (longest " + Num(g.longest_s, 3) +
+                           " s between samples, first before line/event " + std::to_string(g.first_line) +
+                           "): " + handled);
+  }
+  if (out.table_gaps.missing_samples > 0) {
+    out.warnings.push_back(std::to_string(out.table_gaps.missing_samples) + " table sample(s) missing in " +
+                           std::to_string(out.table_gaps.gaps) + " gap(s) (longest " +
+                           Num(out.table_gaps.longest_s, 3) +
+                           " s): the table acceleration is taken linear across them");
+  }
+  if (out.stderr_withheld) {
+    out.warnings.push_back("standard errors withheld: " + std::to_string(out.residuals) + " residuals give " +
+                           std::to_string(out.dof) + " degree(s) of freedom, fewer than " +
+                           std::to_string(kMinDofForStderr));
+  }
+  const bool impacts = out.method == FitMethod::kImpacts;
+  const double scale = impacts ? 1e3 : 1.0;
+  const char* unit = impacts ? " ms" : " rad";
+  if (out.residual_to_noise > kMaxResidualToNoise) {
+    out.warnings.push_back("not converged to the noise: residual / noise " + Num(out.residual_to_noise, 3) +
+                           " (above " + Num(kMaxResidualToNoise, 2) + "; rms residual " +
+                           Num(out.rms_residual * scale, 3) + unit + ", the noise alone gives " +
+                           Num(out.noise_residual * scale, 3) + unit +
+                           "): the model does not follow the record, and the standard errors understate the error");
+  } else if (!std::isfinite(out.noise_residual) && out.dof >= 1) {
+    out.warnings.push_back("the record has no measurable noise: the residual (rms " +
+                           Num(out.rms_residual * scale, 3) + unit + ") cannot be compared with it");
+  }
+}
+
+// Mean of the mu_n as FitImpacts forms them (eq. 14).
+double MeanMu(double alpha, const std::optional<double>& r0, const std::vector<double>& peaks) {
+  double sum = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < peaks.size(); ++i) {
+    const int k = static_cast<int>(i);
+    if (r0 && *r0 < alpha) {
+      sum += MuFromPeaks(alpha, *r0, peaks[i], k + 1);
+      ++n;
+    } else if (!r0 && i > 0) {
+      sum += MuFromPeaks(alpha, peaks[0], peaks[i], k);
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : kNaN;
+}
+
+// Standard error of the mean mu, linearised: the peaks' (and r_0's) noise
+// and alpha's standard error through eq. (14), by central differences. The
+// peaks are independent fits; alpha enters every mu_n alike.
+double MuStderr(const FreeRockingFeatures& f, double alpha, double alpha_stderr) {
+  try {
+    auto mean = [&](double a, const std::optional<double>& r0, const std::vector<double>& peaks) {
+      return MeanMu(a, r0, peaks);
+    };
+    const double ha = 1e-7;
+    const double d_alpha = (mean(alpha + ha, f.r0_rad, f.peak_rad) - mean(alpha - ha, f.r0_rad, f.peak_rad)) / (2 * ha);
+    double var = d_alpha * d_alpha * alpha_stderr * alpha_stderr;
+    if (f.r0_rad) {
+      const double h = 1e-7 * *f.r0_rad;
+      const double d = (mean(alpha, *f.r0_rad + h, f.peak_rad) - mean(alpha, *f.r0_rad - h, f.peak_rad)) / (2 * h);
+      var += d * d * f.r0_stderr_rad * f.r0_stderr_rad;
+    }
+    std::vector<double> peaks = f.peak_rad;
+    for (std::size_t i = 0; i < peaks.size(); ++i) {
+      const double h = 1e-7 * f.peak_rad[i];
+      peaks[i] = f.peak_rad[i] + h;
+      const double up = mean(alpha, f.r0_rad, peaks);
+      peaks[i] = f.peak_rad[i] - h;
+      const double down = mean(alpha, f.r0_rad, peaks);
+      peaks[i] = f.peak_rad[i];
+      const double d = (up - down) / (2 * h);
+      var += d * d * f.peak_stderr_rad[i] * f.peak_stderr_rad[i];
+    }
+    return std::sqrt(var);
+  } catch (const std::invalid_argument&) {
+    return kNaN;  // a perturbed peak left (0, alpha): no linearisation there
   }
 }
 
@@ -426,6 +606,22 @@ FitMethod ParseFitMethod(const std::string& name) {
   throw std::invalid_argument("method must be impacts or trajectory, got '" + name + "'");
 }
 
+double EstimateThetaNoise(const RockingRecord& record) {
+  const std::vector<double>& t = record.time_s;
+  const std::vector<double>& th = record.theta;
+  if (t.size() < 7) return 0.0;
+  std::vector<double> d2;
+  d2.reserve(t.size());
+  for (std::size_t k = 1; k + 1 < t.size(); ++k) {
+    const double h0 = t[k] - t[k - 1];
+    const double h1 = t[k + 1] - t[k];
+    if (!(std::abs(h1 - h0) <= 1e-3 * std::max(h0, h1))) continue;  // a gap: not equally spaced
+    d2.push_back(std::abs(th[k + 1] - 2.0 * th[k] + th[k - 1]));
+  }
+  if (d2.size() < 5) return 0.0;
+  return 1.4826 * Median(std::move(d2)) / std::sqrt(6.0);
+}
+
 double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r) {
   return kind == QuarterTime::kExact ? QuarterTimeExact(alpha, p, r) : QuarterTimeSlender(alpha, p, r);
 }
@@ -433,6 +629,26 @@ double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r) {
 AlphaBand AdmissibleAlphaBand(const FitGeometry& g, double band_m) {
   if (!(band_m >= 0.0) || !std::isfinite(band_m)) {
     throw std::invalid_argument("alpha band must be >= 0 m, got " + Num(band_m));
+  }
+  if (!g.polygon_m.empty()) {
+    const BlockGeometry geometry = PolygonBlock(g.polygon_m);
+    const double cx = geometry.centroid_m.x();
+    const double half = geometry.plus.pivot_m.x() - cx;
+    if (!(half - band_m > 0.0)) {
+      throw std::invalid_argument("alpha band " + Num(band_m) + " m leaves no distance from the centroid to the +x pivot (" +
+                                  Num(half) + " m)");
+    }
+    auto scaled = [&](double d) {
+      std::vector<Eigen::Vector2d> v = g.polygon_m;
+      for (auto& x : v) x.x() = cx + (x.x() - cx) * (half + d) / half;
+      return PolygonBlock(v).alpha;
+    };
+    AlphaBand b;
+    b.band_m = band_m;
+    b.geometric = geometry.alpha;
+    b.lo = scaled(-band_m);
+    b.hi = scaled(+band_m);
+    return b;
   }
   if (!(g.width_m - 2.0 * band_m - 2.0 * g.chamfer_m > 0.0)) {
     throw std::invalid_argument("alpha band " + Num(band_m) + " m leaves no half-width of the base (width " +
@@ -464,7 +680,7 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   FreeRockingFeatures f;
   const std::size_t n = r.size();
   if (n < 5) return f;
-  f.noise_rad = EstimateNoise(r.theta);
+  f.noise_rad = EstimateThetaNoise(r);
   f.hysteresis_rad = options.hysteresis_rad > 0 ? options.hysteresis_rad : std::max(1e-7, 5.0 * f.noise_rad);
   f.min_peak_rad = options.min_peak_rad > 0 ? options.min_peak_rad
                                             : std::max(4.0 * f.hysteresis_rad, 20.0 * f.noise_rad);
@@ -498,23 +714,29 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
     mid[c] = (r.time_s[brackets[c].first] + r.time_s[brackets[c].second]) / 2;
   }
   std::vector<double> crossings(brackets.size());
+  std::vector<double> crossing_se(brackets.size());
   for (std::size_t c = 0; c < brackets.size(); ++c) {
     const double before = c > 0 ? 0.25 * (mid[c] - mid[c - 1]) : options.crossing_window_s;
     const double after = c + 1 < brackets.size() ? 0.25 * (mid[c + 1] - mid[c]) : options.crossing_window_s;
-    crossings[c] = FitCrossing(r, brackets[c].first, brackets[c].second,
-                               std::min(options.crossing_window_s, before),
-                               std::min(options.crossing_window_s, after));
+    const Crossing x = FitCrossing(r, brackets[c].first, brackets[c].second,
+                                   std::min(options.crossing_window_s, before),
+                                   std::min(options.crossing_window_s, after), f.noise_rad);
+    crossings[c] = x.time_s;
+    crossing_se[c] = x.stderr_s;
   }
 
   // Peaks between consecutive crossings; the usable decay ends at the first
   // peak below min_peak (the block settling, where timing is lost in noise).
   f.impact_time_s.push_back(crossings[0]);
+  f.impact_time_stderr_s.push_back(crossing_se[0]);
   int sign = -f.first_sign;  // side after the first impact
   for (std::size_t c = 0; c + 1 < crossings.size(); ++c) {
-    const double peak = FitPeak(r, crossings[c], crossings[c + 1], sign);
-    if (!(peak >= f.min_peak_rad)) break;
-    f.peak_rad.push_back(peak);
+    const Peak peak = FitPeak(r, crossings[c], crossings[c + 1], sign, f.noise_rad);
+    if (!(peak.value_rad >= f.min_peak_rad)) break;
+    f.peak_rad.push_back(peak.value_rad);
+    f.peak_stderr_rad.push_back(peak.stderr_rad);
     f.impact_time_s.push_back(crossings[c + 1]);
+    f.impact_time_stderr_s.push_back(crossing_se[c + 1]);
     sign = -sign;
   }
 
@@ -544,6 +766,7 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
       f.release_time_s = o.t_r;
       f.release_time_stderr_s = o.t_r_stderr;
       f.r0_rad = o.level;
+      f.r0_stderr_rad = f.noise_rad * std::sqrt(std::max(0.0, o.level_var_1));
       f.hold_start_index = hold_lo;
       return f;
     }
@@ -551,7 +774,9 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   // A motion peak inside the first segment with samples on both sides.
   const double half = (crossings[0] - r.time_s[m]);
   if (top > f.min_peak_rad && r.time_s[m] - half >= r.time_s[0] && m > hold_lo) {
-    f.r0_rad = FitPeak(r, r.time_s[m] - half, crossings[0], s0);
+    const Peak p0 = FitPeak(r, r.time_s[m] - half, crossings[0], s0, f.noise_rad);
+    f.r0_rad = p0.value_rad;
+    f.r0_stderr_rad = p0.stderr_rad;
   }
   return f;
 }
@@ -565,7 +790,14 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
   SetGeometry(options, out);
   out.features = ExtractFreeRocking(record, options.features);
   const FreeRockingFeatures& f = out.features;
+  out.theta_gaps = record.theta_gaps;
+  out.table_gaps = record.table_gaps;
   CheckRocks(record, f, out, options);
+  if (record.has_table() && MaxAbsTable(record) > kForcedTableAccel) {
+    throw FitError(record.source + ": not free rocking: the table acceleration reaches " +
+                   Num(MaxAbsTable(record), 3) + " m/s^2 (a forced test); the impacts method needs "
+                   "free rocking, use --method trajectory");
+  }
 
   const int n_impacts = static_cast<int>(f.impact_time_s.size());
   if (n_impacts < options.min_impacts) {
@@ -575,10 +807,6 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
                    " usable impacts (at " + (times.empty() ? "none" : times + " s") +
                    "); the impacts method needs at least " + std::to_string(options.min_impacts) +
                    " impacts of free rocking with peaks above " + Num(f.min_peak_rad, 3) + " rad");
-  }
-  if (record.has_table() && MaxAbsTable(record) > 0.05) {
-    out.warnings.push_back("the table acceleration reaches " + Num(MaxAbsTable(record), 3) +
-                           " m/s^2: the impacts method assumes free rocking");
   }
 
   // tau_n*: half the interval between impacts n and n+1, paired with the
@@ -595,11 +823,13 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
   bool release_pair = false;
   if (options.use_release && f.release_time_s && f.r0_rad &&
       f.release_time_stderr_s <= options.max_release_stderr_s) {
-    pairs.push_back({*f.r0_rad, f.impact_time_s[0] - *f.release_time_s});
+    pairs.push_back({*f.r0_rad, f.impact_time_s[0] - *f.release_time_s, 0, 0, 1.0, 0.0,
+                     f.release_time_stderr_s * f.release_time_stderr_s, f.r0_stderr_rad});
     release_pair = true;
   }
   for (int i = 0; i + 1 < n_impacts; ++i) {
-    pairs.push_back({f.peak_rad[i], (f.impact_time_s[i + 1] - f.impact_time_s[i]) / 2});
+    pairs.push_back({f.peak_rad[i], (f.impact_time_s[i + 1] - f.impact_time_s[i]) / 2, i, i + 1, -0.5, 0.5,
+                     0.0, f.peak_stderr_rad[i]});
   }
 
   // Start: scan alpha over (max r, pi/2); for each alpha the best p is
@@ -634,22 +864,81 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
   Eigen::VectorXd x(2);
   x << best_alpha, best_p;
   const LmOutcome lm = RunLm(functor, x, 1e-12, 1e-12, 1e-12, 400, options, start);
+  if (lm.x(0) >= kPi / 2 - 1e-3) {
+    throw FitError(record.source + ": not free rocking: no block explains the half intervals between "
+                   "the impacts (the fitted alpha runs to pi/2, rms residual " +
+                   Num(std::sqrt(lm.residuals.squaredNorm() / static_cast<double>(pairs.size())) * 1e3, 3) +
+                   " ms); the impacts method needs free rocking, use --method trajectory for a forced test");
+  }
   if (!LmConverged(lm.status) || !(lm.x(0) > r_max) || !(lm.x(1) > 0)) {
     throw FitError(record.source + ": the least-squares fit of (alpha, p) did not converge (status " +
                    std::to_string(static_cast<int>(lm.status)) + ")");
   }
   out.params.alpha = lm.x(0);
   out.params.p = lm.x(1);
-  out.covariance = Covariance(lm);
-  out.alpha_stderr = std::sqrt(out.covariance(0, 0));
-  out.p_stderr = std::sqrt(out.covariance(1, 1));
-  out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
-  out.mu_stderr = kNaN;
   out.residuals = static_cast<int>(pairs.size());
   out.dof = out.residuals - 2;
   out.rms_residual = std::sqrt(lm.residuals.squaredNorm() / out.residuals);
   out.iterations = lm.iterations;
   out.evaluations = lm.evaluations;
+  // What the noise alone gives the half intervals: their covariance S from
+  // the impact-time, release-time and peak standard errors (the peak through
+  // dT/dr at the solution). Neighbouring half intervals share an impact, so
+  // S is tridiagonal: cov(tau_n, tau_n+1) = -0.25 se^2 of the shared impact
+  // (-0.5 se^2 next to the release pair). The fit is the paper's unweighted
+  // least squares; its covariance is the sandwich
+  // (J^T J)^-1 J^T S J (J^T J)^-1, scaled up by the reduced chi-square when
+  // the residual exceeds the noise (never down).
+  const auto m = static_cast<Eigen::Index>(pairs.size());
+  Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(m, m);
+  std::vector<double> pair_sigma(pairs.size());
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const TauPair& q = pairs[static_cast<std::size_t>(i)];
+    const double a = lm.x(0);
+    const double h = 1e-6 * q.r;
+    const double r_hi = std::min(q.r + h, 0.5 * (q.r + a));
+    const double dtdr = (QuarterTimeOf(options.quarter_time, a, lm.x(1), r_hi) -
+                         QuarterTimeOf(options.quarter_time, a, lm.x(1), q.r - h)) / (r_hi - (q.r - h));
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const TauPair& o = pairs[static_cast<std::size_t>(j)];
+      double c = 0.0;
+      for (int u = 0; u < 2; ++u) {
+        for (int v = 0; v < 2; ++v) {
+          const int cu = u == 0 ? q.c0 : q.c1;
+          const int cv = v == 0 ? o.c0 : o.c1;
+          const double ku = u == 0 ? q.k0 : q.k1;
+          const double kv = v == 0 ? o.k0 : o.k1;
+          if (cu == cv && ku != 0.0 && kv != 0.0) {
+            const double se = f.impact_time_stderr_s[static_cast<std::size_t>(cu)];
+            c += ku * kv * se * se;
+          }
+        }
+      }
+      noise_cov(i, j) = c;
+    }
+    noise_cov(i, i) += q.release_var + dtdr * dtdr * q.r_se * q.r_se;
+    pair_sigma[static_cast<std::size_t>(i)] = std::sqrt(noise_cov(i, i));
+  }
+  SetNoiseVerdict(lm.residuals, pair_sigma, LmConverged(lm.status), out);
+  {
+    const Eigen::MatrixXd& jac = lm.jacobian;
+    Eigen::FullPivLU<Eigen::MatrixXd> lu(jac.transpose() * jac);
+    if (lu.isInvertible() && noise_cov.allFinite()) {
+      const Eigen::MatrixXd inv = lu.inverse();
+      const double scale = std::isfinite(out.residual_to_noise)
+                               ? std::max(1.0, out.residual_to_noise * out.residual_to_noise)
+                               : 1.0;
+      out.covariance = scale * inv * jac.transpose() * noise_cov * jac * inv;
+    } else {
+      out.covariance = Covariance(lm);
+    }
+  }
+  out.mu_stderr = kNaN;
+  if (!out.stderr_withheld) {
+    out.alpha_stderr = std::sqrt(out.covariance(0, 0));
+    out.p_stderr = std::sqrt(out.covariance(1, 1));
+    out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
+  }
 
   if (out.band && (out.params.alpha < out.band->lo || out.params.alpha > out.band->hi)) {
     throw FitError(record.source + ": fitted alpha " + Num(out.params.alpha, 4) +
@@ -672,6 +961,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
     if (release_pair) {
       row.tau_s = pairs[0].tau;
       row.residual_s = lm.residuals(0);
+      row.noise_s = pair_sigma[0];
     }
     out.impacts.push_back(row);
   }
@@ -684,6 +974,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
       row.peak_rad = rn;
       row.tau_s = pairs[i + offset].tau;
       row.residual_s = lm.residuals(i + offset);
+      row.noise_s = pair_sigma[static_cast<std::size_t>(i + offset)];
       if (f.r0_rad && *f.r0_rad < alpha) {
         row.mu_n = MuFromPeaks(alpha, *f.r0_rad, rn, i + 1);
       } else if (!f.r0_rad && i > 0) {
@@ -696,6 +987,8 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
   if (mus.empty()) throw FitError(record.source + ": no mu_n could be computed");
   out.params.mu = std::accumulate(mus.begin(), mus.end(), 0.0) / static_cast<double>(mus.size());
   out.mu_spread = StdDev(mus);
+  out.mu_stderr = MuStderr(f, out.params.alpha, out.alpha_stderr);
+  if (out.stderr_withheld) out.mu_stderr = kNaN;
   if (!f.r0_rad) {
     out.warnings.push_back("no peak before the first impact (no hold, no earlier peak): eq. (14) "
                            "uses the peak after impact 1 as r_0 and counts impacts from it");
@@ -705,6 +998,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
   } else if (!release_pair) {
     out.warnings.push_back("no hold before the release: the release-to-first-impact time is not used");
   }
+  AddVerdictWarnings(out, "bridged");
   out.runtime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
@@ -777,8 +1071,10 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   SetGeometry(options, out);
   out.features = ExtractFreeRocking(record, options.features);
   const FreeRockingFeatures& f = out.features;
+  out.theta_gaps = record.theta_gaps;
+  out.table_gaps = record.table_gaps;
   CheckRocks(record, f, out, options);
-  out.forced = record.has_table() && MaxAbsTable(record) > 0.05;
+  out.forced = record.has_table() && MaxAbsTable(record) > kForcedTableAccel;
 
   // Initial state: at rest (a forced test) or a held release (free).
   const std::size_t head = std::min<std::size_t>(record.size(), std::max<std::size_t>(
@@ -901,7 +1197,10 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.rms_residual = std::sqrt(lm.residuals.squaredNorm() / out.residuals);
   out.iterations = lm.iterations;
   out.evaluations = lm.evaluations;
+  SetNoiseVerdict(lm.residuals, std::vector<double>(static_cast<std::size_t>(lm.residuals.size()), f.noise_rad),
+                  LmConverged(lm.status), out);
   out.warnings.push_back("start values from the " + start_from);
+  AddVerdictWarnings(out, "skipped (the residuals are at the samples present)");
   if (out.band && (out.params.alpha < out.band->lo || out.params.alpha > out.band->hi)) {
     throw FitError(record.source + ": fitted alpha " + Num(out.params.alpha, 4) +
                    " rad is outside the admissible band [" + Num(out.band->lo, 4) + ", " +

@@ -12,6 +12,12 @@
 ///   driven by the recorded table acceleration.
 /// Both use Eigen's Levenberg-Marquardt (unsupported/Eigen/LevenbergMarquardt)
 /// with central finite differences.
+///
+/// Every fit says what it knows: the noise of theta is estimated from the
+/// record alone (EstimateThetaNoise), propagated to the residuals the fit
+/// should reach with a right model, and compared with the residual it
+/// reached (FitResult::residual_to_noise, converged). Missing samples are
+/// bridged (impacts) or skipped (trajectory) and counted.
 
 #include <functional>
 #include <optional>
@@ -46,16 +52,46 @@ FitMethod ParseFitMethod(const std::string& name);
 /// Quarter time T(r), s: QuarterTimeExact or QuarterTimeSlender.
 double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r);
 
+/// White-noise standard deviation of theta, rad, from the record's
+/// high-frequency content alone (no model, no fit): for every three
+/// consecutive samples equally spaced in time (steps equal to 1e-3, so a
+/// missing sample never enters) the second difference
+/// d2 = theta[k+1] - 2 theta[k] + theta[k-1]; for white noise of standard
+/// deviation sigma, var(d2) = 6 sigma^2, while the motion adds only
+/// theta'' dt^2 (1e-5 rad at 500 Hz for block 1); impacts are a few
+/// samples. So sigma = 1.4826 median(|d2|) / sqrt(6) (the median absolute
+/// value, scaled to a standard deviation for Gaussian noise). 0 for fewer
+/// than 5 such triples.
+double EstimateThetaNoise(const RockingRecord& record);
+
+/// Above this ratio of the residual to what the noise alone leaves, a fit is
+/// not converged: the model does not follow the record to its noise.
+inline constexpr double kMaxResidualToNoise = 1.5;
+
+/// Standard errors need this many degrees of freedom (residuals minus
+/// parameters): with fewer, s^2 = RSS / dof is itself too uncertain (with 1,
+/// its relative standard error is 100 %) and they are withheld (NaN).
+inline constexpr int kMinDofForStderr = 3;
+
+/// A table acceleration beyond this makes a record forced, m/s^2: the
+/// trajectory method drives the model with it, the impacts method refuses it.
+inline constexpr double kForcedTableAccel = 0.05;
+
 /// Block geometry of the test (a rectangle 2b x 2h with an optional 45 degree
-/// base chamfer, as in RectangleBlock).
+/// base chamfer, as in RectangleBlock, or a polygon section).
 struct FitGeometry {
   double width_m{};    ///< 2b, m
   double height_m{};   ///< 2h, m
   double chamfer_m{};  ///< chamfer leg, m
+  /// When not empty, the section (PolygonBlock) instead of the rectangle;
+  /// theory and band are those of its +x side.
+  std::vector<Eigen::Vector2d> polygon_m{};
 };
 
 /// The admissible alpha band: alpha of the geometry with b -> b -+ band_m
-/// (the paper's rule: +-1 cm on b).
+/// (the paper's rule: +-1 cm on b). A polygon's x coordinates are scaled
+/// about its centroid so that its +x pivot moves by -+band_m (for a plain
+/// rectangle the same as b -+ band_m).
 struct AlphaBand {
   double lo{};         ///< rad
   double geometric{};  ///< rad
@@ -89,12 +125,18 @@ struct FreeRockingFeatures {
   double min_peak_rad{};    ///< used, rad
   /// Impact times t_1..t_N (zero crossings, sub-sample), s.
   std::vector<double> impact_time_s;
+  /// Standard error of each impact time from the noise (the crossing fit's
+  /// s^2 (J^T J)^-1 with s = noise_rad), s.
+  std::vector<double> impact_time_stderr_s;
   /// Peak |theta| after each impact, rad: peak_rad[i] lies between
   /// impact_time_s[i] and impact_time_s[i + 1] (size N - 1).
   std::vector<double> peak_rad;
+  /// Standard error of each peak from the noise (the quartic fit), rad.
+  std::vector<double> peak_stderr_rad;
   /// r_0, the peak before the first impact (the release amplitude, or a
   /// fitted peak when the record starts before a peak), rad.
   std::optional<double> r0_rad;
+  double r0_stderr_rad{};  ///< its standard error from the noise, rad
   /// Sign of theta before the first impact (+1 or -1; 0 when it never rocks).
   int first_sign{};
   /// Release time, s, when the record holds the block before letting go.
@@ -120,6 +162,9 @@ struct ImpactRow {
   std::optional<double> mu_n;       ///< eq. (14), 1
   std::optional<double> tau_s;      ///< measured quarter time tau_n*, s
   std::optional<double> residual_s; ///< T(r_n) - tau_n* at the solution, s
+  /// Standard deviation the noise alone gives tau_n* - T(r_n): from the
+  /// impact (release) times' and the peak's standard errors, s.
+  std::optional<double> noise_s;
 };
 
 /// One Levenberg-Marquardt iteration, for progress displays.
@@ -164,10 +209,36 @@ struct FitResult {
   QuarterTime quarter_time{QuarterTime::kExact};
   BlockParams params;            ///< fitted alpha (rad), p (rad/s), mu (1)
   double mu_spread{};            ///< impacts: standard deviation of the mu_n, 1; trajectory: NaN
-  double alpha_stderr{};         ///< rad
+  /// rad. Trajectory: s^2 (J^T J)^-1. Impacts: the unweighted fit's
+  /// sandwich covariance (J^T J)^-1 J^T S J (J^T J)^-1 with S the
+  /// half intervals' covariance from the noise (neighbours share an impact),
+  /// times max(1, residual_to_noise^2). NaN when withheld.
+  double alpha_stderr{};
   double p_stderr{};             ///< rad/s
-  double mu_stderr{};            ///< trajectory only (impacts: NaN), 1
+  /// 1. Trajectory: from s^2 (J^T J)^-1. Impacts: the noise of the peaks
+  /// (their fits) and the variance of alpha propagated through eq. (14)
+  /// to the mean of the mu_n (linearised).
+  double mu_stderr{};
   double alpha_p_correlation{};  ///< from s^2 (J^T J)^-1 at the solution, in [-1, 1]
+  /// Standard errors withheld (NaN) because dof < kMinDofForStderr.
+  bool stderr_withheld{};
+  /// The residual the noise alone gives one residual, in the units of
+  /// rms_residual: the rms over the residuals of sigma_i, their standard
+  /// deviations from the noise. Trajectory: sigma_i = noise_rad. Impacts:
+  /// from the impact-time standard errors (0.25 (se_n^2 + se_n+1^2)), the
+  /// release time's and the peak's (through dT/dr). NaN when dof < 1 or the
+  /// noise is 0.
+  double noise_residual{};
+  /// sqrt(sum (residual_i / sigma_i)^2 / dof), the root of the reduced
+  /// chi-square: about 1 (within ~1/sqrt(2 dof)) when the model follows the
+  /// record to its noise; NaN when noise_residual is.
+  double residual_to_noise{};
+  /// The least-squares iteration met its convergence test and the residual
+  /// reached the noise (residual_to_noise <= kMaxResidualToNoise, or not
+  /// computable).
+  bool converged{};
+  GapCount theta_gaps;  ///< missing theta samples of the record (bridged or skipped)
+  GapCount table_gaps;  ///< missing table samples (linear between the present ones)
   Eigen::MatrixXd covariance;    ///< of the fitted parameters, in their order
   double rms_residual{};         ///< s (impacts) or rad (trajectory)
   int residuals{};               ///< number of residuals
@@ -184,15 +255,19 @@ struct FitResult {
   std::vector<std::string> warnings;
 };
 
-/// The paper's procedure on a free-rocking record.
-/// @throws FitError when the record never rocks, overturns, has fewer than
+/// The paper's procedure on a free-rocking record. Missing samples are
+/// bridged: crossings and peaks are fitted to the samples present.
+/// @throws FitError when the record never rocks, overturns, is not free
+///         rocking (a table acceleration beyond kForcedTableAccel, or half
+///         intervals that no alpha below pi/2 explains), has fewer than
 ///         min_impacts usable impacts, the fit fails, or alpha falls outside
 ///         the admissible band (with geometry).
 FitResult FitImpacts(const RockingRecord& record, const FitOptions& options);
 
 /// Fits (alpha, p, mu) to theta(t) of the whole record with the Housner
 /// model (rtol options.rtol), driven by the record's table acceleration
-/// when it has one. The record must start at rest (forced) or from a held
+/// when it has one. Missing samples are skipped (the residuals are at the
+/// samples present). The record must start at rest (forced) or from a held
 /// release (free; the release time is fitted too). Start values: options.start,
 /// else the impacts method (free records), else the geometry.
 /// @throws FitError as FitImpacts, or when there is no start value.

@@ -1,7 +1,10 @@
 // Housner's piecewise model (physical time):
-//   theta'' = -p^2 [ sin(alpha s - theta) + (u_g''/g) cos(alpha s - theta) ],
-// s = +1 while the block pivots on its +x corner (theta > 0), -1 otherwise.
-// Impact at theta = 0: theta_dot <- mu theta_dot, s flips, CVODE restarts.
+//   theta'' = -p_s^2 [ sin(alpha_s s - theta) + (u_g''/g) cos(alpha_s s - theta) ],
+// s = +1 while the block pivots on its +x corner (theta > 0), -1 otherwise;
+// alpha_s, p_s those of that pivot (BlockParams::Side; the same for a
+// symmetric block). Impact at theta = 0: theta_dot <- mu_new theta_dot with
+// mu_new the restitution of the pivot it lands on (the pair old -> new),
+// s flips, CVODE restarts.
 
 #include <cmath>
 
@@ -24,9 +27,9 @@ class HousnerModel final : public CvodeRockingModel {
  protected:
   void RockingRhs(double t_s, const double* y, double* ydot) override {
     const double ug = table_accel(t_s);
-    const double phi = params_.alpha * side_ - y[0];
+    const double phi = sp_.alpha * side_ - y[0];
     ydot[0] = y[1];
-    ydot[1] = -params_.p * params_.p * (std::sin(phi) + ug / kGravity * std::cos(phi));
+    ydot[1] = -sp_.p * sp_.p * (std::sin(phi) + ug / kGravity * std::cos(phi));
   }
   void RockingRoots(const double* y, double* g) const override {
     g[0] = y[0];
@@ -36,19 +39,21 @@ class HousnerModel final : public CvodeRockingModel {
   int ImpactRootDirection() const override { return side_ > 0 ? -1 : +1; }
   void InitialState(double theta0, double theta_dot0, int side, double* y) override {
     side_ = side;
+    sp_ = params_.Side(side_);
     y[0] = theta0;
     y[1] = theta_dot0;
   }
   bool ApplyImpact(double* y) override {
     y[0] = 0.0;
-    y[1] *= params_.mu;
     side_ = -side_;
+    sp_ = params_.Side(side_);
+    y[1] *= sp_.mu;
     return true;
   }
   void FillState(const double* y) override {
     state_.theta = y[0];
     state_.theta_dot = y[1];
-    state_.chi = std::abs(y[0]) / params_.alpha;
+    state_.chi = std::abs(y[0]) / sp_.alpha;
     state_.psi = side_ > 0 ? 0.0 : kPi;
     state_.equations = Equations::kHousner;
   }
@@ -56,6 +61,7 @@ class HousnerModel final : public CvodeRockingModel {
 
  private:
   int side_{+1};
+  SideParams sp_{params_.Side(+1)};  // of the pivot it rocks on
 };
 
 }  // namespace

@@ -49,9 +49,10 @@ std::string Where(const std::string& source, int64_t line, bool lcm) {
   return source + (lcm ? ":event " : ":") + std::to_string(line);
 }
 
-// Strictly increasing, finite, no gap: one series (theta or table).
+// Strictly increasing and finite: one series (theta or table). Gaps are
+// counted (CountGaps), not errors.
 void CheckSeries(const std::string& source, const char* what, const std::vector<double>& t,
-                 const std::vector<int64_t>& line, bool lcm, double max_step_ratio) {
+                 const std::vector<int64_t>& line, bool lcm) {
   for (std::size_t k = 0; k < t.size(); ++k) {
     if (!std::isfinite(t[k])) Fail(Where(source, line[k], lcm), std::string(what) + " time is not finite");
     if (k > 0 && !(t[k] > t[k - 1])) {
@@ -60,23 +61,67 @@ void CheckSeries(const std::string& source, const char* what, const std::vector<
                Num(t[k - 1]) + " s): the record must be in time order without repeats");
     }
   }
-  if (t.size() < 3) return;
+}
+
+// Adds `missing` samples lost before the sample at `line`, between times
+// t_before and t_after (s), to `g`.
+void AddGap(GapCount& g, int64_t missing, double t_before, double t_after, int64_t line) {
+  if (missing <= 0) return;
+  g.missing_samples += missing;
+  ++g.gaps;
+  if (std::isfinite(t_before) && std::isfinite(t_after)) g.longest_s = std::max(g.longest_s, t_after - t_before);
+  if (g.first_line == 0) g.first_line = line;
+}
+
+// Samples in an LCM channel: seq jumps and non-finite values are missing.
+struct SeqCounter {
+  GapCount gaps;
+  bool any{false};
+  int64_t last_seq{};       // seq of the last event (present or not)
+  int64_t pending{};        // missing since the last present sample
+  double last_time{std::nan("")};
+  // Returns an error text for a sequence that goes back, else empty.
+  std::string Event(int64_t seq, bool present, double t, int64_t line) {
+    if (any && seq <= last_seq) {
+      return "sequence goes back from " + std::to_string(last_seq) + " to " + std::to_string(seq);
+    }
+    if (any) pending += seq - last_seq - 1;
+    any = true;
+    last_seq = seq;
+    if (!present) {
+      ++pending;
+      return {};
+    }
+    AddGap(gaps, pending, last_time, t, line);
+    pending = 0;
+    last_time = t;
+    return {};
+  }
+  // Missing samples at the end of the log (no present sample after them).
+  void Finish() { AddGap(gaps, pending, last_time, last_time, 0); }
+};
+
+}  // namespace
+
+GapCount CountGaps(const std::vector<double>& t, const std::vector<int64_t>& line,
+                   double max_step_ratio) {
+  GapCount g;
+  if (t.size() < 3) return g;
   std::vector<double> steps(t.size() - 1);
   for (std::size_t k = 1; k < t.size(); ++k) steps[k - 1] = t[k] - t[k - 1];
   std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
   const double median = sorted[sorted.size() / 2];
+  if (!(median > 0.0)) return g;
   for (std::size_t k = 1; k < t.size(); ++k) {
-    if (steps[k - 1] > max_step_ratio * median) {
-      Fail(Where(source, line[k], lcm),
-           std::string(what) + " record has a gap: " + Num(steps[k - 1]) + " s between " +
-               Num(t[k - 1]) + " s and " + Num(t[k]) + " s (median step " + Num(median) +
-               " s); fit a gap-free stretch of the test");
+    const double step = steps[k - 1];
+    if (step > max_step_ratio * median) {
+      const auto missing = std::max<int64_t>(1, std::llround(step / median) - 1);
+      AddGap(g, missing, t[k - 1], t[k], k < line.size() ? line[k] : 0);
     }
   }
+  return g;
 }
-
-}  // namespace
 
 RockingRecord ReadRecord(const std::string& path, const RecordOptions& options) {
   RockingRecord r = StartsWithLcmSyncWord(path) ? ReadThetaLcmLog(path, options) : ReadThetaCsv(path);
@@ -94,6 +139,9 @@ RockingRecord ReadThetaCsv(const std::string& path) {
   int time_col = -1;
   int theta_col = -1;
   std::size_t n_fields = 0;
+  int64_t lost_before_first = 0;  // rows with no theta before the first sample
+  int64_t lost_pending = 0;       // since the last sample
+  int64_t first_lost_line = 0;
   while (std::getline(in, text)) {
     ++line_no;
     const std::string trimmed = Trim(text);
@@ -122,15 +170,27 @@ RockingRecord ReadThetaCsv(const std::string& path) {
       Fail(Where(path, line_no, false), "time is not a number: '" + fields[time_col] + "'");
     }
     if (!ParseDouble(fields[theta_col], theta) || !std::isfinite(theta)) {
-      Fail(Where(path, line_no, false),
-           "theta is not a number: '" + fields[theta_col] +
-               "' (a lost sample: fit a stretch of the test without it)");
+      // A lost sample: left out and counted (the time step shows it inside
+      // the record; at its ends it is counted here).
+      if (r.time_s.empty()) ++lost_before_first;
+      ++lost_pending;
+      if (first_lost_line == 0) first_lost_line = line_no;
+      continue;
     }
+    lost_pending = 0;
     r.time_s.push_back(t);
     r.theta.push_back(theta);
     r.line.push_back(line_no);
   }
   if (time_col < 0) throw RecordError(path + ": empty file (no `time,theta` header)");
+  CheckSeries(path, "theta", r.time_s, r.line, false);
+  r.theta_gaps = CountGaps(r.time_s, r.line);
+  const int64_t at_ends = lost_before_first + (r.time_s.empty() ? 0 : lost_pending);
+  if (at_ends > 0) {
+    r.theta_gaps.missing_samples += at_ends;
+    r.theta_gaps.gaps += (lost_before_first > 0 ? 1 : 0) + (lost_pending > 0 && !r.time_s.empty() ? 1 : 0);
+    if (r.theta_gaps.first_line == 0 || lost_before_first > 0) r.theta_gaps.first_line = first_lost_line;
+  }
   return r;
 }
 
@@ -154,10 +214,9 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
   std::vector<int64_t> table_line;
   rocklab::block_state_t block{};
   rocklab::table_state_t table{};
-  int64_t last_block_seq = 0;
-  int64_t last_table_seq = 0;
+  SeqCounter block_seq;
+  SeqCounter table_seq;
   bool any_block = false;
-  bool any_table = false;
   while (log->Next(event)) {
     if (!damage.empty()) break;  // reported below, before any gap it causes
     const int datalen = static_cast<int>(ev->data.size());
@@ -166,18 +225,13 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
         Fail(Where(path, ev->number, true),
              options.theta_channel + " event does not decode as rocklab::block_state_t");
       }
-      if (any_block && block.seq != last_block_seq + 1) {
-        Fail(Where(path, ev->number, true),
-             options.theta_channel + " sequence jumps from " + std::to_string(last_block_seq) +
-                 " to " + std::to_string(block.seq) + ": samples are missing (a gap)");
-      }
-      if (!std::isfinite(block.theta)) {
-        Fail(Where(path, ev->number, true),
-             "theta is not a number (a lost sample: fit a stretch of the test without it)");
-      }
+      const bool present = std::isfinite(block.theta);
+      const double t = static_cast<double>(block.utime) * 1e-6;
+      const std::string bad = block_seq.Event(block.seq, present, t, ev->number);
+      if (!bad.empty()) Fail(Where(path, ev->number, true), options.theta_channel + " " + bad);
+      if (!present) continue;  // a lost sample, counted
       any_block = true;
-      last_block_seq = block.seq;
-      r.time_s.push_back(static_cast<double>(block.utime) * 1e-6);
+      r.time_s.push_back(t);
       r.theta.push_back(block.theta);
       r.line.push_back(ev->number);
     } else if (ev->channel == options.table_channel) {
@@ -185,26 +239,25 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
         Fail(Where(path, ev->number, true),
              options.table_channel + " event does not decode as rocklab::table_state_t");
       }
-      if (any_table && table.seq != last_table_seq + 1) {
-        Fail(Where(path, ev->number, true),
-             options.table_channel + " sequence jumps from " + std::to_string(last_table_seq) +
-                 " to " + std::to_string(table.seq) + ": samples are missing (a gap)");
-      }
-      if (!std::isfinite(table.acceleration)) {
-        Fail(Where(path, ev->number, true), "table acceleration is not a number");
-      }
-      any_table = true;
-      last_table_seq = table.seq;
-      r.table_time_s.push_back(static_cast<double>(table.utime) * 1e-6);
+      const bool present = std::isfinite(table.acceleration);
+      const double t = static_cast<double>(table.utime) * 1e-6;
+      const std::string bad = table_seq.Event(table.seq, present, t, ev->number);
+      if (!bad.empty()) Fail(Where(path, ev->number, true), options.table_channel + " " + bad);
+      if (!present) continue;  // a lost sample, counted
+      r.table_time_s.push_back(t);
       r.table_accel_mps2.push_back(table.acceleration);
       table_line.push_back(ev->number);
     }
   }
   if (!damage.empty()) throw RecordError(damage + "; fit a stretch of the test without it");
+  block_seq.Finish();
+  table_seq.Finish();
+  r.theta_gaps = block_seq.gaps;
+  r.table_gaps = table_seq.gaps;
   if (!any_block) {
     throw RecordError(path + ": no " + options.theta_channel + " (rocklab::block_state_t) events");
   }
-  CheckSeries(path, "table", r.table_time_s, table_line, true, options.max_step_ratio);
+  CheckSeries(path, "table", r.table_time_s, table_line, true);
   return r;
 }
 
@@ -239,7 +292,8 @@ void AddTableCsv(const std::string& path, RockingRecord& record) {
     lines.push_back(line_no);
   }
   if (record.table_time_s.size() < 2) throw RecordError(path + ": fewer than 2 table samples");
-  CheckSeries(path, "table", record.table_time_s, lines, false, RecordOptions{}.max_step_ratio);
+  CheckSeries(path, "table", record.table_time_s, lines, false);
+  record.table_gaps = CountGaps(record.table_time_s, lines);
 }
 
 void CheckRecord(const RockingRecord& record, const RecordOptions& options) {
@@ -255,7 +309,7 @@ void CheckRecord(const RockingRecord& record, const RecordOptions& options) {
   for (std::size_t k = 0; k < record.size(); ++k) {
     if (!std::isfinite(record.theta[k])) Fail(Where(record.source, record.line[k], lcm), "theta is not finite");
   }
-  CheckSeries(record.source, "theta", record.time_s, record.line, lcm, options.max_step_ratio);
+  CheckSeries(record.source, "theta", record.time_s, record.line, lcm);
   if (record.table_time_s.size() != record.table_accel_mps2.size()) {
     throw RecordError(record.source + ": table time and acceleration have different lengths");
   }

@@ -77,7 +77,8 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   int n_{};
   std::unique_ptr<Cvode> cvode_;
   const Forcing* forcing_{nullptr};  // non-owning; valid during AdvanceTo only
-  double uplift_accel_mps2_{};       // g tan(alpha)
+  double uplift_minus_mps2_{};       // g tan(alpha_-): u_g'' above it lifts onto the -x pivot
+  double uplift_plus_mps2_{};        // g tan(alpha_+): u_g'' below minus it lifts onto the +x pivot
   double last_impact_s_{-std::numeric_limits<double>::infinity()};
   bool rest_checked_{false};         // uplift criterion checked at the current rest time
   double segment_lo_s_{};            // table_accel clamps its time to [lo, hi]

@@ -153,7 +153,10 @@ Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, do
 namespace detail {
 
 CvodeRockingModel::CvodeRockingModel(const BlockParams& params, const ModelOptions& options)
-    : params_(params), options_(options), uplift_accel_mps2_(kGravity * std::tan(params.alpha)) {
+    : params_(params),
+      options_(options),
+      uplift_minus_mps2_(kGravity * std::tan(params.Side(-1).alpha)),
+      uplift_plus_mps2_(kGravity * std::tan(params.Side(+1).alpha)) {
   params_.Validate();
   options_.Validate();
   events_.reserve(256);
@@ -197,8 +200,9 @@ void CvodeRockingModel::EnterRest(double t_s) {
   rest_checked_ = false;
   for (double& v : y_) v = 0.0;
   cvode_->ReInit(t_s, y_);
-  // Root 0: u_g'' rising through +g tan(alpha); root 1: falling through -g
-  // tan(alpha); root 2 unused at rest.
+  // Root 0: u_g'' rising through +g tan(alpha_-) (onto the -x pivot); root
+  // 1: falling through -g tan(alpha_+) (onto the +x pivot); root 2 unused at
+  // rest. For a symmetric block both are g tan(alpha).
   cvode_->SetRootDirection({+1, -1, +1});
 }
 
@@ -253,8 +257,11 @@ void CvodeRockingModel::StartRocking(double t_s, double theta0, double theta_dot
 void CvodeRockingModel::UpdateState(double t_s, const double* y) {
   state_.time_s = t_s;
   FillState(y);
-  const double a = params_.alpha;
-  state_.energy = state_.theta_dot * state_.theta_dot / (2 * params_.p * params_.p) +
+  // E / (M g R) of the pivot it rocks on (at theta = 0: the one it moves onto).
+  const int side = state_.theta > 0.0 || (state_.theta == 0.0 && state_.theta_dot >= 0.0) ? +1 : -1;
+  const SideParams sp = params_.Side(side);
+  const double a = sp.alpha;
+  state_.energy = state_.theta_dot * state_.theta_dot / (2 * sp.p * sp.p) +
                   std::cos(a - std::abs(state_.theta)) - std::cos(a);
 }
 
@@ -277,8 +284,8 @@ int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
     RockingRoots(y, g);
   } else {
     const double ug = table_accel(t_s);
-    g[0] = ug - uplift_accel_mps2_;
-    g[1] = ug + uplift_accel_mps2_;
+    g[0] = ug - uplift_minus_mps2_;
+    g[1] = ug + uplift_plus_mps2_;
     g[2] = 1.0;
   }
   return 0;
@@ -306,7 +313,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         // Root finding sees crossings only: check the criterion where rest starts.
         rest_checked_ = true;
         const double ug = table_accel(state_.time_s);
-        if (std::abs(ug) > uplift_accel_mps2_) {
+        if (ug > uplift_minus_mps2_ || ug < -uplift_plus_mps2_) {
           Emit(state_.time_s, EventKind::kUplift, ug);
           // u_g'' > 0 pushes the block onto its -x corner (theta < 0), ERRATA 5/6.
           StartRocking(state_.time_s, 0.0, 0.0, ug > 0.0 ? -1 : +1);

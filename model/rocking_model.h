@@ -45,9 +45,11 @@ struct ModelState {
   double time_s{};     ///< s
   double theta{};      ///< rocking angle, rad; > 0 about the +x corner
   double theta_dot{};  ///< rad/s
-  double chi{};        ///< |theta| / alpha (complex: the integrated modulus), 1
+  double chi{};        ///< |theta| / alpha of its pivot (complex: the integrated modulus), 1
   double psi{};        ///< complex formulation phase, rad, in (-pi, pi] (housner: 0 for theta >= 0, pi otherwise)
-  double energy{};     ///< E / (M g R) = theta_dot^2 / (2 p^2) + cos(alpha - |theta|) - cos(alpha), 1
+  /// E / (M g R) = theta_dot^2 / (2 p^2) + cos(alpha - |theta|) - cos(alpha),
+  /// with R, p, alpha of the pivot it rocks on, 1
+  double energy{};
   int impacts{};       ///< impacts since Reset
   Regime regime{Regime::kRest};
   /// The equations integrated up to this sample (at rest: those the next
@@ -105,7 +107,8 @@ class RockingModel {
   RockingModel& operator=(const RockingModel&) = delete;
 
   /// Start at t0_s from theta0 (rad) and theta_dot0 (rad/s). Both zero: at rest,
-  /// waiting for the uplift criterion |u_g''| > g tan(alpha).
+  /// waiting for the uplift criterion |u_g''| > g tan(alpha) (asymmetric
+  /// section: alpha of the side it lifts onto, u_g'' > 0 tipping it onto -x).
   /// @throws std::invalid_argument when |theta0| >= pi/2 or a value is not finite.
   virtual void Reset(double t0_s, double theta0, double theta_dot0) = 0;
 

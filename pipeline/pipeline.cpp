@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "model/block.h"
 
@@ -25,7 +27,17 @@ daq::RigConfig LoadRig(const std::string& path) {
 }
 
 model::BlockParams TheoreticalParams(const daq::RigConfig& rig) {
-  return model::RectangleBlock(rig.block.width_m, rig.block.height_m, rig.block.chamfer_m).params();
+  if (rig.block.polygon_m.empty()) {
+    return model::RectangleBlock(rig.block.width_m, rig.block.height_m, rig.block.chamfer_m).params();
+  }
+  std::vector<Eigen::Vector2d> vertices;
+  for (const auto& xz : rig.block.polygon_m) vertices.emplace_back(xz[0], xz[1]);
+  try {
+    return model::PolygonBlock(vertices).params();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(rig.path + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " +
+                         std::string(e.what()).substr(std::string(e.what()).rfind("vertices_m: ", 0) == 0 ? 12 : 0));
+  }
 }
 
 daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& input, double speed) {

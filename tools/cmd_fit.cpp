@@ -47,7 +47,8 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
                        {"peak", Optional(row.peak_rad)},
                        {"mu_n", Optional(row.mu_n)},
                        {"tau", Optional(row.tau_s)},
-                       {"residual", Optional(row.residual_s)}});
+                       {"residual", Optional(row.residual_s)},
+                       {"residual_noise", Optional(row.noise_s)}});
   }
   nlohmann::json j = {
       {"input", o.input},
@@ -69,15 +70,25 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"runtime", r.runtime_s},
       {"forced", r.forced},
       {"noise", r.features.noise_rad},
+      {"dof", r.dof},
+      {"converged", r.converged},
+      {"residual_to_noise", Optional(r.residual_to_noise)},
+      {"noise_residual", Optional(r.noise_residual)},
+      {"stderr_withheld", r.stderr_withheld},
+      {"missing_samples", r.theta_gaps.missing_samples},
+      {"gaps", r.theta_gaps.gaps},
+      {"longest_gap", r.theta_gaps.longest_s},
+      {"missing_table_samples", r.table_gaps.missing_samples},
       {"release_time", r.method == model::FitMethod::kTrajectory ? Optional(r.release_time_s)
                                                                 : Optional(r.features.release_time_s)},
       {"impacts", impacts},
       {"warnings", r.warnings},
       {"units",
        {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"alpha_stderr", "rad"},
-        {"p_stderr", "rad/s"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"}, {"residual", "s"},
-        {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
-        {"release_time", "s"}, {"runtime", "s"}}}};
+        {"p_stderr", "rad/s"}, {"mu_stderr", "1"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"},
+        {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
+        {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
+        {"residual_to_noise", "1"}, {"residual_noise", "s"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {
@@ -100,8 +111,15 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
   std::printf("\n%-10s %11s %11s %8s %10s\n", "", "alpha (rad)", "p (rad/s)", "mu", "mu_spread");
   std::printf("%-10s %11.4f %11.4f %8.4f %10s\n", "fitted", r.params.alpha, r.params.p,
               r.params.mu, std::isfinite(r.mu_spread) ? std::to_string(r.mu_spread).substr(0, 6).c_str() : "-");
-  std::printf("%-10s %11.4f %11.4f %8s\n", "std error", r.alpha_stderr, r.p_stderr,
-              std::isfinite(r.mu_stderr) ? std::to_string(r.mu_stderr).substr(0, 6).c_str() : "-");
+  auto stderr_cell = [](double v, const char* fmt) {
+    char buf[32];
+    if (!std::isfinite(v)) return std::string("-");
+    std::snprintf(buf, sizeof buf, fmt, v);
+    return std::string(buf);
+  };
+  std::printf("%-10s %11s %11s %8s%s\n", "std error", stderr_cell(r.alpha_stderr, "%.4f").c_str(),
+              stderr_cell(r.p_stderr, "%.4f").c_str(), stderr_cell(r.mu_stderr, "%.4f").c_str(),
+              r.stderr_withheld ? "   (withheld: fewer than 3 degrees of freedom)" : "");
   if (r.theory) {
     std::printf("%-10s %11.4f %11.4f %8.4f   (geometry)\n", "theory", r.theory->alpha, r.theory->p,
                 r.theory->mu);
@@ -109,13 +127,26 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
   if (r.band) {
     std::printf("admissible alpha [%.4f, %.4f] rad (b +- %.3g m)\n", r.band->lo, r.band->hi, r.band->band_m);
   }
-  std::printf("alpha-p correlation %.3f (%s)\n", r.alpha_p_correlation,
+  if (std::isfinite(r.alpha_p_correlation)) std::printf("alpha-p correlation %.3f (%s)\n", r.alpha_p_correlation,
               std::abs(r.alpha_p_correlation) > 0.9
                   ? "strong: other (alpha, p) pairs along a ridge give nearly the same response"
                   : "moderate");
-  std::printf("rms residual %.3g %s, noise %.3g rad\n",
-              r.method == model::FitMethod::kImpacts ? r.rms_residual * 1e3 : r.rms_residual,
-              r.method == model::FitMethod::kImpacts ? "ms" : "rad", r.features.noise_rad);
+  const bool in_ms = r.method == model::FitMethod::kImpacts;
+  std::printf("rms residual %.3g %s, noise %.3g rad\n", in_ms ? r.rms_residual * 1e3 : r.rms_residual,
+              in_ms ? "ms" : "rad", r.features.noise_rad);
+  if (std::isfinite(r.residual_to_noise)) {
+    std::printf("residual / noise %.2f (the noise alone gives %.3g %s per residual): %s\n", r.residual_to_noise,
+                in_ms ? r.noise_residual * 1e3 : r.noise_residual, in_ms ? "ms" : "rad",
+                r.converged ? "converged" : "NOT converged");
+  } else {
+    std::printf("residual / noise not computable (%d degrees of freedom%s): %s\n", r.dof,
+                r.features.noise_rad > 0.0 ? "" : ", no measurable noise",
+                r.converged ? "converged (least squares)" : "NOT converged");
+  }
+  if (r.theta_gaps.missing_samples > 0) {
+    std::printf("missing samples %lld in %lld gap(s)\n", static_cast<long long>(r.theta_gaps.missing_samples),
+                static_cast<long long>(r.theta_gaps.gaps));
+  }
   if (r.release_time_s) std::printf("fitted release time %.4f s\n", *r.release_time_s);
   if (!r.impacts.empty()) {
     std::printf("\n%3s %10s %11s %8s %9s %13s\n", "n", "time (s)", "peak (rad)", "mu_n", "tau* (s)",
@@ -167,6 +198,15 @@ int RunFit(const FitCliOptions& o) {
       throw UsageError("--rig " + o.rig + " has no block geometry (block.width_m, block.height_m)");
     }
     fo.geometry = model::FitGeometry{rig.block.width_m, rig.block.height_m, rig.block.chamfer_m};
+    for (const auto& xz : rig.block.polygon_m) fo.geometry->polygon_m.emplace_back(xz[0], xz[1]);
+    if (!rig.block.polygon_m.empty()) {
+      try {
+        (void)model::PolygonBlock(fo.geometry->polygon_m);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(o.rig + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " +
+                         std::string(e.what()).substr(std::string(e.what()).rfind("vertices_m: ", 0) == 0 ? 12 : 0));
+      }
+    }
   } else if (has_dims) {
     Require(o.width_m > 0.0, "--width", "> 0 m", o.width_m);
     Require(o.height_m > 0.0, "--height", "> 0 m", o.height_m);

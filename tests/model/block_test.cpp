@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 
@@ -12,6 +14,16 @@ namespace rocklab::model {
 namespace {
 
 std::string ErrorOf(void (*f)()) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+template <typename F>
+std::string ErrorOf2(const F& f) {
   try {
     f();
   } catch (const std::invalid_argument& e) {
@@ -74,6 +86,122 @@ TEST(BlockTest, PolygonOfRectangleEqualsRectangle) {
   EXPECT_EQ(r.params().mu, r.mu_general);
 }
 
+// ORACLE: a right trapezoid computed by hand, split into the rectangle
+// [0, 0.2] x [0, 1] (area 0.2) and the triangle (0.2, 0), (0.4, 0), (0.2, 1)
+// (area 0.1): area 0.3, centroid (7/45, 4/9), polar moment about the origin
+// 0.0693333 + 0.024 = 0.0933333 m^4, so I_G / M = 14/45 - 449/2025 =
+// 181/2025 m^2. Pivots (0.4, 0) (+x) and (0, 0) (-x):
+// r_+ = (-11/45, 20/45), r_- = (7/45, 20/45); alpha_+ = atan(11/20),
+// alpha_- = atan(7/20); I_+/M = 702/2025, I_-/M = 630/2025; r_+ . r_- =
+// 323/2025, so an impact onto + keeps (181 + 323)/702 = 504/702 of the
+// angular velocity and one onto - keeps 504/630 = 0.8.
+// TOLERANCE: rounding of the shoelace sums, 1e-13.
+TEST(BlockTest, RightTrapezoidPerSideByHand) {
+  const BlockGeometry g = PolygonBlock({{0.0, 0.0}, {0.4, 0.0}, {0.2, 1.0}, {0.0, 1.0}});
+  EXPECT_NEAR(g.area, 0.3, 1e-13);
+  EXPECT_NEAR(g.centroid_m.x(), 7.0 / 45, 1e-13);
+  EXPECT_NEAR(g.centroid_m.y(), 4.0 / 9, 1e-13);
+  EXPECT_NEAR(g.i_g_per_area, 181.0 / 2025, 1e-13);
+  EXPECT_FALSE(g.symmetric);
+  EXPECT_NEAR(g.plus.alpha, std::atan(11.0 / 20), 1e-13);
+  EXPECT_NEAR(g.minus.alpha, std::atan(7.0 / 20), 1e-13);
+  EXPECT_NEAR(g.plus.R, std::sqrt(521.0) / 45, 1e-13);
+  EXPECT_NEAR(g.minus.R, std::sqrt(449.0) / 45, 1e-13);
+  EXPECT_NEAR(g.plus.i_o_per_area, 702.0 / 2025, 1e-13);
+  EXPECT_NEAR(g.minus.i_o_per_area, 630.0 / 2025, 1e-13);
+  EXPECT_NEAR(g.plus.p, std::sqrt(kGravity * (std::sqrt(521.0) / 45) / (702.0 / 2025)), 1e-12);
+  EXPECT_NEAR(g.minus.p, std::sqrt(kGravity * (std::sqrt(449.0) / 45) / (630.0 / 2025)), 1e-12);
+  EXPECT_NEAR(g.plus.mu, 504.0 / 702, 1e-13);
+  EXPECT_NEAR(g.minus.mu, 0.8, 1e-13);
+  // The unprefixed fields are the +x side; params() carries both.
+  EXPECT_EQ(g.alpha, g.plus.alpha);
+  EXPECT_EQ(g.mu_general, g.plus.mu);
+  const BlockParams bp = g.params();
+  ASSERT_TRUE(bp.minus.has_value());
+  EXPECT_EQ(bp.Side(+1).alpha, g.plus.alpha);
+  EXPECT_EQ(bp.Side(-1).alpha, g.minus.alpha);
+  EXPECT_EQ(bp.Side(-1).mu, g.minus.mu);
+  EXPECT_NO_THROW(bp.Validate());
+  // Mirrored (x -> -x) the sides swap.
+  const BlockGeometry m = PolygonBlock({{0.0, 0.0}, {0.0, 1.0}, {-0.2, 1.0}, {-0.4, 0.0}});
+  EXPECT_NEAR(m.plus.alpha, g.minus.alpha, 1e-13);
+  EXPECT_NEAR(m.minus.mu, g.plus.mu, 1e-13);
+}
+
+// ORACLE: ERRATA item 8. For a symmetric section (block 4's chamfered
+// rectangle and a symmetric pentagon, "house" shape) r_new . r_old =
+// R^2 cos(2 alpha), so the pair-of-pivots restitution must reduce to
+// 1 - (2 M R^2 / I_O) sin^2(alpha) on both sides, and params() must be the
+// symmetric BlockParams{alpha, p, mu} (no minus side).
+// TOLERANCE: rounding, 1e-13.
+TEST(BlockTest, SymmetricSectionReducesToErrataItem8) {
+  const BlockGeometry chamfered = RectangleBlock(0.246, 0.500, 0.042);
+  const BlockGeometry house = PolygonBlock({{-0.2, 0.0}, {0.2, 0.0}, {0.2, 0.8}, {0.0, 1.1}, {-0.2, 0.8}});
+  for (const BlockGeometry& g : {chamfered, house}) {
+    const double s = std::sin(g.alpha);
+    const double item8 = 1.0 - 2.0 * g.R * g.R / g.i_o_per_area * s * s;
+    EXPECT_NEAR(g.plus.mu, item8, 1e-13);
+    EXPECT_NEAR(g.minus.mu, item8, 1e-13);
+    EXPECT_NEAR(g.minus.alpha, g.plus.alpha, 1e-13);
+    EXPECT_NEAR(g.minus.p, g.plus.p, 1e-13);
+    EXPECT_TRUE(g.symmetric);
+    EXPECT_FALSE(g.params().minus.has_value());
+  }
+}
+
+std::string WriteFile(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / "rocklab_block_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string CsvError(const std::string& name, const std::string& text) {
+  try {
+    (void)PolygonBlock(ReadPolygonCsv(WriteFile(name, text)));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// ORACLE: the values written (a closed outline's repeated first vertex is
+// dropped), and the contract: every error names the file and, where there
+// is one, the line.
+TEST(BlockTest, PolygonCsvReadsAndNamesFileAndLine) {
+  const std::string path = WriteFile("trapezoid.csv", "# right trapezoid\nx,z\n0,0\n0.4,0\n\n0.2,1\n0,1\n0,0\n");
+  const PolygonFile f = ReadPolygonCsv(path);
+  ASSERT_EQ(f.vertices_m.size(), 4u);
+  EXPECT_EQ(f.line[2], 6);
+  EXPECT_NEAR(PolygonBlock(f).minus.mu, 0.8, 1e-13);
+
+  EXPECT_NE(CsvError("h.csv", "x,y\n0,0\n").find("h.csv:1: the header must be x,z"), std::string::npos);
+  EXPECT_NE(CsvError("n.csv", "x,z\n0,0\n1,zero\n1,1\n").find("n.csv:3: expected two finite numbers"),
+            std::string::npos);
+  EXPECT_NE(CsvError("f.csv", "x,z\n0,0\n1,0,2\n1,1\n").find("f.csv:3:"), std::string::npos);
+  EXPECT_NE(CsvError("few.csv", "x,z\n0,0\n1,0\n").find("few.csv: a polygon needs at least 3"),
+            std::string::npos);
+  EXPECT_NE(CsvError("rep.csv", "x,z\n0,0\n1,0\n1,0\n1,1\n").find("rep.csv:4: repeats the vertex of line 3"),
+            std::string::npos);
+  // A bow tie: the edge from line 2 to 3 crosses the edge from line 4 to 5.
+  EXPECT_NE(CsvError("tie.csv", "x,z\n0,0\n1,1\n1,0\n0,1\n").find("tie.csv:2: the edge from line 2 to line 3"),
+            std::string::npos);
+  EXPECT_NE(CsvError("tip.csv", "x,z\n0,0\n1,1\n-1,1\n").find("tip.csv: the section rests on one vertex"),
+            std::string::npos);
+  // An L lying on its short foot: the centroid is beyond the +x pivot.
+  EXPECT_NE(CsvError("l.csv", "x,z\n0,0\n0.1,0\n0.1,0.1\n1,0.1\n1,0.2\n0,0.2\n")
+                .find("l.csv: centroid x"),
+            std::string::npos);
+  EXPECT_NE(CsvError("none.csv", "").find("none.csv: empty file"), std::string::npos);
+  try {
+    ReadPolygonCsv("/nonexistent/p.csv");
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/p.csv: cannot open"), std::string::npos);
+  }
+}
+
 // ORACLE: the contract — errors name the argument or parameter.
 TEST(BlockTest, BadArgumentsNameThemselves) {
   EXPECT_NE(ErrorOf([] { RectangleBlock(-1, 1); }).find("width_m"), std::string::npos);
@@ -86,6 +214,9 @@ TEST(BlockTest, BadArgumentsNameThemselves) {
   EXPECT_NE(ErrorOf([] { BlockParams{0.2, 3, 1.5}.Validate(); }).find("mu"), std::string::npos);
   EXPECT_NE(ErrorOf([] { BlockParams{0.2, 3, NAN}.Validate(); }).find("mu"), std::string::npos);
   EXPECT_NO_THROW((BlockParams{0.235, 3.884, 0.937}.Validate()));
+  BlockParams asym{0.235, 3.884, 0.937};
+  asym.minus = SideParams{0.3, 3.9, 1.2};
+  EXPECT_NE(ErrorOf2([&] { asym.Validate(); }).find("minus.mu"), std::string::npos);
 }
 
 }  // namespace

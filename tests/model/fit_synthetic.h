@@ -82,4 +82,34 @@ inline model::RockingRecord SyntheticForced(const model::BlockParams& truth,
   return r;
 }
 
+/// Removes each sample with probability `fraction` (seeded) and then the
+/// `block` samples from index `block_at` on (none when block is 0), as a DAQ
+/// that drops samples; returns how many were removed. The lines of the
+/// samples kept are unchanged.
+inline long DropSamples(model::RockingRecord& r, double fraction, std::uint32_t seed, long block_at = 0,
+                        long block = 0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  model::RockingRecord out = r;
+  out.time_s.clear();
+  out.theta.clear();
+  out.line.clear();
+  long removed = 0;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    const long i = static_cast<long>(k);
+    const bool in_block = block > 0 && i >= block_at && i < block_at + block;
+    // Never the first or the last sample: a gap is between samples.
+    if (k > 0 && k + 1 < r.size() && (in_block || u(rng) < fraction)) {
+      ++removed;
+      continue;
+    }
+    out.time_s.push_back(r.time_s[k]);
+    out.theta.push_back(r.theta[k]);
+    out.line.push_back(r.line[k]);
+  }
+  out.theta_gaps = model::CountGaps(out.time_s, out.line);
+  r = std::move(out);
+  return removed;
+}
+
 }  // namespace rocklab::test

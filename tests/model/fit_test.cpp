@@ -127,7 +127,225 @@ TEST(FitTrajectory, RecoversBlock1FromAForcedTest) {
   EXPECT_NEAR(r.params.mu / kBlock1.mu, 1.0, 0.01);
   // The residual is the noise (0.02 deg = 3.49e-4 rad) when the model fits.
   EXPECT_NEAR(r.rms_residual, 0.02 * kDeg, 0.1 * 0.02 * kDeg);
+  EXPECT_NEAR(r.residual_to_noise, 1.0, 0.1);
+  EXPECT_TRUE(r.converged);
   EXPECT_GT(progress_lines, 0);
+}
+
+// --- what a fit knows: noise, gaps, convergence, standard errors ----------
+
+// Oracle: the seeded noise itself (0.02 deg = 3.49e-4 rad). The estimate
+// uses only the record's second differences, so it must find the noise
+// whatever the motion (free, forced) and with samples missing (0.1 % at
+// random and a block of 20, whose unequal steps are left out). Tolerance
+// 8 %: the median of |d2| over ~4000 correlated differences has a relative
+// standard error of about 2.5 % (measured spread over seeds 1-3: see the
+// printed values), 3 of them.
+TEST(FitNoise, EstimateIsTheSeededNoiseWithAndWithoutGaps) {
+  const double sigma = 0.02 * kDeg;
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, seed);
+    const double full = model::EstimateThetaNoise(rec);
+    DropSamples(rec, 0.001, seed, 1000, 20);
+    const double gapped = model::EstimateThetaNoise(rec);
+    std::printf("seed %u: noise %.4e (full) %.4e (gaps) rad, truth %.4e\n", seed, full, gapped, sigma);
+    EXPECT_NEAR(full / sigma, 1.0, 0.08) << "seed " << seed;
+    EXPECT_NEAR(gapped / sigma, 1.0, 0.08) << "seed " << seed;
+  }
+  // Noise-free: the motion alone (theta'' dt^2, about 1e-5 rad) is far below
+  // the noise levels of interest.
+  const auto clean = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.0, 1);
+  EXPECT_LT(model::EstimateThetaNoise(clean), 1e-5);
+}
+
+// The issue's complaint: a record with dropped samples (the rig simulator's
+// default 0.1 %) must be fitted. Oracle: the synthetic truth, to the same
+// 1 % / 0.005 as the gap-free acceptance test; the missing count is the
+// number removed; the residual reaches the noise (the model is right).
+TEST(FitImpacts, BridgesMissingSamplesAndCountsThem) {
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, seed);
+    const long removed = DropSamples(rec, 0.001, seed + 10, 600, 12);  // 12 around the first crossing
+    FitOptions o;
+    o.geometry = kBlock1Geometry;
+    const auto r = model::FitImpacts(rec, o);
+    std::printf("seed %u: removed %ld, alpha %.5f p %.5f mu %.5f, ratio %.3f\n", seed, removed, r.params.alpha,
+                r.params.p, r.params.mu, r.residual_to_noise);
+    EXPECT_EQ(r.theta_gaps.missing_samples, removed);
+    EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.01) << "seed " << seed;
+    EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.01) << "seed " << seed;
+    EXPECT_NEAR(r.params.mu, kBlock1.mu, 0.005) << "seed " << seed;
+    EXPECT_TRUE(r.converged);
+    bool noted = false;
+    for (const auto& w : r.warnings) noted = noted || w.find("missing") != std::string::npos;
+    EXPECT_TRUE(noted);
+  }
+}
+
+// Oracle for the residual-to-noise ratio with a right model: it is the
+// root of a reduced chi-square with the noise-propagated sigmas, so over
+// seeds it scatters about 1 (with 18 degrees of freedom its relative
+// standard error is 1/sqrt(2 dof) = 17 %): each seed within [0.6, 1.5]
+// (measured 0.81 .. 1.37), their mean within [0.75, 1.25] (measured 1.03).
+// With a wrong model (the slender eq. (13) on the stocky block 4, whose
+// bias is 1.4 % on alpha, ERRATA item 2) on a record quiet enough
+// (0.001 deg) for the bias to show, the ratio must exceed
+// kMaxResidualToNoise (measured 2.7 against 0.7 for the exact form) and the
+// fit say it has not converged.
+TEST(FitImpacts, ResidualToNoiseIsAboutOneForTheRightModelOnly) {
+  double sum = 0.0;
+  const std::uint32_t seeds[] = {1u, 2u, 3u, 4u, 5u, 6u};
+  for (std::uint32_t seed : seeds) {
+    const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, seed);
+    const auto r = model::FitImpacts(rec, {});
+    std::printf("seed %u: rms %.4e s, noise residual %.4e s, ratio %.3f, mu %.5f +- %.5f\n", seed,
+                r.rms_residual, r.noise_residual, r.residual_to_noise, r.params.mu, r.mu_stderr);
+    EXPECT_GT(r.residual_to_noise, 0.6) << "seed " << seed;
+    EXPECT_LT(r.residual_to_noise, 1.5) << "seed " << seed;
+    EXPECT_TRUE(r.converged);
+    sum += r.residual_to_noise;
+  }
+  const double mean = sum / std::size(seeds);
+  EXPECT_GT(mean, 0.75);
+  EXPECT_LT(mean, 1.25);
+
+  const BlockParams block4{0.31, 5.21, 0.926};
+  const auto rec = SyntheticFree(block4, 0.6 * block4.alpha, 0.3, 6.0, 500, 0.001, 1);
+  FitOptions o;
+  o.use_release = false;
+  const auto exact = model::FitImpacts(rec, o);
+  o.quarter_time = model::QuarterTime::kSlender;
+  const auto slender = model::FitImpacts(rec, o);
+  std::printf("block 4: exact ratio %.3f, slender ratio %.3f\n", exact.residual_to_noise, slender.residual_to_noise);
+  EXPECT_LT(exact.residual_to_noise, model::kMaxResidualToNoise);
+  EXPECT_TRUE(exact.converged);
+  EXPECT_GT(slender.residual_to_noise, model::kMaxResidualToNoise);
+  EXPECT_FALSE(slender.converged);
+  bool warned = false;
+  for (const auto& w : slender.warnings) warned = warned || w.find("not converged to the noise") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+// Oracle for mu's standard error: Monte Carlo over 12 seeds. The scatter
+// of the fitted mu about the truth must match the mean reported standard
+// error within a factor 2 (12 samples give the scatter to about 20 %;
+// measured: stderr 7.9e-5 against a scatter of 6.0e-5), and no seed may
+// miss by more than 4 standard errors.
+TEST(FitImpacts, MuStandardErrorMatchesTheScatterOverSeeds) {
+  double ss = 0.0;
+  double se_sum = 0.0;
+  const int n = 12;
+  for (int seed = 1; seed <= n; ++seed) {
+    const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, 100 + seed);
+    const auto r = model::FitImpacts(rec, {});
+    ASSERT_TRUE(std::isfinite(r.mu_stderr));
+    ss += (r.params.mu - kBlock1.mu) * (r.params.mu - kBlock1.mu);
+    se_sum += r.mu_stderr;
+    EXPECT_LT(std::abs(r.params.mu - kBlock1.mu), 4 * r.mu_stderr) << "seed " << seed;
+  }
+  const double scatter = std::sqrt(ss / n);
+  const double se = se_sum / n;
+  std::printf("mu: scatter %.3e, mean stderr %.3e\n", scatter, se);
+  EXPECT_GT(se / scatter, 0.5);
+  EXPECT_LT(se / scatter, 2.0);
+}
+
+// The issue: "with 3 residuals the impacts method reports an error of -15
+// standard errors". Oracle: the contract, dof = residuals - 2 < 3 withholds
+// the standard errors (NaN) and says so; 5 residuals (dof 3) keep them.
+TEST(FitImpacts, StandardErrorsWithheldBelowThreeDegreesOfFreedom) {
+  // 2.6 s after the release: 4 impacts of block 1 (0.70, 1.37, 1.97, 2.53 s).
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 2.6, 500, 0.02, 4, "few.csv");
+  FitOptions o;
+  o.min_impacts = 3;
+  o.use_release = false;
+  const auto r = model::FitImpacts(rec, o);
+  ASSERT_EQ(r.residuals, 3);
+  EXPECT_EQ(r.dof, 1);
+  EXPECT_TRUE(r.stderr_withheld);
+  EXPECT_TRUE(std::isnan(r.alpha_stderr));
+  EXPECT_TRUE(std::isnan(r.p_stderr));
+  EXPECT_TRUE(std::isnan(r.mu_stderr));
+  bool noted = false;
+  for (const auto& w : r.warnings) noted = noted || w.find("standard errors withheld") != std::string::npos;
+  EXPECT_TRUE(noted);
+  const auto longer = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 3.6, 500, 0.02, 4, "more.csv");
+  const auto r5 = model::FitImpacts(longer, o);
+  EXPECT_GE(r5.dof, 3);
+  EXPECT_FALSE(r5.stderr_withheld);
+  EXPECT_TRUE(std::isfinite(r5.alpha_stderr));
+}
+
+// The issue: "--method impacts on a forced record fits alpha = 1.571 and
+// then tells the user to widen the band". Oracle: the records are forced by
+// construction. With its table record the impacts method refuses one in a
+// line naming the cause. Without it (theta alone, as a CSV without
+// --accel), a steady response to a constant 5 Hz sine (figure 8) has many
+// crossings of equal amplitude whose half intervals follow no quarter time:
+// it must say the record is not free rocking, never report a band-edge
+// alpha.
+TEST(FitImpacts, AForcedRecordIsNotFreeRocking) {
+  const auto hanning = model::ParseExcitation("hanning:amp=0.010,freq=3.3,duration=4,start=0.5");
+  const auto steady = model::ParseExcitation("sine:amp=0.010,freq=5,duration=10");
+  auto with_table = SyntheticForced(kBlock1, *hanning, 7.0, 250, 500, 0.02, 7);
+  auto theta_only = SyntheticForced(kBlock1, *steady, 10.0, 250, 500, 0.02, 7);
+  theta_only.table_time_s.clear();
+  theta_only.table_accel_mps2.clear();
+  FitOptions o;
+  o.geometry = kBlock1Geometry;
+  for (const auto* rec : {&with_table, &theta_only}) {
+    try {
+      const auto r = model::FitImpacts(*rec, o);
+      FAIL() << "no error; alpha " << r.params.alpha;
+    } catch (const FitError& e) {
+      const std::string what = e.what();
+      std::printf("%s\n", what.c_str());
+      EXPECT_NE(what.find("not free rocking"), std::string::npos) << what;
+      EXPECT_EQ(what.find("admissible band"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
+}
+
+// Oracle for the trajectory method's ratio: theta plus a 7 Hz vibration of
+// amplitude A = 0.1 deg that no rocking model has (a deliberately wrong
+// model). The fit started at the truth stays there, so its residual is the
+// noise and the vibration together: ratio = sqrt(sigma^2 + A^2/2) / sigma
+// = sqrt(1 + 12.5) = 3.67 for sigma = 0.02 deg; the noise estimate hardly
+// sees the vibration (its second difference, A (2 pi 7)^2 dt^2 = 1.4e-4
+// rad at 250 Hz, is a sixth of the noise's 8.5e-4 and moves the median a
+// few %). The fit can only lower its residual below the one at the truth
+// (bound: 3 % over the oracle for the noise estimate); it absorbs part of
+// the vibration into (alpha, p, mu), measured 10 %: bound 15 % under.
+// Without the vibration the ratio is 1 within 10 %, as the acceptance
+// test's rms is the noise. Both records miss samples, which the method
+// skips (the residuals are at the samples present).
+TEST(FitTrajectory, ResidualToNoiseSeesAWrongModel) {
+  const auto ex = model::ParseExcitation("hanning:amp=0.010,freq=3.3,duration=4,start=0.5");
+  auto rec = SyntheticForced(kBlock1, *ex, 5.0, 250, 500, 0.02, 7);
+  // Missing samples (0.1 % and 10 in a row during the rocking) are skipped.
+  const long removed = DropSamples(rec, 0.001, 3, 500, 10);
+  FitOptions o;
+  o.start = kBlock1;
+  const auto right = model::FitTrajectory(rec, o);
+  EXPECT_EQ(right.theta_gaps.missing_samples, removed);
+  EXPECT_EQ(right.residuals, static_cast<int>(rec.size()));
+  EXPECT_NEAR(right.params.alpha / kBlock1.alpha, 1.0, 0.01);
+  const double a = 0.1 * kDeg;
+  // From 0.5 s (the excitation's start; sin(7 pi) = 0 there): the record
+  // still starts at rest.
+  for (std::size_t k = 0; k < rec.size(); ++k) {
+    if (rec.time_s[k] >= 0.5) rec.theta[k] += a * std::sin(2 * 3.14159265358979 * 7.0 * rec.time_s[k]);
+  }
+  const auto wrong = model::FitTrajectory(rec, o);
+  std::printf("trajectory: right ratio %.3f, wrong ratio %.3f (oracle 3.67)\n", right.residual_to_noise,
+              wrong.residual_to_noise);
+  EXPECT_NEAR(right.residual_to_noise, 1.0, 0.1);
+  EXPECT_TRUE(right.converged);
+  const double oracle = std::sqrt(1.0 + 0.5 * (0.1 / 0.02) * (0.1 / 0.02));
+  EXPECT_LT(wrong.residual_to_noise, 1.03 * oracle);
+  EXPECT_GT(wrong.residual_to_noise, 0.85 * oracle);
+  EXPECT_FALSE(wrong.converged);
 }
 
 // --- error cases: each a FitError / RecordError with a clear message -------
@@ -190,20 +408,25 @@ TEST(FitErrors, AlphaOutsideTheAdmissibleBandIsRejected) {
   EXPECT_NO_THROW(model::FitImpacts(rec, o));
 }
 
-TEST(RecordErrors, GapAndNonMonotonicTime) {
+// Gaps are counted, not errors (issue 10: a record with one dropped sample,
+// as the rig simulator's 0.1 % and the demo make, must be fitted).
+// Oracle: the samples removed here.
+TEST(RecordErrors, GapsAreCountedAndNonMonotonicTimeIsAnError) {
   auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 2.0, 500, 0.02, 9, "gap.csv");
   auto gap = rec;
   gap.time_s.erase(gap.time_s.begin() + 500, gap.time_s.begin() + 510);
   gap.theta.erase(gap.theta.begin() + 500, gap.theta.begin() + 510);
   gap.line.erase(gap.line.begin() + 500, gap.line.begin() + 510);
-  try {
-    model::CheckRecord(gap);
-    FAIL() << "no error";
-  } catch (const RecordError& e) {
-    // Line 512: the first sample after the 10 removed (line = index + 2).
-    EXPECT_NE(std::string(e.what()).find("gap.csv:512: theta record has a gap"), std::string::npos)
-        << e.what();
-  }
+  gap.time_s.erase(gap.time_s.begin() + 700);
+  gap.theta.erase(gap.theta.begin() + 700);
+  gap.line.erase(gap.line.begin() + 700);
+  EXPECT_NO_THROW(model::CheckRecord(gap));
+  const model::GapCount g = model::CountGaps(gap.time_s, gap.line);
+  EXPECT_EQ(g.missing_samples, 11);
+  EXPECT_EQ(g.gaps, 2);
+  EXPECT_EQ(g.first_line, 512);  // the first sample after the 10 removed (line = index + 2)
+  EXPECT_NEAR(g.longest_s, 11 * 0.002, 1e-12);
+  EXPECT_EQ(model::CountGaps(rec.time_s, rec.line).missing_samples, 0);
   auto back = rec;
   std::swap(back.time_s[300], back.time_s[301]);
   try {
@@ -218,7 +441,9 @@ TEST(RecordErrors, GapAndNonMonotonicTime) {
 // --- readers ----------------------------------------------------------------
 
 // Oracle: the values written. A reconstruct-style CSV (extra columns, theta
-// not second) is read by name; a ragged row and a NaN theta name their line.
+// not second) is read by name; a NaN theta is a lost sample, left out and
+// counted once (inside the record and at its end); a ragged row names its
+// line.
 TEST(RecordReaders, CsvByColumnName) {
   const std::string path = TempPath("reconstruct.csv");
   {
@@ -233,21 +458,41 @@ TEST(RecordReaders, CsvByColumnName) {
   EXPECT_DOUBLE_EQ(r.theta[49], 0.049);
   EXPECT_DOUBLE_EQ(r.time_s[10], 0.02);
   EXPECT_FALSE(r.has_table());
+  EXPECT_EQ(r.theta_gaps.missing_samples, 0);
   {
     std::ofstream out(path, std::ios::app);
-    out << "0.1,nan,0,0,0,0,0,0,0\n";
+    out << "0.1,nan,0,0,0,0,0,0,0\n";  // line 52
+  }
+  const auto lost_at_end = model::ReadRecord(path);
+  EXPECT_EQ(lost_at_end.size(), 50u);
+  EXPECT_EQ(lost_at_end.theta_gaps.missing_samples, 1);
+  EXPECT_EQ(lost_at_end.theta_gaps.first_line, 52);
+  {
+    std::ofstream out(path, std::ios::app);
+    out << "0.102,0.051,0,0,0,0,0,0,0\n0.104,0.052,0,0,0,0,0,0,0\n";
+  }
+  const auto lost_inside = model::ReadRecord(path);
+  EXPECT_EQ(lost_inside.size(), 52u);
+  EXPECT_EQ(lost_inside.theta_gaps.missing_samples, 1);
+  EXPECT_EQ(lost_inside.theta_gaps.gaps, 1);
+  EXPECT_EQ(lost_inside.theta_gaps.first_line, 53);  // the sample after the lost one
+  {
+    std::ofstream out(path, std::ios::app);
+    out << "0.106,0.053,0\n";  // line 55
   }
   try {
     model::ReadRecord(path);
     FAIL() << "no error";
   } catch (const RecordError& e) {
-    EXPECT_NE(std::string(e.what()).find("reconstruct.csv:52: theta is not a number"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("reconstruct.csv:55: expected 9 fields"), std::string::npos)
         << e.what();
   }
 }
 
 // Oracle: a log written here with lcm::LogFile; theta and table samples come
-// back with their times; a skipped seq is a gap naming the event.
+// back with their times; a skipped seq is a missing sample, counted per
+// channel with the event after it; a seq that goes back is an error naming
+// the event.
 TEST(RecordReaders, LcmLogWithThetaAndTable) {
   const std::string path = TempPath("test.lcmlog");
   auto write = [&](bool with_gap) {
@@ -288,13 +533,39 @@ TEST(RecordReaders, LcmLogWithThetaAndTable) {
   EXPECT_NEAR(r.time_s[99], 1.198, 1e-12);
   EXPECT_DOUBLE_EQ(r.theta[10], 0.01 * std::sin(1.0));
   EXPECT_DOUBLE_EQ(r.table_accel_mps2[99], 49.5);
+  EXPECT_EQ(r.theta_gaps.missing_samples, 0);
   write(true);
+  const auto g = model::ReadRecord(path);
+  EXPECT_EQ(g.size(), 99u);
+  EXPECT_EQ(g.theta_gaps.missing_samples, 1);
+  EXPECT_EQ(g.theta_gaps.first_line, 120);  // RL_THETA of k = 61
+  EXPECT_NEAR(g.theta_gaps.longest_s, 0.004, 1e-12);
+  EXPECT_EQ(g.table_gaps.missing_samples, 1);
+  EXPECT_EQ(g.table_gaps.first_line, 121);
+  {
+    lcm::LogFile log(path, "w");
+    int64_t eventnum = 0;
+    for (int k : {0, 1, 2, 1}) {
+      rocklab::block_state_t b{};
+      b.utime = 1000000 + k * 2000;
+      b.seq = k;
+      std::vector<uint8_t> buf(b.getEncodedSize());
+      b.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      lcm::LogEvent ev{};
+      ev.eventnum = eventnum++;
+      ev.timestamp = b.utime;
+      ev.channel = "RL_THETA";
+      ev.datalen = static_cast<int32_t>(buf.size());
+      ev.data = buf.data();
+      ASSERT_EQ(log.writeEvent(&ev), 0);
+    }
+  }
   try {
     model::ReadRecord(path);
     FAIL() << "no error";
   } catch (const RecordError& e) {
-    EXPECT_NE(std::string(e.what()).find("sequence jumps from 59 to 61"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find(":event 120"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("RL_THETA sequence goes back from 2 to 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":event 3"), std::string::npos) << e.what();
   }
 }
 
