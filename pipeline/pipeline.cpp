@@ -35,7 +35,7 @@ model::BlockParams TheoreticalParams(const daq::RigConfig& rig) {
   try {
     return model::PolygonBlock(vertices).params();
   } catch (const std::invalid_argument& e) {
-    throw UsageError(rig.path + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " +
+    throw OptionError(rig.path + ":" + std::to_string(rig.block.polygon_line) + ": key 'block.polygon' " +
                          std::string(e.what()).substr(std::string(e.what()).rfind("vertices_m: ", 0) == 0 ? 12 : 0));
   }
 }
