@@ -19,7 +19,7 @@
 #include "daq/processor.h"
 #include "daq/sequence_checker.h"
 #include "daq/source.h"
-#include "daq/text_util.h"
+#include "common/text.h"
 #include "rocklab/event_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
@@ -254,7 +254,7 @@ TEST(HostileInput, EveryRowBadIsAnError) {
 }
 
 // Item 10: a NUL cut messages short; a 50 MB field was echoed whole; raw
-// binary reached the terminal. Oracle: detail::Quote's contract.
+// binary reached the terminal. Oracle: common::Quote's contract.
 TEST(HostileInput, MessagesQuoteABoundedEscapedExcerpt) {
   std::string field = "12";
   field += '\0';
@@ -275,8 +275,8 @@ TEST(HostileInput, MessagesQuoteABoundedEscapedExcerpt) {
   for (unsigned char c : m) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "byte " << int(c) << " in " << m;
   EXPECT_NE(m.find("column 's': '12\\x00\\x1b[2J\\xffzzz"), std::string::npos) << m;
   EXPECT_NE(m.find("... (100008 bytes) is not a number"), std::string::npos) << m;
-  EXPECT_EQ(detail::Quote("it's"), "'it\\'s'");
-  EXPECT_EQ(detail::Quote(std::string_view("a\0b", 3)), "'a\\x00b'");
+  EXPECT_EQ(common::Quote("it's"), "'it\\'s'");
+  EXPECT_EQ(common::Quote(std::string_view("a\0b", 3)), "'a\\x00b'");
 }
 
 // Item 10: `Samples 1e300` was converted to int64 (undefined behaviour).
