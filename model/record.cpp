@@ -8,7 +8,6 @@
 #include <sstream>
 
 #include <memory>
-#include <optional>
 
 #include "common/lcm_log.h"
 #include "common/text.h"
@@ -136,27 +135,6 @@ RockingRecord ReadThetaCsv(const std::string& path) {
   return r;
 }
 
-namespace {
-
-// Decodes `ev` (an event of a record channel) into `msg` and checks that its
-// sequence number follows the channel's previous one (a jump is a gap:
-// samples are missing). Throws RecordError naming the event.
-template <typename Msg>
-void DecodeInSequence(const std::string& path, const common::LogEvent& ev, const char* type, Msg& msg,
-                      std::optional<int64_t>& last_seq) {
-  if (msg.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) < 0) {
-    Fail(Where(path, ev.number, true), ev.channel + " event does not decode as " + type);
-  }
-  if (last_seq && msg.seq != *last_seq + 1) {
-    Fail(Where(path, ev.number, true),
-         ev.channel + " sequence jumps from " + std::to_string(*last_seq) + " to " +
-             std::to_string(msg.seq) + ": samples are missing (a gap)");
-  }
-  last_seq = msg.seq;
-}
-
-}  // namespace
-
 RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& options) {
   // A damaged region of the log loses samples: an error here, as a gap is.
   common::LogReaderOptions read;
@@ -177,31 +155,54 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
   std::vector<int64_t> table_line;
   rocklab::block_state_t block{};
   rocklab::table_state_t table{};
-  std::optional<int64_t> last_block_seq;
-  std::optional<int64_t> last_table_seq;
+  int64_t last_block_seq = 0;
+  int64_t last_table_seq = 0;
+  bool any_block = false;
+  bool any_table = false;
   while (log->Next(event)) {
     if (!damage.empty()) break;  // reported below, before any gap it causes
+    const int datalen = static_cast<int>(ev->data.size());
     if (ev->channel == options.theta_channel) {
-      DecodeInSequence(path, *ev, "rocklab::block_state_t", block, last_block_seq);
+      if (block.decode(ev->data.data(), 0, datalen) < 0) {
+        Fail(Where(path, ev->number, true),
+             options.theta_channel + " event does not decode as rocklab::block_state_t");
+      }
+      if (any_block && block.seq != last_block_seq + 1) {
+        Fail(Where(path, ev->number, true),
+             options.theta_channel + " sequence jumps from " + std::to_string(last_block_seq) +
+                 " to " + std::to_string(block.seq) + ": samples are missing (a gap)");
+      }
       if (!std::isfinite(block.theta)) {
         Fail(Where(path, ev->number, true),
              "theta is not a number (a lost sample: fit a stretch of the test without it)");
       }
+      any_block = true;
+      last_block_seq = block.seq;
       r.time_s.push_back(static_cast<double>(block.utime) * 1e-6);
       r.theta.push_back(block.theta);
       r.line.push_back(ev->number);
     } else if (ev->channel == options.table_channel) {
-      DecodeInSequence(path, *ev, "rocklab::table_state_t", table, last_table_seq);
+      if (table.decode(ev->data.data(), 0, datalen) < 0) {
+        Fail(Where(path, ev->number, true),
+             options.table_channel + " event does not decode as rocklab::table_state_t");
+      }
+      if (any_table && table.seq != last_table_seq + 1) {
+        Fail(Where(path, ev->number, true),
+             options.table_channel + " sequence jumps from " + std::to_string(last_table_seq) +
+                 " to " + std::to_string(table.seq) + ": samples are missing (a gap)");
+      }
       if (!std::isfinite(table.acceleration)) {
         Fail(Where(path, ev->number, true), "table acceleration is not a number");
       }
+      any_table = true;
+      last_table_seq = table.seq;
       r.table_time_s.push_back(static_cast<double>(table.utime) * 1e-6);
       r.table_accel_mps2.push_back(table.acceleration);
       table_line.push_back(ev->number);
     }
   }
   if (!damage.empty()) throw RecordError(damage + "; fit a stretch of the test without it");
-  if (!last_block_seq) {
+  if (!any_block) {
     throw RecordError(path + ": no " + options.theta_channel + " (rocklab::block_state_t) events");
   }
   CheckSeries(path, "table", r.table_time_s, table_line, true, options.max_step_ratio);
