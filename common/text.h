@@ -1,19 +1,50 @@
 #pragma once
 /// @file
-/// Text helpers for the readers of configuration and record files (not for
-/// per-sample hot paths).
+/// Text helpers written once for every reader of text input: the DAQ's CSV
+/// and LVM sources and rig file, the model's records, variants and
+/// excitation specs. Trim, Split and ParseNumber never allocate (the DAQ
+/// sources call them per sample); Quote builds messages about bad input.
 
+#include <cstddef>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace rocklab::common {
 
 /// `s` without surrounding spaces, tabs, '\r' and '\n'.
 std::string_view Trim(std::string_view s);
 
-/// Parses the whole of `field` as a double ("nan" and "inf" parse).
+/// Splits `line` at `sep` into `fields` (cleared first; capacity is reused).
+void Split(std::string_view line, char sep, std::vector<std::string_view>& fields);
+
+/// Parses the whole of `field` (surrounding blanks trimmed) as a double:
+/// "nan" and "inf" parse, a leading '+' too; more than 64 bytes or a value
+/// out of range does not. With decimal_comma, ',' is the decimal separator
+/// ('.' is then rejected). Never allocates.
 /// @return false when the field is empty or not entirely a number (`out`
 ///         is then unspecified).
-bool ParseDouble(std::string_view field, double& out);
+bool ParseNumber(std::string_view field, bool decimal_comma, double& out);
+
+/// ParseNumber with '.' as the decimal separator.
+inline bool ParseDouble(std::string_view field, double& out) {
+  return ParseNumber(field, false, out);
+}
+
+/// Whether `path` ends with `extension` (e.g. ".lvm"), ignoring ASCII case.
+bool HasExtension(std::string_view path, std::string_view extension);
+
+/// Bytes of input a message quotes at most (Quote).
+inline constexpr std::size_t kMaxQuotedBytes = 48;
+
+/// `text` in single quotes for a message: printable ASCII as is, backslash
+/// and quote escaped, every other byte (NUL, control, non-ASCII) as \xNN;
+/// at most `max_bytes` bytes of it, then "..." and the full size in bytes.
+/// A message built with it is one line of plain ASCII whatever the input.
+std::string Quote(std::string_view text, std::size_t max_bytes = kMaxQuotedBytes);
+
+/// Removes a UTF-8 byte order mark (EF BB BF) from the start of `line`.
+/// @return whether there was one.
+bool StripByteOrderMark(std::string& line);
 
 }  // namespace rocklab::common

@@ -9,7 +9,7 @@
 #include "common/lcm_log.h"
 
 #include "daq/source.h"
-#include "daq/text_util.h"
+#include "common/text.h"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 
@@ -122,8 +122,8 @@ std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOp
 }
 
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options) {
-  if (detail::HasExtension(path, ".csv")) return OpenCsvSource(path, options);
-  if (detail::HasExtension(path, ".lvm")) return OpenLvmSource(path, options);
+  if (common::HasExtension(path, ".csv")) return OpenCsvSource(path, options);
+  if (common::HasExtension(path, ".lvm")) return OpenLvmSource(path, options);
   return OpenLcmLogSource(path, options);
 }
 

@@ -13,6 +13,11 @@ Pacer::Pacer(double speed) : speed_(speed) {
   }
 }
 
+void Pacer::Restart(double t0_s) {
+  t0_s_ = t0_s;
+  host0_ = Clock::now();
+}
+
 bool Pacer::WaitFor(double t_s, const std::atomic<bool>& stop) {
   if (stop.load()) return false;
   if (speed_ == 0) return true;

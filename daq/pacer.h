@@ -1,8 +1,10 @@
 #pragma once
 /// @file
-/// Paces file sources on their sample clock: real time, a speed factor, or as
-/// fast as possible. The outputs never depend on the pace (every message
-/// carries the sample clock, not the host's clock).
+/// Paces a recorded stream on its own clock (a file source's sample clock,
+/// a log's event stamps): real time, a speed factor, or as fast as possible.
+/// The one pacer of the DAQ's file sources and of log replay. The outputs
+/// never depend on the pace (every message carries the recorded clock, not
+/// the host's clock).
 
 #include <atomic>
 #include <chrono>
@@ -22,6 +24,10 @@ class Pacer {
   /// every 20 ms). Returns false when stopped. A sample time behind the
   /// pace (or going backwards) returns at once.
   bool WaitFor(double t_s, const std::atomic<bool>& stop);
+
+  /// Makes sample time t0_s (s) due now: later WaitFor calls pace relative
+  /// to it (a replay's window start, again on each loop).
+  void Restart(double t0_s);
 
   /// Host seconds the pacer is behind the sample clock (0 when on time).
   double lag_s() const { return lag_s_; }

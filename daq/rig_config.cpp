@@ -9,7 +9,8 @@
 
 #include <toml++/toml.h>
 
-#include "daq/text_util.h"
+#include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
@@ -216,7 +217,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     rig.block.alpha = r.OptionalDouble(t, "block", "alpha");
     rig.block.p = r.OptionalDouble(t, "block", "p");
     rig.block.mu = r.OptionalDouble(t, "block", "mu");
-    r.Check(!rig.block.alpha || (*rig.block.alpha > 0 && *rig.block.alpha < M_PI / 2), t, "block",
+    r.Check(!rig.block.alpha || (*rig.block.alpha > 0 && *rig.block.alpha < common::kPi / 2), t, "block",
             "alpha", "must be in (0, pi/2) rad");
     r.Check(!rig.block.p || *rig.block.p > 0, t, "block", "p", "must be > 0 rad/s");
     r.Check(!rig.block.mu || (*rig.block.mu > 0 && *rig.block.mu <= 1), t, "block", "mu",
@@ -307,7 +308,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
                         &c.led_sigma_m, &c.mirror_sigma_m, &c.sigmas};
     // Upper bounds: far beyond any rig, short of what turns a check off by
     // overflow (m, rad, or standard deviations for sigmas).
-    const double highs[] = {kMaxLengthM, kMaxLengthM, M_PI, kMaxLengthM, M_PI, M_PI,
+    const double highs[] = {kMaxLengthM, kMaxLengthM, common::kPi, kMaxLengthM, common::kPi, common::kPi,
                             kMaxLengthM, kMaxLengthM, 1000.0};
     const char* units[] = {" m", " m", " rad", " m", " rad", " rad", " m", " m", ""};
     for (size_t i = 0; i < std::size(keys); ++i) {
@@ -337,13 +338,13 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     ch.line = Reader::LineOf(*t);
     ch.name = r.String(*t, "channel", "name", std::nullopt);
     r.Check(!ch.name.empty() && names.insert(ch.name).second, *t, "channel", "name",
-            "must be non-empty and unique, got " + detail::Quote(ch.name));
+            "must be non-empty and unique, got " + common::Quote(ch.name));
     ch.sensor = r.String(*t, "channel", "sensor", std::nullopt);
     r.Check(roles.count(ch.sensor) == 1, *t, "channel", "sensor",
-            "names an unknown sensor " + detail::Quote(ch.sensor) +
+            "names an unknown sensor " + common::Quote(ch.sensor) +
                 " (declare its [mirror], [[camera]] LED or [out_of_plane] first)");
     r.Check(used_roles.insert(ch.sensor).second, *t, "channel", "sensor",
-            "maps sensor " + detail::Quote(ch.sensor) + " a second time");
+            "maps sensor " + common::Quote(ch.sensor) + " a second time");
     ch.gain = r.Double(*t, "channel", "gain", 1.0);
     r.Check(ch.gain != 0 && std::abs(ch.gain) >= 1e-300, *t, "channel", "gain",
             "must not be 0 (|gain| >= 1e-300)");

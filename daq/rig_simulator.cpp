@@ -5,7 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "daq/text_util.h"
+#include "common/text.h"
 
 namespace rocklab::daq {
 namespace {
@@ -116,7 +116,7 @@ bool RigSimulator::Raw(const TrueMotion& motion, std::vector<double>& raw) {
 }
 
 RawFileWriter::Format RawFileWriter::FormatOf(const std::string& path) {
-  return detail::HasExtension(path, ".lvm") ? Format::kLvm : Format::kCsv;
+  return common::HasExtension(path, ".lvm") ? Format::kLvm : Format::kCsv;
 }
 
 RawFileWriter::RawFileWriter(const std::string& path, Format format,

@@ -8,15 +8,15 @@
 #include <stdexcept>
 
 #include "daq/source.h"
-#include "daq/text_util.h"
+#include "common/text.h"
 
 namespace rocklab::daq {
 namespace {
 
-using detail::ParseNumber;
-using detail::Quote;
-using detail::Split;
-using detail::Trim;
+using common::ParseNumber;
+using common::Quote;
+using common::Split;
+using common::Trim;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A line longer than this is skipped (a row) or refused (a header): a
@@ -81,7 +81,7 @@ class TextSource : public Source {
     }
     if (!any) return false;
     ++line_no_;
-    if (line_no_ == 1) detail::StripByteOrderMark(line_);  // a BOM must not hide the first column
+    if (line_no_ == 1) common::StripByteOrderMark(line_);  // a BOM must not hide the first column
     return true;
   }
 

@@ -15,11 +15,13 @@
 
 #include <Eigen/Core>
 
+#include "common/units.h"
+
 namespace rocklab::model {
 
 /// Gravity used throughout, m/s^2 (the value with which the paper's Table 1
-/// is reproduced; ERRATA item 1).
-inline constexpr double kGravity = 9.81;
+/// is reproduced; ERRATA item 1), written once in common/units.h.
+using common::kGravity;
 
 /// The parameters of one side (one pivot) of a section.
 struct SideParams {

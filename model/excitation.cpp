@@ -3,42 +3,23 @@
 #include "model/numbers.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdlib>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
+
+#include "common/text.h"
 
 namespace rocklab::model {
 namespace {
 
 using detail::ExactText;
 using detail::kPi;
-
-// Parses the whole of `text` as a double; false when anything is left over.
-bool ParseDouble(const std::string& text, double* value) {
-  if (text.empty()) return false;
-  const char* begin = text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (end == begin || errno == ERANGE) return false;
-  while (*end == ' ' || *end == '\t') ++end;
-  if (*end != '\0') return false;
-  *value = v;
-  return true;
-}
-
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
 
 // The first of start, start + duration strictly after t (+inf when none).
 double NextEnd(const SineSpec& s, double t) {
@@ -105,19 +86,13 @@ class HanningSine final : public Excitation {
   double k_;  // pi / a, rad/s
 };
 
-class Sum final : public Excitation {
+// The sum of `Part`s as a `Base`: u_g'' adds, and the next jump is the
+// earliest of the parts'. Serves both the excitation sum (which adds the
+// displacements and velocities too) and the forcing sum.
+template <class Base, class Part>
+class SumOf : public Base {
  public:
-  explicit Sum(std::vector<std::unique_ptr<Excitation>> parts) : parts_(std::move(parts)) {}
-  double Displacement(double t) const override {
-    double s = 0.0;
-    for (const auto& p : parts_) s += p->Displacement(t);
-    return s;
-  }
-  double Velocity(double t) const override {
-    double s = 0.0;
-    for (const auto& p : parts_) s += p->Velocity(t);
-    return s;
-  }
+  explicit SumOf(std::vector<std::unique_ptr<Part>> parts) : parts_(std::move(parts)) {}
   double TableAcceleration(double t) const override {
     double s = 0.0;
     for (const auto& p : parts_) s += p->TableAcceleration(t);
@@ -129,9 +104,31 @@ class Sum final : public Excitation {
     return next;
   }
 
- private:
-  std::vector<std::unique_ptr<Excitation>> parts_;
+ protected:
+  std::vector<std::unique_ptr<Part>> parts_;
 };
+
+class Sum final : public SumOf<Excitation, Excitation> {
+ public:
+  using SumOf::SumOf;
+  double Displacement(double t) const override {
+    double s = 0.0;
+    for (const auto& p : parts_) s += p->Displacement(t);
+    return s;
+  }
+  double Velocity(double t) const override {
+    double s = 0.0;
+    for (const auto& p : parts_) s += p->Velocity(t);
+    return s;
+  }
+};
+
+template <class Part>
+void RequireParts(const char* who, const std::vector<std::unique_ptr<Part>>& parts) {
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    if (!parts[i]) throw std::invalid_argument(std::string(who) + ": parts[" + std::to_string(i) + "] is null");
+  }
+}
 
 }  // namespace
 
@@ -157,10 +154,13 @@ std::unique_ptr<Excitation> MakeHanningSine(const SineSpec& spec) {
 }
 
 std::unique_ptr<Excitation> MakeSum(std::vector<std::unique_ptr<Excitation>> parts) {
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    if (!parts[i]) throw std::invalid_argument("MakeSum: parts[" + std::to_string(i) + "] is null");
-  }
+  RequireParts("MakeSum", parts);
   return std::make_unique<Sum>(std::move(parts));
+}
+
+std::unique_ptr<Forcing> MakeForcingSum(std::vector<std::unique_ptr<Forcing>> parts) {
+  RequireParts("MakeForcingSum", parts);
+  return std::make_unique<SumOf<Forcing, Forcing>>(std::move(parts));
 }
 
 std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
@@ -170,7 +170,7 @@ std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
                                 "' must read KIND:amp=..,freq=..,duration=..[,start=..] "
                                 "(KIND sine or hanning)");
   }
-  const std::string kind = Trim(spec.substr(0, colon));
+  const std::string kind(common::Trim(spec.substr(0, colon)));
   if (kind != "sine" && kind != "hanning") {
     throw std::invalid_argument("unknown excitation kind '" + kind + "' in '" + spec +
                                 "' (expected sine, hanning)");
@@ -180,7 +180,7 @@ std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
   std::string item;
   while (std::getline(items, item, ',')) {
     const auto eq = item.find('=');
-    const std::string key = Trim(item.substr(0, eq));
+    const std::string key(common::Trim(item.substr(0, eq)));
     if (key != "amp" && key != "freq" && key != "duration" && key != "start") {
       throw std::invalid_argument("unknown excitation key '" + key + "' in '" + spec +
                                   "' (expected amp, freq, duration, start)");
@@ -188,9 +188,9 @@ std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
     if (eq == std::string::npos) {
       throw std::invalid_argument("excitation key '" + key + "' in '" + spec + "' has no value");
     }
-    const std::string text = Trim(item.substr(eq + 1));
+    const std::string text(common::Trim(item.substr(eq + 1)));
     double v = 0.0;
-    if (!ParseDouble(text, &v)) {
+    if (!common::ParseDouble(text, v)) {
       throw std::invalid_argument("excitation key '" + key + "' in '" + spec + "': '" + text +
                                   "' is not a number");
     }
@@ -250,43 +250,54 @@ double SampledAcceleration::NextDiscontinuity(double t_s) const {
   return std::numeric_limits<double>::infinity();
 }
 
-SampledAcceleration ReadAccelerationCsv(const std::string& path) {
+AccelerationRows ReadAccelerationRows(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open for reading");
-  auto fail = [&path](std::size_t line, const std::string& what) {
-    throw std::runtime_error(path + ":" + std::to_string(line) + ": " + what);
+  std::int64_t line_no = 0;
+  auto fail = [&path, &line_no](const std::string& what) {
+    throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + what);
   };
+  AccelerationRows rows;
   std::string line;
-  std::size_t line_no = 0;
-  if (!std::getline(in, line)) throw std::runtime_error(path + ":1: empty file (expected header 'time,accel')");
-  ++line_no;
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != "time,accel") fail(line_no, "header is '" + line + "', expected 'time,accel'");
-  std::vector<double> time;
-  std::vector<double> accel;
+  bool header = false;
   while (std::getline(in, line)) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (Trim(line).empty()) continue;
-    const auto comma = line.find(',');
-    if (comma == std::string::npos || line.find(',', comma + 1) != std::string::npos) {
-      fail(line_no, "expected 2 fields (time,accel), got '" + line + "'");
+    if (line_no == 1) common::StripByteOrderMark(line);
+    const std::string_view text = common::Trim(line);
+    if (text.empty() || text.front() == '#') continue;
+    const auto comma = text.find(',');
+    const bool two = comma != std::string_view::npos && text.find(',', comma + 1) == std::string_view::npos;
+    const std::string_view fields[2] = {common::Trim(text.substr(0, two ? comma : 0)),
+                                        common::Trim(two ? text.substr(comma + 1) : text)};
+    if (!header) {
+      if (!two || fields[0] != "time" || fields[1] != "accel") {
+        fail("header is " + common::Quote(text) + ", expected 'time,accel' (s, m/s^2)");
+      }
+      header = true;
+      continue;
     }
-    const std::string fields[2] = {Trim(line.substr(0, comma)), Trim(line.substr(comma + 1))};
+    if (!two) fail("expected 2 fields (time,accel), got " + common::Quote(text));
     const char* names[2] = {"time", "accel"};
     double v[2] = {0.0, 0.0};
     for (int k = 0; k < 2; ++k) {
-      if (!ParseDouble(fields[k], &v[k])) fail(line_no, std::string(names[k]) + " '" + fields[k] + "' is not a number");
-      if (!std::isfinite(v[k])) fail(line_no, std::string(names[k]) + " '" + fields[k] + "' is not finite");
+      if (!common::ParseDouble(fields[k], v[k])) fail(std::string(names[k]) + " " + common::Quote(fields[k]) + " is not a number");
+      if (!std::isfinite(v[k])) fail(std::string(names[k]) + " " + common::Quote(fields[k]) + " is not finite");
     }
-    if (!time.empty() && !(v[0] > time.back())) {
-      fail(line_no, "time " + ExactText(v[0]) + " s is not after the previous sample " + ExactText(time.back()) + " s");
+    if (!rows.time_s.empty() && !(v[0] > rows.time_s.back())) {
+      fail("time " + ExactText(v[0]) + " s is not after the previous sample " + ExactText(rows.time_s.back()) + " s");
     }
-    time.push_back(v[0]);
-    accel.push_back(v[1]);
+    rows.time_s.push_back(v[0]);
+    rows.accel_mps2.push_back(v[1]);
+    rows.line.push_back(line_no);
   }
-  if (time.size() < 2) fail(line_no, "needs at least 2 samples, got " + std::to_string(time.size()));
-  return SampledAcceleration(std::move(time), std::move(accel));
+  if (!header) throw std::runtime_error(path + ":1: empty file (expected header 'time,accel')");
+  if (rows.time_s.size() < 2) fail("needs at least 2 samples, got " + std::to_string(rows.time_s.size()));
+  return rows;
+}
+
+SampledAcceleration ReadAccelerationCsv(const std::string& path) {
+  AccelerationRows rows = ReadAccelerationRows(path);
+  return SampledAcceleration(std::move(rows.time_s), std::move(rows.accel_mps2));
 }
 
 }  // namespace rocklab::model

@@ -3,6 +3,7 @@
 /// Table motions that drive the models: analytic sines (ERRATA item 11) and
 /// sampled acceleration records.
 
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <string>
@@ -67,6 +68,10 @@ std::unique_ptr<Excitation> MakeHanningSine(const SineSpec& spec);
 /// Sum of several excitations (the CLI accepts --excitation more than once).
 std::unique_ptr<Excitation> MakeSum(std::vector<std::unique_ptr<Excitation>> parts);
 
+/// Sum of several forcings of any kind (excitations and records together).
+/// @throws std::invalid_argument when a part is null.
+std::unique_ptr<Forcing> MakeForcingSum(std::vector<std::unique_ptr<Forcing>> parts);
+
 /// Parses `sine:amp=0.006,freq=5,duration=20,start=0` or
 /// `hanning:amp=0.006,freq=3.3,duration=4,start=0.5` (amp in m, freq in Hz,
 /// duration and start in s; start defaults to 0).
@@ -94,8 +99,24 @@ class SampledAcceleration : public Forcing {
   std::vector<double> accel_;
 };
 
-/// Reads a CSV with the header `time,accel` (s, m/s^2).
-/// @throws std::runtime_error naming the file and line of the first problem.
+/// The rows of a `time,accel` CSV, as read.
+struct AccelerationRows {
+  std::vector<double> time_s;      ///< s, finite, strictly increasing
+  std::vector<double> accel_mps2;  ///< table acceleration, m/s^2, finite
+  std::vector<std::int64_t> line;  ///< the file's line of each row (from 1)
+};
+
+/// Reads a CSV with the header `time,accel` (s, m/s^2): the one reader of
+/// table-acceleration files (`simulate --accel`, `fit --accel`). Blank lines
+/// and lines starting with '#' are skipped, the first other line is the
+/// header, fields may carry surrounding blanks, then every row is two
+/// finite numbers with time strictly increasing; at least 2 rows.
+/// @throws std::runtime_error "FILE:LINE: ..." for the first problem (bad
+///         input quoted, escaped and bounded).
+AccelerationRows ReadAccelerationRows(const std::string& path);
+
+/// ReadAccelerationRows as a forcing.
+/// @throws std::runtime_error as ReadAccelerationRows.
 SampledAcceleration ReadAccelerationCsv(const std::string& path);
 
 }  // namespace rocklab::model

@@ -5,9 +5,11 @@
 #include <sstream>
 #include <string>
 
+#include "common/units.h"
+
 namespace rocklab::model::detail {
 
-inline constexpr double kPi = 3.14159265358979323846;
+using common::kPi;  // written once, in common/units.h
 
 /// `v` with 17 significant digits, so a message shows the exact value.
 inline std::string ExactText(double v) {

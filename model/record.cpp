@@ -11,6 +11,7 @@
 
 #include "common/lcm_log.h"
 #include "common/text.h"
+#include "model/excitation.h"
 
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -263,37 +264,17 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
 
 void AddTableCsv(const std::string& path, RockingRecord& record) {
   if (record.has_table()) throw RecordError(path + ": " + record.source + " already has a table record");
-  std::ifstream in(path);
-  if (!in) throw RecordError(path + ": cannot open the file");
-  std::string text;
-  int64_t line_no = 0;
-  bool header = false;
-  std::vector<int64_t> lines;
-  while (std::getline(in, text)) {
-    ++line_no;
-    const std::string trimmed = Trim(text);
-    if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::vector<std::string> fields = SplitCsv(trimmed);
-    if (!header) {
-      if (fields.size() != 2 || fields[0] != "time" || fields[1] != "accel") {
-        Fail(Where(path, line_no, false), "the header must be time,accel (s, m/s^2), got '" + trimmed + "'");
-      }
-      header = true;
-      continue;
-    }
-    double t = 0.0;
-    double a = 0.0;
-    if (fields.size() != 2 || !ParseDouble(fields[0], t) || !ParseDouble(fields[1], a) ||
-        !std::isfinite(a)) {
-      Fail(Where(path, line_no, false), "expected two numbers time,accel, got '" + trimmed + "'");
-    }
-    record.table_time_s.push_back(t);
-    record.table_accel_mps2.push_back(a);
-    lines.push_back(line_no);
+  AccelerationRows rows;
+  try {
+    rows = ReadAccelerationRows(path);
+  } catch (const std::runtime_error& e) {
+    throw RecordError(e.what());
   }
+  record.table_time_s = std::move(rows.time_s);
+  record.table_accel_mps2 = std::move(rows.accel_mps2);
   if (record.table_time_s.size() < 2) throw RecordError(path + ": fewer than 2 table samples");
-  CheckSeries(path, "table", record.table_time_s, lines, false);
-  record.table_gaps = CountGaps(record.table_time_s, lines);
+  CheckSeries(path, "table", record.table_time_s, rows.line, false);
+  record.table_gaps = CountGaps(record.table_time_s, rows.line);
 }
 
 void CheckRecord(const RockingRecord& record, const RecordOptions& options) {

@@ -1,12 +1,11 @@
 #include "pipeline/log_replay.h"
 
-#include <chrono>
 #include <cmath>
 #include <regex>
 #include <stdexcept>
-#include <thread>
 
 #include "common/lcm_log.h"
+#include "daq/pacer.h"
 
 namespace rocklab::pipeline {
 
@@ -36,26 +35,17 @@ ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, comm
 
   ReplayCounts counts;
   common::LogEvent ev;
-  using Clock = std::chrono::steady_clock;
+  // An event stamped before the window's start or an earlier event (logs
+  // whose stamps go back) is due at once; a stop is honoured within 20 ms.
+  daq::Pacer pacer(o.max_speed ? 0.0 : o.speed);
   while (!stop.load()) {
     ++counts.passes;
     if (counts.passes > 1) log.Rewind();
-    const Clock::time_point wall0 = Clock::now();
+    pacer.Restart(0.0);  // the window's start is due now, on every pass
     bool any = false;
     while (!stop.load() && log.Next(ev)) {
       any = true;
-      if (!o.max_speed) {
-        // An event stamped before the window's start or an earlier event
-        // (logs whose stamps go back) is due at once.
-        const double due_s = static_cast<double>(ev.timestamp_us - window_start) * 1e-6 / o.speed;
-        const auto due = wall0 + std::chrono::duration_cast<Clock::duration>(
-                                     std::chrono::duration<double>(due_s));
-        // Sleep in slices so a stop request is honoured within 50 ms.
-        while (!stop.load() && Clock::now() < due) {
-          std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(50)));
-        }
-        if (stop.load()) break;
-      }
+      if (!pacer.WaitFor(static_cast<double>(ev.timestamp_us - window_start) * 1e-6, stop)) break;
       if (bus.Publish(ev.channel, ev.data.data(), static_cast<int>(ev.data.size()))) {
         ++counts.published;
         ++counts.per_channel[ev.channel];

@@ -52,15 +52,17 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
   return config;
 }
 
-int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
-  if (s.damaged_regions == 0) return 0;
-  std::fprintf(stderr,
-               "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the rest "
-               "was read\n",
-               what, input.c_str(), static_cast<long long>(s.damaged_regions),
-               s.damaged_regions == 1 ? "" : "s", static_cast<long long>(s.damaged_bytes),
-               static_cast<long long>(s.damaged_events));
+int ReportDamage(long long regions, long long bytes, long long events, const std::string& input,
+                 const char* what, const char* rest) {
+  if (regions <= 0) return 0;
+  std::fprintf(stderr, "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)%s\n",
+               what, input.c_str(), regions, regions == 1 ? "" : "s", bytes, events, rest);
   return 1;  // the command failed (tools::kFailureExit)
+}
+
+int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
+  return ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, input, what,
+                      "; the rest was read");
 }
 
 int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {

@@ -57,6 +57,12 @@ int RunDaqStage(const DaqStageOptions& options, const char* what, const std::ato
 /// failed); otherwise returns 0. (Each region was reported with its offset as read.)
 int ReportDamage(const daq::DaqNodeStats& stats, const std::string& input, const char* what);
 
+/// The one damage line of every command that reads an LCM log: when
+/// `regions` > 0 prints "<what>: <input> is damaged: N region(s) skipped
+/// (B bytes, E events lost)<rest>" on stderr and returns 1; otherwise 0.
+int ReportDamage(long long regions, long long bytes, long long events, const std::string& input,
+                 const char* what, const char* rest);
+
 /// Variants from `--variant NAME:MODEL:PARAMS` options; none given: Housner
 /// and the complex formulation with the theoretical parameters. Errors
 /// become OptionError naming --variant.

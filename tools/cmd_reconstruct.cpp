@@ -83,17 +83,11 @@ int RunReconstruct(const ReconstructOptions& o) {
                static_cast<long long>(seq.duplicates), static_cast<long long>(seq.out_of_order),
                static_cast<long long>(rec.invalid_led_samples),
                static_cast<long long>(processor->counts().flagged));
-  if (src.damaged_regions > 0) {
-    // Every readable frame was reconstructed; the exit code says the log is damaged.
-    std::fprintf(stderr,
-                 "rocklab: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); "
-                 "the rest was read\n",
-                 o.input.c_str(), static_cast<long long>(src.damaged_regions),
-                 src.damaged_regions == 1 ? "" : "s", static_cast<long long>(src.damaged_bytes),
-                 static_cast<long long>(src.damaged_events));
-    return kFailureExit;
-  }
-  return 0;
+  // Every readable frame was reconstructed; the exit code says the log is damaged.
+  return pipeline::ReportDamage(src.damaged_regions, src.damaged_bytes, src.damaged_events, o.input,
+                                "rocklab", "; the rest was read") == 0
+             ? 0
+             : kFailureExit;
 }
 
 }  // namespace

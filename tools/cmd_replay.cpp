@@ -52,13 +52,9 @@ int RunLogReplay(const ReplayCommand& c) {
   for (const auto& [channel, n] : counts.per_channel) {
     std::fprintf(stderr, "  %-28s %lld\n", channel.c_str(), static_cast<long long>(n));
   }
-  if (counts.damaged_regions > 0) {
-    // Everything readable was published; the exit code says the log is damaged.
-    std::fprintf(stderr, "replay: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)\n",
-                 c.log_path.c_str(), static_cast<long long>(counts.damaged_regions),
-                 counts.damaged_regions == 1 ? "" : "s", static_cast<long long>(counts.damaged_bytes),
-                 static_cast<long long>(counts.damaged_events));
-  }
+  // Everything readable was published; the exit code says the log is damaged.
+  pipeline::ReportDamage(counts.damaged_regions, counts.damaged_bytes, counts.damaged_events,
+                         c.log_path, "replay", "");
   return counts.failed == 0 && counts.damaged_regions == 0 ? 0 : kFailureExit;
 }
 

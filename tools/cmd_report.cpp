@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "tools/cli.h"
+#include "pipeline/pipeline.h"
 #include "report/report.h"
 
 namespace rocklab::tools {
@@ -99,14 +100,8 @@ int RunReport(const ReportCommand& c) {
   std::fprintf(stderr, "report: %s: %lld events, %lld that did not decode\n", c.log_path.c_str(),
                static_cast<long long>(record.events), static_cast<long long>(record.decode_errors));
   for (const std::string& problem : record.problems) std::fprintf(stderr, "report: %s\n", problem.c_str());
-  if (record.damaged_regions > 0) {
-    std::fprintf(stderr,
-                 "report: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the "
-                 "page shows the rest\n",
-                 c.log_path.c_str(), static_cast<long long>(record.damaged_regions),
-                 record.damaged_regions == 1 ? "" : "s", static_cast<long long>(record.damaged_bytes),
-                 static_cast<long long>(record.damaged_events));
-  }
+  pipeline::ReportDamage(record.damaged_regions, record.damaged_bytes, record.damaged_events,
+                         c.log_path, "report", "; the page shows the rest");
   std::int64_t dropped = 0;
   for (const auto& [what, n] : record.snapshot.at("counters").at("dropped").items()) {
     dropped += n.get<std::int64_t>();

@@ -9,6 +9,7 @@
 
 #include "tools/cli.h"
 #include "tools/scenario.h"
+#include "common/units.h"
 
 namespace rocklab::tools {
 namespace {
@@ -82,7 +83,7 @@ int RunSimulate(const SimulateOptions& o) {
       std::printf("  no uplift\n");
     }
     std::printf("  peak |theta| %.5f rad (%.3f deg) at %.4f s, %d impacts%s\n",
-                r.peak_abs_theta, r.peak_abs_theta * 180.0 / M_PI, r.peak_time_s, r.impacts,
+                r.peak_abs_theta, r.peak_abs_theta * common::kDegPerRad, r.peak_time_s, r.impacts,
                 r.overturned ? ", OVERTURNED" : "");
     if (s.model->kind() == model::ModelKind::kComplex) {
       const model::SolverStats stats = s.model->solver_stats();

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "common/units.h"
 #include "model/cvode.h"
 #include "model/excitation.h"
 #include "model/free_rocking.h"
@@ -30,7 +31,7 @@ using rocklab::model::ModelKind;
 using rocklab::model::ModelOptions;
 using rocklab::model::RockingModel;
 
-constexpr double kPi = 3.14159265358979323846;
+using rocklab::common::kPi;
 
 struct Run {
   double peak{};

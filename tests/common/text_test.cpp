@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include "common/ring.h"
 #include "common/units.h"
@@ -29,6 +32,29 @@ TEST(Text, ParseDoubleTakesWholeFieldsOnly) {
   EXPECT_FALSE(ParseDouble("", v));
   EXPECT_FALSE(ParseDouble("2x", v));
   EXPECT_FALSE(ParseDouble("1,5", v));
+}
+
+// Oracle: the contract of the DAQ's allocation-free parsing: a decimal
+// comma swaps the separators, a leading '+' is accepted, a value out of
+// range or longer than 64 bytes is not a number.
+TEST(Text, ParseNumberDecimalCommaAndBounds) {
+  double v = 0;
+  EXPECT_TRUE(ParseNumber(" 1,5 ", true, v));
+  EXPECT_EQ(v, 1.5);
+  EXPECT_FALSE(ParseNumber("1.5", true, v));
+  EXPECT_TRUE(ParseNumber("+2", false, v));
+  EXPECT_EQ(v, 2.0);
+  EXPECT_FALSE(ParseNumber("1e999", false, v));
+  EXPECT_FALSE(ParseNumber(std::string(65, '1'), false, v));
+}
+
+// Oracle: Split keeps empty fields (n separators give n + 1 fields).
+TEST(Text, SplitKeepsEmptyFields) {
+  std::vector<std::string_view> fields;
+  Split("a,,b,", ',', fields);
+  EXPECT_EQ(fields, (std::vector<std::string_view>{"a", "", "b", ""}));
+  EXPECT_TRUE(HasExtension("run.LVM", ".lvm"));
+  EXPECT_FALSE(HasExtension("lvm", ".lvm"));
 }
 
 // Oracle: a ring of capacity 3 keeps the newest 3, oldest first, and says

@@ -19,7 +19,7 @@
 #include "daq/processor.h"
 #include "daq/sequence_checker.h"
 #include "daq/source.h"
-#include "daq/text_util.h"
+#include "common/text.h"
 #include "rocklab/event_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
@@ -254,29 +254,24 @@ TEST(HostileInput, EveryRowBadIsAnError) {
 }
 
 // Item 10: a NUL cut messages short; a 50 MB field was echoed whole; raw
-// binary reached the terminal. Oracle: detail::Quote's contract.
+// binary reached the terminal. Oracle: common::Quote's contract.
 TEST(HostileInput, MessagesQuoteABoundedEscapedExcerpt) {
   std::string field = "12";
   field += '\0';
   field += "\x1b[2J\xff";
   field += std::string(100000, 'z');
   const std::string path = test::WriteFile("binary.csv", "time,s\n0.00," + field + "\n0.01,1\n");
-  SourceOptions opt;
-  opt.sample_rate_hz = 100;
-  std::vector<std::string> problems;
-  opt.on_problem = [&problems](const Problem& p) { problems.push_back(ToString(p)); };
-  auto source = OpenSource(path, opt);
-  Frame f;
-  while (source->Next(f) == ReadStatus::kFrame) {
-  }
-  ASSERT_EQ(problems.size(), 1u);
-  const std::string& m = problems[0];
+  Outcome r;
+  ReadThrough(MirrorRig(100), path, r);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(r.problems.size(), 1u);
+  const std::string& m = r.problems[0];
   EXPECT_LT(m.size(), path.size() + 200) << m;
   for (unsigned char c : m) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "byte " << int(c) << " in " << m;
   EXPECT_NE(m.find("column 's': '12\\x00\\x1b[2J\\xffzzz"), std::string::npos) << m;
   EXPECT_NE(m.find("... (100008 bytes) is not a number"), std::string::npos) << m;
-  EXPECT_EQ(detail::Quote("it's"), "'it\\'s'");
-  EXPECT_EQ(detail::Quote(std::string_view("a\0b", 3)), "'a\\x00b'");
+  EXPECT_EQ(common::Quote("it's"), "'it\\'s'");
+  EXPECT_EQ(common::Quote(std::string_view("a\0b", 3)), "'a\\x00b'");
 }
 
 // Item 10: `Samples 1e300` was converted to int64 (undefined behaviour).
@@ -285,18 +280,13 @@ TEST(HostileInput, LvmSamplesOutOfRangeIsAWarning) {
       "samples.lvm",
       "LabVIEW Measurement\t\nSeparator\tTab\n***End_of_Header***\n\nChannels\t1\nSamples\t1e300\n"
       "Delta_X\t0.01\n***End_of_Header***\nX_Value\ts\tComment\n0\t1\n0.01\t2\n");
-  SourceOptions opt;
-  opt.sample_rate_hz = 100;
-  std::vector<std::string> problems;
-  opt.on_problem = [&problems](const Problem& p) { problems.push_back(ToString(p)); };
-  auto source = OpenSource(path, opt);
-  Frame f;
-  int frames = 0;
-  while (source->Next(f) == ReadStatus::kFrame) ++frames;
-  EXPECT_EQ(frames, 2);
-  EXPECT_EQ(source->stats().warnings, 1);
-  ASSERT_EQ(problems.size(), 1u);
-  EXPECT_EQ(problems[0], path + ":6: Samples '1e300' is not a row count in [0, 1e15] (ignored)");
+  Outcome r;
+  ReadThrough(MirrorRig(100), path, r);
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(r.frames.size(), 2u);
+  EXPECT_EQ(r.stats.warnings, 1);
+  ASSERT_EQ(r.problems.size(), 1u);
+  EXPECT_EQ(r.problems[0], path + ":6: Samples '1e300' is not a row count in [0, 1e15] (ignored)");
 }
 
 }  // namespace

@@ -6,9 +6,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace rocklab::model {
 namespace {
@@ -162,6 +165,46 @@ TEST(ExcitationTest, CsvReaderNamesFileAndLine) {
   EXPECT_NE(CsvError("header.csv", "t,a\n0,1\n").find("header.csv:1: header"), std::string::npos);
   EXPECT_NE(CsvError("short.csv", "time,accel\n0,1\n").find("short.csv:2:"), std::string::npos);
   EXPECT_NE(CsvError("missing.csv", "x").find("missing.csv"), std::string::npos);
+}
+
+// Oracle: the definition of a sum (the parts' accelerations add; the next
+// jump is the earliest of the parts') on a sine and a two-sample record.
+TEST(ExcitationTest, ForcingSumAddsAnyKindOfPart) {
+  std::vector<std::unique_ptr<Forcing>> parts;
+  parts.push_back(MakeSine({0.006, 2.0, 3.0, 0.5}));
+  parts.push_back(std::make_unique<SampledAcceleration>(std::vector<double>{1.0, 2.0},
+                                                        std::vector<double>{0.0, 4.0}));
+  const Forcing* sine = parts[0].get();
+  const Forcing* record = parts[1].get();
+  const double at[] = {0.2, 1.25, 1.9, 2.6};
+  double sine_a[4];
+  double record_a[4];
+  for (int k = 0; k < 4; ++k) {
+    sine_a[k] = sine->TableAcceleration(at[k]);
+    record_a[k] = record->TableAcceleration(at[k]);
+  }
+  const auto sum = MakeForcingSum(std::move(parts));
+  for (int k = 0; k < 4; ++k) EXPECT_DOUBLE_EQ(sum->TableAcceleration(at[k]), sine_a[k] + record_a[k]);
+  EXPECT_EQ(sum->NextDiscontinuity(0.0), 0.5);  // the sine starts
+  EXPECT_EQ(sum->NextDiscontinuity(0.5), 1.0);  // the record starts
+  EXPECT_EQ(sum->NextDiscontinuity(2.0), 3.5);  // the sine ends
+  std::vector<std::unique_ptr<Forcing>> with_null(1);
+  EXPECT_THROW(MakeForcingSum(std::move(with_null)), std::invalid_argument);
+}
+
+// Oracle: the reader's contract: comments and blank lines skipped, blanks
+// around fields allowed, every row's own line number kept; bad bytes are
+// quoted escaped (one ASCII line whatever the file holds).
+TEST(ExcitationTest, CsvReaderSkipsCommentsAndKeepsLines) {
+  const std::string path = ::testing::TempDir() + "commented.csv";
+  std::ofstream(path) << "# table record\n\n time , accel \n0, 0.5\n# pause\n0.25 ,-1\n";
+  const AccelerationRows rows = ReadAccelerationRows(path);
+  EXPECT_EQ(rows.time_s, (std::vector<double>{0.0, 0.25}));
+  EXPECT_EQ(rows.accel_mps2, (std::vector<double>{0.5, -1.0}));
+  EXPECT_EQ(rows.line, (std::vector<std::int64_t>{4, 6}));
+  std::remove(path.c_str());
+  EXPECT_NE(CsvError("binary.csv", std::string("time,accel\n0,1\n1,\x01\xff\n")).find("accel '\\x01\\xff'"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -1,0 +1,87 @@
+#pragma once
+/// @file
+/// One scenario of a model under a table motion, as `rocklab simulate`,
+/// `synth` and `demo` run it: the option values, their checks, the model and
+/// its forcing, a streaming run and its summary, the events CSV. The
+/// command-line options themselves are in tools/scenario.h.
+
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "model/excitation.h"
+#include "model/rocking_model.h"
+
+namespace rocklab::pipeline {
+
+/// Values of the scenario options, as parsed (tools::AddScenarioOptions).
+struct ScenarioOptions {
+  std::string model{"housner"};         ///< housner | complex
+  double alpha{};                       ///< rad
+  double p{};                           ///< rad/s
+  double mu{};                          ///< 1
+  double theta0{};                      ///< initial rocking angle, rad
+  std::vector<std::string> excitations; ///< --excitation specs (summed)
+  std::string accel_csv;                ///< --accel FILE.csv (time,accel)
+  double duration_s{};                  ///< s
+  double rate_hz{};                     ///< output rate, Hz
+  double l{model::ModelOptions{}.l};    ///< complex formulation momentum, 1
+  /// Complex formulation, opt-in approximation: the l -> 0 limit below this
+  /// multiple of the energy floor V_min (0: off, eq. (10) throughout), 1.
+  double complex_handoff{0.0};
+};
+
+/// A scenario ready to run: the model and its forcing.
+struct Scenario {
+  std::unique_ptr<model::RockingModel> model;
+  std::unique_ptr<model::Forcing> forcing;
+  std::string forcing_description;  ///< for captions and JSON
+};
+
+/// Checks the values (throws OptionError naming the option) and builds the
+/// model and the forcing (reading --accel; file errors throw OptionError).
+Scenario BuildScenario(const ScenarioOptions& options);
+
+/// What a user checks first in a run.
+struct RunSummary {
+  std::optional<double> uplift_time_s;  ///< first uplift, s
+  double peak_abs_theta{};              ///< max |theta| over the outputs, rad
+  double peak_time_s{};                 ///< time of that peak, s
+  int impacts{};                        ///< impacts during the run
+  bool overturned{};                    ///< whether the block overturned
+  std::optional<double> overturn_time_s;
+  std::size_t samples{};                ///< output rows
+};
+
+/// Runs `scenario` from t = 0 (theta0 from the options, at rest when 0) for
+/// duration_s, calling `on_sample(t, theta, theta_dot)` at t = k / rate_hz,
+/// k = 0 .. floor(duration * rate). Memory stays bounded: nothing is kept
+/// per sample. The model's events are left in scenario.model->events().
+RunSummary RunScenario(Scenario& scenario, const ScenarioOptions& options,
+                       const std::function<void(double, double, double)>& on_sample);
+
+/// Writes `time,kind` rows (s, event name) of the model's events to `path`.
+/// @throws std::runtime_error naming the file when it cannot be written.
+void WriteEventsCsv(const std::string& path, const std::vector<model::ModelEvent>& events);
+
+/// An output file that closes itself; throws naming the path when it cannot
+/// be opened or written.
+class OutputFile {
+ public:
+  explicit OutputFile(const std::string& path);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+  std::FILE* get() const { return file_; }
+  /// Flushes and closes; throws naming the path on a write error.
+  void Close();
+
+ private:
+  std::string path_;
+  std::FILE* file_{};
+};
+
+}  // namespace rocklab::pipeline
