@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/model_state.h"
 #include "common/node_support.h"
 #include "common/units.h"
 #include "rocklab/comparison_t.hpp"
@@ -39,7 +40,7 @@ void CompareNodeConfig::Validate() const {
 }
 
 struct CompareNode::Variant {
-  Variant(const CompareNodeConfig& c, const rocklab::model_state_t& first)
+  Variant(const CompareNodeConfig& c, const rocklab::model_state2_t& first)
       : name(first.name), model(first.model), channel(c.channel_prefix + "COMPARE_" + first.name),
         alpha(first.alpha), p(first.p), mu(first.mu), comparator(c.comparator),
         pending(c.align_capacity) {}
@@ -70,9 +71,10 @@ CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
         CheckStale();  // on a DirectBus nobody runs the idle loop
       },
       config_.subscriber_queue));
-  subscriptions_.push_back(bus_.Subscribe<rocklab::model_state_t>(
-      config_.channel_prefix + "MODEL_.*",
-      [this](const std::string&, const rocklab::model_state_t& m) { HandleModel(m); },
+  // model_state2_t from the model node, model_state_t from older logs.
+  subscriptions_.push_back(common::SubscribeModelState(
+      bus_, config_.channel_prefix + "MODEL_.*",
+      [this](const std::string&, const rocklab::model_state2_t& m) { HandleModel(m); },
       config_.subscriber_queue));
 }
 
@@ -80,7 +82,7 @@ CompareNode::~CompareNode() {
   for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
 }
 
-CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state_t& msg) {
+CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state2_t& msg) {
   auto it = variants_.find(msg.name);
   if (it != variants_.end()) return *it->second;
   auto v = std::make_unique<Variant>(config_, msg);
@@ -120,7 +122,7 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   }
 }
 
-void CompareNode::HandleModel(const rocklab::model_state_t& msg) {
+void CompareNode::HandleModel(const rocklab::model_state2_t& msg) {
   ++model_count_;
   Variant& v = VariantFor(msg);
   v.last_host_s = HostNowS();

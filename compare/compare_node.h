@@ -28,7 +28,7 @@
 #include "common/ring.h"
 #include "compare/comparator.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 
 namespace rocklab::compare {
 
@@ -73,7 +73,8 @@ class CompareNode {
 
   /// What the handlers call.
   void HandleTheta(const rocklab::block_state_t& msg);
-  void HandleModel(const rocklab::model_state_t& msg);
+  /// RL_MODEL_* carries model_state2_t or (older logs) model_state_t.
+  void HandleModel(const rocklab::model_state2_t& msg);
 
   /// Loops on the bus until `stop` (stale checks and health while idle), then Finish.
   void Run(const std::atomic<bool>& stop);
@@ -95,7 +96,7 @@ class CompareNode {
 
  private:
   struct Variant;
-  Variant& VariantFor(const rocklab::model_state_t& msg);
+  Variant& VariantFor(const rocklab::model_state2_t& msg);
   void Pair(Variant& v, std::int64_t utime, double measured, bool valid, double modelled);
   void PublishCompare(Variant& v);
   void PublishEvent(std::int8_t kind, const std::string& source, double value,

@@ -22,11 +22,20 @@ std::shared_ptr<spdlog::logger> Log() {
 
 std::int8_t RegimeCode(Regime r) {
   switch (r) {
-    case Regime::kRest: return rocklab::model_state_t::REGIME_REST;
-    case Regime::kRocking: return rocklab::model_state_t::REGIME_ROCKING;
-    case Regime::kOverturned: return rocklab::model_state_t::REGIME_OVERTURNED;
+    case Regime::kRest: return rocklab::model_state2_t::REGIME_REST;
+    case Regime::kRocking: return rocklab::model_state2_t::REGIME_ROCKING;
+    case Regime::kOverturned: return rocklab::model_state2_t::REGIME_OVERTURNED;
   }
-  return rocklab::model_state_t::REGIME_REST;
+  return rocklab::model_state2_t::REGIME_REST;
+}
+
+std::int8_t EquationsCode(Equations e) {
+  switch (e) {
+    case Equations::kHousner: return rocklab::model_state2_t::EQUATIONS_HOUSNER;
+    case Equations::kEq10: return rocklab::model_state2_t::EQUATIONS_EQ10;
+    case Equations::kLimit: return rocklab::model_state2_t::EQUATIONS_LIMIT;
+  }
+  return rocklab::model_state2_t::EQUATIONS_UNKNOWN;
 }
 
 std::int8_t EventCode(EventKind k) {
@@ -63,7 +72,7 @@ struct ModelNode::Variant {
   VariantSpec spec;
   std::unique_ptr<RockingModel> model;
   std::string channel;
-  rocklab::model_state_t msg{};
+  rocklab::model_state2_t msg{};
   bool failed{};
 };
 
@@ -101,7 +110,7 @@ ModelNode::~ModelNode() {
 
 std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
-const rocklab::model_state_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
+const rocklab::model_state2_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
 void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
   const bool at_rest = !std::isfinite(theta.theta) || std::abs(theta.theta) < config_.rest_threshold_rad;
@@ -202,6 +211,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     v->msg.energy = st.energy;
     v->msg.impact_count = st.impacts;
     v->msg.regime = RegimeCode(st.regime);
+    v->msg.equations = EquationsCode(st.equations);
     bus_.Publish(v->channel, v->msg);
     ++published_;
     for (const ModelEvent& e : v->model->events()) {

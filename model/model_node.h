@@ -3,7 +3,8 @@
 /// The model node: runs one or more model variants beside the experiment.
 /// It subscribes RL_TABLE (and RL_THETA for the initial state), steps every
 /// variant to each table sample's time (never ahead of the data it has) and
-/// publishes RL_MODEL_<name> stamped with that sample's utime.
+/// publishes RL_MODEL_<name> (model_state2_t: the state and which equations
+/// produced it) stamped with that sample's utime.
 ///
 /// Threading: single-threaded; handlers run where the bus dispatches (the
 /// caller of Run on an LcmBus; the publisher's thread on a DirectBus).
@@ -38,7 +39,7 @@
 #include "model/rocking_model.h"
 #include "model/variant.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::model {
@@ -77,7 +78,7 @@ class ModelNode {
   void HandleTheta(const rocklab::block_state_t& msg);
 
   /// The latest state of variant i (in configuration order).
-  const rocklab::model_state_t& latest(std::size_t i) const;
+  const rocklab::model_state2_t& latest(std::size_t i) const;
   std::size_t variant_count() const;
   std::int64_t table_count() const { return table_count_; }
   std::int64_t skipped_before_start() const { return skipped_before_start_; }

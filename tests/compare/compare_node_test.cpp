@@ -160,3 +160,33 @@ TEST(CompareNode, SummaryJsonNamesItsQuantities) {
 
 }  // namespace
 }  // namespace rocklab::compare
+
+namespace rocklab::compare {
+namespace {
+
+// Oracle: issue 10 point 1. A log written before model_state2_t carries
+// model_state_t on RL_MODEL_*: the node still compares it (told apart by the
+// fingerprint), exactly as the new type: a model 0.02 rad above the
+// measurement has RMS 0.02 rad over the 10 pairs, with nothing dropped.
+TEST(CompareNode, ComparesTheOldModelStateTypeAsTheNew) {
+  common::LcmBus bus("memq://");
+  CompareNode node(CompareNodeConfig{}, bus);
+  for (int k = 0; k < 10; ++k) {
+    bus.Publish("RL_THETA", test::Theta(1000 * k, 0.1));
+    bus.Publish("RL_MODEL_old", test::OldModel("old", 1000 * k, 0.12));
+    bus.Publish("RL_MODEL_new", test::Model("new", 1000 * k, 0.12));
+    while (bus.HandleTimeout(0) > 0) {
+    }
+  }
+  const std::vector<VariantSummary> summary = node.Summary();
+  ASSERT_EQ(summary.size(), 2u);
+  for (const VariantSummary& s : summary) {
+    EXPECT_EQ(s.metrics.samples, 10) << s.name;
+    EXPECT_NEAR(s.metrics.rms_total, 0.02, 1e-12) << s.name;
+    EXPECT_EQ(s.alpha, 0.235) << s.name;
+  }
+  EXPECT_EQ(bus.decode_error_count(), 0);
+}
+
+}  // namespace
+}  // namespace rocklab::compare
