@@ -2,6 +2,7 @@
 
 #include <cinttypes>
 #include <cstdio>
+#include <cstring>
 
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison_t.hpp"
@@ -141,6 +142,13 @@ const char* Walk(const WireLayout& layout, const void* data, int size, int* cons
           const std::int32_t len = ReadInt32(b + pos);  // including the NUL
           pos += 4;
           if (len < 1 || len > size - pos) return Fail(layout, f.name, "string length", len, size - pos);
+          // An LCM string is its bytes and one NUL: a NUL inside would be
+          // decoded into the std::string but cut by encode's strlen (a node
+          // republishing it would send a message shorter than its size).
+          if (b[pos + len - 1] != 0 || std::memchr(b + pos, 0, static_cast<std::size_t>(len - 1)) != nullptr) {
+            return Fail(layout, f.name, "string not NUL-terminated or with a NUL inside, length", len,
+                        size - pos);
+          }
           pos += len;
         }
         break;

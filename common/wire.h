@@ -3,7 +3,10 @@
 /// The wire pre-check: before lcm-gen's decode() runs on bytes from the wire
 /// or a file, walk the encoded layout of the rocklab type (fingerprint, fixed
 /// fields, each length-prefixed string, each variable array's count) and
-/// reject any length that exceeds the bytes that remain, or is negative.
+/// reject any length that exceeds the bytes that remain, or is negative, and
+/// any string that is not its bytes plus one final NUL (lcm-gen decodes a NUL
+/// inside into the std::string, then encodes with strlen: a node passing the
+/// string on would publish a message shorter than its declared size).
 ///
 /// Why: lcm-gen's decoders resize a vector (or a string array) from the
 /// wire's count before they look at the buffer, so a count of 0x7f00000e

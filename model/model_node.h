@@ -22,6 +22,9 @@
 /// the table sample's utime from that newer theta.) A table utime that goes
 /// backwards (a replay restarting, a new test) resets every variant.
 ///
+/// RL_TABLE carries the DAQ's sample seq: a forward jump counts the missing
+/// samples as gaps (RL_HEALTH gaps); a repeat or a step back does not.
+///
 /// A table acceleration that is not finite (a saturated channel) is a bad
 /// sample: the variants step with the last finite value, the sample is
 /// counted (bad_table_samples()) and the first of each stretch is reported as
@@ -86,6 +89,8 @@ class ModelNode {
   std::int64_t failures() const { return failures_; }
   /// Table samples whose acceleration was not finite (the last finite value was held).
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
+  /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
+  std::int64_t table_gaps() const { return table_gaps_; }
 
  private:
   struct Variant;
@@ -108,6 +113,7 @@ class ModelNode {
   std::int64_t bad_in_stretch_{};
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
+  std::int64_t last_table_seq_{-1}, table_gaps_{};  // RL_TABLE seq gaps (RL_HEALTH gaps)
   double last_health_host_s_{};
 };
 

@@ -41,7 +41,10 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
 }
 
 int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
-  if (s.damaged_regions == 0) return 0;
+  if (!s.read_error.empty()) {
+    std::fprintf(stderr, "%s: %s\n", what, s.read_error.c_str());  // names the file
+  }
+  if (s.damaged_regions == 0) return s.read_error.empty() ? 0 : 1;
   std::fprintf(stderr,
                "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost); the rest "
                "was read\n",

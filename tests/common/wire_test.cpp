@@ -192,6 +192,29 @@ TEST(Wire, RefusesEveryTruncationAndAnotherTypesFingerprint) {
   }
 }
 
+// Oracle: lcm_coretypes.h. An LCM string is its bytes and one NUL; lcm-gen's
+// C++ encoder measures it with strlen. A NUL inside (or a last byte that is
+// not NUL) would decode into a std::string that re-encodes shorter than its
+// getEncodedSize(): refused.
+TEST(Wire, RefusesAStringWithANulInsideOrNoFinalNul) {
+  rocklab::event_t ev{};
+  ev.source = "daq";
+  ev.detail = "abc";
+  std::vector<std::uint8_t> b = Bytes(ev);
+  const int detail_at = static_cast<int>(b.size()) - 4;  // "abc\0": the last field's bytes
+  ASSERT_EQ(b[detail_at + 3], 0);
+  std::vector<std::uint8_t> inside = b;
+  inside[detail_at + 1] = 0;
+  EXPECT_NE(WireCheck(WireLayoutOf<rocklab::event_t>(), inside.data(), static_cast<int>(inside.size())),
+            nullptr);
+  std::vector<std::uint8_t> unterminated = b;
+  unterminated[detail_at + 3] = 'd';
+  EXPECT_NE(WireCheck(WireLayoutOf<rocklab::event_t>(), unterminated.data(),
+                      static_cast<int>(unterminated.size())),
+            nullptr);
+  EXPECT_EQ(WireCheck(WireLayoutOf<rocklab::event_t>(), b.data(), static_cast<int>(b.size())), nullptr);
+}
+
 void Put32(std::vector<std::uint8_t>& b, int at, std::int32_t v) {
   const auto u = static_cast<std::uint32_t>(v);
   b[at] = static_cast<std::uint8_t>(u >> 24);

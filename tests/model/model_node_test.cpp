@@ -11,6 +11,7 @@
 #include "common/bus.h"
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
 
 namespace rocklab::model {
 namespace {
@@ -254,6 +255,37 @@ TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
   EXPECT_GT(complex_rocking, 400);  // 0.1 rad of a 0.235 rad block rocks for the whole second
   EXPECT_EQ(got["RL_MODEL_c"].back().equations, node.latest(1).equations);
   EXPECT_EQ(got["RL_MODEL_c"].back().model, "complex");
+}
+
+}  // namespace
+}  // namespace rocklab::model
+
+namespace rocklab::model {
+namespace {
+
+// Oracle: issue 12 item 3, counting by hand. RL_TABLE over memq at 500 Hz
+// with seq 100..104 and 300 dropped (6 samples missing by seq). RL_HEALTH "stopped" carries gaps = 6.
+TEST(ModelNode, CountsRlTableSequenceGapsInHealth) {
+  common::LcmBus bus("memq://");
+  rocklab::health_t last{};
+  bus.Subscribe<rocklab::health_t>("RL_HEALTH",
+                                   [&](const std::string&, const rocklab::health_t& m) { last = m; });
+  ModelNode node(Config("h:housner:theoretical"), bus);
+  bus.Publish("RL_THETA", Theta(0, 0.0));
+  for (int k = 0; k < 500; ++k) {
+    rocklab::table_state_t t = Table(2000 * k, 0.0);
+    t.seq = k;
+    if ((k < 100 || k > 104) && k != 300) bus.Publish("RL_TABLE", t);
+    while (bus.HandleTimeout(0) > 0) {
+    }
+  }
+  node.Finish();
+  while (bus.HandleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(node.table_gaps(), 6);
+  EXPECT_EQ(last.state, "stopped");
+  EXPECT_EQ(last.gaps, 6);
+  EXPECT_EQ(last.count_in, 494);
 }
 
 }  // namespace
