@@ -388,6 +388,7 @@ bool LogWriter::Write(const std::string& channel, const void* data, std::size_t 
     buffer_.insert(buffer_.end(), bytes, bytes + size);
   }
   ++buffered_events_;
+  ++events_;
   last_stamp_ = timestamp_us;
   if (buffer_.size() >= kWriterBufferBytes) return Flush();
   return true;
@@ -401,6 +402,7 @@ bool LogWriter::Flush() {
     if (n <= 0) {
       if (error_.empty()) error_ = n < 0 ? std::strerror(errno) : "nothing written";
       // Every buffered event is lost (one cut short leaves a damaged tail).
+      events_ -= buffered_events_;
       write_errors_ += buffered_events_;
       buffered_events_ = 0;
       buffer_.clear();
@@ -408,7 +410,6 @@ bool LogWriter::Flush() {
     }
     done += static_cast<std::size_t>(n);
   }
-  events_ += buffered_events_;
   buffered_events_ = 0;
   buffer_.clear();
   return true;

@@ -140,7 +140,7 @@ class LogWriter {
   /// buffered events counted as lost). Idempotent.
   bool Close();
 
-  /// Events in the file (written out; those still buffered are not counted yet).
+  /// Events taken (in the file, or buffered for it) and not lost.
   std::int64_t events() const { return events_; }
   /// Events that could not be written: lost, not in the file.
   std::int64_t write_errors() const { return write_errors_; }
