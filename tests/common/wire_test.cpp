@@ -33,6 +33,12 @@ bool g_watch = false;
 std::size_t g_largest = 0;
 }  // namespace
 
+// The replacements pair malloc with free throughout; GCC's
+// -Wmismatched-new-delete cannot see that inside the replaced functions.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
 void* operator new(std::size_t n) {
   if (g_watch && n > g_largest) g_largest = n;
   if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
@@ -43,6 +49,9 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 namespace rocklab::common {
 namespace {
