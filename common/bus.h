@@ -9,10 +9,11 @@
 ///  - LogWritingBus: a decorator that writes every published message to an
 ///    LCM log (common::LogWriter), then publishes it on the bus it wraps.
 ///
-/// Guarded dispatch (all buses): a typed subscription decodes inside the bus.
-/// A message that does not decode (decode() < 0 on a short buffer, or
-/// lcm-gen's std::length_error / std::bad_alloc on hostile lengths) never
-/// reaches the handler: it is counted per channel (decode_errors()) and
+/// Guarded dispatch (all buses): a typed subscription decodes inside the bus,
+/// through common::GuardedDecode: the wire pre-check (common/wire.h: every
+/// string length and array count within the bytes that remain, before
+/// lcm-gen's decode allocates anything), then decode(). A message that does
+/// not pass never reaches the handler: it is counted per channel (decode_errors()) and
 /// dropped, with a warning naming the channel at most once a second per
 /// channel. A handler's exception is caught, logged the same way and counted
 /// (handler_errors()). Nothing escapes a handler into the transport.
@@ -26,6 +27,8 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "common/wire.h"
 
 namespace rocklab::common {
 
@@ -66,6 +69,15 @@ class Bus {
   SubscriptionId Subscribe(const std::string& channel_regex,
                            std::function<void(const std::string& channel, const Msg& msg)> handler,
                            int queue_capacity = kDefaultQueue);
+
+  /// As Subscribe, with `decode`, a callable `const char*(const void* data,
+  /// int size, Msg& msg)` returning nullptr or the reason (for a channel that
+  /// carries more than one type, e.g. common::SubscribeModelState). It must
+  /// guard as GuardedDecode does and never throw.
+  template <class Msg, class Decode>
+  SubscriptionId SubscribeDecoded(const std::string& channel_regex, Decode decode,
+                                  std::function<void(const std::string& channel, const Msg& msg)> handler,
+                                  int queue_capacity = kDefaultQueue);
 
   virtual void Unsubscribe(SubscriptionId id) = 0;
 
@@ -187,27 +199,31 @@ bool Bus::Publish(const std::string& channel, const Msg& msg) {
   return ok;
 }
 
-template <class Msg>
-Bus::SubscriptionId Bus::Subscribe(const std::string& channel_regex,
-                                   std::function<void(const std::string&, const Msg&)> handler,
-                                   int queue_capacity) {
+template <class Msg, class Decode>
+Bus::SubscriptionId Bus::SubscribeDecoded(const std::string& channel_regex, Decode decode,
+                                          std::function<void(const std::string&, const Msg&)> handler,
+                                          int queue_capacity) {
   return SubscribeRaw(
       channel_regex,
-      [this, handler = std::move(handler), msg = Msg{}](const std::string& channel, const void* data,
-                                                        int size) mutable {
-        const char* why = nullptr;
-        try {
-          if (msg.decode(data, 0, size) < 0) why = "too short or wrong fingerprint";
-        } catch (const std::exception&) {  // lcm-gen: length_error, bad_alloc on hostile lengths
-          why = "impossible array length";
-        }
-        if (why != nullptr) {
+      [this, decode = std::move(decode), handler = std::move(handler), msg = Msg{}](
+          const std::string& channel, const void* data, int size) mutable {
+        if (const char* why = decode(data, size, msg)) {
           CountDecodeError(channel, why);
           return;
         }
         handler(channel, msg);
       },
       queue_capacity);
+}
+
+template <class Msg>
+Bus::SubscriptionId Bus::Subscribe(const std::string& channel_regex,
+                                   std::function<void(const std::string&, const Msg&)> handler,
+                                   int queue_capacity) {
+  return SubscribeDecoded<Msg>(
+      channel_regex,
+      [](const void* data, int size, Msg& msg) { return GuardedDecode(data, size, msg); },
+      std::move(handler), queue_capacity);
 }
 
 }  // namespace rocklab::common

@@ -1,6 +1,9 @@
 #include "common/lcm_log.h"
 
 #include <algorithm>
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -346,19 +349,23 @@ bool StartsWithLcmSync(const std::string& path) {
   return got && U32(b) == kLcmLogSync;
 }
 
-LogWriter::LogWriter(const std::string& path) : path_(path), buffer_(1 << 20) {
-  file_ = std::fopen(path.c_str(), "wb");
-  if (file_ == nullptr) {
+namespace {
+constexpr std::size_t kWriterBufferBytes = 1 << 20;
+}  // namespace
+
+LogWriter::LogWriter(const std::string& path) : path_(path) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) {
     throw std::runtime_error("cannot write LCM log '" + path + "': " + std::strerror(errno));
   }
-  std::setvbuf(file_, buffer_.data(), _IOFBF, buffer_.size());
+  buffer_.reserve(kWriterBufferBytes + 4096);
 }
 
 LogWriter::~LogWriter() { Close(); }
 
 bool LogWriter::Write(const std::string& channel, const void* data, std::size_t size,
                       std::int64_t timestamp_us) {
-  if (file_ == nullptr || channel.empty() || size > static_cast<std::size_t>(INT32_MAX)) {
+  if (fd_ < 0 || channel.empty() || size > static_cast<std::size_t>(INT32_MAX)) {
     ++write_errors_;
     return false;
   }
@@ -368,27 +375,57 @@ bool LogWriter::Write(const std::string& channel, const void* data, std::size_t 
   }
   char header[kHeaderBytes];
   Put32(header, kLcmLogSync);
-  Put64(header + 4, static_cast<std::uint64_t>(events_));
+  Put64(header + 4, static_cast<std::uint64_t>(next_number_++));
   Put64(header + 12, static_cast<std::uint64_t>(timestamp_us));
   Put32(header + 20, static_cast<std::uint32_t>(channel.size()));
   Put32(header + 24, static_cast<std::uint32_t>(size));
-  const bool ok = std::fwrite(header, 1, kHeaderBytes, file_) == kHeaderBytes &&
-                  std::fwrite(channel.data(), 1, channel.size(), file_) == channel.size() &&
-                  (size == 0 || std::fwrite(data, 1, size, file_) == size);
-  if (!ok) {
-    ++write_errors_;
-    return false;
+  // The buffer's capacity is reserved: no allocation unless one event is
+  // larger than it.
+  buffer_.insert(buffer_.end(), header, header + kHeaderBytes);
+  buffer_.insert(buffer_.end(), channel.begin(), channel.end());
+  if (size > 0) {
+    const char* bytes = static_cast<const char*>(data);
+    buffer_.insert(buffer_.end(), bytes, bytes + size);
   }
-  last_stamp_ = timestamp_us;
+  ++buffered_events_;
   ++events_;
+  last_stamp_ = timestamp_us;
+  if (buffer_.size() >= kWriterBufferBytes) return Flush();
+  return true;
+}
+
+bool LogWriter::Flush() {
+  std::size_t done = 0;
+  while (done < buffer_.size()) {
+    const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (error_.empty()) error_ = n < 0 ? std::strerror(errno) : "nothing written";
+      // Every buffered event is lost (one cut short leaves a damaged tail).
+      events_ -= buffered_events_;
+      write_errors_ += buffered_events_;
+      buffered_events_ = 0;
+      buffer_.clear();
+      return false;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  buffered_events_ = 0;
+  buffer_.clear();
   return true;
 }
 
 bool LogWriter::Close() {
-  if (file_ == nullptr) return true;
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok) ++write_errors_;
+  if (fd_ < 0) return true;
+  bool ok = Flush();
+  if (::close(fd_) != 0) {
+    // The kernel took the bytes but reports a failure: which events reached
+    // the disk is not known; counted once.
+    if (error_.empty()) error_ = std::strerror(errno);
+    ++write_errors_;
+    ok = false;
+  }
+  fd_ = -1;
   return ok;
 }
 

@@ -115,6 +115,12 @@ class LogReader {
 /// True when `path` starts with the LCM sync word (an LCM log).
 bool StartsWithLcmSync(const std::string& path);
 
+/// Writes an LCM log. Events are gathered in a 1 MiB buffer of whole events
+/// and written with write(2) when it fills and at Close: an event is counted
+/// either as written (events()) or as lost (write_errors()), never both, so
+/// on a full disk (`--log /dev/full`) write_errors() is the number of events
+/// that are not in the file. (A buffer cut short by the disk leaves a
+/// damaged tail the reader skips and counts.)
 class LogWriter {
  public:
   /// Creates (truncates) `path`.
@@ -126,24 +132,35 @@ class LogWriter {
   LogWriter& operator=(const LogWriter&) = delete;
 
   /// Appends one event stamped max(timestamp_us, the previous stamp), us.
-  /// @return false when the write failed (counted). Never throws.
+  /// @return false when the event (or the buffer it filled) could not be
+  ///         written (counted). Never throws.
   bool Write(const std::string& channel, const void* data, std::size_t size,
              std::int64_t timestamp_us);
-  /// Flushes and closes the file; false (counted) on an error. Idempotent.
+  /// Writes what is buffered and closes the file; false on an error (the
+  /// buffered events counted as lost). Idempotent.
   bool Close();
 
+  /// Events taken (in the file, or buffered for it) and not lost.
   std::int64_t events() const { return events_; }
+  /// Events that could not be written: lost, not in the file.
   std::int64_t write_errors() const { return write_errors_; }
   /// Events whose asked-for stamp was earlier than the previous one's.
   std::int64_t raised_stamps() const { return raised_stamps_; }
   const std::string& path() const { return path_; }
+  /// The first write error's reason (strerror), empty when none.
+  const std::string& error() const { return error_; }
 
  private:
+  bool Flush();
+
   std::string path_;
-  std::FILE* file_{};
-  std::vector<char> buffer_;
+  int fd_{-1};
+  std::vector<char> buffer_;  // whole events, at most kBufferBytes unless one event is larger
+  std::int64_t buffered_events_{};
+  std::int64_t next_number_{};  // the event number the next event carries
   std::int64_t last_stamp_{INT64_MIN};
   std::int64_t events_{}, write_errors_{}, raised_stamps_{};
+  std::string error_;
 };
 
 }  // namespace rocklab::common

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/model_state.h"
 #include "common/node_support.h"
 #include "common/units.h"
 #include "rocklab/comparison_t.hpp"
@@ -39,7 +40,7 @@ void CompareNodeConfig::Validate() const {
 }
 
 struct CompareNode::Variant {
-  Variant(const CompareNodeConfig& c, const rocklab::model_state_t& first)
+  Variant(const CompareNodeConfig& c, const rocklab::model_state2_t& first)
       : name(first.name), model(first.model), channel(c.channel_prefix + "COMPARE_" + first.name),
         alpha(first.alpha), p(first.p), mu(first.mu), comparator(c.comparator),
         pending(c.align_capacity) {}
@@ -56,6 +57,7 @@ struct CompareNode::Variant {
   std::int64_t last_pub_utime{INT64_MIN};
   bool dirty{};  // paired since the last publish
   double last_host_s{};
+  std::int64_t last_utime{INT64_MIN};  // newest model utime, us
   bool stale{};
 };
 
@@ -70,9 +72,10 @@ CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
         CheckStale();  // on a DirectBus nobody runs the idle loop
       },
       config_.subscriber_queue));
-  subscriptions_.push_back(bus_.Subscribe<rocklab::model_state_t>(
-      config_.channel_prefix + "MODEL_.*",
-      [this](const std::string&, const rocklab::model_state_t& m) { HandleModel(m); },
+  // model_state2_t from the model node, model_state_t from older logs.
+  subscriptions_.push_back(common::SubscribeModelState(
+      bus_, config_.channel_prefix + "MODEL_.*",
+      [this](const std::string&, const rocklab::model_state2_t& m) { HandleModel(m); },
       config_.subscriber_queue));
 }
 
@@ -80,7 +83,7 @@ CompareNode::~CompareNode() {
   for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
 }
 
-CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state_t& msg) {
+CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state2_t& msg) {
   auto it = variants_.find(msg.name);
   if (it != variants_.end()) return *it->second;
   auto v = std::make_unique<Variant>(config_, msg);
@@ -99,6 +102,15 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
     PublishEvent(rocklab::event_t::RECOVERED, "daq", 0.0, "RL_THETA flowing again");
   }
   last_theta_host_s_ = now;
+  // Gaps: a forward jump of the DAQ's seq (a repeat or a step back is a
+  // restart or a duplicate, counted below as out of order when its time is).
+  if (last_theta_seq_ >= 0 && msg.seq > last_theta_seq_ + 1) theta_gaps_ += msg.seq - last_theta_seq_ - 1;
+  if (last_theta_utime_ != INT64_MIN && msg.utime > last_theta_utime_) {
+    const std::int64_t step = msg.utime - last_theta_utime_;  // the sample period: the smallest step
+    if (period_us_ == 0 || step < period_us_) period_us_ = step;
+  }
+  last_theta_seq_ = msg.seq;
+  last_theta_utime_ = msg.utime;
   if (!measured_.empty() && msg.utime <= measured_.back().utime) {
     ++theta_out_of_order_;  // the DAQ stamps in order: a duplicate or a replay restart
     return;
@@ -120,7 +132,7 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   }
 }
 
-void CompareNode::HandleModel(const rocklab::model_state_t& msg) {
+void CompareNode::HandleModel(const rocklab::model_state2_t& msg) {
   ++model_count_;
   Variant& v = VariantFor(msg);
   v.last_host_s = HostNowS();
@@ -128,7 +140,15 @@ void CompareNode::HandleModel(const rocklab::model_state_t& msg) {
     v.stale = false;
     PublishEvent(rocklab::event_t::RECOVERED, msg.name, 0.0, "model flowing again");
   }
+  // RL_MODEL_* has no seq: a gap is a step of the sample clock over 1.5
+  // sample periods (one message per table sample).
+  if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime &&
+      2 * (msg.utime - v.last_utime) > 3 * period_us_) {
+    model_gaps_ += (msg.utime - v.last_utime + period_us_ / 2) / period_us_ - 1;
+  }
+  v.last_utime = std::max(v.last_utime, msg.utime);
   newest_utime_ = std::max(newest_utime_, msg.utime);
+  if (config_.stale_clock == StaleClock::kSample) CheckStale();
   if (measured_.empty() || msg.utime > measured_.back().utime) {
     if (!v.pending.push_back({msg.utime, msg.theta})) ++v.unmatched_model;
     return;
@@ -207,23 +227,33 @@ void CompareNode::PublishHealth(const char* state) {
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
+  h.gaps = theta_gaps_ + model_gaps_;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }
 
 void CompareNode::CheckStale() {
   const double now = HostNowS();
-  if (theta_count_ > 0 && !theta_stale_ && now - last_theta_host_s_ > config_.stale_after_s) {
+  const bool sample = config_.stale_clock == StaleClock::kSample;
+  // How long an input has been silent, on the configured clock, s.
+  auto silent_s = [&](double last_host_s, std::int64_t last_utime) {
+    if (!sample) return now - last_host_s;
+    if (last_utime == INT64_MIN) return 0.0;
+    return static_cast<double>(newest_utime_ - last_utime) * 1e-6;
+  };
+  const double theta_silent = silent_s(last_theta_host_s_, last_theta_utime_);
+  if (theta_count_ > 0 && !theta_stale_ && theta_silent > config_.stale_after_s) {
     theta_stale_ = true;
-    PublishEvent(rocklab::event_t::STALE, "daq", now - last_theta_host_s_,
-                 "no RL_THETA for " + std::to_string(now - last_theta_host_s_) + " s");
+    PublishEvent(rocklab::event_t::STALE, "daq", theta_silent,
+                 "no RL_THETA for " + std::to_string(theta_silent) + " s");
   }
   for (Variant* v : order_) {
-    if (!v->stale && now - v->last_host_s > config_.stale_after_s) {
+    const double silent = silent_s(v->last_host_s, v->last_utime);
+    if (!v->stale && silent > config_.stale_after_s) {
       v->stale = true;
-      PublishEvent(rocklab::event_t::STALE, v->name, now - v->last_host_s,
+      PublishEvent(rocklab::event_t::STALE, v->name, silent,
                    "no " + config_.channel_prefix + "MODEL_" + v->name + " for " +
-                       std::to_string(now - v->last_host_s) + " s");
+                       std::to_string(silent) + " s");
     }
   }
   if (now - last_health_host_s_ >= config_.health_period_s) {

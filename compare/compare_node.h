@@ -28,14 +28,26 @@
 #include "common/ring.h"
 #include "compare/comparator.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 
 namespace rocklab::compare {
+
+/// The clock staleness is measured on.
+enum class StaleClock {
+  /// Host time without input (live: a stopped DAQ or model process).
+  kHost,
+  /// Sample-clock time: an input is stale when the newest utime of any input
+  /// is more than stale_after_s ahead of its own newest (offline runs, `run
+  /// --max`, `compare --stale-clock sample` behind `replay --max`: a host
+  /// stall never makes STALE/RECOVERED events).
+  kSample,
+};
 
 struct CompareNodeConfig {
   std::string channel_prefix{"RL_"};
   double publish_rate_hz{20.0};    ///< RL_COMPARE_* rate in sample-clock time, Hz; > 0
-  double stale_after_s{1.0};       ///< host time without input before a stale event, s; > 0
+  double stale_after_s{1.0};       ///< time without input before a stale event (stale_clock's), s; > 0
+  StaleClock stale_clock{StaleClock::kHost};
   double health_period_s{1.0};     ///< RL_HEALTH period, host time, s; > 0
   std::size_t align_capacity{8192};///< samples buffered per side while waiting for a match
   /// Messages each subscription may hold before a queued bus (LcmBus) drops. LCM's own default, 30, is 15 ms of two 1 kHz models on the
@@ -73,13 +85,17 @@ class CompareNode {
 
   /// What the handlers call.
   void HandleTheta(const rocklab::block_state_t& msg);
-  void HandleModel(const rocklab::model_state_t& msg);
+  /// RL_MODEL_* carries model_state2_t or (older logs) model_state_t.
+  void HandleModel(const rocklab::model_state2_t& msg);
 
   /// Loops on the bus until `stop` (stale checks and health while idle), then Finish.
   void Run(const std::atomic<bool>& stop);
 
-  /// Stale checks against the host clock (and the periodic RL_HEALTH).
+  /// Stale checks on the configured clock (and the periodic RL_HEALTH).
   void CheckStale();
+  /// Sequence gaps seen: RL_THETA (seq), RL_MODEL_* (sample clock).
+  std::int64_t theta_gaps() const { return theta_gaps_; }
+  std::int64_t model_gaps() const { return model_gaps_; }
   /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
   void Finish();
 
@@ -95,7 +111,7 @@ class CompareNode {
 
  private:
   struct Variant;
-  Variant& VariantFor(const rocklab::model_state_t& msg);
+  Variant& VariantFor(const rocklab::model_state2_t& msg);
   void Pair(Variant& v, std::int64_t utime, double measured, bool valid, double modelled);
   void PublishCompare(Variant& v);
   void PublishEvent(std::int8_t kind, const std::string& source, double value,
@@ -118,6 +134,13 @@ class CompareNode {
 
   std::int64_t theta_count_{}, model_count_{}, published_{};
   std::int64_t theta_out_of_order_{};  // RL_THETA not newer than the last: dropped, counted
+  // Sequence gaps (RL_HEALTH gaps): RL_THETA by its seq; RL_MODEL_* (no seq)
+  // on the sample clock, a utime step over 1.5 sample periods (the period:
+  // the smallest RL_THETA utime step seen).
+  std::int64_t theta_gaps_{}, model_gaps_{};
+  std::int64_t last_theta_seq_{-1};
+  std::int64_t last_theta_utime_{INT64_MIN};
+  std::int64_t period_us_{};  // 0 until two RL_THETA are seen
   double last_theta_host_s_{};
   bool theta_stale_{};
   double last_health_host_s_{};

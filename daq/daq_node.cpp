@@ -236,7 +236,12 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       m.stats.stopped_early = true;
       break;
     }
-    if (m.source->Next(frame) == ReadStatus::kEnd) break;
+    const ReadStatus status = m.source->Next(frame);
+    if (status == ReadStatus::kEnd) break;
+    if (status == ReadStatus::kError) {  // reported by the source; the shutdown below still runs
+      m.stats.read_error = m.source->error();
+      break;
+    }
     if (!started) {
       started = true;
       m.newest_utime = frame.utime();
@@ -274,6 +279,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
   m.log->info("{}: {} frames, {} published, {} gaps ({} samples missing), {} bad samples{}",
               m.config.input, m.stats.frames_read, m.stats.published, m.stats.gaps,
               m.stats.missing, m.stats.bad_samples, m.stats.stopped_early ? " (stopped)" : "");
+  if (!m.stats.read_error.empty()) m.log->error("the input was not read to its end: {}", m.stats.read_error);
 }
 
 }  // namespace rocklab::daq

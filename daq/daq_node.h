@@ -55,6 +55,9 @@ struct DaqNodeStats {
   int64_t damaged_bytes{};   ///< LCM log input: bytes in them
   int64_t damaged_events{};  ///< LCM log input: events lost in them
   bool stopped_early{};      ///< stop was requested before the end of the input
+  /// The input could not be read to its end (Source::error(), naming the
+  /// file); empty otherwise. Run still shut down in order (RL_HEALTH "stopped").
+  std::string read_error;
 };
 
 class DaqNode {

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "common/lcm_log.h"
+#include "common/wire.h"
 
 #include "daq/source.h"
 #include "common/text.h"
@@ -30,7 +31,7 @@ class LcmLogSource final : public Source {
       rocklab::daq_config_t config;
       while (scan.Next(ev)) {
         if (ev.channel != options.config_channel) continue;
-        if (config.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) < 0) continue;
+        if (common::GuardedDecode(ev.data.data(), static_cast<int>(ev.data.size()), config)) continue;
         names_ = config.channel_names;
         if (config.sample_rate_hz > 0) rate_hz_ = config.sample_rate_hz;
         break;
@@ -66,9 +67,10 @@ class LcmLogSource final : public Source {
     while (log_->Next(ev_)) {
       if (ev_.channel != raw_channel_) continue;
       ++stats_.rows;
-      if (!ChannelCountFits() ||
-          msg_.decode(ev_.data.data(), 0, static_cast<int>(ev_.data.size())) < 0) {
-        Bad(ev_.number, "RL_RAW event does not decode as raw_frame_t (skipped)");
+      // Guarded: num_channels is checked against the bytes before decode resizes.
+      if (const char* why =
+              common::GuardedDecode(ev_.data.data(), static_cast<int>(ev_.data.size()), msg_)) {
+        Bad(ev_.number, std::string("RL_RAW event does not decode as raw_frame_t (skipped): ") + why);
         continue;
       }
       if (static_cast<size_t>(msg_.num_channels) != names_.size()) {
@@ -88,17 +90,6 @@ class LcmLogSource final : public Source {
   }
 
  private:
-  // raw_frame_t's decoder resizes `values` to num_channels before reading
-  // them: refuse a count the payload cannot hold (fingerprint, utime, seq,
-  // num_channels, then 8 bytes per value) before it allocates.
-  bool ChannelCountFits() const {
-    const std::vector<uint8_t>& b = ev_.data;
-    if (b.size() < 28) return false;
-    const int32_t n = static_cast<int32_t>((uint32_t{b[24]} << 24) | (uint32_t{b[25]} << 16) |
-                                           (uint32_t{b[26]} << 8) | uint32_t{b[27]});
-    return n >= 0 && 28 + 8 * static_cast<int64_t>(n) <= static_cast<int64_t>(b.size());
-  }
-
   void Bad(int64_t event, const std::string& what) {
     ++stats_.bad_rows;
     if (on_problem_) on_problem_(Problem{{&path_, event}, what});

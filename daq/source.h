@@ -5,10 +5,11 @@
 /// that stops the read. Afterwards a malformed row is reported to the problem
 /// callback with its file and line, counted, and skipped (its sample number
 /// stays unused, so it shows downstream as a gap), and a malformed value in a
-/// good row becomes NaN (a counted bad sample); Next() throws only when the
+/// good row becomes NaN (a counted bad sample). Next() never throws: when the
 /// read cannot go on or has nothing to show (text sources: a read error of
 /// the file, never taken for its end; the end of a file none of whose data
-/// rows could be used). Messages quote input through a bounded, escaped
+/// rows could be used) it returns ReadStatus::kError, the message (naming
+/// the file) goes to the problem callback and stays in error(). Messages quote input through a bounded, escaped
 /// excerpt (detail::Quote): no raw bytes, no NUL, at most 48 bytes of a field.
 
 #include <cstdint>
@@ -50,6 +51,7 @@ struct Frame {
 enum class ReadStatus {
   kFrame,  ///< `frame` holds the next sample
   kEnd,    ///< no more samples
+  kError,  ///< the read cannot go on: Source::error() says why, naming the file
 };
 
 /// Counters a source keeps while reading.
@@ -70,12 +72,17 @@ class Source {
   virtual const std::vector<std::string>& channel_names() const = 0;
   /// Nominal sample rate, Hz (from the file's time base where it has one).
   virtual double sample_rate_hz() const = 0;
-  /// Reads the next frame into `frame`, reusing its storage.
-  /// @throws std::runtime_error naming the file when the read cannot go on
-  ///         (see the top of this file); never for a malformed row.
+  /// Reads the next frame into `frame`, reusing its storage. Never throws;
+  /// kError when the read cannot go on (see the top of this file), and
+  /// kError again on every later call.
   [[nodiscard]] virtual ReadStatus Next(Frame& frame) = 0;
   virtual const SourceStats& stats() const = 0;
   virtual const std::string& path() const = 0;
+  /// After kError: why, "file[:line]: ..."; empty before.
+  const std::string& error() const { return error_; }
+
+ protected:
+  std::string error_;
 };
 
 struct SourceOptions {

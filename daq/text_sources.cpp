@@ -43,7 +43,30 @@ class TextSource : public Source {
   const SourceStats& stats() const override { return stats_; }
   const std::string& path() const override { return path_; }
 
+  // The streaming path never throws (source.h): what would stop the read is
+  // kError, reported and kept in error_.
+  ReadStatus Next(Frame& frame) final {
+    if (!error_.empty()) return ReadStatus::kError;
+    try {
+      return ReadNext(frame);
+    } catch (const std::exception& e) {
+      error_ = e.what();
+      if (error_.empty()) error_ = path_ + ": the read cannot go on";
+      if (on_problem_) {
+        // The location is the problem's: the message without its "path: " prefix.
+        std::string what = error_;
+        if (what.rfind(path_ + ": ", 0) == 0) what.erase(0, path_.size() + 2);
+        on_problem_(Problem{{&path_, line_no_}, what});
+      }
+      return ReadStatus::kError;
+    }
+  }
+
  protected:
+  // The format's reader: may throw std::runtime_error naming the file when
+  // the read cannot go on; Next turns that into kError.
+  virtual ReadStatus ReadNext(Frame& frame) = 0;
+
   [[noreturn]] void Fail(const std::string& what) const {
     std::ostringstream msg;
     msg << path_ << ":" << line_no_ << ": " << what;
@@ -210,7 +233,7 @@ class CsvSource final : public TextSource {
     }
   }
 
-  ReadStatus Next(Frame& frame) override {
+  ReadStatus ReadNext(Frame& frame) override {
     while (ReadLine()) {
       if (SkipLongRow()) {
         ++row_;
@@ -262,7 +285,7 @@ class LvmSource final : public TextSource {
     if (!ReadSegmentHeader()) Fail("no segment: the file ends after its header");
   }
 
-  ReadStatus Next(Frame& frame) override {
+  ReadStatus ReadNext(Frame& frame) override {
     while (ReadLine()) {
       if (SkipLongRow()) {
         if (!skip_segment_) ++segment_rows_;

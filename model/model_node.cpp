@@ -22,11 +22,20 @@ std::shared_ptr<spdlog::logger> Log() {
 
 std::int8_t RegimeCode(Regime r) {
   switch (r) {
-    case Regime::kRest: return rocklab::model_state_t::REGIME_REST;
-    case Regime::kRocking: return rocklab::model_state_t::REGIME_ROCKING;
-    case Regime::kOverturned: return rocklab::model_state_t::REGIME_OVERTURNED;
+    case Regime::kRest: return rocklab::model_state2_t::REGIME_REST;
+    case Regime::kRocking: return rocklab::model_state2_t::REGIME_ROCKING;
+    case Regime::kOverturned: return rocklab::model_state2_t::REGIME_OVERTURNED;
   }
-  return rocklab::model_state_t::REGIME_REST;
+  return rocklab::model_state2_t::REGIME_REST;
+}
+
+std::int8_t EquationsCode(Equations e) {
+  switch (e) {
+    case Equations::kHousner: return rocklab::model_state2_t::EQUATIONS_HOUSNER;
+    case Equations::kEq10: return rocklab::model_state2_t::EQUATIONS_EQ10;
+    case Equations::kLimit: return rocklab::model_state2_t::EQUATIONS_LIMIT;
+  }
+  return rocklab::model_state2_t::EQUATIONS_UNKNOWN;
 }
 
 std::int8_t EventCode(EventKind k) {
@@ -63,7 +72,7 @@ struct ModelNode::Variant {
   VariantSpec spec;
   std::unique_ptr<RockingModel> model;
   std::string channel;
-  rocklab::model_state_t msg{};
+  rocklab::model_state2_t msg{};
   bool failed{};
 };
 
@@ -101,7 +110,7 @@ ModelNode::~ModelNode() {
 
 std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
-const rocklab::model_state_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
+const rocklab::model_state2_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
 void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
   const bool at_rest = !std::isfinite(theta.theta) || std::abs(theta.theta) < config_.rest_threshold_rad;
@@ -148,6 +157,9 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     have_theta_ = have_theta_ && last_theta_.utime <= msg.utime;  // an old run's theta cannot start it
     Log()->info("table time went back from {} to {} us: reset", last_table_utime_, msg.utime);
   }
+  // Gaps: a forward jump of RL_TABLE's seq (the DAQ numbers every sample).
+  if (last_table_seq_ >= 0 && msg.seq > last_table_seq_ + 1) table_gaps_ += msg.seq - last_table_seq_ - 1;
+  last_table_seq_ = msg.seq;
   last_table_utime_ = msg.utime;
   ++table_count_;
   // A bad (non-finite) sample: hold the last finite acceleration, count it,
@@ -202,6 +214,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     v->msg.energy = st.energy;
     v->msg.impact_count = st.impacts;
     v->msg.regime = RegimeCode(st.regime);
+    v->msg.equations = EquationsCode(st.equations);
     bus_.Publish(v->channel, v->msg);
     ++published_;
     for (const ModelEvent& e : v->model->events()) {
@@ -227,6 +240,7 @@ void ModelNode::PublishHealth(const char* state) {
   // Dropped: table samples before the start and messages that did not decode.
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
+  h.gaps = table_gaps_;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

@@ -3,7 +3,8 @@
 /// The model node: runs one or more model variants beside the experiment.
 /// It subscribes RL_TABLE (and RL_THETA for the initial state), steps every
 /// variant to each table sample's time (never ahead of the data it has) and
-/// publishes RL_MODEL_<name> stamped with that sample's utime.
+/// publishes RL_MODEL_<name> (model_state2_t: the state and which equations
+/// produced it) stamped with that sample's utime.
 ///
 /// Threading: single-threaded; handlers run where the bus dispatches (the
 /// caller of Run on an LcmBus; the publisher's thread on a DirectBus).
@@ -20,6 +21,9 @@
 /// them carries RL_THETA some 45 samples ahead: the variants then start at
 /// the table sample's utime from that newer theta.) A table utime that goes
 /// backwards (a replay restarting, a new test) resets every variant.
+///
+/// RL_TABLE carries the DAQ's sample seq: a forward jump counts the missing
+/// samples as gaps (RL_HEALTH gaps); a repeat or a step back does not.
 ///
 /// A table acceleration that is not finite (a saturated channel) is a bad
 /// sample: the variants step with the last finite value, the sample is
@@ -38,7 +42,7 @@
 #include "model/rocking_model.h"
 #include "model/variant.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::model {
@@ -77,7 +81,7 @@ class ModelNode {
   void HandleTheta(const rocklab::block_state_t& msg);
 
   /// The latest state of variant i (in configuration order).
-  const rocklab::model_state_t& latest(std::size_t i) const;
+  const rocklab::model_state2_t& latest(std::size_t i) const;
   std::size_t variant_count() const;
   std::int64_t table_count() const { return table_count_; }
   std::int64_t skipped_before_start() const { return skipped_before_start_; }
@@ -85,6 +89,8 @@ class ModelNode {
   std::int64_t failures() const { return failures_; }
   /// Table samples whose acceleration was not finite (the last finite value was held).
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
+  /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
+  std::int64_t table_gaps() const { return table_gaps_; }
 
  private:
   struct Variant;
@@ -107,6 +113,7 @@ class ModelNode {
   std::int64_t bad_in_stretch_{};
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
+  std::int64_t last_table_seq_{-1}, table_gaps_{};  // RL_TABLE seq gaps (RL_HEALTH gaps)
   double last_health_host_s_{};
 };
 

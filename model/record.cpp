@@ -11,6 +11,7 @@
 
 #include "common/lcm_log.h"
 #include "common/text.h"
+#include "common/wire.h"
 #include "model/excitation.h"
 
 #include "rocklab/block_state_t.hpp"
@@ -222,7 +223,7 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
     if (!damage.empty()) break;  // reported below, before any gap it causes
     const int datalen = static_cast<int>(ev->data.size());
     if (ev->channel == options.theta_channel) {
-      if (block.decode(ev->data.data(), 0, datalen) < 0) {
+      if (common::GuardedDecode(ev->data.data(), datalen, block) != nullptr) {
         Fail(Where(path, ev->number, true),
              options.theta_channel + " event does not decode as rocklab::block_state_t");
       }
@@ -236,7 +237,7 @@ RockingRecord ReadThetaLcmLog(const std::string& path, const RecordOptions& opti
       r.theta.push_back(block.theta);
       r.line.push_back(ev->number);
     } else if (ev->channel == options.table_channel) {
-      if (table.decode(ev->data.data(), 0, datalen) < 0) {
+      if (common::GuardedDecode(ev->data.data(), datalen, table) != nullptr) {
         Fail(Where(path, ev->number, true),
              options.table_channel + " event does not decode as rocklab::table_state_t");
       }

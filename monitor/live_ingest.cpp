@@ -2,6 +2,9 @@
 // buffers, bounded, counted).
 #include "monitor/live_state_impl.h"
 
+#include "common/model_state.h"
+#include "common/wire.h"
+
 namespace rocklab::monitor {
 
 bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int size) {
@@ -52,7 +55,12 @@ bool LiveState::Impl::IngestTheta(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int size) {
-  if (!DecodeSample(model_msg, data, size)) return false;
+  // model_state2_t, or model_state_t from a log written before it.
+  if (common::DecodeModelState(data, size, model_msg, model_v1_msg) != nullptr ||
+      !UsableUtime(model_msg.utime)) {
+    return false;
+  }
+  SeeSampleClock(model_msg.utime);
   Variant* v = VariantFor(name);
   if (!v) return true;  // counted in dropped.variants
   v->has_params = true;
@@ -73,7 +81,7 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
 }
 
 bool LiveState::Impl::IngestEvent(const void* data, int size) {
-  if (event_msg.decode(data, 0, size) < 0 || !UsableUtime(event_msg.utime)) return false;
+  if (common::GuardedDecode(data, size, event_msg) != nullptr || !UsableUtime(event_msg.utime)) return false;
   const rocklab::event_t& m = event_msg;
   if (!has_clock) {
     has_clock = true;
@@ -113,7 +121,7 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestHealth(const void* data, int size) {
-  if (health_msg.decode(data, 0, size) < 0) return false;
+  if (common::GuardedDecode(data, size, health_msg) != nullptr) return false;
   auto it = health.find(health_msg.node);
   if (it == health.end()) {
     if (health.size() >= options.max_nodes) {
@@ -127,7 +135,7 @@ bool LiveState::Impl::IngestHealth(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestConfig(const void* data, int size) {
-  if (!DaqConfigCountFits(data, size) || config_msg.decode(data, 0, size) < 0) return false;
+  if (common::GuardedDecode(data, size, config_msg) != nullptr) return false;
   has_config = true;
   AssignText(rig_name, config_msg.rig_name);
   AssignText(calibration_id, config_msg.calibration_id);

@@ -46,8 +46,10 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
       j["p"] = number(v->params.p);
       j["mu"] = number(v->params.mu);
       j["l"] = number(v->params.l);
+      const char* equations = EquationsName(v->params.equations);
+      j["equations"] = equations != nullptr ? json(equations) : json(nullptr);
     } else {
-      for (const char* k : {"model", "alpha", "p", "mu", "l"}) j[k] = nullptr;
+      for (const char* k : {"model", "alpha", "p", "mu", "l", "equations"}) j[k] = nullptr;
     }
     j["theta"] = series(v->theta, "theta_deg", nullptr);
     j["comparison"] = series(v->comparison, "error_deg", "rms_window_deg");

@@ -40,7 +40,9 @@
 ///   "variants": [          // in order of appearance
 ///     {"name": "fitted_complex",
 ///      "model": "complex", "alpha": 0.235, "p": 3.884, "mu": 0.937, "l": 0,
-///                          // from model_state_t (rad, rad/s, 1, 1); null until seen
+///      "equations": "eq10",  // "housner", "eq10" or "limit": which equations produced
+///                          // the newest sample; null from an older log's model_state_t
+///                          // from RL_MODEL_<name> (rad, rad/s, 1, 1); null until seen
 ///      "theta": {"t": [..], "theta_deg": [..]},              // RL_MODEL_<name>
 ///      "comparison": {"t": [..], "error_deg": [..], "rms_window_deg": [..]},
 ///      "latest": {         // the newest RL_COMPARE_<name>, exactly as received
@@ -112,7 +114,7 @@ class LiveState {
   LiveState& operator=(const LiveState&) = delete;
 
   /// Decodes one LCM message by its channel name: <prefix>THETA
-  /// (block_state_t), <prefix>MODEL_<name> (model_state_t),
+  /// (block_state_t), <prefix>MODEL_<name> (model_state2_t or model_state_t),
   /// <prefix>COMPARE_<name> (comparison_t), <prefix>EVENT (event_t),
   /// <prefix>HEALTH (health_t), <prefix>DAQ_CONFIG (daq_config_t).
   /// Every message is counted under its channel; one that fails to decode is

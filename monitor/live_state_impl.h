@@ -19,11 +19,13 @@
 
 #include "common/ring.h"
 #include "common/units.h"
+#include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state_t.hpp"
 
 namespace rocklab::monitor {
@@ -73,33 +75,20 @@ inline const char* EventKindName(std::int8_t kind) {
   }
 }
 
+// model_state2_t's EQUATIONS_ code as the monitor's JSON names it; nullptr
+// (JSON null) when unknown (a model_state_t from an older log).
+inline const char* EquationsName(std::int8_t code) {
+  switch (code) {
+    case rocklab::model_state2_t::EQUATIONS_HOUSNER: return "housner";
+    case rocklab::model_state2_t::EQUATIONS_EQ10: return "eq10";
+    case rocklab::model_state2_t::EQUATIONS_LIMIT: return "limit";
+    default: return nullptr;
+  }
+}
+
 // Assigns at most kMaxTextBytes: a text field of a message cannot grow the state.
 inline void AssignText(std::string& to, const std::string& from) {
   to.assign(from, 0, std::min(from.size(), kMaxTextBytes));
-}
-
-// daq_config_t holds num_channels-long arrays that its generated decoder
-// resizes before reading them: refuse a count the payload cannot hold.
-inline bool DaqConfigCountFits(const void* data, int size) {
-  const auto* b = static_cast<const std::uint8_t*>(data);
-  long pos = 16;  // fingerprint, utime
-  auto int32_at = [&](long at, std::int32_t& out) {
-    if (at < 0 || at + 4 > size) return false;
-    out = static_cast<std::int32_t>((std::uint32_t{b[at]} << 24) | (std::uint32_t{b[at + 1]} << 16) |
-                                    (std::uint32_t{b[at + 2]} << 8) | std::uint32_t{b[at + 3]});
-    return true;
-  };
-  for (int text = 0; text < 2; ++text) {  // rig_name, calibration_id
-    std::int32_t len = 0;
-    if (!int32_at(pos, len) || len < 1) return false;
-    pos += 4 + len;
-  }
-  pos += 8;  // sample_rate_hz
-  std::int32_t n = 0;
-  if (!int32_at(pos, n) || n < 0) return false;
-  // Each channel takes at least three 5-byte strings and two doubles.
-  constexpr long kMinChannelBytes = 3 * 5 + 2 * 8;
-  return static_cast<long>(n) * kMinChannelBytes <= size - (pos + 4);
 }
 
 // One point of a series: two values at one sample-clock time.
@@ -204,7 +193,7 @@ struct LiveState::Impl {
         : name(n), theta(capacity, grows), comparison(capacity, grows) {}
     std::string name;
     bool has_params{};
-    rocklab::model_state_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l
+    rocklab::model_state2_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l, equations
     Series theta;       // a: theta, deg
     Series comparison;  // a: error, deg; b: rms_window, deg
     bool has_latest{};
@@ -276,9 +265,10 @@ struct LiveState::Impl {
   }
 
   // Decodes a message of a series into `msg` and reads its sample clock.
+  // Guarded (common::GuardedDecode: lengths checked before decode allocates).
   template <class Msg>
   bool DecodeSample(Msg& msg, const void* data, int size) {
-    if (msg.decode(data, 0, size) < 0 || !UsableUtime(msg.utime)) return false;
+    if (common::GuardedDecode(data, size, msg) != nullptr || !UsableUtime(msg.utime)) return false;
     SeeSampleClock(msg.utime);
     return true;
   }
@@ -366,7 +356,8 @@ struct LiveState::Impl {
 
   // Decoding buffers, reused: strings keep their capacity.
   rocklab::block_state_t theta_msg;
-  rocklab::model_state_t model_msg;
+  rocklab::model_state2_t model_msg;   // RL_MODEL_*: model_state2_t, or
+  rocklab::model_state_t model_v1_msg; // model_state_t from an older log
   rocklab::comparison_t compare_msg;
   rocklab::event_t event_msg;
   rocklab::health_t health_msg;

@@ -55,14 +55,19 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
 int ReportDamage(long long regions, long long bytes, long long events, const std::string& input,
                  const char* what, const char* rest) {
   if (regions <= 0) return 0;
-  std::fprintf(stderr, "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)%s\n",
+  std::fprintf(stderr, "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)%s
+",
                what, input.c_str(), regions, regions == 1 ? "" : "s", bytes, events, rest);
   return 1;  // the command failed (tools::kFailureExit)
 }
 
 int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const char* what) {
-  return ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, input, what,
-                      "; the rest was read");
+  if (!s.read_error.empty()) {
+    std::fprintf(stderr, "%s: %s\n", what, s.read_error.c_str());  // names the file
+  }
+  const int damaged = ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, input, what,
+                                   "; the rest was read");
+  return s.read_error.empty() ? damaged : 1;
 }
 
 int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {

@@ -54,7 +54,9 @@ int RunDaqStage(const DaqStageOptions& options, const char* what, const std::ato
 
 /// A damaged LCM log input: prints "<what>: <input> is damaged: N regions
 /// skipped (B bytes, E events lost)" on stderr and returns 1 (the command
-/// failed); otherwise returns 0. (Each region was reported with its offset as read.)
+/// failed); an input not read to its end (DaqNodeStats::read_error): prints
+/// "<what>: <error naming the file>" and returns 1; otherwise returns 0.
+/// (Each region was reported with its offset as read.)
 int ReportDamage(const daq::DaqNodeStats& stats, const std::string& input, const char* what);
 
 /// The one damage line of every command that reads an LCM log: when

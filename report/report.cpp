@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "common/lcm_log.h"
+#include "common/wire.h"
 
 #include "monitor/live_state.h"
 #include "rocklab/table_state_t.hpp"
@@ -114,7 +115,7 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
     const int size = static_cast<int>(ev.data.size());
     live.Ingest(ev.channel, ev.data.data(), size);  // counts every channel
     if (ev.channel != table_channel) continue;
-    if (table.decode(ev.data.data(), 0, size) < 0) {
+    if (common::GuardedDecode(ev.data.data(), size, table) != nullptr) {
       ++r.table.decode_errors;
     } else {
       r.table.Add(table);

@@ -63,7 +63,8 @@ int RunReconstruct(const ReconstructOptions& o) {
     throw UsageError(std::string("--input: ") + e.what());
   }
   daq::Frame frame;
-  while (source->Next(frame) == daq::ReadStatus::kFrame) processor->Process(frame);
+  daq::ReadStatus status;
+  while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
   processor->Finish();
   out.Close();
 
@@ -83,6 +84,13 @@ int RunReconstruct(const ReconstructOptions& o) {
                static_cast<long long>(seq.duplicates), static_cast<long long>(seq.out_of_order),
                static_cast<long long>(rec.invalid_led_samples),
                static_cast<long long>(processor->counts().flagged));
+  if (status == daq::ReadStatus::kError) {
+    // The rows before it were reconstructed and written; the exit code says
+    // the input was not read to its end.
+    std::fprintf(stderr, "rocklab: %s
+", source->error().c_str());
+    return kFailureExit;
+  }
   // Every readable frame was reconstructed; the exit code says the log is damaged.
   return pipeline::ReportDamage(src.damaged_regions, src.damaged_bytes, src.damaged_events, o.input,
                                 "rocklab", "; the rest was read") == 0

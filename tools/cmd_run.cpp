@@ -54,6 +54,9 @@ bool IsMemq(const std::string& url) { return url.rfind("memq://", 0) == 0; }
 int RunAll(RunCommand& c) {
   const daq::RigConfig rig = LoadRig(c.rig_path);
   if (c.max) c.speed = 0;
+  // As fast as possible, host time says nothing about the inputs: a host
+  // stall must not make STALE/RECOVERED events (the sample clock decides).
+  if (c.speed == 0) c.compare.stale_clock = compare::StaleClock::kSample;
   Require(c.speed >= 0, "--speed", ">= 0", c.speed);
   ValidateCompareOptions(c.compare);
   const std::atomic<bool>& stop = InstallStopSignals();
@@ -110,9 +113,14 @@ int RunAll(RunCommand& c) {
                static_cast<long long>(model.failures()),
                static_cast<long long>(model.bad_table_samples()), s.stopped_early ? " (stopped)" : "");
   const std::int64_t log_errors = log ? log->write_errors() : 0;
-  if (log_errors > 0 || forward_errors > 0) {
-    std::fprintf(stderr, "run: %lld log write errors, %lld network publish errors\n",
-                 static_cast<long long>(log_errors), static_cast<long long>(forward_errors));
+  if (log_errors > 0) {
+    // write_errors() counts events, each either in the file or lost.
+    std::fprintf(stderr, "run: --log %s: %lld events could not be written and are lost (%s); %lld written\n",
+                 log->path().c_str(), static_cast<long long>(log_errors), log->error().c_str(),
+                 static_cast<long long>(log->events()));
+  }
+  if (forward_errors > 0) {
+    std::fprintf(stderr, "run: %lld network publish errors\n", static_cast<long long>(forward_errors));
   }
   if (bus.decode_error_count() > 0 || bus.handler_error_count() > 0) {
     std::fprintf(stderr, "run: %lld messages did not decode, %lld handler errors\n",

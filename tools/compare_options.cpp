@@ -1,5 +1,8 @@
 #include "tools/pipeline.h"
 
+#include <map>
+#include <string>
+
 namespace rocklab::tools {
 
 void AddCompareOptions(CLI::App& cmd, compare::CompareNodeConfig& c) {
@@ -8,6 +11,12 @@ void AddCompareOptions(CLI::App& cmd, compare::CompareNodeConfig& c) {
   cmd.add_option("--window", c.comparator.window_s, "sliding RMS window, s")->capture_default_str();
   cmd.add_option("--stale", c.stale_after_s, "seconds without input before a stale event")
       ->capture_default_str();
+  const std::map<std::string, compare::StaleClock> clocks{{"host", compare::StaleClock::kHost},
+                                                          {"sample", compare::StaleClock::kSample}};
+  cmd.add_option("--stale-clock", c.stale_clock,
+                 "clock of --stale: host (live) or sample (offline, e.g. behind replay --max; "
+                 "run --max always uses sample)")
+      ->transform(CLI::CheckedTransformer(clocks, CLI::ignore_case));
 }
 
 }  // namespace rocklab::tools

@@ -52,3 +52,5 @@ run_fuzzer lvm 8192 "$here/data/samples"
 run_fuzzer rig_config 8192 "$here/data/rigs"
 run_fuzzer live_state 4096
 run_fuzzer http 4096
+run_fuzzer lcm_log 16384
+run_fuzzer lcm_types 4096

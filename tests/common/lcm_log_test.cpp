@@ -245,5 +245,21 @@ TEST(LcmLog, DamageAtTheStartAndFilesThatAreNotLogs) {
   EXPECT_TRUE(StartsWithLcmSync(WriteWithLiblcm("sync.lcm", Ramp(2))));
 }
 
+// Issue 12 item 5. Oracle: /dev/full refuses every write (ENOSPC). 3000
+// events of 1 KiB (3 MB, three buffer flushes and the close) are all lost
+// and all counted as lost: write_errors() equals the events written to it,
+// events() is 0, and the reason is kept.
+TEST(LcmLog, WriterOnAFullDiskCountsEveryLostEvent) {
+  LogWriter w("/dev/full");
+  const std::string payload(1024, 'x');
+  int refused = 0;
+  for (int k = 0; k < 3000; ++k) refused += !w.Write("CH", payload.data(), payload.size(), k);
+  EXPECT_FALSE(w.Close());
+  EXPECT_EQ(w.write_errors(), 3000);
+  EXPECT_EQ(w.events(), 0);
+  EXPECT_GE(refused, 2);  // each failed flush says so to the caller
+  EXPECT_NE(w.error().find("space"), std::string::npos) << w.error();
+}
+
 }  // namespace
 }  // namespace rocklab::common

@@ -251,6 +251,12 @@ TEST(SynthReconstruct, UnusableInputsExitNonZeroNamingTheFile) {
   ASSERT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
   EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + dir + " --out /tmp/z.csv", &err), 2);
   EXPECT_NE(err.find(dir + ": read error after line 0"), std::string::npos) << err;
+  // The same input through the DaqNode (`run`, `daq`): the read ends with
+  // kError, the nodes shut down in order, the command exits 1 naming the file.
+  EXPECT_EQ(Rocklab("run --rig " + test::LabRigPath() + " --input " + bad + " --max", &err), 1);
+  EXPECT_NE(err.find("run: " + bad + ": none of the 2 data rows could be used"), std::string::npos) << err;
+  EXPECT_EQ(Rocklab("daq --rig " + test::LabRigPath() + " --input " + bad + " --max --lcm-url memq://", &err), 1);
+  EXPECT_NE(err.find(bad + ": none of the 2 data rows could be used"), std::string::npos) << err;
 }
 
 }  // namespace

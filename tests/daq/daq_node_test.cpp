@@ -361,5 +361,30 @@ TEST(DaqNode, SourceProblemsArePublishedAsEventsWithFileAndLine) {
   EXPECT_EQ(c->raw.size(), ReadFrames(good, rig).size() - 1);  // only the ragged row is missing
 }
 
+// Issue 12 item 4: source.h's contract ("Next() never throws"). An input
+// none of whose rows can be used ends the read with ReadStatus::kError: Run
+// does not throw, the node still shuts down in order (RL_HEALTH "stopping"
+// then "stopped"), and the stats name the file for the command's exit.
+// Oracle: the file's rows (every one ragged).
+TEST(DaqNode, ReadErrorEndsTheRunInOrderNamingTheFile) {
+  const RigConfig rig = LoadRigConfig(test::LabRigPath());
+  const std::string good = MakeRawCsv(rig, "allbad_src.csv", 0.05);
+  std::ifstream in(good);
+  std::string text, line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n > 1) line = line.substr(0, line.rfind(','));  // every data row one field short
+    text += line + "\n";
+  }
+  const std::string bad = test::WriteFile("allbad_node.csv", text);
+  std::atomic<bool> stop{false};
+  DaqNodeStats stats;
+  const auto c = RunOnMemq(rig, bad, 0, stop, &stats);
+  EXPECT_EQ(stats.frames_read, 0);
+  EXPECT_NE(stats.read_error.find(bad + ": none of the"), std::string::npos) << stats.read_error;
+  ASSERT_GE(c->health.size(), 2u);
+  EXPECT_EQ(c->health[c->health.size() - 2].state, "stopping");
+  EXPECT_EQ(c->health.back().state, "stopped");
+}
+
 }  // namespace
 }  // namespace rocklab::daq

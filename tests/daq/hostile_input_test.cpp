@@ -122,16 +122,20 @@ class FailingStream : public std::istream {
 TEST(HostileInput, ReadErrorIsAnErrorNamingTheFileNotTheEnd) {
   SourceOptions opt;
   opt.sample_rate_hz = 100;
+  std::vector<std::string> problems;
+  opt.on_problem = [&problems](const Problem& p) { problems.push_back(ToString(p)); };
   auto source = OpenCsvStream(std::make_unique<FailingStream>("time,s\n0.00,1\n0.01,2\n0.02,"), "disk.csv", opt);
   Frame f;
   int frames = 0;
-  try {
-    while (source->Next(f) == ReadStatus::kFrame) ++frames;
-    ADD_FAILURE() << "the read error ended the file quietly after " << frames << " frames";
-  } catch (const std::runtime_error& e) {
-    EXPECT_EQ(frames, 2);
-    EXPECT_EQ(std::string(e.what()).rfind("disk.csv: read error after line 3 (mock read error", 0), 0u) << e.what();
-  }
+  ReadStatus status;
+  while ((status = source->Next(f)) == ReadStatus::kFrame) ++frames;  // never throws (source.h)
+  EXPECT_EQ(status, ReadStatus::kError) << "the read error ended the file quietly after " << frames << " frames";
+  EXPECT_EQ(frames, 2);
+  EXPECT_EQ(source->error().rfind("disk.csv: read error after line 3 (mock read error", 0), 0u) << source->error();
+  ASSERT_EQ(problems.size(), 1u);  // and through the problem callback, with its location
+  EXPECT_EQ(problems[0].rfind("disk.csv:3: read error after line 3 (mock read error", 0), 0u) << problems[0];
+  EXPECT_EQ(source->Next(f), ReadStatus::kError);  // and it stays so
+  opt.on_problem = nullptr;
   // A real one: read(2) of a directory fails with EISDIR.
   const std::string dir = test::ScratchDir() + "/directory.csv";
   ::mkdir(dir.c_str(), 0700);
@@ -243,14 +247,12 @@ TEST(HostileInput, EveryRowBadIsAnError) {
   opt.sample_rate_hz = 100;
   auto source = OpenSource(test::WriteFile("allbad.csv", "time,s\nx,1\n0.1\n\n,2\n"), opt);
   Frame f;
-  try {
-    while (source->Next(f) == ReadStatus::kFrame) {
-    }
-    ADD_FAILURE() << "no error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("allbad.csv: none of the 3 data rows could be used"), std::string::npos)
-        << e.what();
+  ReadStatus status;
+  while ((status = source->Next(f)) == ReadStatus::kFrame) {
   }
+  EXPECT_EQ(status, ReadStatus::kError);
+  EXPECT_NE(source->error().find("allbad.csv: none of the 3 data rows could be used"), std::string::npos)
+      << source->error();
 }
 
 // Item 10: a NUL cut messages short; a 50 MB field was echoed whole; raw

@@ -4,7 +4,8 @@
 // that rows reach the Processor (sequence checks, reconstruction, the
 // differentiators) with the fuzzer's times and values.
 // Invariants: opening throws only std::runtime_error/std::invalid_argument;
-// Next() throws only std::runtime_error (a read error, or no usable row);
+// Next() never throws (source.h): a read error or no usable row is kError
+// with a message in error();
 // every problem message is one bounded line of printable ASCII; the counters
 // add up (bad rows <= rows; frames delivered + bad rows <= rows).
 #include <cstddef>
@@ -91,14 +92,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   Frame frame;
   std::int64_t frames = 0;
-  try {
-    while (source->Next(frame) == ReadStatus::kFrame) {
-      ++frames;
-      if (frame.values.size() != source->channel_names().size()) rocklab::fuzz::Violated("frame width");
-      if (processor) processor->Process(frame);
-    }
-  } catch (const std::runtime_error& e) {
-    rocklab::fuzz::CheckMessage(e.what(), 4096);
+  ReadStatus status;
+  while ((status = source->Next(frame)) == ReadStatus::kFrame) {
+    ++frames;
+    if (frame.values.size() != source->channel_names().size()) rocklab::fuzz::Violated("frame width");
+    if (processor) processor->Process(frame);
+  }
+  if (status == ReadStatus::kError) {
+    if (source->error().empty()) rocklab::fuzz::Violated("kError without a message");
+    rocklab::fuzz::CheckMessage(source->error(), 4096);
+    if (source->Next(frame) != ReadStatus::kError) rocklab::fuzz::Violated("kError did not stay");
+  } else if (!source->error().empty()) {
+    rocklab::fuzz::Violated("an error message without kError", source->error());
   }
   if (processor) processor->Finish();
   const SourceStats& st = source->stats();

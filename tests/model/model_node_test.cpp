@@ -6,10 +6,12 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 
 #include "common/bus.h"
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
 
 namespace rocklab::model {
 namespace {
@@ -73,7 +75,7 @@ TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
   for (int k = 1; k <= 500; ++k) node.HandleTable(Table(1000 * k, k < 100 ? 0.0 : 3.0));
   EXPECT_EQ(node.skipped_before_start(), 1);
   EXPECT_LT(node.latest(0).theta, -1e-3);
-  EXPECT_EQ(node.latest(0).regime, +rocklab::model_state_t::REGIME_ROCKING);
+  EXPECT_EQ(node.latest(0).regime, +rocklab::model_state2_t::REGIME_ROCKING);
 }
 
 // Oracle: the DAQ publishes the RL_THETA and RL_TABLE of a sample together,
@@ -153,8 +155,8 @@ TEST(ModelNode, PublishesEveryVariantAndItsImpacts) {
   common::LcmBus bus("memq://");
   std::vector<std::string> channels;
   int impacts = 0;
-  bus.Subscribe<rocklab::model_state_t>(
-      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state_t&) {
+  bus.Subscribe<rocklab::model_state2_t>(
+      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t&) {
         channels.push_back(channel);
       });
   bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& m) {
@@ -210,6 +212,80 @@ TEST(ModelNode, VariantSyntax) {
   twice.variants.push_back(twice.variants[0]);
   DirectBus bus;
   EXPECT_THROW(ModelNode(twice, bus), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rocklab::model
+
+namespace rocklab::model {
+namespace {
+
+// Oracle: issue 10 point 1, the channel contract. RL_MODEL_<name> carries
+// model_state2_t and its `equations` says what produced the sample: the
+// complex variant integrates eq. (10) while it rocks (EQUATIONS_EQ10), the
+// Housner variant Housner's equations (EQUATIONS_HOUSNER), at every sample;
+// the decoded message equals what latest() holds.
+TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
+  common::LcmBus bus("memq://");
+  std::map<std::string, std::vector<rocklab::model_state2_t>> got;
+  bus.Subscribe<rocklab::model_state2_t>(
+      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t& m) {
+        got[channel].push_back(m);
+      });
+  ModelNodeConfig cfg = Config("h:housner:theoretical");
+  cfg.variants.push_back(ParseVariant("c:complex:theoretical", kBlock1));
+  ModelNode node(cfg, bus);
+  node.HandleTheta(Theta(0, 0.1));
+  for (int k = 0; k < 500; ++k) {  // 1 s of free rocking from 0.1 rad at 500 Hz
+    node.HandleTable(Table(2000 * k, 0.0));
+    while (bus.HandleTimeout(0) > 0) {
+    }
+  }
+  ASSERT_EQ(got["RL_MODEL_h"].size(), 500u);
+  ASSERT_EQ(got["RL_MODEL_c"].size(), 500u);
+  int complex_rocking = 0;
+  for (const rocklab::model_state2_t& m : got["RL_MODEL_h"]) {
+    EXPECT_EQ(m.equations, +rocklab::model_state2_t::EQUATIONS_HOUSNER) << m.utime;
+  }
+  for (const rocklab::model_state2_t& m : got["RL_MODEL_c"]) {
+    if (m.regime != rocklab::model_state2_t::REGIME_ROCKING) continue;
+    ++complex_rocking;
+    EXPECT_EQ(m.equations, +rocklab::model_state2_t::EQUATIONS_EQ10) << m.utime;
+  }
+  EXPECT_GT(complex_rocking, 400);  // 0.1 rad of a 0.235 rad block rocks for the whole second
+  EXPECT_EQ(got["RL_MODEL_c"].back().equations, node.latest(1).equations);
+  EXPECT_EQ(got["RL_MODEL_c"].back().model, "complex");
+}
+
+}  // namespace
+}  // namespace rocklab::model
+
+namespace rocklab::model {
+namespace {
+
+// Oracle: issue 12 item 3, counting by hand. RL_TABLE over memq at 500 Hz
+// with seq 100..104 and 300 dropped (6 samples missing by seq). RL_HEALTH "stopped" carries gaps = 6.
+TEST(ModelNode, CountsRlTableSequenceGapsInHealth) {
+  common::LcmBus bus("memq://");
+  rocklab::health_t last{};
+  bus.Subscribe<rocklab::health_t>("RL_HEALTH",
+                                   [&](const std::string&, const rocklab::health_t& m) { last = m; });
+  ModelNode node(Config("h:housner:theoretical"), bus);
+  bus.Publish("RL_THETA", Theta(0, 0.0));
+  for (int k = 0; k < 500; ++k) {
+    rocklab::table_state_t t = Table(2000 * k, 0.0);
+    t.seq = k;
+    if ((k < 100 || k > 104) && k != 300) bus.Publish("RL_TABLE", t);
+    while (bus.HandleTimeout(0) > 0) {
+    }
+  }
+  node.Finish();
+  while (bus.HandleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(node.table_gaps(), 6);
+  EXPECT_EQ(last.state, "stopped");
+  EXPECT_EQ(last.gaps, 6);
+  EXPECT_EQ(last.count_in, 494);
 }
 
 }  // namespace

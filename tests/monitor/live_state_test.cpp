@@ -17,6 +17,7 @@
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "tests/tools/lcm_messages.h"
 
@@ -111,12 +112,38 @@ const json& VariantNamed(const json& snap, const std::string& name) {
   return none;
 }
 
+// Oracle: issue 10 point 1. RL_MODEL_<name> from the model node
+// (model_state2_t) shows which equations produced the newest sample; a log
+// written before it carries model_state_t on the same channels: still shown
+// (same theta in degrees, parameters), "equations" null (it does not say).
+TEST(LiveState, ShowsModelState2EquationsAndStillTheOldModelState) {
+  LiveState s;
+  ASSERT_TRUE(Feed(s, "RL_THETA", Theta(kT0, 0.1)));
+  rocklab::model_state2_t now = Model("new", kT0, 0.2);
+  now.model = "complex";
+  now.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
+  EXPECT_TRUE(Feed(s, "RL_MODEL_new", now));
+  EXPECT_TRUE(Feed(s, "RL_MODEL_old", test::OldModel("old", kT0, 0.3)));
+  const json snap = s.Snapshot();
+  const json& v2 = VariantNamed(snap, "new");
+  EXPECT_EQ(v2.at("equations"), "eq10");
+  EXPECT_EQ(v2.at("model"), "complex");
+  const json& v1 = VariantNamed(snap, "old");
+  EXPECT_TRUE(v1.at("equations").is_null());
+  EXPECT_EQ(v1.at("model"), "housner");
+  EXPECT_EQ(v1.at("alpha").get<double>(), 0.235);
+  ASSERT_EQ(v1.at("theta").at("theta_deg").size(), 1u);
+  EXPECT_DOUBLE_EQ(v1.at("theta").at("theta_deg")[0].get<double>(), 0.3 * kDeg);
+  EXPECT_EQ(snap.at("counters").at("decode_errors").value("RL_MODEL_old", std::int64_t{0}), 0);
+}
+
 TEST(LiveState, ThetaAndModelsInDegreesAgainstTimeFromTheFirstSample) {
   LiveState s;
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0, 0.1)));
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 20'000, -0.2)));
-  rocklab::model_state_t model = Model("fit", kT0 + 20'000, 0.3);
+  rocklab::model_state2_t model = Model("fit", kT0 + 20'000, 0.3);
   model.model = "complex";
+  model.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
   model.l = 0.5;
   EXPECT_TRUE(Feed(s, "RL_MODEL_fit", model));
   const json snap = s.Snapshot();

@@ -31,7 +31,7 @@
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
@@ -379,7 +379,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   // From the log: the restarted model's first message, after the longest
   // silence of RL_MODEL_fitted, against RL_THETA of the same utime.
   std::map<std::int64_t, double> measured;  // utime -> theta
-  std::vector<rocklab::model_state_t> states;
+  std::vector<rocklab::model_state2_t> states;
   std::vector<std::string> compare_events;
   std::int64_t last_compare_utime = 0;
   for (const LogEvent& e : ReadLog(log)) {
@@ -387,7 +387,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
       const auto t = Decode<rocklab::block_state_t>(e);
       measured[t.utime] = t.theta;
     } else if (e.channel == "RL_MODEL_fitted") {
-      states.push_back(Decode<rocklab::model_state_t>(e));
+      states.push_back(Decode<rocklab::model_state2_t>(e));
     } else if (e.channel == "RL_COMPARE_fitted") {
       last_compare_utime = Decode<rocklab::comparison_t>(e).utime;
     } else if (e.channel == "RL_EVENT") {
@@ -406,7 +406,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
       restart = i;
     }
   }
-  const rocklab::model_state_t& first = states[restart];
+  const rocklab::model_state2_t& first = states[restart];
   const std::int64_t silence_us = first.utime - states[restart - 1].utime;
   EXPECT_GT(silence_us, 300'000) << "no gap where the model was dead";
   ASSERT_EQ(measured.count(first.utime), 1u) << "no RL_THETA at the restart's utime";

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <map>
 #include <string>
 #include <thread>
@@ -241,6 +242,38 @@ TEST(RocklabRun, StartUpErrorsNameTheOption) {
                     "/nonexistent/x.lcm"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "rocklab: --log: cannot write '/nonexistent/x.lcm'\n");
+}
+
+// Issue 12 item 5: `--log /dev/full`. Every event that cannot be written
+// is counted and reported at exit, with exit 1. Oracle: the events of the
+// same run written to a real file. The two runs publish the same messages
+// except RL_HEALTH, whose periodic messages follow the host clock: the lost
+// count equals the file's events up to the number of RL_HEALTH in it (+2).
+// (LcmLog.WriterOnAFullDiskCountsEveryLostEvent holds the exact count.)
+TEST(RocklabRun, LogOnAFullDiskCountsEveryLostEventAndFails) {
+  const std::string dir = test::ScratchDir("run_log_full");
+  const std::string log = dir + "/ok.lcm";
+  const test::CliResult ok =
+      test::RunCli({"run", "--rig", kBlock1Rig, "--input", kFig7, "--max", "--log", log});
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  lcm::LogFile in(log, "r");
+  ASSERT_TRUE(in.good());
+  std::int64_t events = 0, health = 0;
+  while (const lcm::LogEvent* ev = in.readNextEvent()) {
+    ++events;
+    health += ev->channel == "RL_HEALTH";
+  }
+  const test::CliResult full =
+      test::RunCli({"run", "--rig", kBlock1Rig, "--input", kFig7, "--max", "--log", "/dev/full"});
+  EXPECT_EQ(full.exit_code, 1) << full.err;
+  const std::string says = "run: --log /dev/full: ";
+  const std::size_t at = full.err.find(says);
+  ASSERT_NE(at, std::string::npos) << full.err;
+  const long long lost = std::stoll(full.err.substr(at + says.size()));
+  EXPECT_NE(full.err.find("events could not be written and are lost (No space left on device); 0 written"),
+            std::string::npos)
+      << full.err;
+  EXPECT_LE(std::llabs(lost - events), health + 2) << "lost " << lost << ", file " << events;
 }
 
 }  // namespace

@@ -15,6 +15,8 @@
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "common/model_state.h"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -99,6 +101,16 @@ TEST(LcmTypes, StateEventAndHealthRoundTripOverMemq) {
   EXPECT_EQ(model_back.name, "housner_fit");
   EXPECT_EQ(model_back.impact_count, 3);
 
+  rocklab::model_state2_t model2{};
+  model2.name = "complex_fit";
+  model2.model = "complex";
+  model2.regime = rocklab::model_state2_t::REGIME_ROCKING;
+  model2.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
+  model2.l = 0.5;
+  const auto model2_back = RoundTrip(lcm, "RL_MODEL_complex_fit", model2);
+  EXPECT_EQ(model2_back.equations, +rocklab::model_state2_t::EQUATIONS_EQ10);
+  EXPECT_EQ(model2_back.l, 0.5);
+
   rocklab::table_state_t table{};
   table.acceleration = -3.25;
   table.accel_source = rocklab::table_state_t::ACCEL_DIFFERENTIATED;
@@ -149,6 +161,67 @@ TEST(LcmTypes, DecodeIntoAFreshlyInitialisedMessageReadsItsDoubles) {
     ASSERT_EQ(sent.encode(payloads.back().data(), 0, size), size);
   }
   EXPECT_EQ(PeakAcceleration(payloads), 1.5);
+}
+
+}  // namespace
+}  // namespace rocklab::test
+
+namespace rocklab::test {
+namespace {
+
+template <class Msg>
+std::vector<std::uint8_t> Bytes(const Msg& m) {
+  std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+// Oracle: LCM's fingerprints. RL_MODEL_* carries either type: both are read
+// by common::DecodeModelState into the same fields (model_state_t's values
+// copied, equations unknown); a new type is a new fingerprint, so the two
+// can never be mistaken for each other.
+TEST(LcmTypes, RlModelCarriesEitherModelStateTypeByFingerprint) {
+  EXPECT_NE(rocklab::model_state_t::getHash(), rocklab::model_state2_t::getHash());
+  rocklab::model_state_t old{};
+  old.utime = 42;
+  old.name = "h";
+  old.model = "housner";
+  old.theta = 0.05;
+  old.theta_dot = -0.2;
+  old.impact_count = 2;
+  old.regime = rocklab::model_state_t::REGIME_ROCKING;
+  old.alpha = 0.235;
+  old.p = 3.884;
+  old.mu = 0.937;
+  rocklab::model_state2_t out{};
+  rocklab::model_state_t scratch{};
+  const auto b_old = Bytes(old);
+  ASSERT_EQ(common::DecodeModelState(b_old.data(), static_cast<int>(b_old.size()), out, scratch),
+            nullptr);
+  EXPECT_EQ(out.utime, 42);
+  EXPECT_EQ(out.name, "h");
+  EXPECT_EQ(out.theta, 0.05);
+  EXPECT_EQ(out.theta_dot, -0.2);
+  EXPECT_EQ(out.impact_count, 2);
+  EXPECT_EQ(out.mu, 0.937);
+  EXPECT_EQ(out.equations, +rocklab::model_state2_t::EQUATIONS_UNKNOWN);
+
+  rocklab::model_state2_t now{};
+  now.utime = 43;
+  now.name = "c";
+  now.equations = rocklab::model_state2_t::EQUATIONS_LIMIT;
+  const auto b_new = Bytes(now);
+  ASSERT_EQ(common::DecodeModelState(b_new.data(), static_cast<int>(b_new.size()), out, scratch),
+            nullptr);
+  EXPECT_EQ(out.utime, 43);
+  EXPECT_EQ(out.name, "c");
+  EXPECT_EQ(out.equations, +rocklab::model_state2_t::EQUATIONS_LIMIT);
+
+  // Another type on the channel is refused, with the reason.
+  rocklab::event_t ev{};
+  const auto b_ev = Bytes(ev);
+  EXPECT_NE(common::DecodeModelState(b_ev.data(), static_cast<int>(b_ev.size()), out, scratch),
+            nullptr);
 }
 
 }  // namespace

@@ -24,7 +24,9 @@
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config_t.hpp"
+#include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state_t.hpp"
+#include "tests/tools/lcm_messages.h"
 #include "rocklab/table_state_t.hpp"
 #include "tests/tools/figure_probe.h"
 #include "tests/tools/run_cli.h"
@@ -57,7 +59,7 @@ const std::string& Fig7Log() {
 struct LogFacts {
   std::map<std::int64_t, double> theta;                          // utime -> rad
   std::map<std::string, std::map<std::int64_t, double>> models;  // name -> utime -> rad
-  std::map<std::string, rocklab::model_state_t> last_model;
+  std::map<std::string, rocklab::model_state2_t> last_model;
   std::map<std::string, double> last_nrms;
   std::string rig, calibration;
   double peak_accel{}, peak_disp{};
@@ -68,7 +70,7 @@ LogFacts ReadLog(const std::string& path) {
   lcm::LogFile log(path, "r");
   EXPECT_TRUE(log.good()) << path;
   rocklab::block_state_t theta{};
-  rocklab::model_state_t model{};
+  rocklab::model_state2_t model{};
   rocklab::comparison_t compare{};
   rocklab::daq_config_t config{};
   rocklab::table_state_t table{};
@@ -209,8 +211,8 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
 
   // The caption, line for line, from the log's own messages.
   const LogFacts log = ReadLog(Fig7Log());
-  const rocklab::model_state_t& fitted = log.last_model.at("fitted");
-  const rocklab::model_state_t& theory = log.last_model.at("theory");
+  const rocklab::model_state2_t& fitted = log.last_model.at("fitted");
+  const rocklab::model_state2_t& theory = log.last_model.at("theory");
   const double span_s =
       static_cast<double>(log.theta.rbegin()->first - log.theta.begin()->first) * 1e-6;
   const std::vector<std::string> expected = {
@@ -321,6 +323,37 @@ TEST_F(RocklabReport, UndecodableMessagesAreCountedNotFatal) {
   ASSERT_TRUE(snap.is_object());
   EXPECT_EQ(snap.at("counters").at("decode_errors").at("RL_THETA").get<int>(), 1);
   EXPECT_EQ(snap.at("measured").at("theta_deg").size(), 3u);
+}
+
+// Oracle: issue 10 point 1. A log recorded before model_state2_t carries
+// model_state_t on RL_MODEL_*: the report still shows the variant (its
+// theta as the log has it, its parameters in the caption), nothing counted
+// as a decode error.
+TEST_F(RocklabReport, OldModelStateLogIsStillReported) {
+  const std::string log = dir_ + "/old_model.lcm";
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (int k = 0; k < 3; ++k) {
+    events.push_back({"RL_THETA", Theta(1000 * k, 0.01 * k)});
+    rocklab::model_state_t m = test::OldModel("old", 1000 * k, 0.02 * k);
+    std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(b.data(), 0, static_cast<int>(b.size()));
+    events.push_back({"RL_MODEL_old", b});
+  }
+  WriteLog(log, events);
+  const std::string html = dir_ + "/report.html";
+  const test::CliResult r = test::RunCli({"report", log, "--out", html, "--series-rate", "1000"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json snap = PageSnapshot(test::ReadFile(html));
+  ASSERT_TRUE(snap.is_object());
+  ASSERT_EQ(snap.at("variants").size(), 1u);
+  const json& v = snap.at("variants")[0];
+  EXPECT_EQ(v.at("name"), "old");
+  EXPECT_EQ(v.at("alpha").get<double>(), 0.235);
+  EXPECT_TRUE(v.at("equations").is_null());
+  ASSERT_EQ(v.at("theta").at("theta_deg").size(), 3u);
+  EXPECT_NEAR(v.at("theta").at("theta_deg")[2].get<double>(), 0.04 * 180 / M_PI, 1e-9);
+  EXPECT_TRUE(snap.at("counters").at("decode_errors").empty() ||
+              snap.at("counters").at("decode_errors").value("RL_MODEL_old", 0) == 0);
 }
 
 // Without gnuplot the figure fails with a clear line and exit code 1 (the

@@ -1,0 +1,48 @@
+#include "common/model_state.h"
+
+#include "common/wire.h"
+
+namespace rocklab::common {
+
+void ToModelState2(const rocklab::model_state_t& in, rocklab::model_state2_t& out) {
+  out.utime = in.utime;
+  out.name = in.name;
+  out.model = in.model;
+  out.theta = in.theta;
+  out.theta_dot = in.theta_dot;
+  out.chi = in.chi;
+  out.psi = in.psi;
+  out.energy = in.energy;
+  out.impact_count = in.impact_count;
+  out.regime = in.regime;
+  out.alpha = in.alpha;
+  out.p = in.p;
+  out.mu = in.mu;
+  out.l = in.l;
+  out.equations = rocklab::model_state2_t::EQUATIONS_UNKNOWN;
+}
+
+const char* DecodeModelState(const void* data, int size, rocklab::model_state2_t& out,
+                             rocklab::model_state_t& scratch) {
+  if (WireFingerprint(data, size) == static_cast<std::int64_t>(rocklab::model_state_t::getHash())) {
+    if (const char* why = GuardedDecode(data, size, scratch)) return why;
+    ToModelState2(scratch, out);
+    return nullptr;
+  }
+  return GuardedDecode(data, size, out);
+}
+
+Bus::SubscriptionId SubscribeModelState(
+    Bus& bus, const std::string& channel_regex,
+    std::function<void(const std::string&, const rocklab::model_state2_t&)> handler,
+    int queue_capacity) {
+  return bus.SubscribeDecoded<rocklab::model_state2_t>(
+      channel_regex,
+      [scratch = rocklab::model_state_t{}](const void* data, int size,
+                                           rocklab::model_state2_t& msg) mutable {
+        return DecodeModelState(data, size, msg, scratch);
+      },
+      std::move(handler), queue_capacity);
+}
+
+}  // namespace rocklab::common

@@ -1,0 +1,192 @@
+#include "common/wire.h"
+
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::common {
+namespace {
+
+thread_local char reason[192];
+
+const char* Fail(const WireLayout& layout, const char* field, const char* what, std::int64_t value,
+                 std::int64_t remaining) {
+  std::snprintf(reason, sizeof reason, "%s.%s: %s %" PRId64 " with %" PRId64 " bytes remaining",
+                layout.type, field, what, value, remaining);
+  return reason;
+}
+
+std::int32_t ReadInt32(const std::uint8_t* p) {
+  const std::uint32_t u = (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
+                          (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+  return static_cast<std::int32_t>(u);
+}
+
+// Field tables: one row per field of the .lcm file, in its order.
+constexpr WireKind F = WireKind::kFixed;
+constexpr WireKind S = WireKind::kString;
+constexpr WireKind N = WireKind::kCount;
+constexpr WireKind A = WireKind::kArray;
+constexpr WireKind SA = WireKind::kStringArray;
+
+template <class Msg, std::size_t K>
+WireLayout Make(const char* type, const WireField (&fields)[K]) {
+  return WireLayout{type, static_cast<std::int64_t>(Msg::getHash()), fields, static_cast<int>(K)};
+}
+
+const WireField kBlockState[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},
+    {F, 8, 0, "theta_mirror"}, {F, 8, 0, "theta_camera"}, {F, 8, 0, "sliding"}, {F, 8, 0, "jump"},
+    {F, 8, 0, "twist"}, {F, 8, 0, "out_of_plane"}, {F, 4, 0, "leds_used"}, {F, 4, 0, "flags"}};
+const WireField kComparison[] = {
+    {F, 8, 0, "utime"}, {S, 0, 0, "name"}, {F, 8, 0, "error"}, {F, 8, 0, "rms_window"},
+    {F, 8, 0, "window_s"}, {F, 8, 0, "rms_total"}, {F, 8, 0, "nrms"}, {F, 8, 0, "peak_error"},
+    {F, 8, 0, "impact_timing_error"}, {F, 8, 0, "correlation"}, {F, 1, 0, "valid"},
+    {F, 8, 0, "samples"}};
+const WireField kDaqConfig[] = {
+    {F, 8, 0, "utime"}, {S, 0, 0, "rig_name"}, {S, 0, 0, "calibration_id"},
+    {F, 8, 0, "sample_rate_hz"}, {N, 4, 0, "num_channels"}, {SA, 0, 4, "channel_names"},
+    {SA, 0, 4, "channel_units"}, {SA, 0, 4, "channel_sensors"}, {A, 8, 4, "gain"},
+    {A, 8, 4, "offset"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"}, {F, 8, 0, "mu"}};
+const WireField kEvent[] = {{F, 8, 0, "utime"}, {S, 0, 0, "source"}, {F, 1, 0, "kind"},
+                            {F, 8, 0, "value"}, {S, 0, 0, "detail"}};
+const WireField kHealth[] = {
+    {F, 8, 0, "utime"}, {S, 0, 0, "node"}, {S, 0, 0, "state"}, {F, 8, 0, "rate_in_hz"},
+    {F, 8, 0, "rate_out_hz"}, {F, 8, 0, "count_in"}, {F, 8, 0, "count_out"}, {F, 8, 0, "dropped"},
+    {F, 8, 0, "gaps"}, {F, 8, 0, "bad_samples"}, {F, 8, 0, "lag_s"}};
+#define ROCKLAB_MODEL_STATE_FIELDS                                                            \
+  {F, 8, 0, "utime"}, {S, 0, 0, "name"}, {S, 0, 0, "model"}, {F, 8, 0, "theta"},              \
+      {F, 8, 0, "theta_dot"}, {F, 8, 0, "chi"}, {F, 8, 0, "psi"}, {F, 8, 0, "energy"},        \
+      {F, 4, 0, "impact_count"}, {F, 1, 0, "regime"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"},     \
+      {F, 8, 0, "mu"}, {F, 8, 0, "l"}
+const WireField kModelState[] = {ROCKLAB_MODEL_STATE_FIELDS};
+const WireField kModelState2[] = {ROCKLAB_MODEL_STATE_FIELDS, {F, 1, 0, "equations"}};
+#undef ROCKLAB_MODEL_STATE_FIELDS
+const WireField kRawFrame[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {N, 4, 0, "num_channels"}, {A, 8, 2, "values"}};
+const WireField kTableState[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {F, 8, 0, "displacement"}, {F, 8, 0, "velocity"},
+    {F, 8, 0, "acceleration"}, {F, 1, 0, "accel_source"}};
+
+}  // namespace
+
+std::int64_t WireFingerprint(const void* data, int size) {
+  if (data == nullptr || size < 8) return 0;
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  std::uint64_t u = 0;
+  for (int i = 0; i < 8; ++i) u = (u << 8) | b[i];
+  return static_cast<std::int64_t>(u);
+}
+
+namespace {
+
+const char* Walk(const WireLayout& layout, const void* data, int size, int* consumed, int* offsets,
+                 int max_offsets, int* found) {
+  if (data == nullptr || size < 8) return Fail(layout, "fingerprint", "message of", size, size);
+  if (WireFingerprint(data, size) != layout.fingerprint) {
+    std::snprintf(reason, sizeof reason, "%s: wrong fingerprint (another type)", layout.type);
+    return reason;
+  }
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  std::int64_t pos = 8;
+  // Counts read so far, by field index (rocklab types have a handful of fields).
+  constexpr int kMaxFields = 64;
+  if (layout.field_count > kMaxFields) {
+    return Fail(layout, "(layout)", "more fields than the walker holds:", layout.field_count, 0);
+  }
+  std::int32_t counts[kMaxFields] = {};
+  for (int i = 0; i < layout.field_count; ++i) {
+    const WireField& f = layout.fields[i];
+    const std::int64_t remaining = size - pos;
+    switch (f.kind) {
+      case WireKind::kFixed:
+        if (f.bytes > remaining) return Fail(layout, f.name, "field of bytes", f.bytes, remaining);
+        pos += f.bytes;
+        break;
+      case WireKind::kCount: {
+        if (remaining < 4) return Fail(layout, f.name, "count field of bytes", 4, remaining);
+        if (offsets != nullptr && *found < max_offsets) offsets[(*found)++] = static_cast<int>(pos);
+        const std::int32_t n = ReadInt32(b + pos);
+        pos += 4;
+        // Each element takes at least one byte (a string at least 5): a
+        // count larger than what remains can never decode.
+        if (n < 0 || n > size - pos) return Fail(layout, f.name, "count", n, size - pos);
+        counts[i] = n;
+        break;
+      }
+      case WireKind::kArray: {
+        const std::int64_t bytes = std::int64_t{counts[f.count_field]} * f.bytes;
+        if (bytes > remaining) return Fail(layout, f.name, "array bytes", bytes, remaining);
+        pos += bytes;
+        break;
+      }
+      case WireKind::kString:
+      case WireKind::kStringArray: {
+        const std::int32_t n = f.kind == WireKind::kString ? 1 : counts[f.count_field];
+        if (std::int64_t{n} * 5 > remaining) {
+          return Fail(layout, f.name, "strings", n, remaining);
+        }
+        for (std::int32_t k = 0; k < n; ++k) {
+          if (size - pos < 4) return Fail(layout, f.name, "string length field, bytes", 4, size - pos);
+          if (offsets != nullptr && *found < max_offsets) offsets[(*found)++] = static_cast<int>(pos);
+          const std::int32_t len = ReadInt32(b + pos);  // including the NUL
+          pos += 4;
+          if (len < 1 || len > size - pos) return Fail(layout, f.name, "string length", len, size - pos);
+          // An LCM string is its bytes and one NUL: a NUL inside would be
+          // decoded into the std::string but cut by encode's strlen (a node
+          // republishing it would send a message shorter than its size).
+          if (b[pos + len - 1] != 0 || std::memchr(b + pos, 0, static_cast<std::size_t>(len - 1)) != nullptr) {
+            return Fail(layout, f.name, "string not NUL-terminated or with a NUL inside, length", len,
+                        size - pos);
+          }
+          pos += len;
+        }
+        break;
+      }
+    }
+  }
+  // Bytes after the last field are left alone, as decode() leaves them.
+  if (consumed != nullptr) *consumed = static_cast<int>(pos);
+  return nullptr;
+}
+
+}  // namespace
+
+const char* WireCheck(const WireLayout& layout, const void* data, int size, int* consumed) {
+  return Walk(layout, data, size, consumed, nullptr, 0, nullptr);
+}
+
+int WireLengthOffsets(const WireLayout& layout, const void* data, int size, int* offsets, int max) {
+  int found = 0;
+  if (Walk(layout, data, size, nullptr, offsets, max, &found) != nullptr) return -1;
+  return found;
+}
+
+#define ROCKLAB_WIRE_LAYOUT(T, table)                         \
+  template <>                                                 \
+  const WireLayout& WireLayoutOf<rocklab::T>() {              \
+    static const WireLayout layout = Make<rocklab::T>(#T, table); \
+    return layout;                                            \
+  }
+ROCKLAB_WIRE_LAYOUT(block_state_t, kBlockState)
+ROCKLAB_WIRE_LAYOUT(comparison_t, kComparison)
+ROCKLAB_WIRE_LAYOUT(daq_config_t, kDaqConfig)
+ROCKLAB_WIRE_LAYOUT(event_t, kEvent)
+ROCKLAB_WIRE_LAYOUT(health_t, kHealth)
+ROCKLAB_WIRE_LAYOUT(model_state_t, kModelState)
+ROCKLAB_WIRE_LAYOUT(model_state2_t, kModelState2)
+ROCKLAB_WIRE_LAYOUT(raw_frame_t, kRawFrame)
+ROCKLAB_WIRE_LAYOUT(table_state_t, kTableState)
+#undef ROCKLAB_WIRE_LAYOUT
+
+}  // namespace rocklab::common

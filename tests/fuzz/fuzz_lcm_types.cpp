@@ -1,0 +1,116 @@
+// Fuzz target: the decode of every rocklab type as the nodes receive it,
+// through the Bus's typed path (common::Bus::Subscribe: the wire pre-check,
+// then lcm-gen's decode) on a DirectBus, and RL_MODEL_* through
+// common::SubscribeModelState (either model type). Input: the first byte
+// picks the channel (and so the type), the rest is the payload; when the
+// second byte is odd the payload starts with that type's fingerprint, so
+// the fuzzer reaches the fields at once.
+// Invariants: nothing escapes the bus; each message is either handled or
+// counted as a decode error (never both, never neither); no handler error; a
+// handled message re-encodes to bytes the pre-check accepts and that decode
+// to the same encoding (so what reached a node is well formed); no large
+// allocation (libFuzzer's -malloc_limit_mb, the default = -rss_limit_mb).
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/bus.h"
+#include "common/model_state.h"
+#include "common/wire.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+#include "tests/fuzz/fuzz_util.h"
+
+namespace {
+
+using rocklab::common::DirectBus;
+using rocklab::fuzz::Violated;
+
+std::int64_t handled = 0;
+
+// Re-encodes `m` and checks the bytes pass the pre-check and decode back
+// to the same encoding.
+template <class Msg>
+void CheckHandled(const Msg& m) {
+  ++handled;
+  const int size = m.getEncodedSize();
+  if (size < 8) Violated("encoded size");
+  std::vector<std::uint8_t> b(static_cast<std::size_t>(size));
+  if (m.encode(b.data(), 0, size) != size) Violated("re-encode");
+  int consumed = -1;
+  if (const char* why = rocklab::common::WireCheck(rocklab::common::WireLayoutOf<Msg>(), b.data(), size, &consumed)) {
+    Violated("a handled message re-encodes to bytes the pre-check refuses", why);
+  }
+  if (consumed != size) Violated("walk length differs from the encoded size");
+  Msg again{};
+  if (rocklab::common::GuardedDecode(b.data(), size, again) != nullptr) Violated("re-decode");
+  std::vector<std::uint8_t> b2(static_cast<std::size_t>(again.getEncodedSize()));
+  again.encode(b2.data(), 0, static_cast<int>(b2.size()));
+  // NaN payloads re-encode bit for bit: compare bytes, not values.
+  if (b2 != b) Violated("decode(encode(m)) differs");
+}
+
+struct Nodes {
+  DirectBus bus;
+  Nodes() {
+    Sub<rocklab::raw_frame_t>("RL_RAW");
+    Sub<rocklab::daq_config_t>("RL_DAQ_CONFIG");
+    Sub<rocklab::table_state_t>("RL_TABLE");
+    Sub<rocklab::block_state_t>("RL_THETA");
+    Sub<rocklab::comparison_t>("RL_COMPARE_.*");
+    Sub<rocklab::event_t>("RL_EVENT");
+    Sub<rocklab::health_t>("RL_HEALTH");
+    rocklab::common::SubscribeModelState(
+        bus, "RL_MODEL_.*", [](const std::string&, const rocklab::model_state2_t& m) { CheckHandled(m); });
+  }
+  template <class Msg>
+  void Sub(const std::string& channel) {
+    bus.Subscribe<Msg>(channel, [](const std::string&, const Msg& m) { CheckHandled(m); });
+  }
+};
+
+struct Pick {
+  const char* channel;
+  std::int64_t fingerprint;
+};
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static Nodes nodes;  // subscriptions made once, as a node's are
+  if (size < 2) return 0;
+  const Pick picks[] = {
+      {"RL_RAW", static_cast<std::int64_t>(rocklab::raw_frame_t::getHash())},
+      {"RL_DAQ_CONFIG", static_cast<std::int64_t>(rocklab::daq_config_t::getHash())},
+      {"RL_TABLE", static_cast<std::int64_t>(rocklab::table_state_t::getHash())},
+      {"RL_THETA", static_cast<std::int64_t>(rocklab::block_state_t::getHash())},
+      {"RL_COMPARE_a", static_cast<std::int64_t>(rocklab::comparison_t::getHash())},
+      {"RL_EVENT", static_cast<std::int64_t>(rocklab::event_t::getHash())},
+      {"RL_HEALTH", static_cast<std::int64_t>(rocklab::health_t::getHash())},
+      {"RL_MODEL_a", static_cast<std::int64_t>(rocklab::model_state2_t::getHash())},
+      {"RL_MODEL_b", static_cast<std::int64_t>(rocklab::model_state_t::getHash())},
+  };
+  const Pick& pick = picks[data[0] % (sizeof picks / sizeof picks[0])];
+  std::vector<std::uint8_t> payload;
+  if (data[1] & 1) {
+    const auto u = static_cast<std::uint64_t>(pick.fingerprint);
+    for (int i = 7; i >= 0; --i) payload.push_back(static_cast<std::uint8_t>(u >> (8 * i)));
+  }
+  payload.insert(payload.end(), data + 2, data + size);
+
+  const std::int64_t errors_before = nodes.bus.decode_error_count();
+  const std::int64_t handled_before = handled;
+  nodes.bus.Publish(pick.channel, payload.data(), static_cast<int>(payload.size()));
+  const std::int64_t got = (handled - handled_before) + (nodes.bus.decode_error_count() - errors_before);
+  if (got != 1) Violated("a message neither handled nor counted, or both");
+  if (nodes.bus.handler_error_count() != 0) Violated("a handler error");
+  return 0;
+}
