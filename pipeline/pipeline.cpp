@@ -55,8 +55,7 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
 int ReportDamage(long long regions, long long bytes, long long events, const std::string& input,
                  const char* what, const char* rest) {
   if (regions <= 0) return 0;
-  std::fprintf(stderr, "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)%s
-",
+  std::fprintf(stderr, "%s: %s is damaged: %lld region%s skipped (%lld bytes, %lld events lost)%s\n",
                what, input.c_str(), regions, regions == 1 ? "" : "s", bytes, events, rest);
   return 1;  // the command failed (tools::kFailureExit)
 }

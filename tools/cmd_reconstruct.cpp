@@ -87,8 +87,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   if (status == daq::ReadStatus::kError) {
     // The rows before it were reconstructed and written; the exit code says
     // the input was not read to its end.
-    std::fprintf(stderr, "rocklab: %s
-", source->error().c_str());
+    std::fprintf(stderr, "rocklab: %s\n", source->error().c_str());
     return kFailureExit;
   }
   // Every readable frame was reconstructed; the exit code says the log is damaged.
