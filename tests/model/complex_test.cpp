@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "model/free_rocking.h"
+#include "tests/model/model_fixtures.h"
 #include "model/model_node.h"
 #include "model/rocking_model.h"
 
@@ -18,18 +19,8 @@ namespace rocklab::model {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-const BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
-const BlockParams kBlock2{0.168, 3.767, 0.942};  // Table 2, block 2
+using namespace fixtures;  // kBlock1, kBlock2, ConstantForcing
 const NoTableMotion kNone;
-
-class ConstantForcing final : public Forcing {
- public:
-  explicit ConstantForcing(double a) : a_(a) {}
-  double TableAcceleration(double) const override { return a_; }
-
- private:
-  double a_;
-};
 
 // w of the exact l -> 0 crossing: Binet's equation near the origin,
 // u'' - (2 ln mu / pi) u' + u = 0 for u = 1/chi as a function of psi, has

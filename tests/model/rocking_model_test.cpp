@@ -11,22 +11,13 @@
 #include <string>
 
 #include "model/free_rocking.h"
+#include "tests/model/model_fixtures.h"
 
 namespace rocklab::model {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-const BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
-const BlockParams kBlock2{0.168, 3.767, 0.942};  // Table 2, block 2
-
-class ConstantForcing final : public Forcing {
- public:
-  explicit ConstantForcing(double a) : a_(a) {}
-  double TableAcceleration(double) const override { return a_; }
-
- private:
-  double a_;
-};
+using namespace fixtures;  // kBlock1, kBlock2, ConstantForcing
 
 class FunctionForcing final : public Forcing {
  public:
