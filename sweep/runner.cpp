@@ -44,15 +44,15 @@ bool StartedByMpirun() {
   return false;
 }
 
-int WorldSizeFromEnvironment() {
+[[maybe_unused]] int WorldSizeFromEnvironment() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
     if (const char* v = std::getenv(name)) return std::atoi(v);
   }
   return 1;
 }
 
-// An outcome on the wire between ranks: its place in the slice and seven doubles.
-constexpr int kWireDoubles = 8;
+// An outcome on the wire between ranks: its place in the slice and eight doubles.
+constexpr int kWireDoubles = 9;
 void Pack(std::size_t place, const Outcome& o, double* w) {
   w[0] = static_cast<double>(place);  // exact below 2^53 (plans hold at most 1e8 cases)
   w[1] = o.peak_theta_over_alpha;
@@ -62,6 +62,7 @@ void Pack(std::size_t place, const Outcome& o, double* w) {
   w[5] = static_cast<double>(o.impacts);
   w[6] = o.uplift_time_s ? 1.0 : 0.0;
   w[7] = o.uplift_time_s.value_or(0.0);
+  w[8] = o.beyond_pi_over_2 ? 1.0 : 0.0;
 }
 std::size_t Unpack(const double* w, Outcome& o) {
   o.peak_theta_over_alpha = w[1];
@@ -71,6 +72,7 @@ std::size_t Unpack(const double* w, Outcome& o) {
   o.impacts = static_cast<int>(w[5]);
   o.uplift_time_s.reset();
   if (w[6] != 0.0) o.uplift_time_s = w[7];
+  o.beyond_pi_over_2 = w[8] != 0.0;
   return static_cast<std::size_t>(w[0]);
 }
 
@@ -349,6 +351,9 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
     }
     ++report.run;
     if (o.overturned) ++report.overturned;
+    if (o.beyond_pi_over_2) {
+      if (report.beyond_pi_over_2++ == 0) report.first_beyond_pi_over_2 = KeyPrefix(plan, options.slice.index(k));
+    }
     bar.Update(k + 1);
   }
   bar.Finish(report.cases);

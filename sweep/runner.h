@@ -12,7 +12,7 @@
 ///
 /// MPI: the slice's remaining cases are dealt round-robin to the ranks
 /// (place k to rank k mod size). Every rank runs its cases on its threads;
-/// ranks other than 0 send each Outcome (its place and seven doubles) to
+/// ranks other than 0 send each Outcome (its place and eight doubles) to
 /// rank 0, whose writer thread receives them beside its own and writes
 /// everything in order, so the file is the threaded run's, byte for byte.
 /// Only rank 0 opens the output; it tells the others how many rows
@@ -62,6 +62,10 @@ struct RunReport {
   std::size_t resumed{};     ///< rows kept from the output
   std::size_t run{};         ///< cases run now (over all ranks)
   std::size_t overturned{};  ///< of the cases run now
+  /// Of the cases run now, those whose |theta| passed pi/2 without an
+  /// overturn event (Outcome::beyond_pi_over_2), and the first one's key.
+  std::size_t beyond_pi_over_2{};
+  std::string first_beyond_pi_over_2;
   unsigned threads{};        ///< per process
   int ranks{1};
   double wall_s{};           ///< s

@@ -236,6 +236,7 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
     throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
   }
   out.overturned = summary.overturned;
+  out.beyond_pi_over_2 = !summary.overturned && summary.peak_abs_theta > common::kPi / 2;
   out.overturn_time_s = summary.overturn_time_s.value_or(0.0);
   out.impacts = summary.impacts;
   out.uplift_time_s = summary.uplift_time_s;

@@ -103,6 +103,10 @@ struct Outcome {
   double overturn_time_s{};        ///< s; meaningful when overturned
   int impacts{};
   std::optional<double> uplift_time_s;  ///< first uplift, s
+  /// |theta| went past pi/2 without an overturn event: the model left its
+  /// domain (seen at an uplift where the table acceleration only touches
+  /// g tan alpha); the row is written as computed and the run counts it.
+  bool beyond_pi_over_2{};
 };
 
 /// The factor applied to the record of case `index` and its PGA in g.

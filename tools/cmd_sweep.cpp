@@ -66,6 +66,13 @@ int RunSweepCommand(SweepCommandOptions& o) {
               plan.records.size(), plan.blocks.size(), plan.scales.size(), plan.size(),
               o.shard.empty() ? "" : (", shard " + o.shard + ": " + std::to_string(r.cases)).c_str(), r.resumed, r.run,
               r.threads, r.ranks, r.wall_s, r.overturned, o.out.c_str());
+  std::fflush(stdout);
+  if (r.beyond_pi_over_2 > 0) {
+    std::fprintf(stderr,
+                 "rocklab: warning: %zu cases rocked past pi/2 without an overturn event (the model left its "
+                 "domain; first: %s...): their rows are as computed, do not trust them\n",
+                 r.beyond_pi_over_2, r.first_beyond_pi_over_2.c_str());
+  }
   return 0;
 }
 
