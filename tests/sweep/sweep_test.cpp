@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -79,32 +80,36 @@ TEST(SweepPlan, CaseOrderGridAndScaling) {
 
 // Oracle: `rocklab simulate`'s path (pipeline::BuildScenario from the same
 // record file, RunScenario): a case gives the same peak, impacts, uplift and
-// overturn, to the bit, at scale 1 (the same doubles go in).
+// overturn, to the bit, at scale 1 (the same doubles go in), for both models.
 TEST(SweepPlan, ACaseIsSimulatesScenario) {
   const std::string dir = Dir("simulate");
-  PlanOptions o = SmallPlan(dir);
-  o.scale = "1:1:1";
-  o.alpha = {0.2};
-  o.p = {2.5};
-  o.mu = {0.93};
-  const Plan plan = MakePlan(o);
-  for (std::size_t i = 0; i < plan.size(); ++i) {
-    const Outcome out = RunCase(plan, i);
-    pipeline::ScenarioOptions so;
-    so.model = "housner";
-    so.alpha = 0.2;
-    so.p = 2.5;
-    so.mu = 0.93;
-    so.accel_csv = plan.records[Locate(plan, i).record].path;
-    so.duration_s = 3.0;
-    so.rate_hz = 200;
-    pipeline::Scenario s = pipeline::BuildScenario(so);
-    const pipeline::RunSummary r = pipeline::RunScenario(s, so, [](double, double, double) {});
-    EXPECT_EQ(out.peak_theta_over_alpha, r.peak_abs_theta / 0.2) << i;
-    EXPECT_EQ(out.impacts, r.impacts) << i;
-    EXPECT_EQ(out.overturned, r.overturned) << i;
-    EXPECT_EQ(out.uplift_time_s, r.uplift_time_s) << i;
-    EXPECT_GT(r.impacts + (r.overturned ? 1 : 0), 0) << "case " << i << " should rock";
+  for (const char* model : {"housner", "complex"}) {
+    PlanOptions o = SmallPlan(dir);
+    o.scale = "1:1:1";
+    o.alpha = {0.2};
+    o.p = {2.5};
+    o.mu = {0.93};
+    o.model = model;
+    const Plan plan = MakePlan(o);
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+      const Outcome out = RunCase(plan, i);
+      pipeline::ScenarioOptions so;
+      so.model = model;
+      so.alpha = 0.2;
+      so.p = 2.5;
+      so.mu = 0.93;
+      so.accel_csv = plan.records[Locate(plan, i).record].path;
+      so.duration_s = 3.0;
+      so.rate_hz = 200;
+      pipeline::Scenario s = pipeline::BuildScenario(so);
+      const pipeline::RunSummary r = pipeline::RunScenario(s, so, [](double, double, double) {});
+      EXPECT_EQ(out.peak_theta_over_alpha, r.peak_abs_theta / 0.2) << model << " " << i;
+      EXPECT_EQ(out.impacts, r.impacts) << model << " " << i;
+      EXPECT_EQ(out.overturned, r.overturned) << model << " " << i;
+      EXPECT_EQ(out.uplift_time_s, r.uplift_time_s) << model << " " << i;
+      EXPECT_FALSE(out.beyond_pi_over_2) << model << " " << i;
+      EXPECT_GT(r.impacts + (r.overturned ? 1 : 0), 0) << model << " case " << i << " should rock";
+    }
   }
 }
 
@@ -214,6 +219,27 @@ TEST(SweepPlan, BlocksFromGeometryAndBadInput) {
   EXPECT_EQ(plan.blocks[0].params.alpha, g.alpha);
   EXPECT_EQ(plan.blocks[0].params.p, g.p);
   EXPECT_EQ(plan.blocks[0].label, "0.247x1");
+
+  // An asymmetric section: each side's parameters as model::PolygonBlock
+  // gives them, the -x side in the row's last columns.
+  {
+    std::ofstream poly(dir + "/trapezoid.csv");
+    poly << "x,z\n0,0\n0.4,0\n0.2,1\n0,1\n";
+  }
+  PlanOptions by_polygon = SmallPlan(dir);
+  by_polygon.alpha.clear();
+  by_polygon.p.clear();
+  by_polygon.polygons = {dir + "/trapezoid.csv"};
+  const Plan pp = MakePlan(by_polygon);
+  const model::BlockParams tp = model::PolygonBlock(model::ReadPolygonCsv(dir + "/trapezoid.csv")).params();
+  ASSERT_TRUE(tp.minus.has_value());
+  EXPECT_EQ(pp.blocks[0].params.alpha, tp.alpha);
+  EXPECT_EQ(pp.blocks[0].params.minus->alpha, tp.minus->alpha);
+  Outcome none;
+  const std::string row = FormatRow(pp, 0, none);
+  char minus_alpha[40];
+  std::snprintf(minus_alpha, sizeof minus_alpha, ",trapezoid.csv,%.12g,", tp.minus->alpha);
+  EXPECT_NE(row.find(minus_alpha), std::string::npos) << row;
 
   PlanOptions both = SmallPlan(dir);
   both.width = {0.2};
