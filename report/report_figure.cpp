@@ -18,11 +18,10 @@
 extern char** environ;
 
 namespace rocklab::report {
-namespace {
 
 // Text inside a gnuplot single-quoted string: '' is a quote, nothing else is
 // special (no backslash escapes); control characters become spaces.
-std::string Quoted(const std::string& text) {
+std::string GnuplotQuoted(const std::string& text) {
   std::string out = "'";
   for (char c : text) {
     if (c == '\'') {
@@ -35,6 +34,10 @@ std::string Quoted(const std::string& text) {
   }
   return out + "'";
 }
+
+namespace {
+
+std::string Quoted(const std::string& text) { return GnuplotQuoted(text); }
 
 void AppendNumber(std::string& out, double v) {
   if (!std::isfinite(v)) {
@@ -231,7 +234,10 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
                                 std::to_string(min_height_px) + " px high, got " +
                                 std::to_string(height_px));
   }
-  const std::string script = Script(out_path, format, width_px, height_px);
+  return RunGnuplot(gnuplot_, Script(out_path, format, width_px, height_px), out_path);
+}
+
+std::string RunGnuplot(const std::string& gnuplot, const std::string& script, const std::string& out_path) {
   std::error_code ignored;
   std::filesystem::remove(out_path, ignored);  // a stale file must not pass for a new one
 
@@ -246,7 +252,7 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
   posix_spawn_file_actions_adddup2(&actions, in_read.get(), 0);
   posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, err_write.get(), 2);
-  std::string program = gnuplot_;
+  std::string program = gnuplot;
   char* argv[] = {program.data(), nullptr};
   pid_t pid = -1;
   const int spawn_error = posix_spawnp(&pid, program.c_str(), &actions, nullptr, argv, environ);
@@ -254,11 +260,11 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
   in_read.Close();
   err_write.Close();
   if (spawn_error == ENOENT) {
-    throw FigureError("cannot draw '" + out_path + "': gnuplot not found ('" + gnuplot_ +
+    throw FigureError("cannot draw '" + out_path + "': gnuplot not found ('" + gnuplot +
                       "'); install the Debian package gnuplot-nox (tools/setup.sh does)");
   }
   if (spawn_error != 0) {
-    throw FigureError("cannot draw '" + out_path + "': cannot start '" + gnuplot_ +
+    throw FigureError("cannot draw '" + out_path + "': cannot start '" + gnuplot +
                       "': " + std::strerror(spawn_error));
   }
 

@@ -21,6 +21,19 @@ class FigureError : public std::runtime_error {
 
 enum class FigureFormat { kSvg, kPng };
 
+/// Runs `gnuplot` (a name looked up on PATH, or a path) on `script`, which
+/// must write `out_path`; every rocklab figure is drawn through it
+/// (ThetaFigure::Write, `rocklab sweep-plot`). A stale `out_path` is removed
+/// first.
+/// @returns gnuplot's warnings (empty when it had none), one per line.
+/// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
+///   or leaves no output file.
+std::string RunGnuplot(const std::string& gnuplot, const std::string& script, const std::string& out_path);
+
+/// `text` as a gnuplot single-quoted string ('' for a quote; control
+/// characters become spaces).
+std::string GnuplotQuoted(const std::string& text);
+
 /// One curve of theta against time.
 struct ThetaCurve {
   std::string title;              ///< legend entry (printed as is, no markup)

@@ -1,0 +1,69 @@
+#pragma once
+/// @file
+/// `rocklab sweep-plot`: a sweep's results as figures (gnuplot, through
+/// report::RunGnuplot) and fragility fits.
+///
+/// A block is a (model, alpha, p, mu) of the results, compared as written.
+/// Overturned cases count as peak theta/alpha = 1 in spectra and medians
+/// (the block left its base: the spectrum's ceiling).
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "report/report_figure.h"
+#include "sweep/fragility.h"
+
+namespace rocklab::sweep {
+
+/// One row of a results file, the columns the figures use.
+struct ResultRow {
+  std::string record, model;
+  std::string alpha_text, p_text, mu_text;  ///< as written (they name the block)
+  double scale{}, pga_g{}, alpha{}, p{}, mu{};
+  double peak_theta_over_alpha{};
+  bool overturned{};
+};
+
+/// Reads a results CSV by its header's column names (extra columns allowed).
+/// @throws std::runtime_error "FILE:LINE: ..." for a missing column, a
+///   field that is not a number, or a short row.
+std::vector<ResultRow> ReadResults(const std::string& path);
+
+/// The fragility of one block.
+struct BlockFragility {
+  std::string model, alpha, p, mu;  ///< as written
+  std::size_t rows{}, overturned{};
+  FragilityFit fit;
+};
+
+/// Fits every block's fragility against PGA in g (rows grouped by block, in
+/// their first appearance's order).
+std::vector<BlockFragility> FitFragilities(const std::vector<ResultRow>& rows);
+
+struct PlotOptions {
+  std::string out_dir{"."};
+  report::FigureFormat format{report::FigureFormat::kSvg};
+  std::string gnuplot{"gnuplot"};
+  std::size_t max_figures_per_kind{24};  ///< beyond this, a kind's figures are skipped (and counted)
+};
+
+/// What MakeFigures wrote.
+struct PlotReport {
+  std::vector<std::string> files;
+  std::size_t skipped{};  ///< figures not drawn because of max_figures_per_kind
+};
+
+/// Draws the rocking spectra against p (per model, alpha, mu and scale, when
+/// there are 2 or more p) and against PGA / (g tan alpha) (per block, when
+/// there are 2 or more scales), per record with their median; the
+/// overturning map (per model: p against PGA / (g tan alpha), coloured by
+/// the share of records overturned); the fragility curves (per block, the
+/// fraction overturned at each PGA and the fitted lognormal). Writes
+/// fragility.csv beside them.
+/// @throws report::FigureError from gnuplot; std::runtime_error when the
+///   folder cannot be written.
+PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<BlockFragility>& fragilities,
+                       const PlotOptions& options);
+
+}  // namespace rocklab::sweep

@@ -1,0 +1,53 @@
+#pragma once
+/// @file
+/// Where a sweep's rows go. The runner hands each case's outcome to a
+/// RowWriter in case order; the writer formats and stores it. The CSV writer
+/// is the one built now; an HDF5 table writer (export/, `rocklab export`)
+/// plugs in at OpenRowWriter by the `.h5` extension.
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "sweep/sweep.h"
+
+namespace rocklab::sweep {
+
+/// The cases one run writes, in order: first, first + stride, ... below the
+/// plan's size (a shard I/N is {I, N}; the whole sweep {0, 1}).
+struct Slice {
+  std::size_t first{0};
+  std::size_t stride{1};
+  std::size_t plan_size{0};
+  /// How many cases the slice holds.
+  std::size_t count() const { return first >= plan_size ? 0 : (plan_size - first + stride - 1) / stride; }
+  /// The case index of the slice's k-th case.
+  std::size_t index(std::size_t k) const { return first + k * stride; }
+};
+
+/// Takes the rows of a slice in order. Writes each row through to the file
+/// (an interrupted sweep keeps every row written and resumes after them).
+class RowWriter {
+ public:
+  virtual ~RowWriter() = default;
+  /// How many of the slice's rows were already in the output (--resume), 0
+  /// otherwise; the next Write is the slice's case rows_done().
+  virtual std::size_t rows_done() const = 0;
+  /// Appends case `index`'s row.
+  /// @throws std::runtime_error naming the file on a write error.
+  virtual void Write(std::size_t index, const Outcome& outcome) = 0;
+  /// Flushes and closes. @throws std::runtime_error naming the file.
+  virtual void Close() = 0;
+};
+
+/// Opens the output for `slice` of `plan`: `.csv` (or any other name) is a
+/// CSV with Header(); `.h5` is refused until the HDF5 writer is built.
+/// With `resume`, an existing file keeps its header and every complete row
+/// that is the slice's next case (a torn last line, without its newline, is
+/// cut and written again); a row that belongs elsewhere is an error.
+/// @throws pipeline::OptionError naming --out (and FILE:LINE for a row
+///   that does not belong) when the file cannot be used.
+std::unique_ptr<RowWriter> OpenRowWriter(const std::string& path, const Plan& plan, const Slice& slice,
+                                         bool resume);
+
+}  // namespace rocklab::sweep

@@ -1,0 +1,415 @@
+#include "sweep/runner.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#ifdef ROCKLAB_MPI
+// The C interface only: OpenMPI's deprecated C++ bindings do not compile
+// cleanly under -Wextra.
+#define OMPI_SKIP_MPICXX 1
+#define MPICH_SKIP_MPICXX 1
+#include <mpi.h>
+#endif
+
+#include "common/text.h"
+#include "pipeline/option_error.h"
+
+namespace rocklab::sweep {
+namespace {
+
+using pipeline::OptionError;
+using Clock = std::chrono::steady_clock;
+
+// Cases a worker may run ahead of the writer: enough to keep every core
+// busy past a slow case, few enough that the waiting outcomes stay small.
+constexpr std::size_t kWindow = 4096;
+
+bool StartedByMpirun() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"}) {
+    if (std::getenv(name) != nullptr) return true;
+  }
+  return false;
+}
+
+[[maybe_unused]] int WorldSizeFromEnvironment() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
+    if (const char* v = std::getenv(name)) return std::atoi(v);
+  }
+  return 1;
+}
+
+// An outcome on the wire between ranks: its place in the slice and eight doubles.
+constexpr int kWireDoubles = 9;
+void Pack(std::size_t place, const Outcome& o, double* w) {
+  w[0] = static_cast<double>(place);  // exact below 2^53 (plans hold at most 1e8 cases)
+  w[1] = o.peak_theta_over_alpha;
+  w[2] = o.peak_time_s;
+  w[3] = o.overturned ? 1.0 : 0.0;
+  w[4] = o.overturn_time_s;
+  w[5] = static_cast<double>(o.impacts);
+  w[6] = o.uplift_time_s ? 1.0 : 0.0;
+  w[7] = o.uplift_time_s.value_or(0.0);
+  w[8] = o.beyond_pi_over_2 ? 1.0 : 0.0;
+}
+std::size_t Unpack(const double* w, Outcome& o) {
+  o.peak_theta_over_alpha = w[1];
+  o.peak_time_s = w[2];
+  o.overturned = w[3] != 0.0;
+  o.overturn_time_s = w[4];
+  o.impacts = static_cast<int>(w[5]);
+  o.uplift_time_s.reset();
+  if (w[6] != 0.0) o.uplift_time_s = w[7];
+  o.beyond_pi_over_2 = w[8] != 0.0;
+  return static_cast<std::size_t>(w[0]);
+}
+
+// "\r[#####-----]  120/400 rows  3.2 rows/s  ETA 1m27s" on stderr.
+class ProgressBar {
+ public:
+  ProgressBar(bool enabled, std::size_t total, std::size_t first)
+      : enabled_(enabled), total_(total), first_(first), start_(Clock::now()) {}
+  void Update(std::size_t done, bool force = false) {
+    if (!enabled_) return;
+    const auto now = Clock::now();
+    if (!force && now - last_ < std::chrono::milliseconds(200)) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double rate = elapsed > 0 ? static_cast<double>(done - first_) / elapsed : 0.0;
+    const int width = 30;
+    const int filled = total_ ? static_cast<int>(width * static_cast<double>(done) / static_cast<double>(total_)) : width;
+    std::string bar(static_cast<std::size_t>(filled), '#');
+    bar.append(static_cast<std::size_t>(width - filled), '-');
+    char eta[32] = "";
+    if (rate > 0 && done < total_) {
+      const long s = static_cast<long>(static_cast<double>(total_ - done) / rate);
+      std::snprintf(eta, sizeof eta, "  ETA %ldm%02lds", s / 60, s % 60);
+    }
+    std::fprintf(stderr, "\rsweep [%s] %zu/%zu rows  %.1f rows/s%s   ", bar.c_str(), done, total_, rate, eta);
+    std::fflush(stderr);
+  }
+  void Finish(std::size_t done) {
+    if (!enabled_) return;
+    Update(done, true);
+    std::fputc('\n', stderr);
+  }
+
+ private:
+  bool enabled_;
+  std::size_t total_, first_;
+  Clock::time_point start_, last_{};
+};
+
+// The worker threads of one process and the outcomes they produced, keyed by
+// their place in the slice.
+class Workers {
+ public:
+  Workers(const Plan& plan, const Slice& slice, std::vector<std::size_t> places, unsigned threads)
+      : plan_(plan), slice_(slice), places_(std::move(places)) {
+    for (unsigned t = 0; t < threads; ++t) threads_.emplace_back([this] { Work(); });
+  }
+  ~Workers() { Stop(); }
+
+  // Waits for the outcome of places_[position] (or any failure) and takes it.
+  // Returns false when a worker failed (its message in error()).
+  bool Take(std::size_t position, Outcome& out) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [&] { return failed_ || done_.count(position) != 0; });
+    if (failed_) return false;
+    out = done_[position];
+    done_.erase(position);
+    taken_ = position + 1;
+    room_.notify_all();
+    return true;
+  }
+  // Takes the outcome of places_[position] if it is ready; never waits.
+  enum class Poll { kReady, kNotYet, kFailed };
+  Poll TryTake(std::size_t position, Outcome& out) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (failed_) return Poll::kFailed;
+    const auto it = done_.find(position);
+    if (it == done_.end()) return Poll::kNotYet;
+    out = it->second;
+    done_.erase(it);
+    taken_ = position + 1;
+    room_.notify_all();
+    return Poll::kReady;
+  }
+  std::string error() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return error_;
+  }
+  void Stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    room_.notify_all();
+    for (std::thread& t : threads_) {
+      if (t.joinable()) t.join();
+    }
+  }
+
+ private:
+  void Work() {
+    for (;;) {
+      const std::size_t position = next_.fetch_add(1);
+      if (position >= places_.size()) return;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        room_.wait(lock, [&] { return stop_ || position < taken_ + kWindow; });
+        if (stop_) return;
+      }
+      Outcome o;
+      try {
+        o = RunCase(plan_, slice_.index(places_[position]));
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!failed_) error_ = e.what();
+        failed_ = true;
+        ready_.notify_all();
+        return;
+      }
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_[position] = o;
+      ready_.notify_all();
+    }
+  }
+
+  const Plan& plan_;
+  const Slice slice_;
+  const std::vector<std::size_t> places_;  // places in the slice this process runs, ascending
+  std::atomic<std::size_t> next_{0};
+  std::mutex mutex_;
+  std::condition_variable ready_, room_;
+  std::map<std::size_t, Outcome> done_;
+  std::size_t taken_{0};
+  bool failed_{false}, stop_{false};
+  std::string error_;
+  std::vector<std::thread> threads_;
+};
+
+[[noreturn]] void AbortJob(const std::string& message) {
+  std::fprintf(stderr, "rocklab: %s\n", message.c_str());
+  std::fflush(stderr);
+#ifdef ROCKLAB_MPI
+  MPI_Abort(MPI_COMM_WORLD, 1);
+#endif
+  std::exit(1);
+}
+
+}  // namespace
+
+MpiSession::MpiSession() {
+  if (!StartedByMpirun()) return;
+#ifdef ROCKLAB_MPI
+  int provided = 0;
+  // Only the calling (writer) thread makes MPI calls.
+  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  initialised_ = true;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+#else
+  if (WorldSizeFromEnvironment() > 1) {
+    throw OptionError("started by mpirun with " + std::to_string(WorldSizeFromEnvironment()) +
+                      " ranks, but this rocklab was built without MPI (configure with -DROCKLAB_MPI=ON "
+                      "and libopenmpi-dev installed); every rank would write the same file");
+  }
+#endif
+}
+
+MpiSession::~MpiSession() {
+#ifdef ROCKLAB_MPI
+  if (initialised_) MPI_Finalize();
+#endif
+}
+
+bool MpiSession::Built() {
+#ifdef ROCKLAB_MPI
+  return true;
+#else
+  return false;
+#endif
+}
+
+RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptions& options,
+                   const MpiSession& mpi) {
+  const auto start = Clock::now();
+  RunReport report;
+  report.cases = options.slice.count();
+  report.ranks = mpi.size();
+  const int rank = mpi.rank(), size = mpi.size();
+
+  // Rank 0 opens the output (and, resuming, learns how many rows are kept).
+  std::unique_ptr<RowWriter> writer;
+  std::string open_error;
+  if (rank == 0) {
+    try {
+      writer = OpenRowWriter(out_path, plan, options.slice, options.resume);
+      report.resumed = writer->rows_done();
+    } catch (const std::exception& e) {
+      if (size == 1) throw;
+      open_error = e.what();
+    }
+  }
+#ifdef ROCKLAB_MPI
+  if (size > 1) {
+    unsigned long long shared[2] = {report.resumed, open_error.empty() ? 0ull : 1ull};
+    MPI_Bcast(shared, 2, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    report.resumed = static_cast<std::size_t>(shared[0]);
+    if (shared[1] != 0) {
+      if (rank == 0) throw OptionError(open_error);
+      report.open_failed_on_rank0 = true;  // rank 0 says why
+      return report;
+    }
+  }
+#endif
+
+  // Places in the slice this process runs: resumed, resumed + 1, ... dealt round-robin.
+  std::vector<std::size_t> places;
+  for (std::size_t k = report.resumed + static_cast<std::size_t>(rank); k < report.cases;
+       k += static_cast<std::size_t>(size)) {
+    places.push_back(k);
+  }
+  unsigned threads = options.threads;
+  if (threads == 0) threads = size > 1 ? 1 : std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(places.size(), 1)));
+  report.threads = threads;
+  Workers workers(plan, options.slice, places, threads);
+
+  if (rank != 0) {
+#ifdef ROCKLAB_MPI
+    double wire[kWireDoubles];
+    for (std::size_t position = 0; position < places.size(); ++position) {
+      Outcome o;
+      if (!workers.Take(position, o)) AbortJob(workers.error());
+      Pack(places[position], o, wire);
+      MPI_Send(wire, kWireDoubles, MPI_DOUBLE, 0, 0, MPI_COMM_WORLD);
+    }
+#endif
+    workers.Stop();
+    report.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+    return report;
+  }
+
+  // Rank 0: write every place in order, its own outcomes and the others'.
+  ProgressBar bar(options.progress, report.cases, report.resumed);
+  std::map<std::size_t, Outcome> received;  // from other ranks, by place
+  std::size_t own = 0;                      // next position in `places`
+  for (std::size_t k = report.resumed; k < report.cases; ++k) {
+    Outcome o;
+    if (size == 1) {
+      if (!workers.Take(own, o)) throw std::runtime_error(workers.error());
+      ++own;
+    } else {
+#ifdef ROCKLAB_MPI
+      for (;;) {
+        if (own < places.size() && places[own] == k) {
+          const Workers::Poll poll = workers.TryTake(own, o);
+          if (poll == Workers::Poll::kFailed) AbortJob(workers.error());
+          if (poll == Workers::Poll::kReady) {
+            ++own;
+            break;
+          }
+        } else if (const auto it = received.find(k); it != received.end()) {
+          o = it->second;
+          received.erase(it);
+          break;
+        }
+        int flag = 0;
+        MPI_Status status;
+        MPI_Iprobe(MPI_ANY_SOURCE, 0, MPI_COMM_WORLD, &flag, &status);
+        if (flag) {
+          double wire[kWireDoubles];
+          MPI_Recv(wire, kWireDoubles, MPI_DOUBLE, status.MPI_SOURCE, 0, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+          Outcome r;
+          const std::size_t place = Unpack(wire, r);
+          received[place] = r;
+        } else {
+          std::this_thread::sleep_for(std::chrono::microseconds(500));
+        }
+      }
+#endif
+    }
+    try {
+      writer->Write(options.slice.index(k), o);
+    } catch (const std::exception& e) {
+      if (size > 1) AbortJob(e.what());
+      throw;
+    }
+    ++report.run;
+    if (o.overturned) ++report.overturned;
+    if (o.beyond_pi_over_2) {
+      if (report.beyond_pi_over_2++ == 0) report.first_beyond_pi_over_2 = KeyPrefix(plan, options.slice.index(k));
+    }
+    bar.Update(k + 1);
+  }
+  bar.Finish(report.cases);
+  workers.Stop();
+  writer->Close();
+  report.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return report;
+}
+
+void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+  const std::size_t n = plan.size();
+  std::unordered_map<std::string, std::size_t> index_of;
+  index_of.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) index_of.emplace(KeyPrefix(plan, i), i);
+  std::vector<std::string> rows(n);
+  std::vector<bool> have(n, false);
+  for (const std::string& part : parts) {
+    std::ifstream in(part, std::ios::binary);
+    if (!in) throw OptionError("--merge: cannot read '" + part + "'");
+    std::string line;
+    std::size_t line_no = 0;
+    while (std::getline(in, line)) {
+      ++line_no;
+      const std::string where = "--merge: " + part + ":" + std::to_string(line_no) + ": ";
+      if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
+      if (line_no == 1) {
+        if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
+        continue;
+      }
+      std::size_t cut = std::string::npos, from = 0;  // the 7th comma ends the case's key
+      for (int commas = 0; commas < 7; ++commas) {
+        cut = line.find(',', from);
+        if (cut == std::string::npos) break;
+        from = cut + 1;
+      }
+      const auto it = cut == std::string::npos ? index_of.end() : index_of.find(line.substr(0, cut + 1));
+      if (it == index_of.end()) {
+        throw OptionError(where + "row " + common::Quote(line) + " is not a case of this sweep (other options?)");
+      }
+      if (have[it->second]) throw OptionError(where + "case " + common::Quote(it->first) + " is there twice");
+      have[it->second] = true;
+      rows[it->second] = line;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!have[i]) {
+      throw OptionError("--merge: no file holds case " + std::to_string(i) + " (" + common::Quote(KeyPrefix(plan, i)) +
+                        "): a shard is missing or unfinished");
+    }
+  }
+  std::FILE* f = std::fopen(out_path.c_str(), "w");
+  if (!f) throw OptionError("--out: cannot write '" + out_path + "'");
+  bool ok = std::fprintf(f, "%s\n", Header().c_str()) > 0;
+  for (const std::string& row : rows) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
+  ok = std::fclose(f) == 0 && ok;
+  if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
+}
+
+}  // namespace rocklab::sweep

@@ -1,0 +1,91 @@
+#pragma once
+/// @file
+/// Runs a sweep's cases on all cores (threads) and, when rocklab is built
+/// with ROCKLAB_MPI and started by mpirun, over MPI ranks, writing the rows
+/// in case order.
+///
+/// Threading model: worker threads take the next case of this process from
+/// an atomic counter and put its Outcome in a map keyed by the case's place
+/// in the slice; the calling thread (the writer) takes them out in order and
+/// hands them to the RowWriter. Workers run at most kWindow cases ahead of
+/// the writer, so the map stays bounded when one case is slow.
+///
+/// MPI: the slice's remaining cases are dealt round-robin to the ranks
+/// (place k to rank k mod size). Every rank runs its cases on its threads;
+/// ranks other than 0 send each Outcome (its place and eight doubles) to
+/// rank 0, whose writer thread receives them beside its own and writes
+/// everything in order, so the file is the threaded run's, byte for byte.
+/// Only rank 0 opens the output; it tells the others how many rows
+/// --resume kept. A failure on any rank prints its message and aborts the
+/// job (MPI_Abort), after the rows written so far were flushed.
+
+#include <cstddef>
+#include <string>
+
+#include "sweep/row_writer.h"
+#include "sweep/sweep.h"
+
+namespace rocklab::sweep {
+
+/// MPI for the life of a command: initialised when the process was started
+/// by mpirun (OpenMPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_RANK, in
+/// the environment), finalised by the destructor. Without ROCKLAB_MPI a
+/// process started by mpirun with more than one rank throws, so ranks never
+/// write one file side by side.
+class MpiSession {
+ public:
+  /// @throws pipeline::OptionError when started by mpirun in a build without MPI.
+  MpiSession();
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  /// Whether this build has MPI (ROCKLAB_MPI).
+  static bool Built();
+
+ private:
+  int rank_{0};
+  int size_{1};
+  bool initialised_{false};
+};
+
+struct RunOptions {
+  unsigned threads{0};  ///< worker threads per process; 0: all cores (1 per rank under MPI)
+  Slice slice;          ///< this run's cases (a shard, or the whole plan)
+  bool resume{};        ///< keep the output's complete rows and run the rest
+  bool progress{};      ///< draw a progress bar on stderr (rank 0)
+};
+
+struct RunReport {
+  std::size_t cases{};       ///< in the slice
+  std::size_t resumed{};     ///< rows kept from the output
+  std::size_t run{};         ///< cases run now (over all ranks)
+  std::size_t overturned{};  ///< of the cases run now
+  /// Of the cases run now, those whose |theta| passed pi/2 without an
+  /// overturn event (Outcome::beyond_pi_over_2), and the first one's key.
+  std::size_t beyond_pi_over_2{};
+  std::string first_beyond_pi_over_2;
+  unsigned threads{};        ///< per process
+  int ranks{1};
+  double wall_s{};           ///< s
+  /// MPI, ranks other than 0: rank 0 could not open the output (and says
+  /// why); nothing ran.
+  bool open_failed_on_rank0{};
+};
+
+/// Runs the slice's cases and writes their rows to `out_path` (rank 0).
+/// @throws pipeline::OptionError for a bad output (OpenRowWriter);
+///   std::runtime_error when a case fails (after the rows before it were written).
+RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptions& options,
+                   const MpiSession& mpi);
+
+/// Interleaves shard files of `plan` (each written by `--shard I/N` with the
+/// same options and complete) into `out_path`: rows are copied as they are,
+/// in case order, so the result is the unsharded file byte for byte.
+/// @throws pipeline::OptionError naming the file and line of a row that does
+///   not belong to the plan or is there twice, a header that is not a
+///   sweep's, or the first case that no file holds.
+void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path);
+
+}  // namespace rocklab::sweep

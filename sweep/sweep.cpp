@@ -1,0 +1,294 @@
+#include "sweep/sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <set>
+#include <stdexcept>
+
+#include "common/text.h"
+#include "common/units.h"
+#include "model/excitation.h"
+#include "pipeline/option_error.h"
+#include "pipeline/scenario.h"
+
+namespace rocklab::sweep {
+namespace {
+
+using pipeline::OptionError;
+using pipeline::Require;
+
+// Numbers in rows: 12 significant digits, the same text for the same double
+// on every machine and thread (printf of an IEEE double is exact to the
+// digits asked for).
+void Append(std::string& out, double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.12g", v);
+  out += buf;
+}
+
+bool FieldSafe(const std::string& s) {
+  return std::none_of(s.begin(), s.end(), [](char c) {
+    return c == ',' || c == '"' || static_cast<unsigned char>(c) < 0x20;
+  });
+}
+
+double Duration(const Plan& plan, const Record& record) {
+  return plan.duration_s ? *plan.duration_s : record.time_s.back() + Plan::kDefaultTail_s;
+}
+
+}  // namespace
+
+Record ReadRecord(const std::string& path) {
+  Record r;
+  r.path = path;
+  r.name = std::filesystem::path(path).filename().string();
+  if (!FieldSafe(r.name)) {
+    throw OptionError("--records: '" + path + "': a record's file name becomes a CSV field; "
+                      "rename it without ',', '\"' or control characters");
+  }
+  model::AccelerationRows rows;
+  try {
+    rows = model::ReadAccelerationRows(path);
+  } catch (const std::exception& e) {
+    throw OptionError(std::string("--records: ") + e.what());
+  }
+  r.time_s = std::move(rows.time_s);
+  r.accel_mps2 = std::move(rows.accel_mps2);
+  for (double a : r.accel_mps2) r.pga_mps2 = std::max(r.pga_mps2, std::abs(a));
+  if (!(r.pga_mps2 > 0)) {
+    throw OptionError("--records: " + path + ": every acceleration is zero (PGA 0): nothing to scale");
+  }
+  return r;
+}
+
+std::vector<double> ParseScaleGrid(const std::string& text) {
+  const std::string what = "--scale must be A:B:N (from A to B in N steps), got '" + text + "'";
+  const auto c1 = text.find(':');
+  const auto c2 = c1 == std::string::npos ? c1 : text.find(':', c1 + 1);
+  if (c2 == std::string::npos || text.find(':', c2 + 1) != std::string::npos) throw OptionError(what);
+  double a = 0, b = 0, n = 0;
+  if (!common::ParseDouble(std::string_view(text).substr(0, c1), a) ||
+      !common::ParseDouble(std::string_view(text).substr(c1 + 1, c2 - c1 - 1), b) ||
+      !common::ParseDouble(std::string_view(text).substr(c2 + 1), n)) {
+    throw OptionError(what);
+  }
+  Require(std::isfinite(a) && a > 0, "--scale A", "> 0", a);
+  Require(std::isfinite(b) && b > 0, "--scale B", "> 0", b);
+  Require(n >= 1 && n <= 1e6 && n == std::floor(n), "--scale N", "a whole number in [1, 1e6]", n);
+  const auto count = static_cast<std::size_t>(n);
+  std::vector<double> grid(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    grid[k] = count == 1 ? a : a + (b - a) * static_cast<double>(k) / static_cast<double>(count - 1);
+  }
+  return grid;
+}
+
+Plan MakePlan(const PlanOptions& o) {
+  Plan plan;
+  try {
+    plan.model = model::ParseModelKind(o.model);
+  } catch (const std::invalid_argument&) {
+    throw OptionError("--model must be housner or complex, got '" + o.model + "'");
+  }
+  if (o.records.empty()) throw OptionError("--records: give at least one record file");
+  plan.scales = ParseScaleGrid(o.scale);
+  plan.scale_kind = o.pga_g ? ScaleKind::kPgaG : ScaleKind::kFactor;
+  if (o.duration_s) {
+    Require(std::isfinite(*o.duration_s) && *o.duration_s > 0 && *o.duration_s < 1e6, "--duration",
+            "in (0, 1e6) s", *o.duration_s);
+    plan.duration_s = o.duration_s;
+  }
+  Require(std::isfinite(o.rate_hz) && o.rate_hz > 0 && o.rate_hz <= 1e6, "--rate", "in (0, 1e6] Hz", o.rate_hz);
+  Require(std::isfinite(o.l) && o.l > 0, "--l", "> 0", o.l);
+  plan.rate_hz = o.rate_hz;
+  plan.l = o.l;
+
+  const bool by_params = !o.alpha.empty() || !o.p.empty() || !o.mu.empty();
+  const bool by_rect = !o.width.empty() || !o.height.empty();
+  const bool by_polygon = !o.polygons.empty();
+  if (int(by_params) + int(by_rect) + int(by_polygon) != 1) {
+    throw OptionError("give the blocks one way: --alpha/--p/--mu, --width/--height, or --polygon");
+  }
+  if (by_params) {
+    if (o.alpha.empty() || o.p.empty()) throw OptionError("--alpha and --p both need at least one value");
+    for (double a : o.alpha) {
+      Require(std::isfinite(a) && a > 0 && a < common::kPi / 2, "--alpha", "in (0, pi/2) rad", a);
+      for (double p : o.p) {
+        Require(std::isfinite(p) && p > 0, "--p", "> 0 rad/s", p);
+        const std::vector<double> mus =
+            o.mu.empty() ? std::vector<double>{1 - 1.5 * std::sin(a) * std::sin(a)} : o.mu;
+        for (double mu : mus) {
+          Require(std::isfinite(mu) && mu > 0 && mu <= 1, "--mu", "in (0, 1]", mu);
+          plan.blocks.push_back({model::BlockParams{a, p, mu}, "-"});
+        }
+      }
+    }
+  } else if (by_rect) {
+    if (o.width.empty() || o.height.empty()) throw OptionError("--width and --height both need at least one value");
+    for (double w : o.width) {
+      for (double h : o.height) {
+        model::BlockGeometry g;
+        try {
+          g = model::RectangleBlock(w, h);
+        } catch (const std::invalid_argument& e) {
+          throw OptionError(std::string("--width/--height: ") + e.what());
+        }
+        std::string label;
+        Append(label, w);
+        label += 'x';
+        Append(label, h);
+        plan.blocks.push_back({g.params(), label});
+      }
+    }
+  } else {
+    for (const std::string& path : o.polygons) {
+      model::BlockGeometry g;
+      try {
+        g = model::PolygonBlock(model::ReadPolygonCsv(path));
+      } catch (const std::invalid_argument& e) {
+        throw OptionError(std::string("--polygon: ") + e.what());
+      }
+      const std::string label = std::filesystem::path(path).filename().string();
+      if (!FieldSafe(label)) {
+        throw OptionError("--polygon: '" + path + "': rename it without ',', '\"' or control characters");
+      }
+      plan.blocks.push_back({g.params(), label});
+    }
+  }
+
+  std::set<std::string> names;
+  for (const std::string& path : o.records) {
+    plan.records.push_back(ReadRecord(path));
+    if (!names.insert(plan.records.back().name).second) {
+      throw OptionError("--records: two records are named '" + plan.records.back().name +
+                        "' (the record column would not tell them apart): rename one");
+    }
+  }
+  if (plan.size() > 100'000'000) {
+    throw OptionError("the sweep has " + std::to_string(plan.size()) + " cases, more than 1e8");
+  }
+  return plan;
+}
+
+CaseIndex Locate(const Plan& plan, std::size_t index) {
+  CaseIndex c;
+  c.scale = index % plan.scales.size();
+  const std::size_t rb = index / plan.scales.size();
+  c.block = rb % plan.blocks.size();
+  c.record = rb / plan.blocks.size();
+  return c;
+}
+
+Scaling ScalingOf(const Plan& plan, std::size_t index) {
+  const CaseIndex c = Locate(plan, index);
+  const Record& r = plan.records[c.record];
+  const double grid = plan.scales[c.scale];
+  Scaling s;
+  if (plan.scale_kind == ScaleKind::kPgaG) {
+    s.pga_g = grid;
+    s.factor = grid * common::kGravity / r.pga_mps2;
+  } else {
+    s.factor = grid;
+    s.pga_g = grid * r.pga_mps2 / common::kGravity;
+  }
+  return s;
+}
+
+Outcome RunCase(const Plan& plan, std::size_t index) {
+  const CaseIndex c = Locate(plan, index);
+  const Record& record = plan.records[c.record];
+  const Block& block = plan.blocks[c.block];
+  const Scaling scaling = ScalingOf(plan, index);
+
+  std::vector<double> accel(record.accel_mps2);
+  for (double& a : accel) a *= scaling.factor;
+  model::ModelOptions mo;
+  mo.l = plan.l;
+  pipeline::Scenario scenario;
+  scenario.model = model::RockingModel::Create(plan.model, block.params, mo);
+  scenario.forcing = std::make_unique<model::SampledAcceleration>(record.time_s, std::move(accel));
+  scenario.forcing_description = "accel:" + record.path;
+  pipeline::ScenarioOptions so;
+  so.model = model::ToString(plan.model);
+  so.alpha = block.params.alpha;
+  so.p = block.params.p;
+  so.mu = block.params.mu;
+  so.l = plan.l;
+  so.duration_s = Duration(plan, record);
+  so.rate_hz = plan.rate_hz;
+
+  // theta / alpha of the side it rocks on (both sides alike for a symmetric block).
+  const double alpha_plus = block.params.Side(+1).alpha, alpha_minus = block.params.Side(-1).alpha;
+  Outcome out;
+  pipeline::RunSummary summary;
+  try {
+    summary = pipeline::RunScenario(scenario, so, [&out, alpha_plus, alpha_minus](double t, double theta, double) {
+      const double ratio = theta >= 0 ? theta / alpha_plus : -theta / alpha_minus;
+      if (ratio > out.peak_theta_over_alpha) {
+        out.peak_theta_over_alpha = ratio;
+        out.peak_time_s = t;
+      }
+    });
+  } catch (const std::exception& e) {
+    throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
+  }
+  out.overturned = summary.overturned;
+  out.beyond_pi_over_2 = !summary.overturned && summary.peak_abs_theta > common::kPi / 2;
+  out.overturn_time_s = summary.overturn_time_s.value_or(0.0);
+  out.impacts = summary.impacts;
+  out.uplift_time_s = summary.uplift_time_s;
+  return out;
+}
+
+const std::string& Header() {
+  static const std::string header =
+      "record,scale,pga_g,alpha,p,mu,model,peak_theta_over_alpha,overturned,overturn_time,impacts,"
+      "uplift_time,peak_time,block,alpha_minus,p_minus,mu_minus";
+  return header;
+}
+
+std::string KeyPrefix(const Plan& plan, std::size_t index) {
+  const CaseIndex c = Locate(plan, index);
+  const Scaling s = ScalingOf(plan, index);
+  const model::BlockParams& b = plan.blocks[c.block].params;
+  std::string out = plan.records[c.record].name;
+  for (double v : {s.factor, s.pga_g, b.alpha, b.p, b.mu}) {
+    out += ',';
+    Append(out, v);
+  }
+  out += ',';
+  out += model::ToString(plan.model);
+  out += ',';
+  return out;
+}
+
+std::string FormatRow(const Plan& plan, std::size_t index, const Outcome& o) {
+  std::string out = KeyPrefix(plan, index);
+  out.reserve(256);
+  Append(out, o.peak_theta_over_alpha);
+  out += o.overturned ? ",1," : ",0,";
+  if (o.overturned) Append(out, o.overturn_time_s);
+  out += ',' + std::to_string(o.impacts) + ',';
+  if (o.uplift_time_s) Append(out, *o.uplift_time_s);
+  out += ',';
+  Append(out, o.peak_time_s);
+  const Block& block = plan.blocks[Locate(plan, index).block];
+  out += ',' + block.label + ',';
+  if (block.params.minus) {
+    Append(out, block.params.minus->alpha);
+    out += ',';
+    Append(out, block.params.minus->p);
+    out += ',';
+    Append(out, block.params.minus->mu);
+  } else {
+    out += ",";
+    out += ",";
+  }
+  out += '\n';
+  return out;
+}
+
+}  // namespace rocklab::sweep

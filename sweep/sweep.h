@@ -1,0 +1,131 @@
+#pragma once
+/// @file
+/// A rocking campaign (`rocklab sweep`): every (record, block, scale) case of
+/// a set of ground-motion records, a family of blocks and a range of scales,
+/// run through the model library as `rocklab simulate` runs one scenario
+/// (pipeline::RunScenario), one result row per case.
+///
+/// Cases are numbered in one fixed order, record outermost, then block, then
+/// scale: case i = (record r, block b, scale s) with i = (r * blocks + b) *
+/// scales + s. Whatever runs them (threads, MPI ranks, shards), rows are
+/// written in that order and formatted by FormatRow alone, so the same plan
+/// gives the same bytes.
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "model/block.h"
+#include "model/rocking_model.h"
+
+namespace rocklab::sweep {
+
+/// One ground-motion record, read once.
+struct Record {
+  std::string path;                ///< as given on the command line
+  std::string name;                ///< the file's name, the `record` column
+  std::vector<double> time_s;      ///< s, strictly increasing
+  std::vector<double> accel_mps2;  ///< table acceleration, m/s^2
+  double pga_mps2{};               ///< max |accel|, m/s^2; > 0
+};
+
+/// Reads a record through model::ReadAccelerationRows (the reader of
+/// `simulate --accel`: `time,accel` CSV, and whatever formats it learns).
+/// @throws pipeline::OptionError "--records: FILE:LINE: ..." on a bad file, a
+///   record that is all zeros, or a name a CSV field cannot hold (, " or a
+///   control character).
+Record ReadRecord(const std::string& path);
+
+/// One block of the family: the model's parameters and a label.
+struct Block {
+  model::BlockParams params;  ///< alpha (rad), p (rad/s), mu; `minus` for an asymmetric section
+  std::string label;          ///< the `block` column: "-" for listed parameters, "WxH" (m), or the polygon's file name
+};
+
+/// How the scale grid is read.
+enum class ScaleKind {
+  kFactor,  ///< the grid values multiply each record
+  kPgaG,    ///< the grid values are the target PGA in g (--pga-g)
+};
+
+/// The whole campaign, validated.
+struct Plan {
+  std::vector<Record> records;
+  std::vector<Block> blocks;
+  std::vector<double> scales;  ///< grid values (factor, or target PGA in g)
+  ScaleKind scale_kind{ScaleKind::kFactor};
+  model::ModelKind model{model::ModelKind::kHousner};
+  /// Simulated time per case, s; nullopt: each record's last sample time + kDefaultTail_s.
+  std::optional<double> duration_s;
+  double rate_hz{1000.0};  ///< rate at which the peak |theta| is sampled, Hz
+  double l{model::kDefaultL};  ///< complex formulation momentum, 1
+
+  static constexpr double kDefaultTail_s = 10.0;
+
+  std::size_t size() const { return records.size() * blocks.size() * scales.size(); }
+};
+
+/// The values of the command line, before they become a Plan.
+struct PlanOptions {
+  std::vector<std::string> records;
+  std::string scale{"1:1:1"};  ///< A:B:N
+  bool pga_g{};
+  std::vector<double> alpha, p, mu;      ///< rad, rad/s, 1 (mu empty: Housner's 1 - 1.5 sin^2 alpha)
+  std::vector<double> width, height;     ///< m
+  std::vector<std::string> polygons;
+  std::string model;
+  std::optional<double> duration_s;
+  double rate_hz{1000.0};
+  double l{model::kDefaultL};
+};
+
+/// N values from A to B, A + (B - A) k / (N - 1), k = 0..N-1 (N = 1: A).
+/// @throws pipeline::OptionError naming --scale for a malformed text, N < 1,
+///   N > 1e6, non-finite or non-positive values.
+std::vector<double> ParseScaleGrid(const std::string& text);
+
+/// Checks the options (throws pipeline::OptionError naming the option, and
+/// file and line for a bad record or polygon) and reads the records.
+Plan MakePlan(const PlanOptions& options);
+
+/// Where case `index` sits in the plan.
+struct CaseIndex {
+  std::size_t record{}, block{}, scale{};
+};
+CaseIndex Locate(const Plan& plan, std::size_t index);
+
+/// What a user checks in a case.
+struct Outcome {
+  double peak_theta_over_alpha{};  ///< max |theta| / alpha of the side it rocks on, 1
+  double peak_time_s{};            ///< s
+  bool overturned{};
+  double overturn_time_s{};        ///< s; meaningful when overturned
+  int impacts{};
+  std::optional<double> uplift_time_s;  ///< first uplift, s
+  /// |theta| went past pi/2 without an overturn event: the model left its
+  /// domain (seen at an uplift where the table acceleration only touches
+  /// g tan alpha); the row is written as computed and the run counts it.
+  bool beyond_pi_over_2{};
+};
+
+/// The factor applied to the record of case `index` and its PGA in g.
+struct Scaling {
+  double factor{};  ///< multiplies the record, 1
+  double pga_g{};   ///< the scaled record's PGA, g (the grid value itself under --pga-g)
+};
+Scaling ScalingOf(const Plan& plan, std::size_t index);
+
+/// Runs case `index` through pipeline::RunScenario from rest at t = 0.
+/// @throws std::runtime_error when the integrator fails, naming the case.
+Outcome RunCase(const Plan& plan, std::size_t index);
+
+/// The CSV header (no newline).
+const std::string& Header();
+/// The first columns of case `index`'s row, up to and including `model,`:
+/// they name the case (record,scale,pga_g,alpha,p,mu,model,).
+std::string KeyPrefix(const Plan& plan, std::size_t index);
+/// The whole row of case `index`, with its newline.
+std::string FormatRow(const Plan& plan, std::size_t index, const Outcome& outcome);
+
+}  // namespace rocklab::sweep

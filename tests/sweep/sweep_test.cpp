@@ -1,0 +1,265 @@
+// The sweep library (sweep/sweep.h, row_writer.h, runner.h): the case
+// order, a case run as `simulate` runs it, rows identical whatever the
+// threads, resume after a torn line, shards merged into the whole.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "common/units.h"
+#include "pipeline/option_error.h"
+#include "pipeline/scenario.h"
+#include "sweep/runner.h"
+#include "sweep/sweep.h"
+#include "tests/sweep/sweep_test_util.h"
+
+namespace rocklab::sweep {
+namespace {
+
+std::string Dir(const std::string& name) {
+  const std::string d = "sweep_lib_" + name;
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Two short records: a half-sine pulse and filtered noise.
+PlanOptions SmallPlan(const std::string& dir) {
+  test::WriteRecord(dir + "/pulse.csv", 0.8, 0.002,
+                    [](double t) { return 3.0 * std::sin(common::kPi * t / 0.8); });
+  test::WriteFilteredNoise(dir + "/noise.csv", 7, 2.0, 0.005, 4.0, 3.0);
+  PlanOptions o;
+  o.records = {dir + "/pulse.csv", dir + "/noise.csv"};
+  o.scale = "0.6:1.4:5";
+  o.alpha = {0.2, 0.25};
+  o.p = {2.5, 3.5};
+  o.model = "housner";
+  o.duration_s = 3.0;
+  o.rate_hz = 200;
+  return o;
+}
+
+// Oracle: the order the header documents, i = (r * blocks + b) * scales + s;
+// the grid A + (B - A) k / (N - 1); Housner's mu = 1 - 1.5 sin^2 alpha when
+// --mu is not given; --pga-g makes factor * PGA = target g.
+TEST(SweepPlan, CaseOrderGridAndScaling) {
+  const std::string dir = Dir("plan");
+  PlanOptions o = SmallPlan(dir);
+  const Plan plan = MakePlan(o);
+  ASSERT_EQ(plan.size(), 2u * 4u * 5u);
+  const CaseIndex c = Locate(plan, (1 * 4 + 3) * 5 + 2);
+  EXPECT_EQ(c.record, 1u);
+  EXPECT_EQ(c.block, 3u);
+  EXPECT_EQ(c.scale, 2u);
+  EXPECT_EQ(plan.scales[2], 1.0);
+  EXPECT_EQ(plan.blocks[3].params.alpha, 0.25);
+  EXPECT_EQ(plan.blocks[3].params.p, 3.5);
+  EXPECT_DOUBLE_EQ(plan.blocks[3].params.mu, 1 - 1.5 * std::sin(0.25) * std::sin(0.25));
+  EXPECT_EQ(ParseScaleGrid("0.1:0.3:3")[1], 0.1 + (0.3 - 0.1) * 1 / 2);
+  EXPECT_EQ(ParseScaleGrid("2:5:1").size(), 1u);
+  for (const char* bad : {"1:2", "1:2:0", "1:2:2.5", "a:2:3", "0:1:3", "1:2:3:4"}) {
+    EXPECT_THROW(ParseScaleGrid(bad), pipeline::OptionError) << bad;
+  }
+  o.pga_g = true;
+  o.scale = "0.1:0.5:3";
+  const Plan pga = MakePlan(o);
+  const Scaling s = ScalingOf(pga, 1);
+  EXPECT_EQ(s.pga_g, 0.1 + (0.5 - 0.1) * 1 / 2);
+  EXPECT_NEAR(s.factor * 3.0, 0.3 * common::kGravity, 1e-12);  // the pulse's PGA is 3 m/s^2
+}
+
+// Oracle: `rocklab simulate`'s path (pipeline::BuildScenario from the same
+// record file, RunScenario): a case gives the same peak, impacts, uplift and
+// overturn, to the bit, at scale 1 (the same doubles go in), for both models.
+TEST(SweepPlan, ACaseIsSimulatesScenario) {
+  const std::string dir = Dir("simulate");
+  for (const char* model : {"housner", "complex"}) {
+    PlanOptions o = SmallPlan(dir);
+    o.scale = "1:1:1";
+    o.alpha = {0.2};
+    o.p = {2.5};
+    o.mu = {0.93};
+    o.model = model;
+    const Plan plan = MakePlan(o);
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+      const Outcome out = RunCase(plan, i);
+      pipeline::ScenarioOptions so;
+      so.model = model;
+      so.alpha = 0.2;
+      so.p = 2.5;
+      so.mu = 0.93;
+      so.accel_csv = plan.records[Locate(plan, i).record].path;
+      so.duration_s = 3.0;
+      so.rate_hz = 200;
+      pipeline::Scenario s = pipeline::BuildScenario(so);
+      const pipeline::RunSummary r = pipeline::RunScenario(s, so, [](double, double, double) {});
+      EXPECT_EQ(out.peak_theta_over_alpha, r.peak_abs_theta / 0.2) << model << " " << i;
+      EXPECT_EQ(out.impacts, r.impacts) << model << " " << i;
+      EXPECT_EQ(out.overturned, r.overturned) << model << " " << i;
+      EXPECT_EQ(out.uplift_time_s, r.uplift_time_s) << model << " " << i;
+      EXPECT_FALSE(out.beyond_pi_over_2) << model << " " << i;
+      EXPECT_GT(r.impacts + (r.overturned ? 1 : 0), 0) << model << " case " << i << " should rock";
+    }
+  }
+}
+
+// Oracle: rows are a function of the case alone, so 1 thread and 3 threads
+// write the same bytes; shards 0/3, 1/3, 2/3 merged give those bytes too;
+// every row has the header's column count.
+TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
+  const std::string dir = Dir("threads");
+  const Plan plan = MakePlan(SmallPlan(dir));
+  MpiSession mpi;
+  RunOptions one;
+  one.threads = 1;
+  one.slice = {0, 1, plan.size()};
+  const RunReport r1 = RunSweep(plan, dir + "/one.csv", one, mpi);
+  EXPECT_EQ(r1.run, plan.size());
+  RunOptions three = one;
+  three.threads = 3;
+  RunSweep(plan, dir + "/three.csv", three, mpi);
+  const std::string whole = Slurp(dir + "/one.csv");
+  EXPECT_EQ(whole, Slurp(dir + "/three.csv"));
+  std::istringstream lines(whole);
+  std::string line;
+  std::size_t n = 0;
+  const auto commas = std::count(Header().begin(), Header().end(), ',');
+  while (std::getline(lines, line)) {
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), commas) << line;
+    ++n;
+  }
+  EXPECT_EQ(n, plan.size() + 1);
+  EXPECT_NE(whole.find(",1,"), std::string::npos) << "some case should overturn";
+
+  std::vector<std::string> parts;
+  for (std::size_t i = 0; i < 3; ++i) {
+    RunOptions shard = three;
+    shard.slice = {i, 3, plan.size()};
+    parts.push_back(dir + "/part" + std::to_string(i) + ".csv");
+    const RunReport r = RunSweep(plan, parts.back(), shard, mpi);
+    EXPECT_EQ(r.cases, (plan.size() - i + 2) / 3);
+  }
+  std::reverse(parts.begin(), parts.end());  // any order
+  MergeShards(plan, parts, dir + "/merged.csv");
+  EXPECT_EQ(Slurp(dir + "/merged.csv"), whole);
+  EXPECT_THROW(MergeShards(plan, {parts[0], parts[1]}, dir + "/short.csv"), pipeline::OptionError);
+  EXPECT_THROW(MergeShards(plan, {parts[0], parts[0], parts[1], parts[2]}, dir + "/twice.csv"), pipeline::OptionError);
+}
+
+// Oracle: an interrupted sweep (the file cut inside a row, as a kill during
+// a write leaves it) resumed gives the uninterrupted file byte for byte and
+// runs only the missing cases; a row of another sweep is refused naming the
+// file and line; a .h5 output is refused, not written.
+TEST(SweepRun, ResumeAfterATornLine) {
+  const std::string dir = Dir("resume");
+  const Plan plan = MakePlan(SmallPlan(dir));
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 2;
+  o.slice = {0, 1, plan.size()};
+  RunSweep(plan, dir + "/whole.csv", o, mpi);
+  const std::string whole = Slurp(dir + "/whole.csv");
+  std::size_t cut = 0;
+  for (int k = 0; k < 12; ++k) cut = whole.find('\n', cut) + 1;  // header + 11 rows
+  cut += 17;                                                      // into row 12
+  {
+    std::ofstream out(dir + "/resumed.csv", std::ios::binary);
+    out << whole.substr(0, cut);
+  }
+  o.resume = true;
+  const RunReport r = RunSweep(plan, dir + "/resumed.csv", o, mpi);
+  EXPECT_EQ(r.resumed, 11u);
+  EXPECT_EQ(r.run, plan.size() - 11);
+  EXPECT_EQ(Slurp(dir + "/resumed.csv"), whole);
+  // Nothing left to do: the file stays as it is.
+  EXPECT_EQ(RunSweep(plan, dir + "/resumed.csv", o, mpi).run, 0u);
+  EXPECT_EQ(Slurp(dir + "/resumed.csv"), whole);
+
+  // A file of another sweep (other scales).
+  PlanOptions other = SmallPlan(dir);
+  other.scale = "0.5:1.5:5";
+  const Plan other_plan = MakePlan(other);
+  try {
+    RunSweep(other_plan, dir + "/resumed.csv", o, mpi);
+    FAIL() << "resumed a file of another sweep";
+  } catch (const pipeline::OptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("resumed.csv:2:"), std::string::npos) << e.what();
+  }
+  try {
+    RunSweep(plan, dir + "/x.h5", o, mpi);
+    FAIL() << "wrote .h5";
+  } catch (const pipeline::OptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("not built yet"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.h5"));
+}
+
+// Oracle: the blocks of --width/--height are model::RectangleBlock's
+// parameters; bad input names the option and the file and line.
+TEST(SweepPlan, BlocksFromGeometryAndBadInput) {
+  const std::string dir = Dir("geometry");
+  PlanOptions o = SmallPlan(dir);
+  o.alpha.clear();
+  o.p.clear();
+  o.width = {0.247};
+  o.height = {1.0};
+  const Plan plan = MakePlan(o);
+  ASSERT_EQ(plan.blocks.size(), 1u);
+  const model::BlockGeometry g = model::RectangleBlock(0.247, 1.0);
+  EXPECT_EQ(plan.blocks[0].params.alpha, g.alpha);
+  EXPECT_EQ(plan.blocks[0].params.p, g.p);
+  EXPECT_EQ(plan.blocks[0].label, "0.247x1");
+
+  // An asymmetric section: each side's parameters as model::PolygonBlock
+  // gives them, the -x side in the row's last columns.
+  {
+    std::ofstream poly(dir + "/trapezoid.csv");
+    poly << "x,z\n0,0\n0.4,0\n0.2,1\n0,1\n";
+  }
+  PlanOptions by_polygon = SmallPlan(dir);
+  by_polygon.alpha.clear();
+  by_polygon.p.clear();
+  by_polygon.polygons = {dir + "/trapezoid.csv"};
+  const Plan pp = MakePlan(by_polygon);
+  const model::BlockParams tp = model::PolygonBlock(model::ReadPolygonCsv(dir + "/trapezoid.csv")).params();
+  ASSERT_TRUE(tp.minus.has_value());
+  EXPECT_EQ(pp.blocks[0].params.alpha, tp.alpha);
+  EXPECT_EQ(pp.blocks[0].params.minus->alpha, tp.minus->alpha);
+  Outcome none;
+  const std::string row = FormatRow(pp, 0, none);
+  char minus_alpha[40];
+  std::snprintf(minus_alpha, sizeof minus_alpha, ",trapezoid.csv,%.12g,", tp.minus->alpha);
+  EXPECT_NE(row.find(minus_alpha), std::string::npos) << row;
+
+  PlanOptions both = SmallPlan(dir);
+  both.width = {0.2};
+  EXPECT_THROW(MakePlan(both), pipeline::OptionError);
+  {
+    std::ofstream bad(dir + "/bad.csv");
+    bad << "time,accel\n0,1\n0.1,x\n";
+  }
+  PlanOptions bad_record = SmallPlan(dir);
+  bad_record.records = {dir + "/bad.csv"};
+  try {
+    MakePlan(bad_record);
+    FAIL();
+  } catch (const pipeline::OptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.csv:3:"), std::string::npos) << e.what();
+  }
+  PlanOptions twice = SmallPlan(dir);
+  twice.records = {dir + "/pulse.csv", dir + "/./pulse.csv"};
+  EXPECT_THROW(MakePlan(twice), pipeline::OptionError);
+}
+
+}  // namespace
+}  // namespace rocklab::sweep

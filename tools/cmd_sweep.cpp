@@ -1,0 +1,161 @@
+// rocklab sweep: every (record, block, scale) case of a campaign, one row
+// each; rocklab sweep-plot: its spectra, overturning maps and fragility.
+#include <unistd.h>
+
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sweep/plot.h"
+#include "sweep/runner.h"
+#include "sweep/sweep.h"
+#include "tools/cli.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct SweepCommandOptions {
+  sweep::PlanOptions plan;
+  double duration_s{-1};  // < 0: not given
+  std::string out;
+  unsigned threads{0};
+  std::string shard;
+  bool resume{};
+  std::vector<std::string> merge;
+};
+
+sweep::Slice ParseShard(const std::string& text, std::size_t plan_size) {
+  sweep::Slice slice{0, 1, plan_size};
+  if (text.empty()) return slice;
+  const std::string what = "--shard must be I/N with 0 <= I < N (e.g. 3/16), got '" + text + "'";
+  const auto slash = text.find('/');
+  if (slash == std::string::npos || slash == 0 || slash + 1 == text.size()) throw UsageError(what);
+  const std::string i = text.substr(0, slash), n = text.substr(slash + 1);
+  if (i.find_first_not_of("0123456789") != std::string::npos ||
+      n.find_first_not_of("0123456789") != std::string::npos || i.size() > 9 || n.size() > 9) {
+    throw UsageError(what);
+  }
+  slice.first = std::stoul(i);
+  slice.stride = std::stoul(n);
+  if (slice.stride == 0 || slice.first >= slice.stride) throw UsageError(what);
+  return slice;
+}
+
+int RunSweepCommand(SweepCommandOptions& o) {
+  sweep::MpiSession mpi;
+  if (o.duration_s >= 0) o.plan.duration_s = o.duration_s;
+  const sweep::Plan plan = sweep::MakePlan(o.plan);
+  if (!o.merge.empty()) {
+    if (!o.shard.empty() || o.resume) throw UsageError("--merge takes neither --shard nor --resume");
+    if (mpi.rank() != 0) return 0;
+    sweep::MergeShards(plan, o.merge, o.out);
+    std::printf("sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), o.out.c_str(), plan.size());
+    return 0;
+  }
+  sweep::RunOptions ro;
+  ro.threads = o.threads;
+  ro.slice = ParseShard(o.shard, plan.size());
+  ro.resume = o.resume;
+  ro.progress = mpi.rank() == 0 && isatty(STDERR_FILENO) != 0;
+  const sweep::RunReport r = sweep::RunSweep(plan, o.out, ro, mpi);
+  if (r.open_failed_on_rank0) return kUsageExit;
+  if (mpi.rank() != 0) return 0;
+  std::printf("sweep: %zu records x %zu blocks x %zu scales = %zu cases%s; %zu kept (--resume), %zu run on %u threads x %d ranks in %.2f s, %zu overturned; rows in %s\n",
+              plan.records.size(), plan.blocks.size(), plan.scales.size(), plan.size(),
+              o.shard.empty() ? "" : (", shard " + o.shard + ": " + std::to_string(r.cases)).c_str(), r.resumed, r.run,
+              r.threads, r.ranks, r.wall_s, r.overturned, o.out.c_str());
+  std::fflush(stdout);
+  if (r.beyond_pi_over_2 > 0) {
+    std::fprintf(stderr,
+                 "rocklab: warning: %zu cases rocked past pi/2 without an overturn event (the model left its "
+                 "domain; first: %s...): their rows are as computed, do not trust them\n",
+                 r.beyond_pi_over_2, r.first_beyond_pi_over_2.c_str());
+  }
+  return 0;
+}
+
+struct PlotCommandOptions {
+  std::string results;
+  sweep::PlotOptions plot;
+  std::string format{"svg"};
+};
+
+int RunSweepPlot(PlotCommandOptions& o) {
+  if (o.format == "png") {
+    o.plot.format = report::FigureFormat::kPng;
+  } else if (o.format != "svg") {
+    throw UsageError("--format must be svg or png, got '" + o.format + "'");
+  }
+  std::vector<sweep::ResultRow> rows;
+  try {
+    rows = sweep::ReadResults(o.results);
+  } catch (const std::runtime_error& e) {
+    throw UsageError(e.what());
+  }
+  if (rows.empty()) throw UsageError(o.results + ": no rows");
+  const std::vector<sweep::BlockFragility> fits = sweep::FitFragilities(rows);
+  std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood):\n");
+  for (const sweep::BlockFragility& f : fits) {
+    std::printf("  %s alpha %s rad, p %s rad/s, mu %s: %zu rows, %zu overturned: ", f.model.c_str(), f.alpha.c_str(),
+                f.p.c_str(), f.mu.c_str(), f.rows, f.overturned);
+    switch (f.fit.status) {
+      case sweep::FragilityFit::Status::kFitted:
+        std::printf("median %.4g g, dispersion %.4g\n", f.fit.median, f.fit.beta);
+        break;
+      case sweep::FragilityFit::Status::kSeparated:
+        std::printf("no finite fit (outcomes separated): median between %.4g and %.4g g, dispersion -> 0\n",
+                    f.fit.safe_below, f.fit.overturned_above);
+        break;
+      case sweep::FragilityFit::Status::kNone:
+        std::printf("none overturned, no fit\n");
+        break;
+      case sweep::FragilityFit::Status::kAll:
+        std::printf("all overturned, no fit\n");
+        break;
+    }
+  }
+  const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
+  std::printf("%zu files in %s", report.files.size(), o.plot.out_dir.c_str());
+  if (report.skipped) std::printf(" (%zu figures skipped: more than %zu of a kind)", report.skipped, o.plot.max_figures_per_kind);
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace
+
+void RegisterSweep(CLI::App& app, CommandRun& run) {
+  auto opts = std::make_shared<SweepCommandOptions>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("sweep", "overturning and peak rocking over records x blocks x scales");
+  sweep::PlanOptions& p = opts->plan;
+  cmd->add_option("--records", p.records, "ground-motion records: time,accel CSV (s, m/s^2)")->required()->expected(1, -1);
+  cmd->add_option("--scale", p.scale, "A:B:N, N values from A to B: factors on each record (default 1:1:1)");
+  cmd->add_flag("--pga-g", p.pga_g, "the --scale values are the target PGA in g");
+  cmd->add_option("--alpha", p.alpha, "blocks: alpha values, rad")->expected(1, -1);
+  cmd->add_option("--p", p.p, "blocks: p values, rad/s")->expected(1, -1);
+  cmd->add_option("--mu", p.mu, "blocks: mu values (default Housner's 1 - 1.5 sin^2 alpha)")->expected(1, -1);
+  cmd->add_option("--width", p.width, "blocks: rectangle widths 2b, m")->expected(1, -1);
+  cmd->add_option("--height", p.height, "blocks: rectangle heights 2h, m")->expected(1, -1);
+  cmd->add_option("--polygon", p.polygons, "blocks: section files (x,z CSV, as rocklab params)")->expected(1, -1);
+  cmd->add_option("--model", p.model, "housner | complex")->required();
+  cmd->add_option("--duration", opts->duration_s, "simulated time per case, s (default: record end + 10 s)");
+  cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
+  cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-10)");
+  cmd->add_option("--out", opts->out, "results CSV (.h5: not built yet)")->required();
+  cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
+  cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
+  cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
+  cmd->add_option("--merge", opts->merge, "shard files to interleave into --out (same sweep options)")->expected(1, -1);
+  cmd->callback([opts, &run] { run = [opts] { return RunSweepCommand(*opts); }; });
+
+  auto plot = std::make_shared<PlotCommandOptions>();
+  CLI::App* pc = app.add_subcommand("sweep-plot", "rocking spectra, overturning maps and fragility of a sweep");
+  pc->add_option("results", plot->results, "results CSV of rocklab sweep")->required();
+  pc->add_option("--out-dir", plot->plot.out_dir, "folder for the figures and fragility.csv (default .)");
+  pc->add_option("--format", plot->format, "svg (default) or png");
+  pc->add_option("--gnuplot", plot->plot.gnuplot, "gnuplot program (default gnuplot)");
+  pc->callback([plot, &run] { run = [plot] { return RunSweepPlot(*plot); }; });
+}
+
+}  // namespace rocklab::tools
