@@ -15,6 +15,7 @@ packages=(
   iproute2 util-linux
   libcpp-httplib-dev libmicrohttpd-dev gnuplot-nox
   libexpat1-dev
+  libmatio-dev libhdf5-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.
