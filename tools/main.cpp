@@ -22,6 +22,8 @@ void RegisterRun(CLI::App& app, CommandRun& run);
 void RegisterMonitor(CLI::App& app, CommandRun& run);
 void RegisterReport(CLI::App& app, CommandRun& run);
 void RegisterRecord(CLI::App& app, CommandRun& run);
+void RegisterInfo(CLI::App& app, CommandRun& run);
+void RegisterExport(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -47,6 +49,8 @@ int main(int argc, char** argv) {
       &RegisterMonitor,
       &RegisterReport,
       &RegisterRecord,
+      &RegisterInfo,
+      &RegisterExport,
   };
   for (CommandRegistrar add : commands) add(app, run);
 
