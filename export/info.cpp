@@ -229,7 +229,7 @@ std::string ToText(const LogInfo& info) {
   }
   out += Fmt("damaged:   %" PRId64 " regions, %" PRId64 " bytes, %" PRId64 " events lost\n",
              info.damaged_regions, info.damaged_bytes, info.damaged_events);
-  out += Fmt("%-22s %-16s %9s %14s %14s %11s %9s %11s\n", "channel", "type", "count", "first_time_s",
+  out += Fmt("%-22s %-16s %9s %14s %14s %11s %16s %11s\n", "channel", "type", "count", "first_time_s",
              "last_time_s", "rate_hz", "seq_gaps", "undecodable");
   for (const ChannelInfo& c : info.channels) {
     std::string type = c.type;
@@ -237,10 +237,10 @@ std::string ToText(const LogInfo& info) {
     const std::string gaps =
         c.has_seq ? Fmt("%" PRId64 " (%" PRId64 " missing)", c.seq_gaps, c.seq_missing) : std::string("-");
     if (c.has_time) {
-      out += Fmt("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %9s %11" PRId64 "\n", c.name.c_str(),
+      out += Fmt("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", c.name.c_str(),
                  type.c_str(), c.count, c.first_time, c.last_time, c.rate_hz, gaps.c_str(), c.undecodable);
     } else {
-      out += Fmt("%-22s %-16s %9" PRId64 " %14s %14s %11s %9s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
+      out += Fmt("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
                  c.count, "-", "-", "-", gaps.c_str(), c.undecodable);
     }
   }
