@@ -71,7 +71,13 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
   read.on_problem = [&](const common::LogProblem& p) {
     if (on_problem) on_problem(common::ToString(p));
   };
-  common::LogReader log(path, read);
+  std::unique_ptr<common::LogReader> opened;
+  try {
+    opened = std::make_unique<common::LogReader>(path, read);
+  } catch (const std::exception& e) {
+    throw InputError(e.what());
+  }
+  common::LogReader& log = *opened;
   const std::regex select(options.channels);
   std::unordered_map<std::string, ChannelState> channels;
   std::vector<Column> columns;
@@ -157,7 +163,12 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
   so.on_problem = [&](const daq::Problem& p) {
     if (on_problem) on_problem(daq::ToString(p));
   };
-  std::unique_ptr<daq::Source> source = daq::OpenSource(path, so);
+  std::unique_ptr<daq::Source> source;
+  try {
+    source = daq::OpenSource(path, so);
+  } catch (const std::exception& e) {
+    throw InputError(e.what());
+  }
   std::vector<Column> columns{{"time", ColumnType::kDouble, "s"}};
   for (const std::string& name : source->channel_names()) {
     std::string unit;

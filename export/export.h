@@ -17,12 +17,20 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "export/table.h"
 
 namespace rocklab::exporter {
+
+/// The input cannot be opened or read from its start (the message names
+/// the file); what the sink throws stays a std::runtime_error.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct ExportOptions {
   std::string channels{".*"};  ///< ECMAScript regex over whole channel names (logs)
@@ -66,13 +74,13 @@ bool IsLcmLog(const std::string& path);
 
 /// A log's selected channels into `sink`. `on_problem` gets one line per
 /// damaged region and per first undecodable message of a channel.
-/// @throws std::runtime_error when the log cannot be opened; what the sink
-///         throws.
+/// @throws InputError when the log cannot be opened; what the sink throws.
 ExportSummary ExportLog(const std::string& path, const ExportOptions& options, TableSink& sink,
                         const std::function<void(const std::string&)>& on_problem = {});
 
 /// A raw CSV/LVM file (the DAQ's sources) into one table `data` of `sink`.
-/// @throws std::runtime_error when the file cannot be opened (file:line).
+/// @throws InputError when the file cannot be opened (file:line); what the
+///         sink throws.
 ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, TableSink& sink,
                         const std::function<void(const std::string&)>& on_problem = {});
 

@@ -52,10 +52,8 @@ int RunExport(ExportCliOptions& o) {
     try {
       s = log ? exporter::ExportLog(o.input, o.options, *sink, show)
               : exporter::ExportRaw(o.input, o.options, *sink, show);
-    } catch (const std::runtime_error& e) {
-      // Opening the input (the sink's errors name the output file).
-      if (std::string(e.what()).find(o.out) == std::string::npos) throw UsageError(std::string("INPUT: ") + e.what());
-      throw;
+    } catch (const exporter::InputError& e) {
+      throw UsageError(std::string("INPUT: ") + e.what());
     }
   }
   sink->Close();

@@ -198,6 +198,13 @@ TEST_F(InfoExport, ExportRefusesAnUnknownExtension) {
   EXPECT_NE(r.err.find(".csv, .mat or .h5"), std::string::npos) << r.err;
 }
 
+TEST_F(InfoExport, ExportOfAMissingInputIsAUsageErrorNamingIt) {
+  const auto r = test::RunCli({"export", dir_ + "/missing.lvm", "--out", dir_ + "/m.h5"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("INPUT: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("missing.lvm"), std::string::npos) << r.err;
+}
+
 TEST_F(InfoExport, InfoOfAMissingFileNamesIt) {
   const auto r = test::RunCli({"info", dir_ + "/missing.csv"});
   EXPECT_EQ(r.exit_code, 2);
