@@ -60,6 +60,7 @@ struct SourceStats {
   int64_t bad_rows{};     ///< rows skipped (ragged, no time, undecodable)
   int64_t bad_values{};   ///< values that are not numbers (delivered as NaN)
   int64_t warnings{};     ///< other problems (e.g. LVM Samples disagreeing with the rows)
+  int64_t segments{};     ///< LVM: segment headers read (CSV, LCM: 0)
   int64_t damaged_regions{};  ///< LCM logs: damaged regions skipped (bad sync, length, cut tail)
   int64_t damaged_bytes{};    ///< LCM logs: bytes in them
   int64_t damaged_events{};   ///< LCM logs: events lost in them

@@ -383,6 +383,7 @@ class LvmSource final : public TextSource {
     if (!any) return false;
     if (!ended) Fail("truncated segment header: no ***End_of_Header***");
     ++segment_;
+    stats_.segments = segment_;
     segment_done_ = false;
     segment_rows_ = 0;
     if (!dx || !(*dx >= 1.0 / kMaxRateHz && *dx <= 1.0 / kMinRateHz)) {

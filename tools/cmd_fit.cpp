@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/progress.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
 #include "model/record.h"
@@ -223,7 +224,11 @@ int RunFit(const FitCliOptions& o) {
 
   model::FitResult result;
   try {
-    model::RockingRecord record = model::ReadRecord(o.input);
+    model::RockingRecord record;
+    {
+      common::FileProgress progress("fit", o.input, o.quiet);  // the record's read
+      record = model::ReadRecord(o.input);
+    }
     if (!o.accel_csv.empty()) model::AddTableCsv(o.accel_csv, record);
     if (method == model::FitMethod::kTrajectory && !o.quiet) {
       fo.on_progress = [](const model::FitProgress& p) {

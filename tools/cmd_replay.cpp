@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "common/progress.h"
 #include "tools/cli.h"
 #include "pipeline/log_replay.h"
 #include "tools/pipeline.h"
@@ -28,6 +29,7 @@ struct ReplayCommand {
   std::string input;
   // Options of the LOG form that were given (they make no sense with --rig).
   std::string log_only_given;
+  bool quiet{};
 };
 
 int RunLogReplay(const ReplayCommand& c) {
@@ -40,6 +42,7 @@ int RunLogReplay(const ReplayCommand& c) {
   const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(c.lcm_url);
   ReplayCounts counts;
   try {
+    common::FileProgress progress("replay", c.log_path, c.quiet || !c.replay.max_speed);
     counts = ReplayLog(c.log_path, c.replay, *bus, stop,
                        [](const std::string& problem) { std::fprintf(stderr, "replay: %s\n", problem.c_str()); });
   } catch (const std::runtime_error& e) {
@@ -84,6 +87,7 @@ int RunReplay(const ReplayCommand& c) {
   daq.speed = c.replay.speed;
   daq.max_speed = c.replay.max_speed;
   daq.lcm_url = c.lcm_url;
+  common::FileProgress progress("replay", c.input, c.quiet || !c.replay.max_speed);
   return RunDaqStage(daq, "replay", InstallStopSignals());
 }
 
@@ -98,6 +102,7 @@ void RegisterReplay(CLI::App& app, CommandRun& run) {
   cmd->add_option("--input", c->input, "raw file (.csv, .lvm or LCM log) for the DAQ stage, with --rig");
   auto* speed = cmd->add_option("--speed", c->replay.speed, "pace factor (1 = as recorded)");
   cmd->add_flag("--max", c->replay.max_speed, "as fast as possible")->excludes(speed);
+  cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   cmd->add_option("--channels", c->replay.channels, "LOG only: regex of the channels to publish")
       ->capture_default_str();
   cmd->add_flag("--loop", c->replay.loop, "LOG only: start again at the end");

@@ -13,6 +13,7 @@
 #include <string>
 #include <utility>
 
+#include "common/progress.h"
 #include "tools/cli.h"
 #include "pipeline/pipeline.h"
 #include "report/report.h"
@@ -36,6 +37,7 @@ struct ReportCommand {
   std::string svg_path;
   std::string size{"1000x650"};
   ReportOptions options;
+  bool quiet{};
 };
 
 // The folder `file` goes into exists and may be written (checked before the
@@ -93,6 +95,7 @@ int RunReport(const ReportCommand& c) {
 
   RecordReport record;
   try {
+    common::FileProgress progress("report", c.log_path, c.quiet);
     record = ReadRecordLog(c.log_path, c.options);
   } catch (const ReportInputError& e) {
     throw UsageError(e.what());
@@ -143,6 +146,7 @@ void RegisterReport(CLI::App& app, CommandRun& run) {
   cmd->add_option("--series-rate", c->options.series_rate_hz,
                   "points kept per second of each series, Hz")
       ->capture_default_str();
+  cmd->add_flag("--quiet", c->quiet, "no progress bar (drawn when stderr is a terminal)");
   cmd->callback([c, &run] { run = [c] { return RunReport(*c); }; });
 }
 

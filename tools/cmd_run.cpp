@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "common/lcm_log.h"
+#include "common/progress.h"
 #include "compare/compare_node.h"
 #include "daq/daq_node.h"
 #include "model/model_node.h"
@@ -46,6 +47,7 @@ struct RunCommand {
   std::string summary_json;
   double speed{1.0};
   bool max{};
+  bool quiet{};
   compare::CompareNodeConfig compare;
 };
 
@@ -99,7 +101,10 @@ int RunAll(RunCommand& c) {
                  v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
                  v.params_source.c_str());
   }
-  daq->Run(stop);
+  {
+    common::FileProgress progress("run", c.input, c.quiet || c.speed != 0);  // --max only
+    daq->Run(stop);
+  }
   model.Finish();
   compare.Finish();
   if (log) log->Close();
@@ -151,6 +156,7 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   auto* speed = cmd->add_option("--speed", c->speed,
                                 "sample-clock s per host s (default 1: real time); 0 = --max");
   cmd->add_flag("--max", c->max, "as fast as possible")->excludes(speed);
+  cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   AddCompareOptions(*cmd, c->compare);
   cmd->callback([c, &run] { run = [c] { return RunAll(*c); }; });
 }

@@ -23,6 +23,8 @@ void RegisterMonitor(CLI::App& app, CommandRun& run);
 void RegisterReport(CLI::App& app, CommandRun& run);
 void RegisterRecord(CLI::App& app, CommandRun& run);
 void RegisterSweep(CLI::App& app, CommandRun& run);
+void RegisterInfo(CLI::App& app, CommandRun& run);
+void RegisterExport(CLI::App& app, CommandRun& run);
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -49,6 +51,8 @@ int main(int argc, char** argv) {
       &RegisterReport,
       &RegisterRecord,
       &RegisterSweep,
+      &RegisterInfo,
+      &RegisterExport,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

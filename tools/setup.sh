@@ -16,6 +16,7 @@ packages=(
   libcpp-httplib-dev libmicrohttpd-dev gnuplot-nox
   libexpat1-dev
   libopenmpi-dev openmpi-bin
+  libmatio-dev libhdf5-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.

@@ -1,0 +1,118 @@
+#include "export/csv_writer.h"
+
+#include <cinttypes>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace rocklab::exporter {
+namespace {
+
+void WriteQuoted(std::FILE* f, const std::string& s) {
+  std::fputc('"', f);
+  for (char c : s) {
+    if (c == '"') std::fputc('"', f);
+    std::fputc(c, f);
+  }
+  std::fputc('"', f);
+}
+
+void WriteName(std::FILE* f, const std::string& s) {
+  if (s.find_first_of(",\"\r\n") != std::string::npos) {
+    WriteQuoted(f, s);
+  } else {
+    std::fputs(s.c_str(), f);
+  }
+}
+
+void WriteReal(std::FILE* f, double x) {
+  if (std::isnan(x)) {
+    std::fputs("NaN", f);
+  } else if (std::isinf(x)) {
+    std::fputs(x > 0 ? "inf" : "-inf", f);
+  } else {
+    std::fprintf(f, "%.17g", x);
+  }
+}
+
+}  // namespace
+
+CsvWriter::CsvWriter(std::string out, bool single_table)
+    : out_(std::move(out)), single_table_(single_table) {}
+
+CsvWriter::~CsvWriter() {
+  try {
+    Close();
+  } catch (...) {  // a destructor does not throw; Close() was the place to hear it
+  }
+}
+
+std::string CsvWriter::TablePath(const std::string& out, const std::string& name) {
+  std::string stem = out;
+  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
+  std::string safe = name;
+  for (char& c : safe) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '-';
+    if (!ok) c = '_';
+  }
+  return stem + "_" + safe + ".csv";
+}
+
+int CsvWriter::AddTable(const std::string& name, const std::vector<Column>& columns) {
+  if (single_table_ && !files_.empty()) {
+    throw std::logic_error("CsvWriter: a single-table export got a second table " + name);
+  }
+  File file;
+  file.path = single_table_ ? out_ : TablePath(out_, name);
+  file.columns = columns;
+  file.f = std::fopen(file.path.c_str(), "w");
+  if (!file.f) throw std::runtime_error(file.path + ": cannot create: " + std::strerror(errno));
+  static constexpr std::size_t kBuffer = 1 << 16;
+  std::setvbuf(file.f, nullptr, _IOFBF, kBuffer);
+  for (std::size_t i = 0; i < columns.size(); ++i) {
+    if (i) std::fputc(',', file.f);
+    WriteName(file.f, columns[i].name);
+  }
+  std::fputc('\n', file.f);
+  files_.push_back(std::move(file));
+  return static_cast<int>(files_.size()) - 1;
+}
+
+void CsvWriter::Append(int table, const Row& row) {
+  File& file = files_.at(static_cast<std::size_t>(table));
+  std::FILE* f = file.f;
+  for (std::size_t i = 0; i < file.columns.size(); ++i) {
+    if (i) std::fputc(',', f);
+    switch (file.columns[i].type) {
+      case ColumnType::kDouble: WriteReal(f, row.real[i]); break;
+      case ColumnType::kInt: std::fprintf(f, "%" PRId64, row.integer[i]); break;
+      case ColumnType::kString: WriteQuoted(f, row.text[i]); break;
+    }
+  }
+  if (std::fputc('\n', f) == EOF) {
+    throw std::runtime_error(file.path + ": write failed: " + std::strerror(errno));
+  }
+}
+
+void CsvWriter::Close() {
+  std::string error;
+  for (File& file : files_) {
+    if (!file.f) continue;
+    const bool bad = std::ferror(file.f) != 0;
+    const int closed = std::fclose(file.f);
+    file.f = nullptr;
+    if ((bad || closed != 0) && error.empty()) {
+      error = file.path + ": write failed: " + std::strerror(errno);
+    }
+  }
+  if (!error.empty()) throw std::runtime_error(error);
+}
+
+std::vector<std::string> CsvWriter::files() const {
+  std::vector<std::string> out;
+  for (const File& f : files_) out.push_back(f.path);
+  return out;
+}
+
+}  // namespace rocklab::exporter

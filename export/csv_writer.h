@@ -1,0 +1,45 @@
+#pragma once
+/// @file
+/// CSV export: one file per table, a header row of the column names, one
+/// line per row. Reals with 17 significant digits (they read back to the
+/// same double), NaN as `NaN`, infinities as `inf`/`-inf`; integers in
+/// decimal; text always in double quotes with `"` doubled; names quoted
+/// where they hold a comma, a quote or a line break. UTF-8, `\n` line ends.
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "export/table.h"
+
+namespace rocklab::exporter {
+
+class CsvWriter final : public TableSink {
+ public:
+  /// `out` ends in .csv. single_table: the one table goes to `out` itself
+  /// (a raw file's export); otherwise table T goes to OUTDIR/STEM_T.csv
+  /// (STEM: `out` without .csv; T with every character outside
+  /// [A-Za-z0-9_-] replaced by `_`).
+  CsvWriter(std::string out, bool single_table);
+  ~CsvWriter() override;
+  int AddTable(const std::string& name, const std::vector<Column>& columns) override;
+  void Append(int table, const Row& row) override;
+  void Close() override;
+  std::vector<std::string> files() const override;
+
+  /// The file a table named `name` goes to when not single_table.
+  static std::string TablePath(const std::string& out, const std::string& name);
+
+ private:
+  struct File {
+    std::string path;
+    std::FILE* f{};
+    std::vector<Column> columns;
+  };
+  std::string out_;
+  bool single_table_;
+  std::vector<File> files_;
+};
+
+}  // namespace rocklab::exporter

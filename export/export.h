@@ -1,0 +1,87 @@
+#pragma once
+/// @file
+/// `rocklab export`: an LCM log (rocklab's or lcm-logger's) or a raw CSV /
+/// LVM file into CSV, MAT or HDF5 tables (docs/export.md).
+///
+/// From a log: one table per selected channel (named by the channel; a
+/// channel that changes type gets a second table CHANNEL_<type>), one row
+/// per message that decodes, every field by its type (export/fields.h).
+/// From a raw file: one table `data`, `time` (s) then the channels by their
+/// names, NaN where a value is missing. Both stream: rows go to the sink as
+/// they are read.
+///
+/// The window: --start/--end in s from the record's first sample (a log:
+/// the sample-clock utime of its first rocklab message; a raw file: its
+/// first row's time). Rows outside are counted, not written.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "export/table.h"
+
+namespace rocklab::exporter {
+
+/// The input cannot be opened or read from its start (the message names
+/// the file); what the sink throws stays a std::runtime_error.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct ExportOptions {
+  std::string channels{".*"};  ///< ECMAScript regex over whole channel names (logs)
+  double start_s{0.0};         ///< s from the first sample; >= 0
+  double end_s{-1.0};          ///< s from the first sample; < 0: to the end
+  double sample_rate_hz{};     ///< raw files without a time column or time base, Hz
+  /// Raw files: units of the channels by name (from a rig file); others "".
+  std::vector<std::pair<std::string, std::string>> units;
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+};
+
+struct ChannelSummary {
+  std::string channel;
+  std::string type;  ///< LCM type name
+  std::int64_t rows{};
+  std::int64_t reshaped{};  ///< rows whose arrays were cut or padded to the first message's length
+};
+
+struct ExportSummary {
+  std::vector<ChannelSummary> tables;  ///< in the order the tables were created
+  std::int64_t rows{};                 ///< rows written, all tables
+  std::int64_t outside_window{};       ///< messages / rows left out by --start/--end
+  std::int64_t filtered{};             ///< log events of channels --channels left out
+  std::int64_t unknown_type{};         ///< selected log events whose fingerprint is not a rocklab type
+  std::int64_t undecodable{};          ///< selected log events of a rocklab type that did not decode
+  std::int64_t damaged_regions{}, damaged_bytes{}, damaged_events{};  ///< logs (common::LogReader)
+  std::int64_t bad_rows{}, bad_values{};  ///< raw files (daq::SourceStats)
+  std::string read_error;  ///< raw files: why the read stopped early; empty when it ended
+};
+
+/// The sink for `out` by its extension: .csv (CsvWriter; single_table: the
+/// one table into `out`), .mat (MatWriter), .h5 / .hdf5 (H5Writer).
+/// @throws std::invalid_argument for another extension; std::runtime_error
+///         when the file cannot be created.
+std::unique_ptr<TableSink> OpenSink(const std::string& out, bool single_table);
+
+/// Whether `path` is an LCM log (starts with the sync word) rather than a
+/// raw CSV/LVM file.
+bool IsLcmLog(const std::string& path);
+
+/// A log's selected channels into `sink`. `on_problem` gets one line per
+/// damaged region and per first undecodable message of a channel.
+/// @throws InputError when the log cannot be opened; what the sink throws.
+ExportSummary ExportLog(const std::string& path, const ExportOptions& options, TableSink& sink,
+                        const std::function<void(const std::string&)>& on_problem = {});
+
+/// A raw CSV/LVM file (the DAQ's sources) into one table `data` of `sink`.
+/// @throws InputError when the file cannot be opened (file:line); what the
+///         sink throws.
+ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, TableSink& sink,
+                        const std::function<void(const std::string&)>& on_problem = {});
+
+}  // namespace rocklab::exporter

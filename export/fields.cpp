@@ -1,0 +1,292 @@
+// One field table per rocklab LCM type (see fields.h). Each Visit lists the
+// fields in .lcm order with their units (from the .lcm comments); the two
+// visitors below turn one list into the columns and into a row.
+#include "export/fields.h"
+
+#include <cmath>
+#include <limits>
+#include <type_traits>
+
+#include "common/wire.h"
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/event_t.hpp"
+#include "rocklab/health_t.hpp"
+#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::exporter {
+namespace {
+
+// ---- the field tables -------------------------------------------------------
+
+template <class V>
+void Visit(const rocklab::block_state_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Int("seq", m.seq, "");
+  v.Real("theta", m.theta, "rad");
+  v.Real("theta_dot", m.theta_dot, "rad/s");
+  v.Real("theta_mirror", m.theta_mirror, "rad");
+  v.Real("theta_camera", m.theta_camera, "rad");
+  v.Real("sliding", m.sliding, "m");
+  v.Real("jump", m.jump, "m");
+  v.Real("twist", m.twist, "rad");
+  v.Real("out_of_plane", m.out_of_plane, "m");
+  v.Int("leds_used", m.leds_used, "");
+  v.Int("flags", m.flags, "");
+}
+
+template <class V>
+void Visit(const rocklab::comparison_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Text("name", m.name);
+  v.Real("error", m.error, "rad");
+  v.Real("rms_window", m.rms_window, "rad");
+  v.Real("window_s", m.window_s, "s");
+  v.Real("rms_total", m.rms_total, "rad");
+  v.Real("nrms", m.nrms, "1");
+  v.Real("peak_error", m.peak_error, "rad");
+  v.Real("impact_timing_error", m.impact_timing_error, "s");
+  v.Real("correlation", m.correlation, "1");
+  v.Int("valid", m.valid, "");
+  v.Int("samples", m.samples, "");
+}
+
+template <class V>
+void Visit(const rocklab::daq_config_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Text("rig_name", m.rig_name);
+  v.Text("calibration_id", m.calibration_id);
+  v.Real("sample_rate_hz", m.sample_rate_hz, "Hz");
+  v.Int("num_channels", m.num_channels, "");
+  v.TextArray("channel_names", m.channel_names);
+  v.TextArray("channel_units", m.channel_units);
+  v.TextArray("channel_sensors", m.channel_sensors);
+  v.RealArray("gain", m.gain, "");
+  v.RealArray("offset", m.offset, "");
+  v.Real("alpha", m.alpha, "rad");
+  v.Real("p", m.p, "rad/s");
+  v.Real("mu", m.mu, "1");
+}
+
+template <class V>
+void Visit(const rocklab::event_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Text("source", m.source);
+  v.Int("kind", m.kind, "");
+  v.Real("value", m.value, "");  // the unit depends on kind (event_t.lcm)
+  v.Text("detail", m.detail);
+}
+
+template <class V>
+void Visit(const rocklab::health_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Text("node", m.node);
+  v.Text("state", m.state);
+  v.Real("rate_in_hz", m.rate_in_hz, "Hz");
+  v.Real("rate_out_hz", m.rate_out_hz, "Hz");
+  v.Int("count_in", m.count_in, "");
+  v.Int("count_out", m.count_out, "");
+  v.Int("dropped", m.dropped, "");
+  v.Int("gaps", m.gaps, "");
+  v.Int("bad_samples", m.bad_samples, "");
+  v.Real("lag_s", m.lag_s, "s");
+}
+
+// model_state_t and model_state2_t share their first fields.
+template <class M, class V>
+void VisitModelState(const M& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Text("name", m.name);
+  v.Text("model", m.model);
+  v.Real("theta", m.theta, "rad");
+  v.Real("theta_dot", m.theta_dot, "rad/s");
+  v.Real("chi", m.chi, "1");
+  v.Real("psi", m.psi, "rad");
+  v.Real("energy", m.energy, "1");
+  v.Int("impact_count", m.impact_count, "");
+  v.Int("regime", m.regime, "");
+  v.Real("alpha", m.alpha, "rad");
+  v.Real("p", m.p, "rad/s");
+  v.Real("mu", m.mu, "1");
+  v.Real("l", m.l, "1");
+}
+
+template <class V>
+void Visit(const rocklab::model_state_t& m, V& v) {
+  VisitModelState(m, v);
+}
+
+template <class V>
+void Visit(const rocklab::model_state2_t& m, V& v) {
+  VisitModelState(m, v);
+  v.Int("equations", m.equations, "");
+}
+
+template <class V>
+void Visit(const rocklab::raw_frame_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Int("seq", m.seq, "");
+  v.Int("num_channels", m.num_channels, "");
+  v.RealArray("values", m.values, "");  // raw units: RL_DAQ_CONFIG's gain and offset calibrate them
+}
+
+template <class V>
+void Visit(const rocklab::table_state_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Int("seq", m.seq, "");
+  v.Real("displacement", m.displacement, "m");
+  v.Real("velocity", m.velocity, "m/s");
+  v.Real("acceleration", m.acceleration, "m/s^2");
+  v.Int("accel_source", m.accel_source, "");
+}
+
+// ---- the visitors -------------------------------------------------------------
+
+// Field names in order, arrays once.
+struct NameVisitor {
+  std::vector<std::string> names;
+  void Int(const char* n, std::int64_t, const char*) { names.emplace_back(n); }
+  void Real(const char* n, double, const char*) { names.emplace_back(n); }
+  void Text(const char* n, const std::string&) { names.emplace_back(n); }
+  void RealArray(const char* n, const std::vector<double>&, const char*) { names.emplace_back(n); }
+  void TextArray(const char* n, const std::vector<std::string>&) { names.emplace_back(n); }
+};
+
+// Columns of one message; records each array's length.
+struct ColumnVisitor {
+  std::vector<Column>* columns;
+  std::vector<std::size_t>* array_sizes;
+  void Int(const char* n, std::int64_t, const char* unit) {
+    columns->push_back({n, ColumnType::kInt, unit});
+  }
+  void Real(const char* n, double, const char* unit) {
+    columns->push_back({n, ColumnType::kDouble, unit});
+  }
+  void Text(const char* n, const std::string&) { columns->push_back({n, ColumnType::kString, ""}); }
+  void RealArray(const char* n, const std::vector<double>& a, const char* unit) {
+    array_sizes->push_back(a.size());
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      columns->push_back({std::string(n) + "_" + std::to_string(k), ColumnType::kDouble, unit});
+    }
+  }
+  void TextArray(const char* n, const std::vector<std::string>& a) {
+    array_sizes->push_back(a.size());
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      columns->push_back({std::string(n) + "_" + std::to_string(k), ColumnType::kString, ""});
+    }
+  }
+};
+
+// One message into a row laid out as ColumnVisitor said (index 0 is `time`).
+struct RowVisitor {
+  Row* row;
+  const std::vector<std::size_t>* array_sizes;
+  std::size_t i{1};
+  std::size_t array{0};
+  bool reshaped{false};
+  void Int(const char*, std::int64_t x, const char*) { row->integer[i++] = x; }
+  void Real(const char*, double x, const char*) { row->real[i++] = x; }
+  void Text(const char*, const std::string& x) { row->text[i++] = x; }
+  void RealArray(const char*, const std::vector<double>& a, const char*) {
+    const std::size_t n = (*array_sizes)[array++];
+    reshaped = reshaped || a.size() != n;
+    for (std::size_t k = 0; k < n; ++k) {
+      row->real[i++] = k < a.size() ? a[k] : std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  void TextArray(const char*, const std::vector<std::string>& a) {
+    const std::size_t n = (*array_sizes)[array++];
+    reshaped = reshaped || a.size() != n;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k < a.size()) {
+        row->text[i++] = a[k];
+      } else {
+        row->text[i++].clear();
+      }
+    }
+  }
+};
+
+template <class M, class = void>
+struct HasSeq : std::false_type {};
+template <class M>
+struct HasSeq<M, std::void_t<decltype(std::declval<M>().seq)>> : std::true_type {};
+
+template <class Msg>
+class TypedDecoder final : public MessageDecoder {
+ public:
+  const char* Decode(const void* data, int size) override {
+    return common::GuardedDecode(data, size, msg_);
+  }
+  void Columns(std::vector<Column>& columns) override {
+    columns.clear();
+    array_sizes_.clear();
+    columns.push_back({"time", ColumnType::kDouble, "s"});
+    ColumnVisitor v{&columns, &array_sizes_};
+    Visit(msg_, v);
+  }
+  bool Fill(Row& row) override {
+    row.real[0] = static_cast<double>(msg_.utime) * 1e-6;
+    RowVisitor v{&row, &array_sizes_};
+    Visit(msg_, v);
+    return !v.reshaped;
+  }
+  std::int64_t utime() const override { return msg_.utime; }
+  bool has_seq() const override { return HasSeq<Msg>::value; }
+  std::int64_t seq() const override {
+    if constexpr (HasSeq<Msg>::value) {
+      return msg_.seq;
+    } else {
+      return 0;
+    }
+  }
+
+ private:
+  Msg msg_{};
+  std::vector<std::size_t> array_sizes_;
+};
+
+template <class Msg>
+MessageType Entry(const char* name) {
+  MessageType t;
+  t.name = name;
+  t.fingerprint = Msg::getHash();
+  t.layout = &common::WireLayoutOf<Msg>();
+  t.make = [] { return std::unique_ptr<MessageDecoder>(new TypedDecoder<Msg>()); };
+  t.field_names = [] {
+    NameVisitor v;
+    Visit(Msg{}, v);
+    return v.names;
+  };
+  return t;
+}
+
+}  // namespace
+
+const std::vector<MessageType>& MessageTypes() {
+  static const std::vector<MessageType> types = {
+      Entry<rocklab::block_state_t>("block_state_t"),
+      Entry<rocklab::comparison_t>("comparison_t"),
+      Entry<rocklab::daq_config_t>("daq_config_t"),
+      Entry<rocklab::event_t>("event_t"),
+      Entry<rocklab::health_t>("health_t"),
+      Entry<rocklab::model_state2_t>("model_state2_t"),
+      Entry<rocklab::model_state_t>("model_state_t"),
+      Entry<rocklab::raw_frame_t>("raw_frame_t"),
+      Entry<rocklab::table_state_t>("table_state_t"),
+  };
+  return types;
+}
+
+const MessageType* FindMessageType(std::int64_t fingerprint) {
+  for (const MessageType& t : MessageTypes()) {
+    if (t.fingerprint == fingerprint) return &t;
+  }
+  return nullptr;
+}
+
+}  // namespace rocklab::exporter

@@ -1,0 +1,346 @@
+#include "export/info.h"
+
+#include <sys/stat.h>
+
+#include <cinttypes>
+#include <cstdarg>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "common/lcm_log.h"
+#include "common/text.h"
+#include "common/wire.h"
+#include "daq/source.h"
+#include "export/fields.h"
+#include "rocklab/daq_config_t.hpp"
+
+namespace rocklab::exporter {
+namespace {
+
+std::int64_t FileBytes(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? static_cast<std::int64_t>(st.st_size) : 0;
+}
+
+struct ChannelWork {
+  ChannelInfo info;
+  std::vector<std::pair<std::int64_t, std::unique_ptr<MessageDecoder>>> decoders;
+  std::int64_t decoded{};
+  bool have_seq{false};
+  std::int64_t last_seq{};
+};
+
+void Rate(ChannelInfo& c, std::int64_t decoded) {
+  const double span = c.last_time - c.first_time;
+  c.rate_hz = decoded > 1 && span > 0 ? static_cast<double>(decoded - 1) / span : 0.0;
+}
+
+std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Fmt(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return buf;
+}
+
+nlohmann::json Number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+}  // namespace
+
+LogInfo ReadLogInfo(const std::string& path) {
+  LogInfo info;
+  info.path = path;
+  info.file_bytes = FileBytes(path);
+  common::LogReader log(path);
+  std::map<std::string, ChannelWork> channels;
+  const std::int64_t config_hash = rocklab::daq_config_t::getHash();
+  rocklab::daq_config_t config, first_config;
+  std::int64_t first_stamp = 0, last_stamp = 0;
+  common::LogEvent ev;
+  while (log.Next(ev)) {
+    if (info.events++ == 0) first_stamp = ev.timestamp_us;
+    last_stamp = std::max(last_stamp, ev.timestamp_us);
+    const int size = static_cast<int>(ev.data.size());
+    ChannelWork& ch = channels[ev.channel];
+    ChannelInfo& c = ch.info;
+    const std::int64_t fingerprint = common::WireFingerprint(ev.data.data(), size);
+    if (c.count++ == 0) {
+      c.name = ev.channel;
+      c.fingerprint = fingerprint;
+    }
+    c.bytes += size;
+    const MessageType* type = FindMessageType(fingerprint);
+    if (!type) {
+      if (c.type.empty()) c.type = "unknown";
+      continue;
+    }
+    MessageDecoder* decoder = nullptr;
+    for (auto& [fp, d] : ch.decoders) {
+      if (fp == fingerprint) decoder = d.get();
+    }
+    if (!decoder) {
+      ch.decoders.emplace_back(fingerprint, type->make());
+      decoder = ch.decoders.back().second.get();
+      c.type = c.type.empty() || c.type == "unknown" ? type->name : c.type + "," + type->name;
+    }
+    if (decoder->Decode(ev.data.data(), size)) {
+      ++c.undecodable;
+      continue;
+    }
+    const double t = static_cast<double>(decoder->utime()) * 1e-6;
+    if (ch.decoded++ == 0) {
+      c.first_time = c.last_time = t;
+      c.has_time = true;
+    }
+    c.first_time = std::min(c.first_time, t);
+    c.last_time = std::max(c.last_time, t);
+    if (!info.has_time) {
+      info.first_time = info.last_time = t;
+      info.has_time = true;
+    }
+    info.first_time = std::min(info.first_time, t);
+    info.last_time = std::max(info.last_time, t);
+    if (decoder->has_seq()) {
+      c.has_seq = true;
+      const std::int64_t s = decoder->seq();
+      if (ch.have_seq) {
+        if (s > ch.last_seq + 1) {
+          ++c.seq_gaps;
+          c.seq_missing += s - ch.last_seq - 1;
+        } else if (s <= ch.last_seq) {
+          ++c.seq_back;
+        }
+      }
+      ch.have_seq = true;
+      ch.last_seq = s;
+    }
+    if (fingerprint == config_hash && !common::GuardedDecode(ev.data.data(), size, config)) {
+      ++info.config_messages;
+      if (!info.has_config) {
+        info.has_config = true;
+        first_config = config;
+        info.rig = config.rig_name;
+        info.calibration = config.calibration_id;
+        info.config_rate_hz = config.sample_rate_hz;
+        info.config_channels = config.channel_names;
+        info.config_units = config.channel_units;
+        info.config_sensors = config.channel_sensors;
+        info.alpha = config.alpha;
+        info.p = config.p;
+        info.mu = config.mu;
+      } else {
+        // utime differs by design; everything else should not.
+        config.utime = first_config.utime;
+        if (config.getEncodedSize() != first_config.getEncodedSize() ||
+            config.rig_name != first_config.rig_name || config.calibration_id != first_config.calibration_id ||
+            config.channel_names != first_config.channel_names || config.gain != first_config.gain ||
+            config.offset != first_config.offset || config.channel_units != first_config.channel_units ||
+            config.sample_rate_hz != first_config.sample_rate_hz || config.alpha != first_config.alpha ||
+            config.p != first_config.p || config.mu != first_config.mu) {
+          ++info.config_changes;
+        }
+      }
+    }
+  }
+  for (auto& [name, ch] : channels) {
+    Rate(ch.info, ch.decoded);
+    info.channels.push_back(ch.info);
+  }
+  info.duration = info.has_time ? info.last_time - info.first_time : 0.0;
+  info.log_duration = static_cast<double>(last_stamp - first_stamp) * 1e-6;
+  const common::LogReadCounts& counts = log.counts();
+  info.damaged_regions = counts.damaged_regions;
+  info.damaged_bytes = counts.damaged_bytes;
+  info.damaged_events = counts.damaged_events;
+  return info;
+}
+
+RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
+                    const std::vector<std::pair<std::string, std::string>>& units) {
+  RawInfo info;
+  info.path = path;
+  info.format = common::HasExtension(path, ".lvm") ? "lvm" : "csv";
+  info.file_bytes = FileBytes(path);
+  daq::SourceOptions so;
+  so.sample_rate_hz = sample_rate_hz;
+  std::unique_ptr<daq::Source> source = daq::OpenSource(path, so);
+  info.channels = source->channel_names();
+  for (const std::string& name : info.channels) {
+    std::string unit;
+    for (const auto& [n, u] : units) {
+      if (n == name) unit = u;
+    }
+    info.units.push_back(unit);
+  }
+  info.rate_hz = source->sample_rate_hz();
+  daq::Frame frame;
+  daq::ReadStatus status;
+  std::int64_t last_seq = 0;
+  while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) {
+    if (info.rows++ == 0) {
+      info.first_time = info.last_time = frame.time_s;
+      info.has_time = true;
+    } else if (frame.seq > last_seq + 1) {
+      ++info.seq_gaps;
+      info.seq_missing += frame.seq - last_seq - 1;
+    }
+    last_seq = frame.seq;
+    info.first_time = std::min(info.first_time, frame.time_s);
+    info.last_time = std::max(info.last_time, frame.time_s);
+  }
+  if (status == daq::ReadStatus::kError) info.read_error = source->error();
+  const daq::SourceStats& s = source->stats();
+  info.bad_rows = s.bad_rows;
+  info.bad_values = s.bad_values;
+  info.warnings = s.warnings;
+  info.segments = info.format == "lvm" ? s.segments : (info.rows > 0 ? 1 : 0);
+  info.span = info.last_time - info.first_time;
+  info.measured_rate_hz = info.rows > 1 && info.span > 0 ? static_cast<double>(info.rows - 1) / info.span : 0.0;
+  return info;
+}
+
+std::string ToText(const LogInfo& info) {
+  std::string out;
+  out += Fmt("log:       %s (%" PRId64 " bytes, %" PRId64 " events)\n", info.path.c_str(), info.file_bytes,
+             info.events);
+  if (info.has_time) {
+    out += Fmt("duration:  %.6f s on the sample clock (%.6f s .. %.6f s); log stamps span %.6f s\n",
+               info.duration, info.first_time, info.last_time, info.log_duration);
+  } else {
+    out += "duration:  no decodable rocklab message\n";
+  }
+  if (info.has_config) {
+    out += Fmt("rig:       %s, calibration %s, %.9g Hz, alpha %.9g rad, p %.9g rad/s, mu %.9g\n",
+               info.rig.c_str(), info.calibration.c_str(), info.config_rate_hz, info.alpha, info.p, info.mu);
+    std::string list;
+    for (std::size_t i = 0; i < info.config_channels.size(); ++i) {
+      list += (i ? ", " : "") + info.config_channels[i];
+      if (i < info.config_units.size() && !info.config_units[i].empty()) list += " [" + info.config_units[i] + "]";
+    }
+    out += Fmt("           %zu channels: ", info.config_channels.size()) + list + "\n";
+    out += Fmt("           %" PRId64 " RL_DAQ_CONFIG messages, %" PRId64 " differ from the first\n",
+               info.config_messages, info.config_changes);
+  } else {
+    out += "rig:       no RL_DAQ_CONFIG in the log\n";
+  }
+  out += Fmt("damaged:   %" PRId64 " regions, %" PRId64 " bytes, %" PRId64 " events lost\n",
+             info.damaged_regions, info.damaged_bytes, info.damaged_events);
+  out += Fmt("%-22s %-16s %9s %14s %14s %11s %16s %11s\n", "channel", "type", "count", "first_time_s",
+             "last_time_s", "rate_hz", "seq_gaps", "undecodable");
+  for (const ChannelInfo& c : info.channels) {
+    std::string type = c.type;
+    if (type == "unknown") type = Fmt("unknown (fingerprint 0x%016" PRIx64 ")", static_cast<std::uint64_t>(c.fingerprint));
+    const std::string gaps =
+        c.has_seq ? Fmt("%" PRId64 " (%" PRId64 " missing)", c.seq_gaps, c.seq_missing) : std::string("-");
+    if (c.has_time) {
+      out += Fmt("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", c.name.c_str(),
+                 type.c_str(), c.count, c.first_time, c.last_time, c.rate_hz, gaps.c_str(), c.undecodable);
+    } else {
+      out += Fmt("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
+                 c.count, "-", "-", "-", gaps.c_str(), c.undecodable);
+    }
+  }
+  return out;
+}
+
+std::string ToText(const RawInfo& info) {
+  std::string out;
+  out += Fmt("file:      %s (%s, %" PRId64 " bytes)\n", info.path.c_str(), info.format.c_str(), info.file_bytes);
+  out += Fmt("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values read as NaN, %" PRId64
+             " warnings)\n",
+             info.rows, info.bad_rows, info.bad_values, info.warnings);
+  if (info.has_time) {
+    out += Fmt("time:      %.9g s .. %.9g s, span %.9g s\n", info.first_time, info.last_time, info.span);
+  }
+  out += Fmt("rate:      %.9g Hz nominal, %.9g Hz measured\n", info.rate_hz, info.measured_rate_hz);
+  out += Fmt("segments:  %" PRId64 "\n", info.segments);
+  out += Fmt("gaps:      %" PRId64 " (%" PRId64 " samples missing)\n", info.seq_gaps, info.seq_missing);
+  out += Fmt("channels:  %zu\n", info.channels.size());
+  for (std::size_t i = 0; i < info.channels.size(); ++i) {
+    out += "  " + info.channels[i] + "  [" + (info.units[i].empty() ? std::string("raw, unit not in the file") : info.units[i]) + "]\n";
+  }
+  if (!info.read_error.empty()) out += "read stopped: " + info.read_error + "\n";
+  return out;
+}
+
+nlohmann::json ToJson(const LogInfo& info) {
+  nlohmann::json j;
+  j["kind"] = "lcm_log";
+  j["path"] = info.path;
+  j["file_bytes"] = info.file_bytes;
+  j["events"] = info.events;
+  j["duration"] = info.duration;
+  j["first_time"] = info.has_time ? Number(info.first_time) : nlohmann::json(nullptr);
+  j["last_time"] = info.has_time ? Number(info.last_time) : nlohmann::json(nullptr);
+  j["log_duration"] = info.log_duration;
+  j["damaged_regions"] = info.damaged_regions;
+  j["damaged_bytes"] = info.damaged_bytes;
+  j["damaged_events"] = info.damaged_events;
+  if (info.has_config) {
+    nlohmann::json rig;
+    rig["rig"] = info.rig;
+    rig["calibration"] = info.calibration;
+    rig["sample_rate_hz"] = Number(info.config_rate_hz);
+    rig["channels"] = info.config_channels;
+    rig["units"] = info.config_units;
+    rig["sensors"] = info.config_sensors;
+    rig["alpha"] = Number(info.alpha);
+    rig["p"] = Number(info.p);
+    rig["mu"] = Number(info.mu);
+    rig["messages"] = info.config_messages;
+    rig["changes"] = info.config_changes;
+    j["config"] = rig;
+  } else {
+    j["config"] = nullptr;
+  }
+  j["channels"] = nlohmann::json::array();
+  for (const ChannelInfo& c : info.channels) {
+    nlohmann::json o;
+    o["name"] = c.name;
+    o["type"] = c.type;
+    o["fingerprint"] = Fmt("0x%016" PRIx64, static_cast<std::uint64_t>(c.fingerprint));
+    o["count"] = c.count;
+    o["bytes"] = c.bytes;
+    o["first_time"] = c.has_time ? Number(c.first_time) : nlohmann::json(nullptr);
+    o["last_time"] = c.has_time ? Number(c.last_time) : nlohmann::json(nullptr);
+    o["rate_hz"] = Number(c.rate_hz);
+    o["seq_gaps"] = c.has_seq ? nlohmann::json(c.seq_gaps) : nlohmann::json(nullptr);
+    o["seq_missing"] = c.has_seq ? nlohmann::json(c.seq_missing) : nlohmann::json(nullptr);
+    o["seq_back"] = c.has_seq ? nlohmann::json(c.seq_back) : nlohmann::json(nullptr);
+    o["undecodable"] = c.undecodable;
+    j["channels"].push_back(o);
+  }
+  return j;
+}
+
+nlohmann::json ToJson(const RawInfo& info) {
+  nlohmann::json j;
+  j["kind"] = info.format;
+  j["path"] = info.path;
+  j["file_bytes"] = info.file_bytes;
+  j["rows"] = info.rows;
+  j["bad_rows"] = info.bad_rows;
+  j["bad_values"] = info.bad_values;
+  j["warnings"] = info.warnings;
+  j["segments"] = info.segments;
+  j["rate_hz"] = Number(info.rate_hz);
+  j["measured_rate_hz"] = Number(info.measured_rate_hz);
+  j["first_time"] = info.has_time ? Number(info.first_time) : nlohmann::json(nullptr);
+  j["last_time"] = info.has_time ? Number(info.last_time) : nlohmann::json(nullptr);
+  j["duration"] = Number(info.span);
+  j["seq_gaps"] = info.seq_gaps;
+  j["seq_missing"] = info.seq_missing;
+  j["read_error"] = info.read_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(info.read_error);
+  j["channels"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < info.channels.size(); ++i) {
+    j["channels"].push_back({{"name", info.channels[i]},
+                             {"unit", info.units[i].empty() ? nlohmann::json(nullptr) : nlohmann::json(info.units[i])}});
+  }
+  return j;
+}
+
+}  // namespace rocklab::exporter

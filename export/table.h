@@ -1,0 +1,59 @@
+#pragma once
+/// @file
+/// Tables of named columns, written row by row: what every export format
+/// (CSV, MAT, HDF5) takes, and what `rocklab sweep` can write results with.
+///
+/// A row is three parallel vectors indexed by column: a column of type
+/// kDouble reads `real[i]`, kInt reads `integer[i]`, kString reads `text[i]`;
+/// the other two vectors' entries at i are ignored. A caller keeps one Row
+/// per table and refills it, so appending allocates nothing per row once the
+/// strings have grown to their length.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rocklab::exporter {
+
+enum class ColumnType : std::uint8_t { kDouble, kInt, kString };
+
+struct Column {
+  std::string name;  ///< UTF-8; unique within its table
+  ColumnType type{ColumnType::kDouble};
+  std::string unit;  ///< SI unit ("s", "rad", "m/s^2"), "1" dimensionless, "" none (counts, text)
+};
+
+struct Row {
+  std::vector<double> real;
+  std::vector<std::int64_t> integer;
+  std::vector<std::string> text;
+  /// Sizes the three vectors to `columns` entries.
+  void Resize(std::size_t columns) {
+    real.resize(columns);
+    integer.resize(columns);
+    text.resize(columns);
+  }
+};
+
+/// Where tables go. Tables may be added at any time; rows of different
+/// tables may interleave. Errors of the file (cannot create, disk full)
+/// throw std::runtime_error naming the file: an export that cannot be
+/// written stops.
+class TableSink {
+ public:
+  virtual ~TableSink() = default;
+  /// Starts a table named `name` (a channel name, "data", "results");
+  /// returns its handle for Append. @throws std::runtime_error.
+  virtual int AddTable(const std::string& name, const std::vector<Column>& columns) = 0;
+  /// Appends one row (row vectors at least as long as the table's columns).
+  virtual void Append(int table, const Row& row) = 0;
+  /// A text attribute of a table (HDF5: an attribute of its group, e.g. the
+  /// LCM type); formats without attributes ignore it.
+  virtual void Describe(int /*table*/, const std::string& /*key*/, const std::string& /*value*/) {}
+  /// Writes what is buffered and closes every file; idempotent.
+  virtual void Close() = 0;
+  /// The files written (for the command's summary).
+  virtual std::vector<std::string> files() const = 0;
+};
+
+}  // namespace rocklab::exporter

@@ -1,0 +1,130 @@
+// The progress bar (common/progress.h): its text, and that it draws only on
+// a terminal.
+//
+// Oracle: the format written in progress.h (share of the bytes, B/s rate by
+// powers of 1000, time left = bytes left / rate), worked by hand below; a
+// pseudo-terminal (openpty) stands for the user's terminal, a pipe for a
+// redirected stderr.
+#include "common/progress.h"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <pty.h>
+#include <unistd.h>
+
+#include <string>
+#include <thread>
+
+namespace rocklab::common {
+namespace {
+
+std::string Format(std::int64_t done, std::int64_t total, double elapsed, int width = 10) {
+  char buf[160];
+  const std::size_t n = Progress::Format(buf, sizeof buf, "export", done, total, elapsed, width);
+  return std::string(buf, n);
+}
+
+TEST(ProgressFormat, ShareRateAndTimeLeft) {
+  // 50 MB of 100 MB in 4 s: 12.5 MB/s, 50 MB left -> 4 s.
+  EXPECT_EQ(Format(50'000'000, 100'000'000, 4.0), "export   [#####-----]  50%   12.5 MB/s  0:04 left");
+  // 1 kB of 3.602 MB in 1 s: 1.0 kB/s, 3601 s left -> h:mm:ss; 3599 s -> m:ss.
+  EXPECT_EQ(Format(1'000, 3'602'000, 1.0), "export   [----------]   0%    1.0 kB/s  1:00:01 left");
+  EXPECT_EQ(Format(1'000, 3'600'000, 1.0), "export   [----------]   0%    1.0 kB/s  59:59 left");
+  // Done: full bar, nothing left.
+  EXPECT_EQ(Format(2'000, 2'000, 2.0), "export   [##########] 100%    1.0 kB/s  0:00 left");
+  // Nothing read yet: no rate, unknown time left.
+  EXPECT_EQ(Format(0, 2'000, 0.5), "export   [----------]   0%" + std::string(14, ' ') + "--:-- left");
+  // Unknown size: bytes only.
+  EXPECT_EQ(Format(2'500'000, 0, 1.0), "export   2.5 MB read    2.5 MB/s");
+}
+
+TEST(ProgressFormat, NeverOverrunsTheBuffer) {
+  char small[16];
+  const std::size_t n = Progress::Format(small, sizeof small, "export", 5, 10, 1.0, 100);
+  EXPECT_EQ(n, sizeof small - 1);
+  EXPECT_EQ(small[n], '\0');
+}
+
+std::string Drain(int fd) {
+  std::string out;
+  char buf[512];
+  pollfd p{fd, POLLIN, 0};
+  while (poll(&p, 1, 50) > 0 && (p.revents & POLLIN)) {
+    const ssize_t n = read(fd, buf, sizeof buf);
+    if (n <= 0) break;
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  return out;
+}
+
+TEST(Progress, DrawsOnATerminalAndClearsAtTheEnd) {
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+  {
+    Progress p("fit", 1000, false, slave);
+    EXPECT_TRUE(p.active());
+    p.Update(500);  // the first update draws
+    p.Update(600);  // within 100 ms of it: no redraw
+  }
+  const std::string out = Drain(master);
+  EXPECT_NE(out.find("fit      [##########----------]  50%"), std::string::npos) << out;
+  EXPECT_EQ(out.find("60%"), std::string::npos) << "redrawn within 100 ms: " << out;
+  EXPECT_NE(out.rfind("\r\033[K"), std::string::npos) << "the line is not cleared at the end";
+  close(slave);
+  close(master);
+}
+
+TEST(Progress, SilentOnAPipeAndWithQuiet) {
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  {
+    Progress p("fit", 1000, false, fds[1]);
+    EXPECT_FALSE(p.active());
+    p.Update(500);
+  }
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+  {
+    Progress q("fit", 1000, true, slave);  // --quiet on a terminal
+    EXPECT_FALSE(q.active());
+    q.Update(500);
+  }
+  close(fds[1]);
+  EXPECT_EQ(Drain(fds[0]), "");
+  EXPECT_EQ(Drain(master), "");
+  close(fds[0]);
+  close(slave);
+  close(master);
+}
+
+// Oracle: the file's offset is what FileProgress reports: a file read to its
+// middle and held there shows 50%.
+TEST(FileProgress, FollowsTheReadPositionOfTheFile) {
+  const std::string path = "file_progress_input.bin";
+  {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    std::string block(1000, 'x');
+    std::fwrite(block.data(), 1, block.size(), f);
+    std::fclose(f);
+  }
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+  const int in = open(path.c_str(), O_RDONLY);
+  ASSERT_GE(in, 0);
+  char buf[500];
+  ASSERT_EQ(read(in, buf, sizeof buf), 500);
+  {
+    FileProgress p("replay", path, false, slave);
+    EXPECT_TRUE(p.active());
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  close(in);
+  const std::string out = Drain(master);
+  EXPECT_NE(out.find("replay   [##########----------]  50%"), std::string::npos) << out;
+  close(slave);
+  close(master);
+}
+
+}  // namespace
+}  // namespace rocklab::common

@@ -1,0 +1,257 @@
+// `rocklab info` and `rocklab export` as a researcher runs them.
+//
+// Oracle: a log built here with known contents (counts, sample clock,
+// sequence gaps, an undecodable message, an unknown type, 100 bytes of
+// damage, one RL_DAQ_CONFIG) and the definitions in docs/export.md; for raw
+// files the DAQ's own source.
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <pty.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "common/lcm_log.h"
+#include "daq/source.h"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+#include "tests/export/readback.h"
+#include "tests/tools/run_cli.h"
+
+namespace rocklab {
+namespace {
+
+template <class Msg>
+void Put(common::LogWriter& w, const std::string& channel, const Msg& m) {
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  ASSERT_TRUE(w.Write(channel, buf.data(), buf.size(), m.utime));
+}
+
+// RL_DAQ_CONFIG once; RL_RAW seq 0,1,2,5,6 at 1 kHz from t = 10 s (a gap of
+// 2), then one truncated raw frame; RL_TABLE 3 messages; FOREIGN 2 events
+// of another type; 100 bytes of damage between the two halves.
+std::string MakeLog(const std::string& dir) {
+  const std::string a = dir + "/a.lcm", b = dir + "/b.lcm", out = dir + "/test.lcm";
+  const std::int64_t t0 = 10'000'000;
+  {
+    common::LogWriter w(a);
+    rocklab::daq_config_t c{};
+    c.utime = t0;
+    c.rig_name = "block1";
+    c.calibration_id = "cal-2026-11";
+    c.sample_rate_hz = 1000;
+    c.num_channels = 2;
+    c.channel_names = {"mirror_s", "table_disp"};
+    c.channel_units = {"m", "m"};
+    c.channel_sensors = {"mirror_x", "table_disp"};
+    c.gain = {1, 0.001};
+    c.offset = {0, 0};
+    c.alpha = 0.25;
+    c.p = 2.5;
+    c.mu = 0.9;
+    Put(w, "RL_DAQ_CONFIG", c);
+    for (std::int64_t seq : {0, 1, 2}) {
+      rocklab::raw_frame_t r{};
+      r.utime = t0 + seq * 1000;
+      r.seq = seq;
+      r.num_channels = 2;
+      r.values = {0.5 * static_cast<double>(seq), std::nan("")};
+      Put(w, "RL_RAW", r);
+    }
+    const std::uint8_t foreign[12] = {1, 2, 3, 4, 5, 6, 7, 8, 0, 0, 0, 0};
+    EXPECT_TRUE(w.Write("FOREIGN", foreign, sizeof foreign, t0));
+    EXPECT_TRUE(w.Write("FOREIGN", foreign, sizeof foreign, t0));
+  }
+  {
+    common::LogWriter w(b);
+    for (std::int64_t seq : {5, 6}) {
+      rocklab::raw_frame_t r{};
+      r.utime = t0 + seq * 1000;
+      r.seq = seq;
+      r.num_channels = 2;
+      r.values = {1.0, 2.0};
+      Put(w, "RL_RAW", r);
+    }
+    for (int k = 0; k < 3; ++k) {
+      rocklab::table_state_t t{};
+      t.utime = t0 + k * 1000;
+      t.seq = k;
+      t.acceleration = 0.5 * k;
+      Put(w, "RL_TABLE", t);
+    }
+    rocklab::raw_frame_t r{};
+    r.num_channels = 2;
+    r.values = {1.0, 2.0};
+    std::vector<std::uint8_t> buf(static_cast<std::size_t>(r.getEncodedSize()));
+    r.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    EXPECT_TRUE(w.Write("RL_RAW", buf.data(), buf.size() - 4, t0 + 7000));  // cut: undecodable
+  }
+  std::ofstream o(out, std::ios::binary);
+  o << test::ReadFile(a) << std::string(100, 'x') << test::ReadFile(b);
+  return out;
+}
+
+class InfoExport : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::ScratchDir("info_export");
+    log_ = MakeLog(dir_);
+  }
+  std::string dir_, log_;
+};
+
+TEST_F(InfoExport, InfoJsonSaysWhatTheLogHolds) {
+  const auto r = test::RunCli({"info", log_, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kind"], "lcm_log");
+  EXPECT_EQ(j["damaged_bytes"], 100);
+  EXPECT_EQ(j["damaged_regions"], 1);
+  EXPECT_NEAR(j["duration"].get<double>(), 0.006, 1e-9);  // 10.000 .. 10.006 s
+  EXPECT_EQ(j["config"]["rig"], "block1");
+  EXPECT_EQ(j["config"]["calibration"], "cal-2026-11");
+  EXPECT_EQ(j["config"]["units"], (std::vector<std::string>{"m", "m"}));
+  EXPECT_EQ(j["config"]["messages"], 1);
+  std::map<std::string, nlohmann::json> ch;
+  for (const auto& c : j["channels"]) ch[c["name"]] = c;
+  ASSERT_EQ(ch.size(), 4u);
+  const auto& raw = ch["RL_RAW"];
+  EXPECT_EQ(raw["type"], "raw_frame_t");
+  EXPECT_EQ(raw["count"], 6);
+  EXPECT_EQ(raw["undecodable"], 1);
+  EXPECT_EQ(raw["seq_gaps"], 1);
+  EXPECT_EQ(raw["seq_missing"], 2);
+  EXPECT_DOUBLE_EQ(raw["first_time"].get<double>(), 10.0);
+  EXPECT_DOUBLE_EQ(raw["last_time"].get<double>(), 10.006);
+  EXPECT_NEAR(raw["rate_hz"].get<double>(), 4 / 0.006, 1e-6);  // 5 decoded over 6 ms
+  EXPECT_EQ(ch["RL_TABLE"]["type"], "table_state_t");
+  EXPECT_EQ(ch["RL_TABLE"]["seq_gaps"], 0);
+  EXPECT_NEAR(ch["RL_TABLE"]["rate_hz"].get<double>(), 1000.0, 1e-6);
+  EXPECT_EQ(ch["RL_DAQ_CONFIG"]["seq_gaps"], nullptr);  // the type has no seq
+  EXPECT_EQ(ch["FOREIGN"]["type"], "unknown");
+  EXPECT_EQ(ch["FOREIGN"]["count"], 2);
+  EXPECT_EQ(ch["FOREIGN"]["fingerprint"], "0x0102030405060708");
+  EXPECT_EQ(ch["FOREIGN"]["first_time"], nullptr);
+}
+
+TEST_F(InfoExport, InfoTextNamesTheUnknownTypeAndTheDamage) {
+  const auto r = test::RunCli({"info", log_});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("unknown (fingerprint 0x0102030405060708)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("damaged:   1 regions, 100 bytes"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("rig:       block1, calibration cal-2026-11"), std::string::npos) << r.out;
+}
+
+TEST_F(InfoExport, InfoOfARawFileMatchesTheSource) {
+  const std::string lvm = ROCKLAB_SOURCE_DIR "/data/samples/slip.lvm";
+  const auto r = test::RunCli({"info", lvm, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  auto source = daq::OpenSource(lvm, daq::SourceOptions{});
+  daq::Frame f;
+  std::int64_t rows = 0;
+  double first = 0, last = 0;
+  while (source->Next(f) == daq::ReadStatus::kFrame) {
+    if (rows++ == 0) first = f.time_s;
+    last = f.time_s;
+  }
+  EXPECT_EQ(j["kind"], "lvm");
+  EXPECT_EQ(j["rows"], rows);
+  EXPECT_EQ(j["bad_rows"], source->stats().bad_rows);
+  EXPECT_EQ(j["segments"], source->stats().segments);
+  EXPECT_GE(j["segments"].get<int>(), 1);
+  EXPECT_DOUBLE_EQ(j["first_time"].get<double>(), first);
+  EXPECT_DOUBLE_EQ(j["last_time"].get<double>(), last);
+  EXPECT_DOUBLE_EQ(j["rate_hz"].get<double>(), source->sample_rate_hz());
+  ASSERT_EQ(j["channels"].size(), source->channel_names().size());
+  EXPECT_EQ(j["channels"][0]["name"], source->channel_names()[0]);
+}
+
+TEST_F(InfoExport, ExportWritesTheLogAndSaysTheDamage) {
+  const std::string out = dir_ + "/test.h5";
+  const auto r = test::RunCli({"export", log_, "--out", out, "--channels", "RL_(RAW|TABLE)"});
+  // The damage makes the exit code 1 (as every log-reading command); the
+  // rest is exported.
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("is damaged"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 undecodable"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << "a progress bar on a pipe";
+  EXPECT_EQ(test::H5Groups(out), (std::vector<std::string>{"RL_RAW", "RL_TABLE"}));
+  const auto raw = test::ReadH5Table(out, "RL_RAW");
+  ASSERT_EQ(raw.size(), 6u);  // time utime seq num_channels values_0 values_1
+  EXPECT_EQ(raw[4].name, "values_0");
+  EXPECT_EQ(raw[4].real, (std::vector<double>{0, 0.5, 1.0, 1.0, 1.0}));
+  EXPECT_EQ(raw[2].integer, (std::vector<std::int64_t>{0, 1, 2, 5, 6}));
+}
+
+TEST_F(InfoExport, ExportRefusesAnUnknownExtension) {
+  const auto r = test::RunCli({"export", log_, "--out", dir_ + "/x.parquet"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(".csv, .mat or .h5"), std::string::npos) << r.err;
+}
+
+TEST_F(InfoExport, ExportOfAMissingInputIsAUsageErrorNamingIt) {
+  const auto r = test::RunCli({"export", dir_ + "/missing.lvm", "--out", dir_ + "/m.h5"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("INPUT: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("missing.lvm"), std::string::npos) << r.err;
+}
+
+TEST_F(InfoExport, InfoOfAMissingFileNamesIt) {
+  const auto r = test::RunCli({"info", dir_ + "/missing.csv"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("missing.csv"), std::string::npos) << r.err;
+}
+
+// Oracle: progress.h's contract. With stderr on a pseudo-terminal the bar is
+// drawn (its line is cleared at the end with ESC[K); with --quiet nothing
+// of it reaches the terminal.
+TEST_F(InfoExport, ProgressOnlyOnATerminalWithoutQuiet) {
+  for (bool quiet : {false, true}) {
+    int master = -1, slave = -1;
+    ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    const std::string out = dir_ + (quiet ? "/q.csv" : "/p.csv");
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      dup2(slave, 2);
+      const int devnull = open("/dev/null", O_WRONLY);
+      dup2(devnull, 1);
+      std::vector<const char*> argv = {ROCKLAB_BINARY, "export", log_.c_str(), "--out", out.c_str()};
+      if (quiet) argv.push_back("--quiet");
+      argv.push_back(nullptr);
+      execv(ROCKLAB_BINARY, const_cast<char* const*>(argv.data()));
+      _exit(127);
+    }
+    close(slave);
+    std::string text;
+    char buf[4096];
+    for (;;) {
+      pollfd p{master, POLLIN, 0};
+      if (poll(&p, 1, 20000) <= 0) break;
+      const ssize_t n = read(master, buf, sizeof buf);
+      if (n <= 0) break;  // EIO once the child closed the terminal
+      text.append(buf, static_cast<std::size_t>(n));
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    close(master);
+    EXPECT_NE(text.find("rows in"), std::string::npos) << text;  // the summary reached the terminal
+    if (quiet) {
+      EXPECT_EQ(text.find("\033[K"), std::string::npos) << text;
+    } else {
+      EXPECT_NE(text.find("\033[K"), std::string::npos) << text;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rocklab

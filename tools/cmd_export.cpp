@@ -1,0 +1,114 @@
+// rocklab export INPUT --out OUT.{csv,mat,h5} [--channels REGEX] [--start S]
+// [--end S] [--rig RIG.toml] [--rate HZ] [--quiet]: a recorded LCM log or a
+// raw CSV/LVM file as tables for Python and MATLAB (docs/export.md).
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/progress.h"
+#include "export/export.h"
+#include "tools/cli.h"
+#include "tools/pipeline.h"
+
+namespace rocklab::tools {
+namespace {
+
+struct ExportCliOptions {
+  std::string input;
+  std::string out;
+  exporter::ExportOptions options;
+  std::string rig_path;
+  bool quiet{false};
+};
+
+// Problems printed one per line up to this many, then only counted.
+constexpr int kShownProblems = 20;
+
+int RunExport(ExportCliOptions& o) {
+  try {
+    o.options.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  const bool log = exporter::IsLcmLog(o.input);
+  if (!o.rig_path.empty()) {
+    for (const auto& c : LoadRig(o.rig_path).channels) o.options.units.emplace_back(c.name, c.unit);
+  }
+  std::unique_ptr<exporter::TableSink> sink;
+  try {
+    sink = exporter::OpenSink(o.out, !log);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  long problems = 0;
+  auto show = [&problems](const std::string& text) {
+    if (++problems <= kShownProblems) std::fprintf(stderr, "rocklab export: %s\n", text.c_str());
+  };
+  exporter::ExportSummary s;
+  {
+    common::FileProgress progress("export", o.input, o.quiet);
+    try {
+      s = log ? exporter::ExportLog(o.input, o.options, *sink, show)
+              : exporter::ExportRaw(o.input, o.options, *sink, show);
+    } catch (const exporter::InputError& e) {
+      throw UsageError(std::string("INPUT: ") + e.what());
+    }
+  }
+  sink->Close();
+  if (problems > kShownProblems) {
+    std::fprintf(stderr, "rocklab export: %ld more problems not shown\n", problems - kShownProblems);
+  }
+  std::string files;
+  for (const std::string& f : sink->files()) files += (files.empty() ? "" : ", ") + f;
+  if (log) {
+    std::fprintf(stderr,
+                 "rocklab export: %lld rows in %zu tables written to %s; %lld outside the window, "
+                 "%lld of channels left out, %lld of unknown types, %lld undecodable\n",
+                 static_cast<long long>(s.rows), s.tables.size(), files.empty() ? "(nothing)" : files.c_str(),
+                 static_cast<long long>(s.outside_window), static_cast<long long>(s.filtered),
+                 static_cast<long long>(s.unknown_type), static_cast<long long>(s.undecodable));
+    for (const auto& t : s.tables) {
+      if (t.reshaped > 0) {
+        std::fprintf(stderr, "rocklab export: %s: %lld rows had arrays of another length than the first (cut or padded)\n",
+                     t.channel.c_str(), static_cast<long long>(t.reshaped));
+      }
+    }
+    return ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, o.input, "rocklab export",
+                        "; the rest was exported") == 0
+               ? 0
+               : kFailureExit;
+  }
+  std::fprintf(stderr,
+               "rocklab export: %lld rows written to %s; %lld outside the window, %lld bad rows skipped, "
+               "%lld bad values written as NaN\n",
+               static_cast<long long>(s.rows), files.c_str(), static_cast<long long>(s.outside_window),
+               static_cast<long long>(s.bad_rows), static_cast<long long>(s.bad_values));
+  if (!s.read_error.empty()) {
+    std::fprintf(stderr, "rocklab export: %s\n", s.read_error.c_str());
+    return kFailureExit;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterExport(CLI::App& app, CommandRun& run) {
+  auto opts = std::make_shared<ExportCliOptions>();  // shared: owned by the callback
+  CLI::App* cmd = app.add_subcommand("export", "a recorded LCM log or a raw CSV/LVM file as CSV, MAT or HDF5");
+  cmd->add_option("input", opts->input, "an LCM log (rocklab's or lcm-logger's), or a raw .csv / .lvm")
+      ->required();
+  cmd->add_option("--out", opts->out,
+                  "OUT.csv (a log: OUT_<CHANNEL>.csv per channel), OUT.mat (MAT v5) or OUT.h5 (HDF5)")
+      ->required();
+  cmd->add_option("--channels", opts->options.channels, "logs: regex over whole channel names (default: all)");
+  cmd->add_option("--start", opts->options.start_s, "s from the record's first sample (default 0)");
+  cmd->add_option("--end", opts->options.end_s, "s from the record's first sample (default: to the end)");
+  cmd->add_option("--rig", opts->rig_path, "raw files: rig configuration (TOML) naming the channels' units");
+  cmd->add_option("--rate", opts->options.sample_rate_hz, "raw files without a time column: sample rate, Hz");
+  cmd->add_flag("--quiet", opts->quiet, "no progress bar");
+  cmd->callback([opts, &run] { run = [opts] { return RunExport(*opts); }; });
+}
+
+}  // namespace rocklab::tools
