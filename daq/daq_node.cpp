@@ -253,7 +253,10 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       break;
     }
     const ReadStatus status = m.source->Next(frame);
-    if (status == ReadStatus::kEnd) break;
+    if (status == ReadStatus::kEnd) {
+      m.stats.stopped_early = stop.load();  // a live source ends on the stop too
+      break;
+    }
     if (status == ReadStatus::kIdle) {  // a live source with nothing yet: the heartbeat goes on
       if (Clock::now() - m.last_health >= std::chrono::duration<double>(m.config.health_period_s)) {
         m.PublishHealth(started ? "running" : "starting");

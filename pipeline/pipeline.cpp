@@ -171,6 +171,10 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
   try {
     node = std::make_unique<daq::DaqNode>(config, *bus);
   } catch (const std::exception& e) {
+    if (stop.load()) {  // SIGINT/SIGTERM while a live input's header was awaited: a stop, not an error
+      std::fprintf(stderr, "%s: stopped by signal before %s sent its header\n", what, o.input.c_str());
+      return 0;
+    }
     throw OptionError(e.what());  // names the input file (and line) or the LCM URL
   }
   node->Run(stop);

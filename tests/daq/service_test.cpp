@@ -4,9 +4,15 @@
 // WATCHDOG=1 from the heartbeat while a live input is silent, STOPPING=1).
 // Oracle: the input file's frames (every one in exactly one log file, in
 // order), the messages the test names, the datagrams the unit would get.
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <thread>
 
 #include <cmath>
 #include <cstdlib>
@@ -136,6 +142,84 @@ TEST(DaqService, CheckPrintsWhatWouldBeReadOrFails) {
   r = rocklab::test::RunCli({"daq", "--rig", test::LabRigPath(), "--input", "lcm://RL_RAW", "--check"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("must name a channel other than RL_RAW"), std::string::npos) << r.err;
+}
+
+// A datagram socket standing for systemd's $NOTIFY_SOCKET.
+struct NotifySocket {
+  std::string path = test::ScratchDir() + "/notify.sock";
+  int fd{-1};
+  NotifySocket() {
+    ::unlink(path.c_str());
+    fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
+    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) std::abort();
+    timeval timeout{10, 0};  // a bound on a wait for a condition, not a sleep
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  }
+  ~NotifySocket() { ::close(fd); }
+  std::string Next() {
+    char buf[256];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    return n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string();
+  }
+  pid_t Start(const std::vector<std::string>& args, const std::string& name) {
+    ::setenv("NOTIFY_SOCKET", path.c_str(), 1);
+    const pid_t pid = rocklab::test::StartCli(args, test::ScratchDir() + "/" + name + ".out",
+                                              test::ScratchDir() + "/" + name + ".err");
+    ::unsetenv("NOTIFY_SOCKET");
+    return pid;
+  }
+};
+
+// SIGTERM (systemctl stop) ends a live input: a followed file once it is
+// read (READY=1 says the node runs), and a TCP listener still waiting for
+// its first connection; both exit 0.
+TEST(DaqService, SigtermEndsLiveInputs) {
+  const std::string raw = RawCsv("term_raw.csv");
+  {
+    NotifySocket notify;
+    const pid_t daq = notify.Start({"daq", "--rig", test::LabRigPath(), "--input", raw, "--follow", "--lcm-url",
+                                    "memq://"},
+                                   "term_follow");
+    EXPECT_EQ(notify.Next(), "READY=1");
+    EXPECT_EQ(rocklab::test::StopProcess(daq, SIGTERM, 20.0), 0);
+    EXPECT_NE(rocklab::test::ReadFile(test::ScratchDir() + "/term_follow.err").find("stopped by signal"),
+              std::string::npos);
+  }
+  int port = 0;
+  {
+    const int probe = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t n = sizeof addr;
+    ASSERT_EQ(::bind(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    ::getsockname(probe, reinterpret_cast<sockaddr*>(&addr), &n);
+    port = ntohs(addr.sin_port);
+    ::close(probe);
+  }
+  const std::string err = test::ScratchDir() + "/term_tcp.err";
+  const pid_t daq = rocklab::test::StartCli({"daq", "--rig", test::LabRigPath(), "--input",
+                                             "tcp-listen://127.0.0.1:" + std::to_string(port), "--lcm-url", "memq://"},
+                                            test::ScratchDir() + "/term_tcp.out", err);
+  // Listening once a connection succeeds (closed at once: no header yet).
+  bool connected = false;
+  for (int attempt = 0; attempt < 500 && !connected; ++attempt) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = htons(static_cast<uint16_t>(port));
+    connected = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    if (!connected) std::this_thread::sleep_for(std::chrono::milliseconds(20));  // polling a condition
+  }
+  ASSERT_TRUE(connected);
+  EXPECT_EQ(rocklab::test::StopProcess(daq, SIGTERM, 20.0), 0) << rocklab::test::ReadFile(err);
+  EXPECT_NE(rocklab::test::ReadFile(err).find("stopped by signal before tcp-listen://"), std::string::npos)
+      << rocklab::test::ReadFile(err);
 }
 
 // The notify protocol as systemd sees it: a datagram socket in
