@@ -1,7 +1,9 @@
 #pragma once
 /// @file
 /// Raw sample sources behind one interface: CSV, LabVIEW .lvm and rocklab LCM
-/// logs (RL_RAW). Opening a source reads its header and throws on anything
+/// logs (RL_RAW), and the live ones: a CSV/LVM followed as it is written, a
+/// TCP stream of CSV lines, raw_frame_t from another program over LCM
+/// (docs/daq-inputs.md). Opening a source reads its header and throws on anything
 /// that stops the read. Afterwards a malformed row is reported to the problem
 /// callback with its file and line, counted, and skipped (its sample number
 /// stays unused, so it shows downstream as a gap), and a malformed value in a
