@@ -4,8 +4,10 @@
 // no queue of ours; LCM's subscription queue is raised to 4096 messages (4 s
 // at 1 kHz) so a slow publish downstream does not drop samples, and what LCM
 // still drops shows as a sequence gap (counted by the DAQ's sequence checker).
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -71,8 +73,11 @@ class LcmLiveSource final : public Source {
       const int wait_ms = static_cast<int>(
           std::chrono::duration_cast<std::chrono::milliseconds>(slice_end - now).count()) + 1;
       if (lcm_.handleTimeout(wait_ms) < 0) {
-        error_ = path_ + ": LCM receive failed";
-        if (on_problem_) on_problem_(Problem{{&path_, stats_.rows}, "LCM receive failed"});
+        // A signal interrupts the wait: the stop (checked above on the next
+        // pass), or another signal; anything else is a failed receive.
+        if (errno == EINTR) continue;
+        error_ = path_ + ": LCM receive failed (" + std::strerror(errno) + ")";
+        if (on_problem_) on_problem_(Problem{{&path_, stats_.rows}, error_.substr(path_.size() + 2)});
         return ReadStatus::kError;
       }
     }

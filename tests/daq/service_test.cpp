@@ -174,8 +174,8 @@ struct NotifySocket {
 };
 
 // SIGTERM (systemctl stop) ends a live input: a followed file once it is
-// read (READY=1 says the node runs), and a TCP listener still waiting for
-// its first connection; both exit 0.
+// read (READY=1 says the node runs), an LCM channel with nothing on it, and
+// a TCP listener still waiting for its first connection; all exit 0.
 TEST(DaqService, SigtermEndsLiveInputs) {
   const std::string raw = RawCsv("term_raw.csv");
   {
@@ -186,6 +186,17 @@ TEST(DaqService, SigtermEndsLiveInputs) {
     EXPECT_EQ(notify.Next(), "READY=1");
     EXPECT_EQ(rocklab::test::StopProcess(daq, SIGTERM, 20.0), 0);
     EXPECT_NE(rocklab::test::ReadFile(test::ScratchDir() + "/term_follow.err").find("stopped by signal"),
+              std::string::npos);
+  }
+  {
+    NotifySocket notify;  // lcm://: SIGTERM interrupts LCM's wait
+    const pid_t daq = notify.Start({"daq", "--rig", test::LabRigPath(), "--input", "lcm://ACQ_RAW", "--lcm-url",
+                                    "memq://"},
+                                   "term_lcm");
+    EXPECT_EQ(notify.Next(), "READY=1");
+    EXPECT_EQ(rocklab::test::StopProcess(daq, SIGTERM, 20.0), 0)
+        << rocklab::test::ReadFile(test::ScratchDir() + "/term_lcm.err");
+    EXPECT_NE(rocklab::test::ReadFile(test::ScratchDir() + "/term_lcm.err").find("stopped by signal"),
               std::string::npos);
   }
   int port = 0;
