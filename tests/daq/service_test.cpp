@@ -98,7 +98,9 @@ TEST(DaqService, ConfigFileWithAFlagOverrideAndRotatedLog) {
       if (ev.channel != "CLI_RAW") continue;
       rocklab::raw_frame_t m;
       ASSERT_GE(m.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())), 0);
-      if (raw < static_cast<int64_t>(want.size())) EXPECT_EQ(m.seq, want[static_cast<size_t>(raw)]) << f;
+      if (raw < static_cast<int64_t>(want.size())) {
+        EXPECT_EQ(m.seq, want[static_cast<size_t>(raw)]) << f;
+      }
       ++raw;
     }
   }
