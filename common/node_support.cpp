@@ -1,4 +1,5 @@
 #include "common/node_support.h"
+#include "common/sd_notify.h"
 
 #include <chrono>
 
@@ -26,6 +27,7 @@ double HostNowS() {
 bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<void()>& periodic,
                  int drain_max, const std::string& log_name, int quiet_ms) {
   bool ok = true;
+  NotifySystemd("READY=1");  // under systemd (Type=notify): the node is subscribed and running
   while (!stop.load()) {
     if (bus.HandleTimeout(100) < 0) {
       if (!stop.load()) {  // a stop signal interrupts the wait: not an error
@@ -34,8 +36,10 @@ bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<vo
       }
       break;
     }
-    if (periodic) periodic();
+    if (periodic) periodic();  // the node's RL_HEALTH goes out from here
+    NotifyWatchdog();          // so the systemd watchdog follows the same loop
   }
+  NotifySystemd("STOPPING=1");
   int dispatched = 0;
   while (dispatched < drain_max && bus.HandleTimeout(quiet_ms) > 0) ++dispatched;
   return ok;

@@ -41,6 +41,8 @@ double HostNowS();
 /// `quiet_ms` for each next message (datagrams already in the socket but
 /// not yet in LCM's queue), and stops after `drain_max` messages (messages
 /// still arriving must not keep it from stopping) or at a bus error.
+/// Under systemd it sends READY=1 on entry, WATCHDOG=1 after every
+/// `periodic` (rate-limited; common/sd_notify.h) and STOPPING=1 at the stop.
 /// @return false when the bus failed before the stop (logged to `log_name`).
 bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<void()>& periodic,
                  int drain_max, const std::string& log_name, int quiet_ms = 20);

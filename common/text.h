@@ -43,6 +43,19 @@ inline constexpr std::size_t kMaxQuotedBytes = 48;
 /// A message built with it is one line of plain ASCII whatever the input.
 std::string Quote(std::string_view text, std::size_t max_bytes = kMaxQuotedBytes);
 
+/// Whether `text` is well-formed UTF-8 (no overlong forms, no surrogates).
+bool IsUtf8(std::string_view text);
+
+/// `text` as UTF-8 when it is, else read as Windows-1252 (a superset of the
+/// printable Latin-1 that LabVIEW on Windows writes) and transcoded: 0xE3
+/// becomes U+00E3, 0xB0 U+00B0, 0x80 U+20AC; the five bytes Windows-1252
+/// leaves undefined become U+FFFD.
+std::string ToUtf8(std::string_view text);
+
+/// The field separator of a delimited header line: tab, ';' or ',',
+/// whichever occurs most (ties: tab, then ';', then ','); ',' when none does.
+char SniffDelimiter(std::string_view header);
+
 /// Removes a UTF-8 byte order mark (EF BB BF) from the start of `line`.
 /// @return whether there was one.
 bool StripByteOrderMark(std::string& line);

@@ -14,6 +14,7 @@
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "common/node_support.h"
+#include "common/sd_notify.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
@@ -32,6 +33,9 @@ std::shared_ptr<spdlog::logger> Logger() { return common::NamedLogger("daq"); }
 
 void DaqNodeConfig::Validate() const {
   if (input.empty()) throw std::invalid_argument("daq: input must name a file");
+  if (!(idle_timeout_s >= 0) || !std::isfinite(idle_timeout_s)) {
+    throw std::invalid_argument("daq: idle_timeout_s must be >= 0");
+  }
   if (!(speed >= 0) || !std::isfinite(speed)) throw std::invalid_argument("daq: speed must be >= 0");
   if (!(config_period_s > 0)) throw std::invalid_argument("daq: config_period_s must be > 0");
   if (!(health_period_s > 0)) throw std::invalid_argument("daq: health_period_s must be > 0");
@@ -65,10 +69,11 @@ struct DaqNode::Impl : ProcessorSink {
   // when paced the node spreads such a burst: 1 ms after every kBurst.
   static constexpr int kBurst = 16;
   int burst{0};
+  bool spread_bursts{false};
 
   template <class Msg>
   void Publish(const std::string& channel, const Msg& msg) {
-    if (config.speed > 0 && ++burst > kBurst) {
+    if (spread_bursts && ++burst > kBurst) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       burst = 1;
     }
@@ -163,6 +168,7 @@ struct DaqNode::Impl : ProcessorSink {
   }
 
   void PublishHealth(const char* state) {
+    common::NotifyWatchdog();  // the heartbeat is the watchdog's (a no-op outside systemd)
     const auto now = Clock::now();
     const double dt = std::chrono::duration<double>(now - last_health).count();
     const ProcessorCounts& counts = processor->counts();
@@ -180,6 +186,8 @@ struct DaqNode::Impl : ProcessorSink {
     stats.damaged_regions = src.damaged_regions;
     stats.damaged_bytes = src.damaged_bytes;
     stats.damaged_events = src.damaged_events;
+    stats.restarts = src.restarts;
+    stats.restart_lost = src.restart_lost;
     health_msg.dropped = stats.missing;  // samples lost before reaching the node
     health_msg.gaps = stats.gaps;
     health_msg.bad_samples = stats.bad_samples;
@@ -211,10 +219,17 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   for (const auto& c : m.config.rig.channels) options.fallback_channel_names.push_back(c.name);
   Impl* impl = impl_.get();
   options.on_problem = [impl](const Problem& problem) { impl->OnSourceProblem(problem); };
+  options.delimiter = m.config.delimiter;
+  options.follow = m.config.follow;
+  options.idle_timeout_s = m.config.idle_timeout_s;
+  options.stop = m.config.stop;
+  options.lcm_url = m.config.lcm_url;
   m.source = OpenSource(m.config.input, options);
   m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
                                             m.source->path(), m);
-  m.pacer = Pacer(m.config.speed);
+  // A live source arrives on its own clock: pacing it would only add latency.
+  m.pacer = Pacer(m.source->live() ? 0.0 : m.config.speed);
+  m.spread_bursts = m.config.speed > 0 || m.source->live();
   m.BuildConfigMessage();
 }
 
@@ -229,6 +244,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
   // sample clock (a message stamped 0 before an epoch-based clock would put
   // a log's first event decades before the rest).
   bool started = false;
+  common::NotifySystemd("READY=1");  // under systemd: the source is open, reading starts
   double next_config_s = std::numeric_limits<double>::quiet_NaN();
   Frame frame;
   while (true) {
@@ -237,7 +253,16 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
       break;
     }
     const ReadStatus status = m.source->Next(frame);
-    if (status == ReadStatus::kEnd) break;
+    if (status == ReadStatus::kEnd) {
+      m.stats.stopped_early = stop.load();  // a live source ends on the stop too
+      break;
+    }
+    if (status == ReadStatus::kIdle) {  // a live source with nothing yet: the heartbeat goes on
+      if (Clock::now() - m.last_health >= std::chrono::duration<double>(m.config.health_period_s)) {
+        m.PublishHealth(started ? "running" : "starting");
+      }
+      continue;
+    }
     if (status == ReadStatus::kError) {  // reported by the source; the shutdown below still runs
       m.stats.read_error = m.source->error();
       break;
@@ -265,6 +290,10 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
     m.raw_msg.values.assign(frame.values.begin(), frame.values.end());
     m.Publish(m.ch_raw, m.raw_msg);
     m.processor->Process(frame);
+    if (!frame.comment.empty()) {
+      ++m.stats.comments;
+      m.OnEvent(DaqEvent{m.newest_utime, rocklab::event_t::COMMENT, 0, frame.comment});
+    }
     if (Clock::now() - m.last_health >=
         std::chrono::duration<double>(m.config.health_period_s)) {
       m.PublishHealth("running");
@@ -273,6 +302,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
   }
   if (!started) m.PublishHealth("starting");                             // an empty input
   if (std::isnan(next_config_s)) m.Publish(m.ch_config, m.config_msg);  // an empty input
+  common::NotifySystemd("STOPPING=1");
   m.PublishHealth("stopping");
   m.processor->Finish();
   m.PublishHealth("stopped");

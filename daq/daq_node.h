@@ -14,7 +14,10 @@
 /// DirectBus its Publish drives the subscribed stages of `rocklab run`).
 /// RL_THETA and RL_TABLE of a sample go out together, RL_THETA first (the
 /// Processor pairs them), so no subscriber has to align them.
-/// When paced, a burst of more than 16 messages between two frames (the
+/// Live inputs (tcp://, lcm://, --follow) are not paced: each frame goes out
+/// as it arrives; while none arrives Run wakes every 0.1 s for RL_HEALTH
+/// (and the systemd watchdog, common/sd_notify.h).
+/// When paced (or live), a burst of more than 16 messages between two frames (the
 /// differentiators' flush at the end or after a long gap) is spread at 1 ms
 /// per 16 messages, below LCM's default subscriber queue of 30.
 
@@ -33,7 +36,14 @@ namespace rocklab::daq {
 
 struct DaqNodeConfig {
   RigConfig rig;
-  std::string input;             ///< CSV, LVM or LCM log
+  std::string input;             ///< CSV, LVM, LCM log, tcp://HOST:PORT or lcm://CHANNEL
+  char delimiter{0};             ///< CSV field separator (',', ';', tab); 0 = sniffed
+  bool follow{false};            ///< CSV/LVM: keep reading as the file grows
+  double idle_timeout_s{0};      ///< live inputs end after this long without data, s; 0 = never
+  std::string lcm_url;           ///< lcm:// inputs: where the acquisition program publishes
+  /// Live inputs: waiting for their header ends when *stop is true.
+  /// Non-owning, may be null; must outlive the node (Run's `stop`).
+  const std::atomic<bool>* stop{};
   double speed{1.0};             ///< sample-clock s per host s; 0 = as fast as possible
   std::string prefix{"RL_"};     ///< channel names are prefix + DAQ_CONFIG, RAW, ...
   double config_period_s{5.0};   ///< RL_DAQ_CONFIG repeat, sample-clock s
@@ -54,6 +64,9 @@ struct DaqNodeStats {
   int64_t damaged_regions{}; ///< LCM log input: damaged regions skipped (each also a problem)
   int64_t damaged_bytes{};   ///< LCM log input: bytes in them
   int64_t damaged_events{};  ///< LCM log input: events lost in them
+  int64_t restarts{};        ///< live inputs: reconnections, files replaced
+  int64_t restart_lost{};    ///< live inputs: samples lost across restarts (from the time column)
+  int64_t comments{};        ///< LVM Comment texts sent as RL_EVENT COMMENT
   bool stopped_early{};      ///< stop was requested before the end of the input
   /// The input could not be read to its end (Source::error(), naming the
   /// file); empty otherwise. Run still shut down in order (RL_HEALTH "stopped").

@@ -113,6 +113,12 @@ std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOp
 }
 
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options) {
+  if (path.rfind("tcp://", 0) == 0) return OpenTcpSource(path.substr(6), options);
+  if (path.rfind("tcp-listen://", 0) == 0) return OpenTcpSource(path.substr(13), options, true);
+  if (path.rfind("lcm://", 0) == 0) return OpenLcmLiveSource(path.substr(6), options);
+  if (options.follow && !common::HasExtension(path, ".csv") && !common::HasExtension(path, ".lvm")) {
+    throw std::invalid_argument(path + ": --follow reads .csv and .lvm files");
+  }
   if (common::HasExtension(path, ".csv")) return OpenCsvSource(path, options);
   if (common::HasExtension(path, ".lvm")) return OpenLvmSource(path, options);
   return OpenLcmLogSource(path, options);

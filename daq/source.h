@@ -1,7 +1,9 @@
 #pragma once
 /// @file
 /// Raw sample sources behind one interface: CSV, LabVIEW .lvm and rocklab LCM
-/// logs (RL_RAW). Opening a source reads its header and throws on anything
+/// logs (RL_RAW), and the live ones: a CSV/LVM followed as it is written, a
+/// TCP stream of CSV lines, raw_frame_t from another program over LCM
+/// (docs/daq-inputs.md). Opening a source reads its header and throws on anything
 /// that stops the read. Afterwards a malformed row is reported to the problem
 /// callback with its file and line, counted, and skipped (its sample number
 /// stays unused, so it shows downstream as a gap), and a malformed value in a
@@ -12,6 +14,7 @@
 /// the file) goes to the problem callback and stays in error(). Messages quote input through a bounded, escaped
 /// excerpt (detail::Quote): no raw bytes, no NUL, at most 48 bytes of a field.
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <istream>
@@ -44,6 +47,7 @@ struct Frame {
   double time_s{};      ///< acquisition sample clock, s
   int64_t line{};       ///< line (LCM: event number) in the source
   std::vector<double> values;  ///< raw values in channel_names() order; NaN where missing
+  std::string comment;  ///< LVM: the row's Comment text (UTF-8), usually empty
   /// Sample clock in integer microseconds (rounded), as carried by every message.
   int64_t utime() const;
 };
@@ -52,6 +56,7 @@ enum class ReadStatus {
   kFrame,  ///< `frame` holds the next sample
   kEnd,    ///< no more samples
   kError,  ///< the read cannot go on: Source::error() says why, naming the file
+  kIdle,   ///< live sources only: nothing arrived within 0.1 s; call again
 };
 
 /// Counters a source keeps while reading.
@@ -64,6 +69,11 @@ struct SourceStats {
   int64_t damaged_regions{};  ///< LCM logs: damaged regions skipped (bad sync, length, cut tail)
   int64_t damaged_bytes{};    ///< LCM logs: bytes in them
   int64_t damaged_events{};   ///< LCM logs: events lost in them
+  int64_t empty_values{};     ///< empty fields (delivered as NaN; the first of each column reported)
+  int64_t comments{};         ///< LVM rows with Comment text (kept in Frame::comment)
+  int64_t restarts{};         ///< live: reconnections (TCP), files replaced or truncated (--follow)
+  int64_t restart_lost{};     ///< live: samples lost across restarts, from the time column
+  int64_t x_disagreements{};  ///< LVM X_Columns Multi: rows whose X columns disagree
 };
 
 class Source {
@@ -79,6 +89,9 @@ class Source {
   [[nodiscard]] virtual ReadStatus Next(Frame& frame) = 0;
   virtual const SourceStats& stats() const = 0;
   virtual const std::string& path() const = 0;
+  /// Live sources (tcp://, lcm://, --follow): frames arrive on their own
+  /// clock, so they are not paced, and Next() may return kIdle.
+  virtual bool live() const { return false; }
   /// After kError: why, "file[:line]: ..."; empty before.
   const std::string& error() const { return error_; }
 
@@ -95,6 +108,18 @@ struct SourceOptions {
   /// LCM logs without an RL_DAQ_CONFIG event: channel names to assume.
   std::vector<std::string> fallback_channel_names;
   ProblemCallback on_problem;  ///< may be empty
+  /// CSV field separator: ',', ';' or '\t'; 0 = sniffed from the header line.
+  /// With ';' or tab a decimal comma in the numbers is accepted.
+  char delimiter{0};
+  /// CSV and LVM files: keep reading as the file grows (a live source).
+  bool follow{false};
+  /// Live sources end after this long without data, s; 0 = never.
+  double idle_timeout_s{0};
+  /// Live sources end once *stop is true (also while waiting for a header).
+  /// Non-owning, may be null; must outlive the source.
+  const std::atomic<bool>* stop{};
+  /// lcm:// sources: the LCM URL to subscribe on (empty: LCM's default).
+  std::string lcm_url;
 };
 
 /// CSV with a header row; a `time` column (s) if present, else time = seq / rate.
@@ -116,7 +141,24 @@ std::unique_ptr<Source> OpenCsvStream(std::unique_ptr<std::istream> in, const st
                                       const SourceOptions& options);
 std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const std::string& name,
                                       const SourceOptions& options);
-/// By extension: .csv, .lvm, anything else is read as an LCM log.
+/// A CSV stream from an acquisition PC: tcp://HOST:PORT (a header line, then
+/// one line per sample), reconnecting with backoff; samples lost across a
+/// reconnection are counted from the time column (SourceStats::restart_lost).
+/// With `listen` (tcp-listen://HOST:PORT) the DAQ listens and the
+/// acquisition PC connects (LabVIEW's TCP Open Connection); the same
+/// reconnection rules hold.
+/// @throws std::invalid_argument on a malformed address; std::runtime_error
+///         when no header arrived before the stop or the idle timeout, or
+///         when it cannot listen.
+std::unique_ptr<Source> OpenTcpSource(const std::string& host_port, const SourceOptions& options,
+                                      bool listen = false);
+/// raw_frame_t messages from another program on `channel` of options.lcm_url;
+/// values in the order of options.fallback_channel_names (the rig's channels).
+/// @throws std::invalid_argument when `channel` is options.raw_channel (the
+///         DAQ republishes there) or empty; std::runtime_error when LCM fails.
+std::unique_ptr<Source> OpenLcmLiveSource(const std::string& channel, const SourceOptions& options);
+/// By form: tcp://HOST:PORT, tcp-listen://HOST:PORT, lcm://CHANNEL; else by extension: .csv, .lvm
+/// (followed when options.follow), anything else is read as an LCM log.
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options);
 
 }  // namespace rocklab::daq

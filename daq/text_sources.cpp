@@ -1,4 +1,8 @@
 // CSV and LabVIEW .lvm sources: one line-oriented reader, two header parsers.
+// The lines come from a detail::LineInput: a file read to its end, a file
+// followed as it grows (--follow) or a TCP stream (tcp://). A live input may
+// have nothing yet (Next returns kIdle) or start over (a replaced file, a
+// reconnection): the header is read again and the time continues.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -7,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "daq/line_input.h"
 #include "daq/source.h"
 #include "common/text.h"
 
@@ -33,10 +38,9 @@ constexpr double kMaxRateHz = 1e6;
 // layout of the current block of rows and the time base.
 class TextSource : public Source {
  public:
-  TextSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
-      : path_(path), in_(std::move(in)), on_problem_(options.on_problem) {
-    if (!in_ || !*in_) throw std::runtime_error(path + ": cannot open the input file");
-  }
+  TextSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
+      : path_(path), input_(std::move(input)), on_problem_(options.on_problem) {}
+  bool live() const override { return input_->live(); }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
   double sample_rate_hz() const override { return rate_hz_; }
@@ -49,6 +53,8 @@ class TextSource : public Source {
     if (!error_.empty()) return ReadStatus::kError;
     try {
       return ReadNext(frame);
+    } catch (const Idle&) {
+      return ReadStatus::kIdle;
     } catch (const std::exception& e) {
       error_ = e.what();
       if (error_.empty()) error_ = path_ + ": the read cannot go on";
@@ -77,35 +83,76 @@ class TextSource : public Source {
     if (on_problem_) on_problem_(Problem{{&path_, line_no_}, what});
   }
 
+  // Thrown by ReadDataLine when a live input has nothing yet; Next turns it
+  // into kIdle. Not a std::exception: it is not an error.
+  struct Idle {};
+
   // Reads the next line into line_ (without its '\n'); false at the end of
-  // the file. A line longer than kMaxLineBytes is cut there (line_too_long_
+  // the input. A line longer than kMaxLineBytes is cut there (line_too_long_
   // says so) and the rest of it skipped. A read error is never the end of the
-  // file: it throws, naming the file and the last line read.
-  bool ReadLine() {
-    line_.clear();
-    line_too_long_ = false;
-    std::streambuf* buf = in_->rdbuf();
-    bool any = false;
-    try {
-      for (int c = buf->sbumpc(); c != std::char_traits<char>::eof(); c = buf->sbumpc()) {
-        any = true;
-        if (c == '\n') break;
-        if (line_.size() < kMaxLineBytes) {
-          line_.push_back(static_cast<char>(c));
-        } else {
-          line_too_long_ = true;
-        }
+  // file: it throws, naming the file and the last line read. A live input
+  // waits here (headers are read whole). When the input started over, the
+  // line is the first of the new stream and restarted_ is set.
+  bool ReadLine(bool may_idle = false) {
+    while (true) {
+      detail::LineStatus got;
+      try {
+        got = input_->Read(line_, line_too_long_, kMaxLineBytes, may_idle);
+      } catch (const std::exception& e) {
+        std::ostringstream msg;
+        msg << path_ << ": read error after line " << line_no_ << " (" << e.what()
+            << "): the rest of the file is not read";
+        throw std::runtime_error(msg.str());
       }
-    } catch (const std::exception& e) {
-      std::ostringstream msg;
-      msg << path_ << ": read error after line " << line_no_ << " (" << e.what()
-          << "): the rest of the file is not read";
-      throw std::runtime_error(msg.str());
+      if (got == detail::LineStatus::kEnd) return false;
+      if (got == detail::LineStatus::kIdle) throw Idle{};
+      if (got == detail::LineStatus::kRestart) {
+        ++stats_.restarts;
+        restarted_ = true;
+        line_no_ = 0;
+        continue;
+      }
+      break;
     }
-    if (!any) return false;
     ++line_no_;
     if (line_no_ == 1) common::StripByteOrderMark(line_);  // a BOM must not hide the first column
     return true;
+  }
+  // ReadLine for data rows: a live input with nothing yet ends this Next
+  // with kIdle (nothing is consumed, the next call goes on from here).
+  bool ReadDataLine() { return ReadLine(true); }
+
+  bool ParseValue(std::string_view field, double& v) const {
+    if (decimal_ == Decimal::kSniff) return ParseNumber(field, false, v) || ParseNumber(field, true, v);
+    return ParseNumber(field, decimal_ == Decimal::kComma, v);
+  }
+
+  // After a restart the first row's time decides how the sample clock goes
+  // on: later than the last sample, the gap is samples lost while the input
+  // was away (counted); not later (the writer's clock started again), the
+  // rows are moved to follow the last sample, and what was lost cannot be
+  // known (reported).
+  void ContinueAfterRestart(double& t) {
+    rebase_pending_ = false;
+    if (!last_time_) return;
+    const double step = 1.0 / rate_hz_;
+    if (t > *last_time_) {
+      const int64_t lost = std::llround((t - *last_time_) * rate_hz_) - 1;
+      if (lost > 0) stats_.restart_lost += lost;
+      std::ostringstream msg;
+      msg << "input restarted (" << stats_.restarts << "): " << (lost > 0 ? lost : 0)
+          << " samples lost while it was away (from the time column)";
+      ++stats_.warnings;
+      Report(msg.str());
+      return;
+    }
+    time_offset_s_ += *last_time_ + step - t;
+    t = *last_time_ + step;
+    std::ostringstream msg;
+    msg << "input restarted (" << stats_.restarts << ") with its time going back: its samples follow the "
+        << "last one; samples lost while it was away cannot be counted";
+    ++stats_.warnings;
+    Report(msg.str());
   }
 
   // A line cut by ReadLine: reported, counted as a bad row.
@@ -133,9 +180,24 @@ class TextSource : public Source {
   // a row that was skipped (reported and counted).
   bool ParseRow(int64_t k, Frame& frame) {
     ++stats_.rows;
-    // A trailing empty field (LVM's empty Comment column, a trailing separator).
     size_t n = fields_.size();
-    if (n == columns_ + 1 && Trim(fields_.back()).empty()) --n;
+    frame.comment.clear();
+    if (has_comment_) {
+      // LVM's Comment column: the text after the data columns (a tab in it
+      // splits it: joined back).
+      if (n > columns_) {
+        const char* begin = fields_[columns_].data();
+        const char* end = fields_.back().data() + fields_.back().size();
+        const std::string_view text = Trim(std::string_view(begin, static_cast<size_t>(end - begin)));
+        if (!text.empty()) {
+          frame.comment = common::ToUtf8(text);
+          ++stats_.comments;
+        }
+        n = columns_;
+      }
+    } else if (n == columns_ + 1 && Trim(fields_.back()).empty()) {
+      --n;  // a trailing separator
+    }
     if (n != columns_) {
       ++stats_.bad_rows;
       std::ostringstream msg;
@@ -145,14 +207,17 @@ class TextSource : public Source {
     }
     double t = 0;
     if (time_col_ >= 0) {
-      if (!ParseNumber(fields_[time_col_], decimal_comma_, t) || !std::isfinite(t)) {
+      if (!ParseValue(fields_[time_col_], t) || !std::isfinite(t)) {
         ++stats_.bad_rows;
         Report("time " + Quote(Trim(fields_[time_col_])) + " is not a finite number (row skipped)");
         return false;
       }
+      CheckOtherXColumns(t);
     } else {
       t = x0_s_ + static_cast<double>(k) / rate_hz_;
     }
+    t += time_offset_s_;
+    if (rebase_pending_) ContinueAfterRestart(t);
     if (!(std::abs(t) <= kMaxAbsTimeS)) {
       ++stats_.bad_rows;
       std::ostringstream msg;
@@ -161,16 +226,27 @@ class TextSource : public Source {
       return false;
     }
     if (!first_time_) first_time_ = t;
+    last_time_ = t;
     frame.time_s = t;
     frame.seq = std::llround((t - *first_time_) * rate_hz_);
     frame.line = line_no_;
     frame.values.resize(names_.size());
     for (size_t i = 0; i < value_cols_.size(); ++i) {
       double v = kNaN;
-      if (!ParseNumber(fields_[value_cols_[i]], decimal_comma_, v)) {
+      const std::string_view field = fields_[value_cols_[i]];
+      if (Trim(field).empty()) {
+        // A channel with no data in this row: NaN, counted; reported once per column.
+        ++stats_.empty_values;
+        if (empty_reported_.size() != names_.size()) empty_reported_.assign(names_.size(), false);
+        if (!empty_reported_[i]) {
+          empty_reported_[i] = true;
+          Report("column " + Quote(names_[i]) +
+                 " has an empty field (NaN; later empty fields of this column are counted, not reported)");
+        }
+      } else if (!ParseValue(field, v)) {
         v = kNaN;
         ++stats_.bad_values;
-        Report("column " + Quote(names_[i]) + ": " + Quote(Trim(fields_[value_cols_[i]])) +
+        Report("column " + Quote(names_[i]) + ": " + Quote(Trim(field)) +
                " is not a number (sample set to NaN)");
       }
       frame.values[i] = v;
@@ -179,8 +255,31 @@ class TextSource : public Source {
     return true;
   }
 
+  // X_Columns Multi: the first X column is the time; the others should agree
+  // within 1% of a sample step (they are the same clock printed again; a
+  // whole sample off is a real misalignment). Disagreeing rows are counted,
+  // the first of each segment reported.
+  void CheckOtherXColumns(double t) {
+    for (size_t c : other_x_cols_) {
+      double x = 0;
+      if (Trim(fields_[c]).empty() || !ParseValue(fields_[c], x)) continue;
+      if (std::abs(x - t) > 0.01 / rate_hz_) {
+        ++stats_.x_disagreements;
+        if (!x_disagreement_reported_) {
+          x_disagreement_reported_ = true;
+          ++stats_.warnings;
+          std::ostringstream msg;
+          msg << "X column " << (c + 1) << " says " << x << " s where the first X column says " << t
+              << " s (the first is used; further disagreements of this segment are counted)";
+          Report(msg.str());
+        }
+        return;
+      }
+    }
+  }
+
   std::string path_;
-  std::unique_ptr<std::istream> in_;
+  std::unique_ptr<detail::LineInput> input_;
   ProblemCallback on_problem_;
   std::string line_;
   bool line_too_long_{false};
@@ -193,8 +292,17 @@ class TextSource : public Source {
   std::vector<size_t> value_cols_;  // column of each channel
   size_t columns_{};                // fields per row
   int time_col_{-1};
+  std::vector<size_t> other_x_cols_;  // LVM X_Columns Multi: X columns after the first
+  bool x_disagreement_reported_{false};
+  bool has_comment_{false};           // LVM: the column row ends with Comment
+  std::vector<bool> empty_reported_;  // per channel
   char sep_{','};
-  bool decimal_comma_{false};
+  enum class Decimal { kPoint, kComma, kSniff };  // kSniff: '.' or ',' per field
+  Decimal decimal_{Decimal::kPoint};
+  bool restarted_{false};       // the input started over: a header is the current line
+  bool rebase_pending_{false};  // the next row decides how time goes on (ContinueAfterRestart)
+  double time_offset_s_{0};     // added to every time after a restart whose clock went back
+  std::optional<double> last_time_;
   double rate_hz_{};
   double x0_s_{};                   // time of row 0 of the block without a time column
   std::optional<double> first_time_;
@@ -202,39 +310,40 @@ class TextSource : public Source {
 
 class CsvSource final : public TextSource {
  public:
-  CsvSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
-      : TextSource(std::move(in), path, options) {
+  CsvSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(input), path, options) {
     rate_hz_ = options.sample_rate_hz;
     if (!(rate_hz_ >= kMinRateHz && rate_hz_ <= kMaxRateHz)) {
       throw std::invalid_argument("CSV source: sample_rate_hz must be in [1e-6, 1e6] Hz");
     }
+    if (options.delimiter != 0 && options.delimiter != ',' && options.delimiter != ';' &&
+        options.delimiter != '\t') {
+      throw std::invalid_argument("CSV source: the delimiter must be ',', ';' or tab");
+    }
     // Header: the first non-blank line.
-    while (ReadLine()) {
+    bool got = false;
+    while ((got = ReadLine())) {
       if (!Trim(line_).empty()) break;
     }
+    if (!got && live()) Fail("no header line arrived (stopped, or idle timeout)");
     if (line_too_long_) Fail("header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
     if (Trim(line_).empty()) Fail("empty file: expected a header row");
-    Split(line_, sep_, fields_);
-    columns_ = fields_.size();
-    for (size_t i = 0; i < fields_.size(); ++i) {
-      const std::string name(Trim(fields_[i]));
-      if (name.empty()) Fail("header column " + std::to_string(i + 1) + " has no name");
-      double ignored = 0;
-      if (ParseNumber(name, false, ignored)) Fail("no header row: column name " + Quote(name) + " is a number");
-      if (name == "time") {
-        time_col_ = static_cast<int>(i);
-        continue;
-      }
-      for (const auto& n : names_) {
-        if (n == name) Fail("column " + Quote(name) + " appears twice in the header");
-      }
-      names_.push_back(name);
-      value_cols_.push_back(i);
-    }
+    restarted_ = false;
+    sep_ = options.delimiter != 0 ? options.delimiter : common::SniffDelimiter(line_);
+    // ';' and tab leave ',' free to be a decimal comma (what European
+    // spreadsheets and LabVIEW's spreadsheet VIs write): each field is read
+    // with '.' first, then with ','.
+    decimal_ = sep_ == ',' ? Decimal::kPoint : Decimal::kSniff;
+    ParseHeader(names_, value_cols_, time_col_, columns_);
   }
 
   ReadStatus ReadNext(Frame& frame) override {
-    while (ReadLine()) {
+    while (ReadDataLine()) {
+      if (restarted_) {
+        restarted_ = false;
+        if (!HeaderAgain()) continue;
+        continue;
+      }
       if (SkipLongRow()) {
         ++row_;
         continue;
@@ -247,46 +356,85 @@ class CsvSource final : public TextSource {
   }
 
  private:
+  void ParseHeader(std::vector<std::string>& names, std::vector<size_t>& cols, int& time_col, size_t& columns) {
+    Split(line_, sep_, fields_);
+    columns = fields_.size();
+    time_col = -1;
+    names.clear();
+    cols.clear();
+    for (size_t i = 0; i < fields_.size(); ++i) {
+      const std::string name = common::ToUtf8(Trim(fields_[i]));
+      if (name.empty()) Fail("header column " + std::to_string(i + 1) + " has no name");
+      double ignored = 0;
+      if (ParseValue(name, ignored)) Fail("no header row: column name " + Quote(name) + " is a number");
+      if (name == "time") {
+        time_col = static_cast<int>(i);
+        continue;
+      }
+      for (const auto& n : names) {
+        if (n == name) Fail("column " + Quote(name) + " appears twice in the header");
+      }
+      names.push_back(name);
+      cols.push_back(i);
+    }
+  }
+
+  // The input started over (a reconnection, a replaced file): line_ should
+  // be the same header again (blank lines before it skipped). Another header
+  // stops the read: the channels of a run do not change under it.
+  bool HeaderAgain() {
+    while (Trim(line_).empty()) {
+      if (!ReadLine()) return false;
+    }
+    std::vector<std::string> names;
+    std::vector<size_t> cols;
+    int time_col = -1;
+    size_t columns = 0;
+    ParseHeader(names, cols, time_col, columns);
+    if (names != names_ || time_col != time_col_) {
+      Fail("the header after the restart names other columns than the first header");
+    }
+    value_cols_ = cols;
+    columns_ = columns;
+    rebase_pending_ = true;
+    return true;
+  }
+
   int64_t row_{0};
 };
 
-// LabVIEW Measurement file: a file header, then segments, each with a header
-// (Channels, Samples, X0, Delta_X, ...) ended by ***End_of_Header***, a column
-// header row and data rows.
+// LabVIEW Measurement file (NI's "LabVIEW Measurement File (.lvm) Format"):
+// a file header, then segments, each with a header (Channels, Samples, X0,
+// Delta_X, ... one value per channel) ended by ***End_of_Header***, a column
+// row and data rows. X_Columns: One (one X_Value column), No (the X_Value
+// column is empty or absent: time is X0 + k Delta_X), Multi (an X_Value
+// column before every channel: the first is used, the others checked).
 class LvmSource final : public TextSource {
  public:
-  LvmSource(std::unique_ptr<std::istream> in, const std::string& path, const SourceOptions& options)
-      : TextSource(std::move(in), path, options) {
-    if (!ReadLine()) Fail("empty file: expected 'LabVIEW Measurement'");
-    if (Trim(line_).rfind("LabVIEW Measurement", 0) != 0) Fail("not a LabVIEW Measurement file");
-    // File header: key<TAB>value lines up to ***End_of_Header***.
-    bool ended = false;
-    while (ReadLine()) {
-      Split(line_, '\t', fields_);
-      const std::string_view key = Trim(fields_[0]);
-      if (key == "***End_of_Header***") {
-        ended = true;
-        break;
-      }
-      const std::string_view value = fields_.size() > 1 ? Trim(fields_[1]) : std::string_view();
-      if (key == "Separator") {
-        if (value == "Tab") sep_ = '\t';
-        else if (value == "Comma") sep_ = ',';
-        else Fail("Separator " + Quote(value) + " is not Tab or Comma");
-      } else if (key == "Decimal_Separator") {
-        decimal_comma_ = (value == ",");
-      } else if (key == "X_Columns") {
-        if (value == "Multi") Fail("X_Columns Multi is not supported (one time base for all channels)");
-      }
-    }
-    if (!ended) Fail("truncated file header: no ***End_of_Header***");
-    if (sep_ == ',' && decimal_comma_) Fail("Separator Comma with Decimal_Separator ',' is ambiguous");
+  LvmSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(input), path, options) {
+    if (!ReadLine()) Fail(live() ? "no header arrived (stopped, or idle timeout)" : "empty file: expected 'LabVIEW Measurement'");
+    ReadFileHeader();
     // The first segment defines the channels.
     if (!ReadSegmentHeader()) Fail("no segment: the file ends after its header");
   }
 
   ReadStatus ReadNext(Frame& frame) override {
-    while (ReadLine()) {
+    while (ReadDataLine()) {
+      if (restarted_) {
+        // A replaced file: its own file header, then segments whose
+        // channels must be the first file's.
+        restarted_ = false;
+        EndSegment();
+        try {
+          ReadFileHeader();
+        } catch (const std::exception& e) {
+          Fail(std::string("after the file was replaced: ") + e.what());
+        }
+        if (!ReadSegmentHeaderNoThrow()) return End();
+        rebase_pending_ = true;
+        continue;
+      }
       if (SkipLongRow()) {
         if (!skip_segment_) ++segment_rows_;
         continue;
@@ -315,6 +463,50 @@ class LvmSource final : public TextSource {
   }
 
  private:
+  // line_ is the file's first line. File header: key<TAB>value lines up to
+  // ***End_of_Header***.
+  void ReadFileHeader() {
+    if (Trim(line_).rfind("LabVIEW Measurement", 0) != 0) Fail("not a LabVIEW Measurement file");
+    bool ended = false;
+    bool decimal_given = false;
+    Decimal decimal = Decimal::kPoint;
+    char sep = '\t';
+    XColumns x_columns = XColumns::kOne;
+    while (ReadLine()) {
+      Split(line_, '\t', fields_);
+      const std::string_view key = Trim(fields_[0]);
+      if (key == "***End_of_Header***") {
+        ended = true;
+        break;
+      }
+      const std::string_view value = fields_.size() > 1 ? Trim(fields_[1]) : std::string_view();
+      if (key == "Separator") {
+        if (value == "Tab") sep = '\t';
+        else if (value == "Comma") sep = ',';
+        else Fail("Separator " + Quote(value) + " is not Tab or Comma");
+      } else if (key == "Decimal_Separator") {
+        decimal_given = true;
+        decimal = (value == ",") ? Decimal::kComma : Decimal::kPoint;
+      } else if (key == "X_Columns") {
+        if (value == "No") x_columns = XColumns::kNo;
+        else if (value == "Multi") x_columns = XColumns::kMulti;
+        else if (value == "One") x_columns = XColumns::kOne;
+        else Fail("X_Columns " + Quote(value) + " is not No, One or Multi");
+      }
+    }
+    if (!ended) Fail("truncated file header: no ***End_of_Header***");
+    if (sep == ',' && decimal_given && decimal == Decimal::kComma) {
+      Fail("Separator Comma with Decimal_Separator ',' is ambiguous");
+    }
+    // Without a Decimal_Separator line (older writers) each number is read
+    // with '.' first, then with ',' (only possible with Tab separators).
+    if (!decimal_given) decimal = sep == '\t' ? Decimal::kSniff : Decimal::kPoint;
+    if (!names_.empty() && (sep != sep_)) Fail("the replaced file has another Separator");
+    sep_ = sep;
+    decimal_ = decimal;
+    x_columns_ = x_columns;
+  }
+
   void EndSegment() {
     if (segment_done_) return;
     segment_done_ = true;
@@ -330,6 +522,8 @@ class LvmSource final : public TextSource {
   bool ReadSegmentHeaderNoThrow() {
     try {
       return ReadSegmentHeader();
+    } catch (const Idle&) {
+      throw;
     } catch (const std::exception& e) {
       ++stats_.warnings;
       Report(std::string(e.what()) + " (rest of the file skipped)");
@@ -359,8 +553,11 @@ class LvmSource final : public TextSource {
         break;
       }
       if (key == "X0" || key == "Delta_X" || key == "Samples") {
+        // One value per channel; the first is used (the channels share one
+        // clock here: a segment whose channels have other time bases is
+        // not one frame per row).
         double v = 0;
-        if (fields_.size() < 2 || !ParseNumber(fields_[1], decimal_comma_, v)) {
+        if (fields_.size() < 2 || !ParseValue(fields_[1], v)) {
           Fail(std::string(key) + " is not a number");
         }
         if (key == "X0") {
@@ -386,6 +583,7 @@ class LvmSource final : public TextSource {
     stats_.segments = segment_;
     segment_done_ = false;
     segment_rows_ = 0;
+    x_disagreement_reported_ = false;
     if (!dx || !(*dx >= 1.0 / kMaxRateHz && *dx <= 1.0 / kMinRateHz)) {
       Fail("segment header has no Delta_X in [1e-6, 1e6] s");
     }
@@ -395,40 +593,51 @@ class LvmSource final : public TextSource {
     if (line_too_long_) Fail("column header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
     Split(line_, sep_, fields_);
     size_t n = fields_.size();
-    while (n > 0 && (Trim(fields_[n - 1]).empty() || Trim(fields_[n - 1]) == "Comment")) --n;
-    int time_col = -1;
+    while (n > 0 && Trim(fields_[n - 1]).empty()) --n;
+    const bool comment = n > 0 && Trim(fields_[n - 1]) == "Comment";
+    if (comment) --n;
+    std::vector<size_t> x_cols;
     std::vector<std::string> names;
     std::vector<size_t> cols;
     for (size_t i = 0; i < n; ++i) {
-      const std::string name(Trim(fields_[i]));
+      const std::string name = common::ToUtf8(Trim(fields_[i]));
       if (name == "X_Value") {
-        if (time_col >= 0) Fail("more than one X_Value column");
-        time_col = static_cast<int>(i);
+        x_cols.push_back(i);
         continue;
       }
       if (name.empty()) Fail("column " + std::to_string(i + 1) + " has no name");
       names.push_back(name);
       cols.push_back(i);
     }
+    if (x_cols.size() > 1 && x_columns_ == XColumns::kOne) {
+      Fail("more than one X_Value column with X_Columns One");
+    }
+    // X_Columns No: the X_Value column (when written) is empty: the time base is X0 and Delta_X.
+    const int time_col = (x_columns_ == XColumns::kNo || x_cols.empty()) ? -1 : static_cast<int>(x_cols[0]);
     if (first_segment) {
       names_ = std::move(names);
-      value_cols_ = std::move(cols);
-      columns_ = n;
-      time_col_ = time_col;
       rate_hz_ = 1.0 / *dx;
       skip_segment_ = false;
     } else {
-      skip_segment_ = names != names_ || time_col != time_col_ ||
-                      std::abs(1.0 / *dx - rate_hz_) > 1e-9 * rate_hz_;
+      skip_segment_ = names != names_ || std::abs(1.0 / *dx - rate_hz_) > 1e-9 * rate_hz_;
       if (skip_segment_) {
         ++stats_.warnings;
         Report("segment " + std::to_string(segment_) +
                " has other channels or another Delta_X than segment 1 (its rows are skipped)");
+        return true;
       }
     }
+    value_cols_ = std::move(cols);
+    columns_ = n;
+    has_comment_ = comment;
+    time_col_ = time_col;
+    other_x_cols_.clear();
+    if (time_col >= 0) other_x_cols_.assign(x_cols.begin() + 1, x_cols.end());
     return true;
   }
 
+  enum class XColumns { kNo, kOne, kMulti };
+  XColumns x_columns_{XColumns::kOne};
   bool pending_header_line_{false};
   bool skip_segment_{false};
   bool segment_done_{true};
@@ -437,24 +646,49 @@ class LvmSource final : public TextSource {
   std::optional<int64_t> samples_;
 };
 
+std::unique_ptr<detail::LineInput> FileLines(const std::string& path) {
+  auto in = std::make_unique<std::ifstream>(path, std::ios::binary);
+  if (!*in) throw std::runtime_error(path + ": cannot open the input file");
+  return detail::StreamLines(std::move(in));
+}
+
+std::unique_ptr<detail::LineInput> StreamOrFail(std::unique_ptr<std::istream> in, const std::string& name) {
+  if (!in || !*in) throw std::runtime_error(name + ": cannot open the input file");
+  return detail::StreamLines(std::move(in));
+}
+
+detail::LiveOptions Live(const SourceOptions& options) {
+  detail::LiveOptions live;
+  live.stop = options.stop;
+  live.idle_timeout_s = options.idle_timeout_s;
+  return live;
+}
+
 }  // namespace
 
 std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options) {
-  return std::make_unique<CsvSource>(std::make_unique<std::ifstream>(path, std::ios::binary), path, options);
+  auto lines = options.follow ? detail::FollowFile(path, Live(options)) : FileLines(path);
+  return std::make_unique<CsvSource>(std::move(lines), path, options);
 }
 
 std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options) {
-  return std::make_unique<LvmSource>(std::make_unique<std::ifstream>(path, std::ios::binary), path, options);
+  auto lines = options.follow ? detail::FollowFile(path, Live(options)) : FileLines(path);
+  return std::make_unique<LvmSource>(std::move(lines), path, options);
 }
 
 std::unique_ptr<Source> OpenCsvStream(std::unique_ptr<std::istream> in, const std::string& name,
                                       const SourceOptions& options) {
-  return std::make_unique<CsvSource>(std::move(in), name, options);
+  return std::make_unique<CsvSource>(StreamOrFail(std::move(in), name), name, options);
 }
 
 std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const std::string& name,
                                       const SourceOptions& options) {
-  return std::make_unique<LvmSource>(std::move(in), name, options);
+  return std::make_unique<LvmSource>(StreamOrFail(std::move(in), name), name, options);
+}
+
+std::unique_ptr<Source> OpenTcpSource(const std::string& host_port, const SourceOptions& options, bool listen) {
+  return std::make_unique<CsvSource>(detail::TcpLines(host_port, Live(options), listen),
+                                     (listen ? "tcp-listen://" : "tcp://") + host_port, options);
 }
 
 }  // namespace rocklab::daq

@@ -3,6 +3,7 @@
 #include "model/numbers.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -12,8 +13,10 @@
 #include <stdexcept>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
@@ -250,9 +253,131 @@ double SampledAcceleration::NextDiscontinuity(double t_s) const {
   return std::numeric_limits<double>::infinity();
 }
 
+namespace {
+
+// PEER NGA record (.AT2): four header lines, the third naming the quantity
+// ("ACCELERATION TIME SERIES IN UNITS OF G"), the fourth NPTS and DT in one
+// of two styles ("NPTS=  4316, DT=   .0100 SEC" or "4164    0.0100    NPTS,
+// DT"), then NPTS accelerations in g, any number to a line (5 or 8 in the
+// wild). Sample k is at k DT; values are converted to m/s^2 with g = 9.81.
+std::string Upper(std::string_view text) {
+  std::string out(text);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+AccelerationRows ReadPeerAt2(const std::string& path, std::istream& in) {
+  std::int64_t line_no = 0;
+  auto fail = [&path, &line_no](const std::string& what) {
+    throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + what);
+  };
+  std::string line;
+  std::string header[4];
+  for (int i = 0; i < 4; ++i) {
+    if (!std::getline(in, line)) fail("a PEER .AT2 record has 4 header lines; the file ends after " + std::to_string(i));
+    ++line_no;
+    if (line_no == 1) common::StripByteOrderMark(line);
+    header[i] = line;
+  }
+  const std::string quantity = Upper(header[2]);
+  line_no = 3;
+  if (quantity.find("VELOCITY") != std::string::npos || quantity.find("DISPLACEMENT") != std::string::npos) {
+    fail("a PEER velocity or displacement record (" + common::Quote(common::Trim(header[2])) +
+         "): --accel takes the acceleration record (.AT2)");
+  }
+  if (quantity.find("UNITS OF G") == std::string::npos) {
+    fail("expected 'ACCELERATION TIME SERIES IN UNITS OF G', got " + common::Quote(common::Trim(header[2])));
+  }
+  // Line 4: the tokens between blanks, commas and '='.
+  line_no = 4;
+  std::vector<std::string> tokens;
+  std::string token;
+  for (char c : header[3] + " ") {
+    if (c == ' ' || c == '\t' || c == ',' || c == '=' || c == '\r') {
+      if (!token.empty()) tokens.push_back(Upper(token));
+      token.clear();
+    } else {
+      token += c;
+    }
+  }
+  double npts_value = std::numeric_limits<double>::quiet_NaN();
+  double dt = std::numeric_limits<double>::quiet_NaN();
+  double first = 0;
+  if (!tokens.empty() && common::ParseDouble(tokens[0], first)) {
+    // "4164    0.0100    NPTS, DT": the values first, then their names.
+    if (tokens.size() >= 4 && tokens[2] == "NPTS" && tokens[3] == "DT") {
+      npts_value = first;
+      common::ParseDouble(tokens[1], dt);
+    }
+  } else {
+    // "NPTS=  4316, DT=   .0100 SEC": each name, then its value.
+    for (std::size_t i = 0; i + 1 < tokens.size(); ++i) {
+      if (tokens[i] == "NPTS") common::ParseDouble(tokens[i + 1], npts_value);
+      if (tokens[i] == "DT") common::ParseDouble(tokens[i + 1], dt);
+    }
+  }
+  if (std::isnan(npts_value) || std::isnan(dt)) {
+    fail("expected NPTS and DT ('NPTS=  4316, DT=   .0100 SEC' or '4164    0.0100    NPTS, DT'), got " +
+         common::Quote(common::Trim(header[3])));
+  }
+  if (!(npts_value >= 2 && npts_value <= 1e9 && npts_value == std::floor(npts_value))) {
+    fail("NPTS " + ExactText(npts_value) + " is not a count of at least 2 samples");
+  }
+  if (!(dt >= 1e-6 && dt <= 10)) fail("DT " + ExactText(dt) + " s is not in [1e-6, 10] s");
+  const auto npts = static_cast<std::size_t>(npts_value);
+  AccelerationRows rows;
+  rows.time_s.reserve(npts);
+  rows.accel_mps2.reserve(npts);
+  rows.line.reserve(npts);
+  std::vector<std::string_view> fields;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::string_view rest = common::Trim(line);
+    while (!rest.empty()) {
+      const std::size_t end = rest.find_first_of(" \t,");
+      const std::string_view field = rest.substr(0, end);
+      rest = end == std::string_view::npos ? std::string_view() : common::Trim(rest.substr(end + 1));
+      if (field.empty()) continue;
+      double g = 0;
+      if (!common::ParseDouble(field, g) || !std::isfinite(g)) {
+        fail("acceleration " + common::Quote(field) + " is not a finite number (g)");
+      }
+      if (rows.time_s.size() == npts) {
+        fail("more values than NPTS " + std::to_string(npts) + " (line 4) says");
+      }
+      rows.time_s.push_back(static_cast<double>(rows.time_s.size()) * dt);
+      rows.accel_mps2.push_back(g * common::kGravity);
+      rows.line.push_back(line_no);
+    }
+  }
+  if (rows.time_s.size() != npts) {
+    line_no = 4;
+    fail("NPTS " + std::to_string(npts) + " but the file has " + std::to_string(rows.time_s.size()) + " values");
+  }
+  return rows;
+}
+
+// A PEER record by its content: its fourth line names NPTS and DT.
+bool LooksLikePeer(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  for (int i = 0; i < 4; ++i) {
+    if (!std::getline(in, line)) return false;
+  }
+  const std::string upper = Upper(line);
+  return upper.find("NPTS") != std::string::npos && upper.find("DT") != std::string::npos;
+}
+
+}  // namespace
+
 AccelerationRows ReadAccelerationRows(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open for reading");
+  if (common::HasExtension(path, ".vt2") || common::HasExtension(path, ".dt2")) {
+    throw std::runtime_error(path + ": a PEER velocity (.VT2) or displacement (.DT2) record: --accel takes "
+                             "the acceleration record (.AT2)");
+  }
+  if (common::HasExtension(path, ".at2") || LooksLikePeer(path)) return ReadPeerAt2(path, in);
   std::int64_t line_no = 0;
   auto fail = [&path, &line_no](const std::string& what) {
     throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + what);

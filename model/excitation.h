@@ -106,8 +106,14 @@ struct AccelerationRows {
   std::vector<std::int64_t> line;  ///< the file's line of each row (from 1)
 };
 
-/// Reads a CSV with the header `time,accel` (s, m/s^2): the one reader of
-/// table-acceleration files (`simulate --accel`, `fit --accel`). Blank lines
+/// Reads a table-acceleration file: the one reader of them (`simulate
+/// --accel`, `synth --accel`, `fit --accel`, `sweep`). A PEER NGA record
+/// (.AT2 by extension, or any file whose fourth line names NPTS and DT): four
+/// header lines, NPTS and DT in either style, NPTS values in g (any number
+/// to a line), sample k at k DT s, converted to m/s^2 with g = 9.81;
+/// .VT2/.DT2 (velocity, displacement) are refused, and so is an NPTS that
+/// disagrees with the values. Otherwise a CSV with the header `time,accel`
+/// (s, m/s^2). Blank lines
 /// and lines starting with '#' are skipped, the first other line is the
 /// header, fields may carry surrounding blanks, then every row is two
 /// finite numbers with time strictly increasing; at least 2 rows.

@@ -6,7 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "common/text.h"
+#include "daq/source.h"
 #include "model/block.h"
+#include "record/log_writer.h"
 
 namespace rocklab::pipeline {
 
@@ -69,15 +72,109 @@ int ReportDamage(const daq::DaqNodeStats& s, const std::string& input, const cha
   return s.read_error.empty() ? damaged : 1;
 }
 
-int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {
+namespace {
+
+char DelimiterOf(const std::string& text) {
+  if (text.empty()) return 0;
+  if (text == "," || text == "comma") return ',';
+  if (text == ";" || text == "semicolon") return ';';
+  if (text == "\t" || text == "tab" || text == "\\t") return '\t';
+  throw OptionError("--delimiter: '" + text + "' is not ',', ';' or tab");
+}
+
+// Checks the options and builds the node's configuration (the rig loaded).
+daq::DaqNodeConfig StageConfig(const DaqStageOptions& o, const std::atomic<bool>* stop) {
   Require(std::isfinite(o.speed) && o.speed > 0, "--speed", "> 0", o.speed);
+  Require(std::isfinite(o.idle_timeout_s) && o.idle_timeout_s >= 0, "--idle-timeout", ">= 0 s (0 = never)",
+          o.idle_timeout_s);
+  Require(o.rotate_bytes >= 0, "--rotate-size", ">= 0 bytes", static_cast<double>(o.rotate_bytes));
+  Require(std::isfinite(o.rotate_seconds) && o.rotate_seconds >= 0, "--rotate-seconds", ">= 0 s",
+          o.rotate_seconds);
+  if ((o.rotate_bytes > 0 || o.rotate_seconds > 0) && o.log_path.empty()) {
+    throw OptionError("--rotate-size/--rotate-seconds: rotate what? give --log FILE");
+  }
+  if (o.rig_path.empty()) throw OptionError("--rig: required (on the command line or as 'rig' in --config)");
+  if (o.input.empty()) throw OptionError("--input: required (on the command line or as 'input' in --config)");
+  const bool live_url = o.input.rfind("tcp://", 0) == 0 || o.input.rfind("tcp-listen://", 0) == 0 ||
+                        o.input.rfind("lcm://", 0) == 0;
+  if (o.follow && (live_url || !(common::HasExtension(o.input, ".csv") || common::HasExtension(o.input, ".lvm")))) {
+    throw OptionError("--follow: follows a .csv or .lvm file, not '" + o.input + "'");
+  }
   daq::DaqNodeConfig config = DaqConfigFor(LoadRig(o.rig_path), o.input, o.max_speed ? 0.0 : o.speed);
   config.prefix = o.prefix;
-  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(o.lcm_url);
+  config.delimiter = DelimiterOf(o.delimiter);
+  config.follow = o.follow;
+  config.idle_timeout_s = o.idle_timeout_s;
+  config.lcm_url = o.lcm_url;
+  config.stop = stop;
+  return config;
+}
+
+// Writes every message the DAQ publishes to a rotated LCM log series
+// (record::RotatingLogWriter, the recorder's rotation: each event in exactly
+// one file, event numbers continuing across files), then publishes it.
+class RotatingLogBus final : public common::Bus {
+ public:
+  RotatingLogBus(common::Bus& inner, record::RotatingLogWriter& log) : inner_(inner), log_(log) {}
+  using Bus::Publish;
+  bool Publish(const std::string& channel, const void* data, int size) override {
+    bool logged = false;
+    if (size >= 0) {
+      logged = log_.Write(common::PayloadUtime(data, size, last_utime_), channel,
+                          static_cast<const uint8_t*>(data), static_cast<uint32_t>(size));
+      last_utime_ = common::PayloadUtime(data, size, last_utime_);
+    }
+    if (!logged) ++log_errors_;
+    return inner_.Publish(channel, data, size) && logged;
+  }
+  SubscriptionId SubscribeRaw(const std::string& regex, RawHandler handler, int queue) override {
+    return inner_.SubscribeRaw(regex, std::move(handler), queue);
+  }
+  void Unsubscribe(SubscriptionId id) override { inner_.Unsubscribe(id); }
+  int HandleTimeout(int timeout_ms) override { return inner_.HandleTimeout(timeout_ms); }
+  int64_t log_errors() const { return log_errors_; }
+
+ protected:
+  using Bus::root;
+  const Bus& root() const override { return inner_; }
+
+ private:
+  common::Bus& inner_;             // not owned
+  record::RotatingLogWriter& log_;  // not owned
+  int64_t last_utime_{0};
+  int64_t log_errors_{0};
+};
+
+}  // namespace
+
+int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {
+  daq::DaqNodeConfig config = StageConfig(o, &stop);
+  const std::unique_ptr<common::LcmBus> lcm_bus = OpenLcmBus(o.lcm_url);
+  common::Bus* bus = lcm_bus.get();
+  std::unique_ptr<record::RotatingLogWriter> log;
+  std::unique_ptr<RotatingLogBus> log_bus;
+  if (!o.log_path.empty()) {
+    record::RotationOptions rotation;
+    rotation.path = o.log_path;
+    rotation.rotate_bytes = o.rotate_bytes;
+    rotation.rotate_seconds = o.rotate_seconds;
+    rotation.overwrite = true;
+    try {
+      log = std::make_unique<record::RotatingLogWriter>(rotation);
+    } catch (const std::exception& e) {
+      throw OptionError(std::string("--log: ") + e.what());
+    }
+    log_bus = std::make_unique<RotatingLogBus>(*lcm_bus, *log);
+    bus = log_bus.get();
+  }
   std::unique_ptr<daq::DaqNode> node;
   try {
     node = std::make_unique<daq::DaqNode>(config, *bus);
   } catch (const std::exception& e) {
+    if (stop.load()) {  // SIGINT/SIGTERM while a live input's header was awaited: a stop, not an error
+      std::fprintf(stderr, "%s: stopped by signal before %s sent its header\n", what, o.input.c_str());
+      return 0;
+    }
     throw OptionError(e.what());  // names the input file (and line) or the LCM URL
   }
   node->Run(stop);
@@ -89,7 +186,78 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
                static_cast<long long>(s.publish_errors), static_cast<long long>(s.gaps),
                static_cast<long long>(s.missing), static_cast<long long>(s.bad_samples),
                s.stopped_early ? ", stopped by signal" : "");
-  return ReportDamage(s, o.input, what);
+  if (s.restarts > 0 || s.comments > 0) {
+    std::fprintf(stderr, "%s: %lld input restarts (%lld samples lost across them), %lld comments\n", what,
+                 static_cast<long long>(s.restarts), static_cast<long long>(s.restart_lost),
+                 static_cast<long long>(s.comments));
+  }
+  int code = ReportDamage(s, o.input, what);
+  if (log) {
+    const bool closed = log->Close();
+    std::fprintf(stderr, "%s: --log: %lld events in %zu file%s%s\n", what, static_cast<long long>(log->events()),
+                 log->files().size(), log->files().size() == 1 ? "" : "s",
+                 log_bus->log_errors() > 0 || !closed ? " (write errors: see above)" : "");
+    if (log_bus->log_errors() > 0 || !closed) {
+      std::fprintf(stderr, "%s: --log: %lld events could not be written: %s\n", what,
+                   static_cast<long long>(log_bus->log_errors()), log->error().c_str());
+      code = 1;
+    }
+  }
+  return code;
+}
+
+void CheckDaqStage(const DaqStageOptions& o) {
+  const daq::DaqNodeConfig config = StageConfig(o, nullptr);
+  const daq::RigConfig& rig = config.rig;
+  std::printf("rig: %s (%s), %zu channels, sample rate %g Hz\n", rig.path.c_str(), rig.name.c_str(),
+              rig.channels.size(), rig.sample_rate_hz);
+  if (o.input.rfind("tcp://", 0) == 0) {
+    std::printf("input: TCP stream from %s (CSV lines, header first; reconnects with backoff)\n",
+                o.input.c_str() + 6);
+  } else if (o.input.rfind("tcp-listen://", 0) == 0) {
+    std::printf("input: TCP stream, listening on %s for the acquisition PC (CSV lines, header first)\n",
+                o.input.c_str() + 13);
+  } else if (o.input.rfind("lcm://", 0) == 0) {
+    const std::string channel = o.input.substr(6);
+    if (channel.empty() || channel == o.prefix + "RAW") {
+      throw OptionError("--input: lcm://CHANNEL must name a channel other than " + o.prefix + "RAW");
+    }
+    std::printf("input: raw_frame_t on LCM channel %s of %s, values in the rig's channel order\n",
+                channel.c_str(), o.lcm_url.empty() ? "LCM's default URL" : o.lcm_url.c_str());
+  } else {
+    daq::SourceOptions so;
+    so.sample_rate_hz = rig.sample_rate_hz;
+    so.raw_channel = o.prefix + "RAW";
+    so.config_channel = o.prefix + "DAQ_CONFIG";
+    so.delimiter = config.delimiter;
+    for (const auto& c : rig.channels) so.fallback_channel_names.push_back(c.name);
+    std::unique_ptr<daq::Source> source;
+    try {
+      source = daq::OpenSource(o.input, so);  // not followed: the header is what is checked
+    } catch (const std::exception& e) {
+      throw OptionError(std::string("--input: ") + e.what());
+    }
+    std::printf("input: %s%s, sample rate %g Hz, channels:", o.input.c_str(), o.follow ? " (followed)" : "",
+                source->sample_rate_hz());
+    for (const auto& n : source->channel_names()) std::printf(" %s", n.c_str());
+    std::printf("\n");
+    for (const auto& c : rig.channels) {
+      bool found = false;
+      for (const auto& n : source->channel_names()) found = found || n == c.name;
+      if (!found) throw OptionError("--input: " + o.input + " has no column '" + c.name + "' the rig names");
+    }
+  }
+  std::printf("publish: %sDAQ_CONFIG %sRAW %sTHETA %sTABLE %sEVENT %sHEALTH on %s\n", o.prefix.c_str(),
+              o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(),
+              o.lcm_url.empty() ? "LCM's default URL" : o.lcm_url.c_str());
+  if (!o.log_path.empty()) {
+    std::printf("log: %s", o.log_path.c_str());
+    if (o.rotate_bytes > 0) std::printf(", a new file every %lld bytes", static_cast<long long>(o.rotate_bytes));
+    if (o.rotate_seconds > 0) std::printf(", a new file every %g s", o.rotate_seconds);
+    std::printf("\n");
+  }
+  if (o.idle_timeout_s > 0) std::printf("idle timeout: %g s\n", o.idle_timeout_s);
+  std::printf("ok\n");
 }
 
 std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,

@@ -7,6 +7,8 @@
 /// naming the option.
 
 #include <atomic>
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,12 +42,38 @@ daq::DaqNodeConfig DaqConfigFor(const daq::RigConfig& rig, const std::string& in
 /// `rocklab replay --rig` (one code path).
 struct DaqStageOptions {
   std::string rig_path;
-  std::string input;
+  std::string input;        ///< file, tcp://HOST:PORT or lcm://CHANNEL
   double speed{1.0};        ///< sample-clock s per host s; > 0
   bool max_speed{};         ///< as fast as possible (speed ignored)
   std::string lcm_url;      ///< empty: LCM's default (LCM_DEFAULT_URL or its own)
   std::string prefix{"RL_"};
+  bool follow{};            ///< CSV/LVM: keep reading as the file grows
+  double idle_timeout_s{};  ///< live inputs: end after this long without data, s; 0 = never
+  std::string delimiter;    ///< CSV: "," ";" "tab" (or a tab); empty = sniffed
+  std::string log_path;     ///< write every published message to this LCM log (rotated series)
+  int64_t rotate_bytes{};   ///< with log_path: a new file before one passes this size, bytes; 0 = never
+  double rotate_seconds{};  ///< with log_path: a new file every this many s of sample clock; 0 = never
 };
+
+/// The keys of a `rocklab daq --config FILE.toml`: every option of `rocklab
+/// daq` by its flag's name without the dashes (rig, input, speed, max,
+/// lcm-url, prefix, follow, idle-timeout, delimiter, log, rotate-size,
+/// rotate-seconds). Relative paths (rig, input, log) are taken from the
+/// config file's folder.
+const std::vector<std::string>& DaqConfigKeys();
+
+/// Reads `path` into `options`, skipping the keys for which
+/// `given_on_command_line(key)` is true (flags override the file).
+/// @throws OptionError "FILE:LINE: key 'K' ..." for an unknown key, a value
+///         of the wrong type, a TOML syntax error ("FILE:LINE: ...").
+void ApplyDaqConfigFile(const std::string& path, DaqStageOptions& options,
+                        const std::function<bool(const std::string& key)>& given_on_command_line);
+
+/// `rocklab daq --check`: validates the options, the rig and the input
+/// (a file is opened and its header read; tcp:// and lcm:// are only
+/// parsed), and prints what would be read on stdout.
+/// @throws OptionError naming what is wrong.
+void CheckDaqStage(const DaqStageOptions& options);
 /// Runs the DAQ node until the input ends or `stop`, then prints its
 /// counts on stderr (`<what>: N frames read, ...`); returns the exit code (0;
 /// 1, the command failed, when the input was a damaged LCM log: ReportDamage).

@@ -89,7 +89,8 @@ int RunAll(RunCommand& c) {
   model::ModelNodeConfig model_cfg;
   model_cfg.variants = BuildVariants(c.variants, rig);
   model::ModelNode model(model_cfg, bus);
-  const daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
+  daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
+  daq_cfg.stop = &stop;  // a live --input (tcp://, lcm://) waiting for its header ends on SIGINT too
   std::unique_ptr<daq::DaqNode> daq;
   try {
     daq = std::make_unique<daq::DaqNode>(daq_cfg, bus);

@@ -54,3 +54,5 @@ run_fuzzer live_state 4096
 run_fuzzer http 4096
 run_fuzzer lcm_log 16384
 run_fuzzer lcm_types 4096
+run_fuzzer at2 8192
+run_fuzzer daq_config 4096

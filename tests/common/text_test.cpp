@@ -77,5 +77,27 @@ TEST(Ring, KeepsTheNewestOldestFirst) {
 // Oracle: 180 degrees is pi radians.
 TEST(Units, DegreesPerRadian) { EXPECT_DOUBLE_EQ(kPi * kDegPerRad, 180.0); }
 
+// Oracle: the Unicode encodings of the characters (RFC 3629) and the
+// Windows-1252 code chart (0x80 is the euro sign U+20AC, 0x81 undefined).
+TEST(TextTest, Utf8CheckAndWindows1252Transcoding) {
+  EXPECT_TRUE(IsUtf8("Press\xC3\xA3o \xC2\xB0" "C \xE2\x82\xAC \xF0\x9F\x98\x80"));
+  EXPECT_FALSE(IsUtf8("Press\xE3o"));         // Latin-1
+  EXPECT_FALSE(IsUtf8("\xC0\xAF"));           // overlong '/'
+  EXPECT_FALSE(IsUtf8("\xED\xA0\x80"));       // a surrogate
+  EXPECT_FALSE(IsUtf8("\xE2\x82"));           // cut short
+  EXPECT_EQ(ToUtf8("Press\xE3o \xB0" "C"), "Press\xC3\xA3o \xC2\xB0" "C");
+  EXPECT_EQ(ToUtf8("\x80\x81"), "\xE2\x82\xAC\xEF\xBF\xBD");
+  EXPECT_EQ(ToUtf8("already \xC2\xB0"), "already \xC2\xB0");
+}
+
+// Oracle: the rule (most frequent of tab, ';', ','; ties in that order).
+TEST(TextTest, SniffDelimiter) {
+  EXPECT_EQ(SniffDelimiter("time,a,b"), ',');
+  EXPECT_EQ(SniffDelimiter("time;a;b"), ';');
+  EXPECT_EQ(SniffDelimiter("time\ta\tb"), '\t');
+  EXPECT_EQ(SniffDelimiter("time;a,1;b,2"), ';');  // a tie: ';' before ','
+  EXPECT_EQ(SniffDelimiter("time"), ',');
+}
+
 }  // namespace
 }  // namespace rocklab::common
