@@ -6,9 +6,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <vector>
 #include <stdexcept>
 
 #include "common/text.h"
+#include "export/h5_writer.h"
 #include "pipeline/option_error.h"
 
 namespace rocklab::sweep {
@@ -104,16 +107,85 @@ class CsvRowWriter final : public RowWriter {
   std::size_t rows_done_{0};
 };
 
+// The same rows as the CSV, one table "results" in an HDF5 file through
+// export's H5Writer: a dataset per column with its unit; an empty CSV field
+// (no overturn, no uplift, a symmetric block) is NaN.
+class H5RowWriter final : public RowWriter {
+ public:
+  H5RowWriter(const std::string& path, const Plan& plan) : path_(path), plan_(plan) {
+    using exporter::Column;
+    using exporter::ColumnType;
+    const std::vector<Column> columns = {
+        {"record", ColumnType::kString, ""},          {"scale", ColumnType::kDouble, "1"},
+        {"pga_g", ColumnType::kDouble, "g"},          {"alpha", ColumnType::kDouble, "rad"},
+        {"p", ColumnType::kDouble, "rad/s"},          {"mu", ColumnType::kDouble, "1"},
+        {"model", ColumnType::kString, ""},           {"peak_theta_over_alpha", ColumnType::kDouble, "1"},
+        {"overturned", ColumnType::kInt, ""},         {"overturn_time", ColumnType::kDouble, "s"},
+        {"impacts", ColumnType::kInt, ""},            {"uplift_time", ColumnType::kDouble, "s"},
+        {"peak_time", ColumnType::kDouble, "s"},      {"block", ColumnType::kString, ""},
+        {"alpha_minus", ColumnType::kDouble, "rad"},  {"p_minus", ColumnType::kDouble, "rad/s"},
+        {"mu_minus", ColumnType::kDouble, "1"},
+    };
+    try {
+      writer_ = std::make_unique<exporter::H5Writer>(path);
+      table_ = writer_->AddTable("results", columns);
+      writer_->DescribeFile("columns_as_csv", Header());
+    } catch (const std::exception& e) {
+      throw OptionError("--out: " + std::string(e.what()));
+    }
+    row_.Resize(columns.size());
+  }
+
+  std::size_t rows_done() const override { return 0; }
+
+  void Write(std::size_t index, const Outcome& o) override {
+    constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+    const CaseIndex c = Locate(plan_, index);
+    const Scaling s = ScalingOf(plan_, index);
+    const Block& block = plan_.blocks[c.block];
+    const model::BlockParams& b = block.params;
+    row_.text[0] = plan_.records[c.record].name;
+    row_.real[1] = s.factor;
+    row_.real[2] = s.pga_g;
+    row_.real[3] = b.alpha;
+    row_.real[4] = b.p;
+    row_.real[5] = b.mu;
+    row_.text[6] = model::ToString(plan_.model);
+    row_.real[7] = o.peak_theta_over_alpha;
+    row_.integer[8] = o.overturned ? 1 : 0;
+    row_.real[9] = o.overturned ? o.overturn_time_s : kNone;
+    row_.integer[10] = o.impacts;
+    row_.real[11] = o.uplift_time_s.value_or(kNone);
+    row_.real[12] = o.peak_time_s;
+    row_.text[13] = block.label;
+    row_.real[14] = b.minus ? b.minus->alpha : kNone;
+    row_.real[15] = b.minus ? b.minus->p : kNone;
+    row_.real[16] = b.minus ? b.minus->mu : kNone;
+    writer_->Append(table_, row_);
+  }
+
+  void Close() override {
+    if (writer_) writer_->Close();
+  }
+
+ private:
+  std::string path_;
+  const Plan& plan_;
+  std::unique_ptr<exporter::H5Writer> writer_;
+  int table_{};
+  exporter::Row row_;
+};
+
 }  // namespace
 
 std::unique_ptr<RowWriter> OpenRowWriter(const std::string& path, const Plan& plan, const Slice& slice,
                                          bool resume) {
   if (common::HasExtension(path, ".h5") || common::HasExtension(path, ".hdf5")) {
-    // The HDF5 table writer of `rocklab export` (export/) implements RowWriter
-    // here once it is merged; until then no .h5 file is written.
-    throw OptionError("--out " + path +
-                      ": HDF5 output is not built yet (it comes with `rocklab export`'s table writer); "
-                      "write a .csv for now");
+    if (resume && std::filesystem::exists(path)) {
+      throw OptionError("--out " + path + ": --resume continues a .csv only (an HDF5 file is written whole); "
+                        "resume into a .csv, or start the .h5 afresh without --resume");
+    }
+    return std::make_unique<H5RowWriter>(path, plan);
   }
   return std::make_unique<CsvRowWriter>(path, plan, slice, resume);
 }

@@ -2,8 +2,8 @@
 /// @file
 /// Where a sweep's rows go. The runner hands each case's outcome to a
 /// RowWriter in case order; the writer formats and stores it. The CSV writer
-/// is the one built now; an HDF5 table writer (export/, `rocklab export`)
-/// plugs in at OpenRowWriter by the `.h5` extension.
+/// and the HDF5 table (export's H5Writer: a table "results" with a dataset
+/// per column and its unit) are chosen at OpenRowWriter by the extension.
 
 #include <cstddef>
 #include <memory>
@@ -41,7 +41,8 @@ class RowWriter {
 };
 
 /// Opens the output for `slice` of `plan`: `.csv` (or any other name) is a
-/// CSV with Header(); `.h5` is refused until the HDF5 writer is built.
+/// CSV with Header(); `.h5`/`.hdf5` the same columns in an HDF5 table
+/// (an empty CSV field is NaN there; --resume works on a .csv only).
 /// With `resume`, an existing file keeps its header and every complete row
 /// that is the slice's next case (a torn last line, without its newline, is
 /// cut and written again); a row that belongs elsewhere is an error.

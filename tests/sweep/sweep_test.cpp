@@ -14,6 +14,7 @@
 #include "pipeline/scenario.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
+#include "tests/export/readback.h"
 #include "tests/sweep/sweep_test_util.h"
 
 namespace rocklab::sweep {
@@ -159,7 +160,7 @@ TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
 // Oracle: an interrupted sweep (the file cut inside a row, as a kill during
 // a write leaves it) resumed gives the uninterrupted file byte for byte and
 // runs only the missing cases; a row of another sweep is refused naming the
-// file and line; a .h5 output is refused, not written.
+// file and line; --resume into an existing .h5 is refused.
 TEST(SweepRun, ResumeAfterATornLine) {
   const std::string dir = Dir("resume");
   const Plan plan = MakePlan(SmallPlan(dir));
@@ -195,13 +196,56 @@ TEST(SweepRun, ResumeAfterATornLine) {
   } catch (const pipeline::OptionError& e) {
     EXPECT_NE(std::string(e.what()).find("resumed.csv:2:"), std::string::npos) << e.what();
   }
+  // --resume on an existing .h5 is refused (an HDF5 file is written whole).
+  { std::ofstream(dir + "/x.h5") << "not a sweep"; }
   try {
     RunSweep(plan, dir + "/x.h5", o, mpi);
-    FAIL() << "wrote .h5";
+    FAIL() << "resumed a .h5";
   } catch (const pipeline::OptionError& e) {
-    EXPECT_NE(std::string(e.what()).find("not built yet"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--resume continues a .csv only"), std::string::npos) << e.what();
   }
-  EXPECT_FALSE(std::filesystem::exists(dir + "/x.h5"));
+  EXPECT_EQ(Slurp(dir + "/x.h5"), "not a sweep");
+}
+
+// Oracle: the CSV of the same sweep. The .h5 output holds the same rows in
+// a table "results", a dataset per CSV column in the CSV's order: each
+// double formatted as the CSV formats it (%.12g) gives the CSV's field, an
+// empty CSV field is NaN, integers and text are equal; units as attributes.
+TEST(SweepRun, Hdf5HoldsTheCsvRows) {
+  const std::string dir = Dir("h5");
+  const Plan plan = MakePlan(SmallPlan(dir));
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 2;
+  o.slice = {0, 1, plan.size()};
+  RunSweep(plan, dir + "/whole.csv", o, mpi);
+  RunSweep(plan, dir + "/whole.h5", o, mpi);
+  const std::vector<test::ReadColumn> csv = test::ReadCsvTable(dir + "/whole.csv");
+  const std::vector<test::ReadColumn> h5 = test::ReadH5Table(dir + "/whole.h5", "results");
+  ASSERT_EQ(h5.size(), csv.size());
+  ASSERT_EQ(csv.size(), 17u);
+  for (std::size_t c = 0; c < csv.size(); ++c) {
+    SCOPED_TRACE(csv[c].name);
+    EXPECT_EQ(h5[c].name, csv[c].name);
+    ASSERT_EQ(h5[c].size(), plan.size());
+    ASSERT_EQ(csv[c].text.size(), plan.size());
+    for (std::size_t r = 0; r < plan.size(); ++r) {
+      std::string field;
+      if (h5[c].kind == 'd') {
+        char buf[40] = "";
+        if (!std::isnan(h5[c].real[r])) std::snprintf(buf, sizeof buf, "%.12g", h5[c].real[r]);
+        field = buf;
+      } else if (h5[c].kind == 'i') {
+        field = std::to_string(h5[c].integer[r]);
+      } else {
+        field = h5[c].text[r];
+      }
+      EXPECT_EQ(field, csv[c].text[r]) << "row " << r;
+    }
+  }
+  EXPECT_EQ(h5[3].unit, "rad");   // alpha
+  EXPECT_EQ(h5[4].unit, "rad/s");  // p
+  EXPECT_EQ(h5[9].unit, "s");      // overturn_time
 }
 
 // Oracle: the blocks of --width/--height are model::RectangleBlock's
