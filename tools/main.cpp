@@ -22,6 +22,7 @@ void RegisterRun(CLI::App& app, CommandRun& run);
 void RegisterMonitor(CLI::App& app, CommandRun& run);
 void RegisterReport(CLI::App& app, CommandRun& run);
 void RegisterRecord(CLI::App& app, CommandRun& run);
+void RegisterSpy(CLI::App& app, CommandRun& run);  // spy, logplayer-gui
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -47,6 +48,7 @@ int main(int argc, char** argv) {
       &RegisterMonitor,
       &RegisterReport,
       &RegisterRecord,
+      &RegisterSpy,
   };
   for (CommandRegistrar add : commands) add(app, run);
 
