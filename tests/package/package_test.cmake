@@ -2,7 +2,7 @@
 # (tests/package/consumer) finds it with find_package(rocklab), builds
 # against the exported targets and runs. Proves: the config file finds every
 # dependency (LCM without a CMake package), the targets carry their
-# dependencies, every installed header compiles on its own, share/rocklab
+# dependencies, every installed header compiles (one TU), share/rocklab
 # holds the rig file the consumer reads.
 #   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P package_test.cmake
 foreach(var BUILD_DIR SOURCE_DIR WORK_DIR)
@@ -27,7 +27,7 @@ run("cmake --install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix}
 foreach(installed
     lib/cmake/rocklab/rocklabConfig.cmake lib/cmake/rocklab/rocklabTargets.cmake
     include/rocklab/model/fit.h include/rocklab/model/record.h
-    include/rocklab/rocklab/block_state_t.hpp
+    include/rocklab/block_state_t.hpp
     share/rocklab/lcm_types/block_state_t.lcm share/rocklab/rigs/lab_rig.toml bin/rocklab)
   if(NOT EXISTS ${prefix}/${installed})
     message(FATAL_ERROR "package test: ${installed} is not installed")
