@@ -24,7 +24,7 @@ namespace {
 using nlohmann::json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr std::size_t kMaxEvents = 200000;  // events and flag intervals listed, each
+constexpr std::size_t kMaxEvents = 20000;  // events and flag intervals listed, each (newest kept)
 constexpr double kReadMargin_s = 5.0;       // read past the window's end, s (see ReadRecordLog)
 
 std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2)));
@@ -187,7 +187,7 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
   const double to_s = Number(s, "to_s");  // NaN (null): to the end
   if ((std::isfinite(from_s) && from_s > 0) || std::isfinite(to_s)) {
     const double last = !measured_t.empty() && measured_t.back().is_number() ? measured_t.back().get<double>() : t_first;
-    scenario += Format("; window %.3f s to %.3f s of the record", t_first, last);
+    scenario += Format("; window %.3f s to %.3f s", t_first, last);
   } else {
     scenario += Format("; record %.3f s", std::isfinite(t_latest) ? t_latest - t_first : 0.0);
   }

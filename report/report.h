@@ -70,7 +70,7 @@ struct RecordReport {
 };
 
 /// Reads the log once, streaming: memory is bounded by options.max_points
-/// per series and the events kept (at most 200000), never the number of
+/// per series and the events kept (at most 20000), never the number of
 /// events. With a finite end_s the read stops soon after it. Damaged regions
 /// are skipped and listed in `problems` (the rest is read).
 /// @throws ReportInputError naming the file when it cannot be read, holds no

@@ -285,11 +285,14 @@ TEST_F(RocklabReport, StartAndEndZoomOnAWindowOfTheRecord) {
   const test::SvgProbe svg = test::ProbeSvg(test::ReadFile(svg_path));
   ASSERT_TRUE(svg.well_formed) << svg.error;
   const std::string window = "; window " + Printf("%.3f", expected.front()) + " s to " +
-                             Printf("%.3f", expected.back()) + " s of the record";
+                             Printf("%.3f", expected.back()) + " s";
   bool captioned = false;
   for (const std::string& text : svg.texts) captioned = captioned || text.find(window) != std::string::npos;
   EXPECT_TRUE(captioned) << "no caption with '" << window << "'";
 }
+
+void ExpectInputError(const std::vector<std::string>& args, const std::string& names,
+                      const std::string& says, const std::string& html_path);  // below
 
 TEST_F(RocklabReport, AWindowWithoutThetaIsAnInputError) {
   const std::string html = dir_ + "/empty.html";
