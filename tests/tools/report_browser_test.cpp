@@ -116,12 +116,12 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
     const std::size_t comma = line.find(',');
     const std::size_t next = line.find(',', comma + 1);
     const double t = std::stod(line.substr(0, comma));
-    const std::string theta = line.substr(comma + 1, next - comma - 1);
+    const std::string theta_cell = line.substr(comma + 1, next - comma - 1);
     const auto it = measured.find(t);
     if (it == measured.end()) continue;
     ++measured_rows;
-    ASSERT_FALSE(theta.empty()) << line;
-    EXPECT_DOUBLE_EQ(std::stod(theta), it->second) << line;
+    ASSERT_FALSE(theta_cell.empty()) << line;
+    EXPECT_DOUBLE_EQ(std::stod(theta_cell), it->second) << line;
   }
   EXPECT_GE(rows, times.size());  // the theta times and the comparison's
   EXPECT_EQ(measured_rows, measured.size());
