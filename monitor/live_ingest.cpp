@@ -18,6 +18,8 @@ bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int siz
   try {
     if (kind == "THETA") {
       ok = IngestTheta(data, size);
+    } else if (kind == "TABLE") {
+      ok = IngestTable(data, size);
     } else if (StartsWith(kind, "MODEL_") && kind.size() > 6) {
       ok = IngestModel(kind.substr(6), data, size);
     } else if (StartsWith(kind, "COMPARE_") && kind.size() > 8) {
@@ -54,6 +56,18 @@ bool LiveState::Impl::IngestTheta(const void* data, int size) {
   return true;
 }
 
+bool LiveState::Impl::IngestTable(const void* data, int size) {
+  if (!DecodeSample(table_msg, data, size)) return false;
+  const rocklab::table_state_t& m = table_msg;
+  AddPoint(table, m.utime, m.acceleration, m.displacement);
+  if (InWindow(m.utime)) {
+    ++table_samples;
+    if (std::isfinite(m.acceleration)) table_peak_accel = std::fmax(table_peak_accel, std::fabs(m.acceleration));
+    if (std::isfinite(m.displacement)) table_peak_disp = std::fmax(table_peak_disp, std::fabs(m.displacement));
+  }
+  return true;
+}
+
 bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int size) {
   // model_state2_t, or model_state_t from a log written before it.
   if (common::DecodeModelState(data, size, model_msg, model_v1_msg) != nullptr ||
@@ -75,8 +89,10 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
   if (!v) return true;
   const rocklab::comparison_t& m = compare_msg;
   AddPoint(v->comparison, m.utime, m.error * kDegPerRad, m.rms_window * kDegPerRad);
-  v->has_latest = true;
-  v->latest = m;
+  if (T(m.utime) <= options.to_s) {  // the newest comparison inside the window
+    v->has_latest = true;
+    v->latest = m;
+  }
   return true;
 }
 
@@ -97,7 +113,11 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
   e.kind = m.kind;
   e.value = m.value;
   AssignText(e.detail, m.detail);
-  if (!events.push_back(e)) ++dropped_events;
+  if (InWindow(m.utime)) {
+    PushGrowing(events, e, grows, options.max_events, dropped_events);
+  } else {
+    ++outside_window;
+  }
 
   // Keyed by the stored (bounded) source text, as the interval holds it.
   if (m.kind == rocklab::event_t::STALE && open_stale.find(e.source) == open_stale.end()) {

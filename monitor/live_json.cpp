@@ -35,7 +35,15 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
   doc["t_latest"] = has_clock ? json(T(latest_utime)) : json(nullptr);
   doc["window_s"] = number(options.window_s);
   doc["series_rate_hz"] = options.series_rate_hz;
+  doc["max_points"] = options.max_points > 0 ? json(options.max_points) : json(nullptr);
+  doc["from_s"] = options.from_s;
+  doc["to_s"] = number(options.to_s);
   doc["measured"] = series(measured, "theta_deg", nullptr);
+  json table_doc = series(table, "accel_mps2", nullptr);
+  table_doc["samples"] = table_samples;
+  table_doc["peak_accel_mps2"] = table_peak_accel;
+  table_doc["peak_disp_m"] = table_peak_disp;
+  doc["table"] = std::move(table_doc);
 
   json variant_list = json::array();
   for (const auto& v : variants) {
@@ -79,11 +87,16 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
     const Interval& iv = intervals[i];
     const bool wanted = full ? (iv.open || iv.end >= from_utime) : iv.seq > cursor;
     if (!wanted) continue;
+    // Cut to the time window (from_s..to_s); an interval outside it is left out.
+    const double start = std::max(T(iv.start), options.from_s);
+    if ((!iv.open && T(iv.end) < options.from_s) || start > options.to_s) continue;
+    const bool open_in_window = iv.open && !std::isfinite(options.to_s);
+    const double end = iv.open ? options.to_s : std::min(T(iv.end), options.to_s);
     flags.push_back({{"id", iv.id},
                      {"flag", FlagName(iv.flag)},
                      {"source", iv.source},
-                     {"start", T(iv.start)},
-                     {"end", iv.open ? json(nullptr) : json(T(iv.end))}});
+                     {"start", start},
+                     {"end", open_in_window ? json(nullptr) : json(end)}});
   }
   doc["flags"] = std::move(flags);
 
@@ -132,7 +145,8 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
                        {"intervals", dropped_intervals},
                        {"variants", dropped_variants},
                        {"nodes", dropped_nodes},
-                       {"channels", dropped_channels}}}};
+                       {"channels", dropped_channels}}},
+                     {"outside_window", outside_window}};
   doc["units"] = {{"t", "s"}, {"t_latest", "s"}, {"t0_utime", "us"}, {"utime", "us"},
                   {"window_s", "s"}, {"series_rate_hz", "Hz"}, {"theta_deg", "deg"},
                   {"error_deg", "deg"}, {"rms_window_deg", "deg"}, {"error", "rad"},
@@ -140,7 +154,8 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
                   {"peak_error", "rad"}, {"impact_timing_error", "s"}, {"correlation", "1"},
                   {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"},
                   {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
-                  {"lag_s", "s"}, {"start", "s"}, {"end", "s"},
+                  {"lag_s", "s"}, {"start", "s"}, {"end", "s"}, {"accel_mps2", "m/s^2"},
+                  {"peak_accel_mps2", "m/s^2"}, {"peak_disp_m", "m"}, {"from_s", "s"}, {"to_s", "s"},
                   {"value", "per event kind, see lcm_types/event.lcm"}};
   return doc;
 }

@@ -21,6 +21,9 @@ void LiveOptions::Validate() const {
   check(max_variants >= 1, "max_variants");
   check(max_nodes >= 1, "max_nodes");
   check(max_channels >= 1, "max_channels");
+  check(max_points == 0 || max_points >= 16, "max_points");
+  check(from_s >= 0 && std::isfinite(from_s), "from_s");
+  check(to_s > from_s && !std::isnan(to_s), "to_s");
   check(std::isfinite(new_record_after_s) && new_record_after_s > 0, "new_record_after_s");
 }
 

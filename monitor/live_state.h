@@ -18,7 +18,12 @@
 /// max_events events, max_intervals flag intervals, max_variants variants,
 /// max_nodes health entries and max_channels per-channel counters. What does
 /// not fit is counted (counters.dropped), never silently lost. With
-/// window_s = infinity the series grow with the record (the report's use).
+/// window_s = infinity the series grow with the record (the report's use)
+/// up to max_points when it is set: a series that reaches it halves its
+/// resolution (keeps the first point of every two slots and doubles its slot
+/// from then on), so a series of any length holds between max_points / 2 and
+/// max_points points; the events and flag intervals rings grow (doubling) up
+/// to max_events and max_intervals.
 ///
 /// ## Snapshot / UpdateSince JSON schema (`"schema": "rocklab.monitor.v1"`)
 /// Times `t` are sample-clock seconds relative to `t0_utime` (the first
@@ -36,7 +41,13 @@
 ///   "t_latest": 6.99,      // newest sample-clock time of the series, s (null: none)
 ///   "window_s": 60,        // null: the whole record
 ///   "series_rate_hz": 100, // at most this many points per second per series
+///   "max_points": 20000,   // points per series at most (null: no cap; a capped
+///                          // series is coarser than series_rate_hz)
+///   "from_s": 0, "to_s": null,  // the time window kept (null: no end)
 ///   "measured": {"t": [..], "theta_deg": [..]},             // RL_THETA theta
+///   "table": {"t": [..], "accel_mps2": [..],                 // RL_TABLE u_g'' (m/s^2)
+///             "samples": 7000, "peak_accel_mps2": 2.6, "peak_disp_m": 0.006},
+///                          // samples and peaks: every RL_TABLE in from_s..to_s
 ///   "variants": [          // in order of appearance
 ///     {"name": "fitted_complex",
 ///      "model": "complex", "alpha": 0.235, "p": 3.884, "mu": 0.937, "l": 0,
@@ -64,7 +75,8 @@
 ///   "counters": {"messages": {"RL_THETA": 6996, ..},  // every ingested message
 ///                "decode_errors": {"RL_THETA": 0, ..},
 ///                "dropped": {"out_of_order": .., "events": .., "intervals": ..,
-///                            "variants": .., "nodes": .., "channels": ..}},
+///                            "variants": .., "nodes": .., "channels": ..},
+///                "outside_window": ..},  // points and events left out by from_s..to_s
 ///   "units": {..}          // unit of every quantity above
 /// }
 /// ```
@@ -97,6 +109,13 @@ struct LiveOptions {
   std::size_t max_variants{32};     ///< model variants tracked; >= 1
   std::size_t max_nodes{32};        ///< nodes whose health is kept; >= 1
   std::size_t max_channels{256};    ///< channels with their own counters; >= 1
+  /// Points per series at most with an infinite window (0: no cap; else >= 16).
+  std::size_t max_points{0};
+  /// Time window, sample-clock s after the record's first sample (t = 0):
+  /// series points and events outside [from_s, to_s] are left out (counted
+  /// as outside_window), flag intervals are cut to it. 0 <= from_s < to_s.
+  double from_s{0.0};
+  double to_s{std::numeric_limits<double>::infinity()};
   std::string channel_prefix{"RL_"};
   /// A sample clock going back by more than this (a replay restarted, a new
   /// test) starts a new record: the series, flags and events are cleared, s; > 0.
@@ -114,7 +133,7 @@ class LiveState {
   LiveState& operator=(const LiveState&) = delete;
 
   /// Decodes one LCM message by its channel name: <prefix>THETA
-  /// (block_state_t), <prefix>MODEL_<name> (model_state2_t or model_state_t),
+  /// (block_state_t), <prefix>TABLE (table_state_t), <prefix>MODEL_<name> (model_state2_t or model_state_t),
   /// <prefix>COMPARE_<name> (comparison_t), <prefix>EVENT (event_t),
   /// <prefix>HEALTH (health_t), <prefix>DAQ_CONFIG (daq_config_t).
   /// Every message is counted under its channel; one that fails to decode is

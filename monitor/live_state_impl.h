@@ -27,6 +27,7 @@
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state_t.hpp"
+#include "rocklab/table_state_t.hpp"
 
 namespace rocklab::monitor {
 namespace live_detail {
@@ -99,22 +100,32 @@ struct Point {
   double b{};
 };
 
-// A decimated time series in a ring: at most one point per 1/rate slot of
-// the sample clock (the first sample of the slot). A growing series (the
-// whole record) doubles its ring when full.
+// A decimated time series in a ring: at most one point per slot of the
+// sample clock (the first sample of the slot; a slot is 1/rate, times
+// `coarsening`). A growing series (the whole record) doubles its ring when
+// full; at `max_points` (0: no cap) it halves its resolution instead.
 class Series {
  public:
-  Series(std::size_t capacity, bool grows) : ring_(capacity), grows_(grows) {}
+  Series(std::size_t capacity, bool grows, std::size_t max_points = 0)
+      : ring_(max_points > 0 ? std::min(capacity, max_points) : capacity),
+        grows_(grows),
+        max_points_(max_points) {}
 
   enum class Outcome { kStored, kDecimated, kOutOfOrder };
   Outcome Add(std::uint64_t seq, std::int64_t utime, std::int64_t t0, double period_us, double a,
               double b) {
-    const auto slot = static_cast<std::int64_t>(std::floor(static_cast<double>(utime - t0) / period_us));
-    if (!ring_.empty()) {
-      if (utime <= ring_.back().utime) return Outcome::kOutOfOrder;
-      if (slot <= last_slot_) return Outcome::kDecimated;
+    if (!ring_.empty() && utime <= ring_.back().utime) return Outcome::kOutOfOrder;
+    std::int64_t slot = Slot(utime, t0, period_us);
+    if (!ring_.empty() && slot <= last_slot_) return Outcome::kDecimated;
+    if (grows_ && ring_.full()) {
+      if (max_points_ == 0 || ring_.capacity() < max_points_) {
+        Grow();
+      } else {
+        Coarsen(t0, period_us);
+        slot = Slot(utime, t0, period_us);
+        if (slot <= last_slot_) return Outcome::kDecimated;
+      }
     }
-    if (grows_ && ring_.full()) Grow();
     ring_.push_back(Point{seq, utime, a, b});
     last_slot_ = slot;
     return Outcome::kStored;
@@ -122,6 +133,7 @@ class Series {
 
   void Clear() {
     while (!ring_.empty()) ring_.pop_front();
+    coarsening_ = 1;
   }
 
   std::size_t size() const { return ring_.size(); }
@@ -148,16 +160,54 @@ class Series {
   }
 
  private:
+  std::int64_t Slot(std::int64_t utime, std::int64_t t0, double period_us) const {
+    return static_cast<std::int64_t>(
+        std::floor(static_cast<double>(utime - t0) / (period_us * static_cast<double>(coarsening_))));
+  }
+
   void Grow() {
-    Ring<Point> bigger(ring_.capacity() * 2);
+    std::size_t capacity = ring_.capacity() * 2;
+    if (max_points_ > 0) capacity = std::min(capacity, max_points_);
+    Ring<Point> bigger(capacity);
     for (std::size_t i = 0; i < ring_.size(); ++i) bigger.push_back(ring_[i]);
     ring_ = std::move(bigger);
   }
 
+  // Doubles the slot and keeps the first point of each new slot: at most one
+  // point per old slot means at most two per new slot, so about half remain.
+  // One allocation per halving (log2 of the record's length in all).
+  void Coarsen(std::int64_t t0, double period_us) {
+    coarsening_ *= 2;
+    Ring<Point> kept(ring_.capacity());
+    std::int64_t last = 0;
+    for (std::size_t i = 0; i < ring_.size(); ++i) {
+      const std::int64_t slot = Slot(ring_[i].utime, t0, period_us);
+      if (!kept.empty() && slot <= last) continue;
+      kept.push_back(ring_[i]);
+      last = slot;
+    }
+    ring_ = std::move(kept);
+    last_slot_ = last;
+  }
+
   Ring<Point> ring_;
   bool grows_;
+  std::size_t max_points_;
+  std::int64_t coarsening_{1};  // slot = coarsening_ / rate
   std::int64_t last_slot_{};
 };
+
+// A ring that doubles up to `max` items when `grows` (the report's whole
+// record), else a fixed ring of `max` items (the monitor's window).
+template <class T>
+void PushGrowing(Ring<T>& ring, const T& item, bool grows, std::size_t max, std::int64_t& dropped) {
+  if (grows && ring.full() && ring.capacity() < max) {
+    Ring<T> bigger(std::min(max, ring.capacity() * 2));
+    for (std::size_t i = 0; i < ring.size(); ++i) bigger.push_back(ring[i]);
+    ring = std::move(bigger);
+  }
+  if (!ring.push_back(item)) ++dropped;
+}
 
 struct Interval {
   std::uint64_t id{};
@@ -189,8 +239,8 @@ using namespace live_detail;  // NOLINT(google-build-using-namespace)
 
 struct LiveState::Impl {
   struct Variant {
-    Variant(std::string_view n, std::size_t capacity, bool grows)
-        : name(n), theta(capacity, grows), comparison(capacity, grows) {}
+    Variant(std::string_view n, std::size_t capacity, bool grows, std::size_t max_points)
+        : name(n), theta(capacity, grows, max_points), comparison(capacity, grows, max_points) {}
     std::string name;
     bool has_params{};
     rocklab::model_state2_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l, equations
@@ -206,14 +256,16 @@ struct LiveState::Impl {
         capacity(grows ? kGrowingInitialCapacity
                        : static_cast<std::size_t>(std::ceil(o.window_s * o.series_rate_hz)) + 2),
         period_us(1e6 / o.series_rate_hz),
-        measured(capacity, grows),
-        intervals(o.max_intervals),
-        events(o.max_events) {}
+        measured(capacity, grows, o.max_points),
+        table(capacity, grows, o.max_points),
+        intervals(grows ? std::min<std::size_t>(o.max_intervals, 1024) : o.max_intervals),
+        events(grows ? std::min<std::size_t>(o.max_events, 1024) : o.max_events) {}
 
   // -- ingestion ------------------------------------------------------------
 
   bool Ingest(std::string_view channel, const void* data, int size);
   bool IngestTheta(const void* data, int size);
+  bool IngestTable(const void* data, int size);
   bool IngestModel(std::string_view name, const void* data, int size);
   bool IngestCompare(std::string_view name, const void* data, int size);
   bool IngestEvent(const void* data, int size);
@@ -237,7 +289,7 @@ struct LiveState::Impl {
       ++dropped_variants;
       return nullptr;
     }
-    variants.push_back(std::make_unique<Variant>(name, capacity, grows));
+    variants.push_back(std::make_unique<Variant>(name, capacity, grows, options.max_points));
     by_name.emplace(std::string(name), variants.back().get());
     return variants.back().get();
   }
@@ -278,6 +330,9 @@ struct LiveState::Impl {
     record_start_seq = seq;  // the change being ingested belongs to the new record
     has_clock = false;
     measured.Clear();
+    table.Clear();
+    table_samples = 0;
+    table_peak_accel = table_peak_disp = 0.0;
     variants.clear();
     by_name.clear();
     while (!intervals.empty()) intervals.pop_front();
@@ -286,7 +341,17 @@ struct LiveState::Impl {
     open_stale.clear();
   }
 
+  // Inside the time window from_s..to_s (s after t0)?
+  bool InWindow(std::int64_t utime) const {
+    const double t = T(utime);
+    return t >= options.from_s && t <= options.to_s;
+  }
+
   void AddPoint(Series& s, std::int64_t utime, double a, double b) {
+    if (!InWindow(utime)) {
+      ++outside_window;
+      return;
+    }
     if (s.Add(seq, utime, t0_utime, period_us, a, b) == Series::Outcome::kOutOfOrder) {
       ++dropped_out_of_order;
     }
@@ -300,7 +365,7 @@ struct LiveState::Impl {
     AssignText(iv.source, source);
     iv.start = iv.end = utime;
     iv.open = true;
-    if (!intervals.push_back(iv)) ++dropped_intervals;
+    PushGrowing(intervals, iv, grows, options.max_intervals, dropped_intervals);
     return iv.id;
   }
 
@@ -333,6 +398,10 @@ struct LiveState::Impl {
   std::int64_t t0_utime{}, latest_utime{};
 
   Series measured;  // a: theta, deg
+  Series table;     // a: u_g'', m/s^2; b: u_g, m
+  std::int64_t table_samples{};  // RL_TABLE in the time window
+  double table_peak_accel{}, table_peak_disp{};  // max |u_g''| (m/s^2), |u_g| (m) in it
+  std::int64_t outside_window{};  // points and events left out by from_s..to_s
   std::vector<std::unique_ptr<Variant>> variants;  // in order of appearance
   std::map<std::string, Variant*, std::less<>> by_name;
 
@@ -356,6 +425,7 @@ struct LiveState::Impl {
 
   // Decoding buffers, reused: strings keep their capacity.
   rocklab::block_state_t theta_msg;
+  rocklab::table_state_t table_msg;
   rocklab::model_state2_t model_msg;   // RL_MODEL_*: model_state2_t, or
   rocklab::model_state_t model_v1_msg; // model_state_t from an older log
   rocklab::comparison_t compare_msg;

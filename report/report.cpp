@@ -24,6 +24,8 @@ namespace {
 using nlohmann::json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr std::size_t kMaxEvents = 20000;  // events and flag intervals listed, each (newest kept)
+constexpr double kReadMargin_s = 5.0;       // read past the window's end, s (see ReadRecordLog)
 
 std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2)));
 std::string Format(const char* format, ...) {
@@ -85,6 +87,11 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
   r.log_path = log_path;
   common::LogReaderOptions read;
   read.on_problem = [&r](const common::LogProblem& p) { r.problems.push_back(ToString(p)); };
+  // The reader's window is on the log's stamps (s after the first event);
+  // LiveState cuts on the sample clock. rocklab's logs stamp each event with
+  // the newest sample clock, so the two agree; the margin covers lcm-logger's
+  // host-time stamps and lets the read stop soon after the window.
+  if (std::isfinite(options.end_s)) read.end_s = options.end_s + kReadMargin_s;
   std::unique_ptr<common::LogReader> log;
   try {
     log = std::make_unique<common::LogReader>(log_path, read);
@@ -92,34 +99,28 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
     throw ReportInputError(e.what());
   }
 
-  // LiveState keeps events and flag intervals in rings sized up front: a
-  // first pass counts RL_EVENT so the page lists every one of them (flag and
-  // stale intervals open and close with events, so the same bound holds).
-  std::size_t event_count = 0;
-  common::LogEvent ev;
-  const std::string event_channel = options.channel_prefix + "EVENT";
-  while (log->Next(ev)) event_count += ev.channel == event_channel;
-  log->Rewind();
   monitor::LiveOptions live_options;
   live_options.window_s = std::numeric_limits<double>::infinity();  // the whole record
   live_options.series_rate_hz = options.series_rate_hz;
+  live_options.max_points = options.max_points;
+  live_options.from_s = options.start_s;
+  live_options.to_s = options.end_s;
   live_options.channel_prefix = options.channel_prefix;
-  live_options.max_events = std::max(live_options.max_events, event_count);
-  live_options.max_intervals = std::max(live_options.max_intervals, event_count);
-  monitor::LiveState live(live_options);
+  // Every event and flag interval of the window is listed; the rings grow to
+  // this bound (about 100 bytes each), beyond it the oldest go (counted).
+  live_options.max_events = kMaxEvents;
+  live_options.max_intervals = kMaxEvents;
+  std::unique_ptr<monitor::LiveState> live;
+  try {
+    live = std::make_unique<monitor::LiveState>(live_options);
+  } catch (const std::invalid_argument& e) {
+    throw ReportInputError(std::string("report options: ") + e.what());
+  }
 
-  const std::string table_channel = options.channel_prefix + "TABLE";
-  rocklab::table_state_t table{};  // decoding buffer, reused
+  common::LogEvent ev;
   while (log->Next(ev)) {
     ++r.events;
-    const int size = static_cast<int>(ev.data.size());
-    live.Ingest(ev.channel, ev.data.data(), size);  // counts every channel
-    if (ev.channel != table_channel) continue;
-    if (common::GuardedDecode(ev.data.data(), size, table) != nullptr) {
-      ++r.table.decode_errors;
-    } else {
-      r.table.Add(table);
-    }
+    live->Ingest(ev.channel, ev.data.data(), static_cast<int>(ev.data.size()));  // counts every channel
   }
   r.damaged_regions = log->counts().damaged_regions;
   r.damaged_bytes = log->counts().damaged_bytes;
@@ -127,7 +128,14 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
   if (r.events == 0) {
     throw ReportInputError("'" + log_path + "' is not an LCM log (no LCM event in it)");
   }
-  r.snapshot = live.Snapshot();
+  r.snapshot = live->Snapshot();
+  live.reset();
+  const json& table = r.snapshot.at("table");
+  r.table.samples = table.at("samples").get<std::int64_t>();
+  r.table.accel_mps2 = table.at("peak_accel_mps2").get<double>();
+  r.table.disp_m = table.at("peak_disp_m").get<double>();
+  r.table.decode_errors = r.snapshot.at("counters").at("decode_errors").value(
+      options.channel_prefix + "TABLE", std::int64_t{0});
   const json& counters = r.snapshot.at("counters");
   const std::string theta_channel = options.channel_prefix + "THETA";
   const std::int64_t theta_count = counters.at("messages").value(theta_channel, std::int64_t{0});
@@ -136,14 +144,20 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
                            std::to_string(r.events) +
                            " events on other channels): no measured theta to report");
   }
-  if (r.snapshot.at("measured").at("t").empty()) {
+  if (r.snapshot.at("measured").at("t").empty() && std::isinf(options.end_s) &&
+      options.start_s == 0) {
     throw ReportInputError("'" + log_path + "': none of its " + std::to_string(theta_count) + " " +
                            theta_channel + " messages decodes as rocklab::block_state_t");
   }
   for (const auto& [channel, n] : counters.at("decode_errors").items()) {
     r.decode_errors += n.get<std::int64_t>();
   }
-  r.decode_errors += r.table.decode_errors;
+  if (r.snapshot.at("measured").at("t").empty()) {
+    throw ReportInputError("'" + log_path + "': no " + theta_channel + " sample between " +
+                           Format("%g s and %g s", options.start_s, options.end_s) +
+                           " after the record's first sample (t = " +
+                           Format("%.3f s", Number(r.snapshot, "t_latest")) + " is the last read)");
+  }
   return r;
 }
 
@@ -169,7 +183,14 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
   const json& measured_t = s.at("measured").at("t");
   const double t_first = !measured_t.empty() && measured_t[0].is_number() ? measured_t[0].get<double>() : 0.0;
   const double t_latest = Number(s, "t_latest");
-  scenario += Format("; record %.3f s", std::isfinite(t_latest) ? t_latest - t_first : 0.0);
+  const double from_s = Number(s, "from_s");
+  const double to_s = Number(s, "to_s");  // NaN (null): to the end
+  if ((std::isfinite(from_s) && from_s > 0) || std::isfinite(to_s)) {
+    const double last = !measured_t.empty() && measured_t.back().is_number() ? measured_t.back().get<double>() : t_first;
+    scenario += Format("; window %.3f s to %.3f s", t_first, last);
+  } else {
+    scenario += Format("; record %.3f s", std::isfinite(t_latest) ? t_latest - t_first : 0.0);
+  }
   if (record.table.samples > 0) {
     scenario += Format("; peak table acceleration %.4g m/s^2, peak table displacement %.4g mm",
                        record.table.accel_mps2, record.table.disp_m * 1e3);
@@ -190,6 +211,8 @@ ThetaFigure ReportFigure(const RecordReport& record) {
     figure.AddCurve(Curve(v.value("theta", json()), "theta_deg",
                           Text(v, "name") + " (" + ModelName(Text(v, "model")) + ")", false));
   }
+  const ThetaCurve table = Curve(s.value("table", json()), "accel_mps2", "", false);
+  if (!table.time_s.empty()) figure.SetTableAcceleration(table.time_s, table.theta_deg);
   for (std::string& line : CaptionLines(record)) figure.AddCaptionLine(std::move(line));
   return figure;
 }

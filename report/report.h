@@ -6,9 +6,16 @@
 /// same views as `rocklab monitor`: it inlines the monitor's web assets and
 /// the state's Snapshot(). The figure (theta in degrees against time, the
 /// experiment and each model variant overlaid, like the paper's figures 6 to
-/// 8) is drawn from the same snapshot.
+/// 8, and the table acceleration in a panel below) is drawn from the same
+/// snapshot.
+///
+/// One pass over the log; memory bounded by max_points per series (the
+/// snapshot's series halve their resolution when they reach it), whatever
+/// the record's length.
 
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -32,10 +39,15 @@ class ReportInputError : public std::runtime_error {
 
 struct ReportOptions {
   double series_rate_hz{100.0};        ///< points kept per second per series, Hz; > 0
+  std::size_t max_points{20000};       ///< points per series at most; >= 16
+  /// The time window reported, s after the record's first sample (t = 0 of
+  /// the page and the figure); 0 <= start_s < end_s, end_s infinity: to the end.
+  double start_s{0.0};
+  double end_s{std::numeric_limits<double>::infinity()};
   std::string channel_prefix{"RL_"};   ///< as the nodes publish
 };
 
-/// The table motion's peaks over the whole log (RL_TABLE), for the caption.
+/// The table motion's peaks over the time window (RL_TABLE), for the caption.
 struct TablePeaks {
   std::int64_t samples{};        ///< RL_TABLE messages decoded
   std::int64_t decode_errors{};  ///< RL_TABLE messages that did not decode
@@ -57,9 +69,10 @@ struct RecordReport {
   std::vector<std::string> problems;  ///< one line per damaged region, with its file offset
 };
 
-/// Reads the whole log, streaming: memory grows with the decimated series
-/// only, never with the number of events. Damaged regions are skipped and
-/// listed in `problems` (the rest is read).
+/// Reads the log once, streaming: memory is bounded by options.max_points
+/// per series and the events kept (at most 20000), never the number of
+/// events. With a finite end_s the read stops soon after it. Damaged regions
+/// are skipped and listed in `problems` (the rest is read).
 /// @throws ReportInputError naming the file when it cannot be read, holds no
 ///   LCM event, or has no RL_THETA message.
 RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& options = {});
@@ -70,7 +83,8 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
 std::vector<std::string> CaptionLines(const RecordReport& record);
 
 /// The figure: the measured theta (the reference curve) and each variant's,
-/// with the caption.
+/// the table acceleration in a panel below (when the log has RL_TABLE), with
+/// the caption.
 ThetaFigure ReportFigure(const RecordReport& record);
 
 /// The self-contained page: no network, the monitor's page script and styles

@@ -11,7 +11,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -124,15 +126,32 @@ bool WriteAll(int fd, const std::string& text) {
 // Layout in pixels: the caption sits under the x label, one line per entry;
 // the plot takes the rest. Sizes follow the font size, whichever face renders it.
 struct Layout {
-  Layout(FigureFormat format, std::size_t caption_lines)
+  Layout(FigureFormat format, std::size_t caption_lines, bool table_panel)
       : font_pt(format == FigureFormat::kSvg ? 11.0 : 10.0),
         line_px(1.6 * font_pt),
         caption_px(line_px * (static_cast<double>(caption_lines) + 0.5)),
-        bottom_px(caption_px + 3.2 * line_px) {}  // tick labels and the x label above
-  /// Height the figure needs: the bottom, a plot of 100 px, the title above.
-  int min_height_px() const { return static_cast<int>(std::ceil(bottom_px + 100 + 3 * line_px)); }
-  double font_pt, line_px, caption_px, bottom_px;
+        bottom_px(caption_px + 3.2 * line_px),  // tick labels and the x label above
+        plot_min_px(table_panel ? 180 : 100) {}
+  /// Height the figure needs: the bottom, the plots, the title above.
+  int min_height_px() const {
+    return static_cast<int>(std::ceil(bottom_px + plot_min_px + 3 * line_px));
+  }
+  double font_pt, line_px, caption_px, bottom_px, plot_min_px;
 };
+
+// The [min, max] of the finite values of some vectors; false when none.
+bool Span(const std::vector<const std::vector<double>*>& all, double& lo, double& hi) {
+  lo = std::numeric_limits<double>::infinity();
+  hi = -lo;
+  for (const auto* v : all) {
+    for (double x : *v) {
+      if (!std::isfinite(x)) continue;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  }
+  return lo < hi;
+}
 
 }  // namespace
 
@@ -145,9 +164,19 @@ void ThetaFigure::AddCurve(ThetaCurve curve) {
   curves_.push_back(std::move(curve));
 }
 
+void ThetaFigure::SetTableAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2) {
+  if (time_s.size() != accel_mps2.size()) {
+    throw std::invalid_argument("table acceleration: " + std::to_string(time_s.size()) +
+                                " times but " + std::to_string(accel_mps2.size()) + " values");
+  }
+  table_time_s_ = std::move(time_s);
+  table_accel_mps2_ = std::move(accel_mps2);
+}
+
 std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format, int width_px,
                                 int height_px) const {
-  const Layout layout(format, caption_.size());
+  const bool panel = has_table_panel();
+  const Layout layout(format, caption_.size(), panel);
   const double font_pt = layout.font_pt, line_px = layout.line_px;
   const double caption_px = layout.caption_px, bottom_px = layout.bottom_px;
   const double h = static_cast<double>(height_px);
@@ -169,7 +198,25 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
   s += "set output " + Quoted(out_path) + "\n";
   // Every text is plain (noenhanced): names and captions may hold _ ^ { } @ &.
   if (!title_.empty()) s += "set title " + Quoted(title_) + " noenhanced\n";
-  s += "set xlabel 'time (s)'\nset ylabel 'theta (degrees)'\n";
+  // With the table panel: two plots on one time axis (multiplot), theta in
+  // the top 62 % of the plotting height, the acceleration below it; fixed
+  // left and right margins so the axes line up.
+  double panel_top = 0, panel_split = 0;
+  if (panel) {
+    std::vector<const std::vector<double>*> times{&table_time_s_};
+    for (const ThetaCurve& c : curves_) times.push_back(&c.time_s);
+    double t_lo = 0, t_hi = 0;
+    s += "set multiplot\nset lmargin 10\nset rmargin 3\n";
+    if (Span(times, t_lo, t_hi)) {
+      std::snprintf(buf, sizeof buf, "set xrange [%.9g:%.9g]\n", t_lo, t_hi);
+      s += buf;
+    }
+    panel_top = 1.0 - 3 * line_px / h;  // the title above
+    panel_split = bottom_px / h + 0.38 * (panel_top - bottom_px / h);
+    s += "set xlabel ''\nset format x ''\nset ylabel 'theta (degrees)'\n";
+  } else {
+    s += "set xlabel 'time (s)'\nset ylabel 'theta (degrees)'\n";
+  }
   // The key sits inside the top of the plot, over a band the y range keeps
   // free for it: 3 entries a row.
   const std::size_t key_rows = (curves_.size() + 2) / 3;
@@ -179,7 +226,12 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
                 "set offsets 0, 0, graph %.2f, graph 0.02\n",
                 0.06 + 0.07 * static_cast<double>(key_rows));
   s += buf;
-  std::snprintf(buf, sizeof buf, "set bmargin at screen %.4f\n", bottom_px / h);
+  if (panel) {
+    std::snprintf(buf, sizeof buf, "set tmargin at screen %.4f\nset bmargin at screen %.4f\n",
+                  panel_top, panel_split + 0.01);
+  } else {
+    std::snprintf(buf, sizeof buf, "set bmargin at screen %.4f\n", bottom_px / h);
+  }
   s += buf;
   for (std::size_t i = 0; i < caption_.size(); ++i) {
     const double y_px = caption_px - line_px * (static_cast<double>(i) + 1.0);
@@ -216,7 +268,28 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
     }
     plot += " title " + Quoted(c.title) + " noenhanced";
   }
-  s += plot + "\nset output\n";
+  s += plot + "\n";
+  if (panel) {
+    // The lower panel: no title, no caption (drawn once, with the first plot).
+    s += "unset title\nunset label\nset format x '% h'\nset xlabel 'time (s)'\n"
+         "set ylabel 'table accel. (m/s^2)' noenhanced\nset offsets 0, 0, graph 0.05, graph 0.05\n"
+         "set key inside top right\n";
+    std::snprintf(buf, sizeof buf, "set tmargin at screen %.4f\nset bmargin at screen %.4f\n",
+                  panel_split - 0.01, bottom_px / h);
+    s += buf;
+    s += "$table << EOD\n";
+    for (std::size_t k = 0; k < table_time_s_.size(); ++k) {
+      AppendNumber(s, table_time_s_[k]);
+      s += ' ';
+      AppendNumber(s, table_accel_mps2_[k]);
+      s += '\n';
+    }
+    s += "EOD\n";
+    s += "plot $table using 1:2 with lines lw 1.0 lc rgb '#555555' dt 1 "
+         "title 'table acceleration (RL_TABLE)' noenhanced\n";
+    s += "unset multiplot\n";
+  }
+  s += "set output\n";
   return s;
 }
 
@@ -227,7 +300,7 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
     throw std::invalid_argument("figure size must be at least 200x200 px, got " +
                                 std::to_string(width_px) + "x" + std::to_string(height_px));
   }
-  const int min_height_px = Layout(format, caption_.size()).min_height_px();
+  const int min_height_px = Layout(format, caption_.size(), has_table_panel()).min_height_px();
   if (height_px < min_height_px) {
     throw std::invalid_argument("a figure with " + std::to_string(caption_.size()) +
                                 " caption lines must be at least " +

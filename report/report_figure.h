@@ -2,7 +2,8 @@
 /// @file
 /// The static figure of a recorded test, like the paper's figures 6 to 8:
 /// theta in degrees against time in seconds, the experiment and each model
-/// variant overlaid, with caption lines below the plot. gnuplot draws it: the
+/// variant overlaid, the table acceleration in a panel below when it is
+/// given (same time axis), with caption lines below the plots. gnuplot draws it: the
 /// script and the curves (as inline data blocks) go to gnuplot's standard
 /// input through a pipe; nothing is plotted by hand.
 
@@ -48,12 +49,17 @@ class ThetaFigure {
   /// @throws std::invalid_argument when time_s and theta_deg differ in length.
   void AddCurve(ThetaCurve curve);
   void AddCaptionLine(std::string line) { caption_.push_back(std::move(line)); }
+  /// The table acceleration panel under the theta panel: u_g'' (m/s^2) at
+  /// times (s, the curves' clock); NaN leaves a gap. Empty: no panel.
+  /// @throws std::invalid_argument when the two differ in length.
+  void SetTableAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2);
   void set_title(std::string title) { title_ = std::move(title); }
   /// The gnuplot program: a name looked up on PATH (default "gnuplot") or a path.
   void set_gnuplot(std::string program) { gnuplot_ = std::move(program); }
 
   const std::vector<ThetaCurve>& curves() const { return curves_; }
   const std::vector<std::string>& caption() const { return caption_; }
+  bool has_table_panel() const { return !table_time_s_.empty(); }
 
   /// The whole gnuplot script Write sends (terminal, layout, data blocks, plot).
   /// Precondition: width_px, height_px >= 200.
@@ -65,13 +71,14 @@ class ThetaFigure {
   /// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
   ///   or leaves no output file; std::invalid_argument when the figure has no
   ///   curve, the size is below 200 px, or the height leaves less than 100 px
-  ///   for the plot beside the caption lines.
+  ///   for the plot (180 px for the two panels) beside the caption lines.
   std::string Write(const std::string& out_path, FigureFormat format, int width_px,
                     int height_px) const;
 
  private:
   std::vector<ThetaCurve> curves_;
   std::vector<std::string> caption_;
+  std::vector<double> table_time_s_, table_accel_mps2_;
   std::string title_;
   std::string gnuplot_{"gnuplot"};
 };

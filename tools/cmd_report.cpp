@@ -1,5 +1,6 @@
 // rocklab report LOG.lcm --out report.html [--png FILE] [--svg FILE]
-// [--size WxH] [--series-rate HZ]: a recorded test as a self-contained page
+// [--size WxH] [--series-rate HZ] [--max-points N] [--start S] [--end S]:
+// a recorded test (or a time window of it) as a self-contained page
 // (the live monitor's views over the whole record) and a static figure like
 // the paper's figures 6 to 8.
 #include <unistd.h>
@@ -36,6 +37,7 @@ struct ReportCommand {
   std::string png_path;
   std::string svg_path;
   std::string size{"1000x650"};
+  long long max_points{20000};
   ReportOptions options;
   bool quiet{};
 };
@@ -85,10 +87,16 @@ void DrawFigure(const ThetaFigure& figure, const std::string& path, FigureFormat
   std::fprintf(stderr, "report: wrote %s\n", path.c_str());
 }
 
-int RunReport(const ReportCommand& c) {
+int RunReport(ReportCommand& c) {
   const std::pair<int, int> size = ParseSize(c.size);
   Require(c.options.series_rate_hz > 0 && std::isfinite(c.options.series_rate_hz),
           "--series-rate", "> 0 Hz", c.options.series_rate_hz);
+  Require(c.max_points >= 16 && c.max_points <= 10000000, "--max-points", ">= 16 and <= 1e7",
+          static_cast<double>(c.max_points));
+  c.options.max_points = static_cast<std::size_t>(c.max_points);
+  Require(c.options.start_s >= 0 && std::isfinite(c.options.start_s), "--start", ">= 0 s",
+          c.options.start_s);
+  Require(c.options.end_s > c.options.start_s, "--end", "> --start (s)", c.options.end_s);
   RequireOutputFolder("--out", c.out_html);
   RequireOutputFolder("--png", c.png_path);
   RequireOutputFolder("--svg", c.svg_path);
@@ -147,6 +155,14 @@ void RegisterReport(CLI::App& app, CommandRun& run) {
                   "points kept per second of each series, Hz")
       ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "no progress bar (drawn when stderr is a terminal)");
+  cmd->add_option("--max-points", c->max_points,
+                  "points per series at most (a longer record is shown coarser)")
+      ->capture_default_str();
+  cmd->add_option("--start", c->options.start_s,
+                  "start of the window, s after the record's first sample")
+      ->capture_default_str();
+  cmd->add_option("--end", c->options.end_s,
+                  "end of the window, s after the record's first sample (default: the end)");
   cmd->callback([c, &run] { run = [c] { return RunReport(*c); }; });
 }
 

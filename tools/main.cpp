@@ -25,6 +25,7 @@ void RegisterRecord(CLI::App& app, CommandRun& run);
 void RegisterSweep(CLI::App& app, CommandRun& run);
 void RegisterInfo(CLI::App& app, CommandRun& run);
 void RegisterExport(CLI::App& app, CommandRun& run);
+void RegisterSpy(CLI::App& app, CommandRun& run);  // spy, logplayer-gui
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
       &RegisterSweep,
       &RegisterInfo,
       &RegisterExport,
+      &RegisterSpy,
   };
   for (CommandRegistrar add : commands) add(app, run);
 

@@ -8,7 +8,7 @@ build=${ROCKLAB_BUILD_DIR:-$here/build}
 
 packages=(
   build-essential cmake ninja-build pkg-config
-  liblcm-dev liblcm-bin liblcm-java default-jdk-headless
+  liblcm-dev liblcm-bin liblcm-java default-jdk-headless libjchart2d-java
   libsundials-dev libeigen3-dev libspdlog-dev libfmt-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev
@@ -21,11 +21,11 @@ packages=(
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
-# The browser tests drive Debian's headless Chromium, and the sanitizer and
-# fuzz pass (tools/test.sh, build-asan/) needs clang with its sanitizer and
-# libFuzzer runtimes; only tools/test.sh asks.
+# The browser tests drive Debian's headless Chromium, the lcm-spy test runs
+# under Xvfb, and the sanitizer and fuzz pass (tools/test.sh, build-asan/)
+# needs clang with its sanitizer and libFuzzer runtimes; only tools/test.sh asks.
 if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
-  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev)
+  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb)
 fi
 missing=()
 for p in "${packages[@]}"; do

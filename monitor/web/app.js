@@ -36,6 +36,22 @@
   const MAX_EVENTS = 2000;       // events kept by the page (the server keeps at most 1000)
   const COMPARISON_FIELDS = ['error', 'rms_window', 'rms_total', 'nrms', 'peak_error',
     'impact_timing_error', 'correlation'];
+  // Every angle on the page is in degrees (the JSON stays SI: rad).
+  const DEG_PER_RAD = 180 / Math.PI;
+  const ANGLE_FIELDS = new Set(['alpha', 'error', 'rms_window', 'rms_total', 'peak_error']);
+  // An event's value: its unit on the page and the factor from the SI value
+  // (lcm_types/event_t.lcm gives the SI unit of each kind).
+  const EVENT_UNIT = {
+    uplift: ['m/s^2', 1], impact: ['deg/s', DEG_PER_RAD], rest: ['', 1],
+    overturn: ['deg', DEG_PER_RAD], sliding: ['m', 1], twist: ['deg', DEG_PER_RAD],
+    gap: ['samples', 1], stale: ['s', 1], jump: ['m', 1], out_of_plane: ['m', 1],
+    disagree: ['deg', DEG_PER_RAD], recovered: ['', 1], bad_sample: ['samples', 1],
+  };
+  function degrees(x) { return typeof x === 'number' ? x * DEG_PER_RAD : x; }
+  function eventValue(e) {
+    const [unit, factor] = EVENT_UNIT[e.kind] || ['', 1];
+    return [typeof e.value === 'number' ? e.value * factor : e.value, unit];
+  }
   const HEALTH_FIELDS = ['rate_in_hz', 'rate_out_hz', 'count_in', 'count_out', 'dropped', 'gaps',
     'bad_samples', 'lag_s'];
 
@@ -45,6 +61,7 @@
     windowS: null,         // null: the whole record (static mode)
     tLatest: null,
     measured: {t: [], theta: []},
+    table: {t: [], accel: []},  // RL_TABLE u_g'', m/s^2
     variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest}
     flags: new Map(),      // interval id -> {flag, source, start, end}
     events: [],
@@ -97,6 +114,7 @@
 
   function reset() {
     held.measured = {t: [], theta: []};
+    held.table = {t: [], accel: []};
     held.variants = new Map();
     held.flags = new Map();
     held.events = [];
@@ -108,6 +126,7 @@
     held.windowS = msg.window_s;
     held.tLatest = msg.t_latest;
     append(held.measured, msg.measured, [['t', 't'], ['theta', 'theta_deg']]);
+    if (msg.table) append(held.table, msg.table, [['t', 't'], ['accel', 'accel_mps2']]);
     for (const mv of msg.variants) {
       const v = variantFor(mv.name);
       v.meta = mv;
@@ -146,6 +165,7 @@
     if (held.events.length > MAX_EVENTS) held.events.splice(0, held.events.length - MAX_EVENTS);
     const cutoff = held.tLatest - held.windowS;
     trimSeries(held.measured, cutoff);
+    trimSeries(held.table, cutoff);
     for (const v of held.variants.values()) {
       trimSeries(v.theta, cutoff);
       trimSeries(v.cmp, cutoff);
@@ -291,11 +311,15 @@
       first.appendChild(document.createTextNode(name));
       const m = v.meta;
       cell(row, m.model || '—', {'data-variant': name, 'data-field': 'model'}, 'text');
-      for (const f of ['alpha', 'p', 'mu']) cell(row, fmtG(m[f]), {'data-variant': name, 'data-field': f});
+      for (const f of ['alpha', 'p', 'mu']) {
+        cell(row, fmtG(ANGLE_FIELDS.has(f) ? degrees(m[f]) : m[f]), {'data-variant': name, 'data-field': f});
+      }
       const l = v.latest || {};
       cell(row, l.samples === undefined ? '—' : String(l.samples), {'data-variant': name, 'data-field': 'samples'});
       cell(row, fmtG(l.valid), {'data-variant': name, 'data-field': 'valid'}, l.valid === false ? 'invalid' : '');
-      for (const f of COMPARISON_FIELDS) cell(row, fmtG(l[f]), {'data-variant': name, 'data-field': f});
+      for (const f of COMPARISON_FIELDS) {
+        cell(row, fmtG(ANGLE_FIELDS.has(f) ? degrees(l[f]) : l[f]), {'data-variant': name, 'data-field': f});
+      }
       body.appendChild(row);
     }
   }
@@ -323,7 +347,9 @@
       cell(row, e.t.toFixed(3));
       cell(row, e.source, {}, 'text');
       cell(row, e.kind, {}, 'text');
-      cell(row, fmtG(e.value));
+      const [value, unit] = eventValue(e);
+      cell(row, fmtG(value));
+      cell(row, unit, {}, 'text');
       cell(row, e.detail, {}, 'text');
       body.appendChild(row);
     }
@@ -352,7 +378,7 @@
     if (c) {
       parts.push('rig ' + c.rig_name, 'calibration ' + c.calibration_id);
       if (c.sample_rate_hz !== null) parts.push(fmtG(c.sample_rate_hz) + ' Hz');
-      if (c.alpha !== null) parts.push('alpha ' + fmtG(c.alpha) + ' rad, p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+      if (c.alpha !== null) parts.push('alpha ' + fmtG(degrees(c.alpha)) + ' deg, p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
     }
     document.getElementById('rig').textContent = c ? parts.join(' · ') : 'no RL_DAQ_CONFIG yet';
     document.getElementById('clock').textContent =
@@ -390,6 +416,69 @@
     }
   });
 
+  // -- the page's data as CSV, built in the page (a Blob, no request) ---------
+
+  function csvField(x) {
+    if (x === null || x === undefined) return '';
+    if (typeof x === 'number') return Number.isFinite(x) ? String(x) : '';
+    const text = String(x);
+    return /[",\r\n]/.test(text) ? '"' + text.replace(/"/g, '""') + '"' : text;
+  }
+
+  // Every series the page holds on one time axis (the union of their
+  // sample-clock times, s): a cell is empty where a series has no point.
+  function seriesCsv() {
+    const columns = [['theta_measured_deg', held.measured.t, held.measured.theta],
+      ['table_accel_mps2', held.table.t, held.table.accel]];
+    for (const [name, v] of held.variants) {
+      columns.push(['theta_' + name + '_deg', v.theta.t, v.theta.theta]);
+      columns.push(['error_' + name + '_deg', v.cmp.t, v.cmp.err]);
+      columns.push(['rms_window_' + name + '_deg', v.cmp.t, v.cmp.rms]);
+    }
+    const times = new Set();
+    for (const [, t] of columns) for (const x of t) times.add(x);
+    const axis = Array.from(times).sort((a, b) => a - b);
+    const index = new Map(axis.map((t, i) => [t, i]));
+    const rows = axis.map((t) => [t].concat(columns.map(() => null)));
+    columns.forEach(([, t, values], c) => {
+      for (let i = 0; i < t.length; i++) rows[index.get(t[i])][c + 1] = values[i];
+    });
+    const lines = [['t_s'].concat(columns.map(([name]) => name)).map(csvField).join(',')];
+    for (const row of rows) lines.push(row.map(csvField).join(','));
+    return lines.join('\n') + '\n';
+  }
+
+  function eventsCsv() {
+    const lines = ['t_s,source,kind,value,unit,detail'];
+    for (const e of held.events) {
+      const [value, unit] = eventValue(e);
+      lines.push([e.t, e.source, e.kind, value, unit, e.detail].map(csvField).join(','));
+    }
+    return lines.join('\n') + '\n';
+  }
+
+  function download(name, text) {
+    const url = URL.createObjectURL(new Blob([text], {type: 'text/csv'}));
+    const a = document.createElement('a');
+    a.href = url;
+    a.download = name;
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 0);
+  }
+
+  function baseName() {
+    const title = document.title.replace(/^rocklab (report|monitor): ?/, '');
+    return (title || 'rocklab').replace(/\.lcm$/, '').replace(/[^A-Za-z0-9._-]+/g, '_');
+  }
+
+  for (const [id, make, suffix] of [['download-series', seriesCsv, '_series.csv'],
+    ['download-events', eventsCsv, '_events.csv']]) {
+    const button = document.getElementById(id);
+    if (button) button.addEventListener('click', () => download(baseName() + suffix, make()));
+  }
+
   window.rocklabMonitor = {
     plots: plots,
     get updates() { return updates; },
@@ -399,6 +488,8 @@
       error: plots.error ? plots.error.data.map((a) => a.length) : [],
     }),
     fmtG: fmtG,
+    seriesCsv: seriesCsv,
+    eventsCsv: eventsCsv,
   };
 
   if (window.ROCKLAB_SNAPSHOT !== undefined) {

@@ -118,9 +118,10 @@ TEST(RigConfig, MissingFileNamesIt) {
 namespace rocklab::daq {
 namespace {
 
-// The README's complete example is the bundled rig file (oracle: the file).
+// The complete example of docs/acquisition.md (moved there from README) is
+// the bundled rig file (oracle: the file).
 TEST(RigConfig, ReadmeExampleIsTheBundledRigFile) {
-  std::ifstream readme(std::string(ROCKLAB_SOURCE_DIR) + "/README.md");
+  std::ifstream readme(std::string(ROCKLAB_SOURCE_DIR) + "/docs/acquisition.md");
   std::stringstream text;
   text << readme.rdbuf();
   const std::string s = text.str();

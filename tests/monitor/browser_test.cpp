@@ -116,14 +116,18 @@ TEST(MonitorBrowser, PageShowsTheReplayAndTheComparatorsNumbers) {
     const json& cells = shown.at("cells").at(name);
     EXPECT_EQ(cells.at("samples").get<std::string>(), std::to_string(v.at("samples").get<long>()));
     EXPECT_EQ(cells.at("model").get<std::string>(), v.at("model").get<std::string>());
+    // The page shows angles in degrees (rms_total, alpha); the summary is SI.
+    const double deg_per_rad = 180.0 / 3.14159265358979323846;
     for (const auto& [page_field, summary_field] : field_of) {
       const std::string text = cells.at(page_field);
-      const double exact = v.at(summary_field).get<double>();
+      const double exact =
+          v.at(summary_field).get<double>() * (page_field == "rms_total" ? deg_per_rad : 1.0);
       EXPECT_TRUE(SameAtSixDigits(text, exact))
           << page_field << " shown '" << text << "', summary " << summary_field << " " << exact;
     }
     for (const char* param : {"alpha", "p", "mu"}) {
-      EXPECT_TRUE(SameAtSixDigits(cells.at(param), v.at(param).get<double>())) << param;
+      const double factor = std::string(param) == "alpha" ? deg_per_rad : 1.0;
+      EXPECT_TRUE(SameAtSixDigits(cells.at(param), v.at(param).get<double>() * factor)) << param;
     }
   }
   // Static mode (the report's): the same numbers and charts from the

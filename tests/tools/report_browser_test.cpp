@@ -8,7 +8,9 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -83,6 +85,46 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
     EXPECT_EQ(shown.at("cells").at(name).at("model").get<std::string>(),
               v.at("model").get<std::string>());
   }
+  // Degrees everywhere: no header of the page's tables gives an angle in
+  // rad (p stays rad/s: a frequency, not an angle).
+  for (const json& h : shown.at("headers")) {
+    EXPECT_EQ(h.get<std::string>().find("(rad)"), std::string::npos) << h;
+  }
+
+  // The "series as CSV" button: a file built in the page from the inlined
+  // data (no request, checked above), one row per time of the union of the
+  // series, the measured theta at its times as the snapshot holds it.
+  // Oracle: the snapshot inlined in the same page.
+  EXPECT_EQ(shown.at("csvName"), "fig7_series.csv");
+  std::istringstream csv(shown.at("csv").get<std::string>());
+  std::string header;
+  std::getline(csv, header);
+  std::string expected_header = "t_s,theta_measured_deg,table_accel_mps2";
+  for (const json& v : snap.at("variants")) {
+    const std::string name = v.at("name");
+    expected_header += ",theta_" + name + "_deg,error_" + name + "_deg,rms_window_" + name + "_deg";
+  }
+  EXPECT_EQ(header, expected_header);
+  std::map<double, double> measured;  // t -> theta_deg
+  for (std::size_t i = 0; i < snap.at("measured").at("t").size(); ++i) {
+    measured[snap.at("measured").at("t")[i].get<double>()] =
+        snap.at("measured").at("theta_deg")[i].get<double>();
+  }
+  std::size_t rows = 0, measured_rows = 0;
+  for (std::string line; std::getline(csv, line);) {
+    ++rows;
+    const std::size_t comma = line.find(',');
+    const std::size_t next = line.find(',', comma + 1);
+    const double t = std::stod(line.substr(0, comma));
+    const std::string theta_cell = line.substr(comma + 1, next - comma - 1);
+    const auto it = measured.find(t);
+    if (it == measured.end()) continue;
+    ++measured_rows;
+    ASSERT_FALSE(theta_cell.empty()) << line;
+    EXPECT_DOUBLE_EQ(std::stod(theta_cell), it->second) << line;
+  }
+  EXPECT_GE(rows, times.size());  // the theta times and the comparison's
+  EXPECT_EQ(measured_rows, measured.size());
   EXPECT_TRUE(std::filesystem::exists(screenshot));
 }
 

@@ -6,8 +6,9 @@
 //   node report_page.js REPORT.html OUT.json SCREENSHOT.png
 //
 // OUT.json: the page's mode, the uPlot data lengths, the comparison table
-// cells (data-variant, data-field -> text), the requests made other than
-// for the file itself, and console errors.
+// cells (data-variant, data-field -> text), every table header, the CSV the
+// "series as CSV" button downloads (clicked: a Blob built in the page), the
+// requests made other than for the file itself, and console errors.
 'use strict';
 
 const fs = require('fs');
@@ -28,7 +29,7 @@ async function main() {
   const consoleErrors = [];
   const requests = [];  // anything but the report file itself and data: URLs
   try {
-    const page = await browser.newPage({viewport: {width: 1400, height: 1000}});
+    const page = await browser.newPage({viewport: {width: 1400, height: 1000}, acceptDownloads: true});
     const fileUrl = pathToFileURL(path.resolve(reportPath)).href;
     page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
     page.on('pageerror', (e) => consoleErrors.push(String(e)));
@@ -47,9 +48,16 @@ async function main() {
         const v = td.getAttribute('data-variant');
         (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
       }
+      const headers = Array.from(document.querySelectorAll('th')).map((th) => th.textContent);
       return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
-        cells, title: document.title};
+        cells, headers, title: document.title};
     });
+    const [download] = await Promise.all([
+      page.waitForEvent('download', {timeout: STEP_TIMEOUT_MS}),
+      page.click('#download-series'),
+    ]);
+    shown.csvName = download.suggestedFilename();
+    shown.csv = fs.readFileSync(await download.path(), 'utf8');
     fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
     await page.screenshot({path: screenshotPath, fullPage: true});
     shown.requests = requests;

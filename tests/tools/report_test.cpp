@@ -199,7 +199,7 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
   // One curve per series of the snapshot, each with all of its points (and
   // the two of its legend sample).
   const json snap = PageSnapshot(test::ReadFile(html_path));
-  ASSERT_EQ(svg.curves.size(), 3u);
+  ASSERT_EQ(svg.curves.size(), 4u);
   EXPECT_EQ(svg.curves[0].title, "experiment");
   EXPECT_EQ(svg.curves[0].vertices, static_cast<int>(snap.at("measured").at("t").size()) + 2);
   EXPECT_EQ(svg.curves[1].title, "fitted (complex formulation)");
@@ -208,6 +208,10 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
     EXPECT_EQ(svg.curves[1 + i].vertices,
               static_cast<int>(snap.at("variants")[i].at("theta").at("t").size()) + 2);
   }
+  // The panel under theta: the table acceleration, every point of its series.
+  EXPECT_EQ(svg.curves[3].title, "table acceleration (RL_TABLE)");
+  EXPECT_EQ(svg.curves[3].vertices, static_cast<int>(snap.at("table").at("t").size()) + 2);
+  EXPECT_NE(std::find(svg.texts.begin(), svg.texts.end(), "table accel. (m/s^2)"), svg.texts.end());
 
   // The caption, line for line, from the log's own messages.
   const LogFacts log = ReadLog(Fig7Log());
@@ -235,6 +239,93 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
   EXPECT_EQ(Printf("%.6g", fitted.alpha), "0.235");
   EXPECT_EQ(log.rig, "lab-table-A-block1");
   EXPECT_EQ(log.calibration, "2026-11-01-A");
+}
+
+// --start/--end: the page and the figure hold the window only, on the
+// record's time axis. Oracle: the log's own RL_THETA times (1 kHz, kept at
+// 100 Hz: the first sample of each 10 ms slot from the record's first
+// sample) and its RL_TABLE peaks inside the window.
+TEST_F(RocklabReport, StartAndEndZoomOnAWindowOfTheRecord) {
+  const std::string html_path = dir_ + "/zoom.html";
+  const std::string svg_path = dir_ + "/zoom.svg";
+  const test::CliResult r = test::RunCli(
+      {"report", Fig7Log(), "--out", html_path, "--svg", svg_path, "--start", "2", "--end", "4"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json snap = PageSnapshot(test::ReadFile(html_path));
+  EXPECT_EQ(snap.at("from_s").get<double>(), 2.0);
+  EXPECT_EQ(snap.at("to_s").get<double>(), 4.0);
+
+  const LogFacts log = ReadLog(Fig7Log());
+  const std::int64_t t0 = snap.at("t0_utime").get<std::int64_t>();  // the record's first sample
+  EXPECT_EQ(t0, log.theta.begin()->first);
+  std::vector<double> expected;  // first sample of each 10 ms slot in [2 s, 4 s]
+  std::int64_t last_slot = -1;
+  for (const auto& [utime, theta] : log.theta) {
+    const double t = static_cast<double>(utime - t0) * 1e-6;
+    const std::int64_t slot = static_cast<std::int64_t>(std::floor((utime - t0) / 10000.0));
+    if (t < 2.0 || t > 4.0 || slot == last_slot) continue;
+    last_slot = slot;
+    expected.push_back(t);
+  }
+  const json& t = snap.at("measured").at("t");
+  ASSERT_EQ(t.size(), expected.size());
+  for (std::size_t i = 0; i < t.size(); ++i) EXPECT_NEAR(t[i].get<double>(), expected[i], 1e-9) << i;
+  for (const json& v : snap.at("variants")) {
+    for (const json& x : v.at("theta").at("t")) {
+      EXPECT_GE(x.get<double>(), 2.0);
+      EXPECT_LE(x.get<double>(), 4.0);
+    }
+  }
+  for (const json& e : snap.at("events")) {
+    EXPECT_GE(e.at("t").get<double>(), 2.0) << e;
+    EXPECT_LE(e.at("t").get<double>(), 4.0) << e;
+  }
+  EXPECT_GT(snap.at("counters").at("outside_window").get<std::int64_t>(), 0);
+
+  const test::SvgProbe svg = test::ProbeSvg(test::ReadFile(svg_path));
+  ASSERT_TRUE(svg.well_formed) << svg.error;
+  const std::string window = "; window " + Printf("%.3f", expected.front()) + " s to " +
+                             Printf("%.3f", expected.back()) + " s";
+  bool captioned = false;
+  for (const std::string& text : svg.texts) captioned = captioned || text.find(window) != std::string::npos;
+  EXPECT_TRUE(captioned) << "no caption with '" << window << "'";
+}
+
+void ExpectInputError(const std::vector<std::string>& args, const std::string& names,
+                      const std::string& says, const std::string& html_path);  // below
+
+TEST_F(RocklabReport, AWindowWithoutThetaIsAnInputError) {
+  const std::string html = dir_ + "/empty.html";
+  ExpectInputError({"report", Fig7Log(), "--out", html, "--start", "100", "--end", "200"}, "fig7.lcm",
+                   "no RL_THETA sample between 100 s and 200 s", html);
+  const test::CliResult r = test::RunCli({"report", Fig7Log(), "--out", html, "--start", "3", "--end", "2"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--end"), std::string::npos) << r.err;
+}
+
+// --max-points: a series longer than N halves its resolution until it fits,
+// so it holds between N/2 and N points, in order, from the record's first
+// sample to its end (7 s at 100 Hz is 700 points; N = 100).
+TEST_F(RocklabReport, MaxPointsBoundsEverySeries) {
+  const std::string html_path = dir_ + "/capped.html";
+  const test::CliResult r = test::RunCli({"report", Fig7Log(), "--out", html_path, "--max-points", "100"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json snap = PageSnapshot(test::ReadFile(html_path));
+  EXPECT_EQ(snap.at("max_points").get<int>(), 100);
+  std::vector<const json*> series = {&snap.at("measured"), &snap.at("table")};
+  for (const json& v : snap.at("variants")) {
+    series.push_back(&v.at("theta"));
+    series.push_back(&v.at("comparison"));
+  }
+  for (const json* s : series) {
+    const json& t = s->at("t");
+    EXPECT_GE(t.size(), 50u) << s->dump().substr(0, 200);
+    EXPECT_LE(t.size(), 100u);
+    for (std::size_t i = 1; i < t.size(); ++i) EXPECT_LT(t[i - 1].get<double>(), t[i].get<double>());
+  }
+  const json& t = snap.at("measured").at("t");
+  EXPECT_EQ(t.front().get<double>(), 0.0);
+  EXPECT_GT(t.back().get<double>(), 6.8);  // the 7 s record's end, within one coarse slot
 }
 
 TEST_F(RocklabReport, PngFigureHasTheSignatureAndTheSizeAsked) {
