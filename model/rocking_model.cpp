@@ -22,20 +22,34 @@ std::shared_ptr<spdlog::logger> Log() {
   return logger;
 }
 
-// Table acceleration of Step: linear from (t0, a0) to (t1, a1), held
-// constant when t1 == t0. Lives on the stack of Step (no allocation).
-class SegmentForcing final : public Forcing {
+// Table acceleration of Step: the cubic Hermite interpolant from (t0, a0,
+// rate d0) to (t1, a1, rate d1), held at a1 when t1 == t0. Lives on the
+// stack of Step (no allocation).
+class HermiteSegment final : public Forcing {
  public:
-  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
+  HermiteSegment(double t0, double a0, double d0, double t1, double a1, double d1)
+      : t0_(t0), a0_(a0), d0_(d0), t1_(t1), a1_(a1), d1_(d1) {}
   double TableAcceleration(double t_s) const override {
     if (!(t1_ > t0_)) return a1_;
-    const double w = (t_s - t0_) / (t1_ - t0_);
-    return a0_ + w * (a1_ - a0_);
+    const double h = t1_ - t0_;
+    const double s = (t_s - t0_) / h;
+    const double s2 = s * s;
+    const double s3 = s2 * s;
+    return (2 * s3 - 3 * s2 + 1) * a0_ + (s3 - 2 * s2 + s) * h * d0_ + (3 * s2 - 2 * s3) * a1_ +
+           (s3 - s2) * h * d1_;
   }
 
  private:
-  double t0_, a0_, t1_, a1_;
+  double t0_, a0_, d0_, t1_, a1_, d1_;
 };
+
+// Derivative at t2 of the parabola through (t0, a0), (t1, a1), (t2, a2);
+// t0 < t1 < t2. Uniform spacing h: (3 a2 - 4 a1 + a0) / (2 h).
+double ParabolaSlopeAtEnd(double t0, double a0, double t1, double a1, double t2, double a2) {
+  const double h1 = t1 - t0;
+  const double h2 = t2 - t1;
+  return a2 * (2 * h2 + h1) / (h2 * (h1 + h2)) - a1 * (h1 + h2) / (h1 * h2) + a0 * h2 / (h1 * (h1 + h2));
+}
 
 }  // namespace
 
@@ -114,13 +128,32 @@ void RockingModel::Step(double t_s, double table_accel_mps2) {
     throw std::invalid_argument("Step: t_s and table_accel_mps2 must be finite (got " + ExactText(t_s) +
                                 ", " + ExactText(table_accel_mps2) + ")");
   }
-  const SegmentForcing forcing = has_step_sample_
-                                     ? SegmentForcing(last_step_time_s_, last_step_accel_, t_s, table_accel_mps2)
-                                     : SegmentForcing(t_s, table_accel_mps2, t_s, table_accel_mps2);
-  AdvanceTo(t_s, forcing);
+  if (step_samples_ == 0 || !(t_s > last_step_time_s_)) {
+    // The first sample (or a repeated time): held constant, rate 0.
+    AdvanceTo(t_s, HermiteSegment(t_s, table_accel_mps2, 0.0, t_s, table_accel_mps2, 0.0));
+    if (step_samples_ == 0) {
+      step_samples_ = 1;
+      last_step_slope_ = 0.0;
+    }
+    last_step_time_s_ = t_s;
+    last_step_accel_ = table_accel_mps2;
+    return;
+  }
+  double slope = (table_accel_mps2 - last_step_accel_) / (t_s - last_step_time_s_);
+  if (step_samples_ == 1) {
+    last_step_slope_ = slope;  // the first interval is the chord (linear)
+    step_samples_ = 2;
+  } else {
+    slope = ParabolaSlopeAtEnd(prev_step_time_s_, prev_step_accel_, last_step_time_s_, last_step_accel_,
+                               t_s, table_accel_mps2);
+  }
+  AdvanceTo(t_s, HermiteSegment(last_step_time_s_, last_step_accel_, last_step_slope_, t_s,
+                                table_accel_mps2, slope));
+  prev_step_time_s_ = last_step_time_s_;
+  prev_step_accel_ = last_step_accel_;
   last_step_time_s_ = t_s;
   last_step_accel_ = table_accel_mps2;
-  has_step_sample_ = true;
+  last_step_slope_ = slope;
 }
 
 Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, double theta0,
@@ -141,7 +174,8 @@ Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, do
   out.theta_dot.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
     const double t = t0_s + static_cast<double>(k) / rate_hz;
-    model.AdvanceTo(t, forcing);
+    // No stop at the outputs: they are interpolated.
+    model.AdvanceAhead(t, forcing, std::numeric_limits<double>::infinity());
     out.time_s.push_back(t);
     out.theta.push_back(model.state().theta);
     out.theta_dot.push_back(model.state().theta_dot);
@@ -224,6 +258,21 @@ SolverStats CvodeRockingModel::solver_stats() const {
   return s;
 }
 
+Cvode::Result CvodeRockingModel::Integrate(double tout_s, double tstop_s) {
+  // At rest the root functions are the forcing's: a bounded step keeps a
+  // short excursion above the uplift threshold from being stepped over.
+  // Rocking, the roots are the state's and the error test bounds the step
+  // when the integrator may step past the output (AdvanceAhead); stopping at
+  // every output (AdvanceTo, Step) keeps the cap, which changes nothing at a
+  // 1 kHz sample rate and keeps those results as they were.
+  const double max_step_s = state_.regime == Regime::kRest || !(tstop_s > tout_s) ? options_.max_step_s : 0.0;
+  if (max_step_s != max_step_set_s_) {
+    cvode_->SetMaxStep(max_step_s);
+    max_step_set_s_ = max_step_s;
+  }
+  return cvode_->Advance(tout_s, tstop_s);
+}
+
 void CvodeRockingModel::SetSegment(double t_from_s, double t_to_s) {
   const double inf = std::numeric_limits<double>::infinity();
   segment_lo_s_ = std::nextafter(t_from_s, inf);
@@ -291,10 +340,14 @@ int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
   return 0;
 }
 
-void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
+void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) {
   if (!std::isfinite(t_s) || t_s < state_.time_s) {
     throw std::invalid_argument("AdvanceTo: t_s (" + ExactText(t_s) + ") is before the current time (" +
                                 ExactText(state_.time_s) + ")");
+  }
+  if (!(horizon_s >= t_s)) {
+    throw std::invalid_argument("AdvanceAhead: horizon_s (" + ExactText(horizon_s) + ") is before t_s (" +
+                                ExactText(t_s) + ")");
   }
   forcing_ = &forcing;
   while (true) {
@@ -302,11 +355,13 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       state_.time_s = t_s;  // the state stays frozen at the overturn
       break;
     }
-    // Integrate up to t_s or the forcing's next jump, whichever comes first;
-    // at a jump the integrator restarts (its history must not span it).
+    // Output at t_s or at the forcing's next jump, whichever comes first; the
+    // integrator never steps past the jump or the horizon (t_stop), and at a
+    // jump it restarts (its history must not span it).
     const double t_jump = forcing.NextDiscontinuity(state_.time_s);
     const bool stop_at_jump = t_jump <= t_s;
-    const double t_stop = stop_at_jump ? t_jump : t_s;
+    const double t_out = stop_at_jump ? t_jump : t_s;
+    const double t_stop = std::min(t_jump, horizon_s);
     SetSegment(state_.time_s, t_stop);
     if (state_.regime == Regime::kRest) {
       if (!rest_checked_) {
@@ -321,12 +376,12 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         }
       }
       if (state_.time_s >= t_s) break;
-      const Cvode::Result r = cvode_->Advance(t_stop);
+      const Cvode::Result r = Integrate(t_out, t_stop);
       state_.time_s = cvode_->t_s();
       if (r == Cvode::Result::kReached) {
         if (!stop_at_jump) break;
         for (int i = 0; i < n_; ++i) y_[i] = 0.0;
-        RestartAtDiscontinuity(t_stop);
+        RestartAtDiscontinuity(t_out);
         continue;
       }
       const auto found = cvode_->RootsFound();
@@ -338,7 +393,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
     if (state_.time_s >= t_s) break;
     const double t_from = state_.time_s;
     const Equations equations = state_.equations;
-    const Cvode::Result r = cvode_->Advance(t_stop);
+    const Cvode::Result r = Integrate(t_out, t_stop);
     const double t = cvode_->t_s();
     rocking_time_s_ += t - t_from;
     if (equations == Equations::kEq10) eq10_time_s_ += t - t_from;
@@ -346,7 +401,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
     UpdateState(t, y_);
     if (r == Cvode::Result::kReached) {
       if (!stop_at_jump) break;
-      RestartAtDiscontinuity(t_stop);
+      RestartAtDiscontinuity(t_out);
       continue;
     }
     const auto found = cvode_->RootsFound();
@@ -362,7 +417,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
         UpdateState(t, y_);
       }
-      if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
+      if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
       continue;
     }
     // An impact.
@@ -381,7 +436,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
       UpdateState(t, y_);
     }
-    if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
+    if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
   }
   forcing_ = nullptr;
 }

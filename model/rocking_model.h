@@ -81,7 +81,12 @@ struct ModelOptions {
   /// complex model uses at most 1e-7 l on its (x, y) plane, where a crossing
   /// passes the origin at the distance ~ l.
   double atol{1e-12};
-  double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
+  /// Largest CVODE step, s, at rest (keeps uplift crossings of the forcing
+  /// from being stepped over) and in AdvanceTo / Step (whose outputs, every
+  /// sample, bound the step anyway). While rocking under AdvanceAhead
+  /// (Simulate) the error test alone bounds it: the root functions are then
+  /// the state's, and the cap only cost steps (docs/performance.md).
+  double max_step_s{1e-3};
   double l{kDefaultL};      ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
   /// Complex formulation, opt-in approximation (0, the default: off, eq. (10)
   /// throughout). K > 0: below K V_min, V_min ~ l^(2/3) the floor of eq.
@@ -118,10 +123,26 @@ class RockingModel {
   /// @throws std::runtime_error when CVODE fails (naming the CVODE function).
   virtual void AdvanceTo(double t_s, const Forcing& forcing) = 0;
 
+  /// As AdvanceTo, but `forcing` may be evaluated up to horizon_s (>= t_s;
+  /// +infinity: anywhere): the integrator steps across t_s without stopping
+  /// there and the state at t_s is its interpolant (CVodeGetDky), so its
+  /// error control and step size carry over from one output to the next.
+  /// Successive calls must pass the same forcing (the part before the
+  /// horizon is already integrated). Simulate uses it with no horizon.
+  /// @throws as AdvanceTo.
+  virtual void AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) = 0;
+
   /// Live stepping: the table acceleration sample `table_accel_mps2` (m/s^2)
-  /// at t_s; between the previous sample and this one the acceleration is
-  /// linear (the first sample after Reset holds it constant). Never integrates
-  /// past t_s.
+  /// at t_s. Between the previous sample and this one the acceleration is
+  /// the cubic Hermite interpolant of the two samples and of their slopes,
+  /// each slope the derivative at its sample of the parabola through it and
+  /// the two samples before (causal; at the second sample the chord): the
+  /// acceleration and its rate are continuous across samples, so CVODE's
+  /// Adams history is not broken at every sample (a piecewise-linear
+  /// acceleration has a kink at each one). Reproduces quadratics exactly;
+  /// a jump of the samples over- or undershoots by up to ~26 % of the jump
+  /// over the next two intervals. The first sample after Reset holds its
+  /// value constant, the second is joined linearly. Never integrates past t_s.
   void Step(double t_s, double table_accel_mps2);
 
   virtual const ModelState& state() const = 0;
@@ -139,13 +160,16 @@ class RockingModel {
   RockingModel() = default;
   /// Forgets the previous Step sample, so the next Step holds its sample
   /// constant. Every Reset implementation calls it.
-  void ResetStepHistory() { has_step_sample_ = false; }
+  void ResetStepHistory() { step_samples_ = 0; }
   std::vector<ModelEvent> events_;
 
  private:
-  double last_step_time_s_{};
-  double last_step_accel_{};
-  bool has_step_sample_{false};
+  double last_step_time_s_{};   // newest Step sample, s
+  double last_step_accel_{};    // m/s^2
+  double last_step_slope_{};    // the interpolant's rate there, m/s^3
+  double prev_step_time_s_{};   // the sample before it, s
+  double prev_step_accel_{};    // m/s^2
+  int step_samples_{0};         // Step samples since Reset (counted up to 2)
 };
 
 /// A whole simulated record at a fixed output rate.
