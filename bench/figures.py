@@ -96,7 +96,7 @@ def bench_simulate(b, t, repeats):
     for model in ("housner", "complex"):
         cmd = [b, "simulate", "--model", model, "--alpha", "0.168", "--p", "3.767", "--mu", "0.942",
                "--excitation", "sine:amp=0.006,freq=5,duration=20,start=0", "--duration", "20",
-               "--rate", "200", "--json"]
+               "--rate", "200", "--json", "--out", os.devnull]
         ours = min(measure(cmd, stdout=subprocess.PIPE) for _ in range(repeats))
         summary = json.loads(ours[3])
         la = load()
