@@ -56,6 +56,8 @@ class Cvode {
   /// at the same time it restarts 16 ulp later (a jump right there); it
   /// throws when that fails too.
   Result Advance(double tout_s, double tstop_s);
+  /// Advance(tout_s, tout_s): never evaluates the right-hand side beyond tout_s.
+  Result Advance(double tout_s) { return Advance(tout_s, tout_s); }
 
   /// Solver work since construction, summed over every ReInit.
   struct Stats {
