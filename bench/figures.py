@@ -34,16 +34,18 @@ def load():
 
 def measure(cmd, env=None, stdout=subprocess.DEVNULL):
     """Runs cmd; returns (cpu_s, wall_s, max_rss_mb, stdout text or None)."""
-    t0 = time.monotonic()
-    p = subprocess.Popen(cmd, stdout=stdout, stderr=subprocess.PIPE, env=env)
-    out = p.stdout.read().decode() if stdout == subprocess.PIPE else None
-    err = p.stderr.read().decode()
-    _, status, ru = os.wait4(p.pid, 0)
-    wall = time.monotonic() - t0
-    p.returncode = os.waitstatus_to_exitcode(status)
-    if p.returncode != 0:
-        sys.exit("bench: %s failed (%d): %s" % (" ".join(cmd), p.returncode, err[-2000:]))
-    return ru.ru_utime + ru.ru_stime, wall, ru.ru_maxrss / 1024.0, out
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        t0 = time.monotonic()
+        p = subprocess.Popen(cmd, stdout=out if stdout == subprocess.PIPE else stdout, stderr=err, env=env)
+        _, status, ru = os.wait4(p.pid, 0)  # files, not pipes: a full pipe cannot stall the child
+        wall = time.monotonic() - t0
+        p.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        text = out.read().decode() if stdout == subprocess.PIPE else None
+        if p.returncode != 0:
+            sys.exit("bench: %s failed (%d): %s" % (" ".join(cmd), p.returncode, err.read().decode()[-2000:]))
+    return ru.ru_utime + ru.ru_stime, wall, ru.ru_maxrss / 1024.0, text
 
 
 class Table:
