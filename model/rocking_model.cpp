@@ -22,34 +22,20 @@ std::shared_ptr<spdlog::logger> Log() {
   return logger;
 }
 
-// Table acceleration of Step: the cubic Hermite interpolant from (t0, a0,
-// rate d0) to (t1, a1, rate d1), held at a1 when t1 == t0. Lives on the
-// stack of Step (no allocation).
-class HermiteSegment final : public Forcing {
+// Table acceleration of Step: linear from (t0, a0) to (t1, a1), held
+// constant when t1 == t0. Lives on the stack of Step (no allocation).
+class SegmentForcing final : public Forcing {
  public:
-  HermiteSegment(double t0, double a0, double d0, double t1, double a1, double d1)
-      : t0_(t0), a0_(a0), d0_(d0), t1_(t1), a1_(a1), d1_(d1) {}
+  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
   double TableAcceleration(double t_s) const override {
     if (!(t1_ > t0_)) return a1_;
-    const double h = t1_ - t0_;
-    const double s = (t_s - t0_) / h;
-    const double s2 = s * s;
-    const double s3 = s2 * s;
-    return (2 * s3 - 3 * s2 + 1) * a0_ + (s3 - 2 * s2 + s) * h * d0_ + (3 * s2 - 2 * s3) * a1_ +
-           (s3 - s2) * h * d1_;
+    const double w = (t_s - t0_) / (t1_ - t0_);
+    return a0_ + w * (a1_ - a0_);
   }
 
  private:
-  double t0_, a0_, d0_, t1_, a1_, d1_;
+  double t0_, a0_, t1_, a1_;
 };
-
-// Derivative at t2 of the parabola through (t0, a0), (t1, a1), (t2, a2);
-// t0 < t1 < t2. Uniform spacing h: (3 a2 - 4 a1 + a0) / (2 h).
-double ParabolaSlopeAtEnd(double t0, double a0, double t1, double a1, double t2, double a2) {
-  const double h1 = t1 - t0;
-  const double h2 = t2 - t1;
-  return a2 * (2 * h2 + h1) / (h2 * (h1 + h2)) - a1 * (h1 + h2) / (h1 * h2) + a0 * h2 / (h1 * (h1 + h2));
-}
 
 }  // namespace
 
@@ -128,32 +114,13 @@ void RockingModel::Step(double t_s, double table_accel_mps2) {
     throw std::invalid_argument("Step: t_s and table_accel_mps2 must be finite (got " + ExactText(t_s) +
                                 ", " + ExactText(table_accel_mps2) + ")");
   }
-  if (step_samples_ == 0 || !(t_s > last_step_time_s_)) {
-    // The first sample (or a repeated time): held constant, rate 0.
-    AdvanceTo(t_s, HermiteSegment(t_s, table_accel_mps2, 0.0, t_s, table_accel_mps2, 0.0));
-    if (step_samples_ == 0) {
-      step_samples_ = 1;
-      last_step_slope_ = 0.0;
-    }
-    last_step_time_s_ = t_s;
-    last_step_accel_ = table_accel_mps2;
-    return;
-  }
-  double slope = (table_accel_mps2 - last_step_accel_) / (t_s - last_step_time_s_);
-  if (step_samples_ == 1) {
-    last_step_slope_ = slope;  // the first interval is the chord (linear)
-    step_samples_ = 2;
-  } else {
-    slope = ParabolaSlopeAtEnd(prev_step_time_s_, prev_step_accel_, last_step_time_s_, last_step_accel_,
-                               t_s, table_accel_mps2);
-  }
-  AdvanceTo(t_s, HermiteSegment(last_step_time_s_, last_step_accel_, last_step_slope_, t_s,
-                                table_accel_mps2, slope));
-  prev_step_time_s_ = last_step_time_s_;
-  prev_step_accel_ = last_step_accel_;
+  const SegmentForcing forcing = has_step_sample_
+                                     ? SegmentForcing(last_step_time_s_, last_step_accel_, t_s, table_accel_mps2)
+                                     : SegmentForcing(t_s, table_accel_mps2, t_s, table_accel_mps2);
+  AdvanceTo(t_s, forcing);
   last_step_time_s_ = t_s;
   last_step_accel_ = table_accel_mps2;
-  last_step_slope_ = slope;
+  has_step_sample_ = true;
 }
 
 Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, double theta0,

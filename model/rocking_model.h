@@ -133,16 +133,9 @@ class RockingModel {
   virtual void AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) = 0;
 
   /// Live stepping: the table acceleration sample `table_accel_mps2` (m/s^2)
-  /// at t_s. Between the previous sample and this one the acceleration is
-  /// the cubic Hermite interpolant of the two samples and of their slopes,
-  /// each slope the derivative at its sample of the parabola through it and
-  /// the two samples before (causal; at the second sample the chord): the
-  /// acceleration and its rate are continuous across samples, so CVODE's
-  /// Adams history is not broken at every sample (a piecewise-linear
-  /// acceleration has a kink at each one). Reproduces quadratics exactly;
-  /// a jump of the samples over- or undershoots by up to ~26 % of the jump
-  /// over the next two intervals. The first sample after Reset holds its
-  /// value constant, the second is joined linearly. Never integrates past t_s.
+  /// at t_s; between the previous sample and this one the acceleration is
+  /// linear (the first sample after Reset holds it constant). Never integrates
+  /// past t_s.
   void Step(double t_s, double table_accel_mps2);
 
   virtual const ModelState& state() const = 0;
@@ -160,16 +153,13 @@ class RockingModel {
   RockingModel() = default;
   /// Forgets the previous Step sample, so the next Step holds its sample
   /// constant. Every Reset implementation calls it.
-  void ResetStepHistory() { step_samples_ = 0; }
+  void ResetStepHistory() { has_step_sample_ = false; }
   std::vector<ModelEvent> events_;
 
  private:
-  double last_step_time_s_{};   // newest Step sample, s
-  double last_step_accel_{};    // m/s^2
-  double last_step_slope_{};    // the interpolant's rate there, m/s^3
-  double prev_step_time_s_{};   // the sample before it, s
-  double prev_step_accel_{};    // m/s^2
-  int step_samples_{0};         // Step samples since Reset (counted up to 2)
+  double last_step_time_s_{};
+  double last_step_accel_{};
+  bool has_step_sample_{false};
 };
 
 /// A whole simulated record at a fixed output rate.

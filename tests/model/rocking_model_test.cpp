@@ -371,40 +371,6 @@ TEST(RockingModelTest, BadParametersAndOptionsNameThemselves) {
   EXPECT_STREQ(ToString(EventKind::kOverturn), "overturn");
 }
 
-// ORACLE: Step's interpolant reproduces a quadratic table acceleration
-// exactly from the third sample on (the parabola through the last three
-// samples is the quadratic itself; cubic Hermite with exact values and
-// slopes reproduces it), so a block stepped at 1 kHz through a quadratic
-// ramp that lifts it off after the third sample follows the analytic forcing
-// integrated with AdvanceTo at the same times. TOLERANCE: both integrate the
-// same equations to rtol 1e-10 with steps landing on the same times; what
-// differs is rounding in the forcing (1 ulp of 10 m/s^2) and the root
-// location of the uplift (CVODE locates it to ~1e-14 s): 1e-9 rad over 0.5 s
-// of rocking (theta ~ 0.05 rad) leaves four orders of margin over those and
-// is 1000 times below what a chord (linear) interpolant gives here
-// (h^2/8 |a''| = 1.25e-6 m/s^2 -> ~1e-7 rad).
-TEST(RockingModelTest, StepReproducesAQuadraticAcceleration) {
-  // 0.5 m/s^2 + 40 m/s^4 t^2: crosses g tan(alpha) of block 1 (2.35 m/s^2) at ~0.21 s.
-  const FunctionForcing ramp([](double t) { return 0.5 + 40.0 * t * t; });
-  for (ModelKind kind : {ModelKind::kHousner, ModelKind::kComplex}) {
-    auto stepped = RockingModel::Create(kind, kBlock1);
-    auto exact = RockingModel::Create(kind, kBlock1);
-    stepped->Reset(0.0, 0.0, 0.0);
-    exact->Reset(0.0, 0.0, 0.0);
-    double worst = 0.0;
-    for (int k = 0; k <= 500; ++k) {
-      const double t = k * 1e-3;
-      stepped->Step(t, ramp.TableAcceleration(t));
-      exact->AdvanceTo(t, ramp);
-      worst = std::max(worst, std::abs(stepped->state().theta - exact->state().theta));
-    }
-    ASSERT_FALSE(exact->events().empty()) << ToString(kind);
-    EXPECT_EQ(exact->events().front().kind, EventKind::kUplift);
-    EXPECT_GT(std::abs(exact->state().theta), 0.01) << ToString(kind);
-    EXPECT_LT(worst, 1e-9) << ToString(kind);
-  }
-}
-
 // ORACLE: AdvanceAhead interpolates its outputs (no stop at each) and must
 // give the outputs of AdvanceTo, which stops at each, within what the
 // integration tolerances resolve: figure 8's sine for 5 s at 100 Hz.
