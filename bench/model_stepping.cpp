@@ -5,7 +5,8 @@
 //    against AdvanceAhead (simulate's path now).
 // 2. With TRUTH.csv (a `rocklab synth --truth` file, 1 kHz): its exact table
 //    acceleration fed sample by sample, linear in between (Step's old
-//    interpolant, through AdvanceTo) against Step (cubic Hermite).
+//    interpolant, through AdvanceTo) against Step (the same interpolant now:
+//    a cubic Hermite was tried and reverted, docs/performance.md).
 // CPU is the best of three in this process (std::clock).
 #include <algorithm>
 #include <cmath>
@@ -103,7 +104,7 @@ int main(int argc, char** argv) {
           m->AdvanceTo(t, chord);
         }
       }
-      Report(hermite ? "1 kHz Step (Hermite)" : "1 kHz linear (old Step)", kind,
+      Report(hermite ? "1 kHz Step" : "1 kHz linear via AdvanceTo", kind,
              static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC, *m);
     }
   }
