@@ -49,7 +49,12 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
       theta_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
       table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz),
       ready_theta_(2 * static_cast<std::size_t>(std::max(theta_.sg.delay_samples(), table_.sg.delay_samples())) + 2),
-      ready_table_(ready_theta_.capacity()) {}
+      ready_table_(ready_theta_.capacity()) {
+  // Only the derivatives in use: theta_dot; the table velocity, and the
+  // acceleration where no accelerometer measures it.
+  theta_.sg.SetOutputs(false, true, false);
+  table_.sg.SetOutputs(false, true, !has_accelerometer_);
+}
 
 Processor::Stream::Stream(int half_window, int order, double dt_s)
     : sg(half_window, order, dt_s),

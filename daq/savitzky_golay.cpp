@@ -6,6 +6,18 @@
 #include <stdexcept>
 
 namespace rocklab::daq {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// In index order, as the estimate was always summed (same digits).
+double Dot(const double* w, const double* y, int n) {
+  double sum = 0;
+  for (int i = 0; i < n; ++i) sum += w[i] * y[i];
+  return sum;
+}
+
+}  // namespace
 
 SavitzkyGolay::SavitzkyGolay(int half_window, int order, double dt_s)
     : m_(half_window), n_(2 * half_window + 1), order_(order), dt_s_(dt_s) {
@@ -19,7 +31,7 @@ SavitzkyGolay::SavitzkyGolay(int half_window, int order, double dt_s)
   if (!(dt_s > 0) || !std::isfinite(dt_s)) throw std::invalid_argument("Savitzky-Golay: dt_s must be finite and > 0");
   q_.assign(static_cast<size_t>(n_) * (kMaxOrder + 1), 0.0);
   y_.assign(n_, 0.0);
-  ring_.assign(n_, 0.0);
+  ring_.assign(2 * static_cast<size_t>(n_), 0.0);
   // Centre weights: with A = Q R, the fit's coefficients are R^-1 Q^T y, so
   // the estimate v^T c is (Q R^-T v)^T y: w = Q z with R^T z = v.
   Poly centre;
@@ -77,7 +89,8 @@ void SavitzkyGolay::Basis(int len, int degree, Poly& poly) {
 
 void SavitzkyGolay::Fit(int64_t first, int len, Poly& poly) {
   Basis(len, std::min(order_, len - 1), poly);
-  for (int i = 0; i < len; ++i) y_[i] = ring_[(first + i) % n_];
+  const double* window = &ring_[static_cast<size_t>(first % n_)];
+  for (int i = 0; i < len; ++i) y_[i] = window[i];
   double b[kMaxOrder + 1] = {};
   for (int c = 0; c <= poly.degree; ++c) {
     const double* qc = &q_[static_cast<size_t>(c) * n_];
@@ -111,7 +124,9 @@ void SavitzkyGolay::Push(double value) {
     seg_start_ = pushed_;
     next_out_ = ready_end_ = pushed_;
   }
-  ring_[pushed_ % n_] = value;
+  const size_t slot = static_cast<size_t>(pushed_ % n_);
+  ring_[slot] = value;
+  ring_[slot + static_cast<size_t>(n_)] = value;
   ++pushed_;
   ready_end_ = std::max(seg_start_, pushed_ - m_);
 }
@@ -134,9 +149,9 @@ bool SavitzkyGolay::Pop(SgOutput& out) {
   const int64_t j = next_out_ - seg_start_;  // position in the segment
   if (finished_ && next_out_ >= pushed_ - m_) {
     const int p = static_cast<int>(next_out_ - tail_first_);
-    out.value = Evaluate(tail_, p, 0);
-    out.d1 = Evaluate(tail_, p, 1);
-    out.d2 = Evaluate(tail_, p, 2);
+    out.value = want_[0] ? Evaluate(tail_, p, 0) : kNaN;
+    out.d1 = want_[1] ? Evaluate(tail_, p, 1) : kNaN;
+    out.d2 = want_[2] ? Evaluate(tail_, p, 2) : kNaN;
   } else {
     // The window centred on the output (cut at the segment's start). When
     // outputs lag (several inputs pushed between pops, as when a gap is
@@ -145,24 +160,18 @@ bool SavitzkyGolay::Pop(SgOutput& out) {
     const int64_t first = j < m_ ? seg_start_ : next_out_ - m_;
     const int64_t end = j < m_ ? seg_start_ + j + m_ + 1 : next_out_ + m_ + 1;
     if (first >= pushed_ - n_ && j >= m_) {
-      double s[3] = {0, 0, 0};
-      for (int i = 0; i < n_; ++i) {
-        const double y = ring_[(first + i) % n_];
-        s[0] += centre_[0](i) * y;
-        s[1] += centre_[1](i) * y;
-        s[2] += centre_[2](i) * y;
-      }
-      out.value = s[0];
-      out.d1 = s[1];
-      out.d2 = s[2];
+      const double* window = &ring_[static_cast<size_t>(first % n_)];
+      out.value = want_[0] ? Dot(centre_[0].data(), window, n_) : kNaN;
+      out.d1 = want_[1] ? Dot(centre_[1].data(), window, n_) : kNaN;
+      out.d2 = want_[2] ? Dot(centre_[2].data(), window, n_) : kNaN;
     } else {
       const int64_t from = first >= pushed_ - n_ ? first : std::max(seg_start_, pushed_ - n_);
       const int64_t to = first >= pushed_ - n_ ? end : pushed_;
       Fit(from, static_cast<int>(to - from), start_);
       const int p = static_cast<int>(next_out_ - from);
-      out.value = Evaluate(start_, p, 0);
-      out.d1 = Evaluate(start_, p, 1);
-      out.d2 = Evaluate(start_, p, 2);
+      out.value = want_[0] ? Evaluate(start_, p, 0) : kNaN;
+      out.d1 = want_[1] ? Evaluate(start_, p, 1) : kNaN;
+      out.d2 = want_[2] ? Evaluate(start_, p, 2) : kNaN;
     }
   }
   ++next_out_;

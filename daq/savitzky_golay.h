@@ -52,8 +52,12 @@ class SavitzkyGolay {
   void Push(double value);
   /// Ends the segment (end of data, or a gap): its last m outputs become available.
   void Finish();
-  /// Next available output, oldest first. No allocation.
+  /// Next available output, oldest first. No allocation. The estimates not
+  /// selected by SetOutputs are NaN.
   bool Pop(SgOutput& out);
+  /// Which estimates Pop computes (all three by default): a caller that uses
+  /// only the derivatives saves the other dot products.
+  void SetOutputs(bool value, bool d1, bool d2) { want_[0] = value, want_[1] = d1, want_[2] = d2; }
 
   int delay_samples() const { return m_; }
   /// Index the next Push will get.
@@ -92,7 +96,10 @@ class SavitzkyGolay {
   Poly start_;  // scratch for the first m outputs of a segment
   Poly tail_;   // the fit (made by Finish) that gives a finished segment's last m outputs
   int64_t tail_first_{};
+  // The last n_ inputs twice over (input i at i % n_ and i % n_ + n_), so
+  // every window is contiguous: ring_[(first % n_) .. + n_).
   std::vector<double> ring_;
+  bool want_[3]{true, true, true};  // value, d1, d2 computed by Pop
   int64_t pushed_{0};     // inputs since construction
   int64_t seg_start_{0};  // index of the segment's first input
   int64_t next_out_{0};

@@ -5,6 +5,8 @@
 #include <sundials/sundials_context.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <exception>
 #include <stdexcept>
@@ -76,6 +78,12 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
   h_->y = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
   h_->atol = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
+  // Fused vector operations: CVODE's Nordsieck updates and Adams corrections
+  // become one N_VLinearCombination / N_VScaleAddMulti call over all the
+  // history vectors instead of one N_VLinearSum per vector. On a 2-3 element
+  // state the per-call overhead is the cost (docs/performance.md). CVODE
+  // clones its vectors from y, which carries the setting.
+  Check(N_VEnableFusedOps_Serial(h_->y, SUNTRUE), "N_VEnableFusedOps_Serial");
   double* y = N_VGetArrayPointer(h_->y);
   double* a = N_VGetArrayPointer(h_->atol);
   for (int i = 0; i < n; ++i) {
@@ -107,14 +115,20 @@ void Cvode::ReInit(double t0_s, const double* y0) {
   t_ = t0_s;
 }
 
+void Cvode::SetMaxStep(double max_step_s) {
+  Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
+}
+
 void Cvode::SetRootDirection(std::array<int, kRoots> direction) {
   Check(CVodeSetRootDirection(h_->mem, direction.data()), "CVodeSetRootDirection");
 }
 
-Cvode::Result Cvode::Advance(double tout_s) {
+Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
+  // SUNDIALS 6.4 has no CVodeClearStopTime: "no bound" is the largest double.
+  const double tstop = std::min(tstop_s, DBL_MAX);
   while (true) {
     // The stop time is cleared by CVODE once reached: set it for every call.
-    Check(CVodeSetStopTime(h_->mem, tout_s), "CVodeSetStopTime");
+    Check(CVodeSetStopTime(h_->mem, tstop), "CVodeSetStopTime");
     realtype t = t_;
     const int flag = CVode(h_->mem, tout_s, h_->y, &t, CV_NORMAL);
     if (h_->error) {
@@ -136,7 +150,7 @@ Cvode::Result Cvode::Advance(double tout_s) {
       double t_restart = t_done;
       if (t_done == last_failure_t_) {
         if (nudged_) Check(flag, "CVode");
-        for (int k = 0; k < 16; ++k) t_restart = std::nextafter(t_restart, tout_s);
+        for (int k = 0; k < 16; ++k) t_restart = std::nextafter(t_restart, tstop);
         nudged_ = true;
       } else {
         nudged_ = false;

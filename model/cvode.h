@@ -41,16 +41,23 @@ class Cvode {
   void ReInit(double t0_s, const double* y0);
   /// Root directions (+1 rising, -1 falling, 0 both) for the three roots.
   void SetRootDirection(std::array<int, kRoots> direction);
+  /// Largest internal step, s; 0 for none.
+  void SetMaxStep(double max_step_s);
 
   enum class Result { kReached, kRoot };
   /// Integrates towards tout_s, never evaluating the right-hand side beyond
-  /// it (CVodeSetStopTime). Stops at the first root. The solution is in y().
+  /// tstop_s >= tout_s (CVodeSetStopTime; +infinity: no bound). The internal
+  /// steps may pass tout_s (up to tstop_s): the solution at tout_s is then
+  /// CVODE's interpolant (CVodeGetDky), and the integration history is kept
+  /// across outputs. Stops at the first root. The solution is in y().
   /// When CVODE gives up (repeated error-test or convergence failures, as at
   /// a jump of the forcing nobody declared) it restarts from the last step
   /// it completed (with a fresh history) and goes on; when that fails again
   /// at the same time it restarts 16 ulp later (a jump right there); it
   /// throws when that fails too.
-  Result Advance(double tout_s);
+  Result Advance(double tout_s, double tstop_s);
+  /// Advance(tout_s, tout_s): never evaluates the right-hand side beyond tout_s.
+  Result Advance(double tout_s) { return Advance(tout_s, tout_s); }
 
   /// Solver work since construction, summed over every ReInit.
   struct Stats {

@@ -1,8 +1,12 @@
 #include "model/model_node.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -66,6 +70,7 @@ void ModelNodeConfig::Validate() const {
     throw std::invalid_argument("model node option health_period_s out of range");
   }
   if (subscriber_queue < 1) throw std::invalid_argument("model node option subscriber_queue out of range");
+  if (threads < 0) throw std::invalid_argument("model node option threads out of range");
 }
 
 struct ModelNode::Variant {
@@ -74,6 +79,94 @@ struct ModelNode::Variant {
   std::string channel;
   rocklab::model_state2_t msg{};
   bool failed{};
+  bool failed_now{};   // failed at the sample being stepped (logged by the handler)
+  std::string error;   // its message
+};
+
+// Worker threads 1 .. n-1 of the variant stepping (thread 0 is the
+// handler's). A sample is a generation: Run publishes it, each worker steps
+// its variants and counts down `pending_`, Run waits for zero. Waiting spins
+// for a few microseconds (at --max the next sample comes at once) and then
+// blocks (live, samples are a millisecond apart).
+class ModelNode::Workers {
+ public:
+  Workers(ModelNode& node, int threads) : node_(node), threads_(threads) {
+    for (int w = 1; w < threads_; ++w) pool_.emplace_back([this, w] { Loop(w); });
+  }
+  ~Workers() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      quit_ = true;
+      generation_.fetch_add(1, std::memory_order_release);
+    }
+    wake_.notify_all();
+    for (std::thread& t : pool_) t.join();
+  }
+  Workers(const Workers&) = delete;
+  Workers& operator=(const Workers&) = delete;
+
+  // Steps every variant to the sample; returns when all are done.
+  void Run(double t_s, double accel, std::int64_t utime) {
+    t_s_ = t_s;
+    accel_ = accel;
+    utime_ = utime;
+    pending_.store(threads_ - 1, std::memory_order_relaxed);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      generation_.fetch_add(1, std::memory_order_release);
+    }
+    if (sleepers_.load(std::memory_order_acquire) > 0) wake_.notify_all();
+    Share(0);
+    for (int spin = 0; pending_.load(std::memory_order_acquire) > 0;) {
+      if (spin < kSpins) {
+        ++spin;
+      } else {
+        std::this_thread::yield();
+      }
+    }
+  }
+
+ private:
+  // Polls of the generation (a few microseconds) before a worker blocks.
+  static constexpr int kSpins = 4000;
+
+  void Share(int w) {
+    for (std::size_t i = static_cast<std::size_t>(w); i < node_.variants_.size();
+         i += static_cast<std::size_t>(threads_)) {
+      node_.StepVariant(i, t_s_, accel_, utime_);
+    }
+  }
+  void Loop(int w) {
+    std::uint64_t seen = 0;
+    while (true) {
+      std::uint64_t now = generation_.load(std::memory_order_acquire);
+      for (int spin = 0; now == seen && spin < kSpins; ++spin) now = generation_.load(std::memory_order_acquire);
+      if (now == seen) {
+        std::unique_lock<std::mutex> lock(mutex_);
+        sleepers_.fetch_add(1, std::memory_order_acq_rel);
+        wake_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
+        sleepers_.fetch_sub(1, std::memory_order_acq_rel);
+        now = generation_.load(std::memory_order_acquire);
+      }
+      seen = now;
+      if (quit_) return;
+      Share(w);
+      pending_.fetch_sub(1, std::memory_order_acq_rel);
+    }
+  }
+
+  ModelNode& node_;
+  const int threads_;
+  std::vector<std::thread> pool_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<int> pending_{0};
+  std::atomic<int> sleepers_{0};
+  bool quit_{false};  // written under mutex_ before the generation it ends
+  // The sample of the current generation (written before it is published).
+  double t_s_{}, accel_{};
+  std::int64_t utime_{};
 };
 
 ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus) : config_(config), bus_(bus) {
@@ -91,6 +184,9 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus) : config_(
     v->msg.l = spec.kind == ModelKind::kComplex ? spec.options.l : 0.0;
     variants_.push_back(std::move(v));
   }
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = std::min(static_cast<int>(variants_.size()), config_.threads > 0 ? config_.threads : cores);
+  if (threads > 1) workers_ = std::make_unique<Workers>(*this, threads);
   event_channel_ = config_.channel_prefix + "EVENT";
   health_channel_ = config_.channel_prefix + "HEALTH";
   last_health_host_s_ = HostNowS();
@@ -106,6 +202,7 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus) : config_(
 
 ModelNode::~ModelNode() {
   for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
+  workers_.reset();  // joins the workers before the variants go
 }
 
 std::size_t ModelNode::variant_count() const { return variants_.size(); }
@@ -195,26 +292,20 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   // Model time counts from the start: with epoch utimes (~1.7e9 s) a double
   // resolves only ~2e-7 s, and CVODE's root location would degrade with it.
   const double t_s = static_cast<double>(msg.utime - start_utime_) * 1e-6;
+  if (workers_) {
+    workers_->Run(t_s, accel, msg.utime);
+  } else {
+    for (std::size_t i = 0; i < variants_.size(); ++i) StepVariant(i, t_s, accel, msg.utime);
+  }
+  // Published from this thread, in configuration order, whoever stepped them.
   for (auto& v : variants_) {
-    if (v->failed) continue;
-    try {
-      v->model->Step(t_s, accel);
-    } catch (const std::exception& e) {
-      v->failed = true;
+    if (v->failed_now) {
+      v->failed_now = false;
       ++failures_;
-      Log()->error("variant '{}' stopped at utime {}: {}", v->spec.name, msg.utime, e.what());
+      Log()->error("variant '{}' stopped at utime {}: {}", v->spec.name, msg.utime, v->error);
       continue;
     }
-    const ModelState& st = v->model->state();
-    v->msg.utime = msg.utime;
-    v->msg.theta = st.theta;
-    v->msg.theta_dot = st.theta_dot;
-    v->msg.chi = st.chi;
-    v->msg.psi = st.psi;
-    v->msg.energy = st.energy;
-    v->msg.impact_count = st.impacts;
-    v->msg.regime = RegimeCode(st.regime);
-    v->msg.equations = EquationsCode(st.equations);
+    if (v->failed) continue;
     bus_.Publish(v->channel, v->msg);
     ++published_;
     for (const ModelEvent& e : v->model->events()) {
@@ -228,6 +319,29 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     }
     v->model->ClearEvents();
   }
+}
+
+void ModelNode::StepVariant(std::size_t i, double t_s, double accel, std::int64_t utime) {
+  Variant& v = *variants_[i];
+  if (v.failed) return;
+  try {
+    v.model->Step(t_s, accel);
+  } catch (const std::exception& e) {
+    v.failed = true;
+    v.failed_now = true;
+    v.error = e.what();
+    return;
+  }
+  const ModelState& st = v.model->state();
+  v.msg.utime = utime;
+  v.msg.theta = st.theta;
+  v.msg.theta_dot = st.theta_dot;
+  v.msg.chi = st.chi;
+  v.msg.psi = st.psi;
+  v.msg.energy = st.energy;
+  v.msg.impact_count = st.impacts;
+  v.msg.regime = RegimeCode(st.regime);
+  v.msg.equations = EquationsCode(st.equations);
 }
 
 void ModelNode::PublishHealth(const char* state) {

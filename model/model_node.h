@@ -6,8 +6,16 @@
 /// publishes RL_MODEL_<name> (model_state2_t: the state and which equations
 /// produced it) stamped with that sample's utime.
 ///
-/// Threading: single-threaded; handlers run where the bus dispatches (the
-/// caller of Run on an LcmBus; the publisher's thread on a DirectBus).
+/// Threading: handlers run where the bus dispatches (the caller of Run on an
+/// LcmBus; the publisher's thread on a DirectBus). With more than one variant
+/// and ModelNodeConfig::threads > 1, each table sample's Step of the variants
+/// is shared between that thread and threads-1 workers the node owns
+/// (variant i on thread i % threads), and the handler waits for all of them
+/// before it publishes: the messages go out from the handler's thread in
+/// configuration order, exactly as single-threaded (each variant's stepping
+/// depends on nothing but its own state and the sample). Workers wait for a
+/// sample spinning briefly, then on a condition variable; the destructor
+/// stops and joins them.
 /// Shutdown order (Run): the stop flag ends the loop; what arrived before it
 /// is dispatched (common::RunNodeLoop); Finish publishes RL_HEALTH "stopped";
 /// the destructor unsubscribes.
@@ -57,6 +65,10 @@ struct ModelNodeConfig {
   /// hiccup of a loaded machine. 4096 is ~4 s at 1 kHz, a few hundred kB at
   /// most. >= 1.
   int subscriber_queue{4096};
+  /// Threads stepping the variants (the handler's included): 0 = one per
+  /// variant up to the hardware's cores, 1 = the handler's thread alone.
+  /// >= 0.
+  int threads{0};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -94,6 +106,9 @@ class ModelNode {
 
  private:
   struct Variant;
+  class Workers;
+  // Steps variant i (on any thread): its model, its failure, its message.
+  void StepVariant(std::size_t i, double t_s, double accel, std::int64_t utime);
   void Start(const rocklab::block_state_t& theta, std::int64_t start_utime);
   void PublishHealth(const char* state);
   void PublishEvent(std::int64_t utime, std::int8_t kind, double value, const std::string& detail);
@@ -102,6 +117,7 @@ class ModelNode {
   common::Bus& bus_;  // not owned
   std::vector<common::Bus::SubscriptionId> subscriptions_;
   std::vector<std::unique_ptr<Variant>> variants_;
+  std::unique_ptr<Workers> workers_;  // null when single-threaded
   std::string event_channel_, health_channel_;
   bool started_{};
   rocklab::block_state_t last_theta_{};  // the newest RL_THETA

@@ -15,7 +15,8 @@ namespace rocklab::model::detail {
 class CvodeRockingModel : public RockingModel, protected OdeSystem {
  public:
   void Reset(double t0_s, double theta0, double theta_dot0) final;
-  void AdvanceTo(double t_s, const Forcing& forcing) final;
+  void AdvanceTo(double t_s, const Forcing& forcing) final { AdvanceAhead(t_s, forcing, t_s); }
+  void AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) final;
   const ModelState& state() const final { return state_; }
   const BlockParams& params() const final { return params_; }
   const ModelOptions& options() const final { return options_; }
@@ -71,6 +72,9 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   void UpdateState(double t_s, const double* y);
   // Sets the segment [t_from, t_to] table_accel evaluates in.
   void SetSegment(double t_from_s, double t_to_s);
+  // Advances the integrator to tout_s (stopping before tstop_s) with the
+  // step bound of the regime.
+  Cvode::Result Integrate(double tout_s, double tstop_s);
   // Restarts the integrator at a jump of the forcing at t_s.
   void RestartAtDiscontinuity(double t_s);
 
@@ -87,6 +91,7 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   double rocking_time_s_{};          // since Reset, s
   double eq10_time_s_{};             // since Reset, s
   Cvode::Stats stats_at_reset_;
+  double max_step_set_s_{-1};        // the integrator's step bound as last set, s (0: none)
   double y_[Cvode::kMaxEquations]{};  // scratch state, no allocation on the stepping path
 };
 

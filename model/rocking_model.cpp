@@ -141,7 +141,8 @@ Trajectory Simulate(RockingModel& model, const Forcing& forcing, double t0_s, do
   out.theta_dot.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
     const double t = t0_s + static_cast<double>(k) / rate_hz;
-    model.AdvanceTo(t, forcing);
+    // No stop at the outputs: they are interpolated.
+    model.AdvanceAhead(t, forcing, std::numeric_limits<double>::infinity());
     out.time_s.push_back(t);
     out.theta.push_back(model.state().theta);
     out.theta_dot.push_back(model.state().theta_dot);
@@ -224,6 +225,21 @@ SolverStats CvodeRockingModel::solver_stats() const {
   return s;
 }
 
+Cvode::Result CvodeRockingModel::Integrate(double tout_s, double tstop_s) {
+  // At rest the root functions are the forcing's: a bounded step keeps a
+  // short excursion above the uplift threshold from being stepped over.
+  // Rocking, the roots are the state's and the error test bounds the step
+  // when the integrator may step past the output (AdvanceAhead); stopping at
+  // every output (AdvanceTo, Step) keeps the cap, which changes nothing at a
+  // 1 kHz sample rate and keeps those results as they were.
+  const double max_step_s = state_.regime == Regime::kRest || !(tstop_s > tout_s) ? options_.max_step_s : 0.0;
+  if (max_step_s != max_step_set_s_) {
+    cvode_->SetMaxStep(max_step_s);
+    max_step_set_s_ = max_step_s;
+  }
+  return cvode_->Advance(tout_s, tstop_s);
+}
+
 void CvodeRockingModel::SetSegment(double t_from_s, double t_to_s) {
   const double inf = std::numeric_limits<double>::infinity();
   segment_lo_s_ = std::nextafter(t_from_s, inf);
@@ -291,10 +307,14 @@ int CvodeRockingModel::Roots(double t_s, const double* y, double* g) {
   return 0;
 }
 
-void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
+void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) {
   if (!std::isfinite(t_s) || t_s < state_.time_s) {
     throw std::invalid_argument("AdvanceTo: t_s (" + ExactText(t_s) + ") is before the current time (" +
                                 ExactText(state_.time_s) + ")");
+  }
+  if (!(horizon_s >= t_s)) {
+    throw std::invalid_argument("AdvanceAhead: horizon_s (" + ExactText(horizon_s) + ") is before t_s (" +
+                                ExactText(t_s) + ")");
   }
   forcing_ = &forcing;
   while (true) {
@@ -302,11 +322,13 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       state_.time_s = t_s;  // the state stays frozen at the overturn
       break;
     }
-    // Integrate up to t_s or the forcing's next jump, whichever comes first;
-    // at a jump the integrator restarts (its history must not span it).
+    // Output at t_s or at the forcing's next jump, whichever comes first; the
+    // integrator never steps past the jump or the horizon (t_stop), and at a
+    // jump it restarts (its history must not span it).
     const double t_jump = forcing.NextDiscontinuity(state_.time_s);
     const bool stop_at_jump = t_jump <= t_s;
-    const double t_stop = stop_at_jump ? t_jump : t_s;
+    const double t_out = stop_at_jump ? t_jump : t_s;
+    const double t_stop = std::min(t_jump, horizon_s);
     SetSegment(state_.time_s, t_stop);
     if (state_.regime == Regime::kRest) {
       if (!rest_checked_) {
@@ -321,12 +343,12 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         }
       }
       if (state_.time_s >= t_s) break;
-      const Cvode::Result r = cvode_->Advance(t_stop);
+      const Cvode::Result r = Integrate(t_out, t_stop);
       state_.time_s = cvode_->t_s();
       if (r == Cvode::Result::kReached) {
         if (!stop_at_jump) break;
         for (int i = 0; i < n_; ++i) y_[i] = 0.0;
-        RestartAtDiscontinuity(t_stop);
+        RestartAtDiscontinuity(t_out);
         continue;
       }
       const auto found = cvode_->RootsFound();
@@ -338,7 +360,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
     if (state_.time_s >= t_s) break;
     const double t_from = state_.time_s;
     const Equations equations = state_.equations;
-    const Cvode::Result r = cvode_->Advance(t_stop);
+    const Cvode::Result r = Integrate(t_out, t_stop);
     const double t = cvode_->t_s();
     rocking_time_s_ += t - t_from;
     if (equations == Equations::kEq10) eq10_time_s_ += t - t_from;
@@ -346,7 +368,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
     UpdateState(t, y_);
     if (r == Cvode::Result::kReached) {
       if (!stop_at_jump) break;
-      RestartAtDiscontinuity(t_stop);
+      RestartAtDiscontinuity(t_out);
       continue;
     }
     const auto found = cvode_->RootsFound();
@@ -362,7 +384,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
         cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
         UpdateState(t, y_);
       }
-      if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
+      if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
       continue;
     }
     // An impact.
@@ -381,7 +403,7 @@ void CvodeRockingModel::AdvanceTo(double t_s, const Forcing& forcing) {
       cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
       UpdateState(t, y_);
     }
-    if (stop_at_jump && t >= t_stop) RestartAtDiscontinuity(t);
+    if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
   }
   forcing_ = nullptr;
 }

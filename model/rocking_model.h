@@ -81,7 +81,12 @@ struct ModelOptions {
   /// complex model uses at most 1e-7 l on its (x, y) plane, where a crossing
   /// passes the origin at the distance ~ l.
   double atol{1e-12};
-  double max_step_s{1e-3};  ///< largest CVODE step, s: keeps uplift crossings of the forcing from being stepped over
+  /// Largest CVODE step, s, at rest (keeps uplift crossings of the forcing
+  /// from being stepped over) and in AdvanceTo / Step (whose outputs, every
+  /// sample, bound the step anyway). While rocking under AdvanceAhead
+  /// (Simulate) the error test alone bounds it: the root functions are then
+  /// the state's, and the cap only cost steps (docs/performance.md).
+  double max_step_s{1e-3};
   double l{kDefaultL};      ///< complex formulation: normalised conjugate momentum of psi, 1; > 0
   /// Complex formulation, opt-in approximation (0, the default: off, eq. (10)
   /// throughout). K > 0: below K V_min, V_min ~ l^(2/3) the floor of eq.
@@ -117,6 +122,15 @@ class RockingModel {
   /// the way are appended to events().
   /// @throws std::runtime_error when CVODE fails (naming the CVODE function).
   virtual void AdvanceTo(double t_s, const Forcing& forcing) = 0;
+
+  /// As AdvanceTo, but `forcing` may be evaluated up to horizon_s (>= t_s;
+  /// +infinity: anywhere): the integrator steps across t_s without stopping
+  /// there and the state at t_s is its interpolant (CVodeGetDky), so its
+  /// error control and step size carry over from one output to the next.
+  /// Successive calls must pass the same forcing (the part before the
+  /// horizon is already integrated). Simulate uses it with no horizon.
+  /// @throws as AdvanceTo.
+  virtual void AdvanceAhead(double t_s, const Forcing& forcing, double horizon_s) = 0;
 
   /// Live stepping: the table acceleration sample `table_accel_mps2` (m/s^2)
   /// at t_s; between the previous sample and this one the acceleration is

@@ -134,7 +134,7 @@ void PolarAgainstCartesian(const std::vector<double>& ls, double rtol) {
     double c0 = Cpu();
     std::string polar_ratio = "failed";
     try {
-      cvode.Advance(0.6);
+      cvode.Advance(0.6, 0.6);
       const double* y = cvode.y();
       const double theta = a * y[0] * std::cos(y[2]);
       const double theta_dot = a * (y[1] * std::cos(y[2]) - b.p * l * std::sin(y[2]) / y[0]);

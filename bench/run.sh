@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Every performance figure of docs/performance.md beside its target, in one
+# run (2-core machine: about 10 minutes, most of it the live test at real
+# time and the scipy peer):
+#
+#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,simulate,reconstruct,replay,live]
+#                     [--run-seconds 600] [--live-seconds 20] [--build build]
+#
+# Installs the bench-only dependency python3-scipy (the peer of `simulate`,
+# bench/scipy_peer.py) the way tools/setup.sh installs packages, builds the
+# two targets it runs (rocklab, rocklab_bench_log_read) in the configured
+# build folder, then runs bench/figures.py. The live figure needs root for
+# a private network namespace (unshare -n; DESIGN.md: loopback, ttl=0);
+# without one it says so and the other figures stand.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+build="$here/build"
+for ((i = 1; i <= $#; i++)); do
+  if [ "${!i}" = "--build" ]; then j=$((i + 1)); build="${!j}"; fi
+done
+sudo=""
+[ "$(id -u)" -ne 0 ] && sudo="sudo"
+if ! /usr/bin/python3 -c "import scipy" 2>/dev/null; then
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends python3-scipy
+fi
+if [ ! -f "$build/build.ninja" ]; then
+  echo "bench: no configured build in $build: run tools/setup.sh first" >&2
+  exit 2
+fi
+cmake --build "$build" -j "$(nproc)" --target rocklab rocklab_bench_log_read
+exec /usr/bin/python3 "$here/bench/figures.py" "$@"
