@@ -104,12 +104,11 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   last_theta_host_s_ = now;
   // Gaps: a forward jump of the DAQ's seq (a repeat or a step back is a
   // restart or a duplicate, counted below as out of order when its time is).
-  if (last_theta_seq_ >= 0 && msg.seq > last_theta_seq_ + 1) theta_gaps_ += msg.seq - last_theta_seq_ - 1;
+  theta_seq_.Add(msg.seq);
   if (last_theta_utime_ != INT64_MIN && msg.utime > last_theta_utime_) {
     const std::int64_t step = msg.utime - last_theta_utime_;  // the sample period: the smallest step
     if (period_us_ == 0 || step < period_us_) period_us_ = step;
   }
-  last_theta_seq_ = msg.seq;
   last_theta_utime_ = msg.utime;
   if (!measured_.empty() && msg.utime <= measured_.back().utime) {
     ++theta_out_of_order_;  // the DAQ stamps in order: a duplicate or a replay restart
@@ -227,7 +226,7 @@ void CompareNode::PublishHealth(const char* state) {
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
-  h.gaps = theta_gaps_ + model_gaps_;
+  h.gaps = theta_seq_.missing + model_gaps_;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/seq_gaps.h"
 #include "common/ring.h"
 #include "compare/comparator.h"
 #include "rocklab/block_state_t.hpp"
@@ -94,7 +95,7 @@ class CompareNode {
   /// Stale checks on the configured clock (and the periodic RL_HEALTH).
   void CheckStale();
   /// Sequence gaps seen: RL_THETA (seq), RL_MODEL_* (sample clock).
-  std::int64_t theta_gaps() const { return theta_gaps_; }
+  std::int64_t theta_gaps() const { return theta_seq_.missing; }
   std::int64_t model_gaps() const { return model_gaps_; }
   /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
   void Finish();
@@ -137,8 +138,8 @@ class CompareNode {
   // Sequence gaps (RL_HEALTH gaps): RL_THETA by its seq; RL_MODEL_* (no seq)
   // on the sample clock, a utime step over 1.5 sample periods (the period:
   // the smallest RL_THETA utime step seen).
-  std::int64_t theta_gaps_{}, model_gaps_{};
-  std::int64_t last_theta_seq_{-1};
+  common::SeqGaps theta_seq_;  // RL_THETA seq (its missing: RL_HEALTH gaps)
+  std::int64_t model_gaps_{};
   std::int64_t last_theta_utime_{INT64_MIN};
   std::int64_t period_us_{};  // 0 until two RL_THETA are seen
   double last_theta_host_s_{};

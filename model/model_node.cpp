@@ -255,8 +255,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     Log()->info("table time went back from {} to {} us: reset", last_table_utime_, msg.utime);
   }
   // Gaps: a forward jump of RL_TABLE's seq (the DAQ numbers every sample).
-  if (last_table_seq_ >= 0 && msg.seq > last_table_seq_ + 1) table_gaps_ += msg.seq - last_table_seq_ - 1;
-  last_table_seq_ = msg.seq;
+  table_seq_.Add(msg.seq);
   last_table_utime_ = msg.utime;
   ++table_count_;
   // A bad (non-finite) sample: hold the last finite acceleration, count it,
@@ -354,7 +353,7 @@ void ModelNode::PublishHealth(const char* state) {
   // Dropped: table samples before the start and messages that did not decode.
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
-  h.gaps = table_gaps_;
+  h.gaps = table_seq_.missing;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

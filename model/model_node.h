@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/seq_gaps.h"
 #include "model/block.h"
 #include "model/rocking_model.h"
 #include "model/variant.h"
@@ -102,7 +103,7 @@ class ModelNode {
   /// Table samples whose acceleration was not finite (the last finite value was held).
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
   /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
-  std::int64_t table_gaps() const { return table_gaps_; }
+  std::int64_t table_gaps() const { return table_seq_.missing; }
 
  private:
   struct Variant;
@@ -129,7 +130,7 @@ class ModelNode {
   std::int64_t bad_in_stretch_{};
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
-  std::int64_t last_table_seq_{-1}, table_gaps_{};  // RL_TABLE seq gaps (RL_HEALTH gaps)
+  common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
   double last_health_host_s_{};
 };
 

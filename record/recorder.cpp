@@ -128,17 +128,7 @@ void Recorder::WriterLoop() {
     ++c.count;
     c.bytes += ev.size;
     if (!HasSeq(ev.data, ev.size)) return;
-    const int64_t seq = GetBe64(ev.data + 16);
-    if (!c.has_seq) {
-      c.has_seq = true;
-      c.first_seq = seq;
-    } else if (seq > c.last_seq + 1) {
-      ++c.seq_gaps;
-      c.seq_missing += seq - c.last_seq - 1;
-    } else if (seq <= c.last_seq) {
-      ++c.seq_back;
-    }
-    c.last_seq = seq;
+    c.seq.Add(GetBe64(ev.data + 16));
   };
   // The file is flushed at most 100 ms after an event is written, so readers
   // of a growing log (and a test waiting for its probe) see it.
@@ -219,12 +209,12 @@ std::string SummaryJson(const RecorderStats& s) {
                         {"received", c.received},
                         {"dropped", c.dropped},
                         {"bytes", c.bytes},
-                        {"has_seq", c.has_seq},
-                        {"seq_gaps", c.seq_gaps},
-                        {"seq_missing", c.seq_missing},
-                        {"seq_back", c.seq_back}});
-    gaps += c.seq_gaps;
-    missing += c.seq_missing;
+                        {"has_seq", c.seq.any},
+                        {"seq_gaps", c.seq.gaps},
+                        {"seq_missing", c.seq.missing},
+                        {"seq_back", c.seq.back}});
+    gaps += c.seq.gaps;
+    missing += c.seq.missing;
   }
   j["seq_gaps"] = gaps;
   j["seq_missing"] = missing;

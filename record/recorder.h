@@ -36,6 +36,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/seq_gaps.h"
 #include "record/event_queue.h"
 #include "record/log_writer.h"
 
@@ -65,12 +66,9 @@ struct ChannelStats {
   int64_t count{};        ///< events written to the log
   int64_t bytes{};        ///< payload bytes written
   int64_t dropped{};      ///< received but not written (queue full, write error)
-  bool has_seq{};         ///< the type carries a sequence number
-  int64_t seq_gaps{};     ///< forward jumps of the sequence number
-  int64_t seq_missing{};  ///< sequence numbers skipped by those jumps
-  int64_t seq_back{};     ///< sequence numbers that repeated or went back
-  int64_t first_seq{};
-  int64_t last_seq{};
+  /// Sequence numbers (JSON seq_gaps, seq_missing, seq_back); `seq.any`:
+  /// the type carries one (JSON has_seq).
+  common::SeqGaps seq;
 };
 
 struct RecorderStats {

@@ -63,8 +63,8 @@ void PrintSummary(const record::RecorderStats& s) {
   std::fprintf(stderr, "  %-28s %10s %8s %8s %8s\n", "channel", "count", "dropped", "seq_gaps", "missing");
   for (const auto& c : s.channels) {
     std::fprintf(stderr, "  %-28s %10lld %8lld %8s %8s\n", c.name.c_str(), static_cast<long long>(c.count),
-                 static_cast<long long>(c.dropped), c.has_seq ? std::to_string(c.seq_gaps).c_str() : "-",
-                 c.has_seq ? std::to_string(c.seq_missing).c_str() : "-");
+                 static_cast<long long>(c.dropped), c.seq.any ? std::to_string(c.seq.gaps).c_str() : "-",
+                 c.seq.any ? std::to_string(c.seq.missing).c_str() : "-");
   }
 }
 

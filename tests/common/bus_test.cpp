@@ -14,6 +14,7 @@
 #include "common/lcm_log.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
+#include "tests/scratch.h"
 
 namespace rocklab::common {
 namespace {
@@ -118,7 +119,7 @@ TEST(LcmBus, GuardedDecodeOnLcmDispatch) {
 // utime raised to keep the stamps in order, and still delivers it.
 TEST(LogWritingBus, WritesEveryPublishedMessageWithStampsInOrder) {
   const std::string path =
-      (std::filesystem::temp_directory_path() / "rocklab_bus_test_log.lcm").string();
+      test::ScratchDir("bus_test") + "/log.lcm";
   DirectBus direct;
   int delivered = 0;
   direct.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++delivered; });

@@ -3,6 +3,7 @@
 // damaged regions (a flipped sync bit, an impossible length, a cut tail)
 // skipped, counted and reported with their offsets.
 #include "common/lcm_log.h"
+#include "tests/scratch.h"
 
 #include <gtest/gtest.h>
 
@@ -17,8 +18,7 @@ namespace rocklab::common {
 namespace {
 
 std::string Scratch(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "rocklab_lcm_log_test";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = test::ScratchDir("lcm_log_test");
   return (dir / name).string();
 }
 

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 
 namespace rocklab::compare {
 namespace {
@@ -141,15 +143,39 @@ TEST(Comparator, WindowCapacityIsABound) {
   EXPECT_NEAR(c.metrics().rms_window, 0.5, 1e-12);
 }
 
+// Oracle: ComparatorOptions' documented ranges, each of its four checks on
+// its own (every other option at its default), at and beyond the boundary;
+// the message names the option.
 TEST(Comparator, BadOptionsThrowNamingTheOption) {
-  ComparatorOptions o;
-  o.window_s = -1;
-  try {
-    Comparator c(o);
-    FAIL() << "no throw";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("window_s"), std::string::npos);
+  struct Case {
+    const char* name;
+    void (*set)(ComparatorOptions&);
+  };
+  const Case bad[] = {
+      {"window_s", [](ComparatorOptions& o) { o.window_s = -1; }},
+      {"window_s", [](ComparatorOptions& o) { o.window_s = 0; }},
+      {"window_s", [](ComparatorOptions& o) { o.window_s = std::nan(""); }},
+      {"max_window_samples", [](ComparatorOptions& o) { o.max_window_samples = 1; }},
+      {"crossing_hysteresis_rad", [](ComparatorOptions& o) { o.crossing_hysteresis_rad = -1e-3; }},
+      {"crossing_hysteresis_rad", [](ComparatorOptions& o) { o.crossing_hysteresis_rad = INFINITY; }},
+      {"crossing_match_s", [](ComparatorOptions& o) { o.crossing_match_s = 0; }},
+      {"crossing_match_s", [](ComparatorOptions& o) { o.crossing_match_s = std::nan(""); }},
+  };
+  for (const Case& c : bad) {
+    ComparatorOptions o;
+    c.set(o);
+    try {
+      Comparator comparator(o);
+      ADD_FAILURE() << c.name << ": no throw";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(c.name), std::string::npos) << e.what();
+    }
   }
+  // The boundaries the ranges allow.
+  ComparatorOptions edge;
+  edge.max_window_samples = 2;
+  edge.crossing_hysteresis_rad = 0;
+  EXPECT_NO_THROW(edge.Validate());
 }
 
 }  // namespace

@@ -22,8 +22,10 @@
 #include "daq/rig_simulator.h"
 #include "rocklab/health_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/tools/log_count.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/skip.h"
 
 namespace rocklab::daq {
 namespace {
@@ -213,22 +215,22 @@ TEST(SynthReconstruct, LvmWithDecimalCommaGivesTheSameResultAsCsv) {
 TEST(SynthReconstruct, BadOptionsAndInputsExitWithUsageErrors) {
   std::string err;
   EXPECT_EQ(Rocklab("synth --rig " + test::LabRigPath() + " " + kScenario +
-                        " --slip 3mm --out /tmp/x.csv --truth /tmp/y.csv",
+                        " --slip 3mm --out " + test::ScratchDir() + "/x.csv --truth " + test::ScratchDir() + "/y.csv",
                     &err),
             2);
   EXPECT_EQ(err, "rocklab: --slip must be SIZE@TIME_S (e.g. 0.003@2.5), got '3mm'\n");
   EXPECT_EQ(Rocklab("synth --rig " + test::LabRigPath() +
-                        " --alpha 0.2 --p 3 --mu 0.9 --duration 1 --rate 500 --out /tmp/x.csv "
-                        "--truth /tmp/y.csv",
+                        " --alpha 0.2 --p 3 --mu 0.9 --duration 1 --rate 500 --out " + test::ScratchDir() + "/x.csv "
+                        "--truth " + test::ScratchDir() + "/y.csv",
                     &err),
             2);
   EXPECT_EQ(err.rfind("rocklab: --rate must be the rig's sample_rate_hz", 0), 0u) << err;
-  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input /nonexistent.csv --out /tmp/z.csv", &err), 2);
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input /nonexistent.csv --out " + test::ScratchDir() + "/z.csv", &err), 2);
   EXPECT_EQ(err, "rocklab: --input: /nonexistent.csv: cannot open the input file\n");
   const std::string wrong = test::WriteFile("wrong.csv", "time,mirror_s\n0,1\n");
-  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + wrong + " --out /tmp/z.csv", &err), 2);
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + wrong + " --out " + test::ScratchDir() + "/z.csv", &err), 2);
   EXPECT_NE(err.find("channel 'mirror_n' (sensor 'mirror.n') is not in " + wrong), std::string::npos) << err;
-  EXPECT_EQ(Rocklab("reconstruct --rig /nonexistent.toml --input " + wrong + " --out /tmp/z.csv", &err), 2);
+  EXPECT_EQ(Rocklab("reconstruct --rig /nonexistent.toml --input " + wrong + " --out " + test::ScratchDir() + "/z.csv", &err), 2);
   EXPECT_EQ(err, "rocklab: --rig: /nonexistent.toml: cannot open the rig file\n");
 }
 
@@ -245,11 +247,11 @@ TEST(SynthReconstruct, UnusableInputsExitNonZeroNamingTheFile) {
   }
   const std::string bad = test::WriteFile("allbad.csv", header + "\n" + row + "\n" + row + "\n");
   std::string err;
-  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + bad + " --out /tmp/z.csv", &err), 1);
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + bad + " --out " + test::ScratchDir() + "/z.csv", &err), 1);
   EXPECT_NE(err.find("rocklab: " + bad + ": none of the 2 data rows could be used"), std::string::npos) << err;
   const std::string dir = test::ScratchDir() + "/folder.csv";
   ASSERT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
-  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + dir + " --out /tmp/z.csv", &err), 2);
+  EXPECT_EQ(Rocklab("reconstruct --rig " + test::LabRigPath() + " --input " + dir + " --out " + test::ScratchDir() + "/z.csv", &err), 2);
   EXPECT_NE(err.find(dir + ": read error after line 0"), std::string::npos) << err;
   // The same input through the DaqNode (`run`, `daq`): the read ends with
   // kError, the nodes shut down in order, the command exits 1 naming the file.
@@ -272,7 +274,7 @@ namespace {
 TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   const std::string raw = Synth("daq.csv", "--seed 2");  // 3 s of data
   const std::string why = rocklab::test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
+  if (!why.empty()) ROCKLAB_SKIP(why);
   const std::string log = test::ScratchDir() + "/daq.lcmlog";
   const pid_t logger = rocklab::test::StartRecorder(log, "RL_RAW|RL_HEALTH");
   ASSERT_GT(logger, 0) << "rocklab record did not start";
@@ -280,7 +282,11 @@ TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
       {"daq", "--rig", test::LabRigPath(), "--input", raw, "--speed", "1", "--lcm-url",
        rocklab::test::kUdpmUrl},
       test::ScratchDir() + "/daq.out", test::ScratchDir() + "/daq.err");
-  std::this_thread::sleep_for(std::chrono::seconds(1));  // about a third of the file
+  // SIGINT once 300 frames are in the log (0.3 s of the 3 s file on the
+  // sample clock; the recorder flushes within 100 ms), not after a fixed
+  // sleep; 2.6 s of margin before the file would end by itself.
+  EXPECT_TRUE(rocklab::test::WaitUntil([&] { return rocklab::test::CountLogEvents(log, "RL_RAW") >= 300; }))
+      << "rocklab daq did not publish 300 frames within 60 s";
   EXPECT_EQ(rocklab::test::StopProcess(daq, SIGINT), 0);
   EXPECT_EQ(rocklab::test::StopRecorder(logger, log), 0);
 

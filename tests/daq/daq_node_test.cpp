@@ -30,6 +30,7 @@
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/skip.h"
 
 namespace rocklab::daq {
 namespace {
@@ -95,30 +96,44 @@ struct Collector {
   }
 };
 
-// Runs the node on memq:// and collects everything it published.
-std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& input, double speed,
-                                     std::atomic<bool>& stop, DaqNodeStats* stats = nullptr,
-                                     int stop_after_ms = -1) {
-  common::LcmBus lcm("memq://");
-  auto c = std::make_unique<Collector>();
-  c->Subscribe(lcm);
+DaqNodeConfig ConfigFor(const RigConfig& rig, const std::string& input, double speed) {
   DaqNodeConfig config;
   config.rig = rig;
   config.input = input;
   config.speed = speed;
-  DaqNode node(config, lcm);
-  std::thread stopper;
-  if (stop_after_ms >= 0) {
-    stopper = std::thread([&stop, stop_after_ms] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(stop_after_ms));
-      stop = true;
-    });
-  }
+  return config;
+}
+
+// Runs the node on memq:// and collects everything it published.
+std::unique_ptr<Collector> RunOnMemq(const RigConfig& rig, const std::string& input, double speed,
+                                     std::atomic<bool>& stop, DaqNodeStats* stats = nullptr) {
+  common::LcmBus lcm("memq://");
+  auto c = std::make_unique<Collector>();
+  c->Subscribe(lcm);
+  DaqNode node(ConfigFor(rig, input, speed), lcm);
   node.Run(stop);
-  if (stopper.joinable()) stopper.join();
   while (lcm.HandleTimeout(0) > 0) {
   }
   if (stats != nullptr) *stats = node.stats();
+  return c;
+}
+
+// Runs the node on a DirectBus (handlers called as it publishes) and sets
+// `stop` when its `stop_at_raw`-th RL_RAW is published: a stop in the middle
+// of the input on a condition, never after a fixed sleep.
+std::unique_ptr<Collector> RunOnDirectBusUntil(const RigConfig& rig, const std::string& input,
+                                               double speed, std::int64_t stop_at_raw,
+                                               std::atomic<bool>& stop, DaqNodeStats* stats) {
+  common::DirectBus bus;
+  auto c = std::make_unique<Collector>();
+  c->Subscribe(bus);
+  std::int64_t raw = 0;
+  bus.SubscribeRaw("RL_RAW", [&raw, &stop, stop_at_raw](const std::string&, const void*, int) {
+    if (++raw >= stop_at_raw) stop = true;
+  });
+  DaqNode node(ConfigFor(rig, input, speed), bus);
+  node.Run(stop);
+  *stats = node.stats();
   return c;
 }
 
@@ -228,11 +243,11 @@ TEST(DaqNode, StopFlagEndsTheRunAndPublishesWhatWasRead) {
   const std::string input = MakeRawCsv(rig, "stop.csv", 5.0);
   std::atomic<bool> stop{false};
   DaqNodeStats stats;
-  // Real time: 5 s of data, stopped after 0.3 s.
-  const auto c = RunOnMemq(rig, input, 1.0, stop, &stats, 300);
+  // Real time: 5 s of data, stopped at its 300th frame (0.3 s of the sample
+  // clock). The node checks the stop between frames: it reads no frame after it.
+  const auto c = RunOnDirectBusUntil(rig, input, 1.0, 300, stop, &stats);
   EXPECT_TRUE(stats.stopped_early);
-  EXPECT_GT(stats.frames_read, 0);
-  EXPECT_LT(stats.frames_read, 2000);
+  EXPECT_EQ(stats.frames_read, 300);
   EXPECT_EQ(static_cast<int64_t>(c->raw.size()), stats.frames_read);
   // Every frame read is reconstructed, the delayed tail flushed.
   EXPECT_EQ(static_cast<int64_t>(c->theta.size()), stats.frames_read);
@@ -325,7 +340,7 @@ TEST(DaqNode, UdpmInAPrivateNamespaceRecordedDecodesToTheSameFrames) {
   int status = 0;
   waitpid(child, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
-  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "no private network namespace (needs root): udpm test skipped";
+  if (WEXITSTATUS(status) == 77) ROCKLAB_SKIP("no private network namespace (needs root): udpm test skipped");
   EXPECT_EQ(WEXITSTATUS(status), 0) << "see the child's messages above";
 }
 

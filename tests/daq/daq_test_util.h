@@ -13,21 +13,15 @@
 #include "daq/processor.h"
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
+#include "tests/scratch.h"
 
 namespace rocklab::daq::test {
 
 inline std::string LabRigPath() { return std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml"; }
 
-/// A scratch directory unique to this process, removed by nobody (under /tmp).
-inline std::string ScratchDir() {
-  static const std::string dir = [] {
-    std::string d = "/tmp/rocklab_daq_test_" + std::to_string(::getpid());
-    std::string cmd = "mkdir -p " + d;
-    if (std::system(cmd.c_str()) != 0) std::abort();
-    return d;
-  }();
-  return dir;
-}
+/// The daq tests' scratch folder (tests/scratch.h: unique to the build tree
+/// and the process).
+inline std::string ScratchDir() { return rocklab::test::ScratchDir("daq"); }
 
 inline std::string WriteFile(const std::string& name, const std::string& text) {
   const std::string path = ScratchDir() + "/" + name;

@@ -12,6 +12,7 @@
 #include "common/lcm_log.h"
 #include "daq/source.h"
 #include "rocklab/raw_frame_t.hpp"
+#include "tests/scratch.h"
 
 namespace rocklab::daq {
 namespace {
@@ -41,8 +42,7 @@ std::vector<std::int64_t> WriteLog(const std::string& path) {
 // Oracle: the four frames written: 0 and 2 are read, 1 is a bad row, 3 is
 // lost in a damaged region at its offset (its sync word flipped).
 TEST(LcmLogSource, HostileCountIsABadRowAndDamageIsReportedWithItsOffset) {
-  const auto dir = std::filesystem::temp_directory_path() / "rocklab_lcm_log_source_test";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = rocklab::test::ScratchDir("lcm_log_source_test");
   const std::string path = (dir / "raw.lcm").string();
   const std::vector<std::int64_t> offsets = WriteLog(path);
   {

@@ -1,6 +1,7 @@
 // Tests of model/block.h. Oracle: the paper's Table 1 (as corrected by
 // ERRATA items 1 and 9) and closed forms for a rectangle.
 #include "model/block.h"
+#include "tests/scratch.h"
 
 #include <gtest/gtest.h>
 
@@ -150,8 +151,7 @@ TEST(BlockTest, SymmetricSectionReducesToErrataItem8) {
 }
 
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const auto dir = std::filesystem::temp_directory_path() / "rocklab_block_test";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = test::ScratchDir("block_test");
   const std::string path = (dir / name).string();
   std::ofstream(path) << text;
   return path;

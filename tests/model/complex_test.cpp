@@ -5,6 +5,7 @@
 // opt-in l -> 0 hand-off being opt-in and reported.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -102,6 +103,52 @@ TEST(ComplexDefaultTest, EnergyRatioAcrossOneImpact) {
   std::printf("energy ratio %.8f, mu^(2/w) %.8f, mu^2 %.8f\n", ratio, limit, mu * mu);
   EXPECT_NEAR(ratio / limit, 1.0, 2e-6);
   EXPECT_NEAR(ratio / (mu * mu), 1.0, 1e-4);
+}
+
+// Oracle: the energy decay of free rocking as the per-impact ratio above,
+// impact after impact: the energy just before impact n+1 over the energy
+// just before impact n is mu^(2/w) (ERRATA item 3: each passage multiplies
+// the energy by mu^(2/w) -> mu^2 as l -> 0), for the first six impacts of a
+// release from alpha/2, so E_6 = E_0 mu^(12/w) within the sum of the six.
+// Between impacts eq. (10)'s damping term only removes energy
+// (dE/dt = (2 ln mu / pi) l chi_dot^2 / chi^2 <= 0 without table motion): the
+// energy sampled every 2 ms does not grow beyond the integration error.
+// TOLERANCE: 1e-4 relative per impact, the bound of the one-impact
+// test: the finite-l error grows as the rocking decays (ERRATA item 4:
+// "later impacts drift more"; measured 5e-7 at the first impact, 7e-5 at
+// the sixth, printed below). Growth between samples at most 1e-6 of E_0,
+// 5x the integration error measured across one impact (2.1e-7, above;
+// measured here 1e-7).
+TEST(ComplexDefaultTest, EnergyDecaysByTheImpactRatioAtEveryImpactAndNeverGrows) {
+  const double a = kBlock1.alpha;
+  const double q = std::pow(kBlock1.mu, 2 / W(kBlock1.mu));
+  auto m = RockingModel::Create(ModelKind::kComplex, kBlock1);
+  m->Reset(0.0, a / 2, 0.0);
+  const double e0 = std::cos(a / 2) - std::cos(a);
+  std::vector<double> before_impact{e0};  // energy at the start, then just before each impact n+1
+  double last = m->state().energy;
+  int impacts = 0;
+  double worst_growth = 0.0;
+  for (int k = 1; k <= 2000 && before_impact.size() < 7; ++k) {
+    const double prev = last;
+    m->AdvanceTo(k * 2e-3, kNone);
+    last = m->state().energy;
+    if (m->state().impacts > impacts) {
+      if (impacts >= 1) before_impact.push_back(prev);
+      impacts = m->state().impacts;
+    } else {
+      worst_growth = std::max(worst_growth, (last - prev) / e0);
+    }
+  }
+  ASSERT_EQ(before_impact.size(), 7u);
+  for (std::size_t n = 1; n < before_impact.size(); ++n) {
+    const double ratio = before_impact[n] / before_impact[n - 1];
+    std::printf("impact %zu: energy ratio / mu^(2/w) - 1 = %.2e\n", n, ratio / q - 1);
+    EXPECT_NEAR(ratio / q, 1.0, 1e-4) << "impact " << n;
+  }
+  EXPECT_NEAR(before_impact[6] / (e0 * std::pow(q, 6)), 1.0, 6e-4);
+  std::printf("largest energy growth between samples: %.2e of E0\n", worst_growth);
+  EXPECT_LE(worst_growth, 1e-6);
 }
 
 // Oracle: the same exact crossing turns the line of the motion by pi / w,

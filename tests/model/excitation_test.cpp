@@ -1,6 +1,7 @@
 // Tests of model/excitation.h. Oracles: closed forms, finite differences of
 // the displacement, and the documented error messages.
 #include "model/excitation.h"
+#include "tests/scratch.h"
 
 #include <gtest/gtest.h>
 
@@ -133,8 +134,10 @@ TEST(ExcitationTest, SampledAccelerationIsLinearAndZeroOutside) {
   }
 }
 
+std::string ScratchPrefix() { return test::ScratchDir("excitation_test") + "/"; }
+
 std::string CsvError(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
+  const std::string path = ScratchPrefix() + name;
   std::ofstream(path) << text;
   try {
     ReadAccelerationCsv(path);
@@ -148,14 +151,14 @@ std::string CsvError(const std::string& name, const std::string& text) {
 
 // ORACLE: the contract "FILE:LINE: ..." for each kind of bad file.
 TEST(ExcitationTest, CsvReaderNamesFileAndLine) {
-  const std::string path = ::testing::TempDir() + "good.csv";
+  const std::string path = ScratchPrefix() + "good.csv";
   std::ofstream(path) << "time,accel\n0,0\n0.5,1\n1.0,-1\n";
   const SampledAcceleration s = ReadAccelerationCsv(path);
   EXPECT_DOUBLE_EQ(s.TableAcceleration(0.75), 0.0);
   EXPECT_EQ(s.end_s(), 1.0);
   std::remove(path.c_str());
 
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = ScratchPrefix();
   EXPECT_EQ(CsvError("ragged.csv", "time,accel\n0,1\n1,2,3\n"),
             dir + "ragged.csv:3: expected 2 fields (time,accel), got '1,2,3'");
   EXPECT_NE(CsvError("text.csv", "time,accel\n0,1\n1,abc\n").find("text.csv:3: accel 'abc'"), std::string::npos);
@@ -196,7 +199,7 @@ TEST(ExcitationTest, ForcingSumAddsAnyKindOfPart) {
 // around fields allowed, every row's own line number kept; bad bytes are
 // quoted escaped (one ASCII line whatever the file holds).
 TEST(ExcitationTest, CsvReaderSkipsCommentsAndKeepsLines) {
-  const std::string path = ::testing::TempDir() + "commented.csv";
+  const std::string path = ScratchPrefix() + "commented.csv";
   std::ofstream(path) << "# table record\n\n time , accel \n0, 0.5\n# pause\n0.25 ,-1\n";
   const AccelerationRows rows = ReadAccelerationRows(path);
   EXPECT_EQ(rows.time_s, (std::vector<double>{0.0, 0.25}));

@@ -17,6 +17,7 @@
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/model/fit_synthetic.h"
+#include "tests/scratch.h"
 
 namespace rocklab::test {
 namespace {
@@ -31,8 +32,7 @@ const BlockParams kBlock1{0.235, 3.884, 0.937};
 const model::FitGeometry kBlock1Geometry{0.247, 1.0, 0.0};
 
 std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "rocklab_fit_test";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = test::ScratchDir("fit_test");
   return (dir / name).string();
 }
 

@@ -12,6 +12,7 @@
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "tests/scratch.h"
 
 namespace rocklab::model {
 namespace {
@@ -184,7 +185,7 @@ TEST(ModelNode, VariantSyntax) {
   EXPECT_EQ(a.kind, ModelKind::kComplex);
   EXPECT_EQ(a.params.alpha, 0.2);
   EXPECT_EQ(a.options.l, 1e-4);
-  const std::string json = "model_node_test_params.json";
+  const std::string json = test::ScratchDir("model_node_test") + "/params.json";
   std::ofstream(json) << R"({"alpha": 0.311, "p": 4.633, "mu": 0.926, "alpha_stderr": 0.001})";
   const VariantSpec b = ParseVariant("b:housner:" + json, std::nullopt);
   EXPECT_EQ(b.params.p, 4.633);

@@ -25,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/tools/run_cli.h"
+#include "tests/skip.h"
 
 namespace rocklab::monitor {
 namespace {
@@ -47,11 +48,11 @@ bool SameAtSixDigits(const std::string& shown, double exact) {
 
 TEST(MonitorBrowser, PageShowsTheReplayAndTheComparatorsNumbers) {
   if (access(kChromium, X_OK) != 0) {
-    GTEST_SKIP() << "no " << kChromium << " (Debian package chromium; tools/test.sh installs it): "
-                 << "browser test skipped";
+    ROCKLAB_SKIP(std::string("no ") + kChromium +
+                 " (Debian package chromium; tools/test.sh installs it): browser test skipped");
   }
   if (std::system("unshare -n true 2>/dev/null") != 0) {
-    GTEST_SKIP() << "no private network namespace (needs root): browser test skipped";
+    ROCKLAB_SKIP("no private network namespace (needs root): browser test skipped");
   }
   const std::string dir = test::ScratchDir("monitor_browser");
   const std::string artifacts = ROCKLAB_ARTIFACT_DIR;

@@ -23,7 +23,9 @@
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/table_state_t.hpp"
+#include "tests/pipeline/node_inputs.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/skip.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -83,24 +85,13 @@ class Burst {
   std::atomic<bool> stop_{false};
 };
 
-// Sample k of a 1 kHz stream on `channel`: utime and seq set, the rest zero.
+using test::OneHousnerVariant;
+
+// Sample k of a 1 kHz stream on `channel` (tests/pipeline/node_inputs.h).
 template <class Msg>
 void PublishSample(lcm::LCM& out, const std::string& channel, int k) {
-  Msg msg{};
-  msg.utime = 1000 * static_cast<std::int64_t>(k);
-  msg.seq = k;
+  const Msg msg = test::Sample<Msg>(k);
   out.publish(channel, &msg);
-}
-
-// One Housner variant of the lab block (alpha rad, p rad/s, mu).
-model::ModelNodeConfig OneHousnerVariant() {
-  model::ModelNodeConfig config;
-  model::VariantSpec v;
-  v.name = "h";
-  v.kind = model::ModelKind::kHousner;
-  v.params = {0.245, 3.78, 0.91};
-  config.variants = {v};
-  return config;
 }
 
 // The model node's burst: one RL_THETA at rest, then 1 kHz table samples of
@@ -116,7 +107,7 @@ class NodeQueue : public ::testing::Test {
  protected:
   void SetUp() override {
     const std::string why = test::EnterPrivateNetwork();
-    if (!why.empty()) GTEST_SKIP() << why;
+    if (!why.empty()) ROCKLAB_SKIP(why);
     bus_ = std::make_unique<common::LcmBus>(std::string(test::kUdpmUrl) + "&recv_buf_size=4194304");
   }
   std::unique_ptr<common::LcmBus> bus_;

@@ -19,6 +19,7 @@
 
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "tests/tools/log_count.h"
 #include "tests/tools/run_cli.h"
 
 namespace rocklab::pipeline {
@@ -196,7 +197,12 @@ TEST(RocklabRun, SigtermExitsZeroAfterFinalHealth) {
           kFig7.c_str(), "--speed", "1", "--log", log.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // SIGTERM once the log holds 600 frames (0.6 s of the sample clock; the
+  // --log is written as the run goes), not after a fixed sleep: on a loaded
+  // machine the run may take seconds to start. The 7 s input leaves 6 s of
+  // margin before the run would end by itself.
+  EXPECT_TRUE(test::WaitUntil([&] { return test::CountLogEvents(log, "RL_RAW") >= 600; }))
+      << "the run did not log 600 frames within 60 s";
   ASSERT_EQ(kill(pid, SIGTERM), 0);
   int status = 0;
   ASSERT_EQ(waitpid(pid, &status, 0), pid);
@@ -223,7 +229,7 @@ TEST(RocklabRun, SigtermExitsZeroAfterFinalHealth) {
   }
   EXPECT_LT(last_index["daq"], last_index["model"]);
   EXPECT_LT(last_index["model"], last_index["compare"]);
-  EXPECT_GT(raw, 500);   // ran about 1.5 s ...
+  EXPECT_GE(raw, 600);   // ran at least until the wait saw 600 frames ...
   EXPECT_LT(raw, 6000);  // ... of the 7 s input
   EXPECT_EQ(last["daq"].count_in, raw);  // every frame read was published
   EXPECT_NE(test::ReadFile(out).find("housner"), std::string::npos);  // summary printed

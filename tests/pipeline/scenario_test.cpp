@@ -10,6 +10,7 @@
 #include <string>
 
 #include "pipeline/option_error.h"
+#include "tests/scratch.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -27,7 +28,7 @@ ScenarioOptions Block1() {
 // Oracle: the documented sum (--excitation and --accel add) against the
 // parts built on their own.
 TEST(Scenario, ExcitationAndRecordAdd) {
-  const std::string csv = ::testing::TempDir() + "scenario_accel.csv";
+  const std::string csv = test::ScratchDir("scenario_test") + "/" + "scenario_accel.csv";
   std::ofstream(csv) << "time,accel\n0,0\n1,2\n";
   ScenarioOptions o = Block1();
   o.excitations = {"sine:amp=0.006,freq=2,duration=3"};
@@ -52,7 +53,7 @@ TEST(Scenario, BadValuesNameTheOption) {
     EXPECT_NE(std::string(e.what()).find("--alpha"), std::string::npos);
   }
   o = Block1();
-  o.accel_csv = ::testing::TempDir() + "no_such_accel.csv";
+  o.accel_csv = test::ScratchDir("scenario_test") + "/" + "no_such_accel.csv";
   try {
     BuildScenario(o);
     FAIL();

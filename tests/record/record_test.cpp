@@ -298,13 +298,13 @@ TEST(RecorderTest, CountsChannelsAndSequenceGapsOverMemq) {
   EXPECT_EQ(s.channels[0].count, 8);
   EXPECT_EQ(s.channels[0].received, 8);
   EXPECT_EQ(s.channels[0].dropped, 0);
-  EXPECT_TRUE(s.channels[0].has_seq);
-  EXPECT_EQ(s.channels[0].seq_gaps, 2);     // 2 -> 5 and 4 -> 7
-  EXPECT_EQ(s.channels[0].seq_missing, 4);
-  EXPECT_EQ(s.channels[0].seq_back, 2);     // 6 again, then 4
+  EXPECT_TRUE(s.channels[0].seq.any);
+  EXPECT_EQ(s.channels[0].seq.gaps, 2);     // 2 -> 5 and 4 -> 7
+  EXPECT_EQ(s.channels[0].seq.missing, 4);
+  EXPECT_EQ(s.channels[0].seq.back, 2);     // 6 again, then 4
   EXPECT_EQ(s.channels[1].name, "RL_EVENT");
   EXPECT_EQ(s.channels[1].count, 8);
-  EXPECT_FALSE(s.channels[1].has_seq);
+  EXPECT_FALSE(s.channels[1].seq.any);
   EXPECT_EQ(s.events, 16);
   EXPECT_EQ(s.dropped, 0);
   ASSERT_EQ(s.files, std::vector<std::string>{o.out_path});
@@ -352,13 +352,13 @@ TEST(RecorderTest, EveryEventIsWrittenOrCounted) {
   const ChannelStats& c = s.channels[0];
   std::printf("burst: %lld written, %lld dropped, %lld gaps, queue high water %zu of %zu bytes\n",
               static_cast<long long>(c.count), static_cast<long long>(c.dropped),
-              static_cast<long long>(c.seq_gaps), s.queue_high_water_bytes, s.queue_bytes);
+              static_cast<long long>(c.seq.gaps), s.queue_high_water_bytes, s.queue_bytes);
   EXPECT_EQ(c.received, n);
   EXPECT_EQ(c.count + c.dropped, n);
   // The recorder's own drops show in the sequence numbers: before the first
   // written, in the gaps, after the last.
   if (c.count > 0) {
-    EXPECT_EQ(c.first_seq + c.seq_missing + (n - 1 - c.last_seq), c.dropped);
+    EXPECT_EQ(c.seq.first + c.seq.missing + (n - 1 - c.seq.last), c.dropped);
   }
   int64_t in_log = 0, last = -1;
   for (const auto& f : s.files) {

@@ -4,6 +4,7 @@
 #include <signal.h>
 
 #include <chrono>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,6 +16,8 @@
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/skip.h"
+#include "tests/tools/log_count.h"
 
 namespace rocklab::test {
 namespace {
@@ -37,7 +40,7 @@ std::string EncodeRaw(int64_t seq) {
 // count one gap of 5, drop nothing, and name its files LOG's stem.NNNN.lcm.
 TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
   const std::string why = EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
+  if (!why.empty()) ROCKLAB_SKIP(why);
   const std::string dir = ScratchDir("record_udpm");
   const std::string log = dir + "/rec.lcm", summary = dir + "/rec.json";
   const pid_t pid = StartCli({"record", log, "--channels", "RL_.*", "--rotate-size", "500000", "--summary", summary,
@@ -56,7 +59,16 @@ TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
     lcm.publish("NOT_RECORDED", "x", 1);
     if (seq % 10 == 9) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the datagrams reach the socket
+  // SIGINT once every frame sent is in the log files (the recorder flushes
+  // within 100 ms), not after a fixed sleep; a frame the recorder lost makes
+  // the wait end at its deadline and the counts below say so.
+  WaitUntil([&] {
+    std::int64_t written = 0;
+    for (const auto& f : std::filesystem::directory_iterator(dir)) {
+      if (f.path().extension() == ".lcm") written += CountLogEvents(f.path().string(), "RL_RAW");
+    }
+    return written >= n - 5;
+  });
   EXPECT_EQ(StopProcess(pid, SIGINT), 0) << ReadFile(dir + "/err");
   const auto j = nlohmann::json::parse(ReadFile(summary));
   ASSERT_EQ(j["channels"].size(), 2u) << j.dump();

@@ -13,6 +13,7 @@
 #include "common/lcm_log.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
+#include "tests/scratch.h"
 
 namespace rocklab::report {
 namespace {
@@ -49,8 +50,7 @@ std::vector<std::int64_t> WriteRecord(const std::string& path) {
 }
 
 std::string Scratch(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "rocklab_record_report_test";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = test::ScratchDir("record_report_test");
   return (dir / name).string();
 }
 

@@ -10,6 +10,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <chrono>
+#include <memory>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,7 @@
 #include "rocklab/event_t.hpp"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/skip.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -52,6 +54,16 @@ std::vector<std::string> Play(const std::string& path, const ReplayOptions& o, R
   std::atomic<bool> stop{false};
   *counts = ReplayLog(path, o, bus, stop);
   return got;
+}
+
+// Sets `stop` when the n-th event is published on `bus` (a DirectBus
+// delivers on the publisher's thread: the replay sees the stop before its
+// next event). A condition, not a sleep.
+void StopAtEvent(common::DirectBus& bus, std::atomic<bool>& stop, std::int64_t n) {
+  auto count = std::make_shared<std::int64_t>(0);  // shared: owned by the handler
+  bus.SubscribeRaw(".*", [count, &stop, n](const std::string&, const void*, int) {
+    if (++*count >= n) stop.store(true);
+  });
 }
 
 // Oracle: the log as written: every event, in order, payload unchanged.
@@ -94,14 +106,13 @@ TEST(Replay, LoopPlaysAgainUntilStopped) {
   o.end_s = 0.045;  // events 0..4
   common::DirectBus lcm;
   std::atomic<bool> stop{false};
-  std::thread stopper([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    stop.store(true);
-  });
+  // The stop comes with the first event of the fourth pass (5 events a
+  // pass), not after a fixed time: the DirectBus delivers on the replay's
+  // own thread, so the count is exact however loaded the machine is.
+  StopAtEvent(lcm, stop, 3 * 5 + 1);
   const ReplayCounts n = ReplayLog(WriteLog("loop.lcm"), o, lcm, stop);
-  stopper.join();
-  EXPECT_GE(n.passes, 3);
-  EXPECT_GE(n.published, 10);
+  EXPECT_EQ(n.passes, 4);
+  EXPECT_EQ(n.published, 16);
 }
 
 // Oracle: the pace: 290 ms of log at speed 2 cannot take less than 145 ms
@@ -197,12 +208,8 @@ TEST(Replay, EveryLoopPassPublishesTheStartOfTestConfig) {
   o.loop = true;
   common::DirectBus lcm;
   std::atomic<bool> stop{false};
-  std::thread stopper([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    stop.store(true);
-  });
+  StopAtEvent(lcm, stop, 3 * (2 + 200 + 155) + 1);  // the first event of the fourth pass
   const ReplayCounts n = ReplayLog(WriteDemoLikeLog("loop_config.lcm", 200), o, lcm, stop);
-  stopper.join();
   ASSERT_GE(n.passes, 3);
   EXPECT_GE(n.per_channel.at("RL_DAQ_CONFIG"), n.passes - 1);
   EXPECT_LE(n.per_channel.at("RL_DAQ_CONFIG"), n.passes);
@@ -329,7 +336,7 @@ TEST(ReplayRaw, PublishesWhatTheDaqStageOfRunPublishes) {
       {"run", "--rig", kLabRig, "--input", kFreeRocking, "--max", "--log", run_log});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const std::string why = test::EnterPrivateNetwork();
-  if (!why.empty()) GTEST_SKIP() << why;
+  if (!why.empty()) ROCKLAB_SKIP(why);
   const std::string log = dir + "/replay.lcm";
   const pid_t logger = test::StartRecorder(log);
   ASSERT_GT(logger, 0) << test::ReadFile(log + ".err");

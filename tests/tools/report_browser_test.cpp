@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/tools/run_cli.h"
+#include "tests/skip.h"
 
 namespace rocklab::tools {
 namespace {
@@ -28,8 +29,8 @@ constexpr const char* kChromium = "/usr/bin/chromium";
 
 TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
   if (access(kChromium, X_OK) != 0) {
-    GTEST_SKIP() << "no " << kChromium << " (Debian package chromium; tools/test.sh installs it): "
-                 << "browser test skipped";
+    ROCKLAB_SKIP(std::string("no ") + kChromium +
+                 " (Debian package chromium; tools/test.sh installs it): browser test skipped");
   }
   const std::string dir = test::ScratchDir("report_browser");
   const std::string log = dir + "/fig7.lcm";

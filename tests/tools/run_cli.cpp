@@ -56,14 +56,6 @@ CliResult RunCli(const std::vector<std::string>& args) {
   return r;
 }
 
-std::string ScratchDir(const std::string& name) {
-  // One folder per process: ctest runs the tests of this file in parallel.
-  const std::filesystem::path p = std::filesystem::current_path() / "scratch" /
-                                  (name + "-" + std::to_string(getpid()));
-  std::filesystem::create_directories(p);
-  return p.string();
-}
-
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream s;
@@ -94,6 +86,15 @@ int StopProcess(pid_t pid, int signal, double timeout_s) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+
+bool WaitUntil(const std::function<bool()>& done, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
 
 std::string WaitForLine(const std::string& path, const std::string& prefix, double timeout_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);

@@ -3,8 +3,11 @@
 
 #include <sys/types.h>
 
+#include <functional>
 #include <string>
 #include <vector>
+
+#include "tests/scratch.h"  // ScratchDir
 
 namespace rocklab::test {
 
@@ -30,12 +33,14 @@ pid_t StartCli(const std::vector<std::string>& args, const std::string& out_path
 /// or -1 when it had to be killed after the timeout.
 int StopProcess(pid_t pid, int signal, double timeout_s = 20.0);
 
+/// Calls `done` every 20 ms until it returns true (then true) or `timeout_s`
+/// of host time have passed (then false). Tests wait on a condition with a
+/// generous deadline, never a fixed sleep followed by "the work is done".
+bool WaitUntil(const std::function<bool()>& done, double timeout_s = 60.0);
+
 /// The first line of the file at `path` that starts with `prefix`, once it
 /// is there (a process writing it); empty after `timeout_s`.
 std::string WaitForLine(const std::string& path, const std::string& prefix, double timeout_s = 20.0);
-
-/// A folder of this process under the test's working directory.
-std::string ScratchDir(const std::string& name);
 
 std::string ReadFile(const std::string& path);
 void WriteFile(const std::string& path, const std::string& text);

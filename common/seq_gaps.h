@@ -1,0 +1,36 @@
+#pragma once
+/// @file
+/// Sequence-number accounting of a received stream, written once for every
+/// node that counts gaps (node support, beside node_support.h).
+
+#include <cstdint>
+
+namespace rocklab::common {
+
+/// Accounting of a received stream that its sender numbers one by one
+/// (`seq`: RL_RAW, RL_THETA, RL_TABLE): a forward jump of k is one gap of
+/// k - 1 missing messages; a repeat or a step back (a duplicate, or a sender
+/// that restarted) is counted in `back`, and the count goes on from it.
+/// Used by the model and compare nodes (RL_HEALTH gaps) and the recorder.
+struct SeqGaps {
+  std::int64_t gaps{};     ///< forward jumps
+  std::int64_t missing{};  ///< numbers skipped by those jumps
+  std::int64_t back{};     ///< numbers that repeated or went back
+  bool any{};              ///< a number has been seen
+  std::int64_t first{};    ///< the first number seen
+  std::int64_t last{};     ///< the last number seen
+  void Add(std::int64_t seq) {
+    if (!any) {
+      any = true;
+      first = seq;
+    } else if (seq > last + 1) {
+      ++gaps;
+      missing += seq - last - 1;
+    } else if (seq <= last) {
+      ++back;
+    }
+    last = seq;
+  }
+};
+
+}  // namespace rocklab::common
