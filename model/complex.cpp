@@ -139,6 +139,9 @@ constexpr double kRestEnergy = 2.0;
 // energy ratio across one impact stayed 1.5e-5 below its l -> 0 value at
 // l = 1e-10; with 1e-5 1.6e-6, with 1e-7 2.1e-7, at the same CPU time.
 constexpr double kAtolPerL = 1e-7;
+// x = theta / alpha, 1: the impact root's shift in Housner's limit (housner.cpp's
+// kImpactSlackRad / alpha, the same 1e-14 rad order).
+constexpr double kLimitImpactSlack = 1e-14;
 
 class ComplexModel final : public CvodeRockingModel {
  public:
@@ -203,7 +206,11 @@ class ComplexModel final : public CvodeRockingModel {
   }
   void RockingRoots(const double* y, double* g) const override {
     const Side& s = S(side_);
-    g[0] = y[0];  // x through 0: psi through pi/2 + k pi
+    // x through 0: psi through pi/2 + k pi. In Housner's limit (the opt-in
+    // hand-off) x starts at 0 at an uplift or an impact: shifted towards the
+    // side by kLimitImpactSlack, as Housner's model does (housner.cpp), so a
+    // motion that leaves towards the other side at once still crosses it.
+    g[0] = limit_ ? y[0] + side_ * kLimitImpactSlack : y[0];
     if (limit_) {
       g[1] = s.alpha * std::abs(y[0]) - kPi / 2;
       g[2] = side_ * y[0] - kResolvedChi * s.chi_m;  // rising: maybe resolved

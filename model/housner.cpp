@@ -15,6 +15,8 @@
 namespace rocklab::model::detail {
 namespace {
 
+constexpr double kImpactSlackRad = 1e-14;  // rad; see RockingRoots
+
 class HousnerModel final : public CvodeRockingModel {
  public:
   HousnerModel(const BlockParams& params, const ModelOptions& options)
@@ -32,7 +34,18 @@ class HousnerModel final : public CvodeRockingModel {
     ydot[1] = -sp_.p * sp_.p * (std::sin(phi) + ug / kGravity * std::cos(phi));
   }
   void RockingRoots(const double* y, double* g) const override {
-    g[0] = y[0];
+    // The impact root is theta shifted by kImpactSlackRad towards the side
+    // the block rocks on, so it is never zero where rocking starts (theta =
+    // 0 at an uplift from rest or after an impact). A root that is zero at
+    // the initial point takes its sign from CVODE's first step: when the
+    // table acceleration only touches g tan(alpha), the block moves off
+    // towards the other side at once, that sign is already the wrong one, and
+    // the crossing back through 0 is never seen (the block then drifted past
+    // pi/2 with no impact and no overturn). Shifted, that motion crosses the
+    // root and lands the block. The impact is found 1e-14 rad past theta = 0:
+    // 1e-14 / |theta_dot| s late, below the root finder's own resolution
+    // for any rocking worth the name.
+    g[0] = y[0] + side_ * kImpactSlackRad;
     g[1] = side_ * y[0] - kPi / 2;
     g[2] = 1.0;  // no switch
   }

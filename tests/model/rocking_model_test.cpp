@@ -424,5 +424,68 @@ TEST(RockingModelTest, AdvanceAheadMatchesAdvanceTo) {
   }
 }
 
+// A half-sine pulse of 0.5 s whose peak exceeds the uplift threshold
+// g tan(alpha) by 1e-6 of it: above the threshold for |t - 0.25| <=
+// (0.5 / pi) sqrt(2e-6) = 2.3e-4 s, by at most delta = 1e-6 g tan(alpha).
+double TouchingPulse(double t) {
+  if (t < 0.0 || t > 0.5) return 0.0;
+  return (1 + 1e-6) * kGravity * std::tan(kBlock1.alpha) * std::sin(kPi * t / 0.5);
+}
+
+// ORACLE: the linearised motion from rest. While the excess lasts (tau <=
+// 4.6e-4 s) |theta''| <= p^2 (delta / g + |theta|), so |theta| <= p^2
+// (delta / g) tau^2 e^(p tau) ~ 5e-14 rad; a sampled record whose peak
+// sample equals g tan(alpha) exactly has no excess at all. Afterwards the
+// table is below the threshold and the block, displaced by at most that
+// on the side it lifted onto, is pushed back to its base: it lands (an
+// impact, then rest) and never reaches the other side. BOUND on |theta| at
+// every 1 ms: 1e-9 rad (four orders above the estimate, far below any
+// rocking), plus for the complex model its start from rest at chi =
+// sqrt(l), theta = alpha sqrt(l) (2.35e-6 rad at the default l = 1e-10).
+// Both signs, both models, both pulses, both ways of stepping (AdvanceTo,
+// and AdvanceAhead as `simulate` steps). (Before the fix, Housner's impact
+// root was zero at the uplift, CVODE took its sign from the first step,
+// and under the exact touch the block drifted onto the wrong side unseen:
+// peak 5.3 rad, no impact, no overturn.)
+TEST(RockingModelTest, UpliftTheTableDoesNotSustainEndsAtRest) {
+  const double threshold = kGravity * std::tan(kBlock1.alpha);
+  // The complex model twice: eq. (10) throughout (the default) and with the
+  // opt-in hand-off, which starts an uplift in Housner's limit at theta = 0.
+  for (int model = 0; model < 3; ++model) {
+    const ModelKind kind = model == 0 ? ModelKind::kHousner : ModelKind::kComplex;
+    ModelOptions options;
+    options.complex_resolved_energy = model == 2 ? 16.0 : 0.0;
+    for (double sign : {+1.0, -1.0}) {
+      for (int variant = 0; variant < 4; ++variant) {
+        const bool exact_touch = variant & 1, ahead = variant & 2;
+        auto m = RockingModel::Create(kind, kBlock1, options);
+        m->Reset(0.0, 0.0, 0.0);
+        const FunctionForcing up(&TouchingPulse);
+        const FunctionForcing down([](double t) { return -TouchingPulse(t); });
+        const SampledAcceleration touch({0.0, 0.16, 0.5}, {0.0, sign * threshold, 0.0});
+        const Forcing& forcing = exact_touch ? static_cast<const Forcing&>(touch) : sign > 0 ? up : down;
+        double peak = 0.0;
+        for (int k = 1; k <= 2000; ++k) {
+          if (ahead) {
+            m->AdvanceAhead(1e-3 * k, forcing, std::numeric_limits<double>::infinity());
+          } else {
+            m->AdvanceTo(1e-3 * k, forcing);
+          }
+          peak = std::max(peak, std::abs(m->state().theta));
+        }
+        SCOPED_TRACE(std::string(ToString(kind)) + (model == 2 ? " hand-off" : "") + (sign > 0 ? " +" : " -") + (exact_touch ? " exact" : " 1e-6") +
+                     (ahead ? " AdvanceAhead" : " AdvanceTo"));
+        const double start = model == 1 ? kBlock1.alpha * std::sqrt(ModelOptions{}.l) : 0.0;
+        EXPECT_LE(peak, start + 1e-9);
+        EXPECT_EQ(m->state().regime, Regime::kRest);
+        for (const ModelEvent& e : m->events()) EXPECT_NE(e.kind, EventKind::kOverturn);
+        if (!m->events().empty()) {
+          EXPECT_EQ(m->events().back().kind, EventKind::kRest);
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rocklab::model
