@@ -1,6 +1,8 @@
 #include "common/text.h"
 
 #include <cctype>
+#include <cstdarg>
+#include <cstdio>
 #include <charconv>
 #include <cstdint>
 
@@ -123,6 +125,15 @@ char SniffDelimiter(std::string_view header) {
   if (tabs > 0 && tabs >= semis && tabs >= commas) return '\t';
   if (semis > 0 && semis >= commas) return ';';
   return ',';
+}
+
+std::string Format(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return buf;
 }
 
 bool HasExtension(std::string_view path, std::string_view extension) {

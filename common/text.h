@@ -31,6 +31,10 @@ inline bool ParseDouble(std::string_view field, double& out) {
   return ParseNumber(field, false, out);
 }
 
+/// printf into a string (at most 511 bytes; longer output is cut), for the
+/// text reports of `info` and `report`.
+std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2)));
+
 /// Whether `path` ends with `extension` (e.g. ".lvm"), ignoring ASCII case.
 bool HasExtension(std::string_view path, std::string_view extension);
 

@@ -3,7 +3,6 @@
 #include <sys/stat.h>
 
 #include <cinttypes>
-#include <cstdarg>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -37,15 +36,7 @@ void Rate(ChannelInfo& c, std::int64_t decoded) {
   c.rate_hz = decoded > 1 && span > 0 ? static_cast<double>(decoded - 1) / span : 0.0;
 }
 
-std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Fmt(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
+using common::Format;
 
 nlohmann::json Number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
 
@@ -205,42 +196,42 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
 
 std::string ToText(const LogInfo& info) {
   std::string out;
-  out += Fmt("log:       %s (%" PRId64 " bytes, %" PRId64 " events)\n", info.path.c_str(), info.file_bytes,
+  out += Format("log:       %s (%" PRId64 " bytes, %" PRId64 " events)\n", info.path.c_str(), info.file_bytes,
              info.events);
   if (info.has_time) {
-    out += Fmt("duration:  %.6f s on the sample clock (%.6f s .. %.6f s); log stamps span %.6f s\n",
+    out += Format("duration:  %.6f s on the sample clock (%.6f s .. %.6f s); log stamps span %.6f s\n",
                info.duration, info.first_time, info.last_time, info.log_duration);
   } else {
     out += "duration:  no decodable rocklab message\n";
   }
   if (info.has_config) {
-    out += Fmt("rig:       %s, calibration %s, %.9g Hz, alpha %.9g rad, p %.9g rad/s, mu %.9g\n",
+    out += Format("rig:       %s, calibration %s, %.9g Hz, alpha %.9g rad, p %.9g rad/s, mu %.9g\n",
                info.rig.c_str(), info.calibration.c_str(), info.config_rate_hz, info.alpha, info.p, info.mu);
     std::string list;
     for (std::size_t i = 0; i < info.config_channels.size(); ++i) {
       list += (i ? ", " : "") + info.config_channels[i];
       if (i < info.config_units.size() && !info.config_units[i].empty()) list += " [" + info.config_units[i] + "]";
     }
-    out += Fmt("           %zu channels: ", info.config_channels.size()) + list + "\n";
-    out += Fmt("           %" PRId64 " RL_DAQ_CONFIG messages, %" PRId64 " differ from the first\n",
+    out += Format("           %zu channels: ", info.config_channels.size()) + list + "\n";
+    out += Format("           %" PRId64 " RL_DAQ_CONFIG messages, %" PRId64 " differ from the first\n",
                info.config_messages, info.config_changes);
   } else {
     out += "rig:       no RL_DAQ_CONFIG in the log\n";
   }
-  out += Fmt("damaged:   %" PRId64 " regions, %" PRId64 " bytes, %" PRId64 " events lost\n",
+  out += Format("damaged:   %" PRId64 " regions, %" PRId64 " bytes, %" PRId64 " events lost\n",
              info.damaged_regions, info.damaged_bytes, info.damaged_events);
-  out += Fmt("%-22s %-16s %9s %14s %14s %11s %16s %11s\n", "channel", "type", "count", "first_time_s",
+  out += Format("%-22s %-16s %9s %14s %14s %11s %16s %11s\n", "channel", "type", "count", "first_time_s",
              "last_time_s", "rate_hz", "seq_gaps", "undecodable");
   for (const ChannelInfo& c : info.channels) {
     std::string type = c.type;
-    if (type == "unknown") type = Fmt("unknown (fingerprint 0x%016" PRIx64 ")", static_cast<std::uint64_t>(c.fingerprint));
+    if (type == "unknown") type = Format("unknown (fingerprint 0x%016" PRIx64 ")", static_cast<std::uint64_t>(c.fingerprint));
     const std::string gaps =
-        c.has_seq ? Fmt("%" PRId64 " (%" PRId64 " missing)", c.seq_gaps, c.seq_missing) : std::string("-");
+        c.has_seq ? Format("%" PRId64 " (%" PRId64 " missing)", c.seq_gaps, c.seq_missing) : std::string("-");
     if (c.has_time) {
-      out += Fmt("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", c.name.c_str(),
+      out += Format("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", c.name.c_str(),
                  type.c_str(), c.count, c.first_time, c.last_time, c.rate_hz, gaps.c_str(), c.undecodable);
     } else {
-      out += Fmt("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
+      out += Format("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
                  c.count, "-", "-", "-", gaps.c_str(), c.undecodable);
     }
   }
@@ -249,17 +240,17 @@ std::string ToText(const LogInfo& info) {
 
 std::string ToText(const RawInfo& info) {
   std::string out;
-  out += Fmt("file:      %s (%s, %" PRId64 " bytes)\n", info.path.c_str(), info.format.c_str(), info.file_bytes);
-  out += Fmt("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values read as NaN, %" PRId64
+  out += Format("file:      %s (%s, %" PRId64 " bytes)\n", info.path.c_str(), info.format.c_str(), info.file_bytes);
+  out += Format("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values read as NaN, %" PRId64
              " warnings)\n",
              info.rows, info.bad_rows, info.bad_values, info.warnings);
   if (info.has_time) {
-    out += Fmt("time:      %.9g s .. %.9g s, span %.9g s\n", info.first_time, info.last_time, info.span);
+    out += Format("time:      %.9g s .. %.9g s, span %.9g s\n", info.first_time, info.last_time, info.span);
   }
-  out += Fmt("rate:      %.9g Hz nominal, %.9g Hz measured\n", info.rate_hz, info.measured_rate_hz);
-  out += Fmt("segments:  %" PRId64 "\n", info.segments);
-  out += Fmt("gaps:      %" PRId64 " (%" PRId64 " samples missing)\n", info.seq_gaps, info.seq_missing);
-  out += Fmt("channels:  %zu\n", info.channels.size());
+  out += Format("rate:      %.9g Hz nominal, %.9g Hz measured\n", info.rate_hz, info.measured_rate_hz);
+  out += Format("segments:  %" PRId64 "\n", info.segments);
+  out += Format("gaps:      %" PRId64 " (%" PRId64 " samples missing)\n", info.seq_gaps, info.seq_missing);
+  out += Format("channels:  %zu\n", info.channels.size());
   for (std::size_t i = 0; i < info.channels.size(); ++i) {
     out += "  " + info.channels[i] + "  [" + (info.units[i].empty() ? std::string("raw, unit not in the file") : info.units[i]) + "]\n";
   }
@@ -302,7 +293,7 @@ nlohmann::json ToJson(const LogInfo& info) {
     nlohmann::json o;
     o["name"] = c.name;
     o["type"] = c.type;
-    o["fingerprint"] = Fmt("0x%016" PRIx64, static_cast<std::uint64_t>(c.fingerprint));
+    o["fingerprint"] = Format("0x%016" PRIx64, static_cast<std::uint64_t>(c.fingerprint));
     o["count"] = c.count;
     o["bytes"] = c.bytes;
     o["first_time"] = c.has_time ? Number(c.first_time) : nlohmann::json(nullptr);

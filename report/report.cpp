@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -13,6 +12,7 @@
 #include <memory>
 
 #include "common/lcm_log.h"
+#include "common/text.h"
 #include "common/wire.h"
 
 #include "monitor/live_state.h"
@@ -27,15 +27,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr std::size_t kMaxEvents = 20000;  // events and flag intervals listed, each (newest kept)
 constexpr double kReadMargin_s = 5.0;       // read past the window's end, s (see ReadRecordLog)
 
-std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Format(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
+using common::Format;
 
 // A number of the snapshot; NaN where it is null (the snapshot's NaN) or absent.
 double Number(const json& object, const char* key) {
