@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Calibration and per-sample reconstruction of the block's motion from the
-/// raw channels (measurement models in DESIGN.md, rules in the Acquisition section of README.md).
+/// raw channels (measurement models in DESIGN.md, rules in docs/acquisition.md).
 
 #include <cstdint>
 #include <string>
@@ -29,7 +29,7 @@ struct BlockState {
   int64_t utime{};        ///< sample clock, us
   double time_s{};        ///< sample clock, s
   int64_t line{};         ///< line of the frame in its source
-  double theta{};         ///< best rocking angle, rad (rule: the Acquisition section of README.md)
+  double theta{};         ///< best rocking angle, rad (rule: docs/acquisition.md)
   double theta_dot{};     ///< rad/s (filled by the Processor's differentiator)
   double theta_mirror{};  ///< rad
   double theta_camera{};  ///< rad

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The rig configuration: one TOML file per shake-table set-up (format in
-/// the Acquisition section of README.md). Loaded once at start-up; every error names the file, the
+/// docs/acquisition.md). Loaded once at start-up; every error names the file, the
 /// line and the key ("rig.toml:12: key 'mirror.lever_m' must be > 0").
 
 #include <array>
@@ -12,7 +12,7 @@
 
 namespace rocklab::daq {
 
-/// Ranges the rig file is checked against (README, Acquisition: rig file).
+/// Ranges the rig file is checked against (docs/acquisition.md: rig file).
 inline constexpr double kMinSampleRateHz = 1.0;
 inline constexpr double kMaxSampleRateHz = 100000.0;
 /// Largest differentiator half window m, samples (a 2001-sample window).
@@ -24,7 +24,7 @@ inline constexpr int kMaxDifferentiatorOrder = 6;
 /// strictly inside (raw_min, raw_max): a sensor at its rail is saturated.
 struct ChannelConfig {
   std::string name;    ///< column name in the raw file (CSV/LVM header, RL_DAQ_CONFIG)
-  std::string sensor;  ///< role, one of the sensor names in the Acquisition section of README.md
+  std::string sensor;  ///< role, one of the sensor names in docs/acquisition.md
   double gain{1.0};    ///< physical unit per raw unit
   double offset{0.0};  ///< physical unit
   std::string unit;    ///< physical unit after calibration ("m", "m/s^2")

@@ -129,7 +129,7 @@ struct SourceOptions {
 /// @throws std::runtime_error (naming the file and line) when the file cannot be
 ///         opened, is empty, or its header is unusable.
 std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options);
-/// LabVIEW Measurement file (what is read: the Acquisition section of README.md).
+/// LabVIEW Measurement file (what is read: docs/acquisition.md).
 /// @throws std::runtime_error (file:line) as OpenCsvSource.
 std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options);
 /// LCM log with raw_frame_t events on options.raw_channel.

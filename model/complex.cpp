@@ -51,7 +51,7 @@
 // changes theta at second order, and the offset alpha sqrt(l) vanishes too
 // (2.4e-6 rad for block 1 at l = 1e-10). chi0 = 0.3 sqrt(l) loses figure 7
 // at l = 1e-10 (the turn is 11 times larger), 1 .. 3 sqrt(l) give the same
-// peaks within 0.3 % at l <= 3e-10 (README, "The models").
+// peaks within 0.3 % at l <= 3e-10 (docs/models.md).
 // Free starts (Reset with theta0 or theta_dot0) take y = 0 and the
 // transverse velocity l/chi (theta0 != 0), or start on the crossing at
 // y = -l / chi_dot (theta0 = 0).

@@ -71,7 +71,7 @@ struct SolverStats {
   double eq10_fraction{};
 };
 
-/// Default l: see the README's models section for the convergence study.
+/// Default l: see docs/models.md for the convergence study.
 inline constexpr double kDefaultL = 1e-10;
 
 /// Integration and regime knobs.

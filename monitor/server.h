@@ -14,7 +14,7 @@
 /// even percent-decoded) in the embedded table, so traversal attempts and
 /// directories find nothing.
 ///
-/// Under load (README, Reliability): one polling thread serves every
+/// Under load (docs/reliability.md): one polling thread serves every
 /// connection, so idle or slow clients cost a socket and a bounded buffer,
 /// never a thread. At most max_connections are open (more are refused at
 /// accept), at most max_connections_per_host from one address; a request's

@@ -133,7 +133,7 @@ class Recorder {
   bool stopped_{false};
 };
 
-/// The summary as JSON text (keys in README: files, events, received,
+/// The summary as JSON text (keys in docs/commands.md, `rocklab record`: files, events, received,
 /// dropped, bytes, queue_bytes, queue_high_water_bytes, write_error, and
 /// channels: name, count, received, dropped, bytes, seq_gaps, seq_missing,
 /// seq_back, with has_seq).

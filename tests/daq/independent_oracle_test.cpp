@@ -4,7 +4,7 @@
 // `rocklab reconstruct`. A sign or geometry convention shared by the
 // simulator and the reconstruction cannot pass here unseen.
 //
-// The measurement models, as DESIGN.md and the README's Acquisition section
+// The measurement models, as DESIGN.md and docs/acquisition.md
 // state them, and the frames built from them:
 // - Frames: block frame origin at the centre of the base, x along the
 //   rocking direction, z up; rig frame = block frame at rest with the table
@@ -22,7 +22,7 @@
 // - Out-of-plane pair: LED a at x = -spacing/2 and b at +spacing/2 on the
 //   block; a twist about the vertical (right-handed: x turns towards y) and an
 //   out-of-plane shift y0 put them at y_a = y0 - (spacing/2) sin(twist),
-//   y_b = y0 + (spacing/2) sin(twist) (README: twist = asin((y_b - y_a) /
+//   y_b = y0 + (spacing/2) sin(twist) (docs/acquisition.md: twist = asin((y_b - y_a) /
 //   spacing), out_of_plane = (y_a + y_b) / 2).
 // - Table: displacement u and acceleration u'' as their sensors read them.
 // - Calibration: physical = gain * raw + offset, so raw = (physical - offset) / gain
@@ -222,7 +222,7 @@ Truth SeriesAt(double t) {
 }
 
 // theta_dot of the Savitzky-Golay differentiator of order 2 over 2m+1
-// samples (README), for theta = A sin(w t), at an interior sample t0. The
+// samples (docs/acquisition.md), for theta = A sin(w t), at an interior sample t0. The
 // least-squares quadratic c0 + c1 k + c2 k^2 on k = -m..m has c1 = sum k y_k /
 // sum k^2 (k is orthogonal to 1 and k^2 on a symmetric window), and
 // sum k A sin(w (t0 + k h)) = A cos(w t0) sum k sin(w k h) (the cos(w k h)
@@ -239,7 +239,7 @@ double SgThetaDot(double t0, int m, double h) {
 
 // Oracle: the processor on the series: theta, theta_dot (the closed form
 // above, at interior samples), sliding, twist, the table acceleration of the
-// same sample (the README: RL_TABLE fields belong to one sample), and the
+// same sample (docs/acquisition.md: RL_TABLE fields belong to one sample), and the
 // SLIDING and TWIST events at the times the slip and the twist happen.
 // Tolerances: 1e-9 rad, rad/s, m, m/s^2 (round-off only; the SG weights are
 // solved numerically, ~1e-12 relative).

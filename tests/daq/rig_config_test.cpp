@@ -141,7 +141,7 @@ namespace rocklab::daq {
 namespace {
 
 // Item 8 of issue 12: rig values are bounded, the message naming the key and
-// the allowed range. Oracle: the ranges of rig_config.h and README.
+// the allowed range. Oracle: the ranges of rig_config.h and docs/acquisition.md.
 std::string RigError(const std::string& extra, double rate_hz = 1000) {
   std::ostringstream text;
   text << "name = \"r\"\nsample_rate_hz = " << rate_hz

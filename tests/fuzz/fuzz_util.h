@@ -15,7 +15,7 @@ namespace rocklab::fuzz {
 }
 
 /// A message shown to a user: one line of printable ASCII (inputs are quoted
-/// escaped, README "Reliability"), and bounded in size.
+/// escaped, docs/reliability.md), and bounded in size.
 inline void CheckMessage(std::string_view message, std::size_t max_bytes = 2048) {
   if (message.size() > max_bytes) Violated("message longer than the bound", message.substr(0, 200));
   for (unsigned char c : message) {

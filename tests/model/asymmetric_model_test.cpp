@@ -228,7 +228,7 @@ TEST(AsymmetricModel, UpliftUsesTheSideItLiftsOnto) {
 // on a slender asymmetric section (a 0.25 m x 1 m block with a 0.05 m x
 // 0.5 m notch on its -x top: alpha 0.237 / 0.281 rad, mu 0.912 / 0.896),
 // from rest through uplift, impacts on both pivots, back to rest.
-// TOLERANCE: peak |theta| within 1 %, the bound the README states for the
+// TOLERANCE: peak |theta| within 1 %, the bound docs/models.md states for the
 // symmetric scenarios at the default l (measured -0.12 %); the first seven
 // impacts, while the pulse drives the block (|theta_dot| > 0.15 rad/s),
 // within 1e-3 s, the bound for free rocking (measured 1.8e-4 s).

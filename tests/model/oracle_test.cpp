@@ -2,7 +2,7 @@
 // (issue 16, point 1). Nothing here calls rocklab's model code except the
 // model under test through its public API (model/rocking_model.h); the table
 // motions, the reference integrator and the closed forms are written here from
-// ERRATA items 5, 6 and 11 and the README's definition of the excitations.
+// ERRATA items 5, 6 and 11 and docs/commands.md's definition of the excitations (`simulate --excitation`).
 // The golden files of scenario_test.cpp stay as a regression check only.
 //
 // 1. Closed form: the linearised slender block under a rectangular pulse of
@@ -31,7 +31,7 @@
 //    rest/uplift rule of ERRATA 6 (rest until |u_g''| > g tan alpha, uplift
 //    towards -sgn(u_g'')), impacts at theta = 0 with theta' <- mu theta', the
 //    corner switching, and back to rest when two impacts come closer than
-//    2 ms (the README's rule), integrated by classical fixed-step RK4 at
+//    2 ms (the rule in docs/models.md), integrated by classical fixed-step RK4 at
 //    h = 1e-5 s (2 M steps for figure 8's 20 s: 0.6 s at -O2), events
 //    located by bisection of the step length (to 1e-14 s).
 //    Its error is measured in ReferenceIntegratorConvergesAtFourthOrder: the
@@ -56,7 +56,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kG = 9.81;  // m/s^2, the g of the model library (model/block.h)
 
 // ---------------------------------------------------------------------------
-// Table motions, from the README (`--excitation`) and ERRATA 11, written here.
+// Table motions, from docs/commands.md (`--excitation`) and ERRATA 11, written here.
 // u(t) = U W(t) sin(w (t - start)) on [start, start + duration], zero outside,
 // W = 1 (sine) or the Hanning window (1 + cos(pi x / a)) / 2, x = t - tc,
 // a = duration / 2, tc = start + a. Returns u''(t), m/s^2:
@@ -89,7 +89,7 @@ struct TableMotion {
 // Figure 7: block 1 (Table 2, p of Table 2: ERRATA 10) under
 // hanning:amp=0.006,freq=3.3,duration=4,start=0.5 over 8 s; figure 8: block 2
 // under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (tools/scenario.*,
-// tests/model/scenario_test.cpp, README).
+// tests/model/scenario_test.cpp, docs/models.md).
 struct Case {
   const char* name;
   BlockParams params;
@@ -261,7 +261,7 @@ double MaxAbs(const std::vector<double>& v) {
 }
 
 // Oracle: the test's own table motion against the library's (both from the
-// README's definition; ERRATA 11: the exact second derivative).
+// docs/commands.md's definition; ERRATA 11: the exact second derivative).
 // Tolerance: 1e-9 m/s^2 on peaks of 2.6 and 5.9 m/s^2 (round-off of two
 // different but exact formulas).
 TEST(OracleTest, TableMotionsAgreeWithTheLibrarys) {

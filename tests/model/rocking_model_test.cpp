@@ -375,7 +375,7 @@ TEST(RockingModelTest, BadParametersAndOptionsNameThemselves) {
 // give the outputs of AdvanceTo, which stops at each, within what the
 // integration tolerances resolve: figure 8's sine for 5 s at 100 Hz.
 // TOLERANCE: Housner's model at rtol 1e-10 / atol 1e-12 is reproducible to
-// ~1e-10 s in impact times whatever the step sequence (README, independent
+// ~1e-10 s in impact times whatever the step sequence (docs/models.md, independent
 // oracles: 1.1e-10 s against an RK4 reference): 1e-8 s and 1e-8 rad. The
 // complex formulation at l = 1e-10 passes the origin at the distance
 // l / v ~ 1e-10 at each crossing, and its exit is resolved only as far as

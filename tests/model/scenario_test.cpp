@@ -139,7 +139,7 @@ int Impacts(const Trajectory& t) {
 // (issue 10): peak within 1 %, impact count within 3 %, the same uplift time
 // (the same rest-regime root finding: 1e-9 s), eq. (10) for all of the
 // rocking time. Measured: figure 7 -0.09 %, 92 against 92 impacts; figure 8
-// -0.01 %, 199 against 199 (README, "The models", for other l). Figure 7 is
+// -0.01 %, 199 against 199 (docs/models.md, for other l). Figure 7 is
 // the sensitive one: Housner's own peak moves by 3 % for perturbations of
 // 1e-4 in alpha; at l = 1e-9 the complex model misses it by 1.2 %.
 void CheckComplexAgainstHousner(const Scenario& s, double oracle_peak, int oracle_impacts) {

@@ -14,7 +14,7 @@ namespace {
 
 // Oracle: the command (exit 1, "CVode failed with flag -3" before)
 // exits 0 and writes 12 s at 200 Hz; the JSON's keys as documented in the
-// README: eq10_fraction 0 for Housner, 1 for the complex model at its
+// docs/commands.md (`simulate --json`): eq10_fraction 0 for Housner, 1 for the complex model at its
 // defaults, between 0 and 1 with the opt-in hand-off (whose use is echoed).
 TEST(CliSimulate, MotionEndingWhileRockingAndJson) {
   const std::string dir = ScratchDir("simulate_json");

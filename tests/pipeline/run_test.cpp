@@ -55,7 +55,7 @@ std::map<std::string, nlohmann::json> SummaryByName(const std::string& path) {
 // the rocking speed at each of ~90 impacts: measured 0.070, asserted above
 // 2x the bound. The bundled figure-7 demo (6 mm) is NOT used for this bound:
 // its peak acceleration is only 10 % above the uplift threshold, and the
-// first small rocking cycles then depend on the noise (README: run section).
+// first small rocking cycles then depend on the noise (docs/commands.md: `rocklab run`).
 TEST(RocklabRun, TrueParametersTrackTheMeasurementAndWrongMuDoesNot) {
   const std::string dir = test::ScratchDir("run_nrms");
   const std::string raw = dir + "/forced.csv";

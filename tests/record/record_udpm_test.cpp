@@ -107,7 +107,7 @@ TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
   EXPECT_EQ(next, sent.size());
 }
 
-// Oracle: the README's contract for bad input: one line naming the file or
+// Oracle: docs/reliability.md's contract for bad input: one line naming the file or
 // option, exit code 2 (memq://, so no network is needed).
 TEST(RecordUdpmTest, BadOptionsAndExistingLogsAreUsageErrors) {
   const std::string dir = ScratchDir("record_cli");

@@ -1,6 +1,6 @@
 // `rocklab demo` as a user runs it: the figure 7 table and the two
 // trajectory files. Oracle: the uplift time computed here from the
-// documented table motion (README, `--excitation`: u(t) = U A(t - t_c)
+// documented table motion (docs/commands.md, `--excitation`: u(t) = U A(t - t_c)
 // sin(2 pi f (t - start)), A the Hanning window of ERRATA item 11) and the
 // rest criterion of ERRATA item 6 (uplift when |u''| > g tan(alpha)), by a
 // fine scan and bisection of a numerical second derivative written in this
