@@ -13,6 +13,7 @@
 #include "export/export.h"
 #include "export/h5_writer.h"
 #include "tests/export/readback.h"
+#include "tests/scratch.h"
 
 namespace rocklab::exporter {
 namespace {
@@ -45,11 +46,7 @@ void ExpectSame(double want, double got, const std::string& what) {
   }
 }
 
-std::string Dir() {
-  auto d = std::filesystem::current_path() / "raw_export";
-  std::filesystem::create_directories(d);
-  return d.string();
-}
+std::string Dir() { return test::ScratchDir("raw_export"); }
 
 TEST(RawExport, EveryFormatHoldsWhatTheSourceReads) {
   const Truth truth = ReadTruth(kLvm);

@@ -25,6 +25,7 @@
 #include "export/export.h"
 #include "export/fields.h"
 #include "tests/export/readback.h"
+#include "tests/scratch.h"
 
 namespace rocklab::exporter {
 namespace {
@@ -149,9 +150,10 @@ std::vector<std::uint8_t> Encode(const LcmStruct& s, std::int64_t fingerprint, i
 class RoundTrip : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::current_path() / "roundtrip";
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
+    // Each test case runs in its own process under ctest -j: a folder of
+    // its own (a shared fixed one was removed by one case while another
+    // wrote it: a flake seen once in 8 suite runs beside a CPU hog).
+    dir_ = test::ScratchDir("roundtrip");
     log_ = (dir_ / "all_types.lcm").string();
     common::LogWriter w(log_);
     structs_ = AllStructs();
