@@ -13,6 +13,7 @@
 #include "daq/processor.h"
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
+#include "daq/source.h"
 #include "tests/scratch.h"
 
 namespace rocklab::daq::test {
@@ -65,6 +66,34 @@ inline std::vector<Frame> SimulateFrames(const RigConfig& rig, const SimulatorNo
     if (sim.Raw(motion(t), f.values)) frames.push_back(std::move(f));
   }
   return frames;
+}
+
+/// What a source gives when read to its end: its frames, the problems it
+/// reported (as text), its stats, channel names and rate, and the status
+/// that ended the read (kEnd, or kError with source->error() in `error`).
+struct SourceRead {
+  std::vector<Frame> frames;
+  std::vector<std::string> problems;
+  SourceStats stats;
+  std::vector<std::string> names;
+  double rate_hz{};
+  ReadStatus status{ReadStatus::kEnd};
+  std::string error;
+};
+
+/// Opens `path` with `options` (its on_problem is replaced) and reads it to
+/// the end. @throws what OpenSource throws (start-up errors).
+inline SourceRead ReadSource(const std::string& path, SourceOptions options) {
+  SourceRead r;
+  options.on_problem = [&r](const Problem& p) { r.problems.push_back(ToString(p)); };
+  auto source = OpenSource(path, options);
+  r.names = source->channel_names();
+  r.rate_hz = source->sample_rate_hz();
+  Frame f;
+  while ((r.status = source->Next(f)) == ReadStatus::kFrame) r.frames.push_back(f);
+  r.error = source->error();
+  r.stats = source->stats();
+  return r;
 }
 
 }  // namespace rocklab::daq::test

@@ -20,24 +20,12 @@
 namespace rocklab::daq {
 namespace {
 
-struct Read {
-  std::vector<Frame> frames;
-  std::vector<std::string> problems;
-  SourceStats stats;
-  std::vector<std::string> names;
-};
+using Read = test::SourceRead;
 
 Read ReadAll(const std::string& path, double rate_hz = 100.0) {
-  Read r;
   SourceOptions opt;
   opt.sample_rate_hz = rate_hz;
-  opt.on_problem = [&r](const Problem& p) { r.problems.push_back(ToString(p)); };
-  auto source = OpenSource(path, opt);
-  r.names = source->channel_names();
-  Frame f;
-  while (source->Next(f) == ReadStatus::kFrame) r.frames.push_back(f);
-  r.stats = source->stats();
-  return r;
+  return test::ReadSource(path, opt);
 }
 
 std::string StartupError(const std::string& path) {

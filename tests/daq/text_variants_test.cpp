@@ -18,29 +18,14 @@
 namespace rocklab::daq {
 namespace {
 
-struct Read {
-  std::vector<Frame> frames;
-  std::vector<std::string> problems;
-  SourceStats stats;
-  std::vector<std::string> names;
-  double rate_hz{};
-};
+using Read = test::SourceRead;
 
 Read ReadText(const std::string& name, const std::string& text, char delimiter = 0) {
-  const std::string path = test::WriteFile(name, text);
-  Read r;
   SourceOptions opt;
   opt.sample_rate_hz = 100.0;
   opt.delimiter = delimiter;
-  opt.on_problem = [&r](const Problem& p) { r.problems.push_back(ToString(p)); };
-  auto source = OpenSource(path, opt);
-  r.names = source->channel_names();
-  r.rate_hz = source->sample_rate_hz();
-  Frame f;
-  ReadStatus status;
-  while ((status = source->Next(f)) == ReadStatus::kFrame) r.frames.push_back(f);
-  EXPECT_EQ(status, ReadStatus::kEnd) << source->error();
-  r.stats = source->stats();
+  Read r = test::ReadSource(test::WriteFile(name, text), opt);
+  EXPECT_EQ(r.status, ReadStatus::kEnd) << r.error;
   return r;
 }
 
