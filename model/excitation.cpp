@@ -253,6 +253,66 @@ double SampledAcceleration::NextDiscontinuity(double t_s) const {
   return std::numeric_limits<double>::infinity();
 }
 
+SampleWindow::SampleWindow(int capacity, Shape shape) : shape_(shape), capacity_(capacity) {
+  if (capacity < 4) throw std::invalid_argument("SampleWindow: capacity must be >= 4");
+  time_.assign(2 * static_cast<std::size_t>(capacity), 0.0);
+  accel_.assign(2 * static_cast<std::size_t>(capacity), 0.0);
+}
+
+void SampleWindow::Clear() {
+  first_ = size_ = 0;
+  closed_ = false;
+}
+
+bool SampleWindow::Push(double t_s, double accel_mps2) {
+  if (!std::isfinite(t_s) || !std::isfinite(accel_mps2)) return false;
+  if (size_ > 0 && !(t_s > times()[size_ - 1])) return false;
+  if (size_ == capacity_) {  // drop the oldest
+    first_ = (first_ + 1) % capacity_;
+    --size_;
+  }
+  const int slot = (first_ + size_) % capacity_;
+  time_[slot] = time_[slot + capacity_] = t_s;
+  accel_[slot] = accel_[slot + capacity_] = accel_mps2;
+  ++size_;
+  return true;
+}
+
+double SampleWindow::horizon_s() const {
+  if (size_ == 0) return -std::numeric_limits<double>::infinity();
+  if (shape_ == Shape::kLinear || closed_ || size_ == 1) return times()[size_ - 1];
+  return times()[size_ - 2];
+}
+
+double SampleWindow::Slope(int i) const {
+  const double* t = times();
+  const double* a = accels();
+  if (i > 0 && i + 1 < size_) return (a[i + 1] - a[i - 1]) / (t[i + 1] - t[i - 1]);
+  // The stream's first sample (or, never in the node, the oldest held one):
+  // the chord's slope.
+  if (i + 1 < size_) return (a[i + 1] - a[i]) / (t[i + 1] - t[i]);
+  return (a[i] - a[i - 1]) / (t[i] - t[i - 1]);
+}
+
+double SampleWindow::TableAcceleration(double t_s) const {
+  if (size_ == 0) return 0.0;
+  const double* t = times();
+  const double* a = accels();
+  if (!(t_s > t[0])) return a[0];
+  if (t_s >= t[size_ - 1]) return a[size_ - 1];
+  // The interval [t[i], t[i + 1]) holding t_s.
+  const int i = static_cast<int>(std::upper_bound(t, t + size_, t_s) - t) - 1;
+  const double h = t[i + 1] - t[i];
+  const double s = (t_s - t[i]) / h;
+  // The chord: kLinear, and kCubic's interval to the newest sample (not yet
+  // fixed while open; the chord once closed).
+  if (shape_ == Shape::kLinear || i + 2 >= size_) return a[i] + s * (a[i + 1] - a[i]);
+  const double m0 = Slope(i) * h, m1 = Slope(i + 1) * h;
+  const double s2 = s * s, s3 = s2 * s;
+  return (2 * s3 - 3 * s2 + 1) * a[i] + (s3 - 2 * s2 + s) * m0 + (-2 * s3 + 3 * s2) * a[i + 1] +
+         (s3 - s2) * m1;
+}
+
 namespace {
 
 // PEER NGA record (.AT2): four header lines, the third naming the quantity

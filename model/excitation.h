@@ -99,6 +99,62 @@ class SampledAcceleration : public Forcing {
   std::vector<double> accel_;
 };
 
+/// The newest samples of a table-acceleration stream as a forcing: the model
+/// node's lookahead window (ModelNodeConfig::lookahead_samples). A fixed ring
+/// of `capacity` samples (the oldest are dropped): no allocation after
+/// construction. Before the first sample u_g'' holds the first sample's value;
+/// between samples it is the shape's interpolant. horizon_s() is how far the
+/// held samples fix that interpolant: pushing a sample never changes it before
+/// the horizon, so a model integrated up to the horizon stays valid.
+/// docs/models.md compares the shapes and says which the node uses.
+class SampleWindow final : public Forcing {
+ public:
+  enum class Shape {
+    /// The chord between neighbouring samples (as RockingModel::Step):
+    /// fixed up to the newest sample.
+    kLinear,
+    /// C1 cubic Hermite with centred slopes (a[i+1] - a[i-1]) / (t[i+1] -
+    /// t[i-1]) (Catmull-Rom on non-uniform times; the chord's slope at the
+    /// stream's first sample): the slope at a sample needs the next one, so
+    /// it is fixed up to the sample before the newest; once Close()d, the
+    /// last interval is the chord.
+    kCubic,
+  };
+  /// @param capacity samples held, >= 4. Evaluating before the oldest held
+  ///        sample's interval is the caller's error (the node holds its
+  ///        lookahead plus 8).
+  /// @throws std::invalid_argument for capacity < 4.
+  SampleWindow(int capacity, Shape shape);
+  /// Forgets every sample and reopens the window.
+  void Clear();
+  /// Appends a sample: t_s (s) after the newest sample, accel finite
+  /// (m/s^2). The caller guarantees both (the node checks them first); a
+  /// violation is ignored and returns false.
+  [[nodiscard]] bool Push(double t_s, double accel_mps2);
+  /// No sample follows until Clear(): the interpolant is fixed up to the
+  /// newest sample (kCubic: its last interval becomes the chord).
+  void Close() { closed_ = true; }
+  /// s; -infinity while empty.
+  double horizon_s() const;
+  double TableAcceleration(double t_s) const override;
+  int size() const { return size_; }
+  Shape shape() const { return shape_; }
+
+ private:
+  // Held index i (0 oldest) -> ring slot; the ring stores every sample twice
+  // (slot and slot + capacity), so the held samples are contiguous.
+  const double* times() const { return time_.data() + first_; }
+  const double* accels() const { return accel_.data() + first_; }
+  double Slope(int i) const;  // kCubic slope at held sample i, m/s^3
+
+  Shape shape_;
+  int capacity_;
+  std::vector<double> time_, accel_;  // 2 * capacity each
+  int first_{};   // slot of the oldest held sample
+  int size_{};
+  bool closed_{};
+};
+
 /// The rows of a `time,accel` CSV, as read.
 struct AccelerationRows {
   std::vector<double> time_s;      ///< s, finite, strictly increasing

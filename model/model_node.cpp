@@ -52,6 +52,21 @@ std::int8_t EventCode(EventKind k) {
   return rocklab::event_t::REST;
 }
 
+// The node's interpolant of the held samples (docs/models.md, "Lookahead":
+// measured against the chord on exact and noisy accelerations).
+constexpr SampleWindow::Shape kWindowShape = SampleWindow::Shape::kCubic;
+
+// Held samples beyond the lookahead: the integrator evaluates the forcing
+// from the last output on, whose interval's cubic reads one sample before
+// it (3 would do; 8 leaves room).
+constexpr int kWindowSpare = 8;
+constexpr int kMaxLookahead = 65536;
+
+const ModelNodeConfig& Validated(const ModelNodeConfig& config) {
+  config.Validate();
+  return config;
+}
+
 }  // namespace
 
 void ModelNodeConfig::Validate() const {
@@ -71,6 +86,10 @@ void ModelNodeConfig::Validate() const {
   }
   if (subscriber_queue < 1) throw std::invalid_argument("model node option subscriber_queue out of range");
   if (threads < 0) throw std::invalid_argument("model node option threads out of range");
+  if (lookahead_samples < 0 || lookahead_samples > kMaxLookahead) {
+    throw std::invalid_argument("model node option lookahead_samples out of range (0 .. " +
+                                std::to_string(kMaxLookahead) + ")");
+  }
 }
 
 struct ModelNode::Variant {
@@ -106,10 +125,8 @@ class ModelNode::Workers {
   Workers& operator=(const Workers&) = delete;
 
   // Steps every variant to the sample; returns when all are done.
-  void Run(double t_s, double accel, std::int64_t utime) {
-    t_s_ = t_s;
-    accel_ = accel;
-    utime_ = utime;
+  void Run(const Target& target) {
+    target_ = target;
     pending_.store(threads_ - 1, std::memory_order_relaxed);
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -133,7 +150,7 @@ class ModelNode::Workers {
   void Share(int w) {
     for (std::size_t i = static_cast<std::size_t>(w); i < node_.variants_.size();
          i += static_cast<std::size_t>(threads_)) {
-      node_.StepVariant(i, t_s_, accel_, utime_);
+      node_.StepVariant(i, target_);
     }
   }
   void Loop(int w) {
@@ -165,12 +182,14 @@ class ModelNode::Workers {
   std::atomic<int> sleepers_{0};
   bool quit_{false};  // written under mutex_ before the generation it ends
   // The sample of the current generation (written before it is published).
-  double t_s_{}, accel_{};
-  std::int64_t utime_{};
+  Target target_{};
 };
 
-ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus) : config_(config), bus_(bus) {
-  config_.Validate();
+ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
+    : config_(Validated(config)),
+      bus_(bus),
+      window_(config.lookahead_samples + kWindowSpare, kWindowShape),
+      held_utime_(static_cast<std::size_t>(config.lookahead_samples) + 1) {
   for (const VariantSpec& spec : config_.variants) {
     auto v = std::make_unique<Variant>();
     v->spec = spec;
@@ -249,6 +268,7 @@ void ModelNode::PublishEvent(std::int64_t utime, std::int8_t kind, double value,
 void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   if (last_table_utime_ != INT64_MIN && msg.utime <= last_table_utime_) {
     if (msg.utime == last_table_utime_) return;  // duplicate: the DAQ already counted it
+    FlushHeld();  // the old run's held samples, before its variants go
     ++resets_;
     started_ = false;
     have_theta_ = have_theta_ && last_theta_.utime <= msg.utime;  // an old run's theta cannot start it
@@ -291,17 +311,46 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   // Model time counts from the start: with epoch utimes (~1.7e9 s) a double
   // resolves only ~2e-7 s, and CVODE's root location would degrade with it.
   const double t_s = static_cast<double>(msg.utime - start_utime_) * 1e-6;
+  if (config_.lookahead_samples == 0) {
+    StepAll({t_s, accel, msg.utime, std::nan("")});
+    return;
+  }
+  // Strictly after the held samples (a repeat returned above, a step back
+  // reset and emptied the window): Push cannot refuse it.
+  (void)window_.Push(t_s, accel);
+  held_utime_[(held_first_ + held_count_) % held_utime_.size()] = msg.utime;
+  ++held_count_;
+  while (held_count_ > static_cast<std::size_t>(config_.lookahead_samples)) StepOldestHeld();
+}
+
+void ModelNode::StepOldestHeld() {
+  const std::int64_t utime = held_utime_[held_first_];
+  held_first_ = (held_first_ + 1) % held_utime_.size();
+  --held_count_;
+  StepAll({static_cast<double>(utime - start_utime_) * 1e-6, 0.0, utime, window_.horizon_s()});
+}
+
+void ModelNode::FlushHeld() {
+  if (held_count_ > 0) {
+    window_.Close();
+    while (held_count_ > 0) StepOldestHeld();
+  }
+  window_.Clear();
+  held_first_ = 0;
+}
+
+void ModelNode::StepAll(const Target& target) {
   if (workers_) {
-    workers_->Run(t_s, accel, msg.utime);
+    workers_->Run(target);
   } else {
-    for (std::size_t i = 0; i < variants_.size(); ++i) StepVariant(i, t_s, accel, msg.utime);
+    for (std::size_t i = 0; i < variants_.size(); ++i) StepVariant(i, target);
   }
   // Published from this thread, in configuration order, whoever stepped them.
   for (auto& v : variants_) {
     if (v->failed_now) {
       v->failed_now = false;
       ++failures_;
-      Log()->error("variant '{}' stopped at utime {}: {}", v->spec.name, msg.utime, v->error);
+      Log()->error("variant '{}' stopped at utime {}: {}", v->spec.name, target.utime, v->error);
       continue;
     }
     if (v->failed) continue;
@@ -320,11 +369,15 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   }
 }
 
-void ModelNode::StepVariant(std::size_t i, double t_s, double accel, std::int64_t utime) {
+void ModelNode::StepVariant(std::size_t i, const Target& target) {
   Variant& v = *variants_[i];
   if (v.failed) return;
   try {
-    v.model->Step(t_s, accel);
+    if (std::isnan(target.horizon_s)) {
+      v.model->Step(target.t_s, target.accel);
+    } else {
+      v.model->AdvanceAhead(target.t_s, window_, target.horizon_s);
+    }
   } catch (const std::exception& e) {
     v.failed = true;
     v.failed_now = true;
@@ -332,7 +385,7 @@ void ModelNode::StepVariant(std::size_t i, double t_s, double accel, std::int64_
     return;
   }
   const ModelState& st = v.model->state();
-  v.msg.utime = utime;
+  v.msg.utime = target.utime;
   v.msg.theta = st.theta;
   v.msg.theta_dot = st.theta_dot;
   v.msg.chi = st.chi;
@@ -373,6 +426,9 @@ void ModelNode::Run(const std::atomic<bool>& stop) {
   Finish();
 }
 
-void ModelNode::Finish() { PublishHealth("stopped"); }
+void ModelNode::Finish() {
+  FlushHeld();
+  PublishHealth("stopped");
+}
 
 }  // namespace rocklab::model

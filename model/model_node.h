@@ -38,6 +38,19 @@
 /// counted (bad_table_samples()) and the first of each stretch is reported as
 /// an RL_EVENT BAD_SAMPLE (a RECOVERED event ends the stretch). A variant
 /// whose integration fails stops until the next reset (counted in failures()).
+///
+/// Lookahead (ModelNodeConfig::lookahead_samples = N): with N = 0 every
+/// variant Steps to each table sample as it arrives (CVODE stops there; the
+/// acceleration is linear between samples). With N > 0 the node holds the
+/// newest samples in a SampleWindow and steps sample k once sample k + N has
+/// arrived, with RockingModel::AdvanceAhead over the window up to its horizon:
+/// CVODE steps across the samples, and the state at each is its interpolant.
+/// The messages are the same in kind, number and order, each stamped with
+/// its sample's utime, N sample periods later. Everything above holds per
+/// sample as it arrives (start, gaps, bad samples and their RL_EVENTs, which
+/// therefore go out before the held samples' RL_MODEL_*); the held samples
+/// are stepped with what is known (the window closed: the last interval
+/// linear) before a reset and in Finish.
 
 #include <atomic>
 #include <cstdint>
@@ -48,6 +61,7 @@
 #include "common/bus.h"
 #include "common/seq_gaps.h"
 #include "model/block.h"
+#include "model/excitation.h"
 #include "model/rocking_model.h"
 #include "model/variant.h"
 #include "rocklab/block_state_t.hpp"
@@ -70,6 +84,10 @@ struct ModelNodeConfig {
   /// variant up to the hardware's cores, 1 = the handler's thread alone.
   /// >= 0.
   int threads{0};
+  /// Table samples held before a sample is stepped (see above): 0 = step
+  /// each sample as it arrives (live latency), N > 0 = N sample periods of
+  /// latency for integration across samples. 0 .. 65536.
+  int lookahead_samples{0};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -108,8 +126,22 @@ class ModelNode {
  private:
   struct Variant;
   class Workers;
+  // What a variant is stepped to: Step(t_s, accel) when horizon_s is NaN,
+  // else AdvanceAhead(t_s, window_, horizon_s).
+  struct Target {
+    double t_s{};
+    double accel{};
+    std::int64_t utime{};
+    double horizon_s{};
+  };
   // Steps variant i (on any thread): its model, its failure, its message.
-  void StepVariant(std::size_t i, double t_s, double accel, std::int64_t utime);
+  void StepVariant(std::size_t i, const Target& target);
+  // Steps every variant to `target` and publishes their messages and events.
+  void StepAll(const Target& target);
+  // Steps the oldest held sample (N > 0).
+  void StepOldestHeld();
+  // Steps every held sample with the window closed, then empties it.
+  void FlushHeld();
   void Start(const rocklab::block_state_t& theta, std::int64_t start_utime);
   void PublishHealth(const char* state);
   void PublishEvent(std::int64_t utime, std::int8_t kind, double value, const std::string& detail);
@@ -130,6 +162,11 @@ class ModelNode {
   std::int64_t bad_in_stretch_{};
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
+  // Lookahead (N > 0): the window's samples and the utimes of those not yet
+  // stepped (a ring of N + 1, oldest at held_first_).
+  SampleWindow window_;
+  std::vector<std::int64_t> held_utime_;
+  std::size_t held_first_{}, held_count_{};
   common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
   double last_health_host_s_{};
 };

@@ -47,7 +47,10 @@
 #include <functional>
 #include <vector>
 
+#include "common/bus.h"
+#include "model/model_node.h"
 #include "model/rocking_model.h"
+#include "rocklab/event_t.hpp"
 
 namespace rocklab::model {
 namespace {
@@ -500,6 +503,100 @@ TEST(OracleTest, SlenderBlockUnderConstantPushMatchesTheClosedForm) {
   EXPECT_EQ(still->state().regime, Regime::kRest);
   EXPECT_EQ(still->state().theta, 0.0);
 }
+
+// ---------------------------------------------------------------------------
+// The model node's lookahead (issue 15 point 1) on the figures' tables
+// sampled at 1 kHz, as the node sees a DAQ's RL_TABLE.
+//
+// Oracle: the reference integrator on the exact (analytic) table motion.
+// The node's Housner variant, started at rest, with lookahead 0 (Step: the
+// chord between samples) and 32 (AdvanceAhead over the window's centred
+// cubic); theta at every 10th sample (100 Hz, the reference's) and the
+// impacts from its RL_EVENTs.
+// Tolerance (derived): the forcing's interpolation error, h = 1e-3 s. The
+// chord's is at most h^2/8 max|a''|. The centred cubic's: its slopes are
+// the centred difference, off by h^2/6 a''', which enter through the
+// Hermite basis as h (h10 + h11), |h10 + h11| <= 0.0962: at most
+// 0.016 h^3 max|a'''|, plus the Hermite remainder h^4/384 max|a''''|.
+// Figure 8 (a = U w^2 sin, U = 6 mm, w = 10 pi): chord 7.3e-4 m/s^2, cubic
+// 2.9e-6 m/s^2. A forcing error da moves theta'' by at most
+// p^2 cos(alpha) / g da, so theta by at most half that times T^2 over T
+// seconds (an impact only shrinks a perturbation, mu < 1): T = 2 s, chord
+// 2.1e-3 rad, cubic 8.3e-6 rad; CVODE's own error (1e-9 rad, above) is
+// below both. Figure 7 (Hanning, 6 mm at 3.3 Hz, w = 20.7 rad/s; the
+// window's own rate pi / 2 s^-1 raises each derivative by at most (1 +
+// 1.57 / 20.7)^n): max|a''| <= 1480 m/s^4, max|a'''| <= 3.3e4 m/s^5, so
+// chord 1.9e-4 m/s^2, cubic 5.3e-7 m/s^2, and with block 1 over T = 4.4 s
+// 2.7e-3 and 7.7e-6 rad. Where the Hanning window ends (4.5 s) the table
+// acceleration jumps by 7e-3 m/s^2 between two samples, which no
+// interpolant of the samples follows, so the bound stops there. Over the
+// whole record the impact count must be the reference's. Measured: figure
+// 8 chord 1.5e-5 rad, cubic 3.1e-9 rad (impacts 3.6e-5 s and 4.4e-7 s: the
+// events' utimes resolve 1e-6 s); figure 7 chord 3.3e-4 rad, cubic
+// 1.8e-8 rad (7.1e-4 s and 4.9e-7 s).
+struct NodeRun {
+  std::vector<double> theta_100hz;  // rad, at k / 100 s
+  std::vector<double> impact_times;  // s
+};
+
+NodeRun RunNodeOnSamples(const Case& c, int lookahead) {
+  common::DirectBus bus;
+  NodeRun out;
+  bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
+    if (m.utime % 10000 == 0) out.theta_100hz.push_back(m.theta);
+  });
+  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+    if (e.source == "h" && e.kind == rocklab::event_t::IMPACT) out.impact_times.push_back(e.utime * 1e-6);
+  });
+  ModelNodeConfig cfg;
+  VariantSpec h;
+  h.name = "h";
+  h.kind = ModelKind::kHousner;
+  h.params = c.params;
+  cfg.variants.push_back(h);
+  cfg.lookahead_samples = lookahead;
+  ModelNode node(cfg, bus);
+  rocklab::block_state_t theta{};
+  node.HandleTheta(theta);
+  const auto excitation = ParseExcitation(c.spec);
+  const int n = static_cast<int>(std::lround(c.duration_s * 1000));
+  for (int k = 0; k <= n; ++k) {
+    rocklab::table_state_t table{};
+    table.utime = 1000 * static_cast<std::int64_t>(k);
+    table.seq = k;
+    table.acceleration = excitation->TableAcceleration(k * 1e-3);
+    node.HandleTable(table);
+  }
+  node.Finish();
+  return out;
+}
+
+void CompareNodeWithReference(const Case& c, double compare_s, double bound_chord, double bound_cubic) {
+  const RefResult ref = RunReference(c);
+  const auto window = static_cast<std::size_t>(std::lround(compare_s * 100)) + 1;
+  const std::vector<double> ref_theta(ref.sample_theta.begin(), ref.sample_theta.begin() + window);
+  std::vector<double> ref_impacts;
+  for (double t : ref.impact_times) {
+    if (t < compare_s) ref_impacts.push_back(t);
+  }
+  double dtheta[2], dt[2];
+  for (int i = 0; i < 2; ++i) {
+    const NodeRun run = RunNodeOnSamples(c, 32 * i);
+    ASSERT_EQ(run.theta_100hz.size(), ref.sample_theta.size()) << c.name;
+    EXPECT_EQ(run.impact_times.size(), ref.impact_times.size()) << c.name << " lookahead " << 32 * i;
+    dtheta[i] = MaxAbsDiff(std::vector<double>(run.theta_100hz.begin(), run.theta_100hz.begin() + window), ref_theta);
+    const std::size_t n = std::min(run.impact_times.size(), ref_impacts.size());
+    dt[i] = MaxAbsDiff(std::vector<double>(run.impact_times.begin(), run.impact_times.begin() + n), ref_impacts);
+  }
+  std::printf("%s, first %.1f s (%zu impacts): lookahead 0 (chord): max |dtheta| %.3e rad (bound %.1e), "
+              "impacts %.3e s; lookahead 32 (cubic): %.3e rad (bound %.1e), impacts %.3e s\n",
+              c.name, compare_s, ref_impacts.size(), dtheta[0], bound_chord, dt[0], dtheta[1], bound_cubic, dt[1]);
+  EXPECT_LT(dtheta[0], bound_chord) << c.name;
+  EXPECT_LT(dtheta[1], bound_cubic) << c.name;
+}
+
+TEST(OracleTest, NodeLookaheadOnSampledFigure8) { CompareNodeWithReference(kFig8, 2.0, 2.1e-3, 8.3e-6); }
+TEST(OracleTest, NodeLookaheadOnSampledFigure7) { CompareNodeWithReference(kFig7, 4.4, 2.7e-3, 7.7e-6); }
 
 }  // namespace
 }  // namespace rocklab::model
