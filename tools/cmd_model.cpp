@@ -15,12 +15,14 @@ struct ModelCommand {
   std::string rig_path;
   std::vector<std::string> variants;
   std::string lcm_url;
+  int lookahead{0};
 };
 
 int RunModel(const ModelCommand& c) {
   const daq::RigConfig rig = LoadRig(c.rig_path);
   model::ModelNodeConfig cfg;
   cfg.variants = BuildVariants(c.variants, rig);
+  cfg.lookahead_samples = c.lookahead;
   const std::atomic<bool>& stop = InstallStopSignals();
   const std::string url = SubscriberUrl(c.lcm_url);
   const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(url);
@@ -48,6 +50,10 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
                   "NAME:MODEL:PARAMS, MODEL housner|complex, PARAMS theoretical | "
                   "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  cmd->add_option("--lookahead", c->lookahead,
+                  "table samples held before one is stepped (default 0: each as it arrives; N > 0 "
+                  "integrates across samples, N sample periods later)")
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([c, &run] { run = [c] { return RunModel(*c); }; });
 }
 

@@ -47,6 +47,7 @@ struct RunCommand {
   std::string summary_json;
   double speed{1.0};
   bool max{};
+  int lookahead{0};
   bool quiet{};
   compare::CompareNodeConfig compare;
 };
@@ -88,6 +89,10 @@ int RunAll(RunCommand& c) {
   compare::CompareNode compare(c.compare, bus);
   model::ModelNodeConfig model_cfg;
   model_cfg.variants = BuildVariants(c.variants, rig);
+  // Default 0 also with --max: on accelerometer data (and on the
+  // differentiated displacement) 32 took more CPU, not less
+  // (docs/performance.md, "Stepping across samples in the model node").
+  model_cfg.lookahead_samples = c.lookahead;
   model::ModelNode model(model_cfg, bus);
   daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
   daq_cfg.stop = &stop;  // a live --input (tcp://, lcm://) waiting for its header ends on SIGINT too
@@ -157,6 +162,9 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   auto* speed = cmd->add_option("--speed", c->speed,
                                 "sample-clock s per host s (default 1: real time); 0 = --max");
   cmd->add_flag("--max", c->max, "as fast as possible")->excludes(speed);
+  cmd->add_option("--lookahead", c->lookahead,
+                  "table samples the model holds before stepping one (default 0: each as it arrives)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   AddCompareOptions(*cmd, c->compare);
   cmd->callback([c, &run] { run = [c] { return RunAll(*c); }; });
