@@ -16,6 +16,7 @@ struct ModelCommand {
   std::vector<std::string> variants;
   std::string lcm_url;
   int lookahead{0};
+  int threads{0};
 };
 
 int RunModel(const ModelCommand& c) {
@@ -23,6 +24,7 @@ int RunModel(const ModelCommand& c) {
   model::ModelNodeConfig cfg;
   cfg.variants = BuildVariants(c.variants, rig);
   cfg.lookahead_samples = c.lookahead;
+  cfg.threads = c.threads;
   const std::atomic<bool>& stop = InstallStopSignals();
   const std::string url = SubscriberUrl(c.lcm_url);
   const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(url);
@@ -53,6 +55,9 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
   cmd->add_option("--lookahead", c->lookahead,
                   "table samples held before one is stepped (default 0: each as it arrives; N > 0 "
                   "integrates across samples, N sample periods later)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", c->threads,
+                  "threads stepping the variants (default 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([c, &run] { run = [c] { return RunModel(*c); }; });
 }

@@ -48,6 +48,7 @@ struct RunCommand {
   double speed{1.0};
   bool max{};
   int lookahead{0};
+  int threads{0};
   bool quiet{};
   compare::CompareNodeConfig compare;
 };
@@ -93,6 +94,7 @@ int RunAll(RunCommand& c) {
   // differentiated displacement) 32 took more CPU, not less
   // (docs/performance.md, "Stepping across samples in the model node").
   model_cfg.lookahead_samples = c.lookahead;
+  model_cfg.threads = c.threads;
   model::ModelNode model(model_cfg, bus);
   daq::DaqNodeConfig daq_cfg = DaqConfigFor(rig, c.input, c.speed);
   daq_cfg.stop = &stop;  // a live --input (tcp://, lcm://) waiting for its header ends on SIGINT too
@@ -164,6 +166,9 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   cmd->add_flag("--max", c->max, "as fast as possible")->excludes(speed);
   cmd->add_option("--lookahead", c->lookahead,
                   "table samples the model holds before stepping one (default 0: each as it arrives)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", c->threads,
+                  "threads stepping the model variants (default 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   AddCompareOptions(*cmd, c->compare);
