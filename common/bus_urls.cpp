@@ -97,7 +97,14 @@ std::string RawUrl(const std::string& main_url, const std::string& raw_option) {
       const UdpmAddress raw = ParseUdpm(raw_option);
       if (StartsWith(main, kUdpm)) {
         const UdpmAddress m = ParseUdpm(main);
-        if (m.group == raw.group && m.port == raw.port) return "";  // the main bus itself
+        if (m.port == raw.port) {
+          if (m.group == raw.group) return "";  // the main bus itself
+          // Linux hands both groups' datagrams to every socket bound to the
+          // port once the machine joined both: the main nodes would receive
+          // RL_RAW anyway, and a process on both buses every message twice.
+          throw std::invalid_argument("'" + raw_option + "' shares the port " + std::to_string(m.port) +
+                                      " of '" + main + "': give the raw frames a port of their own");
+        }
       }
       return raw_option;
     }

@@ -19,7 +19,10 @@
 /// `--raw-url URL` names the raw bus; `--raw-url same` keeps RL_RAW on the
 /// main bus (the behaviour before the split). A raw udpm URL on the main
 /// URL's group and port is the main bus (never two instances on one socket
-/// address: a subscriber would receive every message twice).
+/// address: a subscriber would receive every message twice); on the main
+/// URL's port with another group it is refused (for the reason above, the
+/// main sockets would receive it, and `rocklab record` on both buses wrote
+/// every message twice).
 
 #include <string>
 
@@ -46,8 +49,9 @@ std::string ResolveLcmUrl(const std::string& url);
 /// "same", or a URL). Returns "" when RL_RAW goes on the main bus.
 /// @throws std::invalid_argument starting "--raw-url: " naming the URL: a
 ///         raw URL that is not an LCM URL (udpm://, memq://, file://,
-///         tcpq://), a udpm URL without an IPv4 group or with a bad port, a
-///         main udpm URL no raw URL can be derived from.
+///         tcpq://), a udpm URL without an IPv4 group or with a bad port,
+///         a udpm URL on the main URL's port with another group, a main udpm
+///         URL no raw URL can be derived from.
 std::string RawUrl(const std::string& main_url, const std::string& raw_option);
 
 }  // namespace rocklab::common

@@ -90,6 +90,12 @@ TEST(RawUrl, BadUrlsNameTheOption) {
     EXPECT_EQ(what.rfind("--raw-url: ", 0), 0u) << bad << ": " << what;
     EXPECT_NE(what.find(bad), std::string::npos) << bad << ": " << what;
   }
+  // The main port with another group: the main sockets would receive it
+  // (Linux, INADDR_ANY sockets once the machine joined both groups).
+  const std::string shared = RawUrlError(main, "udpm://239.255.76.68:7667?ttl=0");
+  EXPECT_EQ(shared.rfind("--raw-url: ", 0), 0u) << shared;
+  EXPECT_NE(shared.find("port 7667"), std::string::npos) << shared;
+  EXPECT_NE(RawUrlError("udpm://239.1.1.1?ttl=0", "udpm://239.1.1.9:7667"), "");  // LCM's port on both
   // No next port to derive: the message says what to give instead.
   const std::string what = RawUrlError("udpm://239.1.1.1:65535?ttl=0", "");
   EXPECT_EQ(what.rfind("--raw-url: ", 0), 0u) << what;
