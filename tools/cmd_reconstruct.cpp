@@ -1,15 +1,11 @@
 // rocklab reconstruct --rig RIG.toml --input RAW --out THETA.csv: the
 // acquisition pipeline offline, one CSV row per reconstructed sample.
-// --input lcm://RL_RAW reads a DAQ's frames live on RL_RAW's own bus
-// (--raw-url, default derived from LCM's default URL: common/bus_urls.h);
-// any other lcm://CHANNEL on LCM's default URL.
 #include <array>
 #include <charconv>
 #include <cstdio>
 #include <memory>
 #include <string>
 
-#include "common/bus_urls.h"
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "tools/cli.h"
@@ -23,7 +19,6 @@ struct ReconstructOptions {
   std::string rig_path;
   std::string input;
   std::string out_csv;
-  std::string raw_url;  ///< --raw-url: where lcm://RL_RAW is read (empty: derived)
 };
 
 // Problems printed one per line up to this many, then only counted.
@@ -96,17 +91,6 @@ int RunReconstruct(const ReconstructOptions& o) {
   options.sample_rate_hz = rig.sample_rate_hz;
   for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
   options.on_problem = [&sink](const daq::Problem& p) { sink.Show(daq::ToString(p)); };
-  if (o.input == "lcm://" + common::RawChannel()) {
-    std::string raw;
-    try {
-      raw = common::RawUrl("", o.raw_url);
-    } catch (const std::invalid_argument& e) {
-      throw UsageError(e.what());
-    }
-    if (!raw.empty()) options.lcm_url = SubscriberUrl(raw);  // else LCM's default, as every lcm:// input
-  } else if (!o.raw_url.empty()) {
-    throw UsageError("--raw-url: applies to --input lcm://" + common::RawChannel() + " only");
-  }
   std::unique_ptr<daq::Source> source;
   std::unique_ptr<daq::Processor> processor;
   try {
@@ -157,9 +141,7 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<ReconstructOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("reconstruct", "reconstruct theta and the checks from a raw file");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)")->required();
-  cmd->add_option("--input", opts->input, "raw file: .csv, .lvm or an LCM log; lcm://CHANNEL (raw_frame_t, live)")
-      ->required();
-  AddRawUrlOption(*cmd, opts->raw_url);
+  cmd->add_option("--input", opts->input, "raw file: .csv, .lvm or an LCM log")->required();
   cmd->add_option("--out", opts->out_csv,
                   "output CSV: time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,"
                   "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask)")

@@ -222,9 +222,8 @@ TEST(RawGroup, BadRawUrlIsRefusedNamingTheOption) {
       {"replay", "--rig", kLabRig, "--input", kFreeRocking, "--max", "--lcm-url", "memq://", "--raw-url",
        "udpm://239.1.1.1:99999"},
       {"record", log, "--force", "--lcm-url", "memq://", "--raw-url", "bogus"},
-      {"reconstruct", "--rig", kLabRig, "--input", "lcm://RL_RAW", "--out", log + ".csv", "--raw-url", "bogus"},
-      {"reconstruct", "--rig", kLabRig, "--input", kFreeRocking, "--out", log + ".csv", "--raw-url",
-       "udpm://239.1.1.1:7000"},
+      {"daq", "--rig", kLabRig, "--input", kFreeRocking, "--check", "--lcm-url", "udpm://239.1.1.1:7000",
+       "--raw-url", "udpm://239.1.1.2:7000"},  // the main port, another group
   };
   for (const auto& args : commands) {
     const CliResult r = RunCli(args);
