@@ -59,8 +59,8 @@ EOF
 
 for ((i = 1; i <= REPEATS; i++)); do
   # same: RL_RAW on the main group (before); own: the default, its own
-  # group and port. (A group of its own on the main port is refused since
-  # commit 11a2b28's run of this script: docs/performance.md.)
+  # group and port. (A group of its own on the main port, a third mode of
+  # a first version, is now refused: docs/performance.md.)
   for mode in same own; do
     case $mode in
       same) raw=same ;;
