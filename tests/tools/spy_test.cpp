@@ -130,9 +130,10 @@ TEST(RocklabSpy, DecodesEveryChannelOfAReplayUnderXvfb) {
   ASSERT_TRUE(WaitForDisplay(display, 20)) << test::ReadFile(dir + "/xvfb.err");
   ASSERT_EQ(::setenv("DISPLAY", display_name.c_str(), 1), 0);
 
-  // The replay loops at 1x for as long as the spies listen.
+  // The replay loops at 1x for as long as the spies listen; RL_RAW on the
+  // main group too (--raw-url same), so that one spy sees every rocklab type.
   const pid_t replay = test::StartCli({"replay", log, "--speed", "1", "--loop", "--lcm-url",
-                                       test::kUdpmUrl},
+                                       test::kUdpmUrl, "--raw-url", "same"},
                                       dir + "/replay.out", dir + "/replay.err");
   ASSERT_GT(replay, 0);
 
