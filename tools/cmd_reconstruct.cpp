@@ -2,6 +2,8 @@
 // acquisition pipeline offline, one CSV row per reconstructed sample.
 #include <array>
 #include <charconv>
+#include <cstdint>
+#include <cstring>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -42,8 +44,19 @@ class CsvSink : public daq::ProcessorSink {
   void OnBlockState(const daq::BlockState& s) override {
     if (kBuffer - used_ < kMaxRow) Flush();
     Put(s.time_s, std::chars_format::fixed, 9);
-    for (double v : {s.theta, s.theta_dot, s.theta_mirror, s.theta_camera, s.sliding, s.twist, s.out_of_plane}) {
+    buffer_[used_++] = ',';
+    const std::size_t theta_at = used_;
+    const int64_t flushes = flushes_;
+    Put(s.theta, std::chars_format::general, 12);
+    const std::size_t theta_end = used_;
+    for (double v : {s.theta_dot, s.theta_mirror, s.theta_camera, s.sliding, s.twist, s.out_of_plane}) {
       buffer_[used_++] = ',';
+      if (std::memcmp(&v, &s.theta, sizeof v) == 0 && flushes == flushes_) {
+        // theta is theta_mirror (or theta_camera) whenever that is valid: its text again.
+        std::memcpy(&buffer_[used_], &buffer_[theta_at], theta_end - theta_at);
+        used_ += theta_end - theta_at;
+        continue;
+      }
       Put(v, std::chars_format::general, 12);
     }
     buffer_[used_++] = ',';
@@ -55,6 +68,7 @@ class CsvSink : public daq::ProcessorSink {
   void Flush() {
     if (used_ > 0) std::fwrite(buffer_.data(), 1, used_, out_);
     used_ = 0;
+    ++flushes_;
   }
   void OnProblem(const daq::Problem& p) override { Show(daq::ToString(p)); }
   void Show(const std::string& text) {
@@ -89,6 +103,7 @@ class CsvSink : public daq::ProcessorSink {
   std::FILE* out_;
   std::array<char, kBuffer> buffer_{};
   std::size_t used_{0};
+  int64_t flushes_{0};  // a flush moves the row's text: nothing before it may be copied
   long rows_{0};
   long problems_{0};
 };
