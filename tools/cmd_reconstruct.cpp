@@ -11,7 +11,7 @@
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "tools/cli.h"
-#include "tools/csv_number.h"
+#include "common/csv_number.h"
 #include "tools/pipeline.h"
 #include "tools/scenario.h"
 
@@ -30,7 +30,7 @@ constexpr int kShownProblems = 20;
 // Rows are formatted into a buffer written in blocks: the same text as
 // printf's %.9f / %.12g / %d, without the format parsing and the stdio
 // locking per field that were half of reconstruct's time. The numbers come
-// from tools/csv_number.h's exact integer path (a quarter of to_chars'
+// from common/csv_number.h's exact integer path (a quarter of to_chars'
 // cost with a precision, which was a third of the time after that), and
 // from std::to_chars (specified as printf's conversion) where it declines.
 class CsvSink : public daq::ProcessorSink {
@@ -84,9 +84,9 @@ class CsvSink : public daq::ProcessorSink {
   // separators.
   static constexpr std::size_t kMaxRow = 8 * 32 + 16;
   void Put(double v, std::chars_format format, int precision) {
-    // The exact integer path (tools/csv_number.h) where it applies, else to_chars.
+    // The exact integer path (common/csv_number.h) where it applies, else to_chars.
     char* const at = &buffer_[used_];
-    char* const fast = format == std::chars_format::fixed ? csv_number::Fixed9(v, at) : csv_number::General12(v, at);
+    char* const fast = format == std::chars_format::fixed ? common::csv_number::Fixed9(v, at) : common::csv_number::General12(v, at);
     if (fast != nullptr) {
       used_ = static_cast<std::size_t>(fast - buffer_.data());
       return;

@@ -14,7 +14,7 @@
 #include <cstdint>
 #include <cstring>
 
-namespace rocklab::tools::csv_number {
+namespace rocklab::common::csv_number {
 
 __extension__ typedef unsigned __int128 Uint128;  // GCC and clang; -Wpedantic knows it as an extension
 
@@ -190,4 +190,4 @@ inline char* Fixed9(double x, char* out) {
   return p + 9;
 }
 
-}  // namespace rocklab::tools::csv_number
+}  // namespace rocklab::common::csv_number

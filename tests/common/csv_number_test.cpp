@@ -1,4 +1,4 @@
-// tools/csv_number.h: the reconstruct CSV's numbers written without printf.
+// common/csv_number.h: the reconstruct CSV's numbers written without printf.
 // Oracle: glibc's snprintf with the same format ("%.12g", "%.9f"), byte for
 // byte, on values of every magnitude the fast path takes and around its
 // edges; where the fast path declines (nullptr) the caller's std::to_chars
@@ -12,9 +12,9 @@
 
 #include <gtest/gtest.h>
 
-#include "tools/csv_number.h"
+#include "common/csv_number.h"
 
-namespace rocklab::tools {
+namespace rocklab::common {
 namespace {
 
 std::string Printf(const char* format, double x) {
@@ -123,4 +123,4 @@ TEST(CsvNumber, DeclinesWhatItCannotDoExactly) {
 }
 
 }  // namespace
-}  // namespace rocklab::tools
+}  // namespace rocklab::common
