@@ -7,8 +7,10 @@
 /// default lag = m is the window's centre, the classic filter). Causality: the
 /// output for sample k is available when sample k+lag has arrived, a constant
 /// delay of `lag` samples, so outputs stream one per input. A lag below m
-/// trades noise for latency: the polynomial is evaluated off-centre, where
-/// its noise gain (NoiseGain) is larger. Near the start of a segment the
+/// trades noise and bias for latency: the polynomial is evaluated
+/// off-centre, where its noise gain (NoiseGain) is larger for the first
+/// derivative (not always for the second: docs/acquisition.md). Near the
+/// start of a segment the
 /// window is cut to the samples available ([start, k+lag]); at its end
 /// (Finish) the last full window is evaluated off-centre, which releases the
 /// last `lag` outputs at once. Every input gets exactly one output.
