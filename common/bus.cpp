@@ -226,4 +226,39 @@ void LogWritingBus::Unsubscribe(SubscriptionId id) { inner_.Unsubscribe(id); }
 
 int LogWritingBus::HandleTimeout(int timeout_ms) { return inner_.HandleTimeout(timeout_ms); }
 
+// ---- RoutingBus ----
+
+struct RoutingBus::Impl {
+  std::regex pattern;
+  std::unordered_map<std::string, bool> matches;  // channel -> routed (regex once per channel)
+};
+
+RoutingBus::RoutingBus(Bus& main, Bus& routed, const std::string& channel_regex)
+    : main_(main), routed_(routed), impl_(std::make_unique<Impl>()) {
+  try {
+    impl_->pattern = std::regex(channel_regex);
+  } catch (const std::regex_error& err) {
+    throw std::invalid_argument("bad channel regex '" + channel_regex + "': " + err.what());
+  }
+}
+
+RoutingBus::~RoutingBus() = default;
+
+bool RoutingBus::Publish(const std::string& channel, const void* data, int size) {
+  auto it = impl_->matches.find(channel);
+  if (it == impl_->matches.end()) {
+    it = impl_->matches.emplace(channel, std::regex_match(channel, impl_->pattern)).first;
+  }
+  return (it->second ? routed_ : main_).Publish(channel, data, size);
+}
+
+Bus::SubscriptionId RoutingBus::SubscribeRaw(const std::string& channel_regex, RawHandler handler,
+                                             int queue_capacity) {
+  return main_.SubscribeRaw(channel_regex, std::move(handler), queue_capacity);
+}
+
+void RoutingBus::Unsubscribe(SubscriptionId id) { main_.Unsubscribe(id); }
+
+int RoutingBus::HandleTimeout(int timeout_ms) { return main_.HandleTimeout(timeout_ms); }
+
 }  // namespace rocklab::common

@@ -7,7 +7,9 @@
 ///  - DirectBus: in one process, Publish calls the matching handlers at once
 ///    (synchronous, no queue, no copy through memq): `rocklab run`;
 ///  - LogWritingBus: a decorator that writes every published message to an
-///    LCM log (common::LogWriter), then publishes it on the bus it wraps.
+///    LCM log (common::LogWriter), then publishes it on the bus it wraps;
+///  - RoutingBus: a decorator that publishes the channels matching a regex
+///    on a second bus (RL_RAW on its own udpm group: common/bus_urls.h).
 ///
 /// Guarded dispatch (all buses): a typed subscription decodes inside the bus,
 /// through common::GuardedDecode: the wire pre-check (common/wire.h: every
@@ -177,6 +179,37 @@ class LogWritingBus final : public Bus {
  private:
   Bus& inner_;      // not owned
   LogWriter& log_;  // not owned
+};
+
+/// Publishes each message whose channel matches `channel_regex` (whole name)
+/// on `routed`, every other on `main`: the raw frames' publishers (the DAQ
+/// stage, replay) send RL_RAW to its own group this way
+/// (common/bus_urls.h). A publisher's bus: subscriptions and HandleTimeout
+/// go to `main` (and its counters are main's). Whether a channel matches is
+/// decided once per channel name (a lookup per message, no allocation after
+/// a channel's first message). Both buses are not owned and must outlive it.
+class RoutingBus final : public Bus {
+ public:
+  /// @throws std::invalid_argument for a bad regex.
+  RoutingBus(Bus& main, Bus& routed, const std::string& channel_regex);
+  ~RoutingBus() override;
+
+  using Bus::Publish;
+  bool Publish(const std::string& channel, const void* data, int size) override;
+  SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
+                              int queue_capacity = kDefaultQueue) override;
+  void Unsubscribe(SubscriptionId id) override;
+  int HandleTimeout(int timeout_ms) override;
+
+ protected:
+  using Bus::root;
+  const Bus& root() const override { return main_; }
+
+ private:
+  struct Impl;
+  Bus& main_;    // not owned
+  Bus& routed_;  // not owned
+  std::unique_ptr<Impl> impl_;
 };
 
 /// The sample-clock utime of a rocklab message's bytes (after the 8-byte

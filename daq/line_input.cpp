@@ -22,67 +22,57 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-class StreamLineInput final : public LineInput {
- public:
-  explicit StreamLineInput(std::unique_ptr<std::istream> in) : in_(std::move(in)) {}
-
-  LineStatus Read(std::string& line, bool& too_long, std::size_t max_bytes, bool) override {
-    line.clear();
-    too_long = false;
-    std::streambuf* buf = in_->rdbuf();
-    bool any = false;
-    try {
-      for (int c = buf->sbumpc(); c != std::char_traits<char>::eof(); c = buf->sbumpc()) {
-        any = true;
-        if (c == '\n') break;
-        if (line.size() < max_bytes) {
-          line.push_back(static_cast<char>(c));
-        } else {
-          too_long = true;
-        }
-      }
-    } catch (const std::exception& e) {
-      throw std::runtime_error(e.what());  // the reader names the file and the line
-    }
-    return any ? LineStatus::kLine : LineStatus::kEnd;
-  }
-
- private:
-  std::unique_ptr<std::istream> in_;
-};
-
-// What a live input's Fill found.
+// What a Fill found.
 enum class Fill {
   kData,     // bytes in the buffer
-  kNothing,  // nothing yet (it waited a little)
+  kNothing,  // nothing yet (live inputs: it waited a little)
   kBreak,    // the byte stream broke: a line in progress ends here
   kRestart,  // a new stream begins (its header comes first)
+  kEnd,      // plain inputs: the end of the file or stream
 };
 
-// Line splitting, the stop flag, the idle timeout and the wait slices of the
-// live inputs; the byte source is the subclass's Fill.
-class LiveLineInput : public LineInput {
+// Line splitting over a block buffer, and for the live inputs the stop
+// flag, the idle timeout and the wait slices; the byte source is the
+// subclass's FillBuffer. A line within the buffer is returned as a view of
+// it; a line cut by the buffer's end is carried over in pending_ (at most
+// max_bytes of it), so memory is the buffer plus max_bytes whatever the
+// input.
+class BlockLineInput : public LineInput {
  public:
-  explicit LiveLineInput(const LiveOptions& options) : options_(options), buffer_(64 * 1024) {
+  BlockLineInput(bool live, const LiveOptions& options)
+      : live_(live), options_(options), buffer_(kBlockBytes) {
     last_byte_ = Clock::now();
   }
-  bool live() const override { return true; }
+  bool live() const override { return live_; }
 
-  LineStatus Read(std::string& line, bool& too_long, std::size_t max_bytes, bool may_idle) override {
-    line.clear();
+  LineStatus Read(std::string_view& line, bool& too_long, std::size_t max_bytes, bool may_idle) override {
+    line = {};
     too_long = false;
+    if (pending_taken_) {
+      // The caller is done with the line it was given from pending_.
+      pending_taken_ = false;
+      pending_.clear();
+    }
     if (restart_next_) {
       restart_next_ = false;
       ++restarts_;
       return LineStatus::kRestart;
     }
-    const auto slice_end = Clock::now() + std::chrono::milliseconds(kIdleSliceMs);
+    Clock::time_point slice_end{};
+    if (live_ && may_idle) slice_end = Clock::now() + std::chrono::milliseconds(kIdleSliceMs);
     while (true) {
       // Complete a line from what is buffered.
-      while (pos_ < len_) {
+      if (pos_ < len_) {
         const char* begin = buffer_.data() + pos_;
         const char* nl = static_cast<const char*>(std::memchr(begin, '\n', len_ - pos_));
         const std::size_t n = nl ? static_cast<std::size_t>(nl - begin) : len_ - pos_;
+        if (nl && !HasPending()) {
+          // The whole line is in the buffer: in place.
+          pos_ += n + 1;
+          line = std::string_view(begin, std::min(n, max_bytes));
+          too_long = n > max_bytes;
+          return LineStatus::kLine;
+        }
         const std::size_t room = max_bytes > pending_.size() ? max_bytes - pending_.size() : 0;
         pending_.append(begin, std::min(n, room));
         if (n > room) pending_too_long_ = true;
@@ -92,17 +82,21 @@ class LiveLineInput : public LineInput {
           return TakePending(line, too_long);
         }
       }
-      if (options_.stop && options_.stop->load()) return EndOfInput(line, too_long);
-      const auto now = Clock::now();
-      if (options_.idle_timeout_s > 0 &&
-          std::chrono::duration<double>(now - last_byte_).count() > options_.idle_timeout_s) {
-        return EndOfInput(line, too_long);
+      if (live_) {
+        if (options_.stop && options_.stop->load()) return EndOfInput(line, too_long);
+        const auto now = Clock::now();
+        if (options_.idle_timeout_s > 0 &&
+            std::chrono::duration<double>(now - last_byte_).count() > options_.idle_timeout_s) {
+          return EndOfInput(line, too_long);
+        }
+        if (may_idle && now >= slice_end) return LineStatus::kIdle;
       }
-      if (may_idle && now >= slice_end) return LineStatus::kIdle;
       pos_ = len_ = 0;
       const Fill got = FillBuffer(buffer_.data(), buffer_.size(), len_);
       if (got == Fill::kData) {
-        last_byte_ = Clock::now();
+        if (live_) last_byte_ = Clock::now();
+      } else if (got == Fill::kEnd) {
+        return EndOfInput(line, too_long);
       } else if (got == Fill::kBreak) {
         if (HasPending()) return TakePending(line, too_long);
       } else if (got == Fill::kRestart) {
@@ -117,32 +111,98 @@ class LiveLineInput : public LineInput {
   }
 
  protected:
-  // Reads what is available into `buf` (its size in `len`), waiting a few
-  // ms at most when there is nothing.
+  // Reads what is available into `buf` (its size in `len`, at most `cap`).
+  // Live inputs wait a few ms at most when there is nothing (kNothing) and
+  // never wait for the buffer to fill.
   virtual Fill FillBuffer(char* buf, std::size_t cap, std::size_t& len) = 0;
 
  private:
   bool HasPending() const { return !pending_.empty() || pending_too_long_; }
-  LineStatus TakePending(std::string& line, bool& too_long) {
-    line.swap(pending_);
-    pending_.clear();
+  LineStatus TakePending(std::string_view& line, bool& too_long) {
+    line = pending_;
+    pending_taken_ = true;  // cleared at the next Read, when the view is dead
     too_long = pending_too_long_;
     pending_too_long_ = false;
     return LineStatus::kLine;
   }
   // A partial last line is delivered (the reader counts it if it is bad).
-  LineStatus EndOfInput(std::string& line, bool& too_long) {
+  LineStatus EndOfInput(std::string_view& line, bool& too_long) {
     if (HasPending()) return TakePending(line, too_long);
     return LineStatus::kEnd;
   }
 
+  bool live_;
   LiveOptions options_;
   std::vector<char> buffer_;
   std::size_t pos_{0}, len_{0};
-  std::string pending_;
+  std::string pending_;  // the start of a line cut by the buffer's end, at most max_bytes
   bool pending_too_long_{false};
+  bool pending_taken_{false};
   bool restart_next_{false};
   Clock::time_point last_byte_;
+};
+
+// A stream read to its end (tests and fuzzing give istringstreams; a
+// streambuf may throw from underflow on a read error). What the stream has
+// buffered is taken first, so the bytes before a failing read are lines
+// like any other.
+class StreamLineInput final : public BlockLineInput {
+ public:
+  explicit StreamLineInput(std::unique_ptr<std::istream> in) : BlockLineInput(false, {}), in_(std::move(in)) {}
+
+ protected:
+  Fill FillBuffer(char* buf, std::size_t cap, std::size_t& len) override {
+    std::streambuf* sb = in_->rdbuf();
+    std::streamsize n = 0;
+    try {
+      const std::streamsize ready = sb->in_avail();
+      const auto want = static_cast<std::streamsize>(cap);
+      n = sb->sgetn(buf, ready > 0 ? std::min(ready, want) : want);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(e.what());  // the reader names the file and the line
+    }
+    if (n <= 0) return Fill::kEnd;
+    len = static_cast<std::size_t>(n);
+    return Fill::kData;
+  }
+
+ private:
+  std::unique_ptr<std::istream> in_;
+};
+
+// A file read with read(2) to its end.
+class FileLineInput final : public BlockLineInput {
+ public:
+  explicit FileLineInput(const std::string& path) : BlockLineInput(false, {}) {
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd_ < 0) throw std::runtime_error(path + ": cannot open the input file");
+  }
+  ~FileLineInput() override { ::close(fd_); }
+  FileLineInput(const FileLineInput&) = delete;
+  FileLineInput& operator=(const FileLineInput&) = delete;
+
+ protected:
+  Fill FillBuffer(char* buf, std::size_t cap, std::size_t& len) override {
+    while (true) {
+      const ssize_t n = ::read(fd_, buf, cap);
+      if (n > 0) {
+        len = static_cast<std::size_t>(n);
+        return Fill::kData;
+      }
+      if (n == 0) return Fill::kEnd;
+      if (errno == EINTR) continue;
+      throw std::runtime_error(std::strerror(errno));  // the reader names the file and the line
+    }
+  }
+
+ private:
+  int fd_{-1};
+};
+
+// The live inputs: lines as they arrive.
+class LiveLineInput : public BlockLineInput {
+ public:
+  explicit LiveLineInput(const LiveOptions& options) : BlockLineInput(true, options) {}
 };
 
 // How often a followed file is looked at while it does not grow: the
@@ -340,6 +400,10 @@ class TcpLineInput final : public LiveLineInput {
 
 std::unique_ptr<LineInput> StreamLines(std::unique_ptr<std::istream> in) {
   return std::make_unique<StreamLineInput>(std::move(in));
+}
+
+std::unique_ptr<LineInput> FileLines(const std::string& path) {
+  return std::make_unique<FileLineInput>(path);
 }
 
 std::unique_ptr<LineInput> FollowFile(const std::string& path, const LiveOptions& options) {

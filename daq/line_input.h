@@ -1,7 +1,10 @@
 #pragma once
 // Private to rocklab::daq: where the text sources (CSV, LVM) get their lines.
 // A stream read to its end, a file followed as it grows (--follow), or a TCP
-// connection to an acquisition PC (tcp://HOST:PORT). The live inputs wait in
+// connection to an acquisition PC (tcp://HOST:PORT). All read blocks and
+// split them in place (no copy of a line that lies within one block); the
+// live inputs take what has arrived, so a line is delivered as soon as its
+// '\n' is there, never held back for a full block. The live inputs wait in
 // slices of at most kIdleSliceMs so the caller can check its stop flag and
 // publish its heartbeat while nothing arrives.
 
@@ -11,6 +14,7 @@
 #include <istream>
 #include <memory>
 #include <string>
+#include <string_view>
 
 namespace rocklab::daq::detail {
 
@@ -32,14 +36,17 @@ struct LiveOptions {
 class LineInput {
  public:
   virtual ~LineInput() = default;
-  /// Reads the next line into `line` (cleared first). A line longer than
-  /// `max_bytes` is cut there and `too_long` set (the rest is skipped).
+  /// Reads the next line: `line` views it, without its '\n', and stays
+  /// valid until the next Read (it points into the input's block buffer, or
+  /// into a carry-over buffer for a line that straddles two blocks). A line
+  /// longer than `max_bytes` is cut there and `too_long` set (the rest is
+  /// skipped); memory stays bounded by the block and `max_bytes`.
   /// With may_idle false a live input blocks until a line, the stop or the
   /// idle timeout; with may_idle true it returns kIdle after one slice.
   /// A partial last line (no '\n') is delivered when the input ends.
   /// @throws std::runtime_error with the cause of a read error (never taken
   ///         for the end of the input); the reader adds the file and line.
-  virtual LineStatus Read(std::string& line, bool& too_long, std::size_t max_bytes, bool may_idle) = 0;
+  virtual LineStatus Read(std::string_view& line, bool& too_long, std::size_t max_bytes, bool may_idle) = 0;
   /// Whether the input is live (followed file, TCP): no pacing, kIdle possible.
   virtual bool live() const { return false; }
   /// Times the input started over (kRestart returned).
@@ -49,8 +56,17 @@ class LineInput {
   int64_t restarts_{0};
 };
 
-/// Lines of `in` to its end (the plain CSV/LVM readers).
+/// Bytes a plain file or stream is read by at a time: large enough that the
+/// read calls and the carry-over of the line cut at a block's end cost
+/// nothing per line, small enough for any host (one buffer per source).
+inline constexpr std::size_t kBlockBytes = std::size_t{256} << 10;
+
+/// Lines of `in` to its end, read in blocks of kBlockBytes (tests, fuzzing).
 std::unique_ptr<LineInput> StreamLines(std::unique_ptr<std::istream> in);
+/// Lines of the file at `path` to its end, read with read(2) in blocks of
+/// kBlockBytes (the plain CSV/LVM readers).
+/// @throws std::runtime_error "PATH: cannot open the input file" when it cannot be opened.
+std::unique_ptr<LineInput> FileLines(const std::string& path);
 /// Lines of the file at `path`, followed as it grows: a partial last line
 /// waits for its '\n'; a file replaced at `path` (another inode) or
 /// truncated is read from its start after the old one's last byte (kRestart).

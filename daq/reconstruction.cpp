@@ -34,6 +34,8 @@ Rigid2d FitRigid2d(const double* model, const double* world, int n) {
   Rigid2d fit;
   fit.phi = std::atan2(cross, dot);
   const double c = std::cos(fit.phi), s = std::sin(fit.phi);
+  fit.cos_phi = c;
+  fit.sin_phi = s;
   fit.tx = wx - (c * mx - s * mz);
   fit.tz = wz - (s * mx + c * mz);
   double sum_sq = 0;
@@ -111,6 +113,41 @@ Reconstructor::Reconstructor(const RigConfig& rig, const std::vector<std::string
   }
   model_xz_.resize(2 * leds_.size());
   world_xz_.resize(2 * leds_.size());
+  // The per-frame constants: the mirror's angle noise, and the fit's noise
+  // figures with every LED valid, for a pivot on either side.
+  sigma_mirror_ = checks_.mirror_sigma_m / (2 * mirror_.lever_m);
+  if (!leds_.empty()) {
+    std::vector<double> all_xz;
+    for (const Led& led : leds_) {
+      all_xz.push_back(led.x_m);
+      all_xz.push_back(led.z_m);
+    }
+    const int n = static_cast<int>(leds_.size());
+    all_leds_noise_[0] = PredictNoise(all_xz.data(), n, -1.0 * pivot_half_width_m_);
+    all_leds_noise_[1] = PredictNoise(all_xz.data(), n, 1.0 * pivot_half_width_m_);
+  }
+}
+
+// Predicted noise for the LEDs used (isotropic sigma per coordinate):
+// rotation sigma / sqrt(S), pivot sigma sqrt(1/n + d^2 / S), with S the
+// spread of the LEDs about their centroid c and d = |pivot - c|.
+Reconstructor::Noise Reconstructor::PredictNoise(const double* model_xz, int used, double bx) const {
+  double cx = 0, cz = 0;
+  for (int i = 0; i < used; ++i) {
+    cx += model_xz[2 * i];
+    cz += model_xz[2 * i + 1];
+  }
+  cx /= used;
+  cz /= used;
+  double spread = 0;
+  for (int i = 0; i < used; ++i) {
+    spread += std::pow(model_xz[2 * i] - cx, 2) + std::pow(model_xz[2 * i + 1] - cz, 2);
+  }
+  const double d2 = (bx - cx) * (bx - cx) + cz * cz;
+  Noise noise;
+  noise.sigma_theta = checks_.led_sigma_m / std::sqrt(spread);
+  noise.sigma_pivot = checks_.led_sigma_m * std::sqrt(1.0 / used + d2 / spread);
+  return noise;
 }
 
 void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
@@ -165,27 +202,16 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
       out.fit_rms_m = fit.rms;
       const double side = out.theta_camera >= 0 ? 1.0 : -1.0;
       const double bx = side * pivot_half_width_m_;  // pivot in the block frame (z = 0)
-      const double pivot_x = std::cos(fit.phi) * bx + fit.tx;
-      const double pivot_z = std::sin(fit.phi) * bx + fit.tz;
+      const double pivot_x = fit.cos_phi * bx + fit.tx;
+      const double pivot_z = fit.sin_phi * bx + fit.tz;
       // No table channel: a fixed base. An invalid table sample: sliding unknown.
       const double table = has_table_displacement() ? out.table_displacement : 0.0;
-      // Predicted noise for the LEDs used (isotropic sigma per coordinate):
-      // rotation sigma / sqrt(S), pivot sigma sqrt(1/n + d^2 / S), with S the
-      // spread of the LEDs about their centroid c and d = |pivot - c|.
-      double cx = 0, cz = 0;
-      for (int i = 0; i < used; ++i) {
-        cx += model_xz_[2 * i];
-        cz += model_xz_[2 * i + 1];
-      }
-      cx /= used;
-      cz /= used;
-      double spread = 0;
-      for (int i = 0; i < used; ++i) {
-        spread += std::pow(model_xz_[2 * i] - cx, 2) + std::pow(model_xz_[2 * i + 1] - cz, 2);
-      }
-      const double d2 = (bx - cx) * (bx - cx) + cz * cz;
-      out.sigma_theta_camera = checks_.led_sigma_m / std::sqrt(spread);
-      out.sigma_pivot_m = checks_.led_sigma_m * std::sqrt(1.0 / used + d2 / spread);
+      // With every LED valid (the usual frame) the noise figures are the
+      // constructor's, computed by the same function: the same bits.
+      const Noise noise = used == static_cast<int>(leds_.size()) ? all_leds_noise_[side > 0 ? 1 : 0]
+                                                                 : PredictNoise(model_xz_.data(), used, bx);
+      out.sigma_theta_camera = noise.sigma_theta;
+      out.sigma_pivot_m = noise.sigma_pivot;
       // A pivot too noisy for a tolerance is reported unmeasured, not guessed.
       const double reach = checks_.sigmas * out.sigma_pivot_m;
       out.sliding = reach <= checks_.sliding_m ? pivot_x - bx - table : kNaN;
@@ -227,10 +253,9 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
   check(kFlagOutOfPlane, std::isfinite(out.out_of_plane) || std::isfinite(out.tilt),
         std::abs(out.out_of_plane) > checks_.out_of_plane_m || std::abs(out.tilt) > checks_.tilt_rad);
   // Disagreement is judged only where the two angles are precise enough.
-  const double sigma_mirror = checks_.mirror_sigma_m / (2 * mirror_.lever_m);
   check(kFlagDisagree,
         std::isfinite(out.theta_mirror) && std::isfinite(out.theta_camera) &&
-            checks_.sigmas * std::hypot(sigma_mirror, out.sigma_theta_camera) <= checks_.disagree_rad,
+            checks_.sigmas * std::hypot(sigma_mirror_, out.sigma_theta_camera) <= checks_.disagree_rad,
         std::abs(out.theta_mirror - out.theta_camera) > checks_.disagree_rad);
 }
 

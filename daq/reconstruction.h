@@ -56,6 +56,8 @@ struct Rigid2d {
   double tx{};   ///< m
   double tz{};   ///< m
   double rms{};  ///< RMS residual, m
+  double cos_phi{};  ///< cos(phi), as the fit computed it
+  double sin_phi{};  ///< sin(phi)
 };
 /// Closed-form 2-D Kabsch/Umeyama fit without scaling. `model` and `world`
 /// hold n points as x0, z0, x1, z1, ...; n >= 2 and the model points distinct.
@@ -104,6 +106,12 @@ class Reconstructor {
   };
   Channel Bind(const RigConfig& rig, const std::string& sensor,
                const std::vector<std::string>& source_channels);
+  struct Noise {
+    double sigma_theta{};  ///< rad
+    double sigma_pivot{};  ///< m
+  };
+  /// Predicted noise of the fit of `used` LEDs at model_xz with the pivot at x = bx (m).
+  Noise PredictNoise(const double* model_xz, int used, double bx) const;
 
   CheckTolerances checks_;
   MirrorConfig mirror_;
@@ -113,6 +121,8 @@ class Reconstructor {
   std::vector<Led> leds_;
   std::vector<double> model_xz_;  // scratch for the fit, sized once
   std::vector<double> world_xz_;
+  double sigma_mirror_{};       // noise of theta_mirror, rad
+  Noise all_leds_noise_[2]{};   // every LED valid: pivot at -x ([0]) and +x ([1])
   ReconstructionCounts counts_;
 };
 

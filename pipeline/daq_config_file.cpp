@@ -54,7 +54,7 @@ std::string RelativeTo(const std::string& config_path, const std::string& value)
 const std::vector<std::string>& DaqConfigKeys() {
   static const std::vector<std::string> keys = {
       "rig",    "input",     "speed", "max",         "lcm-url",        "prefix",
-      "follow", "idle-timeout", "delimiter", "log", "rotate-size", "rotate-seconds"};
+      "follow", "idle-timeout", "delimiter", "log", "rotate-size", "rotate-seconds", "raw-url"};
   return keys;
 }
 
@@ -86,6 +86,7 @@ void ApplyDaqConfigFile(const std::string& path, DaqStageOptions& o,
     if (key == "input") o.input = RelativeTo(path, String(path, node, key));
     if (key == "log") o.log_path = RelativeTo(path, String(path, node, key));
     if (key == "lcm-url") o.lcm_url = String(path, node, key);
+    if (key == "raw-url") o.raw_url = String(path, node, key);
     if (key == "prefix") o.prefix = String(path, node, key);
     if (key == "delimiter") o.delimiter = String(path, node, key);
     if (key == "max") o.max_speed = Bool(path, node, key);

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "common/bus_urls.h"
 #include "common/text.h"
 #include "daq/source.h"
 #include "model/block.h"
@@ -18,6 +19,21 @@ std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url) {
     return std::make_unique<common::LcmBus>(url);
   } catch (const std::runtime_error&) {
     throw OptionError("--lcm-url: cannot open LCM at '" + url + "'");
+  }
+}
+
+std::unique_ptr<common::LcmBus> OpenRawBus(const std::string& lcm_url, const std::string& raw_url) {
+  std::string url;
+  try {
+    url = common::RawUrl(lcm_url, raw_url);
+  } catch (const std::invalid_argument& e) {
+    throw OptionError(e.what());  // starts with "--raw-url: "
+  }
+  if (url.empty()) return nullptr;
+  try {
+    return std::make_unique<common::LcmBus>(url);
+  } catch (const std::runtime_error&) {
+    throw OptionError("--raw-url: cannot open LCM at '" + url + "'");
   }
 }
 
@@ -150,7 +166,14 @@ class RotatingLogBus final : public common::Bus {
 int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bool>& stop) {
   daq::DaqNodeConfig config = StageConfig(o, &stop);
   const std::unique_ptr<common::LcmBus> lcm_bus = OpenLcmBus(o.lcm_url);
+  // <prefix>RAW on its own bus (common/bus_urls.h), everything else on lcm_url.
+  const std::unique_ptr<common::LcmBus> raw_bus = OpenRawBus(o.lcm_url, o.raw_url);
+  std::unique_ptr<common::RoutingBus> routing;
   common::Bus* bus = lcm_bus.get();
+  if (raw_bus) {
+    routing = std::make_unique<common::RoutingBus>(*lcm_bus, *raw_bus, common::ExactChannelRegex(common::RawChannel(o.prefix)));
+    bus = routing.get();
+  }
   std::unique_ptr<record::RotatingLogWriter> log;
   std::unique_ptr<RotatingLogBus> log_bus;
   if (!o.log_path.empty()) {
@@ -164,7 +187,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
     } catch (const std::exception& e) {
       throw OptionError(std::string("--log: ") + e.what());
     }
-    log_bus = std::make_unique<RotatingLogBus>(*lcm_bus, *log);
+    log_bus = std::make_unique<RotatingLogBus>(*bus, *log);  // every channel, RL_RAW too
     bus = log_bus.get();
   }
   std::unique_ptr<daq::DaqNode> node;
@@ -247,9 +270,22 @@ void CheckDaqStage(const DaqStageOptions& o) {
       if (!found) throw OptionError("--input: " + o.input + " has no column '" + c.name + "' the rig names");
     }
   }
-  std::printf("publish: %sDAQ_CONFIG %sRAW %sTHETA %sTABLE %sEVENT %sHEALTH on %s\n", o.prefix.c_str(),
-              o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(),
-              o.lcm_url.empty() ? "LCM's default URL" : o.lcm_url.c_str());
+  std::string raw_url;
+  try {
+    raw_url = common::RawUrl(o.lcm_url, o.raw_url);
+  } catch (const std::invalid_argument& e) {
+    throw OptionError(e.what());  // starts with "--raw-url: "
+  }
+  const std::string main_url = o.lcm_url.empty() ? "LCM's default URL (" + common::ResolveLcmUrl("") + ")" : o.lcm_url;
+  if (raw_url.empty()) {
+    std::printf("publish: %sDAQ_CONFIG %sRAW %sTHETA %sTABLE %sEVENT %sHEALTH on %s\n", o.prefix.c_str(),
+                o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(),
+                main_url.c_str());
+  } else {
+    std::printf("publish: %sDAQ_CONFIG %sTHETA %sTABLE %sEVENT %sHEALTH on %s; %sRAW on %s\n", o.prefix.c_str(),
+                o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), o.prefix.c_str(), main_url.c_str(),
+                o.prefix.c_str(), raw_url.c_str());
+  }
   if (!o.log_path.empty()) {
     std::printf("log: %s", o.log_path.c_str());
     if (o.rotate_bytes > 0) std::printf(", a new file every %lld bytes", static_cast<long long>(o.rotate_bytes));

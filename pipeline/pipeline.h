@@ -26,6 +26,12 @@ namespace rocklab::pipeline {
 /// @throws OptionError("--lcm-url: cannot open LCM at '<url>'").
 std::unique_ptr<common::LcmBus> OpenLcmBus(const std::string& url);
 
+/// The bus of the raw frames for the main bus `lcm_url` and `raw_url`
+/// (--raw-url: empty = derived, "same", or a URL; common/bus_urls.h): an
+/// LcmBus, or null when RL_RAW goes on the main bus.
+/// @throws OptionError naming --raw-url (a bad URL, or one LCM cannot open).
+std::unique_ptr<common::LcmBus> OpenRawBus(const std::string& lcm_url, const std::string& raw_url);
+
 /// Loads the rig file; errors become OptionError naming file, line and key.
 daq::RigConfig LoadRig(const std::string& path);
 
@@ -46,6 +52,9 @@ struct DaqStageOptions {
   double speed{1.0};        ///< sample-clock s per host s; > 0
   bool max_speed{};         ///< as fast as possible (speed ignored)
   std::string lcm_url;      ///< empty: LCM's default (LCM_DEFAULT_URL or its own)
+  /// --raw-url: where <prefix>RAW goes; empty: derived from lcm_url, "same":
+  /// the main bus (common/bus_urls.h). An lcm:// input is read on lcm_url.
+  std::string raw_url;
   std::string prefix{"RL_"};
   bool follow{};            ///< CSV/LVM: keep reading as the file grows
   double idle_timeout_s{};  ///< live inputs: end after this long without data, s; 0 = never
@@ -57,7 +66,7 @@ struct DaqStageOptions {
 
 /// The keys of a `rocklab daq --config FILE.toml`: every option of `rocklab
 /// daq` by its flag's name without the dashes (rig, input, speed, max,
-/// lcm-url, prefix, follow, idle-timeout, delimiter, log, rotate-size,
+/// lcm-url, raw-url, prefix, follow, idle-timeout, delimiter, log, rotate-size,
 /// rotate-seconds). Relative paths (rig, input, log) are taken from the
 /// config file's folder.
 const std::vector<std::string>& DaqConfigKeys();

@@ -62,17 +62,24 @@ void RecorderOptions::Validate() const {
   if (lcm_queue_messages < 1) throw std::invalid_argument("lcm_queue_messages must be >= 1");
 }
 
-Recorder::Recorder(lcm::LCM& lcm, RecorderOptions options)
-    : options_(Validated(options)),
-      lcm_(lcm),
-      queue_(options_.queue_bytes),
-      writer_(Rotation(options_)) {
+Recorder::Recorder(lcm::LCM& instance, RecorderOptions options)
+    : Recorder(std::vector<lcm::LCM*>{&instance}, std::move(options)) {}
+
+Recorder::Recorder(const std::vector<lcm::LCM*>& lcms, RecorderOptions options)
+    : options_(Validated(options)), queue_(options_.queue_bytes), writer_(Rotation(options_)) {
+  if (lcms.empty()) throw std::invalid_argument("the recorder needs an LCM instance");
   names_.reserve(64);
   produced_.reserve(64);
   written_.reserve(64);
-  subscription_ = lcm_.subscribeFunction(options_.channels, &Recorder::OnMessage, this);
-  if (!subscription_) throw std::runtime_error("cannot subscribe to '" + options_.channels + "'");
-  subscription_->setQueueCapacity(options_.lcm_queue_messages);
+  for (lcm::LCM* instance : lcms) {
+    lcm::Subscription* sub = instance->subscribeFunction(options_.channels, &Recorder::OnMessage, this);
+    if (!sub) {
+      for (auto& [subscribed, s] : subscriptions_) subscribed->unsubscribe(s);
+      throw std::runtime_error("cannot subscribe to '" + options_.channels + "'");
+    }
+    sub->setQueueCapacity(options_.lcm_queue_messages);
+    subscriptions_.emplace_back(instance, sub);
+  }
   thread_ = std::thread([this] { WriterLoop(); });
 }
 
@@ -154,8 +161,8 @@ void Recorder::WriterLoop() {
 void Recorder::Stop() {
   if (stopped_) return;
   stopped_ = true;
-  if (subscription_) lcm_.unsubscribe(subscription_);
-  subscription_ = nullptr;
+  for (auto& [instance, sub] : subscriptions_) instance->unsubscribe(sub);
+  subscriptions_.clear();
   queue_.Close();
   if (thread_.joinable()) thread_.join();
 }

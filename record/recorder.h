@@ -32,6 +32,7 @@
 #include <string>
 #include <thread>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -90,12 +91,17 @@ class Recorder {
   /// @throws std::invalid_argument for bad options, std::runtime_error when
   ///         the log cannot be created (naming it).
   Recorder(lcm::LCM& lcm, RecorderOptions options);
+  /// As above on several LCM instances (the main bus and RL_RAW's own,
+  /// common/bus_urls.h), the same channel regex on each, into one log: all
+  /// handled by the same one thread, so the log is in the order that thread
+  /// received the events; a channel's counts add up over the instances.
+  Recorder(const std::vector<lcm::LCM*>& lcms, RecorderOptions options);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
 
   /// Unsubscribes, writes what is queued, closes the file. Idempotent. Call
-  /// from the thread that handles `lcm`.
+  /// from the thread that handles the LCM instances.
   void Stop();
 
   /// Events dropped since the counter was last read (for a rate-limited
@@ -115,8 +121,8 @@ class Recorder {
   };
 
   RecorderOptions options_;
-  lcm::LCM& lcm_;  // not owned
-  lcm::Subscription* subscription_{};
+  // Each LCM instance (not owned) and the recorder's subscription on it.
+  std::vector<std::pair<lcm::LCM*, lcm::Subscription*>> subscriptions_;
   EventQueue queue_;
   RotatingLogWriter writer_;  // the writer thread's after construction
   // LCM's thread: channel ids and receipt counts.

@@ -1,7 +1,8 @@
 #include "tools/cli.h"
 
 #include <csignal>
-#include <cstdlib>
+
+#include "common/bus_urls.h"
 
 namespace rocklab::tools {
 
@@ -11,13 +12,15 @@ extern "C" void OnStopSignal(int) { g_stop.store(true); }
 }  // namespace
 
 std::string SubscriberUrl(const std::string& url) {
-  std::string out = url;
-  if (out.empty()) {
-    const char* env = std::getenv("LCM_DEFAULT_URL");
-    out = env != nullptr && *env != '\0' ? env : "udpm://239.255.76.67:7667?ttl=0";
-  }
+  const std::string out = common::ResolveLcmUrl(url);
   if (out.rfind("udpm://", 0) != 0 || out.find("recv_buf_size=") != std::string::npos) return out;
   return out + (out.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=4194304";
+}
+
+CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url) {
+  return cmd.add_option("--raw-url", raw_url,
+                        "LCM URL of RL_RAW (default: --lcm-url's udpm group and port + 1, else the same bus; "
+                        "'same': the main bus)");
 }
 
 const std::atomic<bool>& InstallStopSignals() {

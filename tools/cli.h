@@ -42,5 +42,10 @@ const std::atomic<bool>& InstallStopSignals();
 /// before LCM sees it. Other URLs are returned as they are.
 std::string SubscriberUrl(const std::string& url);
 
+/// Adds `--raw-url URL` (into `raw_url`) to `cmd`: where RL_RAW goes or is
+/// read; default derived from --lcm-url, `same`: the main bus
+/// (common/bus_urls.h, docs/channels.md).
+CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url);
+
 
 }  // namespace rocklab::tools

@@ -1,4 +1,4 @@
-// rocklab daq --rig RIG.toml --input INPUT [--speed X | --max] [--lcm-url URL]
+// rocklab daq --rig RIG.toml --input INPUT [--speed X | --max] [--lcm-url URL] [--raw-url URL|same]
 //             [--follow] [--idle-timeout S] [--delimiter D]
 //             [--log FILE [--rotate-size BYTES] [--rotate-seconds S]]
 //             [--config FILE.toml] [--check]:
@@ -31,6 +31,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
                     ->capture_default_str();
   cmd->add_flag("--max", opts->max_speed, "as fast as possible")->excludes(speed);
   cmd->add_option("--lcm-url", opts->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  AddRawUrlOption(*cmd, opts->raw_url);
   cmd->add_option("--prefix", opts->prefix, "channel prefix")->capture_default_str();
   cmd->add_flag("--follow", opts->follow, "CSV/LVM: keep reading as the file grows (and is replaced)");
   cmd->add_option("--idle-timeout", opts->idle_timeout_s, "live inputs: stop after S s without data (0 = never)");

@@ -3,20 +3,30 @@
 // per-channel counts, losses and sequence gaps, and a summary on
 // SIGINT/SIGTERM.
 //
-// Threading model: this thread runs LCM's dispatch (handleTimeout, 100 ms),
-// whose handler only copies each event into the recorder's queue; the
+// Two buses by default: the main one (--lcm-url) and RL_RAW's own
+// (--raw-url, derived from --lcm-url: common/bus_urls.h; `same`, or a
+// non-udpm URL: one bus), the same --channels on each, into one log.
+//
+// Threading model: this thread runs LCM's dispatch of both instances (a
+// poll on their file descriptors, 100 ms, then handleTimeout(0) on each that
+// is readable), whose handler only copies each event into the recorder's
+// queue, so the log is in this thread's order of receipt; the
 // recorder's writer thread writes the file. Every second this thread warns
 // (once) when events were dropped. On SIGINT/SIGTERM (the handlers only set
 // the stop flag): dispatch what LCM already holds, Stop (the writer writes
 // what is queued, flushes, closes), print the summary, write --summary.
+#include <poll.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/bus_urls.h"
 #include "common/node_support.h"
 #include "record/recorder.h"
 #include "tools/cli.h"
@@ -27,6 +37,7 @@ namespace {
 struct RecordCommand {
   record::RecorderOptions options;
   std::string lcm_url;
+  std::string raw_url;  ///< --raw-url (empty: derived from lcm_url)
   std::string summary_json;
   double queue_mb{64};
 };
@@ -53,6 +64,27 @@ std::string RecorderUrl(const std::string& url, long long& asked) {
     if (at != std::string::npos) out.replace(at, given.size(), "recv_buf_size=" + std::to_string(asked));
   }
   return out;
+}
+
+// Dispatches what the instances hold: waits up to `timeout_ms` for one to
+// be readable, then handles each readable one without waiting. Returns the
+// number of instances that dispatched, 0 on timeout, -1 when the wait failed
+// (errno says why: EINTR for a signal) or an instance's handling did.
+int HandleAll(const std::vector<lcm::LCM*>& lcms, int timeout_ms) {
+  if (lcms.size() == 1) return lcms[0]->handleTimeout(timeout_ms);  // one bus: LCM's own wait
+  pollfd fds[2]{};
+  const std::size_t n = std::min<std::size_t>(lcms.size(), 2);
+  for (std::size_t i = 0; i < n; ++i) fds[i] = pollfd{lcms[i]->getFileno(), POLLIN, 0};
+  const int ready = ::poll(fds, n, timeout_ms);
+  if (ready <= 0) return ready;
+  int handled = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((fds[i].revents & POLLIN) == 0) continue;
+    const int r = lcms[i]->handleTimeout(0);
+    if (r < 0) return -1;
+    handled += r > 0;
+  }
+  return handled;
 }
 
 void PrintSummary(const record::RecorderStats& s) {
@@ -83,24 +115,39 @@ int RunRecord(RecordCommand& c) {
   const std::atomic<bool>& stop = InstallStopSignals();
   long long asked = 0;
   const std::string url = RecorderUrl(c.lcm_url, asked);
+  std::string raw;
+  try {
+    raw = common::RawUrl(c.lcm_url, c.raw_url);  // "" when RL_RAW is on the main bus
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
   lcm::LCM lcm(url);
   if (!lcm.good()) throw UsageError("--lcm-url: cannot open LCM at '" + url + "'");
+  std::unique_ptr<lcm::LCM> raw_lcm;
+  std::vector<lcm::LCM*> buses{&lcm};
+  if (!raw.empty()) {
+    long long raw_asked = 0;
+    raw = RecorderUrl(raw, raw_asked);
+    raw_lcm = std::make_unique<lcm::LCM>(raw);
+    if (!raw_lcm->good()) throw UsageError("--raw-url: cannot open LCM at '" + raw + "'");
+    buses.push_back(raw_lcm.get());
+  }
   const auto log = common::NamedLogger("record");
   if (asked > 0 && asked < (16LL << 20)) {
     log->info("net.core.rmem_max caps the udpm socket buffer at {} bytes (raise it for more)", asked);
   }
   std::unique_ptr<record::Recorder> recorder;
   try {
-    recorder = std::make_unique<record::Recorder>(lcm, c.options);
+    recorder = std::make_unique<record::Recorder>(buses, c.options);
   } catch (const std::runtime_error& e) {
     throw UsageError(e.what());
   }
-  std::fprintf(stderr, "rocklab record: recording '%s' from %s to %s\n", c.options.channels.c_str(), url.c_str(),
-               c.options.out_path.c_str());
+  std::fprintf(stderr, "rocklab record: recording '%s' from %s%s%s to %s\n", c.options.channels.c_str(),
+               url.c_str(), raw.empty() ? "" : " and ", raw.c_str(), c.options.out_path.c_str());
   double last_check = common::HostNowS();
   int failures = 0;
   while (!stop.load()) {
-    if (lcm.handleTimeout(100) < 0) {
+    if (HandleAll(buses, 100) < 0) {
       // A signal interrupts LCM's wait: -1 then is no failure.
       if (stop.load()) break;
       if (++failures >= 10) {
@@ -120,7 +167,7 @@ int RunRecord(RecordCommand& c) {
   }
   // What arrived before the stop (datagrams already in the socket too) is
   // recorded: handle until 20 ms pass with nothing, at most 4 M events.
-  for (int n = 0; n < (1 << 22) && lcm.handleTimeout(20) > 0; ++n) {
+  for (int n = 0; n < (1 << 22) && HandleAll(buses, 20) > 0; ++n) {
   }
   recorder->Stop();
   const record::RecorderStats stats = recorder->Stats();
@@ -151,6 +198,7 @@ void RegisterRecord(CLI::App& app, CommandRun& run) {
   cmd->add_option("--queue-mb", c->queue_mb, "the recorder's queue, MiB")->capture_default_str();
   cmd->add_flag("--force", c->options.overwrite, "replace existing log files");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  AddRawUrlOption(*cmd, c->raw_url);
   cmd->callback([c, &run] { run = [c] { return RunRecord(*c); }; });
 }
 

@@ -5,10 +5,13 @@
 //     sends a raw file (CSV, LVM or LCM log of RL_RAW) through the DAQ stage:
 //     the code path of `rocklab daq` (RunDaqStage), so it publishes what the
 //     DAQ publishes.
+// Both forms take [--raw-url URL|same]: RL_RAW goes on its own bus, as the
+// DAQ sends it (common/bus_urls.h), every other channel on --lcm-url.
 #include <cstdio>
 #include <memory>
 #include <string>
 
+#include "common/bus_urls.h"
 #include "common/progress.h"
 #include "tools/cli.h"
 #include "pipeline/log_replay.h"
@@ -25,6 +28,7 @@ struct ReplayCommand {
   std::string log_path;
   ReplayOptions replay;
   std::string lcm_url;
+  std::string raw_url;  ///< --raw-url (empty: derived from lcm_url)
   std::string rig_path;
   std::string input;
   // Options of the LOG form that were given (they make no sense with --rig).
@@ -39,7 +43,14 @@ int RunLogReplay(const ReplayCommand& c) {
     throw UsageError(e.what());
   }
   const std::atomic<bool>& stop = InstallStopSignals();
-  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(c.lcm_url);
+  const std::unique_ptr<common::LcmBus> main_bus = OpenLcmBus(c.lcm_url);
+  const std::unique_ptr<common::LcmBus> raw_bus = pipeline::OpenRawBus(c.lcm_url, c.raw_url);
+  std::unique_ptr<common::RoutingBus> routing;
+  if (raw_bus) {
+    routing = std::make_unique<common::RoutingBus>(*main_bus, *raw_bus,
+                                                   common::ExactChannelRegex(common::RawChannel()));
+  }
+  common::Bus* bus = routing ? static_cast<common::Bus*>(routing.get()) : main_bus.get();
   ReplayCounts counts;
   try {
     common::FileProgress progress("replay", c.log_path, c.quiet || !c.replay.max_speed);
@@ -87,6 +98,7 @@ int RunReplay(const ReplayCommand& c) {
   daq.speed = c.replay.speed;
   daq.max_speed = c.replay.max_speed;
   daq.lcm_url = c.lcm_url;
+  daq.raw_url = c.raw_url;
   common::FileProgress progress("replay", c.input, c.quiet || !c.replay.max_speed);
   return RunDaqStage(daq, "replay", InstallStopSignals());
 }
@@ -109,6 +121,7 @@ void RegisterReplay(CLI::App& app, CommandRun& run) {
   cmd->add_option("--start", c->replay.start_s, "LOG only: window start, s after the first event");
   cmd->add_option("--end", c->replay.end_s, "LOG only: window end, s after the first event");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
+  AddRawUrlOption(*cmd, c->raw_url);
   cmd->callback([c, cmd, &run] {
     c->log_only_given.clear();
     for (const char* name : {"--channels", "--loop", "--start", "--end"}) {

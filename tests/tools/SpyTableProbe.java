@@ -1,6 +1,8 @@
-// Runs LCM's lcm-spy (lcm.spy.Spy.main with this JVM's arguments) and, after
-// -Dprobe.seconds (default 6) of it receiving, prints lcm-spy's own channel
-// table as it would show it on screen: one line per row, tab separated,
+// Runs LCM's lcm-spy (lcm.spy.Spy.main with this JVM's arguments) and, once
+// every channel of -Dprobe.expect (comma separated) has a row with a message
+// counted, or after -Dprobe.seconds (default 60) of it receiving, whichever
+// comes first, prints lcm-spy's own channel table as it would show it on
+// screen: one line per row, tab separated,
 // "ROW<TAB>Channel<TAB>Type<TAB>Num Msgs<TAB>...<TAB>Undecodable", after a
 // "COLUMNS" line with the column names. The Type column is lcm-spy's lookup
 // of the message's fingerprint in its type database (the class name, or
@@ -16,7 +18,9 @@ import javax.swing.table.TableModel;
 
 public class SpyTableProbe {
   public static void main(String[] args) throws Exception {
-    final int seconds = Integer.parseInt(System.getProperty("probe.seconds", "6"));
+    final int seconds = Integer.parseInt(System.getProperty("probe.seconds", "60"));
+    final String[] expect = System.getProperty("probe.expect", "").isEmpty()
+        ? new String[0] : System.getProperty("probe.expect").split(",");
     Thread spy = new Thread(() -> {
       try {
         lcm.spy.Spy.main(args);
@@ -27,14 +31,44 @@ public class SpyTableProbe {
     });
     spy.setDaemon(true);
     spy.start();
-    Thread.sleep(seconds * 1000L);
+    // A deadline, not a fixed wait: a channel sent once per replay pass
+    // (RL_DAQ_CONFIG) reaches a loaded machine's JVM when it reaches it.
+    final long end = System.nanoTime() + seconds * 1_000_000_000L;
     final StringBuilder out = new StringBuilder();
-    SwingUtilities.invokeAndWait(() -> {
-      for (Frame f : Frame.getFrames()) collect(f, out);
-    });
+    while (true) {
+      out.setLength(0);
+      SwingUtilities.invokeAndWait(() -> {
+        for (Frame f : Frame.getFrames()) collect(f, out);
+      });
+      if (allSeen(out.toString(), expect) || System.nanoTime() > end) break;
+      Thread.sleep(250);
+    }
     System.out.print(out);
     System.out.flush();
     System.exit(out.length() > 0 ? 0 : 3);  // 3: lcm-spy showed no table
+  }
+
+  // Every expected channel has a ROW whose "Num Msgs" column is above 0.
+  private static boolean allSeen(String table, String[] expect) {
+    if (expect.length == 0) return !table.isEmpty();
+    int countColumn = -1;
+    java.util.Map<String, Long> counts = new java.util.HashMap<>();
+    for (String line : table.split("\n")) {
+      String[] f = line.split("\t", -1);
+      if (f[0].equals("COLUMNS")) {
+        countColumn = java.util.Arrays.asList(f).indexOf("Num Msgs");
+      } else if (f[0].equals("ROW") && countColumn > 0 && f.length > countColumn) {
+        try {
+          counts.put(f[1], Long.parseLong(f[countColumn]));
+        } catch (NumberFormatException e) {
+          // a row still being filled in: not seen yet
+        }
+      }
+    }
+    for (String channel : expect) {
+      if (counts.getOrDefault(channel, 0L) <= 0) return false;
+    }
+    return true;
   }
 
   private static void collect(Component c, StringBuilder out) {

@@ -40,6 +40,14 @@ namespace {
 
 const std::string kSource = ROCKLAB_SOURCE_DIR;
 
+// Every channel of the replay and its rocklab type (docs/channels.md).
+const std::map<std::string, std::string> kExpected = {
+    {"RL_DAQ_CONFIG", "daq_config_t"},       {"RL_RAW", "raw_frame_t"},
+    {"RL_TABLE", "table_state_t"},           {"RL_THETA", "block_state_t"},
+    {"RL_MODEL_fitted", "model_state2_t"},   {"RL_MODEL_theory", "model_state2_t"},
+    {"RL_COMPARE_fitted", "comparison_t"},   {"RL_COMPARE_theory", "comparison_t"},
+    {"RL_HEALTH", "health_t"}};
+
 bool InCi() {
   const char* ci = std::getenv("CI");
   return ci != nullptr && std::string(ci) == "true";
@@ -122,9 +130,10 @@ TEST(RocklabSpy, DecodesEveryChannelOfAReplayUnderXvfb) {
   ASSERT_TRUE(WaitForDisplay(display, 20)) << test::ReadFile(dir + "/xvfb.err");
   ASSERT_EQ(::setenv("DISPLAY", display_name.c_str(), 1), 0);
 
-  // The replay loops at 1x for as long as the spies listen.
+  // The replay loops at 1x for as long as the spies listen; RL_RAW on the
+  // main group too (--raw-url same), so that one spy sees every rocklab type.
   const pid_t replay = test::StartCli({"replay", log, "--speed", "1", "--loop", "--lcm-url",
-                                       test::kUdpmUrl},
+                                       test::kUdpmUrl, "--raw-url", "same"},
                                       dir + "/replay.out", dir + "/replay.err");
   ASSERT_GT(replay, 0);
 
@@ -148,10 +157,15 @@ TEST(RocklabSpy, DecodesEveryChannelOfAReplayUnderXvfb) {
   const auto main_class = java.end() - 2;
   ASSERT_EQ(*main_class, "lcm.spy.Spy") << command_line;
   *main_class = "SpyTableProbe";
-  java.insert(java.begin() + 1, "-Dprobe.seconds=6");
+  // The probe prints the table once every expected channel has a message
+  // (RL_DAQ_CONFIG comes once per replay pass), or at a generous deadline.
+  std::string expect_list;
+  for (const auto& entry : kExpected) expect_list += (expect_list.empty() ? "" : ",") + entry.first;
+  java.insert(java.begin() + 1, "-Dprobe.seconds=90");
+  java.insert(java.begin() + 1, "-Dprobe.expect=" + expect_list);
   const pid_t probe = test::StartProcess(java, dir + "/probe.out", dir + "/probe.err");
   ASSERT_GT(probe, 0);
-  const int probe_exit = test::StopProcess(probe, 0, 90);
+  const int probe_exit = test::StopProcess(probe, 0, 120);
   test::StopProcess(replay, SIGINT, 10);
   test::StopProcess(xvfb, SIGTERM, 10);
   const std::string table = test::ReadFile(dir + "/probe.out");
@@ -168,13 +182,7 @@ TEST(RocklabSpy, DecodesEveryChannelOfAReplayUnderXvfb) {
     for (std::size_t c = 0; c < columns.size(); ++c) rows[f[1]][columns[c]] = f[c + 1];
   }
   ASSERT_FALSE(rows.empty()) << table;
-  const std::map<std::string, std::string> expected = {
-      {"RL_DAQ_CONFIG", "daq_config_t"},       {"RL_RAW", "raw_frame_t"},
-      {"RL_TABLE", "table_state_t"},           {"RL_THETA", "block_state_t"},
-      {"RL_MODEL_fitted", "model_state2_t"},   {"RL_MODEL_theory", "model_state2_t"},
-      {"RL_COMPARE_fitted", "comparison_t"},   {"RL_COMPARE_theory", "comparison_t"},
-      {"RL_HEALTH", "health_t"}};
-  for (const auto& [channel, type] : expected) {
+  for (const auto& [channel, type] : kExpected) {
     SCOPED_TRACE(channel);
     ASSERT_TRUE(rows.count(channel)) << table;
     const auto& row = rows.at(channel);
