@@ -84,17 +84,20 @@ class BlockLineInput : public LineInput {
       }
       if (live_) {
         if (options_.stop && options_.stop->load()) return EndOfInput(line, too_long);
-        const auto now = Clock::now();
-        if (options_.idle_timeout_s > 0 &&
-            std::chrono::duration<double>(now - last_byte_).count() > options_.idle_timeout_s) {
-          return EndOfInput(line, too_long);
-        }
-        if (may_idle && now >= slice_end) return LineStatus::kIdle;
+        if (may_idle && Clock::now() >= slice_end) return LineStatus::kIdle;
       }
       pos_ = len_ = 0;
       const Fill got = FillBuffer(buffer_.data(), buffer_.size(), len_);
       if (got == Fill::kData) {
         if (live_) last_byte_ = Clock::now();
+      } else if (got == Fill::kNothing) {
+        // Idle only when a read has just found nothing: a reader that was
+        // itself not scheduled for longer than the timeout (a loaded
+        // machine) must not end an input whose bytes are waiting.
+        if (options_.idle_timeout_s > 0 &&
+            std::chrono::duration<double>(Clock::now() - last_byte_).count() > options_.idle_timeout_s) {
+          return EndOfInput(line, too_long);
+        }
       } else if (got == Fill::kEnd) {
         return EndOfInput(line, too_long);
       } else if (got == Fill::kBreak) {

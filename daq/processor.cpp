@@ -37,6 +37,14 @@ double FlagValue(const BlockState& s, int32_t flag) {
   }
 }
 
+int TableLagSamples(const RigConfig& rig, bool has_accelerometer) {
+  if (rig.table.lag_s) return rig.LagSamples(rig.table);
+  // The model needs only the measured acceleration: the velocity need not
+  // hold the pair back beyond theta_dot's delay.
+  if (has_accelerometer) return std::min(rig.HalfWindow(rig.table), rig.HalfWindow(rig.theta_dot));
+  return rig.HalfWindow(rig.table);
+}
+
 }  // namespace
 
 Processor::Processor(const RigConfig& rig, const std::vector<std::string>& source_channels,
@@ -46,9 +54,11 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
       reconstructor_(rig, source_channels, source_path),
       has_table_(reconstructor_.has_table_displacement() || reconstructor_.has_accelerometer()),
       has_accelerometer_(reconstructor_.has_accelerometer()),
-      theta_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz),
-      table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz),
-      ready_theta_(2 * static_cast<std::size_t>(std::max(theta_.sg.delay_samples(), table_.sg.delay_samples())) + 2),
+      theta_(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz,
+             rig.HalfWindow(rig.theta_dot)),
+      table_(rig.HalfWindow(rig.table), rig.table.order, 1.0 / rig.sample_rate_hz,
+             TableLagSamples(rig, has_accelerometer_)),
+      ready_theta_(2 * static_cast<std::size_t>(std::max(theta_.sg.half_window(), table_.sg.half_window())) + 2),
       ready_table_(ready_theta_.capacity()) {
   // Only the derivatives in use: theta_dot; the table velocity, and the
   // acceleration where no accelerometer measures it.
@@ -56,8 +66,8 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
   table_.sg.SetOutputs(false, true, !has_accelerometer_);
 }
 
-Processor::Stream::Stream(int half_window, int order, double dt_s)
-    : sg(half_window, order, dt_s),
+Processor::Stream::Stream(int half_window, int order, double dt_s, int lag)
+    : sg(half_window, order, dt_s, lag),
       // At most 2m+1 inputs wait for their output (the last m after Finish).
       pending(2 * half_window + 1),
       real(2 * half_window + 1, 0) {}
@@ -73,7 +83,7 @@ void Processor::Stream::Push(const BlockState& state, double value) {
 
 void Processor::Stream::Gap(int64_t missing, double next_value) {
   if (!started) return;
-  if (missing > sg.delay_samples()) {
+  if (missing > sg.half_window()) {
     sg.Finish();  // never differentiate across a long gap
     return;
   }

@@ -6,6 +6,7 @@
 /// The DAQ node, `rocklab reconstruct` and the tests all drive this class, so
 /// the same frames give the same outputs at any replay speed.
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -39,11 +40,11 @@ struct DaqEvent {
 };
 
 /// Receives the pipeline's outputs, in sample order. Block and table states
-/// are delayed by the longer of the two differentiators' half windows and
 /// come together: the block state of a sample, then its table state (a
 /// sample that has only one of them, e.g. a rig without a table channel,
-/// gives that one alone). Events are immediate. Implementations must not
-/// throw.
+/// gives that one alone), delayed by the longer of the two differentiators'
+/// delays (Processor::output_delay_samples). Events are immediate.
+/// Implementations must not throw.
 class ProcessorSink {
  public:
   virtual ~ProcessorSink() = default;
@@ -78,15 +79,26 @@ class Processor {
   const ProcessorCounts& counts() const { return counts_; }
   const SequenceCounts& sequence() const { return sequence_.counts(); }
   const ReconstructionCounts& reconstruction() const { return reconstructor_.counts(); }
+  /// theta_dot's delay, samples: its half window (centred).
   int theta_delay_samples() const { return theta_.sg.delay_samples(); }
+  /// The table differentiator's delay (its lag), samples: the rig's
+  /// [table] lag_s when set; else theta_dot's delay (at most the table's
+  /// half window) when an accelerometer measures the acceleration; else the
+  /// table's half window (centred).
   int table_delay_samples() const { return table_.sg.delay_samples(); }
+  /// Delay of the block and table states behind the newest frame, samples:
+  /// the longer of the two (theta_dot's alone without a table channel).
+  int output_delay_samples() const {
+    return has_table_ ? std::max(theta_delay_samples(), table_delay_samples()) : theta_delay_samples();
+  }
 
  private:
   // A differentiator and the states waiting for its output. A gap of at most
-  // m samples is bridged by linear interpolation of the input (those samples
-  // give no output); a longer gap ends the segment.
+  // m samples (the half window, whatever the lag) is bridged by linear
+  // interpolation of the input (those samples give no output); a longer gap
+  // ends the segment.
   struct Stream {
-    Stream(int half_window, int order, double dt_s);
+    Stream(int half_window, int order, double dt_s, int lag);
     SavitzkyGolay sg;
     std::vector<BlockState> pending;  // ring indexed by SG input index
     std::vector<char> real;           // 0 for a bridged (interpolated) sample
@@ -113,7 +125,8 @@ class Processor {
   Stream theta_;
   Stream table_;
   // Outputs waiting for the other stream's output of their sample; each
-  // holds at most the difference of the two delays (sized for the larger).
+  // holds at most the difference of the two delays (sized for the larger half
+  // window).
   common::Ring<BlockState> ready_theta_;
   common::Ring<TableState> ready_table_;
   BlockState current_;

@@ -145,8 +145,9 @@ class Reader {
   std::set<std::string> seen_;
 };
 
+// `with_lag`: the section may set lag_s.
 void ParseDifferentiator(Reader& r, const toml::table& root, const std::string& key,
-                         DifferentiatorConfig& out, double rate_hz) {
+                         DifferentiatorConfig& out, double rate_hz, bool with_lag) {
   // Without the table its defaults still meet the rate's bounds (checked,
   // with the root's line).
   const toml::table* t = r.Table(root, "", key, false);
@@ -168,6 +169,18 @@ void ParseDifferentiator(Reader& r, const toml::table& root, const std::string& 
         << out.window_s << (t == nullptr ? " (the default)" : "");
     r.Check(false, where, key, "window_s", msg.str());
   }
+  if (t != nullptr && with_lag) {
+    out.lag_s = r.OptionalDouble(*t, key, "lag_s");
+    // In samples: round(lag_s * rate) in [0, m] (compared in double first so
+    // that a huge value cannot overflow the rounding).
+    const int m = static_cast<int>(std::lround(half));
+    if (out.lag_s && !(*out.lag_s >= 0 && *out.lag_s * rate_hz < m + 0.5)) {
+      std::ostringstream msg;
+      msg << "must be in [0, " << m / rate_hz << "] s (0: the window's causal end-point, " << m / rate_hz
+          << ": its centre, " << m << " samples at sample_rate_hz " << rate_hz << "), got " << *out.lag_s;
+      r.Check(false, *t, key, "lag_s", msg.str());
+    }
+  }
   if (t != nullptr) r.RejectUnknown(*t, key);
 }
 
@@ -182,6 +195,10 @@ const ChannelConfig* RigConfig::FindSensor(const std::string& sensor) const {
 
 int RigConfig::HalfWindow(const DifferentiatorConfig& d) const {
   return static_cast<int>(std::lround(d.window_s * sample_rate_hz / 2.0));
+}
+
+int RigConfig::LagSamples(const DifferentiatorConfig& d) const {
+  return d.lag_s ? static_cast<int>(std::lround(*d.lag_s * sample_rate_hz)) : HalfWindow(d);
 }
 
 RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
@@ -321,8 +338,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     r.RejectUnknown(*t, "checks");
   }
 
-  ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz);
-  ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz);
+  ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz, false);
+  ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz, true);
 
   // [[channel]]
   const toml::array* channels = r.Array(root, "", "channel");

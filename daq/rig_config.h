@@ -69,6 +69,11 @@ struct OutOfPlaneConfig {
 struct DifferentiatorConfig {
   double window_s{};  ///< span from first to last sample, s: m = round(window_s * rate / 2), 2m+1 samples
   int order{};        ///< polynomial order in [2, 6]; < number of samples in the window
+  /// [table] only: the delay at which the fitted polynomial is evaluated, s,
+  /// in [0, m / rate] (0: the causal end-point of the window, m / rate: its
+  /// centre); round(lag_s * rate) samples. Absent: the centre, or theta_dot's
+  /// delay when an accelerometer measures the acceleration (Processor).
+  std::optional<double> lag_s;
 };
 
 /// Tolerances of the "only rocking" checks.
@@ -119,14 +124,16 @@ struct RigConfig {
   BlockConfig block;
   CheckTolerances checks;
   /// theta_dot from theta (default: 10 ms span, order 2).
-  DifferentiatorConfig theta_dot{0.010, 2};
+  DifferentiatorConfig theta_dot{0.010, 2, std::nullopt};
   /// table velocity and acceleration from the displacement (default: 100 ms span, order 4).
-  DifferentiatorConfig table{0.100, 4};
+  DifferentiatorConfig table{0.100, 4, std::nullopt};
 
   /// The channel with this sensor role, or nullptr.
   const ChannelConfig* FindSensor(const std::string& sensor) const;
   /// Half window in samples of a differentiator at sample_rate_hz.
   int HalfWindow(const DifferentiatorConfig& d) const;
+  /// Its lag_s in samples at sample_rate_hz (HalfWindow when lag_s is absent).
+  int LagSamples(const DifferentiatorConfig& d) const;
 };
 
 /// Parses a rig file.

@@ -1,21 +1,27 @@
 #pragma once
 /// @file
 /// Streaming Savitzky-Golay smoothing differentiator: a least-squares
-/// polynomial of degree `order` over a window of 2m+1 uniformly spaced samples,
-/// evaluated at the window's centre, gives the smoothed value and its first
-/// and second derivatives. Causality: the output for sample k is available
-/// when sample k+m has arrived, a constant delay of m samples, so outputs
-/// stream one per input. Near the start of a segment the window is cut to the
-/// samples available ([start, k+m]); at its end (Finish) the last full window
-/// is evaluated off-centre, which releases the last m outputs at once. Every
-/// input gets exactly one output. Polynomials up to degree `order` are
-/// reproduced exactly (order is lowered only where a window has fewer than
-/// order+1 samples).
+/// polynomial of degree `order` over a window of 2m+1 uniformly spaced samples
+/// gives the smoothed value and its first and second derivatives, evaluated at
+/// the sample `lag` samples behind the window's newest (0 <= lag <= m; the
+/// default lag = m is the window's centre, the classic filter). Causality: the
+/// output for sample k is available when sample k+lag has arrived, a constant
+/// delay of `lag` samples, so outputs stream one per input. A lag below m
+/// trades noise and bias for latency: the polynomial is evaluated
+/// off-centre, where its noise gain (NoiseGain) is larger for the first
+/// derivative (not always for the second: docs/acquisition.md). Near the
+/// start of a segment the
+/// window is cut to the samples available ([start, k+lag]); at its end
+/// (Finish) the last full window is evaluated off-centre, which releases the
+/// last `lag` outputs at once. Every input gets exactly one output.
+/// Polynomials up to degree `order` are reproduced exactly at any lag (order
+/// is lowered only where a window has fewer than order+1 samples).
 ///
 /// Cost: construction is O(n order^2) time and O(n) memory (n = 2m+1; one
-/// least-squares fit for the centre weights), a centred output O(n), each of
-/// the first m outputs of a segment one fit over its cut window
-/// (O(n order^2)), and Finish one fit whose polynomial gives the last m
+/// least-squares basis for the weights at the centre and at the lag), an
+/// output in the stream O(n) (one dot product per derivative in use), each of
+/// the first 2m-lag outputs of a segment one fit over its cut window
+/// (O(n order^2)), and Finish one fit whose polynomial gives the last `lag`
 /// outputs. (The first version tabulated every position's weights: O(m n^2)
 /// set-up, 103 s and 245 MB for m = 1000.) half_window is bounded by
 /// kMaxHalfWindow.
@@ -41,11 +47,16 @@ class SavitzkyGolay {
   /// Largest polynomial order accepted.
   static constexpr int kMaxOrder = 6;
 
+  /// The centred filter (lag = half_window).
   /// @param half_window m, samples; 1 <= m <= kMaxHalfWindow
   /// @param order polynomial degree; 2 <= order <= kMaxOrder, order < 2m+1 (the second derivative needs 2)
   /// @param dt_s sample spacing, s; > 0
   /// @throws std::invalid_argument naming the argument.
-  SavitzkyGolay(int half_window, int order, double dt_s);
+  SavitzkyGolay(int half_window, int order, double dt_s) : SavitzkyGolay(half_window, order, dt_s, half_window) {}
+  /// @param lag samples between an output's sample and the newest sample of
+  ///        its window (the output delay); 0 <= lag <= half_window
+  /// @throws std::invalid_argument naming the argument.
+  SavitzkyGolay(int half_window, int order, double dt_s, int lag);
 
   /// Adds the next sample of the current segment (after Finish: of a new one).
   /// Outputs not popped before a new segment starts are discarded.
@@ -59,12 +70,21 @@ class SavitzkyGolay {
   /// only the derivatives saves the other dot products.
   void SetOutputs(bool value, bool d1, bool d2) { want_[0] = value, want_[1] = d1, want_[2] = d2; }
 
-  int delay_samples() const { return m_; }
+  /// Output delay, samples: the lag.
+  int delay_samples() const { return lag_; }
+  int half_window() const { return m_; }
   /// Index the next Push will get.
   int64_t next_index() const { return pushed_; }
   /// Weights of the centred estimate of derivative `deriv` (0, 1, 2), per
   /// sample, oldest first, already divided by dt^deriv.
   Eigen::VectorXd CentreWeights(int deriv) const;
+  /// Weights of the estimate of derivative `deriv` (0, 1, 2) at the lag, the
+  /// ones every output in the stream uses (CentreWeights when lag = m).
+  Eigen::VectorXd LagWeights(int deriv) const;
+  /// Noise gain of the estimate at the lag: the standard deviation of the
+  /// output per unit standard deviation of white input noise,
+  /// sqrt(sum of the squared LagWeights), in 1/s^deriv.
+  double NoiseGain(int deriv) const;
 
  private:
   // A least-squares polynomial in x = (p - centre) / scale over a window.
@@ -83,12 +103,17 @@ class SavitzkyGolay {
   void Fit(int64_t first, int len, Poly& poly);
   // Derivative `deriv` of `poly` at window position p, per s^deriv.
   double Evaluate(const Poly& poly, int p, int deriv) const;
+  // With the basis of the full window in q_ and r_ (Basis(n_, order_, .)):
+  // the weights of derivative `deriv` at position p of the window.
+  Eigen::VectorXd WindowWeights(const Poly& basis, int p, int deriv) const;
 
   int m_;
   int n_;  // window length 2m+1
+  int lag_;
   int order_;
   double dt_s_;
   Eigen::VectorXd centre_[3];  // weights of the centred estimate, per derivative
+  Eigen::VectorXd at_lag_[3];  // weights at the lag (window position 2m - lag), per derivative
   // Scratch of Fit (sized once): the window's basis, orthonormalised in place.
   std::vector<double> q_;  // column k at q_[k * n_]
   std::vector<double> y_;

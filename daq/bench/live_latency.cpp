@@ -1,14 +1,15 @@
 // Latency of a live input, from the write of a sample's line to the DAQ
-// node's RL_RAW and RL_THETA of that sample (host steady clock):
+// node's RL_RAW, RL_THETA and RL_TABLE of that sample (host steady clock):
 //   build/daq/bench/rocklab_live_latency data/rigs/lab_rig.toml tcp 10
 //   build/daq/bench/rocklab_live_latency data/rigs/lab_rig.toml follow 10
 // A writer thread produces CSV lines at the rig's sample rate (a TCP server
 // on 127.0.0.1, or a file appended to and flushed line by line); the DaqNode
 // reads it (tcp:// or --follow) on a DirectBus in this process, so the
 // figures are the source's and the node's, without an LCM hop (udpm adds
-// ~25 us per hop, DESIGN.md). RL_THETA waits by design for the
-// differentiators' half window (the rig's [table] window_s / 2: 25 ms for
-// the lab rig): its latency is that plus the transport's.
+// ~25 us per hop, DESIGN.md). RL_THETA and RL_TABLE leave together, after
+// the longer of the differentiators' delays (docs/acquisition.md,
+// Derivatives: 5 ms for the lab rig, which has an accelerometer; 50 ms
+// without one): their latency is that plus the transport's.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -29,6 +30,7 @@
 #include "daq/rig_simulator.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
 
 namespace {
 
@@ -128,15 +130,19 @@ int main(int argc, char** argv) {
     });
   }
 
-  std::vector<double> raw_us, theta_us;
+  std::vector<double> raw_us, theta_us, table_us;
   raw_us.reserve(static_cast<size_t>(n));
   theta_us.reserve(static_cast<size_t>(n));
+  table_us.reserve(static_cast<size_t>(n));
   rocklab::common::DirectBus bus;
   bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
     if (m.seq >= 0 && m.seq < written_count.load()) raw_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
   });
   bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t& m) {
     if (!writer_done.load() && m.seq >= 0 && m.seq < written_count.load()) theta_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
+  });
+  bus.Subscribe<rocklab::table_state_t>("RL_TABLE", [&](const std::string&, const rocklab::table_state_t& m) {
+    if (!writer_done.load() && m.seq >= 0 && m.seq < written_count.load()) table_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
   });
   rocklab::daq::DaqNodeConfig config;
   config.rig = rig;
@@ -154,5 +160,6 @@ int main(int argc, char** argv) {
               static_cast<long long>(node.stats().frames_read));
   Print("write -> RL_RAW", raw_us);
   Print("write -> RL_THETA", theta_us);
+  Print("write -> RL_TABLE", table_us);
   return 0;
 }

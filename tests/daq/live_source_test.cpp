@@ -121,6 +121,31 @@ TEST(LiveSources, FollowedCsvGrowsIsReplacedAndLosesNothing) {
   EXPECT_EQ(got.stats.bad_rows, 0);
 }
 
+// Oracle: the idle timeout's definition, "no byte for idle_timeout_s": a
+// reader that was itself not running for longer than that (a loaded machine
+// descheduling it) still reads what was written meanwhile before it ends.
+// Rows written at once, then the reader starts 3 timeouts later: every row
+// comes out, and only then the end.
+TEST(LiveSources, AReaderLateByMoreThanTheIdleTimeoutStillReadsWhatWasWritten) {
+  const std::string path = test::ScratchDir() + "/late.csv";
+  std::ofstream(path) << "time,a,b\n" << Row(0);
+  constexpr int kRows = 50;
+  constexpr double kIdleS = 0.1;
+  Got problems;
+  SourceOptions opt = LiveOptions(&problems, kIdleS);
+  opt.follow = true;
+  auto source = OpenCsvSource(path, opt);
+  {
+    std::ofstream out(path, std::ios::app);
+    for (int k = 1; k < kRows; ++k) out << Row(k);
+  }
+  std::this_thread::sleep_for(std::chrono::duration<double>(3 * kIdleS));
+  const Got got = ReadUntilEnd(*source);
+  EXPECT_EQ(got.last, ReadStatus::kEnd);
+  ASSERT_EQ(got.frames.size(), static_cast<size_t>(kRows));
+  for (int k = 0; k < kRows; ++k) ASSERT_EQ(got.frames[k].values[0], k);
+}
+
 // An LVM written as LabVIEW appends segments (each with its header), then
 // the file replaced by a new one with its own file header.
 TEST(LiveSources, FollowedLvmTakesNewSegmentsAndAReplacedFile) {

@@ -192,5 +192,37 @@ TEST(RigConfigRanges, LargestWindowsBuildAProcessor) {
   }
 }
 
+// [table] lag_s (docs/acquisition.md): a delay in [0, m / rate] s, rounded to
+// samples; anything else names the file, the line, the key and the range.
+// Oracle: the half window of the default table window (0.1 s at 1 kHz: 50
+// samples, 0.05 s) and the snippet's line numbers.
+TEST(RigConfigRanges, TableLagIsBoundedByTheHalfWindow) {
+  EXPECT_EQ(RigError("[table]\nlag_s = -0.001"),
+            "rig.toml:9: key 'table.lag_s' must be in [0, 0.05] s (0: the window's causal end-point, 0.05: its "
+            "centre, 50 samples at sample_rate_hz 1000), got -0.001");
+  EXPECT_EQ(RigError("[table]\nlag_s = 0.06"),
+            "rig.toml:9: key 'table.lag_s' must be in [0, 0.05] s (0: the window's causal end-point, 0.05: its "
+            "centre, 50 samples at sample_rate_hz 1000), got 0.06");
+  EXPECT_EQ(RigError("[table]\nwindow_s = 0.02\nlag_s = 1e300"),
+            "rig.toml:10: key 'table.lag_s' must be in [0, 0.01] s (0: the window's causal end-point, 0.01: its "
+            "centre, 10 samples at sample_rate_hz 1000), got 1e+300");
+  EXPECT_EQ(RigError("[table]\nlag_s = \"short\""), "rig.toml:9: key 'table.lag_s' must be a number");
+  EXPECT_EQ(RigError("[table]\nlag_s = nan"), "rig.toml:9: key 'table.lag_s' must be finite");
+  // theta_dot is always centred: the key is not one of its section's.
+  EXPECT_EQ(RigError("[theta_dot]\nlag_s = 0.001"), "rig.toml:9: key 'theta_dot.lag_s' is not a rig configuration key");
+
+  auto lag = [](const std::string& table) {
+    const std::string text =
+        "name = \"r\"\nsample_rate_hz = 1000\n[block]\nwidth_m = 0.2\nheight_m = 0.8\n[table]\n" + table +
+        "\n[[channel]]\nname = \"x\"\nsensor = \"table.displacement\"\n";
+    return ParseRigConfig(text, "rig.toml");
+  };
+  EXPECT_FALSE(lag("").table.lag_s.has_value());
+  EXPECT_EQ(lag("").LagSamples(lag("").table), 50);  // absent: the centre
+  EXPECT_EQ(lag("lag_s = 0").LagSamples(lag("lag_s = 0").table), 0);
+  EXPECT_EQ(lag("lag_s = 0.0204").LagSamples(lag("lag_s = 0.0204").table), 20);  // rounded to samples
+  EXPECT_EQ(lag("lag_s = 0.05").LagSamples(lag("lag_s = 0.05").table), 50);
+}
+
 }  // namespace
 }  // namespace rocklab::daq
