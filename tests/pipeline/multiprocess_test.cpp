@@ -346,8 +346,8 @@ TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
 // newest RL_THETA not ahead of the table sample, |theta| below 2 mrad
 // counting as rest): the restarted model's first RL_MODEL_fitted carries
 // the measured theta of that utime (or 0 at rest), i.e. it started
-// from the measurement of its first table sample although RL_THETA runs
-// 45 ms ahead of RL_TABLE.
+// from the measurement of its first table sample (the DAQ publishes the
+// RL_THETA and RL_TABLE of a sample together, RL_THETA first).
 TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   Prepare("mp_kill", 5.0);
   Watch& watch = *watch_;
