@@ -16,6 +16,7 @@
 #include "model/excitation.h"
 #include "model/model_node.h"
 #include "rocklab/event_t.hpp"
+#include "tests/model/node_messages.h"
 
 namespace rocklab::model {
 namespace {
@@ -88,19 +89,8 @@ TEST(SampleWindow, PushingNeverChangesWhatIsBeforeTheHorizon) {
 // ---------------------------------------------------------------------------
 // The node
 
-rocklab::table_state_t Table(std::int64_t utime, double accel) {
-  rocklab::table_state_t m{};
-  m.utime = utime;
-  m.acceleration = accel;
-  return m;
-}
-
-rocklab::block_state_t Theta(std::int64_t utime, double theta) {
-  rocklab::block_state_t m{};
-  m.utime = utime;
-  m.theta = theta;
-  return m;
-}
+using node_messages::Table;
+using node_messages::Theta;
 
 struct Published {
   std::vector<rocklab::model_state2_t> states;  // every RL_MODEL_*, in order

@@ -12,6 +12,7 @@
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "tests/model/node_messages.h"
 #include "tests/scratch.h"
 
 namespace rocklab::model {
@@ -19,19 +20,8 @@ namespace {
 
 constexpr BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
 
-rocklab::table_state_t Table(std::int64_t utime, double accel) {
-  rocklab::table_state_t m{};
-  m.utime = utime;
-  m.acceleration = accel;
-  return m;
-}
-
-rocklab::block_state_t Theta(std::int64_t utime, double theta) {
-  rocklab::block_state_t m{};
-  m.utime = utime;
-  m.theta = theta;
-  return m;
-}
+using node_messages::Table;
+using node_messages::Theta;
 
 using common::DirectBus;
 
