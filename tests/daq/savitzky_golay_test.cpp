@@ -220,7 +220,9 @@ TEST(SavitzkyGolay, OutputsStreamLagSamplesLate) {
       }
       ASSERT_TRUE(sg.Pop(o)) << lag << " " << k;
       EXPECT_EQ(o.index, k - lag);
-      if (k >= 1) EXPECT_NEAR(o.d1, 2.0, 1e-12);
+      if (k >= 1) {
+        EXPECT_NEAR(o.d1, 2.0, 1e-12);
+      }
       EXPECT_FALSE(sg.Pop(o));
     }
     sg.Finish();
@@ -265,7 +267,9 @@ TEST(SavitzkyGolay, OffCentreWeightsAndNoiseGainOfOrderTwoHaveAClosedForm) {
       EXPECT_NEAR(sg.NoiseGain(1), gain, 1e-12 * gain);
       EXPECT_NEAR(sg.NoiseGain(1), std::sqrt(sum_sq), 1e-12 * gain);  // the sum of squared weights
       const double centred = 1 / std::sqrt(s2) / dt;
-      if (lag < m) EXPECT_GT(sg.NoiseGain(1), centred * (1 + 1e-9)) << m << " " << lag;
+      if (lag < m) {
+        EXPECT_GT(sg.NoiseGain(1), centred * (1 + 1e-9)) << m << " " << lag;
+      }
       EXPECT_NEAR(sg.NoiseGain(2), 2 / std::sqrt(s4) / (dt * dt), 1e-12 * sg.NoiseGain(2));
     }
   }
