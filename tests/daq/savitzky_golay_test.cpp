@@ -8,6 +8,7 @@
 // weights and their noise gain have a closed form (below).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -29,6 +30,29 @@ std::vector<SgOutput> Filter(SavitzkyGolay& sg, const std::vector<double>& x) {
   sg.Finish();
   while (sg.Pop(o)) out.push_back(o);
   return out;
+}
+
+// The RMS of the first and second derivative estimates of `sg` fed `count`
+// samples of Gaussian white noise of standard deviation `sigma` (seed
+// `seed`), over the outputs from `skip` after the first to `skip` before the
+// last (the segment's edge windows left out).
+struct NoiseRms {
+  double d1{}, d2{};
+};
+NoiseRms MeasureNoiseRms(SavitzkyGolay& sg, double sigma, std::size_t count, std::uint64_t seed,
+                         std::size_t skip) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, sigma);
+  std::vector<double> x(count);
+  for (auto& v : x) v = normal(rng);
+  const auto out = Filter(sg, x);
+  double ss1 = 0, ss2 = 0;
+  int n = 0;
+  for (size_t k = skip; k + skip < out.size(); ++k, ++n) {
+    ss1 += out[k].d1 * out[k].d1;
+    ss2 += out[k].d2 * out[k].d2;
+  }
+  return {std::sqrt(ss1 / n), std::sqrt(ss2 / n)};
 }
 
 TEST(SavitzkyGolay, ReproducesPolynomialsOfItsOrderEverywhere) {
@@ -92,24 +116,14 @@ TEST(SavitzkyGolay, OutputsStreamOnePerInputHalfAWindowLate) {
 TEST(SavitzkyGolay, NoiseGainIsTheNormOfTheWeights) {
   const double dt = 1e-3, sigma = 2e-5;
   SavitzkyGolay sg(25, 4, dt);
-  std::mt19937_64 rng(42);
-  std::normal_distribution<double> normal(0.0, sigma);
-  std::vector<double> x(40000);
-  for (auto& v : x) v = normal(rng);
-  const auto out = Filter(sg, x);
-  double ss1 = 0, ss2 = 0;
-  int n = 0;
-  for (size_t k = 25; k + 25 < out.size(); ++k, ++n) {
-    ss1 += out[k].d1 * out[k].d1;
-    ss2 += out[k].d2 * out[k].d2;
-  }
+  const NoiseRms rms = MeasureNoiseRms(sg, sigma, 40000, 42, 25);
   const double want1 = sigma * sg.CentreWeights(1).norm();
   const double want2 = sigma * sg.CentreWeights(2).norm();
   // The outputs are correlated over a window (51 samples): about 40000/51 ~
   // 800 independent values, so the sample standard deviation is within
   // 1/sqrt(2*800) ~ 2.5 % (1 sigma); 10 % is 4 sigma.
-  EXPECT_NEAR(std::sqrt(ss1 / n) / want1, 1.0, 0.10);
-  EXPECT_NEAR(std::sqrt(ss2 / n) / want2, 1.0, 0.10);
+  EXPECT_NEAR(rms.d1 / want1, 1.0, 0.10);
+  EXPECT_NEAR(rms.d2 / want2, 1.0, 0.10);
 }
 
 // Several inputs pushed between pops (the processor bridges a short gap that
@@ -295,21 +309,11 @@ TEST(SavitzkyGolay, OffCentreNoiseGainIsMeasuredAndLargerThanCentred) {
   EXPECT_LT(SavitzkyGolay(50, 4, dt, 33).NoiseGain(2), 0.7 * centred.NoiseGain(2));
   EXPECT_EQ(centred.NoiseGain(1), std::sqrt(centred.CentreWeights(1).squaredNorm()));
   SavitzkyGolay sg(50, 4, dt, 5);
-  std::mt19937_64 rng(43);
-  std::normal_distribution<double> normal(0.0, sigma);
-  std::vector<double> x(60000);
-  for (auto& v : x) v = normal(rng);
-  const auto out = Filter(sg, x);
-  double ss1 = 0, ss2 = 0;
-  int n = 0;
-  for (size_t k = 100; k + 100 < out.size(); ++k, ++n) {
-    ss1 += out[k].d1 * out[k].d1;
-    ss2 += out[k].d2 * out[k].d2;
-  }
+  const NoiseRms rms = MeasureNoiseRms(sg, sigma, 60000, 43, 100);
   // About 60000 / 101 ~ 590 independent windows: the sample standard
   // deviation is within 1/sqrt(2*590) ~ 3 % (1 sigma); 12 % is 4 sigma.
-  EXPECT_NEAR(std::sqrt(ss1 / n) / (sigma * sg.NoiseGain(1)), 1.0, 0.12);
-  EXPECT_NEAR(std::sqrt(ss2 / n) / (sigma * sg.NoiseGain(2)), 1.0, 0.12);
+  EXPECT_NEAR(rms.d1 / (sigma * sg.NoiseGain(1)), 1.0, 0.12);
+  EXPECT_NEAR(rms.d2 / (sigma * sg.NoiseGain(2)), 1.0, 0.12);
 }
 
 }  // namespace
