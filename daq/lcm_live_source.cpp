@@ -13,6 +13,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/bus_urls.h"
 #include "common/wire.h"
 #include "daq/line_input.h"
 #include "daq/source.h"
@@ -42,12 +43,8 @@ class LcmLiveSource final : public Source {
     if (!(rate_hz_ > 0)) throw std::invalid_argument(path_ + ": no sample rate (the rig's sample_rate_hz)");
     if (!lcm_.good()) throw std::runtime_error(path_ + ": cannot open LCM at '" + options.lcm_url + "'");
     // Exact channel, not a regex: a name with '.' or '+' means itself.
-    std::string exact;
-    for (char c : channel) {
-      if (std::string("\\^$.|?*+()[]{}").find(c) != std::string::npos) exact += '\\';
-      exact += c;
-    }
-    lcm::Subscription* sub = lcm_.subscribeFunction(exact, &LcmLiveSource::OnMessage, this);
+    lcm::Subscription* sub =
+        lcm_.subscribeFunction(common::ExactChannelRegex(channel), &LcmLiveSource::OnMessage, this);
     sub->setQueueCapacity(4096);
     last_data_ = Clock::now();
   }
