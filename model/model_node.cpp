@@ -318,25 +318,22 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   // Strictly after the held samples (a repeat returned above, a step back
   // reset and emptied the window): Push cannot refuse it.
   (void)window_.Push(t_s, accel);
-  held_utime_[(held_first_ + held_count_) % held_utime_.size()] = msg.utime;
-  ++held_count_;
-  while (held_count_ > static_cast<std::size_t>(config_.lookahead_samples)) StepOldestHeld();
+  held_utime_.push_back(msg.utime);  // room: at most N are held between samples
+  while (held_utime_.size() > static_cast<std::size_t>(config_.lookahead_samples)) StepOldestHeld();
 }
 
 void ModelNode::StepOldestHeld() {
-  const std::int64_t utime = held_utime_[held_first_];
-  held_first_ = (held_first_ + 1) % held_utime_.size();
-  --held_count_;
+  const std::int64_t utime = held_utime_.front();
+  held_utime_.pop_front();
   StepAll({static_cast<double>(utime - start_utime_) * 1e-6, 0.0, utime, window_.horizon_s()});
 }
 
 void ModelNode::FlushHeld() {
-  if (held_count_ > 0) {
+  if (!held_utime_.empty()) {
     window_.Close();
-    while (held_count_ > 0) StepOldestHeld();
+    while (!held_utime_.empty()) StepOldestHeld();
   }
   window_.Clear();
-  held_first_ = 0;
 }
 
 void ModelNode::StepAll(const Target& target) {

@@ -59,6 +59,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/ring.h"
 #include "common/seq_gaps.h"
 #include "model/block.h"
 #include "model/excitation.h"
@@ -163,10 +164,9 @@ class ModelNode {
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
   // Lookahead (N > 0): the window's samples and the utimes of those not yet
-  // stepped (a ring of N + 1, oldest at held_first_).
+  // stepped (oldest first, at most N + 1).
   SampleWindow window_;
-  std::vector<std::int64_t> held_utime_;
-  std::size_t held_first_{}, held_count_{};
+  common::Ring<std::int64_t> held_utime_;
   common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
   double last_health_host_s_{};
 };
