@@ -21,17 +21,17 @@
 // speed) within a time b / v. In (chi, psi) the solution turns psi by pi and
 // bends chi round a hyperbola there, and l^2/chi^3 is singular; in (x, y) the
 // path is a straight line, bent only by the damping term, and every term of
-// F_r is bounded except the damping term ~ v^2 / b. Measured, though
-// (rocklab_complex_convergence, last table), CVODE crosses as cheaply and as
-// accurately in (chi, psi) at the same tolerances (one impact of free
-// rocking: 1973 against 2121 steps, energy ratio 1.8e-7 against 2.1e-7 from
-// its limit at l = 1e-10): what made the old model fail was the hand-off
-// and the start from rest (below), not the coordinates. Exactly in the limit
+// F_r is bounded except the damping term ~ v^2 / b. Exactly in the limit
 // l -> 0 (Binet's equation u'' - (2 ln mu / pi) u' + u = 0 for u = 1/chi(psi)
 // near the origin) a crossing multiplies the energy by mu^(2/w),
-// w = sqrt(1 - (ln mu / pi)^2), and turns the path by pi / w, not pi: the
-// line of the motion precesses by pi (1/w - 1) per crossing (6.7e-4 rad for
-// mu = 0.937), a property of eq. (10) that Housner's model does not have.
+// w = sqrt(1 - (ln mu / pi)^2), and turns the path by pi / w, not pi.
+//
+// Crossings (docs/models.md, "Crossings"): the state is integrated in a
+// frame turned onto the line of the motion, so y stays O(l); the damping
+// takes the state's own angular momentum; a crossing whose core is Binet's
+// is matched at r_m = 1e-3 v^2 (legs along the ray with gravity and table,
+// Binet's exact speed ratio and turn in the core), slower ones are
+// integrated through with tolerances scaled to l.
 //
 // Start from rest (ERRATA item 6). eq. (10) has no state of rest: a state
 // with zero velocity has no angular momentum. Its state of least energy is
