@@ -1,5 +1,6 @@
 #include "model/cvode.h"
 
+#include <arkode/arkode_erkstep.h>
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
@@ -8,6 +9,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdlib>
 #include <exception>
 #include <stdexcept>
 #include <string>
@@ -17,8 +19,12 @@ namespace {
 
 void Check(int flag, const char* function) {
   if (flag < 0) {
-    throw std::runtime_error(std::string(function) + " failed with flag " + std::to_string(flag) +
-                             " (" + CVodeGetReturnFlagName(flag) + ")");
+    const bool ark = std::string(function).rfind("ERKStep", 0) == 0;
+    char* name = ark ? ERKStepGetReturnFlagName(flag) : CVodeGetReturnFlagName(flag);
+    const std::string text = name != nullptr ? name : "?";
+    std::free(name);  // both allocate the name
+    throw std::runtime_error(std::string(function) + " failed with flag " + std::to_string(flag) + " (" + text +
+                             ")");
   }
 }
 
@@ -36,12 +42,19 @@ struct Cvode::Handles {
   N_Vector atol{nullptr};
   SUNNonlinearSolver nls{nullptr};
   void* mem{nullptr};
+  bool rk{false};  // ARKODE's ERKStep instead of CVODE
   OdeSystem* system{nullptr};
   std::exception_ptr error;
 
   ~Handles() {
     // Destruction order: solver memory first, then what it refers to.
-    if (mem != nullptr) CVodeFree(&mem);
+    if (mem != nullptr) {
+      if (rk) {
+        ERKStepFree(&mem);
+      } else {
+        CVodeFree(&mem);
+      }
+    }
     if (nls != nullptr) SUNNonlinSolFree(nls);
     if (atol != nullptr) N_VDestroy(atol);
     if (y != nullptr) N_VDestroy(y);
@@ -71,10 +84,11 @@ int Cvode::RootThunk(double t, N_Vector y, double* g, void* user) {
   }
 }
 
-Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s)
+Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, Method method)
     : h_(std::make_unique<Handles>()), n_(n) {
   if (n < 1 || n > kMaxEquations) throw std::invalid_argument("Cvode: n must be 1.." + std::to_string(kMaxEquations));
   h_->system = &system;
+  h_->rk = method == Method::kRungeKutta;
   Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
   h_->y = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
   h_->atol = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
@@ -89,6 +103,18 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   for (int i = 0; i < n; ++i) {
     y[i] = 0.0;
     a[i] = atol[i];
+  }
+  if (h_->rk) {
+    h_->mem = CheckPtr(ERKStepCreate(RhsThunk, 0.0, h_->y, h_->ctx), "ERKStepCreate");
+    Check(ERKStepSetUserData(h_->mem, h_.get()), "ERKStepSetUserData");
+    Check(ERKStepSVtolerances(h_->mem, rtol, h_->atol), "ERKStepSVtolerances");
+    Check(ERKStepSetOrder(h_->mem, kRungeKuttaOrder), "ERKStepSetOrder");
+    Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
+    Check(ERKStepSetMaxNumSteps(h_->mem, 1000000), "ERKStepSetMaxNumSteps");
+    Check(ERKStepRootInit(h_->mem, kRoots, RootThunk), "ERKStepRootInit");
+    Check(ERKStepSetNoInactiveRootWarn(h_->mem), "ERKStepSetNoInactiveRootWarn");
+    Check(ERKStepSetErrFile(h_->mem, nullptr), "ERKStepSetErrFile");
+    return;
   }
   h_->mem = CheckPtr(CVodeCreate(CV_ADAMS, h_->ctx), "CVodeCreate");
   Check(CVodeInit(h_->mem, RhsThunk, 0.0, h_->y), "CVodeInit");
@@ -111,38 +137,61 @@ void Cvode::ReInit(double t0_s, const double* y0) {
   AddCounters();
   double* y = N_VGetArrayPointer(h_->y);
   for (int i = 0; i < n_; ++i) y[i] = y0[i];
-  Check(CVodeReInit(h_->mem, t0_s, h_->y), "CVodeReInit");
+  if (h_->rk) {
+    Check(ERKStepReInit(h_->mem, RhsThunk, t0_s, h_->y), "ERKStepReInit");
+  } else {
+    Check(CVodeReInit(h_->mem, t0_s, h_->y), "CVodeReInit");
+  }
   t_ = t0_s;
 }
 
 void Cvode::SetTolerances(double rtol, const double* atol) {
   double* a = N_VGetArrayPointer(h_->atol);
   for (int i = 0; i < n_; ++i) a[i] = atol[i];
-  Check(CVodeSVtolerances(h_->mem, rtol, h_->atol), "CVodeSVtolerances");
+  if (h_->rk) {
+    Check(ERKStepSVtolerances(h_->mem, rtol, h_->atol), "ERKStepSVtolerances");
+  } else {
+    Check(CVodeSVtolerances(h_->mem, rtol, h_->atol), "CVodeSVtolerances");
+  }
 }
 
 void Cvode::SetMaxStep(double max_step_s) {
-  Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
+  if (h_->rk) {
+    Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
+  } else {
+    Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
+  }
 }
 
 void Cvode::SetRootDirection(std::array<int, kRoots> direction) {
-  Check(CVodeSetRootDirection(h_->mem, direction.data()), "CVodeSetRootDirection");
+  if (h_->rk) {
+    Check(ERKStepSetRootDirection(h_->mem, direction.data()), "ERKStepSetRootDirection");
+  } else {
+    Check(CVodeSetRootDirection(h_->mem, direction.data()), "CVodeSetRootDirection");
+  }
 }
 
 Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
   // SUNDIALS 6.4 has no CVodeClearStopTime: "no bound" is the largest double.
   const double tstop = std::min(tstop_s, DBL_MAX);
+  const bool rk = h_->rk;
   while (true) {
-    // The stop time is cleared by CVODE once reached: set it for every call.
-    Check(CVodeSetStopTime(h_->mem, tstop), "CVodeSetStopTime");
+    // The stop time is cleared once reached: set it for every call.
     realtype t = t_;
-    const int flag = CVode(h_->mem, tout_s, h_->y, &t, CV_NORMAL);
+    int flag = 0;
+    if (rk) {
+      Check(ERKStepSetStopTime(h_->mem, tstop), "ERKStepSetStopTime");
+      flag = ERKStepEvolve(h_->mem, tout_s, h_->y, &t, ARK_NORMAL);
+    } else {
+      Check(CVodeSetStopTime(h_->mem, tstop), "CVodeSetStopTime");
+      flag = CVode(h_->mem, tout_s, h_->y, &t, CV_NORMAL);
+    }
     if (h_->error) {
       std::exception_ptr error = h_->error;
       h_->error = nullptr;
       std::rethrow_exception(error);
     }
-    if (flag == CV_ERR_FAILURE || flag == CV_CONV_FAILURE) {
+    if (rk ? flag == ARK_ERR_FAILURE : (flag == CV_ERR_FAILURE || flag == CV_CONV_FAILURE)) {
       // A kink or jump of the right-hand side that nobody declared: restart
       // from the last completed step with a fresh (first-order) history,
       // which steps over a jump at the cost of a few small steps.
@@ -151,11 +200,16 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
       // later with the same state (an error of 16 ulp times the rate, e.g.
       // 4e-15 rad at 1 rad/s and t = 1 s). A third failure there is final.
       realtype t_done = t_;
-      Check(CVodeGetCurrentTime(h_->mem, &t_done), "CVodeGetCurrentTime");
-      Check(CVodeGetDky(h_->mem, t_done, 0, h_->y), "CVodeGetDky");
+      if (rk) {
+        Check(ERKStepGetCurrentTime(h_->mem, &t_done), "ERKStepGetCurrentTime");
+        Check(ERKStepGetDky(h_->mem, t_done, 0, h_->y), "ERKStepGetDky");
+      } else {
+        Check(CVodeGetCurrentTime(h_->mem, &t_done), "CVodeGetCurrentTime");
+        Check(CVodeGetDky(h_->mem, t_done, 0, h_->y), "CVodeGetDky");
+      }
       double t_restart = t_done;
       if (t_done == last_failure_t_) {
-        if (nudged_) Check(flag, "CVode");
+        if (nudged_) Check(flag, rk ? "ERKStepEvolve" : "CVode");
         for (int k = 0; k < 16; ++k) t_restart = std::nextafter(t_restart, tstop);
         nudged_ = true;
       } else {
@@ -169,37 +223,55 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
       ReInit(t_restart, y0.data());
       continue;
     }
-    Check(flag, "CVode");
+    Check(flag, rk ? "ERKStepEvolve" : "CVode");
     t_ = t;
-    return flag == CV_ROOT_RETURN ? Result::kRoot : Result::kReached;
+    return flag == (rk ? ARK_ROOT_RETURN : CV_ROOT_RETURN) ? Result::kRoot : Result::kReached;
   }
 }
 
-void Cvode::AddCounters() {
+Cvode::Stats Cvode::Counters() const {
   long steps = 0, rhs = 0, fails = 0;
-  Check(CVodeGetNumSteps(h_->mem, &steps), "CVodeGetNumSteps");
-  Check(CVodeGetNumRhsEvals(h_->mem, &rhs), "CVodeGetNumRhsEvals");
-  Check(CVodeGetNumErrTestFails(h_->mem, &fails), "CVodeGetNumErrTestFails");
-  done_.steps += steps;
-  done_.rhs_evals += rhs;
-  done_.error_test_fails += fails;
+  if (h_->rk) {
+    long implicit = 0;
+    (void)implicit;
+    Check(ERKStepGetNumSteps(h_->mem, &steps), "ERKStepGetNumSteps");
+    Check(ERKStepGetNumRhsEvals(h_->mem, &rhs), "ERKStepGetNumRhsEvals");
+    Check(ERKStepGetNumErrTestFails(h_->mem, &fails), "ERKStepGetNumErrTestFails");
+  } else {
+    Check(CVodeGetNumSteps(h_->mem, &steps), "CVodeGetNumSteps");
+    Check(CVodeGetNumRhsEvals(h_->mem, &rhs), "CVodeGetNumRhsEvals");
+    Check(CVodeGetNumErrTestFails(h_->mem, &fails), "CVodeGetNumErrTestFails");
+  }
+  Stats s;
+  s.steps = steps;
+  s.rhs_evals = rhs;
+  s.error_test_fails = fails;
+  return s;
+}
+
+void Cvode::AddCounters() {
+  const Stats now = Counters();
+  done_.steps += now.steps;
+  done_.rhs_evals += now.rhs_evals;
+  done_.error_test_fails += now.error_test_fails;
 }
 
 Cvode::Stats Cvode::stats() const {
-  long steps = 0, rhs = 0, fails = 0;
-  Check(CVodeGetNumSteps(h_->mem, &steps), "CVodeGetNumSteps");
-  Check(CVodeGetNumRhsEvals(h_->mem, &rhs), "CVodeGetNumRhsEvals");
-  Check(CVodeGetNumErrTestFails(h_->mem, &fails), "CVodeGetNumErrTestFails");
+  const Stats now = Counters();
   Stats s = done_;
-  s.steps += steps;
-  s.rhs_evals += rhs;
-  s.error_test_fails += fails;
+  s.steps += now.steps;
+  s.rhs_evals += now.rhs_evals;
+  s.error_test_fails += now.error_test_fails;
   return s;
 }
 
 std::array<int, Cvode::kRoots> Cvode::RootsFound() {
   std::array<int, kRoots> found{};
-  Check(CVodeGetRootInfo(h_->mem, found.data()), "CVodeGetRootInfo");
+  if (h_->rk) {
+    Check(ERKStepGetRootInfo(h_->mem, found.data()), "ERKStepGetRootInfo");
+  } else {
+    Check(CVodeGetRootInfo(h_->mem, found.data()), "CVodeGetRootInfo");
+  }
   return found;
 }
 

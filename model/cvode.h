@@ -30,9 +30,16 @@ class Cvode {
   static constexpr int kRoots = 3;
   static constexpr int kMaxEquations = 4;
 
+  /// CVODE's Adams-Moulton (multistep: its history carries over from step
+  /// to step) or ARKODE's explicit Runge-Kutta (ERKStep, one step at a
+  /// time: nothing to lose at a kink of the forcing where it stops).
+  enum class Method { kAdams, kRungeKutta };
+  /// Order of the Runge-Kutta method.
+  static constexpr int kRungeKuttaOrder = 5;
   /// @param n number of equations, 1 .. kMaxEquations
   /// @param atol absolute tolerances, one per equation
-  Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s);
+  Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s,
+        Method method = Method::kAdams);
   ~Cvode();
   Cvode(const Cvode&) = delete;
   Cvode& operator=(const Cvode&) = delete;
@@ -81,7 +88,8 @@ class Cvode {
   struct Handles;
   static int RhsThunk(double t, _generic_N_Vector* y, _generic_N_Vector* ydot, void* user);
   static int RootThunk(double t, _generic_N_Vector* y, double* g, void* user);
-  void AddCounters();  // moves CVODE's counters (reset by ReInit) into done_
+  Stats Counters() const;  // the integrator's counters since its last (re)initialisation
+  void AddCounters();      // moves them (reset by ReInit) into done_
   std::unique_ptr<Handles> h_;
   int n_{};
   double t_{};

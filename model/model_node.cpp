@@ -193,7 +193,9 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
   for (const VariantSpec& spec : config_.variants) {
     auto v = std::make_unique<Variant>();
     v->spec = spec;
-    v->model = RockingModel::Create(spec.kind, spec.params, spec.options);
+    ModelOptions options = spec.options;
+    options.integrator = config_.integrator;
+    v->model = RockingModel::Create(spec.kind, spec.params, options);
     v->channel = config_.channel_prefix + "MODEL_" + spec.name;
     v->msg.name = spec.name;
     v->msg.model = ToString(spec.kind);

@@ -66,6 +66,14 @@ const char* ToString(EventKind kind) {
   return "?";
 }
 
+const char* ToString(Integrator integrator) {
+  switch (integrator) {
+    case Integrator::kAdams: return "adams";
+    case Integrator::kRungeKutta: return "rk";
+  }
+  return "?";
+}
+
 const char* ToString(Equations equations) {
   switch (equations) {
     case Equations::kHousner: return "housner";
@@ -165,8 +173,9 @@ CvodeRockingModel::CvodeRockingModel(const BlockParams& params, const ModelOptio
 
 void CvodeRockingModel::Init(int n, const double* atol) {
   n_ = n;
-  cvode_ = std::make_unique<Cvode>(n, static_cast<OdeSystem&>(*this), options_.rtol, atol,
-                                   options_.max_step_s);
+  cvode_ = std::make_unique<Cvode>(n, static_cast<OdeSystem&>(*this), options_.rtol, atol, options_.max_step_s,
+                                   options_.integrator == Integrator::kRungeKutta ? Cvode::Method::kRungeKutta
+                                                                                  : Cvode::Method::kAdams);
   EnterRest(0.0);
 }
 

@@ -74,6 +74,19 @@ struct SolverStats {
 /// Default l: see docs/models.md for the convergence study.
 inline constexpr double kDefaultL = 1e-10;
 
+/// How the equations are stepped.
+enum class Integrator {
+  /// CVODE's Adams-Moulton: high order, its history carried from step to
+  /// step; the cheapest where the forcing is smooth (Simulate).
+  kAdams,
+  /// ARKODE's explicit Runge-Kutta (order 5): one step at a time, so a kink
+  /// of the forcing where it stops (every sample of Step's chord) costs it
+  /// nothing (docs/performance.md, "Work and precision").
+  kRungeKutta,
+};
+/// "adams" / "rk".
+const char* ToString(Integrator integrator);
+
 /// Integration and regime knobs.
 struct ModelOptions {
   double rtol{1e-10};       ///< CVODE relative tolerance, 1
@@ -97,6 +110,7 @@ struct ModelOptions {
   double complex_resolved_energy{0.0};
   /// Return to rest when two impacts come closer than this, s.
   double rest_impact_interval_s{2e-3};
+  Integrator integrator{Integrator::kAdams};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -16,7 +16,7 @@ struct ModelCommand {
   std::vector<std::string> variants;
   std::string lcm_url;
   int lookahead{0};
-  int threads{0};
+  int threads{1};
 };
 
 int RunModel(const ModelCommand& c) {
@@ -57,7 +57,7 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
                   "integrates across samples, N sample periods later)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", c->threads,
-                  "threads stepping the variants (default 0: one per variant up to the cores)")
+                  "threads stepping the variants (default 1; 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([c, &run] { run = [c] { return RunModel(*c); }; });
 }

@@ -48,7 +48,7 @@ struct RunCommand {
   double speed{1.0};
   bool max{};
   int lookahead{0};
-  int threads{0};
+  int threads{1};
   bool quiet{};
   compare::CompareNodeConfig compare;
 };
@@ -168,7 +168,7 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
                   "table samples the model holds before stepping one (default 0: each as it arrives)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", c->threads,
-                  "threads stepping the model variants (default 0: one per variant up to the cores)")
+                  "threads stepping the model variants (default 1; 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   AddCompareOptions(*cmd, c->compare);

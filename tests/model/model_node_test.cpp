@@ -31,6 +31,14 @@ ModelNodeConfig Config(const std::string& variant) {
   return c;
 }
 
+// The library options the node steps its variants with (its integrator):
+// "the same calls" include it.
+ModelOptions NodeModelOptions() {
+  ModelOptions o;
+  o.integrator = ModelNodeConfig{}.integrator;
+  return o;
+}
+
 // Oracle: the same library run directly. Free rocking from the measured
 // theta0 = 0.1 rad at the first RL_THETA: the node's theta at every table
 // sample equals a model reset to 0.1 rad and advanced to the same times
@@ -40,7 +48,7 @@ TEST(ModelNode, FreeRockingFromTheMeasuredStartMatchesTheLibrary) {
   ModelNode node(Config("h:housner:theoretical"), bus);
   const std::int64_t t0 = 1'700'000'000'000'000;  // an epoch utime: model time counts from it
   node.HandleTheta(Theta(t0, 0.1));
-  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
+  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1, NodeModelOptions());
   direct->Reset(0.0, 0.1, 0.0);
   SampledAcceleration none({0.0, 10.0}, {0.0, 0.0});
   for (int k = 0; k <= 2000; ++k) {  // 4 s at 500 Hz
@@ -76,7 +84,7 @@ TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
 TEST(ModelNode, StartsFromTheThetaPublishedWithTheTableSample) {
   DirectBus bus;
   ModelNode node(Config("h:housner:theoretical"), bus);
-  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
+  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1, NodeModelOptions());
   direct->Reset(0.0, 0.1, 0.0);
   SampledAcceleration none({0.0, 10.0}, {0.0, 0.0});
   for (int k = 0; k < 1000; ++k) {
@@ -100,7 +108,7 @@ TEST(ModelNode, NonFiniteTableSampleHoldsTheLastValueAndTheVariantGoesOn) {
     if (e.source == "model") events.push_back(e);
   });
   ModelNode node(Config("h:housner:theoretical"), bus);
-  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1);
+  auto direct = RockingModel::Create(ModelKind::kHousner, kBlock1, NodeModelOptions());
   direct->Reset(0.0, 0.0, 0.0);
   node.HandleTheta(Theta(0, 0.0));
   const double nan = std::nan("");
