@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +27,10 @@ Comparator::Comparator(const ComparatorOptions& options) : options_(options) {
   options_.Validate();
   window_time_s_.resize(options_.max_window_samples);
   window_sq_.resize(options_.max_window_samples);
+  // No crossing matched yet: no timing or peak error (not a perfect 0).
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  m_.peak_error = m_.impact_timing_error = kNone;
+  m_.mean_abs_timing_error = m_.mean_abs_peak_error = kNone;
 }
 
 void Comparator::CrossingRing::Push(const Crossing& c) {

@@ -23,7 +23,10 @@ struct ComparatorOptions {
   void Validate() const;
 };
 
-/// The metrics after the latest pair. Angles in rad, times in s.
+/// The metrics after the latest pair. Angles in rad, times in s. The four
+/// crossing metrics (peak_error, impact_timing_error and their means) are
+/// NaN while matched_crossings is 0: nothing was matched, so there is no
+/// error to state (0 would read as a perfect match).
 struct ComparisonMetrics {
   std::int64_t utime{};        ///< acquisition sample clock of the latest pair, us
   double error{};              ///< theta_model - theta_measured, rad

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/atomic_file.h"
 #include "common/model_state.h"
 #include "common/node_support.h"
 #include "common/units.h"
@@ -24,6 +25,10 @@ std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> log = common::NamedLogger("compare");
   return log;
 }
+
+// A metric without a value (NaN: no crossing matched) is null in JSON; the
+// key stays.
+nlohmann::json OrNull(double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); }
 
 }  // namespace
 
@@ -298,14 +303,28 @@ void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::
                "alpha", "p", "mu", "rms_deg", "max_deg", "nrms", "corr", "timing_s",
                "peak_deg", "valid%");
   constexpr double kDeg = common::kDegPerRad;
+  // A metric that has no value (no crossing matched) is "-", never a number.
+  auto cell = [](double v) {
+    if (std::isnan(v)) return std::string("-");
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.5f", v);
+    return std::string(buf);
+  };
   for (const VariantSummary& s : summary) {
     const ComparisonMetrics& m = s.metrics;
     const double valid_pct =
         m.samples > 0 ? 100.0 * static_cast<double>(m.valid_samples) / m.samples : 0.0;
-    std::fprintf(out, "%-20s %-8s %8.4f %8.4f %6.3f %11.5f %9.4f %7.4f %9.5f %11.5f %11.5f %7.2f\n",
+    std::fprintf(out, "%-20s %-8s %8.4f %8.4f %6.3f %11.5f %9.4f %7.4f %9.5f %11s %11s %7.2f\n",
                  s.name.c_str(), s.model.c_str(), s.alpha, s.p, s.mu, m.rms_total * kDeg,
-                 m.max_abs_error * kDeg, m.nrms, m.correlation, m.mean_abs_timing_error,
-                 m.mean_abs_peak_error * kDeg, valid_pct);
+                 m.max_abs_error * kDeg, m.nrms, m.correlation, cell(m.mean_abs_timing_error).c_str(),
+                 cell(m.mean_abs_peak_error * kDeg).c_str(), valid_pct);
+  }
+  for (const VariantSummary& s : summary) {
+    if (s.metrics.matched_crossings > 0) continue;
+    std::fprintf(out,
+                 "%s: no zero crossing matched (%lld unmatched): no timing or peak error "
+                 "(\"-\" above, null in the JSON summary)\n",
+                 s.name.c_str(), static_cast<long long>(s.metrics.unmatched_crossings));
   }
 }
 
@@ -328,8 +347,8 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
                         {"correlation", m.correlation},
                         {"matched_crossings", m.matched_crossings},
                         {"unmatched_crossings", m.unmatched_crossings},
-                        {"mean_abs_timing_error", m.mean_abs_timing_error},
-                        {"mean_abs_peak_error", m.mean_abs_peak_error},
+                        {"mean_abs_timing_error", OrNull(m.mean_abs_timing_error)},
+                        {"mean_abs_peak_error", OrNull(m.mean_abs_peak_error)},
                         {"unmatched_measured", s.unmatched_measured},
                         {"unmatched_model", s.unmatched_model}});
   }
@@ -339,11 +358,11 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
        {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"rms", "rad"}, {"nrms", "1"},
         {"max_abs_error", "rad"}, {"peak_measured", "rad"}, {"correlation", "1"},
         {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"}}}};
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  if (!f) throw std::runtime_error("cannot write summary '" + path + "'");
-  const std::string text = doc.dump(2) + "\n";
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  if (std::fclose(f) != 0 || !ok) throw std::runtime_error("error writing summary '" + path + "'");
+  try {
+    common::WriteFileAtomically(path, doc.dump(2) + "\n");
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(std::string("summary: ") + e.what());
+  }
 }
 
 }  // namespace rocklab::compare

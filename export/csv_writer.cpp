@@ -40,12 +40,7 @@ void WriteReal(std::FILE* f, double x) {
 CsvWriter::CsvWriter(std::string out, bool single_table)
     : out_(std::move(out)), single_table_(single_table) {}
 
-CsvWriter::~CsvWriter() {
-  try {
-    Close();
-  } catch (...) {  // a destructor does not throw; Close() was the place to hear it
-  }
-}
+CsvWriter::~CsvWriter() = default;  // each AtomicFile removes its temporary
 
 std::string CsvWriter::TablePath(const std::string& out, const std::string& name) {
   std::string stem = out;
@@ -63,13 +58,14 @@ int CsvWriter::AddTable(const std::string& name, const std::vector<Column>& colu
   if (single_table_ && !files_.empty()) {
     throw std::logic_error("CsvWriter: a single-table export got a second table " + name);
   }
-  File file;
-  file.path = single_table_ ? out_ : TablePath(out_, name);
-  file.columns = columns;
-  file.f = std::fopen(file.path.c_str(), "w");
-  if (!file.f) throw std::runtime_error(file.path + ": cannot create: " + std::strerror(errno));
-  static constexpr std::size_t kBuffer = 1 << 16;
-  std::setvbuf(file.f, nullptr, _IOFBF, kBuffer);
+  const std::string path = single_table_ ? out_ : TablePath(out_, name);
+  for (const File& other : files_) {
+    if (other.file.target() == path) {
+      throw std::runtime_error(path + ": two tables map to this file name (" + name + ")");
+    }
+  }
+  File file{common::AtomicFile(path), nullptr, columns};
+  file.f = file.file.stream();
   for (std::size_t i = 0; i < columns.size(); ++i) {
     if (i) std::fputc(',', file.f);
     WriteName(file.f, columns[i].name);
@@ -91,27 +87,22 @@ void CsvWriter::Append(int table, const Row& row) {
     }
   }
   if (std::fputc('\n', f) == EOF) {
-    throw std::runtime_error(file.path + ": write failed: " + std::strerror(errno));
+    throw std::runtime_error(file.file.target() + ": write failed: " + std::strerror(errno));
   }
 }
 
 void CsvWriter::Close() {
-  std::string error;
+  std::vector<common::AtomicFile*> all;
   for (File& file : files_) {
-    if (!file.f) continue;
-    const bool bad = std::ferror(file.f) != 0;
-    const int closed = std::fclose(file.f);
-    file.f = nullptr;
-    if ((bad || closed != 0) && error.empty()) {
-      error = file.path + ": write failed: " + std::strerror(errno);
-    }
+    file.f = nullptr;  // Finish closes it
+    all.push_back(&file.file);
   }
-  if (!error.empty()) throw std::runtime_error(error);
+  common::CommitAll(all);
 }
 
 std::vector<std::string> CsvWriter::files() const {
   std::vector<std::string> out;
-  for (const File& f : files_) out.push_back(f.path);
+  for (const File& f : files_) out.push_back(f.file.target());
   return out;
 }
 

@@ -5,12 +5,17 @@
 /// same double), NaN as `NaN`, infinities as `inf`/`-inf`; integers in
 /// decimal; text always in double quotes with `"` doubled; names quoted
 /// where they hold a comma, a quote or a line break. UTF-8, `\n` line ends.
+///
+/// Each file is written beside its name (common::AtomicFile) and Close()
+/// renames them all once every one is complete; a writer destroyed without
+/// Close() leaves the previous files as they were.
 
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "common/atomic_file.h"
 #include "export/table.h"
 
 namespace rocklab::exporter {
@@ -22,6 +27,7 @@ class CsvWriter final : public TableSink {
   /// (STEM: `out` without .csv; T with every character outside
   /// [A-Za-z0-9_-] replaced by `_`).
   CsvWriter(std::string out, bool single_table);
+  /// Without Close(): the temporaries are removed, nothing is renamed.
   ~CsvWriter() override;
   int AddTable(const std::string& name, const std::vector<Column>& columns) override;
   void Append(int table, const Row& row) override;
@@ -33,8 +39,8 @@ class CsvWriter final : public TableSink {
 
  private:
   struct File {
-    std::string path;
-    std::FILE* f{};
+    common::AtomicFile file;
+    std::FILE* f{};  // file's stream
     std::vector<Column> columns;
   };
   std::string out_;

@@ -5,7 +5,10 @@
 
 #include <hdf5.h>
 
+#include <optional>
 #include <stdexcept>
+
+#include "common/atomic_file.h"
 
 namespace rocklab::exporter {
 namespace {
@@ -65,7 +68,8 @@ void H5WriterOptions::Validate() const {
 }
 
 struct H5Writer::Impl {
-  std::string path;
+  std::string path;  // the target, as messages name it
+  std::optional<common::AtomicFile> out;  // HDF5 writes out->path()
   H5WriterOptions options;
   Handle file;
   Handle utf8;  // variable-length UTF-8 string type
@@ -130,7 +134,13 @@ H5Writer::H5Writer(const std::string& path, H5WriterOptions options) : impl_(new
   impl_->options = options;
   H5Eget_auto2(H5E_DEFAULT, &impl_->old_func, &impl_->old_data);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  try {
+    impl_->out.emplace(path);
+  } catch (...) {
+    H5Eset_auto2(H5E_DEFAULT, impl_->old_func, impl_->old_data);
+    throw;
+  }
+  hid_t f = H5Fcreate(impl_->out->path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (f < 0) {
     H5Eset_auto2(H5E_DEFAULT, impl_->old_func, impl_->old_data);
     throw std::runtime_error(path + ": cannot create the HDF5 file");
@@ -143,10 +153,15 @@ H5Writer::H5Writer(const std::string& path, H5WriterOptions options) : impl_(new
 }
 
 H5Writer::~H5Writer() {
-  try {
-    Close();
-  } catch (...) {  // Close() is where an error is heard
+  // Not closed: HDF5's handles are let go unflushed and the temporary is
+  // removed (the AtomicFile), so the target keeps what it held.
+  for (Table& t : impl_->tables) {
+    for (ColumnBuffer& c : t.columns) c.dataset.Reset();
+    t.group.Reset();
   }
+  impl_->utf8.Reset();
+  impl_->file.Reset();
+  impl_->out.reset();
   H5Eset_auto2(H5E_DEFAULT, impl_->old_func, impl_->old_data);
 }
 
@@ -258,6 +273,7 @@ void H5Writer::Close() {
   if (H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL) < 0 && error.empty()) error = m.path + ": HDF5 flush failed";
   if (m.file.Reset() < 0 && error.empty()) error = m.path + ": HDF5 close failed";
   if (!error.empty()) throw std::runtime_error(error);
+  m.out->Commit();
 }
 
 std::vector<std::string> H5Writer::files() const { return {impl_->path}; }

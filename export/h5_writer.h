@@ -35,7 +35,10 @@ struct H5WriterOptions {
 
 class H5Writer final : public TableSink {
  public:
-  /// Creates (truncates) `path`. @throws std::runtime_error naming the file.
+  /// Writes beside `path` (common::AtomicFile); Close() renames the
+  /// complete file to `path`. Destroyed without Close(), the temporary is
+  /// removed and `path` keeps what it held. @throws std::runtime_error
+  /// naming the file.
   explicit H5Writer(const std::string& path, H5WriterOptions options = {});
   ~H5Writer() override;
   H5Writer(const H5Writer&) = delete;

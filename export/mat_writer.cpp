@@ -10,8 +10,11 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <set>
 #include <stdexcept>
+
+#include "common/atomic_file.h"
 
 namespace rocklab::exporter {
 namespace {
@@ -134,8 +137,9 @@ std::string Unique(const std::string& base, std::set<std::string>& taken) {
 }  // namespace
 
 struct MatWriter::Impl {
-  std::string path;
+  std::string path;  // the target, as messages name it
   std::string dir;
+  std::optional<common::AtomicFile> out;  // matio writes out->path()
   mat_t* mat{};
   std::vector<MatTable> tables;
   std::set<std::string> variables;
@@ -204,15 +208,15 @@ MatWriter::MatWriter(const std::string& path) : impl_(new Impl) {
   impl_->path = path;
   const std::size_t slash = path.find_last_of('/');
   impl_->dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
-  impl_->mat = Mat_CreateVer(path.c_str(), "rocklab export (MAT v5)", MAT_FT_MAT5);
+  impl_->out.emplace(path);
+  impl_->mat = Mat_CreateVer(impl_->out->path().c_str(), "rocklab export (MAT v5)", MAT_FT_MAT5);
   if (!impl_->mat) throw std::runtime_error(path + ": cannot create the MAT file");
 }
 
 MatWriter::~MatWriter() {
-  try {
-    Close();
-  } catch (...) {  // Close() is where an error is heard
-  }
+  // Not closed: matio's handle is let go and the temporary removed (the
+  // AtomicFile), so the target keeps what it held.
+  if (impl_->mat) Mat_Close(impl_->mat);
 }
 
 std::string MatWriter::Identifier(const std::string& name) {
@@ -280,6 +284,7 @@ void MatWriter::Close() {
   if (Mat_Close(m.mat) != 0 && error.empty()) error = m.path + ": closing the MAT file failed";
   m.mat = nullptr;
   if (!error.empty()) throw std::runtime_error(error);
+  m.out->Commit();
 }
 
 std::vector<std::string> MatWriter::files() const { return {impl_->path}; }

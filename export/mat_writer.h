@@ -31,7 +31,10 @@ namespace rocklab::exporter {
 
 class MatWriter final : public TableSink {
  public:
-  /// Creates (truncates) `path`. @throws std::runtime_error naming the file.
+  /// Writes beside `path` (common::AtomicFile); Close() renames the
+  /// complete file to `path`. Destroyed without Close(), the temporary is
+  /// removed and `path` keeps what it held. @throws std::runtime_error
+  /// naming the file.
   explicit MatWriter(const std::string& path);
   ~MatWriter() override;
   MatWriter(const MatWriter&) = delete;

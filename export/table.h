@@ -50,7 +50,10 @@ class TableSink {
   /// A text attribute of a table (HDF5: an attribute of its group, e.g. the
   /// LCM type); formats without attributes ignore it.
   virtual void Describe(int /*table*/, const std::string& /*key*/, const std::string& /*value*/) {}
-  /// Writes what is buffered and closes every file; idempotent.
+  /// Writes what is buffered, closes every file and gives each its name
+  /// (written beside, renamed when complete: common::AtomicFile);
+  /// idempotent. A sink destroyed without Close() renames nothing and
+  /// removes what it wrote, so a failed export leaves the previous files.
   virtual void Close() = 0;
   /// The files written (for the command's summary).
   virtual std::vector<std::string> files() const = 0;

@@ -14,6 +14,47 @@ bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int siz
   if (!StartsWith(channel, options.channel_prefix)) return false;
   const std::string_view kind = channel.substr(options.channel_prefix.size());
   bool known = true;
+  const bool ok = Dispatch(kind, data, size, known);
+  if (known && !ok && count) ++count->decode_errors;
+  if (hold_current) {
+    hold_current = false;
+    const auto* bytes = static_cast<const std::uint8_t*>(data);
+    held.push_back({std::string(channel), std::vector<std::uint8_t>(bytes, bytes + size)});
+  }
+  if (jump_ready) {
+    jump_ready = false;
+    AcceptClockJump();
+  }
+  return known && ok;
+}
+
+void LiveState::Impl::AcceptClockJump() {
+  std::vector<Held> pending;
+  pending.swap(held);
+  candidate_count = 0;
+  if (candidate_new_test || candidate_first < latest_utime || samples_on_clock < kAgreeingSamples) {
+    // The clock went back, or was set by fewer samples than agree now: those
+    // were wild (a stray datagram before the test), counted as such.
+    if (samples_on_clock < kAgreeingSamples) dropped_far_from_clock += samples_on_clock;
+    NewRecord();
+  } else {
+    latest_utime = candidate_first;  // a forward gap in the same record
+  }
+  for (const Held& h : pending) {
+    ++seq;
+    bool known = true;
+    Dispatch(std::string_view(h.channel).substr(options.channel_prefix.size()), h.bytes.data(),
+             static_cast<int>(h.bytes.size()), known);
+    if (hold_current) {  // far even from its fellows' clock (they spread over more than the limit)
+      hold_current = false;
+      ++dropped_far_from_clock;
+    }
+  }
+  jump_ready = false;
+  DropCandidate();
+}
+
+bool LiveState::Impl::Dispatch(std::string_view kind, const void* data, int size, bool& known) {
   bool ok = false;
   try {
     if (kind == "THETA") {
@@ -36,12 +77,12 @@ bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int siz
   } catch (const std::exception&) {
     ok = false;  // a generated decoder refusing a length: a decode error like any other
   }
-  if (known && !ok && count) ++count->decode_errors;
-  return known && ok;
+  return ok;
 }
 
 bool LiveState::Impl::IngestTheta(const void* data, int size) {
   if (!DecodeSample(theta_msg, data, size)) return false;
+  if (!SeeSampleClock(theta_msg.utime)) return true;  // held
   const rocklab::block_state_t& m = theta_msg;
   AddPoint(measured, m.utime, m.theta * kDegPerRad, 0.0);
   for (std::size_t i = 0; i < kFlagBits.size(); ++i) {
@@ -58,6 +99,7 @@ bool LiveState::Impl::IngestTheta(const void* data, int size) {
 
 bool LiveState::Impl::IngestTable(const void* data, int size) {
   if (!DecodeSample(table_msg, data, size)) return false;
+  if (!SeeSampleClock(table_msg.utime)) return true;  // held
   const rocklab::table_state_t& m = table_msg;
   AddPoint(table, m.utime, m.acceleration, m.displacement);
   if (InWindow(m.utime)) {
@@ -74,7 +116,7 @@ bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int s
       !UsableUtime(model_msg.utime)) {
     return false;
   }
-  SeeSampleClock(model_msg.utime);
+  if (!SeeSampleClock(model_msg.utime)) return true;  // held
   Variant* v = VariantFor(name);
   if (!v) return true;  // counted in dropped.variants
   v->has_params = true;
@@ -85,6 +127,7 @@ bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int s
 
 bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int size) {
   if (!DecodeSample(compare_msg, data, size)) return false;
+  if (!SeeSampleClock(compare_msg.utime)) return true;  // held
   Variant* v = VariantFor(name);
   if (!v) return true;
   const rocklab::comparison_t& m = compare_msg;
@@ -103,7 +146,8 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
     has_clock = true;
     t0_utime = latest_utime = m.utime;
   }
-  latest_utime = std::max(latest_utime, m.utime);
+  // An event does not move the clock (the samples do): a wild one cannot
+  // make the test's samples look far from it.
   // Filled in place, then copied into the ring's slot: the copy reuses the
   // slot's string capacity once the ring has gone round.
   Event& e = event_scratch;
@@ -156,6 +200,16 @@ bool LiveState::Impl::IngestHealth(const void* data, int size) {
 
 bool LiveState::Impl::IngestConfig(const void* data, int size) {
   if (common::GuardedDecode(data, size, config_msg) != nullptr) return false;
+  // A configuration on a clock far from the page's: the DAQ started a new
+  // test, so the next sample that agrees with it is taken as the new clock.
+  if (has_clock && UsableUtime(config_msg.utime) &&
+      std::fabs(static_cast<double>(config_msg.utime) - static_cast<double>(latest_utime)) >
+          options.new_record_after_s * 1e6) {
+    DropCandidate();
+    candidate_first = candidate_latest = config_msg.utime;
+    candidate_count = kAgreeingSamples - 1;
+    candidate_new_test = true;
+  }
   has_config = true;
   AssignText(rig_name, config_msg.rig_name);
   AssignText(calibration_id, config_msg.calibration_id);

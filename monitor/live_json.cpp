@@ -145,7 +145,8 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
                        {"intervals", dropped_intervals},
                        {"variants", dropped_variants},
                        {"nodes", dropped_nodes},
-                       {"channels", dropped_channels}}},
+                       {"channels", dropped_channels},
+                       {"far_from_clock", dropped_far_from_clock}}},
                      {"outside_window", outside_window}};
   doc["units"] = {{"t", "s"}, {"t_latest", "s"}, {"t0_utime", "us"}, {"utime", "us"},
                   {"window_s", "s"}, {"series_rate_hz", "Hz"}, {"theta_deg", "deg"},

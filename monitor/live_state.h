@@ -75,7 +75,8 @@
 ///   "counters": {"messages": {"RL_THETA": 6996, ..},  // every ingested message
 ///                "decode_errors": {"RL_THETA": 0, ..},
 ///                "dropped": {"out_of_order": .., "events": .., "intervals": ..,
-///                            "variants": .., "nodes": .., "channels": ..},
+///                            "variants": .., "nodes": .., "channels": ..,
+///                            "far_from_clock": ..},  // wild sample clocks
 ///                "outside_window": ..},  // points and events left out by from_s..to_s
 ///   "units": {..}          // unit of every quantity above
 /// }
@@ -119,6 +120,10 @@ struct LiveOptions {
   std::string channel_prefix{"RL_"};
   /// A sample clock going back by more than this (a replay restarted, a new
   /// test) starts a new record: the series, flags and events are cleared, s; > 0.
+  /// A sample this far from the clock either way is held, not shown, until
+  /// 5 agreeing samples (or one after an RL_DAQ_CONFIG on their clock) show
+  /// the clock really jumped; a lone wild one is dropped, counted
+  /// (counters.dropped.far_from_clock). Events never move the clock.
   double new_record_after_s{1.0};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;

@@ -264,6 +264,11 @@ struct LiveState::Impl {
   // -- ingestion ------------------------------------------------------------
 
   bool Ingest(std::string_view channel, const void* data, int size);
+  // The message to its Ingest* by channel kind; `known` false for another.
+  bool Dispatch(std::string_view kind, const void* data, int size, bool& known);
+  // The held samples' clock is real: a new record (or the clock followed),
+  // then the held samples ingested.
+  void AcceptClockJump();
   bool IngestTheta(const void* data, int size);
   bool IngestTable(const void* data, int size);
   bool IngestModel(std::string_view name, const void* data, int size);
@@ -302,27 +307,54 @@ struct LiveState::Impl {
     return utime >= -kMaxAbsUtime && utime <= kMaxAbsUtime;
   }
 
-  // A sample-clock reading of a series: sets t0, starts a new record when
-  // the clock went back by more than new_record_after_s.
-  void SeeSampleClock(std::int64_t utime) {
-    if (has_clock && static_cast<double>(utime) <
-                         static_cast<double>(latest_utime) - options.new_record_after_s * 1e6) {
-      NewRecord();
-    }
+  // A sample-clock reading of a series: sets t0, and says whether the
+  // sample may be used. A sample farther than new_record_after_s from the
+  // clock (either way) is held, not used: one wild datagram must not start
+  // a new record or move the origin. kAgreeingSamples far samples that agree
+  // with each other (or one after an RL_DAQ_CONFIG that announced the new
+  // clock) are a real jump: Ingest then starts a new record (the clock went
+  // back, a configuration announced a new test, or the old clock was never
+  // confirmed) or follows it (a forward gap), and ingests the held samples. Far samples a near one interrupts
+  // were wild: dropped, counted (counters.dropped.far_from_clock).
+  bool SeeSampleClock(std::int64_t utime) {
     if (!has_clock) {
       has_clock = true;
       t0_utime = latest_utime = utime;
+      samples_on_clock = 1;
+      return true;
     }
-    latest_utime = std::max(latest_utime, utime);
+    const double far_us = options.new_record_after_s * 1e6;
+    if (std::fabs(static_cast<double>(utime) - static_cast<double>(latest_utime)) <= far_us) {
+      DropCandidate();
+      latest_utime = std::max(latest_utime, utime);
+      ++samples_on_clock;
+      return true;
+    }
+    if (candidate_count == 0 ||
+        std::fabs(static_cast<double>(utime) - static_cast<double>(candidate_latest)) > far_us) {
+      DropCandidate();
+      candidate_first = candidate_latest = utime;
+    }
+    candidate_latest = std::max(candidate_latest, utime);
+    ++candidate_count;
+    hold_current = true;
+    if (candidate_count >= kAgreeingSamples) jump_ready = true;
+    return false;
   }
 
-  // Decodes a message of a series into `msg` and reads its sample clock.
-  // Guarded (common::GuardedDecode: lengths checked before decode allocates).
+  // Far samples held that turned out wild: counted, forgotten.
+  void DropCandidate() {
+    dropped_far_from_clock += static_cast<std::int64_t>(held.size());
+    held.clear();
+    candidate_count = 0;
+    candidate_new_test = false;
+  }
+
+  // Decodes a message of a series into `msg` (guarded: common::GuardedDecode
+  // checks lengths before decode allocates) with a usable utime.
   template <class Msg>
   bool DecodeSample(Msg& msg, const void* data, int size) {
-    if (common::GuardedDecode(data, size, msg) != nullptr || !UsableUtime(msg.utime)) return false;
-    SeeSampleClock(msg.utime);
-    return true;
+    return common::GuardedDecode(data, size, msg) == nullptr && UsableUtime(msg.utime);
   }
 
   void NewRecord() {
@@ -339,6 +371,7 @@ struct LiveState::Impl {
     while (!events.empty()) events.pop_front();
     open_flags.fill(0);
     open_stale.clear();
+    samples_on_clock = 0;
   }
 
   // Inside the time window from_s..to_s (s after t0)?
@@ -396,6 +429,20 @@ struct LiveState::Impl {
   std::uint64_t record_start_seq{};
   bool has_clock{};
   std::int64_t t0_utime{}, latest_utime{};
+
+  // The clock guard (SeeSampleClock): far samples held until they agree.
+  static constexpr int kAgreeingSamples = 5;
+  struct Held {
+    std::string channel;
+    std::vector<std::uint8_t> bytes;
+  };
+  std::vector<Held> held;             // at most kAgreeingSamples
+  int candidate_count{};              // far samples agreeing with each other (0: none)
+  std::int64_t candidate_first{}, candidate_latest{};  // their sample clock, us
+  std::int64_t samples_on_clock{};    // samples used since the clock was set
+  bool candidate_new_test{};          // announced by an RL_DAQ_CONFIG on its clock
+  bool hold_current{}, jump_ready{};  // set for Ingest by SeeSampleClock
+  std::int64_t dropped_far_from_clock{};
 
   Series measured;  // a: theta, deg
   Series table;     // a: u_g'', m/s^2; b: u_g, m

@@ -53,6 +53,27 @@ bool IsHttpMethod(std::string_view m) {
 // "%00" stay what they are and find nothing in the embedded table.
 size_t KeepEscapes(void*, MHD_Connection*, char* uri) { return std::strlen(uri); }
 
+// A client's address as a key (the address bytes, without the port).
+std::string HostKey(MHD_Connection* connection) {
+  const MHD_ConnectionInfo* info = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+  if (info == nullptr || info->client_addr == nullptr) return {};
+  const sockaddr* a = info->client_addr;
+  if (a->sa_family == AF_INET) {
+    const auto* in = reinterpret_cast<const sockaddr_in*>(a);
+    return std::string(reinterpret_cast<const char*>(&in->sin_addr), sizeof in->sin_addr);
+  }
+  if (a->sa_family == AF_INET6) {
+    const auto* in6 = reinterpret_cast<const sockaddr_in6*>(a);
+    return std::string(reinterpret_cast<const char*>(&in6->sin6_addr), sizeof in6->sin6_addr);
+  }
+  return {};
+}
+
+int ConnectionFd(MHD_Connection* connection) {
+  const MHD_ConnectionInfo* info = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CONNECTION_FD);
+  return info == nullptr ? -1 : info->connect_fd;
+}
+
 // The file-descriptor head room the server leaves to the rest of the process
 // (LCM sockets, logs) below the open-file limit.
 constexpr std::size_t kSpareDescriptors = 64;
@@ -75,6 +96,11 @@ void ServerOptions::Validate() const {
   check(std::isfinite(keepalive_period_s) && keepalive_period_s > 0 && keepalive_period_s < idle_timeout_s,
         "keepalive_period_s", "(0, idle_timeout_s) s");
   check(max_streams >= 1 && max_streams <= 1024, "max_streams", "1 .. 1024");
+  check(max_streams_per_host >= 1 && max_streams_per_host <= 1024, "max_streams_per_host", "1 .. 1024");
+  check(std::isfinite(stream_stall_s) && stream_stall_s > 0 && stream_stall_s <= 3600, "stream_stall_s",
+        "(0, 3600] s");
+  check(std::isfinite(header_timeout_s) && header_timeout_s >= 1 && header_timeout_s <= 60, "header_timeout_s",
+        "[1, 60] s");
   check(max_connections >= 1 && max_connections <= 4096, "max_connections", "1 .. 4096");
   check(max_streams <= max_connections, "max_streams", "<= max_connections");
   check(max_connections_per_host >= 1 && max_connections_per_host <= max_connections, "max_connections_per_host",
@@ -92,10 +118,26 @@ struct MonitorServer::Impl {
     bool suspended{};              // guarded by impl->mutex
     std::atomic<bool> due{false};  // a push period passed since the last look
     std::uint64_t cursor{};
+    std::string host;              // HostKey of its client
+    int fd{-1};                    // its socket (libmicrohttpd's)
+    bool dropped{};                // cut off for not reading; guarded by impl->mutex
+    // When libmicrohttpd last asked for output: while the stream is not
+    // parked, a socket that takes nothing leaves this behind. Guarded by mutex.
+    std::chrono::steady_clock::time_point last_asked{};
     std::chrono::steady_clock::time_point last_write{};
     std::string out;  // the message being sent (one snapshot or update at most)
     std::size_t out_pos{};
     std::list<Stream*>::iterator entry;
+  };
+
+  // One open connection, for the header deadline: created and freed by
+  // libmicrohttpd's connection notifications (its socket context).
+  struct Conn {
+    int fd{-1};
+    bool in_header{true};  // waiting for a request's line and headers
+    bool cut{};            // shut down for missing the deadline
+    std::chrono::steady_clock::time_point header_start;
+    std::list<Conn*>::iterator entry;
   };
 
   Impl(const LiveState& s, const ServerOptions& o) : state(s), options(o) {}
@@ -110,7 +152,11 @@ struct MonitorServer::Impl {
   MHD_Result StartStream(MHD_Connection* connection);
   static ssize_t ReadStream(void* cls, uint64_t pos, char* buf, size_t max);
   static void FreeStream(void* cls);
+  static void NotifyConnection(void* cls, MHD_Connection* connection, void** socket_context,
+                               MHD_ConnectionNotificationCode code);
+  static void Completed(void* cls, MHD_Connection* connection, void** request, MHD_RequestTerminationCode code);
   void Tick();
+  void CutLateHeaders();
 
   // Queues a response carrying the default headers.
   MHD_Result Queue(MHD_Connection* connection, unsigned status, MHD_Response* response) {
@@ -142,7 +188,53 @@ struct MonitorServer::Impl {
   bool stopping{};             // guarded by mutex
   std::list<Stream*> streams;  // guarded by mutex
   std::condition_variable streams_cv;
+  std::list<Conn*> conns;      // guarded by mutex
 };
+
+// Connections are listed from accept to close; shutdown(2) of a late one's
+// socket (under the mutex, so before NotifyConnection's "closed", after
+// which libmicrohttpd closes the descriptor) makes libmicrohttpd close it.
+void MonitorServer::Impl::NotifyConnection(void* cls, MHD_Connection* connection, void** socket_context,
+                                           MHD_ConnectionNotificationCode code) {
+  Impl& self = *static_cast<Impl*>(cls);
+  std::lock_guard<std::mutex> lock(self.mutex);
+  if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+    auto* c = new Conn;
+    c->fd = ConnectionFd(connection);
+    c->header_start = std::chrono::steady_clock::now();
+    self.conns.push_front(c);
+    c->entry = self.conns.begin();
+    *socket_context = c;
+  } else if (code == MHD_CONNECTION_NOTIFY_CLOSED && *socket_context != nullptr) {
+    auto* c = static_cast<Conn*>(*socket_context);
+    self.conns.erase(c->entry);
+    delete c;
+    *socket_context = nullptr;
+  }
+}
+
+// A request answered (or abandoned): the next one's headers have their own deadline.
+void MonitorServer::Impl::Completed(void* cls, MHD_Connection* connection, void**, MHD_RequestTerminationCode) {
+  Impl& self = *static_cast<Impl*>(cls);
+  const MHD_ConnectionInfo* info = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+  if (info == nullptr || info->socket_context == nullptr) return;
+  std::lock_guard<std::mutex> lock(self.mutex);
+  auto* c = static_cast<Conn*>(info->socket_context);
+  c->in_header = true;
+  c->header_start = std::chrono::steady_clock::now();
+}
+
+// Called with the mutex held.
+void MonitorServer::Impl::CutLateHeaders() {
+  const auto now = std::chrono::steady_clock::now();
+  const auto deadline = std::chrono::duration<double>(options.header_timeout_s);
+  for (Conn* c : conns) {
+    if (c->in_header && !c->cut && c->fd >= 0 && now - c->header_start > deadline) {
+      shutdown(c->fd, SHUT_RDWR);
+      c->cut = true;
+    }
+  }
+}
 
 MHD_Result MonitorServer::Impl::Handle(void* cls, MHD_Connection* connection, const char* url,
                                        const char* method, const char*, const char*,
@@ -151,6 +243,21 @@ MHD_Result MonitorServer::Impl::Handle(void* cls, MHD_Connection* connection, co
   if (*request == nullptr) {
     // First call, with the headers: answer now (nothing here reads a body).
     *request = &self;
+    const MHD_ConnectionInfo* info = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    if (info != nullptr && info->socket_context != nullptr) {
+      std::lock_guard<std::mutex> lock(self.mutex);
+      static_cast<Conn*>(info->socket_context)->in_header = false;
+    }
+    const MHD_ConnectionInfo* size = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_REQUEST_HEADER_SIZE);
+    if (size != nullptr && size->header_size > self.options.max_header_bytes) {
+      MHD_Response* r = MHD_create_response_from_buffer(std::strlen("request header too large\n"),
+                                                        const_cast<char*>("request header too large\n"),
+                                                        MHD_RESPMEM_PERSISTENT);
+      if (r == nullptr) return MHD_NO;
+      MHD_add_response_header(r, "Content-Type", kTextPlain);
+      MHD_add_response_header(r, "Connection", "close");
+      return self.Queue(connection, 431, r);
+    }
     return self.Answer(connection, url, method);
   }
   *upload_data_size = 0;  // a body after an answer was queued: discarded
@@ -192,9 +299,39 @@ MHD_Result MonitorServer::Impl::Answer(MHD_Connection* connection, std::string_v
 
 MHD_Result MonitorServer::Impl::StartStream(MHD_Connection* connection) {
   auto stream = std::make_unique<Stream>();
+  stream->host = HostKey(connection);
+  stream->fd = ConnectionFd(connection);
+  if (stream->fd >= 0) {
+    // A bounded send buffer (the kernel doubles it): what a stream can park
+    // in the kernel stays small, and a client that reads nothing blocks its
+    // stream within a snapshot or a few updates, so it shows as stalled.
+    const int bytes = 32 * 1024;
+    setsockopt(stream->fd, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
+  }
   {
     std::lock_guard<std::mutex> lock(mutex);
-    if (stopping || streams.size() >= options.max_streams) {
+    // Streams whose clients read nothing give up their slots first.
+    const auto now = std::chrono::steady_clock::now();
+    const auto stall = std::chrono::duration<double>(options.stream_stall_s);
+    const std::size_t per_host = std::min(options.max_streams_per_host, options.max_streams);
+    std::size_t open = 0, from_host = 0;
+    for (Stream* other : streams) {
+      if (other->dropped) continue;
+      ++open;
+      if (other->host == stream->host) ++from_host;
+    }
+    if (open >= options.max_streams || from_host >= per_host) {
+      for (Stream* other : streams) {
+        if (open < options.max_streams && from_host < per_host) break;
+        const bool counts = open >= options.max_streams || other->host == stream->host;
+        if (other->dropped || other->suspended || !counts || now - other->last_asked < stall) continue;
+        other->dropped = true;  // libmicrohttpd closes it on its next look at the socket
+        if (other->fd >= 0) shutdown(other->fd, SHUT_RDWR);
+        --open;
+        if (other->host == stream->host) --from_host;
+      }
+    }
+    if (stopping || open >= options.max_streams || from_host >= per_host) {
       MHD_Response* r = MHD_create_response_from_buffer(std::strlen("too many event streams\n"),
                                                         const_cast<char*>("too many event streams\n"),
                                                         MHD_RESPMEM_PERSISTENT);
@@ -205,6 +342,7 @@ MHD_Result MonitorServer::Impl::StartStream(MHD_Connection* connection) {
     }
     stream->impl = this;
     stream->connection = connection;
+    stream->last_asked = now;
     streams.push_front(stream.get());
     stream->entry = streams.begin();
   }
@@ -227,6 +365,10 @@ MHD_Result MonitorServer::Impl::StartStream(MHD_Connection* connection) {
 ssize_t MonitorServer::Impl::ReadStream(void* cls, uint64_t, char* buf, size_t max) {
   Stream& s = *static_cast<Stream*>(cls);
   Impl& self = *s.impl;
+  {
+    std::lock_guard<std::mutex> lock(self.mutex);
+    s.last_asked = std::chrono::steady_clock::now();
+  }
   if (s.out_pos >= s.out.size()) {
     s.out.clear();
     s.out_pos = 0;
@@ -282,13 +424,16 @@ void MonitorServer::Impl::Tick() {
   std::unique_lock<std::mutex> lock(mutex);
   while (!stopping) {
     stop_cv.wait_for(lock, std::chrono::duration<double>(options.push_period_s), [this] { return stopping; });
+    const auto now = std::chrono::steady_clock::now();
     for (Stream* s : streams) {
       s->due = true;
       if (s->suspended) {
         s->suspended = false;
+        s->last_asked = now;  // parked until now: not blocked
         MHD_resume_connection(s->connection);
       }
     }
+    CutLateHeaders();
   }
 }
 
@@ -345,7 +490,10 @@ void MonitorServer::Start() {
   const auto timeout_s = static_cast<unsigned>(std::ceil(m.options.idle_timeout_s));
   // libmicrohttpd keeps the request line and headers in the connection's
   // memory pool; the response headers need a little room beside them.
-  const std::size_t pool = m.options.max_header_bytes + 4096;
+  // Twice the limit and more: a header just over it is still read whole and
+  // answered 431 here (libmicrohttpd answers 431 itself, when it can, only
+  // beyond its pool).
+  const std::size_t pool = 2 * m.options.max_header_bytes + 16384;
   m.daemon = MHD_start_daemon(
       MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME, 0, nullptr, nullptr,
       &Impl::Handle, &m,  //
@@ -356,6 +504,8 @@ void MonitorServer::Start() {
       MHD_OPTION_CONNECTION_TIMEOUT, timeout_s,                         //
       MHD_OPTION_CONNECTION_MEMORY_LIMIT, pool,                         //
       MHD_OPTION_UNESCAPE_CALLBACK, &KeepEscapes, nullptr,              //
+      MHD_OPTION_NOTIFY_CONNECTION, &Impl::NotifyConnection, &m,        //
+      MHD_OPTION_NOTIFY_COMPLETED, &Impl::Completed, &m,                //
       MHD_OPTION_END);
   if (m.daemon == nullptr) throw std::runtime_error("cannot start the HTTP server on " + url());
   m.ticker = std::thread([&m] { m.Tick(); });

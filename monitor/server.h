@@ -17,10 +17,16 @@
 /// Under load (docs/reliability.md): one polling thread serves every
 /// connection, so idle or slow clients cost a socket and a bounded buffer,
 /// never a thread. At most max_connections are open (more are refused at
-/// accept), at most max_connections_per_host from one address; a request's
-/// header must fit in max_header_bytes (else 431 and the connection closes);
-/// a connection quiet for idle_timeout_s is closed, in the middle of a
-/// header too. cpp-httplib, used before, gives each
+/// accept), at most max_connections_per_host from one address, so a few
+/// hosts cannot take every slot; a request's line and headers must arrive
+/// whole within header_timeout_s of the connection (or of the previous
+/// answer on it), however slowly they trickle, else the connection is
+/// closed; they must fit in max_header_bytes (else 431 and the connection
+/// closes); a connection on which nothing moves for idle_timeout_s (a
+/// client that reads nothing of its answer) is closed. Event streams: at
+/// most max_streams, max_streams_per_host from one address; a stream whose
+/// client has stopped reading (its output blocked for stream_stall_s) is
+/// dropped when another asks for its slot. cpp-httplib, used before, gives each
 /// connection a worker thread from a fixed pool and has no bound on the
 /// number of header lines: 1000 idle sockets starved every request and one
 /// client streaming header lines grew the process to 1.8 GB.
@@ -44,16 +50,26 @@ struct ServerOptions {
   double push_period_s{0.1};      ///< event-stream update period, s; > 0 (10 Hz)
   double keepalive_period_s{5.0}; ///< comment line on a quiet stream, s; > 0, < idle_timeout_s
   std::size_t max_streams{8};     ///< concurrent event streams; more get 503
+  /// Event streams from one address at most (max_streams if more); more get
+  /// 503. 1 .. 1024.
+  std::size_t max_streams_per_host{2};
+  /// A stream whose output has been blocked this long (its client reads
+  /// nothing) gives its slot to a new stream that asks, s; > 0.
+  double stream_stall_s{2.0};
   /// Open connections at most (idle, reading, streaming); more are refused.
   /// 1 .. 4096, and kept 64 below the process's open-file limit.
   std::size_t max_connections{1024};
-  /// Open connections from one address at most, so that one host cannot
-  /// take every slot; 1 .. max_connections.
-  std::size_t max_connections_per_host{400};
+  /// Open connections from one address at most, so that a few hosts cannot
+  /// take every slot (16 hosts to fill the default 1024); 1 .. max_connections.
+  std::size_t max_connections_per_host{64};
+  /// The request line and headers must be complete this long after the
+  /// connection opened (or its previous answer ended), s; a deadline, not
+  /// reset by a byte. 1 .. 60.
+  double header_timeout_s{8.0};
   /// A connection with no traffic for this long is closed, s; 1 .. 3600.
   double idle_timeout_s{10.0};
-  /// Request line and headers of one request, bytes; more gets 431 and a
-  /// close. 1024 .. 65536.
+  /// Request line and headers of one request (with their CRLFs and the
+  /// empty line), bytes; more gets 431 and a close. 1024 .. 65536.
   std::size_t max_header_bytes{8192};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;

@@ -121,23 +121,19 @@ RunSummary RunScenario(Scenario& s, const ScenarioOptions& o,
   return summary;
 }
 
-OutputFile::OutputFile(const std::string& path) : path_(path) {
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) {
-    throw OptionError("cannot write '" + path + "': " + std::strerror(errno));
+OutputFile::OutputFile(const std::string& path) {
+  try {
+    out_ = std::make_unique<common::AtomicFile>(path);
+  } catch (const std::runtime_error& e) {
+    throw OptionError(e.what());
   }
-}
-
-OutputFile::~OutputFile() {
-  if (file_) std::fclose(file_);
+  file_ = out_->stream();
 }
 
 void OutputFile::Close() {
-  if (!file_) return;
-  const bool bad = std::ferror(file_) != 0;
-  const bool close_failed = std::fclose(file_) != 0;
+  if (out_->committed()) return;
   file_ = nullptr;
-  if (bad || close_failed) throw std::runtime_error("error writing '" + path_ + "'");
+  out_->Commit();
 }
 
 void WriteEventsCsv(const std::string& path, const std::vector<model::ModelEvent>& events) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/atomic_file.h"
 #include "model/excitation.h"
 #include "model/rocking_model.h"
 
@@ -68,20 +69,20 @@ RunSummary RunScenario(Scenario& scenario, const ScenarioOptions& options,
 /// @throws std::runtime_error naming the file when it cannot be written.
 void WriteEventsCsv(const std::string& path, const std::vector<model::ModelEvent>& events);
 
-/// An output file that closes itself; throws naming the path when it cannot
-/// be opened or written.
+/// An output file written beside `path` (common::AtomicFile) that gets its
+/// name only at Close(), complete; destroyed without Close() (an error
+/// before the end), it is removed and `path` keeps what it held. Throws
+/// naming the path when it cannot be created or written.
 class OutputFile {
  public:
   explicit OutputFile(const std::string& path);
-  ~OutputFile();
-  OutputFile(const OutputFile&) = delete;
-  OutputFile& operator=(const OutputFile&) = delete;
   std::FILE* get() const { return file_; }
-  /// Flushes and closes; throws naming the path on a write error.
+  /// Flushes, syncs and renames to the path; throws naming the path on a
+  /// write error (the path then keeps what it held).
   void Close();
 
  private:
-  std::string path_;
+  std::unique_ptr<common::AtomicFile> out_;
   std::FILE* file_{};
 };
 

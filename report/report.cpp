@@ -162,8 +162,13 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
     line += Format(", alpha %.6g rad, p %.6g rad/s, mu %.6g", Number(v, "alpha"), Number(v, "p"),
                    Number(v, "mu"));
     if (model == "complex") line += Format(", l %.6g", Number(v, "l"));
-    const double nrms = Number(v.value("latest", json()), "nrms");
+    const json latest = v.value("latest", json());
+    const double nrms = Number(latest, "nrms");
     line += std::isfinite(nrms) ? Format("; nrms %.3g", nrms) : std::string("; not compared");
+    // RL_COMPARE's timing error is NaN (null here) until a crossing is matched.
+    if (std::isfinite(nrms) && !std::isfinite(Number(latest, "impact_timing_error"))) {
+      line += "; no zero crossing matched (no timing or peak error)";
+    }
     lines.push_back(line);
   }
 

@@ -14,8 +14,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <thread>
+
+#include "common/atomic_file.h"
 
 extern char** environ;
 
@@ -307,12 +310,23 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
                                 std::to_string(min_height_px) + " px high, got " +
                                 std::to_string(height_px));
   }
-  return RunGnuplot(gnuplot_, Script(out_path, format, width_px, height_px), out_path);
+  return RunGnuplot(
+      gnuplot_, [&](const std::string& output) { return Script(output, format, width_px, height_px); },
+      out_path);
 }
 
-std::string RunGnuplot(const std::string& gnuplot, const std::string& script, const std::string& out_path) {
+std::string RunGnuplot(const std::string& gnuplot,
+                       const std::function<std::string(const std::string& output)>& script_for,
+                       const std::string& out_path) {
   std::error_code ignored;
-  std::filesystem::remove(out_path, ignored);  // a stale file must not pass for a new one
+  std::unique_ptr<common::AtomicFile> created;
+  try {
+    created = std::make_unique<common::AtomicFile>(out_path);  // empty: only gnuplot can make it non-empty
+  } catch (const std::runtime_error& e) {
+    throw FigureError(std::string("cannot draw '") + out_path + "': " + e.what());
+  }
+  common::AtomicFile& output = *created;
+  const std::string script = script_for(output.path());
 
   int in_pipe[2], err_pipe[2];
   if (pipe2(in_pipe, O_CLOEXEC) != 0) throw FigureError(std::string("pipe: ") + std::strerror(errno));
@@ -369,9 +383,14 @@ std::string RunGnuplot(const std::string& gnuplot, const std::string& script, co
                       std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
                       "): " + Complaint(err));
   }
-  const auto size = std::filesystem::file_size(out_path, ignored);
+  const auto size = std::filesystem::file_size(output.path(), ignored);
   if (ignored || size == 0) {
     throw FigureError("cannot draw '" + out_path + "': gnuplot exited 0 but wrote no file");
+  }
+  try {
+    output.Commit();
+  } catch (const std::runtime_error& e) {
+    throw FigureError(std::string("cannot draw '") + out_path + "': " + e.what());
   }
   return Warnings(err);
 }

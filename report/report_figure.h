@@ -7,6 +7,7 @@
 /// script and the curves (as inline data blocks) go to gnuplot's standard
 /// input through a pipe; nothing is plotted by hand.
 
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -22,14 +23,18 @@ class FigureError : public std::runtime_error {
 
 enum class FigureFormat { kSvg, kPng };
 
-/// Runs `gnuplot` (a name looked up on PATH, or a path) on `script`, which
-/// must write `out_path`; every rocklab figure is drawn through it
-/// (ThetaFigure::Write, `rocklab sweep-plot`). A stale `out_path` is removed
-/// first.
+/// Runs `gnuplot` (a name looked up on PATH, or a path) on
+/// `script_for(output)`, a script that must write the file `output`; every
+/// rocklab figure is drawn through it (ThetaFigure::Write, `rocklab
+/// sweep-plot`). `output` is a temporary beside `out_path`
+/// (common::AtomicFile), renamed to `out_path` once gnuplot has succeeded:
+/// a failed drawing leaves `out_path` as it was.
 /// @returns gnuplot's warnings (empty when it had none), one per line.
 /// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
 ///   or leaves no output file.
-std::string RunGnuplot(const std::string& gnuplot, const std::string& script, const std::string& out_path);
+std::string RunGnuplot(const std::string& gnuplot,
+                       const std::function<std::string(const std::string& output)>& script_for,
+                       const std::string& out_path);
 
 /// `text` as a gnuplot single-quoted string ('' for a quote; control
 /// characters become spaces).

@@ -5,9 +5,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <map>
 #include <stdexcept>
 
+#include "common/atomic_file.h"
 #include "common/text.h"
 
 namespace rocklab::sweep {
@@ -50,7 +52,7 @@ struct Series {
 void Draw(const PlotOptions& o, const std::string& file, const std::string& setup, const std::vector<Series>& series,
           PlotReport& report, const std::string& extra_plot = "") {
   const std::string path = (std::filesystem::path(o.out_dir) / (file + Extension(o))).string();
-  std::string s = Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(path) + "\nset grid\n" + setup;
+  std::string s = "set grid\n" + setup;
   std::string plot = "plot ";
   for (std::size_t i = 0; i < series.size(); ++i) {
     const std::string name = "$s" + std::to_string(i);
@@ -63,7 +65,12 @@ void Draw(const PlotOptions& o, const std::string& file, const std::string& setu
   }
   if (!extra_plot.empty()) plot += (series.empty() ? "" : ", ") + extra_plot;
   s += plot + "\nset output\n";
-  report::RunGnuplot(o.gnuplot, s, path);
+  report::RunGnuplot(
+      o.gnuplot,
+      [&](const std::string& output) {
+        return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + s;
+      },
+      path);
   report.files.push_back(path);
 }
 
@@ -281,14 +288,18 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
   }
   for (const auto& [model, cells] : maps) {
     const std::string path = (std::filesystem::path(o.out_dir) / ("overturn_map_" + model + Extension(o))).string();
-    std::string s = Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(path) +
-                    "\nset grid\nset title " + GnuplotQuoted("overturning map, " + model) +
+    std::string s = "set grid\nset title " + GnuplotQuoted("overturning map, " + model) +
                     " noenhanced\nset xlabel 'p (rad/s)'\nset ylabel 'PGA / (g tan alpha)'\n"
                     "set cblabel 'share of records overturned'\nset cbrange [0:1]\n"
                     "set palette defined (0 '#2c7bb6', 0.5 '#ffffbf', 1 '#d7191c')\n$m << EOD\n";
     for (const auto& [xy, counts] : cells) s += Num(xy.first) + " " + Num(xy.second) + " " + Num(counts.second / counts.first) + "\n";
     s += "EOD\nplot $m using 1:2:3 with points pt 5 ps 1.5 lc palette notitle\nset output\n";
-    report::RunGnuplot(o.gnuplot, s, path);
+    report::RunGnuplot(
+        o.gnuplot,
+        [&](const std::string& output) {
+          return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + s;
+        },
+        path);
     report.files.push_back(path);
   }
 
@@ -330,7 +341,7 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
 
   // The fits as a table.
   const std::string table = (std::filesystem::path(o.out_dir) / "fragility.csv").string();
-  std::ofstream out(table);
+  std::ostringstream out;
   out << "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g\n";
   for (const BlockFragility& f : fragilities) {
     const bool fitted = f.fit.status == FragilityFit::Status::kFitted;
@@ -340,8 +351,7 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
         << ',' << (separated ? Num(f.fit.safe_below) : "") << ',' << (separated ? Num(f.fit.overturned_above) : "")
         << '\n';
   }
-  out.close();
-  if (!out) throw std::runtime_error("error writing '" + table + "'");
+  common::WriteFileAtomically(table, out.str());
   report.files.push_back(table);
   return report;
 }

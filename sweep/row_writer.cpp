@@ -10,6 +10,7 @@
 #include <vector>
 #include <stdexcept>
 
+#include "common/atomic_file.h"
 #include "common/text.h"
 #include "export/h5_writer.h"
 #include "pipeline/option_error.h"
@@ -19,26 +20,43 @@ namespace {
 
 using pipeline::OptionError;
 
+// Rows go to OUT.partial beside --out, flushed one by one (a stopped sweep
+// keeps every row written there and --resume continues it); Close() renames
+// the complete file to --out, so --out is never a torn or half sweep.
 class CsvRowWriter final : public RowWriter {
  public:
   CsvRowWriter(const std::string& path, const Plan& plan, const Slice& slice, bool resume)
-      : path_(path), plan_(plan) {
-    std::uintmax_t keep = 0;  // bytes of the existing file to keep
-    if (resume && std::filesystem::exists(path)) keep = CheckExisting(slice);
+      : path_(path), partial_(PartialPath(path)), plan_(plan) {
+    namespace fs = std::filesystem;
+    std::uintmax_t keep = 0;  // bytes of the resumed file to keep
+    if (resume) {
+      // An interrupted run's rows are in the .partial; a finished run's (or
+      // an older rocklab's, written in place) in --out itself.
+      if (fs::exists(partial_)) {
+        keep = CheckExisting(partial_, slice);
+      } else if (fs::exists(path)) {
+        keep = CheckExisting(path, slice);
+        if (keep > 0) {
+          std::error_code ec;
+          fs::copy_file(path, partial_, fs::copy_options::overwrite_existing, ec);
+          if (ec) throw OptionError("--out: cannot copy '" + path + "' to '" + partial_ + "': " + ec.message());
+        }
+      }
+    }
     if (keep > 0) {
       std::error_code ec;
-      std::filesystem::resize_file(path, keep, ec);
-      if (ec) throw OptionError("--out: cannot cut '" + path + "' to its complete rows: " + ec.message());
-      file_ = std::fopen(path.c_str(), "a");
+      fs::resize_file(partial_, keep, ec);
+      if (ec) throw OptionError("--out: cannot cut '" + partial_ + "' to its complete rows: " + ec.message());
+      file_ = std::fopen(partial_.c_str(), "a");
     } else {
       rows_done_ = 0;
-      file_ = std::fopen(path.c_str(), "w");
+      file_ = std::fopen(partial_.c_str(), "w");
     }
-    if (!file_) throw OptionError("--out: cannot write '" + path + "': " + std::strerror(errno));
+    if (!file_) throw OptionError("--out: cannot write '" + partial_ + "': " + std::strerror(errno));
     if (keep == 0) Put(Header() + "\n");
   }
   ~CsvRowWriter() override {
-    if (file_) std::fclose(file_);
+    if (file_) std::fclose(file_);  // the rows stay in the .partial for --resume
   }
 
   std::size_t rows_done() const override { return rows_done_; }
@@ -50,7 +68,8 @@ class CsvRowWriter final : public RowWriter {
     const bool bad = std::ferror(file_) != 0;
     const bool close_failed = std::fclose(file_) != 0;
     file_ = nullptr;
-    if (bad || close_failed) throw std::runtime_error("error writing '" + path_ + "'");
+    if (bad || close_failed) throw std::runtime_error("error writing '" + partial_ + "'");
+    common::CommitRename(partial_, path_);
   }
 
  private:
@@ -58,14 +77,14 @@ class CsvRowWriter final : public RowWriter {
   // row being written (which --resume detects as a torn line).
   void Put(const std::string& text) {
     if (std::fputs(text.c_str(), file_) < 0 || std::fflush(file_) != 0) {
-      throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
+      throw std::runtime_error("error writing '" + partial_ + "': " + std::strerror(errno));
     }
   }
 
   // Returns the bytes to keep (0: start afresh) and sets rows_done_.
-  std::uintmax_t CheckExisting(const Slice& slice) {
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) throw OptionError("--out: cannot read '" + path_ + "' to resume: " + std::strerror(errno));
+  std::uintmax_t CheckExisting(const std::string& path, const Slice& slice) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw OptionError("--out: cannot read '" + path + "' to resume: " + std::strerror(errno));
     std::string line;
     std::uintmax_t offset = 0, keep = 0;
     std::size_t line_no = 0;
@@ -78,20 +97,20 @@ class CsvRowWriter final : public RowWriter {
       offset += line.size() + 1;
       if (line_no == 1) {
         if (line != Header()) {
-          throw OptionError("--out: " + path_ + ":1: header " + common::Quote(line) +
+          throw OptionError("--out: " + path + ":1: header " + common::Quote(line) +
                             " is not a sweep's; --resume continues a file this command wrote");
         }
         keep = offset;
         continue;
       }
       if (rows_done_ >= slice.count()) {
-        throw OptionError("--out: " + path_ + ":" + std::to_string(line_no) +
+        throw OptionError("--out: " + path + ":" + std::to_string(line_no) +
                           ": more rows than the sweep has; was it written with other options?");
       }
       const std::string expected = KeyPrefix(plan_, slice.index(rows_done_));
       if (line.compare(0, expected.size(), expected) != 0 ||
           static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) != commas) {
-        throw OptionError("--out: " + path_ + ":" + std::to_string(line_no) + ": row " + common::Quote(line) +
+        throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": row " + common::Quote(line) +
                           " is not this sweep's next case (expected it to start " + common::Quote(expected) +
                           "); was it written with other options, or another --shard?");
       }
@@ -101,7 +120,8 @@ class CsvRowWriter final : public RowWriter {
     return keep;
   }
 
-  std::string path_;
+  std::string path_;     // --out
+  std::string partial_;  // PartialPath(path_): where the rows go
   const Plan& plan_;
   std::FILE* file_{};
   std::size_t rows_done_{0};
@@ -177,6 +197,8 @@ class H5RowWriter final : public RowWriter {
 };
 
 }  // namespace
+
+std::string PartialPath(const std::string& out) { return out + ".partial"; }
 
 std::unique_ptr<RowWriter> OpenRowWriter(const std::string& path, const Plan& plan, const Slice& slice,
                                          bool resume) {

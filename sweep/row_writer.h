@@ -26,7 +26,8 @@ struct Slice {
 };
 
 /// Takes the rows of a slice in order. Writes each row through to the file
-/// (an interrupted sweep keeps every row written and resumes after them).
+/// (an interrupted sweep keeps every row written and resumes after them);
+/// the file gets its name only at Close(), complete.
 class RowWriter {
  public:
   virtual ~RowWriter() = default;
@@ -40,10 +41,18 @@ class RowWriter {
   virtual void Close() = 0;
 };
 
+/// Where a CSV sweep writes its rows until Close() renames the file to
+/// `out`: `out` + ".partial", beside it (kept when the sweep stops early,
+/// for --resume).
+std::string PartialPath(const std::string& out);
+
 /// Opens the output for `slice` of `plan`: `.csv` (or any other name) is a
-/// CSV with Header(); `.h5`/`.hdf5` the same columns in an HDF5 table
-/// (an empty CSV field is NaN there; --resume works on a .csv only).
-/// With `resume`, an existing file keeps its header and every complete row
+/// CSV with Header(), written to PartialPath(path) and renamed to `path` at
+/// Close(); `.h5`/`.hdf5` the same columns in an HDF5 table, written beside
+/// and renamed at Close() (an empty CSV field is NaN there; --resume works
+/// on a .csv only). Until Close(), `path` keeps what it held.
+/// With `resume`, the rows of PartialPath(path) (an interrupted run), else
+/// of `path` (a finished one) are kept: the header and every complete row
 /// that is the slice's next case (a torn last line, without its newline, is
 /// cut and written again); a row that belongs elsewhere is an error.
 /// @throws pipeline::OptionError naming --out (and FILE:LINE for a row

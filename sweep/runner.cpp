@@ -24,6 +24,7 @@
 #include <mpi.h>
 #endif
 
+#include "common/atomic_file.h"
 #include "common/text.h"
 #include "pipeline/option_error.h"
 
@@ -404,12 +405,17 @@ void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const 
                         "): a shard is missing or unfinished");
     }
   }
-  std::FILE* f = std::fopen(out_path.c_str(), "w");
-  if (!f) throw OptionError("--out: cannot write '" + out_path + "'");
+  std::unique_ptr<common::AtomicFile> out;
+  try {
+    out = std::make_unique<common::AtomicFile>(out_path);
+  } catch (const std::runtime_error& e) {
+    throw OptionError(std::string("--out: ") + e.what());
+  }
+  std::FILE* f = out->stream();
   bool ok = std::fprintf(f, "%s\n", Header().c_str()) > 0;
   for (const std::string& row : rows) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
-  ok = std::fclose(f) == 0 && ok;
   if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
+  out->Commit();
 }
 
 }  // namespace rocklab::sweep

@@ -1,7 +1,9 @@
 // rocklab export INPUT --out OUT.{csv,mat,h5} [--channels REGEX] [--start S]
 // [--end S] [--rig RIG.toml] [--rate HZ] [--quiet]: a recorded LCM log or a
 // raw CSV/LVM file as tables for Python and MATLAB (docs/export.md).
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <utility>
@@ -31,6 +33,14 @@ int RunExport(ExportCliOptions& o) {
     o.options.Validate();
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
+  }
+  // The input first: a missing or unreadable one (a typo) stops here, before
+  // any output exists. The sink writes beside --out and renames only at
+  // Close, so a later failure leaves the previous file as it was too.
+  if (std::FILE* probe = std::fopen(o.input.c_str(), "rb")) {
+    std::fclose(probe);
+  } else {
+    throw UsageError("INPUT: cannot open '" + o.input + "': " + std::strerror(errno));
   }
   const bool log = exporter::IsLcmLog(o.input);
   if (!o.rig_path.empty()) {

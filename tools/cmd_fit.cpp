@@ -3,13 +3,13 @@
 // trajectory (free or forced).
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "common/atomic_file.h"
 #include "common/progress.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
@@ -248,9 +248,7 @@ int RunFit(const FitCliOptions& o) {
 
   const nlohmann::json j = ResultJson(o, result);
   if (!o.out_json.empty()) {
-    std::ofstream out(o.out_json);
-    out << j.dump(2) << "\n";
-    if (!out) throw std::runtime_error(o.out_json + ": cannot write");
+    common::WriteFileAtomically(o.out_json, j.dump(2) + "\n");
   }
   if (o.json) {
     std::printf("%s\n", j.dump(2).c_str());

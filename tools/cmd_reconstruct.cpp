@@ -35,10 +35,13 @@ constexpr int kShownProblems = 20;
 // from std::to_chars (specified as printf's conversion) where it declines.
 class CsvSink : public daq::ProcessorSink {
  public:
-  explicit CsvSink(std::FILE* out) : out_(out) {
+  CsvSink() = default;
+  ~CsvSink() override { Flush(); }
+  /// The file the rows go to, from the header on; before it, problems only.
+  void Start(std::FILE* out) {
+    out_ = out;
     std::fprintf(out_, "time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,out_of_plane,flags\n");
   }
-  ~CsvSink() override { Flush(); }
   CsvSink(const CsvSink&) = delete;
   CsvSink& operator=(const CsvSink&) = delete;
   void OnBlockState(const daq::BlockState& s) override {
@@ -66,7 +69,7 @@ class CsvSink : public daq::ProcessorSink {
   }
   /// Writes the buffered rows (before the file is closed).
   void Flush() {
-    if (used_ > 0) std::fwrite(buffer_.data(), 1, used_, out_);
+    if (used_ > 0 && out_) std::fwrite(buffer_.data(), 1, used_, out_);
     used_ = 0;
     ++flushes_;
   }
@@ -100,7 +103,7 @@ class CsvSink : public daq::ProcessorSink {
     Flush();
     std::fprintf(out_, format == std::chars_format::fixed ? "%.*f" : "%.*g", precision, v);
   }
-  std::FILE* out_;
+  std::FILE* out_{};
   std::array<char, kBuffer> buffer_{};
   std::size_t used_{0};
   int64_t flushes_{0};  // a flush moves the row's text: nothing before it may be copied
@@ -110,8 +113,10 @@ class CsvSink : public daq::ProcessorSink {
 
 int RunReconstruct(const ReconstructOptions& o) {
   const daq::RigConfig rig = LoadRig(o.rig_path);
-  OutputFile out(o.out_csv);
-  CsvSink sink(out.get());
+  // The input is opened before the output exists: a bad --input leaves a
+  // previous --out as it was (and the output is renamed only when complete).
+  std::unique_ptr<OutputFile> out;  // declared before the sink: outlives its last Flush
+  CsvSink sink;
   daq::SourceOptions options;
   options.sample_rate_hz = rig.sample_rate_hz;
   for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
@@ -120,6 +125,12 @@ int RunReconstruct(const ReconstructOptions& o) {
   std::unique_ptr<daq::Processor> processor;
   try {
     source = daq::OpenSource(o.input, options);
+  } catch (const std::exception& e) {
+    throw UsageError(std::string("--input: ") + e.what());
+  }
+  out = std::make_unique<OutputFile>(o.out_csv);
+  sink.Start(out->get());
+  try {
     processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);
   } catch (const std::exception& e) {
     throw UsageError(std::string("--input: ") + e.what());
@@ -129,7 +140,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
   processor->Finish();
   sink.Flush();
-  out.Close();
+  out->Close();
 
   const daq::SourceStats& src = source->stats();
   const daq::SequenceCounts& seq = processor->sequence();

@@ -8,12 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <regex>
 #include <string>
 #include <utility>
 
+#include "common/atomic_file.h"
 #include "common/progress.h"
 #include "tools/cli.h"
 #include "pipeline/pipeline.h"
@@ -67,12 +67,9 @@ std::pair<int, int> ParseSize(const std::string& text) {
   return {std::stoi(m[1]), std::stoi(m[2])};
 }
 
-void WriteText(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error("cannot write '" + path + "'");
-}
+// Written beside and renamed when complete: a failed write leaves a
+// previous page as it was.
+void WriteText(const std::string& path, const std::string& text) { common::WriteFileAtomically(path, text); }
 
 void DrawFigure(const ThetaFigure& figure, const std::string& path, FigureFormat format,
                 std::pair<int, int> size) {

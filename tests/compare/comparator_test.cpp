@@ -17,6 +17,29 @@ constexpr double kRateHz = 1000.0;
 std::int64_t Utime(int k) { return static_cast<std::int64_t>(std::llround(k * 1e6 / kRateHz)); }
 double Time(int k) { return k / kRateHz; }
 
+// Oracle: issue 23, item 8. Signals that never cross zero have no crossing
+// to match: the timing and peak errors are NaN (no value), not 0 (a
+// perfect match); once a crossing is matched they are numbers.
+TEST(Comparator, NoMatchedCrossingGivesNoTimingOrPeakError) {
+  Comparator c;
+  for (int k = 0; k < 2000; ++k) c.Add(Utime(k), 0.05 + 0.01 * std::sin(Time(k)), 0.06, true);
+  const ComparisonMetrics& m = c.metrics();
+  EXPECT_EQ(m.matched_crossings, 0);
+  EXPECT_TRUE(std::isnan(m.impact_timing_error));
+  EXPECT_TRUE(std::isnan(m.peak_error));
+  EXPECT_TRUE(std::isnan(m.mean_abs_timing_error));
+  EXPECT_TRUE(std::isnan(m.mean_abs_peak_error));
+  EXPECT_GT(m.rms_total, 0.0);  // the other metrics are there
+  for (int k = 2000; k < 6000; ++k) {
+    const double th = 0.1 * std::sin(2 * kPi * 1.3 * Time(k));
+    c.Add(Utime(k), th, th, true);
+  }
+  EXPECT_GT(c.metrics().matched_crossings, 0);
+  EXPECT_TRUE(std::isfinite(c.metrics().mean_abs_timing_error));
+  EXPECT_TRUE(std::isfinite(c.metrics().mean_abs_peak_error));
+  EXPECT_TRUE(std::isfinite(c.metrics().impact_timing_error));
+}
+
 // Oracle: identity. Identical signals have zero error, correlation 1 and
 // every zero crossing matched at zero timing and peak error.
 TEST(Comparator, IdenticalSignalsAgreeExactly) {

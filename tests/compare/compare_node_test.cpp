@@ -7,7 +7,12 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <iterator>
+#include <sstream>
+#include <vector>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -15,6 +20,7 @@
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "tests/scratch.h"
 #include "tests/tools/lcm_messages.h"
 
 namespace rocklab::compare {
@@ -147,7 +153,7 @@ TEST(CompareNode, SummaryJsonNamesItsQuantities) {
     node.HandleTheta(Theta(1000 * k, 0.1));
     node.HandleModel(Model("fit", 1000 * k, 0.12));
   }
-  const std::string path = "compare_summary_test.json";
+  const std::string path = test::ScratchDir("compare_summary") + "/summary.json";
   CompareNode::WriteSummaryJson(node.Summary(), path);
   std::ifstream in(path);
   const auto j = nlohmann::json::parse(in);
@@ -157,6 +163,49 @@ TEST(CompareNode, SummaryJsonNamesItsQuantities) {
   EXPECT_NEAR(v.at("nrms").get<double>(), 0.2, 1e-12);
   EXPECT_EQ(v.at("alpha").get<double>(), 0.235);
   EXPECT_EQ(j.at("units").at("rms"), "rad");
+}
+
+// Issue 23, item 8: with no crossing matched, the summary printed timing
+// and peak errors of 0, which reads as a perfect match. Oracle: constant
+// signals have no zero crossing, so nothing is matched: the keys stay,
+// their values are null; the table shows "-" and says why.
+TEST(CompareNode, NoMatchedCrossingIsNullAndADashNotZero) {
+  common::DirectBus bus;
+  CompareNode node(CompareNodeConfig{}, bus);
+  for (int k = 0; k < 10; ++k) {
+    node.HandleTheta(Theta(1000 * k, 0.1));
+    node.HandleModel(Model("fit", 1000 * k, 0.12));
+  }
+  const auto summary = node.Summary();
+  ASSERT_EQ(summary.at(0).metrics.matched_crossings, 0);
+  const std::string path = test::ScratchDir("compare_no_match") + "/summary.json";
+  CompareNode::WriteSummaryJson(summary, path);
+  std::ifstream in(path);
+  const auto v = nlohmann::json::parse(in).at("variants").at(0);
+  EXPECT_EQ(v.at("matched_crossings").get<int>(), 0);
+  ASSERT_TRUE(v.contains("mean_abs_timing_error"));
+  ASSERT_TRUE(v.contains("mean_abs_peak_error"));
+  EXPECT_TRUE(v.at("mean_abs_timing_error").is_null()) << v.dump();
+  EXPECT_TRUE(v.at("mean_abs_peak_error").is_null()) << v.dump();
+
+  char* text = nullptr;
+  std::size_t size = 0;
+  std::FILE* out = open_memstream(&text, &size);
+  ASSERT_NE(out, nullptr);
+  CompareNode::PrintSummary(summary, out);
+  std::fclose(out);
+  const std::string table(text, size);
+  std::free(text);
+  // The row: ... corr, timing_s, peak_deg, valid%: the two as "-".
+  const std::size_t row = table.find("\nfit ");
+  ASSERT_NE(row, std::string::npos) << table;
+  const std::string line = table.substr(row + 1, table.find('\n', row + 1) - row - 1);
+  std::istringstream fields(line);
+  std::vector<std::string> cells{std::istream_iterator<std::string>(fields), {}};
+  ASSERT_EQ(cells.size(), 12u) << line;  // as the header's columns
+  EXPECT_EQ(cells[9], "-") << line;      // timing_s
+  EXPECT_EQ(cells[10], "-") << line;     // peak_deg
+  EXPECT_NE(table.find("fit: no zero crossing matched"), std::string::npos) << table;
 }
 
 }  // namespace

@@ -12,9 +12,11 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include "common/lcm_log.h"
@@ -203,6 +205,69 @@ TEST_F(InfoExport, ExportOfAMissingInputIsAUsageErrorNamingIt) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("INPUT: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("missing.lvm"), std::string::npos) << r.err;
+}
+
+// Oracle: the bytes of the previous export, read before the failed one;
+// the folder's listing (no file under a new name, no temporary).
+TEST_F(InfoExport, AFailedExportLeavesThePreviousFileByteForByte) {
+  // An input that is not there (a typo) and one that is there but unreadable
+  // as a raw file (it fails after the output was opened).
+  test::WriteFile(dir_ + "/empty.csv", "");
+  for (const char* format : {".h5", ".mat", ".csv"}) {
+    const std::string ext = format;
+    const std::string out = dir_ + "/prev" + ext;
+    const auto first = test::RunCli({"export", log_, "--out", out, "--channels", "RL_RAW"});
+    ASSERT_EQ(first.exit_code, 1) << first.err;  // the log's damage
+    const std::string written = ext == ".csv" ? dir_ + "/prev_RL_RAW.csv" : out;
+    const std::string before = test::ReadFile(written);
+    ASSERT_FALSE(before.empty());
+    std::set<std::string> listing;
+    for (const auto& e : std::filesystem::directory_iterator(dir_)) listing.insert(e.path().filename().string());
+    for (const std::string& bad : {dir_ + "/tset.lcm", dir_ + "/empty.csv"}) {
+      const auto r = test::RunCli({"export", bad, "--out", out});
+      EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.err;
+      EXPECT_NE(r.err.find("INPUT: "), std::string::npos) << r.err;
+      EXPECT_EQ(test::ReadFile(written), before) << ext << " after " << bad;
+      std::set<std::string> after;
+      for (const auto& e : std::filesystem::directory_iterator(dir_)) after.insert(e.path().filename().string());
+      EXPECT_EQ(after, listing) << ext << " after " << bad;
+    }
+  }
+}
+
+// Oracle: a complete export of the same log made first. Killed at any
+// moment, an export leaves the target either as it was or complete.
+TEST_F(InfoExport, AKilledExportNeverLeavesATornFile) {
+  const std::string big = dir_ + "/big.lcm";
+  {
+    common::LogWriter w(big);
+    rocklab::raw_frame_t f{};
+    f.num_channels = 8;
+    f.values.assign(8, 0.25);
+    for (int k = 0; k < 200000; ++k) {
+      f.utime = 1'000'000 + 1000LL * k;
+      f.seq = k;
+      Put(w, "RL_RAW", f);
+    }
+  }
+  const std::string complete = dir_ + "/complete.h5", out = dir_ + "/killed.h5";
+  ASSERT_EQ(test::RunCli({"export", big, "--out", complete}).exit_code, 0);
+  test::WriteFile(out, "previous");
+  const pid_t pid = test::StartCli({"export", big, "--out", out, "--quiet"}, dir_ + "/k.out", dir_ + "/k.err");
+  // Killed once its temporary is there (or it finished first).
+  auto temporary = [&] {
+    for (const auto& e : std::filesystem::directory_iterator(dir_)) {
+      if (e.path().filename().string().rfind("killed.h5.tmp-", 0) == 0) return true;
+    }
+    return false;
+  };
+  test::WaitUntil([&] { return temporary() || test::ReadFile(out) != "previous"; });
+  test::StopProcess(pid, SIGKILL);
+  const std::string after = test::ReadFile(out);
+  if (after != "previous") {
+    EXPECT_EQ(test::H5Groups(out), (std::vector<std::string>{"RL_RAW"}));
+    EXPECT_EQ(test::ReadH5Table(out, "RL_RAW")[2].integer.size(), 200000u);
+  }
 }
 
 TEST_F(InfoExport, InfoOfAMissingFileNamesIt) {

@@ -510,6 +510,83 @@ TEST(LiveState, ClockGoingBackStartsANewRecord) {
   EXPECT_EQ(update.at("variants").size(), 2u);
 }
 
+std::int64_t FarFromClock(const LiveState& s) {
+  return s.Snapshot().at("counters").at("dropped").at("far_from_clock").get<std::int64_t>();
+}
+
+// Oracle: the fed run's own counts (100 Hz points of 1 kHz samples). One
+// in-range RL_THETA far ahead and one far behind mid-test leave the record
+// as it was, each counted; the test goes on in the same record. An event
+// far ahead is kept but does not move the clock.
+TEST(LiveState, AWildSampleMidTestIsCountedAndIgnored) {
+  LiveState s;
+  FeedRun(s, 3.0);
+  EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 3'600'000'000, 0.5)));  // an hour ahead
+  EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 - 2'000'000, 0.5)));      // 5 s back
+  Feed(s, "RL_EVENT", Event(kT0 + 7'200'000'000, "daq", rocklab::event_t::UPLIFT, 1.0));
+  FeedRun(s, 1.0, kT0 + 3'000'000);
+  const json snap = s.Snapshot();
+  EXPECT_EQ(snap.at("record").get<int>(), 1);
+  EXPECT_EQ(snap.at("t0_utime").get<std::int64_t>(), kT0);
+  EXPECT_EQ(snap.at("measured").at("t").size(), 400u);
+  EXPECT_DOUBLE_EQ(snap.at("t_latest").get<double>(), 3.999);
+  EXPECT_EQ(snap.at("events").size(), 1u);
+  EXPECT_EQ(FarFromClock(s), 2);
+}
+
+// Oracle: as above. A negative utime sent before the test does not become
+// the origin: the test's samples agree among themselves, so they take the
+// clock (nothing of theirs lost) and the stray one is counted.
+TEST(LiveState, AStraySampleBeforeTheTestDoesNotMoveTheOrigin) {
+  LiveState s;
+  EXPECT_TRUE(Feed(s, "RL_THETA", Theta(-9'000'000'000'000'000, 0.5)));  // t ~ -9e9 s
+  FeedRun(s, 2.0);
+  const json snap = s.Snapshot();
+  EXPECT_EQ(snap.at("t0_utime").get<std::int64_t>(), kT0);
+  EXPECT_EQ(snap.at("measured").at("t").size(), 200u);
+  EXPECT_DOUBLE_EQ(snap.at("measured").at("t").at(0).get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(snap.at("t_latest").get<double>(), 1.999);
+  EXPECT_EQ(FarFromClock(s), 1);
+}
+
+// Oracle: the counts fed. A gap forward in the sample clock (rows missing
+// from the input) continues the record once the samples after it agree;
+// they are all kept.
+TEST(LiveState, AForwardGapKeepsTheRecord) {
+  LiveState s;
+  FeedRun(s, 2.0);
+  FeedRun(s, 1.0, kT0 + 10'000'000);
+  const json snap = s.Snapshot();
+  EXPECT_EQ(snap.at("record").get<int>(), 1);
+  EXPECT_EQ(snap.at("t0_utime").get<std::int64_t>(), kT0);
+  EXPECT_EQ(snap.at("measured").at("t").size(), 300u);
+  EXPECT_DOUBLE_EQ(snap.at("t_latest").get<double>(), 10.999);
+  EXPECT_EQ(FarFromClock(s), 0);
+}
+
+// Oracle: RL_DAQ_CONFIG's contract (sent at a test's start on its clock).
+// After a configuration on a far clock, the first sample that agrees with it
+// starts the new record at once; without it, one sample is only held.
+TEST(LiveState, ADaqConfigOnANewClockStartsTheNewRecordAtOnce) {
+  for (const bool config : {false, true}) {
+    LiveState s;
+    FeedRun(s, 3.0);
+    const std::int64_t t1 = kT0 + 100'000'000;
+    if (config) {
+      rocklab::daq_config_t c{};
+      c.utime = t1;
+      c.rig_name = "block1";
+      c.sample_rate_hz = 1000;
+      EXPECT_TRUE(Feed(s, "RL_DAQ_CONFIG", c));
+    }
+    EXPECT_TRUE(Feed(s, "RL_THETA", Theta(t1, 0.0)));
+    const json snap = s.Snapshot();
+    EXPECT_EQ(snap.at("record").get<int>(), config ? 2 : 1) << "config " << config;
+    EXPECT_EQ(snap.at("t0_utime").get<std::int64_t>(), config ? t1 : kT0) << "config " << config;
+    EXPECT_EQ(snap.at("measured").at("t").size(), config ? 1u : 300u) << "config " << config;
+  }
+}
+
 // Ingest on one thread while another reads, as the monitor runs. Oracle:
 // every message counted, the reader's last update consistent.
 TEST(LiveState, ConcurrentIngestAndUpdates) {

@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "common/lcm_log.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/scratch.h"
 
@@ -67,6 +69,51 @@ TEST(RecordReport, ReadsEveryEventOfTheLog) {
   EXPECT_EQ(r.damaged_regions, 0);
   EXPECT_TRUE(r.problems.empty());
   EXPECT_FALSE(r.snapshot.at("measured").at("t").empty());
+}
+
+// Issue 23, item 8. Oracle: the RL_COMPARE messages written: one variant
+// whose comparison has no matched crossing (NaN timing and peak errors, as
+// the comparator publishes them) and one with a matched crossing. The first
+// caption line says so and the page's JSON holds null, not 0.
+TEST(RecordReport, AComparisonWithoutAMatchedCrossingIsSaidNotZero) {
+  const std::string path = Scratch("no_match.lcm");
+  {
+    common::LogWriter log(path);
+    for (int k = 0; k < 50; ++k) {
+      rocklab::block_state_t th{};
+      th.utime = 1000 * k;
+      th.seq = k;
+      th.theta = 0.01;
+      std::vector<std::uint8_t> buf(static_cast<std::size_t>(th.getEncodedSize()));
+      th.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      log.Write("RL_THETA", buf.data(), buf.size(), th.utime);
+      for (const char* name : {"none", "some"}) {
+        rocklab::comparison_t c{};
+        c.utime = 1000 * k;
+        c.name = name;
+        c.nrms = 0.25;
+        const bool matched = std::string(name) == "some";
+        c.peak_error = matched ? 1e-3 : std::nan("");
+        c.impact_timing_error = matched ? 2e-3 : std::nan("");
+        c.samples = k + 1;
+        buf.resize(static_cast<std::size_t>(c.getEncodedSize()));
+        c.encode(buf.data(), 0, static_cast<int>(buf.size()));
+        log.Write(std::string("RL_COMPARE_") + name, buf.data(), buf.size(), c.utime);
+      }
+    }
+  }
+  const RecordReport r = ReadRecordLog(path);
+  const std::vector<std::string> lines = CaptionLines(r);
+  ASSERT_GE(lines.size(), 2u);
+  EXPECT_NE(lines[0].find("none: "), std::string::npos) << lines[0];
+  EXPECT_NE(lines[0].find("no zero crossing matched"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[1].find("some: "), std::string::npos) << lines[1];
+  EXPECT_EQ(lines[1].find("no zero crossing matched"), std::string::npos) << lines[1];
+  for (const auto& v : r.snapshot.at("variants")) {
+    const auto& latest = v.at("latest");
+    EXPECT_EQ(latest.at("impact_timing_error").is_null(), v.at("name") == "none") << latest.dump();
+    EXPECT_EQ(latest.at("peak_error").is_null(), v.at("name") == "none") << latest.dump();
+  }
 }
 
 // Oracle: one flipped sync bit loses exactly that event (an RL_TABLE, the

@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include "common/units.h"
 #include "pipeline/option_error.h"
 #include "pipeline/scenario.h"
+#include "sweep/row_writer.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
 #include "tests/export/readback.h"
@@ -155,6 +157,36 @@ TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
   EXPECT_EQ(Slurp(dir + "/merged.csv"), whole);
   EXPECT_THROW(MergeShards(plan, {parts[0], parts[1]}, dir + "/short.csv"), pipeline::OptionError);
   EXPECT_THROW(MergeShards(plan, {parts[0], parts[0], parts[1], parts[2]}, dir + "/twice.csv"), pipeline::OptionError);
+}
+
+// Oracle: the previous results file's bytes, and the uninterrupted run's
+// file. A sweep that stops before its end (a case that throws, a kill)
+// leaves --out as it was: its rows wait in OUT.partial, which --resume
+// continues into the whole file.
+TEST(SweepRun, AStoppedSweepLeavesThePreviousResultsAndResumesFromItsPartial) {
+  const std::string dir = Dir("partial");
+  const Plan plan = MakePlan(SmallPlan(dir));
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 1;
+  o.slice = {0, 1, plan.size()};
+  RunSweep(plan, dir + "/whole.csv", o, mpi);
+  const std::string whole = Slurp(dir + "/whole.csv");
+  const std::string out = dir + "/results.csv";
+  { std::ofstream(out, std::ios::binary) << "previous results\n"; }
+  {
+    std::unique_ptr<RowWriter> w = OpenRowWriter(out, plan, o.slice, false);
+    for (std::size_t k = 0; k < 5; ++k) w->Write(k, RunCase(plan, k));
+  }  // stopped: no Close()
+  EXPECT_EQ(Slurp(out), "previous results\n");
+  std::size_t cut = 0;
+  for (int k = 0; k < 6; ++k) cut = whole.find('\n', cut) + 1;  // header + 5 rows
+  EXPECT_EQ(Slurp(PartialPath(out)), whole.substr(0, cut));
+  o.resume = true;
+  const RunReport r = RunSweep(plan, out, o, mpi);
+  EXPECT_EQ(r.resumed, 5u);
+  EXPECT_EQ(Slurp(out), whole);
+  EXPECT_FALSE(std::filesystem::exists(PartialPath(out)));
 }
 
 // Oracle: an interrupted sweep (the file cut inside a row, as a kill during

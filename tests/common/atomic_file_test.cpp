@@ -1,0 +1,133 @@
+// common/atomic_file.h: a file appears whole under its name or not at all.
+//
+// Oracle: the contract in atomic_file.h, checked on the folder's listing
+// and the files' bytes (nothing computed by the code under test).
+#include "common/atomic_file.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include "tests/scratch.h"
+
+namespace rocklab::common {
+namespace {
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::set<std::string> Listing(const std::string& dir) {
+  std::set<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.insert(e.path().filename().string());
+  return names;
+}
+
+TEST(AtomicFile, CommitGivesTheWholeFileAndLeavesNoTemporary) {
+  const std::string dir = test::ScratchDir("atomic_commit");
+  const std::string target = dir + "/out.csv";
+  {
+    std::ofstream(target) << "old\n";
+  }
+  AtomicFile f(target);
+  EXPECT_EQ(f.target(), target);
+  EXPECT_NE(f.path(), target);
+  EXPECT_EQ(f.path().rfind(target + ".tmp-", 0), 0u) << f.path();
+  std::fputs("new,content\n", f.stream());
+  EXPECT_EQ(Slurp(target), "old\n") << "the target changed before Commit";
+  f.Commit();
+  EXPECT_TRUE(f.committed());
+  EXPECT_EQ(Slurp(target), "new,content\n");
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"out.csv"}));
+}
+
+TEST(AtomicFile, DestroyedBeforeCommitLeavesThePreviousFileAndNoTemporary) {
+  const std::string dir = test::ScratchDir("atomic_abandon");
+  const std::string kept = dir + "/kept.h5", fresh = dir + "/fresh.mat";
+  const std::string previous("\x89HDF\r\n\x1a\n previous bytes", 23);
+  {
+    std::ofstream(kept, std::ios::binary) << previous;
+  }
+  {
+    AtomicFile a(kept);
+    std::fputs("half a file", a.stream());
+    AtomicFile b(fresh);  // a library writes path() itself
+    std::ofstream(b.path(), std::ios::binary) << "half a file";
+    EXPECT_EQ(Listing(dir).size(), 3u);  // kept.h5 and the two temporaries
+  }
+  EXPECT_EQ(Slurp(kept), previous);
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"kept.h5"})) << "no file under the new name, no temporary";
+}
+
+TEST(AtomicFile, FinishedButNotCommittedIsStillRemoved) {
+  const std::string dir = test::ScratchDir("atomic_finished");
+  {
+    AtomicFile f(dir + "/x.csv");
+    std::fputs("x\n", f.stream());
+    f.Finish();
+  }
+  EXPECT_TRUE(Listing(dir).empty());
+}
+
+TEST(AtomicFile, CommitAllRenamesEveryFile) {
+  const std::string dir = test::ScratchDir("atomic_all");
+  AtomicFile a(dir + "/a.csv"), b(dir + "/b.csv");
+  std::fputs("a\n", a.stream());
+  std::fputs("b\n", b.stream());
+  CommitAll({&a, &b});
+  EXPECT_EQ(Slurp(dir + "/a.csv"), "a\n");
+  EXPECT_EQ(Slurp(dir + "/b.csv"), "b\n");
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"a.csv", "b.csv"}));
+}
+
+TEST(AtomicFile, AMovedFileIsCommittedOnceAndRemovedOnce) {
+  const std::string dir = test::ScratchDir("atomic_move");
+  {
+    AtomicFile a(dir + "/m.csv");
+    AtomicFile b(std::move(a));
+    std::fputs("m\n", b.stream());
+    b.Commit();
+  }
+  EXPECT_EQ(Slurp(dir + "/m.csv"), "m\n");
+  {
+    AtomicFile a(dir + "/n.csv");
+    AtomicFile b(std::move(a));
+  }
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"m.csv"}));
+}
+
+TEST(AtomicFile, AMissingFolderThrowsNamingTheTarget) {
+  const std::string target = test::ScratchDir("atomic_missing") + "/no/such/folder/out.csv";
+  try {
+    AtomicFile f(target);
+    FAIL() << "created a file in a missing folder";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(target), std::string::npos) << e.what();
+  }
+}
+
+TEST(AtomicFile, WriteFileAtomicallyReplacesTheWholeFile) {
+  const std::string dir = test::ScratchDir("atomic_write");
+  WriteFileAtomically(dir + "/s.json", "{\"a\": 1}\n");
+  WriteFileAtomically(dir + "/s.json", "{}\n");
+  EXPECT_EQ(Slurp(dir + "/s.json"), "{}\n");
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"s.json"}));
+}
+
+TEST(AtomicFile, TheTemporaryHasTheModeAPlainCreateWouldGive) {
+  // Oracle: open(2) with 0666 under this process's umask, as fopen creates.
+  const std::string dir = test::ScratchDir("atomic_mode");
+  std::ofstream(dir + "/plain") << "x";
+  WriteFileAtomically(dir + "/atomic", "x");
+  EXPECT_EQ(std::filesystem::status(dir + "/atomic").permissions(),
+            std::filesystem::status(dir + "/plain").permissions());
+}
+
+}  // namespace
+}  // namespace rocklab::common
