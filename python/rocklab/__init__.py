@@ -1,0 +1,322 @@
+"""rocklab: the rocking-block laboratory's data and models in Python.
+
+The same C++ core as the ``rocklab`` command line (docs/python.md):
+
+- ``block_params``: alpha, p and mu of a section (``rocklab params``);
+- ``simulate``: Housner's model or the complex formulation under a table
+  motion (``rocklab simulate``), numpy out;
+- ``read_log``, ``read_raw``, ``info``: recorded LCM logs and raw CSV/LVM
+  files into numpy structured arrays (``rocklab export``, ``rocklab info``);
+- the LCM message types of the lab (``rocklab.raw_frame_t`` etc., generated
+  by ``lcm-gen -p``) where the package was built with them.
+
+SI units throughout (m, s, rad, m/s^2). Every call releases the GIL while
+it works; long ones take ``progress=callable(done, total)`` and stop with
+KeyboardInterrupt on Ctrl-C. Bad arguments raise ValueError with the
+command line's message (naming the option, e.g. ``--alpha``), files that
+cannot be read raise OSError.
+"""
+
+import os as _os
+import warnings as _warnings
+
+import numpy as _np
+
+from . import _rocklab
+
+__all__ = [
+    "block_params",
+    "simulate",
+    "SimulationResult",
+    "read_log",
+    "read_raw",
+    "LogTables",
+    "info",
+    "DEFAULT_L",
+    "GRAVITY",
+]
+
+#: Default l of the complex formulation (normalised momentum of psi), 1.
+DEFAULT_L = _rocklab.DEFAULT_L
+#: Gravity used throughout, m/s^2.
+GRAVITY = _rocklab.GRAVITY
+
+#: dtype of SimulationResult.events.
+EVENT_DTYPE = _np.dtype(
+    [
+        ("time", _np.dtype("f8", metadata={"unit": "s"})),
+        ("kind", "U8"),
+        ("value", _np.dtype("f8", metadata={"unit": "m/s^2 | rad/s | rad"})),
+    ]
+)
+
+
+def block_params(width=None, height=None, chamfer=0.0, *, polygon=None):
+    """alpha, p and mu of a block from its geometry (``rocklab params --json``).
+
+    Either a rectangle ``width`` x ``height`` (2b x 2h, m) with an optional
+    45 degree ``chamfer`` leg on both base corners (m), or ``polygon``: the
+    path of a CSV of vertices (header ``x,z``, m) or an (N, 2) array of
+    vertices (x, z), m, in order, standing on its base.
+
+    Returns a dict with the keys of ``rocklab params --json``: ``alpha``
+    (rad), ``p`` (rad/s), ``mu`` (1; ``mu_general``), ``mu_housner``,
+    ``R`` (m), ``I_O_per_mass`` (m^2), ``area``, ``centroid``,
+    ``symmetric``, and per side ``plus_side`` / ``minus_side`` (alpha, R,
+    p, mu, I_O_per_mass, pivot) for asymmetric sections.
+
+    Raises ValueError for a bad geometry, OSError for an unreadable file.
+    """
+    if polygon is not None:
+        if width is not None or height is not None or chamfer != 0.0:
+            raise ValueError("give either --polygon or --width/--height/--chamfer, not both")
+        if isinstance(polygon, (str, _os.PathLike)):
+            return _rocklab._polygon_file_params(_os.fspath(polygon))
+        return _rocklab._polygon_array_params(_np.asarray(polygon, dtype=float))
+    if width is None and height is None:
+        raise ValueError("--width and --height are required (or --polygon FILE.csv)")
+    if width is None or height is None:
+        raise ValueError("--width and --height are both required")
+    return _rocklab._rectangle_params(float(width), float(height), float(chamfer))
+
+
+class SimulationResult:
+    """What ``simulate`` returns.
+
+    Attributes:
+        t: output times, s (k / rate, k = 0 .. floor(duration * rate)).
+        theta: rocking angle at t, rad (> 0 about the +x corner).
+        theta_dot: angular velocity at t, rad/s.
+        events: structured array (EVENT_DTYPE): ``time`` (s), ``kind``
+            ("uplift", "impact", "rest", "overturn") and ``value``: uplift:
+            the table acceleration, m/s^2; impact: theta_dot just before,
+            rad/s; rest: 0; overturn: theta, rad.
+        summary: the dict of ``rocklab simulate --json`` (uplift_time,
+            peak_abs_theta, peak_time, impacts, overturned, final_regime,
+            solver statistics, cpu_time, ...).
+    """
+
+    __slots__ = ("t", "theta", "theta_dot", "events", "summary")
+
+    def __init__(self, t, theta, theta_dot, events, summary):
+        self.t = t
+        self.theta = theta
+        self.theta_dot = theta_dot
+        self.events = events
+        self.summary = summary
+
+    def impacts(self):
+        """The events of kind "impact" (a view of ``events``)."""
+        return self.events[self.events["kind"] == "impact"]
+
+    def __repr__(self):
+        s = self.summary
+        return (
+            f"SimulationResult({s['model']}, {s['samples']} samples, "
+            f"{s['impacts']} impacts, peak |theta| {s['peak_abs_theta']:.5g} rad"
+            f"{', overturned' if s['overturned'] else ''})"
+        )
+
+
+def simulate(
+    model="housner",
+    alpha=None,
+    p=None,
+    mu=None,
+    *,
+    excitation=None,
+    accel=None,
+    theta0=0.0,
+    duration,
+    rate,
+    l=DEFAULT_L,
+    complex_handoff=0.0,
+    rtol=None,
+    progress=None,
+):
+    """Simulates a rocking block, as ``rocklab simulate``.
+
+    Args:
+        model: "housner" or "complex" (the paper's eq. (10)).
+        alpha: slenderness angle, rad, in (0, pi/2). A dict from
+            block_params may be given instead, for alpha, p and mu.
+        p: frequency parameter, rad/s, > 0.
+        mu: coefficient of restitution, in (0, 1].
+        excitation: a table motion spec ("sine:amp=0.006,freq=5,duration=20",
+            "hanning:amp=M,freq=HZ,duration=S,start=S") or a list of them
+            (summed), as ``--excitation``.
+        accel: a table-acceleration record: the path of a ``time,accel``
+            CSV (s, m/s^2) or a PEER .AT2 file (``--accel``), or a pair
+            ``(t, a)`` of arrays (s, m/s^2; linear between samples, zero
+            outside). Summed with ``excitation`` when both are given.
+        theta0: initial rocking angle, rad (0: at rest).
+        duration: simulated time, s, >= 0.
+        rate: output rate, Hz, > 0.
+        l: complex formulation momentum, > 0.
+        complex_handoff: complex formulation, opt-in l -> 0 hand-off (see
+            ``--complex-handoff``); 0: eq. (10) throughout.
+        rtol: CVODE relative tolerance (default: the model's, 1e-10).
+        progress: None or callable(done_s, duration_s), called at most
+            every 0.1 s.
+
+    Returns:
+        SimulationResult: t, theta, theta_dot (numpy arrays), events and
+        summary (the statistics of ``simulate --json``).
+
+    Raises:
+        ValueError: a bad value, with the command line's message
+            ("--alpha must be in (0, pi/2) rad, got 2").
+        OSError: an ``accel`` file that cannot be read.
+    """
+    if isinstance(alpha, dict):
+        block = alpha
+        alpha = block["alpha"]
+        p = block["p"] if p is None else p
+        mu = block["mu"] if mu is None else mu
+    for name, value in (("--alpha", alpha), ("--p", p), ("--mu", mu)):
+        if value is None:
+            raise ValueError(f"{name} is required")
+    if excitation is None:
+        excitations = []
+    elif isinstance(excitation, str):
+        excitations = [excitation]
+    else:
+        excitations = list(excitation)
+    accel_path, accel_t, accel_a = "", None, None
+    if isinstance(accel, (str, _os.PathLike)):
+        accel_path = _os.fspath(accel)
+    elif accel is not None:
+        try:
+            accel_t, accel_a = accel
+        except (TypeError, ValueError):
+            raise ValueError("accel must be a path or a pair (t, a) of 1-D arrays (s, m/s^2)") from None
+        accel_t = _np.asarray(accel_t, dtype=float)
+        accel_a = _np.asarray(accel_a, dtype=float)
+    r = _rocklab._simulate(
+        str(model), float(alpha), float(p), float(mu), excitations, accel_path, accel_t, accel_a,
+        float(theta0), float(duration), float(rate), float(l), float(complex_handoff),
+        None if rtol is None else float(rtol), progress,
+    )
+    ev = r["events"]
+    events = _np.empty(len(ev["time"]), dtype=EVENT_DTYPE)
+    events["time"] = ev["time"]
+    events["kind"] = ev["kind"]
+    events["value"] = ev["value"]
+    return SimulationResult(r["t"], r["theta"], r["theta_dot"], events, r["summary"])
+
+
+class LogTables(dict):
+    """What ``read_log`` and ``read_raw`` return: {table name: structured array}.
+
+    A log's tables are named by their channel (a channel that changed type
+    has a second table ``CHANNEL_<type>``); a raw file's table is ``data``.
+    Each array has one field per message field (``time`` first, s, the
+    sample clock; arrays as ``values_0`` .. ``values_{n-1}``); each field's
+    unit is in its dtype's metadata (``a.dtype.fields["theta"][0].metadata
+    ["unit"]``, or ``a.dtype.metadata["units"]``), as are the table's
+    ``channel`` and ``lcm_type`` (``a.dtype.metadata``).
+
+    Attribute ``summary``: the counts of ``rocklab export`` (rows,
+    outside_window, filtered, unknown_type, undecodable, damaged_regions,
+    damaged_bytes, damaged_events, bad_rows, bad_values, read_error) and
+    ``problems``, the lines it prints about the damage.
+    """
+
+    def __init__(self, tables, summary):
+        super().__init__(tables)
+        self.summary = summary
+
+
+def _warn_damage(path, summary, what):
+    # The damage line of every log-reading command (pipeline::ReportDamage).
+    if summary["damaged_regions"] > 0:
+        regions = summary["damaged_regions"]
+        _warnings.warn(
+            f"{what}: {path} is damaged: {regions} region{'s' if regions != 1 else ''} skipped "
+            f"({summary['damaged_bytes']} bytes, {summary['damaged_events']} events lost); "
+            "the rest was read",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    if summary["read_error"]:
+        _warnings.warn(f"{what}: {summary['read_error']}", RuntimeWarning, stacklevel=3)
+
+
+def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
+    """Reads a recorded LCM log (rocklab's or lcm-logger's) into numpy.
+
+    The tables of ``rocklab export``: one structured array per selected
+    channel, one row per message that decodes, one field per message field.
+
+    Args:
+        path: the log.
+        channels: regular expression (ECMAScript) matched against the whole
+            channel name, as ``--channels``.
+        start, end: window, s from the record's first sample (the
+            sample-clock utime of its first rocklab message); end None: to
+            the end.
+        progress: None or callable(rows_read, None), at most every 0.1 s.
+
+    Returns:
+        LogTables: {channel: structured array}, with ``.summary``.
+
+    A damaged log is read as the command line reads it: damaged regions are
+    skipped, counted in ``.summary`` and reported once as a RuntimeWarning.
+
+    Raises:
+        ValueError: a bad regex or window, or a file that is not an LCM log.
+        OSError: a file that cannot be opened.
+    """
+    path = _os.fspath(path)
+    tables, summary = _rocklab._read_log(
+        path, str(channels), float(start), -1.0 if end is None else float(end), progress
+    )
+    _warn_damage(path, summary, "rocklab.read_log")
+    return LogTables(tables, summary)
+
+
+def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
+    """Reads a raw DAQ file (CSV with a ``time`` column, LabVIEW .lvm) into numpy.
+
+    The table ``data`` of ``rocklab export``: ``time`` (s) then the channels
+    by name, NaN where a value is missing; bad rows skipped and counted as
+    the DAQ's sources do.
+
+    Args:
+        path: the .csv or .lvm file.
+        rig: a rig file (TOML) naming the channels' units, or None.
+        rate: sample rate for files without a time column or time base, Hz.
+        start, end: window, s from the first row's time; end None: to the end.
+        progress: None or callable(rows_read, None).
+
+    Returns:
+        LogTables: {"data": structured array}, with ``.summary`` (bad_rows,
+        bad_values, read_error, ...).
+    """
+    path = _os.fspath(path)
+    tables, summary = _rocklab._read_raw(
+        path, "" if rig is None else _os.fspath(rig), float(rate), float(start),
+        -1.0 if end is None else float(end), progress,
+    )
+    _warn_damage(path, summary, "rocklab.read_raw")
+    return LogTables(tables, summary)
+
+
+def info(path, rig=None, *, rate=0.0):
+    """What a recorded LCM log or a raw CSV/LVM file holds: ``rocklab info --json``.
+
+    Args:
+        path: an LCM log, or a raw .csv / .lvm file.
+        rig: raw files: a rig file (TOML) naming the channels' units.
+        rate: raw files without a time column: sample rate, Hz.
+
+    Returns:
+        dict: the JSON of ``rocklab info --json`` (docs/export.md), e.g.
+        for a log ``channels`` (name, type, count, rate, sequence gaps),
+        ``damaged_regions``, the rig's RL_DAQ_CONFIG.
+    """
+    import json
+
+    return json.loads(
+        _rocklab._info_json(_os.fspath(path), "" if rig is None else _os.fspath(rig), float(rate))
+    )
