@@ -188,8 +188,12 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
     const double* t = accel_t->data();
     const double* a = accel_a->data();
     // SampledAcceleration checks sizes, order and finiteness, naming the index.
-    sampled = std::make_unique<model::SampledAcceleration>(
-        std::vector<double>(t, t + accel_t->size()), std::vector<double>(a, a + accel_a->size()));
+    try {
+      sampled = std::make_unique<model::SampledAcceleration>(
+          std::vector<double>(t, t + accel_t->size()), std::vector<double>(a, a + accel_a->size()));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("accel: ") + e.what());
+    }
     sampled_what = "accel:array(" + std::to_string(accel_t->size()) + " samples)";
   }
 
