@@ -19,6 +19,7 @@ namespace py = pybind11;
 void RegisterErrors(py::module_& m);
 void RegisterModel(py::module_& m);
 void RegisterLogs(py::module_& m);
+void RegisterAnalysis(py::module_& m);
 
 /// A file that cannot be read: raised in Python as OSError(errno, message,
 /// path) (FileNotFoundError, PermissionError, ... by errno).
@@ -59,6 +60,8 @@ class ProgressHook {
   }
   /// Reports `done` once more, whatever the time (with the GIL released).
   void Done(double done);
+  /// The total passed to the callback (<= 0: None).
+  void set_total(double total) { total_ = total; }
 
  private:
   void Call(double done, std::chrono::steady_clock::time_point now);

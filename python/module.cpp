@@ -7,4 +7,5 @@ PYBIND11_MODULE(_rocklab, m) {
   rocklab::python::RegisterErrors(m);
   rocklab::python::RegisterModel(m);
   rocklab::python::RegisterLogs(m);
+  rocklab::python::RegisterAnalysis(m);
 }

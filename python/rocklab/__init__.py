@@ -7,6 +7,11 @@ The same C++ core as the ``rocklab`` command line (docs/python.md):
   motion (``rocklab simulate``), numpy out;
 - ``read_log``, ``read_raw``, ``info``: recorded LCM logs and raw CSV/LVM
   files into numpy structured arrays (``rocklab export``, ``rocklab info``);
+- ``reconstruct``: theta and the checks from a raw file (``rocklab
+  reconstruct``);
+- ``fit``: alpha, p and mu from a record (``rocklab fit``);
+- ``sweep``, ``fragility``: campaigns over records x blocks x scales and
+  their lognormal fragility (``rocklab sweep``, ``rocklab sweep-plot``);
 - the LCM message types of the lab (``rocklab.raw_frame_t`` etc., generated
   by ``lcm-gen -p``) where the package was built with them.
 
@@ -32,6 +37,13 @@ __all__ = [
     "read_raw",
     "LogTables",
     "info",
+    "reconstruct",
+    "Reconstruction",
+    "fit",
+    "FitResult",
+    "sweep",
+    "fragility",
+    "SWEEP_DTYPE",
     "DEFAULT_L",
     "GRAVITY",
 ]
@@ -320,3 +332,290 @@ def info(path, rig=None, *, rate=0.0):
     return json.loads(
         _rocklab._info_json(_os.fspath(path), "" if rig is None else _os.fspath(rig), float(rate))
     )
+
+
+class Reconstruction:
+    """What ``reconstruct`` returns.
+
+    Attributes:
+        states: structured array, one row per reconstructed sample: ``time``
+            (s), ``theta``, ``theta_dot``, ``theta_mirror``, ``theta_camera``,
+            ``sliding`` (m), ``twist`` (rad), ``out_of_plane`` (m), ``jump``
+            (m), ``tilt`` (rad), ``table_displacement`` (m),
+            ``table_acceleration`` (m/s^2), ``flags`` (bitmask of the checks,
+            docs/acquisition.md), ``leds_used``; units in the dtype metadata.
+        events: structured array of the checks' events: ``time`` (s),
+            ``kind`` (event_t's constant), ``value``, ``detail``.
+        summary: counts as ``rocklab reconstruct`` prints them (rows,
+            bad_rows, bad_values, gaps, missing, duplicates, out_of_order,
+            invalid_led_samples, flagged, damage, read_error, problems).
+    """
+
+    __slots__ = ("states", "events", "summary")
+
+    def __init__(self, states, events, summary):
+        self.states = states
+        self.events = events
+        self.summary = summary
+
+    def __repr__(self):
+        return f"Reconstruction({len(self.states)} samples, {self.summary['flagged']} flagged)"
+
+
+def reconstruct(raw, rig, *, progress=None):
+    """Reconstructs theta and the checks from a raw file, as ``rocklab reconstruct``.
+
+    Args:
+        raw: the raw file: .csv, .lvm or an LCM log (RL_RAW).
+        rig: the rig configuration (TOML): channels, calibration, geometry.
+        progress: None or callable(sample_time_s, None).
+
+    Returns:
+        Reconstruction: ``states`` (theta, theta_dot, the mirror and camera
+        thetas, sliding, twist, flags, ...), ``events``, ``summary``.
+    """
+    raw, rig = _os.fspath(raw), _os.fspath(rig)
+    columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
+    names = list(columns)
+    dtype = _np.dtype(
+        [(n, _np.dtype(columns[n][0].dtype, metadata={"unit": columns[n][1]})) for n in names],
+        metadata={"source": raw, "units": {n: columns[n][1] for n in names}},
+    )
+    states = _np.empty(len(columns["time"][0]), dtype=dtype)
+    for n in names:
+        states[n] = columns[n][0]
+    ev = _np.array(
+        [tuple(e) for e in events],
+        dtype=[("time", "f8"), ("kind", "i1"), ("value", "f8"), ("detail", "U64")],
+    )
+    _warn_damage(raw, summary, "rocklab.reconstruct")
+    return Reconstruction(states, ev, summary)
+
+
+class FitResult(dict):
+    """What ``fit`` returns: the dict of ``rocklab fit --json``.
+
+    Keys: alpha (rad), p (rad/s), mu; their standard errors alpha_stderr,
+    p_stderr, mu_stderr (None when withheld); alpha_p_correlation;
+    rms_residual (s for impacts, rad for trajectory), noise (rad),
+    residual_to_noise, converged; impacts (per impact: n, time, peak, mu_n,
+    tau, residual); theory and alpha_band (from the geometry); warnings.
+    The same values are attributes: ``r.alpha``, ``r.warnings``.
+    """
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def fit(
+    t,
+    theta=None,
+    width=None,
+    height=None,
+    *,
+    chamfer=0.0,
+    method="impacts",
+    table=None,
+    quarter_time="exact",
+    alpha_band=0.01,
+    min_impacts=4,
+    progress=None,
+):
+    """Fits alpha, p and mu to a recorded test, as ``rocklab fit``.
+
+    Args:
+        t: sample times, s (with ``theta``); or the path of a record: a CSV
+            with a ``time,theta`` header or a rocklab LCM log (RL_THETA,
+            RL_TABLE), as ``--input``.
+        theta: rocking angle at t, rad (NaN: a lost sample).
+        width, height, chamfer: block geometry (2b, 2h, chamfer leg; m): the
+            theoretical row, the admissible alpha band, the trajectory
+            method's start.
+        method: "impacts" (the paper's, free rocking) or "trajectory" (the
+            whole record, free or forced).
+        table: the table acceleration of a forced record: a pair (t, a) of
+            arrays (s, m/s^2), or the path of a ``time,accel`` CSV.
+        quarter_time: impacts method: "exact" (corrected eq. 12) or
+            "slender" (eq. 13).
+        alpha_band: admissible error on b, m.
+        min_impacts: fewest impacts accepted (>= 3).
+        progress: trajectory method: None or callable(model_runs,
+            max_runs), after each iteration. An exception it raises comes
+            out of fit once the fit has ended.
+
+    Returns:
+        FitResult (a dict, keys of ``rocklab fit --json``).
+
+    Raises:
+        ValueError: bad options, or a record that cannot give an answer
+            (the CLI's message: never rocks, too few impacts, ...).
+        OSError: a file that cannot be read.
+    """
+    path, ts, th, table_t, table_a, accel = "", None, None, None, None, ""
+    if isinstance(t, (str, _os.PathLike)):
+        if theta is not None:
+            raise ValueError("give either a record path or the arrays t and theta")
+        path = _os.fspath(t)
+    else:
+        if theta is None:
+            raise ValueError("theta is required with the array t")
+        ts = _np.asarray(t, dtype=float)
+        th = _np.asarray(theta, dtype=float)
+    if isinstance(table, (str, _os.PathLike)):
+        accel = _os.fspath(table)
+    elif table is not None:
+        table_t, table_a = (_np.asarray(x, dtype=float) for x in table)
+    r = _rocklab._fit(
+        path, ts, th, table_t, table_a, accel,
+        None if width is None else float(width), None if height is None else float(height), float(chamfer),
+        str(method), str(quarter_time), float(alpha_band), int(min_impacts), progress,
+    )
+    return FitResult(r)
+
+
+#: dtype of sweep's results: the columns of ``rocklab sweep``'s CSV.
+SWEEP_DTYPE = _np.dtype(
+    [
+        ("record", "U256"),
+        ("scale", "f8"),
+        ("pga_g", "f8"),
+        ("alpha", "f8"),
+        ("p", "f8"),
+        ("mu", "f8"),
+        ("model", "U8"),
+        ("peak_theta_over_alpha", "f8"),
+        ("overturned", "?"),
+        ("overturn_time", "f8"),
+        ("impacts", "i8"),
+        ("uplift_time", "f8"),
+        ("peak_time", "f8"),
+        ("block", "U256"),
+        ("alpha_minus", "f8"),
+        ("p_minus", "f8"),
+        ("mu_minus", "f8"),
+    ],
+    metadata={
+        "units": {
+            "scale": "1", "pga_g": "g", "alpha": "rad", "p": "rad/s", "mu": "1", "peak_theta_over_alpha": "1",
+            "overturn_time": "s", "uplift_time": "s", "peak_time": "s", "alpha_minus": "rad", "p_minus": "rad/s",
+            "mu_minus": "1",
+        }
+    },
+)
+
+
+def _sweep_rows(text):
+    import csv
+    import io
+
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader)
+    assert header == list(SWEEP_DTYPE.names), header
+    rows = []
+    for r in reader:
+        values = []
+        for name, field in zip(SWEEP_DTYPE.names, r):
+            kind = SWEEP_DTYPE[name].kind
+            if kind == "f":
+                values.append(float(field) if field != "" else _np.nan)
+            elif kind == "i":
+                values.append(int(field))
+            elif kind == "b":
+                values.append(field == "1")
+            else:
+                values.append(field)
+        rows.append(tuple(values))
+    return _np.array(rows, dtype=SWEEP_DTYPE)
+
+
+def sweep(
+    records,
+    *,
+    model,
+    scale="1:1:1",
+    pga_g=False,
+    alpha=(),
+    p=(),
+    mu=(),
+    width=(),
+    height=(),
+    polygon=(),
+    duration=None,
+    rate=1000.0,
+    l=DEFAULT_L,
+    threads=0,
+    progress=None,
+    csv_text=False,
+):
+    """Runs a rocking campaign, as ``rocklab sweep``: every (record, block, scale).
+
+    Args:
+        records: paths of ground-motion records (``time,accel`` CSV or PEER
+            .AT2), as ``--records``.
+        model: "housner" or "complex".
+        scale: "A:B:N", N values from A to B: factors on each record, or the
+            target PGA in g with ``pga_g=True``.
+        alpha, p, mu: blocks by their parameters (rad, rad/s, 1; mu empty:
+            Housner's 1 - 1.5 sin^2 alpha), as ``--alpha --p --mu``.
+        width, height: blocks as rectangles (2b, 2h; m); polygon: section
+            files (x,z CSV).
+        duration: simulated time per case, s (None: record end + 10 s).
+        rate: rate at which peak theta is sampled, Hz.
+        l: complex formulation momentum.
+        threads: worker threads (0: all cores).
+        progress: None or callable(cases_done, cases).
+        csv_text: also return the CSV text (``rocklab sweep --out``'s bytes).
+
+    Returns:
+        A structured array (SWEEP_DTYPE: the columns of sweep's CSV, in its
+        case order: record outermost, then block, then scale); with
+        ``csv_text``, (array, text).
+    """
+
+    def floats(v):
+        return [float(x) for x in _np.atleast_1d(v)] if v is not None else []
+
+    text = _rocklab._sweep(
+        [_os.fspath(r) for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
+        str(scale), bool(pga_g), floats(alpha), floats(p), floats(mu), floats(width), floats(height),
+        [_os.fspath(x) for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
+        str(model), None if duration is None else float(duration), float(rate), float(l), int(threads), progress,
+    )
+    rows = _sweep_rows(text)
+    return (rows, text) if csv_text else rows
+
+
+def fragility(x, overturned=None, trials=None):
+    """Lognormal fragility, P(x) = Phi(ln(x / median) / beta), by maximum likelihood.
+
+    Two forms:
+
+    - ``fragility(x, overturned, trials=None)``: intensities x (e.g. PGA in
+      g, > 0) and the count overturned at each (or booleans), out of
+      ``trials`` (default 1 each): one fit (sweep::FitLognormalFragility).
+    - ``fragility(results)``: a result array of ``sweep``: one fit per block
+      (model, alpha, p, mu) against pga_g, as ``rocklab sweep-plot``.
+
+    Returns:
+        dict (or a list of them, one per block): ``status`` ("fitted",
+        "none", "all", "separated"), ``median`` and ``beta`` (fitted),
+        ``log_likelihood``, ``safe_below`` / ``overturned_above``
+        (separated: the bracket of the median), ``iterations``; per block
+        also model, alpha, p, mu, rows, overturned.
+    """
+    if overturned is None and isinstance(x, _np.ndarray) and x.dtype.names and "pga_g" in x.dtype.names:
+        r = x
+        text = [repr(float(v)) for v in r["alpha"]], [repr(float(v)) for v in r["p"]], [repr(float(v)) for v in r["mu"]]
+        return _rocklab._sweep_fragilities(
+            [str(m) for m in r["model"]], *text, _np.asarray(r["pga_g"], float),
+            _np.asarray(r["peak_theta_over_alpha"], float), [bool(o) for o in r["overturned"]],
+        )
+    if overturned is None:
+        raise ValueError("fragility(x, overturned[, trials]) or fragility(sweep_results)")
+    x = _np.asarray(x, dtype=float)
+    k = _np.asarray(overturned, dtype=float)
+    n = _np.ones_like(x) if trials is None else _np.asarray(trials, dtype=float)
+    return _rocklab._fragility(x, k, n)

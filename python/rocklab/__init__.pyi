@@ -68,3 +68,55 @@ def read_raw(
     progress: Progress = ...,
 ) -> LogTables: ...
 def info(path: PathLike, rig: Optional[PathLike] = ..., *, rate: float = ...) -> Dict[str, Any]: ...
+
+class Reconstruction:
+    states: np.ndarray
+    events: np.ndarray
+    summary: Dict[str, Any]
+
+def reconstruct(raw: PathLike, rig: PathLike, *, progress: Progress = ...) -> Reconstruction: ...
+
+class FitResult(Dict[str, Any]):
+    def __getattr__(self, name: str) -> Any: ...
+
+def fit(
+    t: Union[PathLike, ArrayLike],
+    theta: Optional[ArrayLike] = ...,
+    width: Optional[float] = ...,
+    height: Optional[float] = ...,
+    *,
+    chamfer: float = ...,
+    method: str = ...,
+    table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
+    quarter_time: str = ...,
+    alpha_band: float = ...,
+    min_impacts: int = ...,
+    progress: Progress = ...,
+) -> FitResult: ...
+
+SWEEP_DTYPE: np.dtype
+
+def sweep(
+    records: Union[PathLike, Sequence[PathLike]],
+    *,
+    model: str,
+    scale: str = ...,
+    pga_g: bool = ...,
+    alpha: Union[float, Sequence[float]] = ...,
+    p: Union[float, Sequence[float]] = ...,
+    mu: Union[float, Sequence[float]] = ...,
+    width: Union[float, Sequence[float]] = ...,
+    height: Union[float, Sequence[float]] = ...,
+    polygon: Union[PathLike, Sequence[PathLike]] = ...,
+    duration: Optional[float] = ...,
+    rate: float = ...,
+    l: float = ...,
+    threads: int = ...,
+    progress: Progress = ...,
+    csv_text: bool = ...,
+) -> Any: ...
+def fragility(
+    x: Union[ArrayLike, np.ndarray],
+    overturned: Optional[ArrayLike] = ...,
+    trials: Optional[ArrayLike] = ...,
+) -> Any: ...
