@@ -28,6 +28,7 @@ import warnings as _warnings
 import numpy as _np
 
 from . import _rocklab
+from ._lcm_types import *  # noqa: F401,F403  the LCM types (lcm-gen -p), rocklab.raw_frame_t etc.
 
 __all__ = [
     "block_params",
