@@ -39,6 +39,8 @@ std::vector<double> ToVector(const DoubleArray& a, const char* name) {
 // ---- reconstruct ----------------------------------------------------------
 
 // The block states as columns (the CSV of `rocklab reconstruct`, and more).
+// A sink must not throw: the progress hook's exception is kept, and the
+// read loop stops on it.
 class ColumnSink final : public daq::ProcessorSink {
  public:
   explicit ColumnSink(ProgressHook& hook) : hook_(hook) {}
@@ -46,8 +48,14 @@ class ColumnSink final : public daq::ProcessorSink {
     for (std::size_t i = 0; i < kReal.size(); ++i) real[i].push_back(s.*kReal[i].field);
     flags.push_back(s.flags);
     leds_used.push_back(s.leds_used);
-    hook_.Update(s.time_s);
+    if (stopped) return;
+    try {
+      hook_.Update(s.time_s);
+    } catch (...) {
+      stopped = std::current_exception();
+    }
   }
+  std::exception_ptr stopped;  // the hook's exception (KeyboardInterrupt, the callback's)
   void OnEvent(const daq::DaqEvent& e) override { events.push_back(e); }
   void OnProblem(const daq::Problem& p) override { problems.push_back(daq::ToString(p)); }
 
@@ -110,8 +118,9 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
       throw pipeline::OptionError(std::string("--input: ") + e.what());
     }
     daq::Frame frame;
-    daq::ReadStatus status;
-    while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
+    daq::ReadStatus status{};
+    while (!sink.stopped && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
+    if (sink.stopped) std::rethrow_exception(sink.stopped);
     processor->Finish();
     if (status == daq::ReadStatus::kError) read_error = source->error();
     src = source->stats();
