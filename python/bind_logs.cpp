@@ -8,6 +8,7 @@
 
 #include "export/export.h"
 #include "export/info.h"
+#include "model/excitation.h"
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
 #include "python/bindings.h"
@@ -105,6 +106,23 @@ py::tuple ReadRaw(const std::string& path, const std::string& rig_path, double r
   return Read(false, path, ".*", start_s, end_s, rate_hz, rig_path, progress);
 }
 
+// A table-acceleration record (PEER .AT2 or `time,accel` CSV) as `simulate
+// --accel` and `sweep --records` read it: (time s, accel m/s^2, line).
+py::tuple ReadAcceleration(const std::string& path) {
+  model::AccelerationRows rows;
+  {
+    py::gil_scoped_release release;
+    try {
+      rows = model::ReadAccelerationRows(path);
+    } catch (const std::runtime_error& e) {
+      ThrowIfUnreadable(path, e.what());
+      throw pipeline::OptionError(e.what());
+    }
+  }
+  return py::make_tuple(OwnedArray(std::move(rows.time_s)), OwnedArray(std::move(rows.accel_mps2)),
+                        OwnedArray(std::move(rows.line)));
+}
+
 // `rocklab info --json`'s text, for json.loads.
 std::string InfoJson(const std::string& path, const std::string& rig_path, double rate_hz) {
   pipeline::Require(rate_hz >= 0, "--rate", ">= 0 Hz", rate_hz);
@@ -129,6 +147,7 @@ void RegisterLogs(py::module_& m) {
         py::arg("progress"));
   m.def("_read_raw", &ReadRaw, py::arg("path"), py::arg("rig"), py::arg("rate"), py::arg("start"),
         py::arg("end"), py::arg("progress"));
+  m.def("_read_acceleration", &ReadAcceleration, py::arg("path"));
   m.def("_info_json", &InfoJson, py::arg("path"), py::arg("rig"), py::arg("rate"));
 }
 

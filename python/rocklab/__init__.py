@@ -289,11 +289,17 @@ def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
 
 
 def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
-    """Reads a raw DAQ file (CSV with a ``time`` column, LabVIEW .lvm) into numpy.
+    """Reads a raw DAQ file (CSV, LabVIEW .lvm) or a PEER .AT2 record into numpy.
 
-    The table ``data`` of ``rocklab export``: ``time`` (s) then the channels
-    by name, NaN where a value is missing; bad rows skipped and counted as
-    the DAQ's sources do.
+    CSV and LVM: the table ``data`` of ``rocklab export``: ``time`` (s)
+    then the channels by name, NaN where a value is missing; bad rows
+    skipped and counted as the DAQ's sources do.
+
+    .AT2 (by extension): the ground-motion record as ``simulate --accel``
+    and ``sweep --records`` read it: ``data`` with ``time`` (s, k DT) and
+    ``accel`` (m/s^2, the file's g times 9.81); a malformed file raises
+    ValueError naming its line. ``rig``, ``rate`` and the window do not
+    apply.
 
     Args:
         path: the .csv or .lvm file.
@@ -307,6 +313,17 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
         bad_values, read_error, ...).
     """
     path = _os.fspath(path)
+    if path.lower().endswith(".at2"):
+        t, a, _ = _rocklab._read_acceleration(path)
+        dtype = _np.dtype(
+            [("time", _np.dtype("f8", metadata={"unit": "s"})), ("accel", _np.dtype("f8", metadata={"unit": "m/s^2"}))],
+            metadata={"source": path, "units": {"time": "s", "accel": "m/s^2"}},
+        )
+        data = _np.empty(len(t), dtype=dtype)
+        data["time"], data["accel"] = t, a
+        summary = dict(rows=len(t), outside_window=0, bad_rows=0, bad_values=0, read_error="", problems=[],
+                       format="at2")
+        return LogTables({"data": data}, summary)
     tables, summary = _rocklab._read_raw(
         path, "" if rig is None else _os.fspath(rig), float(rate), float(start),
         -1.0 if end is None else float(end), progress,

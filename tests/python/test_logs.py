@@ -162,3 +162,28 @@ def test_read_log_progress(log_path):
     calls = []
     tables = rocklab.read_log(log_path, progress=lambda done, total: calls.append((done, total)))
     assert calls[-1] == (float(tables.summary["rows"]), None)
+
+
+def test_read_raw_at2(cli, tmp_path):
+    # Oracle: the PEER format by hand: NPTS values in g, sample k at k DT,
+    # converted with g = 9.81 (ERRATA item 1's g); and `simulate --accel`
+    # of the same file equal to simulate with these arrays.
+    at2 = tmp_path / "rec.AT2"
+    values_g = [0.01, -0.02, 0.3, 0.0, -0.005, 0.06, 0.07, -0.4, 0.25, 0.0]
+    at2.write_text("PEER NGA STRONG MOTION DATABASE RECORD\nSynthetic\nACCELERATION TIME SERIES IN UNITS OF G\n"
+                   f"NPTS= {len(values_g)}, DT= .0100 SEC\n"
+                   + "\n".join(" ".join(f"{v:.4E}" for v in values_g[i:i + 5]) for i in range(0, 10, 5)) + "\n")
+    data = rocklab.read_raw(at2)["data"]
+    np.testing.assert_allclose(data["time"], np.arange(10) * 0.01, rtol=1e-15, atol=1e-17)
+    np.testing.assert_allclose(data["accel"], np.array(values_g) * 9.81, rtol=1e-15, atol=0)
+    assert data.dtype.metadata["units"]["accel"] == "m/s^2"
+    a = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=at2, duration=0.2, rate=100)
+    b = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=(data["time"], data["accel"]), duration=0.2, rate=100)
+    np.testing.assert_array_equal(a.theta, b.theta)
+    assert a.summary["uplift_time"] is not None
+    bad = tmp_path / "bad.AT2"
+    bad.write_text(at2.read_text().replace("NPTS= 10", "NPTS= 12"))
+    with pytest.raises(ValueError) as e:
+        rocklab.read_raw(bad)
+    assert str(e.value) == cli.error("simulate", "--alpha", 0.05, "--p", 5, "--mu", 0.9, "--accel", bad,
+                                     "--duration", 1, "--rate", 10, "--out", tmp_path / "x.csv")[len("--accel: "):]
