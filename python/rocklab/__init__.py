@@ -49,6 +49,10 @@ __all__ = [
     "GRAVITY",
 ]
 
+from . import _lcm_types  # noqa: E402
+
+__all__ += sorted(n for n in vars(_lcm_types) if n.endswith("_t"))
+
 #: Default l of the complex formulation (normalised momentum of psi), 1.
 DEFAULT_L = _rocklab.DEFAULT_L
 #: Gravity used throughout, m/s^2.

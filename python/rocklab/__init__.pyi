@@ -6,6 +6,18 @@ from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
+# The LCM types (lcm-gen -p, generated into the package at build time; one
+# line per lcm_types/*.lcm).
+from .block_state_t import block_state_t as block_state_t
+from .comparison_t import comparison_t as comparison_t
+from .daq_config_t import daq_config_t as daq_config_t
+from .event_t import event_t as event_t
+from .health_t import health_t as health_t
+from .model_state2_t import model_state2_t as model_state2_t
+from .model_state_t import model_state_t as model_state_t
+from .raw_frame_t import raw_frame_t as raw_frame_t
+from .table_state_t import table_state_t as table_state_t
+
 PathLike = Union[str, os.PathLike]
 Progress = Optional[Callable[[float, Optional[float]], Any]]
 ArrayLike = npt.ArrayLike
