@@ -115,6 +115,12 @@ void Cvode::ReInit(double t0_s, const double* y0) {
   t_ = t0_s;
 }
 
+void Cvode::SetTolerances(double rtol, const double* atol) {
+  double* a = N_VGetArrayPointer(h_->atol);
+  for (int i = 0; i < n_; ++i) a[i] = atol[i];
+  Check(CVodeSVtolerances(h_->mem, rtol, h_->atol), "CVodeSVtolerances");
+}
+
 void Cvode::SetMaxStep(double max_step_s) {
   Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
 }

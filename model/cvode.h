@@ -41,6 +41,8 @@ class Cvode {
   void ReInit(double t0_s, const double* y0);
   /// Root directions (+1 rising, -1 falling, 0 both) for the three roots.
   void SetRootDirection(std::array<int, kRoots> direction);
+  /// Relative and absolute (n values) tolerances from the next step on.
+  void SetTolerances(double rtol, const double* atol);
   /// Largest internal step, s; 0 for none.
   void SetMaxStep(double max_step_s);
 

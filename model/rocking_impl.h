@@ -26,6 +26,9 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   CvodeRockingModel(const BlockParams& params, const ModelOptions& options);
   /// Creates the integrator; call from the derived constructor.
   void Init(int n, const double* atol);
+  /// Changes the absolute tolerances (n values, as Init's); they take effect
+  /// at the next restart of the integrator, which the caller must make.
+  void SetAbsTolerances(const double* atol);
 
   // --- supplied by the formulation -----------------------------------------
   /// Equations while rocking; u_g'' from table_accel(t).
@@ -43,9 +46,30 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   /// True when the model should go back to rest at this impact for a reason
   /// of its own (besides the impact-interval rule).
   virtual bool RestAtImpact(const double* /*y*/) const { return false; }
-  /// Called when g[2] rises through zero (no impact at the same time); may
-  /// change y in place; returns whether the integrator must be re-initialised.
-  virtual bool ApplySwitch(double* /*y*/) { return false; }
+  /// Direction of the switch root g[2] for the current state (+1 rising,
+  /// -1 falling, 0 both).
+  virtual int SwitchRootDirection() const { return +1; }
+  /// A crossing of the origin solved in closed form between two times
+  /// (the complex model's matched inner solution): the integrator stops at
+  /// t_entry and restarts at t_exit; the impact is at t_impact.
+  struct Passage {
+    double t_entry_s{};
+    double t_impact_s{};
+    double t_exit_s{};
+    double impact_theta_dot{};  ///< rad/s, just before the impact
+  };
+  enum class SwitchResult { kNone, kReinit, kPassage };
+  /// Called when g[2] crosses zero (no impact at the same time) at t_s; may
+  /// change y in place (kReinit: restart the integrator there) or solve a
+  /// passage from there (kPassage: `passage` filled, y untouched).
+  virtual SwitchResult ApplySwitch(double /*t_s*/, double* /*y*/, Passage* /*passage*/) {
+    return SwitchResult::kNone;
+  }
+  /// Inside the pending passage: state_ (not energy) at t_s.
+  virtual void FillPassageState(double /*t_s*/) {}
+  /// The state at the end of the pending passage into y (the formulation's
+  /// own coordinates switch there).
+  virtual void FinishPassage(double* /*y*/) {}
   /// theta, theta_dot, chi, psi and equations of y into state_ (energy is
   /// filled by the base).
   virtual void FillState(const double* y) = 0;
@@ -70,6 +94,8 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   void StartRocking(double t_s, double theta0, double theta_dot0, int side);
   void Emit(double t_s, EventKind kind, double value);
   void UpdateState(double t_s, const double* y);
+  // Time and energy of state_ from its theta and theta_dot.
+  void UpdateState(double t_s);
   // Sets the segment [t_from, t_to] table_accel evaluates in.
   void SetSegment(double t_from_s, double t_to_s);
   // Advances the integrator to tout_s (stopping before tstop_s) with the
@@ -77,6 +103,16 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   Cvode::Result Integrate(double tout_s, double tstop_s);
   // Restarts the integrator at a jump of the forcing at t_s.
   void RestartAtDiscontinuity(double t_s);
+  // Restarts the integrator at t_s from y_ in the rocking regime.
+  void RestartRocking(double t_s);
+  // While the table could lift the block (|u_g''| above g tan(alpha) of
+  // either pivot) it does not come to rest (ERRATA item 6).
+  bool TableAllowsRest(double t_s) const;
+  // An impact at t_s (event, rest rules); returns true when the block rests.
+  bool Impact(double t_s, double theta_dot);
+  // Steps through the pending passage up to t_s; returns false when t_s
+  // lies inside it (state_ is then the passage's at t_s).
+  bool AdvancePassage(double t_s);
 
   int n_{};
   std::unique_ptr<Cvode> cvode_;
@@ -93,6 +129,9 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   Cvode::Stats stats_at_reset_;
   double max_step_set_s_{-1};        // the integrator's step bound as last set, s (0: none)
   double y_[Cvode::kMaxEquations]{};  // scratch state, no allocation on the stepping path
+  Passage passage_;                   // the pending passage, when passage_pending_
+  bool passage_pending_{false};
+  bool passage_impact_done_{false};
 };
 
 std::unique_ptr<RockingModel> MakeHousner(const BlockParams& params, const ModelOptions& options);

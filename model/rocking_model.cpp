@@ -170,6 +170,8 @@ void CvodeRockingModel::Init(int n, const double* atol) {
   EnterRest(0.0);
 }
 
+void CvodeRockingModel::SetAbsTolerances(const double* atol) { cvode_->SetTolerances(options_.rtol, atol); }
+
 void CvodeRockingModel::Reset(double t0_s, double theta0, double theta_dot0) {
   if (!std::isfinite(t0_s)) throw std::invalid_argument("Reset: t0_s is not finite");
   if (!std::isfinite(theta0) || std::abs(theta0) >= kPi / 2) {
@@ -180,6 +182,7 @@ void CvodeRockingModel::Reset(double t0_s, double theta0, double theta_dot0) {
   }
   events_.clear();
   ResetStepHistory();
+  passage_pending_ = false;
   state_ = ModelState{};
   last_impact_s_ = -std::numeric_limits<double>::infinity();
   restarts_ = 0;
@@ -199,6 +202,7 @@ void CvodeRockingModel::EnterRest(double t_s) {
   state_.regime = Regime::kRest;
   state_.equations = RestEquations();
   rest_checked_ = false;
+  passage_pending_ = false;
   for (double& v : y_) v = 0.0;
   cvode_->ReInit(t_s, y_);
   // Root 0: u_g'' rising through +g tan(alpha_-) (onto the -x pivot); root
@@ -257,22 +261,73 @@ void CvodeRockingModel::RestartAtDiscontinuity(double t_s) {
     cvode_->ReInit(t_s, y_);
     cvode_->SetRootDirection({+1, -1, +1});
   } else {
-    cvode_->ReInit(t_s, y_);
-    cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+    RestartRocking(t_s);
   }
+}
+
+void CvodeRockingModel::RestartRocking(double t_s) {
+  cvode_->ReInit(t_s, y_);
+  cvode_->SetRootDirection({ImpactRootDirection(), +1, SwitchRootDirection()});
+}
+
+bool CvodeRockingModel::TableAllowsRest(double t_s) const {
+  const double ug = table_accel(t_s);
+  return ug <= uplift_minus_mps2_ && ug >= -uplift_plus_mps2_;
+}
+
+bool CvodeRockingModel::Impact(double t_s, double theta_dot) {
+  ++state_.impacts;
+  Emit(t_s, EventKind::kImpact, theta_dot);
+  const bool rest = (t_s - last_impact_s_ < options_.rest_impact_interval_s || RestAtImpact(y_)) &&
+                    TableAllowsRest(t_s);
+  last_impact_s_ = t_s;
+  if (!rest) return false;
+  Emit(t_s, EventKind::kRest, 0.0);
+  EnterRest(t_s);
+  last_impact_s_ = -std::numeric_limits<double>::infinity();
+  return true;
+}
+
+bool CvodeRockingModel::AdvancePassage(double t_s) {
+  if (!passage_impact_done_) {
+    if (t_s < passage_.t_impact_s) {
+      FillPassageState(t_s);
+      UpdateState(t_s);
+      return false;
+    }
+    passage_impact_done_ = true;
+    FillPassageState(passage_.t_impact_s);
+    UpdateState(passage_.t_impact_s);
+    if (Impact(passage_.t_impact_s, passage_.impact_theta_dot)) return true;  // at rest: passage dropped
+  }
+  if (t_s < passage_.t_exit_s) {
+    FillPassageState(t_s);
+    UpdateState(t_s);
+    return false;
+  }
+  passage_pending_ = false;
+  rocking_time_s_ += passage_.t_exit_s - passage_.t_entry_s;
+  eq10_time_s_ += passage_.t_exit_s - passage_.t_entry_s;
+  FinishPassage(y_);
+  RestartRocking(passage_.t_exit_s);
+  UpdateState(passage_.t_exit_s, y_);
+  return true;
 }
 
 void CvodeRockingModel::StartRocking(double t_s, double theta0, double theta_dot0, int side) {
   state_.regime = Regime::kRocking;
   InitialState(theta0, theta_dot0, side, y_);
-  cvode_->ReInit(t_s, y_);
-  cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+  RestartRocking(t_s);
   UpdateState(t_s, y_);
 }
 
 void CvodeRockingModel::UpdateState(double t_s, const double* y) {
-  state_.time_s = t_s;
   FillState(y);
+  UpdateState(t_s);
+}
+
+void CvodeRockingModel::UpdateState(double t_s) {
+  state_.time_s = t_s;
   // E / (M g R) of the pivot it rocks on (at theta = 0: the one it moves onto).
   const int side = state_.theta > 0.0 || (state_.theta == 0.0 && state_.theta_dot >= 0.0) ? +1 : -1;
   const SideParams sp = params_.Side(side);
@@ -321,6 +376,10 @@ void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double 
     if (state_.regime == Regime::kOverturned) {
       state_.time_s = t_s;  // the state stays frozen at the overturn
       break;
+    }
+    if (passage_pending_) {
+      if (!AdvancePassage(t_s)) break;
+      continue;
     }
     // Output at t_s or at the forcing's next jump, whichever comes first; the
     // integrator never steps past the jump or the horizon (t_stop), and at a
@@ -379,28 +438,23 @@ void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double 
     }
     if (found[0] == 0) {
       // Only the formulation's switch root.
-      if (ApplySwitch(y_)) {
-        cvode_->ReInit(t, y_);
-        cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+      const SwitchResult sw = ApplySwitch(t, y_, &passage_);
+      if (sw == SwitchResult::kPassage) {
+        passage_pending_ = true;
+        passage_impact_done_ = false;
+        continue;  // the passage carries on from t (a jump inside it is held, see Passage)
+      }
+      if (sw == SwitchResult::kReinit) {
+        RestartRocking(t);
         UpdateState(t, y_);
       }
       if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
       continue;
     }
     // An impact.
-    ++state_.impacts;
-    Emit(t, EventKind::kImpact, state_.theta_dot);
-    const bool rest = t - last_impact_s_ < options_.rest_impact_interval_s || RestAtImpact(y_);
-    last_impact_s_ = t;
-    if (rest) {
-      Emit(t, EventKind::kRest, 0.0);
-      EnterRest(t);
-      last_impact_s_ = -std::numeric_limits<double>::infinity();
-      continue;
-    }
+    if (Impact(t, state_.theta_dot)) continue;
     if (ApplyImpact(y_)) {
-      cvode_->ReInit(t, y_);
-      cvode_->SetRootDirection({ImpactRootDirection(), +1, +1});
+      RestartRocking(t);
       UpdateState(t, y_);
     }
     if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);

@@ -31,6 +31,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
           o.duration_s);
   Require(std::isfinite(o.rate_hz) && o.rate_hz > 0, "--rate", "> 0 Hz", o.rate_hz);
   Require(std::isfinite(o.l) && o.l > 0, "--l", "> 0", o.l);
+  Require(std::isfinite(o.rtol) && o.rtol > 0 && o.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", o.rtol);
   Require(std::isfinite(o.complex_handoff) && o.complex_handoff >= 0, "--complex-handoff", ">= 0",
           o.complex_handoff);
   Require(o.duration_s * o.rate_hz < 1e9, "--duration", "such that duration * rate < 1e9 rows",
@@ -77,6 +78,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
 
   model::ModelOptions mo;
   mo.l = o.l;
+  mo.rtol = o.rtol;
   mo.complex_resolved_energy = o.complex_handoff;
   s.model = model::RockingModel::Create(kind, {o.alpha, o.p, o.mu}, mo);
   return s;

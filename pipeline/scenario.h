@@ -29,6 +29,7 @@ struct ScenarioOptions {
   double duration_s{};                  ///< s
   double rate_hz{};                     ///< output rate, Hz
   double l{model::ModelOptions{}.l};    ///< complex formulation momentum, 1
+  double rtol{model::ModelOptions{}.rtol};  ///< CVODE relative tolerance, 1
   /// Complex formulation, opt-in approximation: the l -> 0 limit below this
   /// multiple of the energy floor V_min (0: off, eq. (10) throughout), 1.
   double complex_handoff{0.0};

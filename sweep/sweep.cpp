@@ -105,6 +105,8 @@ Plan MakePlan(const PlanOptions& o) {
   Require(std::isfinite(o.l) && o.l > 0, "--l", "> 0", o.l);
   plan.rate_hz = o.rate_hz;
   plan.l = o.l;
+  Require(std::isfinite(o.rtol) && o.rtol > 0 && o.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", o.rtol);
+  plan.rtol = o.rtol;
 
   const bool by_params = !o.alpha.empty() || !o.p.empty() || !o.mu.empty();
   const bool by_rect = !o.width.empty() || !o.height.empty();
@@ -207,6 +209,7 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
   for (double& a : accel) a *= scaling.factor;
   model::ModelOptions mo;
   mo.l = plan.l;
+  mo.rtol = plan.rtol;
   pipeline::Scenario scenario;
   scenario.model = model::RockingModel::Create(plan.model, block.params, mo);
   scenario.forcing = std::make_unique<model::SampledAcceleration>(record.time_s, std::move(accel));
@@ -217,6 +220,7 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
   so.p = block.params.p;
   so.mu = block.params.mu;
   so.l = plan.l;
+  so.rtol = plan.rtol;
   so.duration_s = Duration(plan, record);
   so.rate_hz = plan.rate_hz;
 

@@ -60,6 +60,7 @@ struct Plan {
   std::optional<double> duration_s;
   double rate_hz{1000.0};  ///< rate at which the peak |theta| is sampled, Hz
   double l{model::kDefaultL};  ///< complex formulation momentum, 1
+  double rtol{model::ModelOptions{}.rtol};  ///< CVODE relative tolerance, 1
 
   static constexpr double kDefaultTail_s = 10.0;
 
@@ -78,6 +79,7 @@ struct PlanOptions {
   std::optional<double> duration_s;
   double rate_hz{1000.0};
   double l{model::kDefaultL};
+  double rtol{model::ModelOptions{}.rtol};  ///< CVODE relative tolerance, 1
 };
 
 /// N values from A to B, A + (B - A) k / (N - 1), k = 0..N-1 (N = 1: A).

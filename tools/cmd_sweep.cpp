@@ -142,6 +142,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--duration", opts->duration_s, "simulated time per case, s (default: record end + 10 s)");
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
   cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-10)");
+  cmd->add_option("--rtol", p.rtol, "CVODE relative tolerance, in (0, 1e-3] (default 1e-10)");
   cmd->add_option("--out", opts->out, "results CSV (.h5: not built yet)")->required();
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");

@@ -18,6 +18,7 @@ void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
   cmd.add_option("--duration", o.duration_s, "simulated time, s, >= 0")->required();
   cmd.add_option("--rate", o.rate_hz, "output rate, Hz, > 0")->required();
   cmd.add_option("--l", o.l, "complex formulation momentum, > 0")->capture_default_str();
+  cmd.add_option("--rtol", o.rtol, "CVODE relative tolerance, in (0, 1e-3]")->capture_default_str();
   cmd.add_option("--complex-handoff", o.complex_handoff,
                  "complex formulation, opt-in approximation: integrate eq. (10)'s l -> 0 limit "
                  "(Housner's equations) below K times the energy floor V_min ~ l^(2/3); "

@@ -52,5 +52,31 @@ TEST(CliSimulate, MotionEndingWhileRockingAndJson) {
   EXPECT_NE(bad.err.find("--complex-handoff"), std::string::npos) << bad.err;
 }
 
+// Oracle: the contract of --rtol (docs/commands.md): it reaches the model
+// (a looser tolerance takes fewer steps: figure 8's 12 s at 1e-6 against
+// the default 1e-10: 4062 against 7700 steps measured, asserted below
+// 0.7 of them), and a value outside (0, 1e-3] exits 2 naming it.
+TEST(CliSimulate, RtolReachesTheModelAndIsChecked) {
+  const std::string dir = ScratchDir("simulate_rtol");
+  const std::vector<std::string> common{"simulate", "--alpha", "0.168", "--p", "3.767", "--mu", "0.942",
+                                        "--excitation", "sine:amp=0.006,freq=5,duration=12,start=0",
+                                        "--duration", "12", "--rate", "100", "--json", "--out", dir + "/x.csv"};
+  long steps[2] = {};
+  int i = 0;
+  for (const char* rtol : {"1e-10", "1e-6"}) {
+    std::vector<std::string> args = common;
+    args.insert(args.end(), {"--rtol", rtol});
+    const CliResult r = RunCli(args);
+    ASSERT_EQ(r.exit_code, 0) << rtol << ": " << r.err;
+    steps[i++] = nlohmann::json::parse(r.out).at("steps").get<long>();
+  }
+  EXPECT_LT(steps[1], 0.7 * steps[0]) << steps[0] << " steps at 1e-10, " << steps[1] << " at 1e-6";
+  std::vector<std::string> args = common;
+  args.insert(args.end(), {"--rtol", "0"});
+  const CliResult bad = RunCli(args);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--rtol"), std::string::npos) << bad.err;
+}
+
 }  // namespace
 }  // namespace rocklab::test
