@@ -448,7 +448,7 @@ void RegisterAnalysis(py::module_& m) {
          const std::vector<double>& alpha, const std::vector<double>& p, const std::vector<double>& mu,
          const std::vector<double>& width, const std::vector<double>& height,
          const std::vector<std::string>& polygons, const std::string& model, std::optional<double> duration,
-         double rate, double l, unsigned threads, const py::object& progress) {
+         double rate, double l, std::optional<double> rtol, unsigned threads, const py::object& progress) {
         sweep::PlanOptions o;
         o.records = records;
         o.scale = scale;
@@ -463,11 +463,12 @@ void RegisterAnalysis(py::module_& m) {
         o.duration_s = duration;
         o.rate_hz = rate;
         o.l = l;
+        if (rtol) o.rtol = *rtol;
         return Sweep(o, threads, progress);
       },
       py::arg("records"), py::arg("scale"), py::arg("pga_g"), py::arg("alpha"), py::arg("p"), py::arg("mu"),
       py::arg("width"), py::arg("height"), py::arg("polygons"), py::arg("model"), py::arg("duration"),
-      py::arg("rate"), py::arg("l"), py::arg("threads"), py::arg("progress"));
+      py::arg("rate"), py::arg("l"), py::arg("rtol"), py::arg("threads"), py::arg("progress"));
   m.def("_fragility", &Fragility, py::arg("x"), py::arg("overturned"), py::arg("trials"));
   m.def("_sweep_fragilities", &SweepFragilities, py::arg("model"), py::arg("alpha"), py::arg("p"), py::arg("mu"),
         py::arg("pga_g"), py::arg("peak"), py::arg("overturned"));

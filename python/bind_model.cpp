@@ -178,6 +178,7 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
   o.rate_hz = rate_hz;
   o.l = l;
   o.complex_handoff = complex_handoff;
+  if (rtol) o.rtol = *rtol;  // else the model's default, as without --rtol
 
   std::unique_ptr<model::Forcing> sampled;
   std::string sampled_what;
@@ -219,17 +220,6 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
       s.forcing_description = o.excitations.empty() && o.accel_csv.empty()
                                   ? sampled_what
                                   : s.forcing_description + " + " + sampled_what;
-    }
-    if (rtol) {
-      // The CLI has no --rtol: the same model with the given tolerance.
-      model::ModelOptions mo = s.model->options();
-      mo.rtol = *rtol;
-      try {
-        mo.Validate();
-      } catch (const std::invalid_argument& e) {
-        throw std::invalid_argument(std::string("rtol: ") + e.what());
-      }
-      s.model = model::RockingModel::Create(s.model->kind(), s.model->params(), mo);
     }
     const auto rows = static_cast<std::size_t>(std::floor(o.duration_s * o.rate_hz + 1e-9)) + 1;
     out.t.reserve(rows);

@@ -172,7 +172,8 @@ def simulate(
         l: complex formulation momentum, > 0.
         complex_handoff: complex formulation, opt-in l -> 0 hand-off (see
             ``--complex-handoff``); 0: eq. (10) throughout.
-        rtol: CVODE relative tolerance (default: the model's, 1e-10).
+        rtol: CVODE relative tolerance, in (0, 1e-3] (``--rtol``; default
+            the model's, 1e-10).
         progress: None or callable(done_s, duration_s), called at most
             every 0.1 s.
 
@@ -568,6 +569,7 @@ def sweep(
     duration=None,
     rate=1000.0,
     l=DEFAULT_L,
+    rtol=None,
     threads=0,
     progress=None,
     csv_text=False,
@@ -587,6 +589,7 @@ def sweep(
         duration: simulated time per case, s (None: record end + 10 s).
         rate: rate at which peak theta is sampled, Hz.
         l: complex formulation momentum.
+        rtol: CVODE relative tolerance, in (0, 1e-3] (None: the model's 1e-10).
         threads: worker threads (0: all cores).
         progress: None or callable(cases_done, cases).
         csv_text: also return the CSV text (``rocklab sweep --out``'s bytes).
@@ -604,7 +607,8 @@ def sweep(
         [_os.fspath(r) for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
         str(scale), bool(pga_g), floats(alpha), floats(p), floats(mu), floats(width), floats(height),
         [_os.fspath(x) for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
-        str(model), None if duration is None else float(duration), float(rate), float(l), int(threads), progress,
+        str(model), None if duration is None else float(duration), float(rate), float(l),
+        None if rtol is None else float(rtol), int(threads), progress,
     )
     rows = _sweep_rows(text)
     return (rows, text) if csv_text else rows

@@ -123,6 +123,7 @@ def sweep(
     duration: Optional[float] = ...,
     rate: float = ...,
     l: float = ...,
+    rtol: Optional[float] = ...,
     threads: int = ...,
     progress: Progress = ...,
     csv_text: bool = ...,

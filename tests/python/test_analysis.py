@@ -147,10 +147,10 @@ def records(tmp_path_factory):
 def test_sweep_equals_cli_and_fragility_equals_sweep_plot(cli, records, tmp_path):
     out = tmp_path / "sweep.csv"
     cli.run("sweep", "--records", *records, "--model", "housner", "--scale", "0.2:0.8:7", "--pga-g",
-            "--alpha", 0.168, 0.2, "--p", 3.767, "--duration", 8, "--out", out, "--threads", 2)
+            "--alpha", 0.168, 0.2, "--p", 3.767, "--duration", 8, "--rtol", 1e-8, "--out", out, "--threads", 2)
     calls = []
     rows, text = rocklab.sweep(records, model="housner", scale="0.2:0.8:7", pga_g=True, alpha=[0.168, 0.2],
-                               p=3.767, duration=8, threads=2, csv_text=True,
+                               p=3.767, duration=8, rtol=1e-8, threads=2, csv_text=True,
                                progress=lambda done, total: calls.append((done, total)))
     assert text == out.read_text()  # the rows of `rocklab sweep`, byte for byte
     assert len(rows) == 2 * 2 * 7 and rows.dtype == rocklab.SWEEP_DTYPE

@@ -200,12 +200,18 @@ def test_simulate_progress_and_interrupt():
                          progress=stop)
 
 
-def test_simulate_rtol_is_used():
+def test_simulate_rtol_equals_cli(cli, tmp_path):
+    args = ["--alpha", FIG8["alpha"], "--p", FIG8["p"], "--mu", FIG8["mu"], "--excitation", FIG8_SINE,
+            "--duration", 5, "--rate", 200, "--rtol", 1e-6]
+    summary, rows, events = simulate_cli(cli, tmp_path, "rtol", args)
     loose = rocklab.simulate(**FIG8, excitation=FIG8_SINE, duration=5, rate=200, rtol=1e-6)
+    assert_same_run(loose, summary, rows, events)
     tight = rocklab.simulate(**FIG8, excitation=FIG8_SINE, duration=5, rate=200)
     assert loose.summary["steps"] < tight.summary["steps"]
-    with pytest.raises(ValueError, match="rtol"):
+    with pytest.raises(ValueError) as e:
         rocklab.simulate(**FIG8, duration=1, rate=10, rtol=-1)
+    assert str(e.value) == cli.error("simulate", "--alpha", 0.2, "--p", 1, "--mu", 0.5, "--duration", 1,
+                                     "--rate", 10, "--rtol", -1, "--out", tmp_path / "x.csv")
 
 
 def test_simulate_releases_the_gil():

@@ -133,9 +133,9 @@ def test_housner_figure8_matches_scipy_reference():
 
 def test_complex_converges_to_the_reference():
     # ERRATA item 4: eq. (10) tends to Housner's as l -> 0; at the default
-    # l (1e-10) the first six impacts agree with the reference to 2.2e-5 s
-    # (measured 24 Nov 2026; ERRATA: 3e-5 s for the first at l = 3e-4);
-    # bound 1e-4 s.
+    # l (1e-10) the first six impacts agree with the reference to 9.3e-6 s
+    # (measured 24 Nov 2026 with the matched crossings; 2.2e-5 s before
+    # them; ERRATA: 3e-5 s for the first at l = 3e-4); bound 1e-4 s.
     tu, side, segments, impacts = forced_case()
     r = rocklab.simulate("complex", **FIG8, excitation="sine:amp=0.006,freq=5,duration=20", duration=20,
                          rate=1000)
