@@ -63,6 +63,12 @@ set(CPACK_DEBIAN_PACKAGE_SECTION science)
 # and lcm-spy.
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "gnuplot-nox, liblcm-bin, liblcm-java, libjchart2d-java, default-jre-headless")
+# The Python module (python/, under /usr/lib/python3/dist-packages): built
+# for this Python minor version, with numpy.
+if(ROCKLAB_PYTHON)
+  string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS
+    ", python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}.99), python3-numpy")
+endif()
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS
   "liblcm-dev, libsundials-dev, libeigen3-dev, libspdlog-dev, libcli11-dev, libtomlplusplus-dev, nlohmann-json3-dev, libmicrohttpd-dev")
 include(CPack)

@@ -1,0 +1,477 @@
+// rocklab.reconstruct, fit, sweep and fragility: daq::Processor as `rocklab
+// reconstruct` drives it, model/fit.h as `rocklab fit`, sweep::RunCase and
+// FormatRow as `rocklab sweep` and sweep::FitFragilities as `sweep-plot`.
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <pybind11/stl.h>
+
+#include "daq/processor.h"
+#include "daq/source.h"
+#include "model/fit.h"
+#include "model/record.h"
+#include "pipeline/option_error.h"
+#include "pipeline/pipeline.h"
+#include "python/bindings.h"
+#include "sweep/fragility.h"
+#include "sweep/plot.h"
+#include "sweep/sweep.h"
+
+namespace rocklab::python {
+namespace {
+
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+std::vector<double> ToVector(const DoubleArray& a, const char* name) {
+  if (a.ndim() != 1) throw std::invalid_argument(std::string(name) + " must be a 1-D array");
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+// ---- reconstruct ----------------------------------------------------------
+
+// The block states as columns (the CSV of `rocklab reconstruct`, and more).
+// A sink must not throw: the progress hook's exception is kept, and the
+// read loop stops on it.
+class ColumnSink final : public daq::ProcessorSink {
+ public:
+  explicit ColumnSink(ProgressHook& hook) : hook_(hook) {}
+  void OnBlockState(const daq::BlockState& s) override {
+    for (std::size_t i = 0; i < kReal.size(); ++i) real[i].push_back(s.*kReal[i].field);
+    flags.push_back(s.flags);
+    leds_used.push_back(s.leds_used);
+    if (stopped) return;
+    try {
+      hook_.Update(s.time_s);
+    } catch (...) {
+      stopped = std::current_exception();
+    }
+  }
+  std::exception_ptr stopped;  // the hook's exception (KeyboardInterrupt, the callback's)
+  void OnEvent(const daq::DaqEvent& e) override { events.push_back(e); }
+  void OnProblem(const daq::Problem& p) override { problems.push_back(daq::ToString(p)); }
+
+  struct RealColumn {
+    const char* name;
+    const char* unit;
+    double daq::BlockState::*field;
+  };
+  static constexpr std::array<RealColumn, 12> kReal{{
+      {"time", "s", &daq::BlockState::time_s},
+      {"theta", "rad", &daq::BlockState::theta},
+      {"theta_dot", "rad/s", &daq::BlockState::theta_dot},
+      {"theta_mirror", "rad", &daq::BlockState::theta_mirror},
+      {"theta_camera", "rad", &daq::BlockState::theta_camera},
+      {"sliding", "m", &daq::BlockState::sliding},
+      {"twist", "rad", &daq::BlockState::twist},
+      {"out_of_plane", "m", &daq::BlockState::out_of_plane},
+      {"jump", "m", &daq::BlockState::jump},
+      {"tilt", "rad", &daq::BlockState::tilt},
+      {"table_displacement", "m", &daq::BlockState::table_displacement},
+      {"table_acceleration", "m/s^2", &daq::BlockState::table_acceleration},
+  }};
+  std::array<std::vector<double>, 12> real;
+  std::vector<std::int64_t> flags, leds_used;
+  std::vector<daq::DaqEvent> events;
+  std::vector<std::string> problems;
+
+ private:
+  ProgressHook& hook_;
+};
+
+py::tuple Reconstruct(const std::string& input, const std::string& rig_path, const py::object& progress) {
+  ProgressHook hook(progress, 0.0);
+  ColumnSink sink(hook);
+  daq::SourceStats src;
+  daq::SequenceCounts seq;
+  daq::ReconstructionCounts rec;
+  daq::ProcessorCounts counts;
+  std::string read_error;
+  {
+    py::gil_scoped_release release;
+    daq::RigConfig rig;
+    try {
+      rig = pipeline::LoadRig(rig_path);
+    } catch (const pipeline::OptionError& e) {
+      ThrowIfUnreadable(rig_path, e.what());
+      throw;
+    }
+    daq::SourceOptions options;  // as `rocklab reconstruct`
+    options.sample_rate_hz = rig.sample_rate_hz;
+    for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
+    options.on_problem = [&sink](const daq::Problem& p) { sink.problems.push_back(daq::ToString(p)); };
+    std::unique_ptr<daq::Source> source;
+    std::unique_ptr<daq::Processor> processor;
+    try {
+      source = daq::OpenSource(input, options);
+      processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);
+    } catch (const std::exception& e) {
+      ThrowIfUnreadable(input, std::string("--input: ") + e.what());
+      throw pipeline::OptionError(std::string("--input: ") + e.what());
+    }
+    daq::Frame frame;
+    daq::ReadStatus status{};
+    while (!sink.stopped && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
+    if (sink.stopped) std::rethrow_exception(sink.stopped);
+    processor->Finish();
+    if (status == daq::ReadStatus::kError) read_error = source->error();
+    src = source->stats();
+    seq = processor->sequence();
+    rec = processor->reconstruction();
+    counts = processor->counts();
+  }
+  py::dict columns;
+  for (std::size_t i = 0; i < ColumnSink::kReal.size(); ++i) {
+    columns[ColumnSink::kReal[i].name] = py::make_tuple(OwnedArray(std::move(sink.real[i])), ColumnSink::kReal[i].unit);
+  }
+  columns["flags"] = py::make_tuple(OwnedArray(std::move(sink.flags)), "");
+  columns["leds_used"] = py::make_tuple(OwnedArray(std::move(sink.leds_used)), "");
+  py::list events;
+  for (const daq::DaqEvent& e : sink.events) {
+    events.append(py::make_tuple(static_cast<double>(e.utime) * 1e-6, static_cast<int>(e.kind), e.value, e.detail));
+  }
+  py::dict summary;
+  summary["rows"] = src.rows;
+  summary["bad_rows"] = src.bad_rows;
+  summary["bad_values"] = src.bad_values;
+  summary["gaps"] = seq.gaps;
+  summary["missing"] = seq.missing;
+  summary["duplicates"] = seq.duplicates;
+  summary["out_of_order"] = seq.out_of_order;
+  summary["invalid_led_samples"] = rec.invalid_led_samples;
+  summary["reconstructed"] = counts.reconstructed;
+  summary["flagged"] = counts.flagged;
+  summary["damaged_regions"] = src.damaged_regions;
+  summary["damaged_bytes"] = src.damaged_bytes;
+  summary["damaged_events"] = src.damaged_events;
+  summary["read_error"] = read_error;
+  summary["problems"] = sink.problems;
+  return py::make_tuple(columns, events, summary);
+}
+
+// ---- fit ------------------------------------------------------------------
+
+py::object Optional(double v) { return std::isfinite(v) ? py::object(py::float_(v)) : py::none(); }
+py::object Optional(const std::optional<double>& v) {
+  return v && std::isfinite(*v) ? py::object(py::float_(*v)) : py::none();
+}
+
+// The keys of `rocklab fit --json` (tools/cmd_fit.cpp), from the same FitResult.
+py::dict FitDict(const std::string& input, const model::FitResult& r) {
+  py::list impacts;
+  for (const model::ImpactRow& row : r.impacts) {
+    py::dict d;
+    d["n"] = row.n;
+    d["time"] = Optional(row.time_s);
+    d["peak"] = Optional(row.peak_rad);
+    d["mu_n"] = Optional(row.mu_n);
+    d["tau"] = Optional(row.tau_s);
+    d["residual"] = Optional(row.residual_s);
+    d["residual_noise"] = Optional(row.noise_s);
+    impacts.append(d);
+  }
+  const bool by_impacts = r.method == model::FitMethod::kImpacts;
+  py::dict j;
+  j["input"] = input;
+  j["method"] = model::ToString(r.method);
+  j["quarter_time"] = by_impacts ? py::object(py::str(model::ToString(r.quarter_time))) : py::none();
+  j["alpha"] = r.params.alpha;
+  j["p"] = r.params.p;
+  j["mu"] = r.params.mu;
+  j["mu_spread"] = Optional(r.mu_spread);
+  j["alpha_stderr"] = Optional(r.alpha_stderr);
+  j["p_stderr"] = Optional(r.p_stderr);
+  j["mu_stderr"] = Optional(r.mu_stderr);
+  j["alpha_p_correlation"] = Optional(r.alpha_p_correlation);
+  j["rms_residual"] = r.rms_residual;
+  j["residuals"] = r.residuals;
+  j["iterations"] = r.iterations;
+  j["evaluations"] = r.evaluations;
+  j["runtime"] = r.runtime_s;
+  j["forced"] = r.forced;
+  j["noise"] = r.features.noise_rad;
+  j["dof"] = r.dof;
+  j["converged"] = r.converged;
+  j["residual_to_noise"] = Optional(r.residual_to_noise);
+  j["noise_residual"] = Optional(r.noise_residual);
+  j["stderr_withheld"] = r.stderr_withheld;
+  j["missing_samples"] = r.theta_gaps.missing_samples;
+  j["gaps"] = r.theta_gaps.gaps;
+  j["longest_gap"] = r.theta_gaps.longest_s;
+  j["missing_table_samples"] = r.table_gaps.missing_samples;
+  j["release_time"] = by_impacts ? Optional(r.features.release_time_s) : Optional(r.release_time_s);
+  j["impacts"] = impacts;
+  j["warnings"] = r.warnings;
+  if (r.theory) {
+    py::dict t;
+    t["alpha"] = r.theory->alpha;
+    t["p"] = r.theory->p;
+    t["mu"] = r.theory->mu;
+    j["theory"] = t;
+  } else {
+    j["theory"] = py::none();
+  }
+  if (r.band) {
+    py::dict b;
+    b["lo"] = r.band->lo;
+    b["hi"] = r.band->hi;
+    b["band_m"] = r.band->band_m;
+    j["alpha_band"] = b;
+  } else {
+    j["alpha_band"] = py::none();
+  }
+  return j;
+}
+
+py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::optional<DoubleArray> theta,
+             std::optional<DoubleArray> table_t, std::optional<DoubleArray> table_a, const std::string& accel_path,
+             std::optional<double> width_m, std::optional<double> height_m, double chamfer_m,
+             const std::string& method_name, const std::string& quarter_time, double alpha_band_m, int min_impacts,
+             const py::object& progress) {
+  // The checks of `rocklab fit`, in its order and words.
+  model::FitOptions fo;
+  try {
+    fo.quarter_time = model::ParseQuarterTime(quarter_time);
+  } catch (const std::invalid_argument&) {
+    throw pipeline::OptionError("--quarter-time must be exact or slender, got '" + quarter_time + "'");
+  }
+  model::FitMethod method{};
+  try {
+    method = model::ParseFitMethod(method_name);
+  } catch (const std::invalid_argument&) {
+    throw pipeline::OptionError("--method must be impacts or trajectory, got '" + method_name + "'");
+  }
+  pipeline::Require(alpha_band_m >= 0.0, "--alpha-band-m", ">= 0 m", alpha_band_m);
+  pipeline::Require(min_impacts >= 3, "--min-impacts", ">= 3", min_impacts);
+  fo.alpha_band_m = alpha_band_m;
+  fo.min_impacts = min_impacts;
+  if (width_m || height_m) {
+    const double w = width_m.value_or(0.0), h = height_m.value_or(0.0);
+    pipeline::Require(w > 0.0, "--width", "> 0 m", w);
+    pipeline::Require(h > 0.0, "--height", "> 0 m", h);
+    pipeline::Require(chamfer_m >= 0.0, "--chamfer", ">= 0 m", chamfer_m);
+    fo.geometry = model::FitGeometry{w, h, chamfer_m};
+    try {
+      (void)model::AdmissibleAlphaBand(*fo.geometry, fo.alpha_band_m);
+    } catch (const std::invalid_argument& e) {
+      throw pipeline::OptionError(std::string("geometry: ") + e.what());
+    }
+  }
+  model::RockingRecord record;
+  if (t) {
+    record.source = "<arrays>";
+    record.time_s = ToVector(*t, "t");
+    record.theta = ToVector(*theta, "theta");
+    if (record.time_s.size() != record.theta.size()) {
+      throw std::invalid_argument("t and theta must have the same length");
+    }
+    for (std::size_t i = 0; i < record.time_s.size(); ++i) record.line.push_back(static_cast<int64_t>(i) + 1);
+    if (table_t) {
+      record.table_time_s = ToVector(*table_t, "table t");
+      record.table_accel_mps2 = ToVector(*table_a, "table a");
+      if (record.table_time_s.size() != record.table_accel_mps2.size()) {
+        throw std::invalid_argument("table: t and a must have the same length");
+      }
+    }
+  }
+  ProgressHook hook(progress, static_cast<double>(fo.max_evaluations));
+  // The fit's progress comes on the fitting thread and must not throw: a
+  // Python exception is kept and raised after the fit.
+  std::exception_ptr stopped;
+  fo.on_progress = [&hook, &stopped](const model::FitProgress& p) {
+    if (stopped) return;
+    try {
+      hook.Update(p.evaluations);
+    } catch (...) {
+      stopped = std::current_exception();
+    }
+  };
+  model::FitResult result;
+  {
+    py::gil_scoped_release release;
+    try {
+      if (!t) {
+        try {
+          record = model::ReadRecord(input);
+        } catch (const model::RecordError& e) {
+          ThrowIfUnreadable(input, e.what());
+          throw;
+        }
+      } else {
+        model::CheckRecord(record);
+        record.theta_gaps = model::CountGaps(record.time_s, record.line);
+        if (record.has_table()) {
+          std::vector<int64_t> lines;
+          for (std::size_t i = 0; i < record.table_time_s.size(); ++i) lines.push_back(static_cast<int64_t>(i) + 1);
+          record.table_gaps = model::CountGaps(record.table_time_s, lines);
+        }
+      }
+      if (!accel_path.empty()) {
+        try {
+          model::AddTableCsv(accel_path, record);
+        } catch (const model::RecordError& e) {
+          ThrowIfUnreadable(accel_path, e.what());
+          throw;
+        }
+      }
+      result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
+                                                    : model::FitTrajectory(record, fo);
+    } catch (const model::RecordError& e) {
+      throw pipeline::OptionError(e.what());
+    } catch (const model::FitError& e) {
+      throw pipeline::OptionError(e.what());
+    }
+  }
+  if (stopped) std::rethrow_exception(stopped);
+  return FitDict(t ? std::string("<arrays>") : input, result);
+}
+
+// ---- sweep ----------------------------------------------------------------
+
+// The cases of a plan run on `threads` threads, rows formatted by
+// sweep::FormatRow (the CSV of `rocklab sweep`, byte for byte).
+std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py::object& progress) {
+  ProgressHook hook(progress, 0.0);
+  std::vector<std::string> rows;
+  {
+    py::gil_scoped_release release;
+    const sweep::Plan plan = sweep::MakePlan(options);
+    hook.set_total(static_cast<double>(plan.size()));
+    rows.resize(plan.size());
+    if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+    threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(plan.size(), 1)));
+    std::atomic<std::size_t> next{0}, done{0};
+    std::mutex error_mutex;
+    std::exception_ptr error;
+    // Workers take the next case; the first error (a failed case, or the
+    // progress callback's exception) stops every worker after its case.
+    auto run = [&](bool report) {
+      for (std::size_t i; (i = next.fetch_add(1)) < plan.size();) {
+        try {
+          rows[i] = sweep::FormatRow(plan, i, sweep::RunCase(plan, i));
+          const std::size_t n = ++done;
+          if (report) hook.Update(static_cast<double>(n));
+        } catch (...) {
+          const std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+          next = plan.size();
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(run, false);
+    run(true);  // this thread works too, and calls the progress hook
+    for (std::thread& th : pool) th.join();
+    if (error) std::rethrow_exception(error);
+    hook.Done(static_cast<double>(plan.size()));
+  }
+  std::string csv = sweep::Header() + "\n";
+  for (const std::string& row : rows) csv += row;
+  return csv;
+}
+
+// ---- fragility ------------------------------------------------------------
+
+py::dict FragilityDict(const sweep::FragilityFit& f) {
+  py::dict d;
+  d["status"] = sweep::ToString(f.status);
+  const bool fitted = f.status == sweep::FragilityFit::Status::kFitted;
+  const bool separated = f.status == sweep::FragilityFit::Status::kSeparated;
+  d["median"] = fitted ? py::object(py::float_(f.median)) : py::none();
+  d["beta"] = fitted ? py::object(py::float_(f.beta)) : py::none();
+  d["log_likelihood"] = fitted ? py::object(py::float_(f.log_likelihood)) : py::none();
+  d["safe_below"] = separated ? py::object(py::float_(f.safe_below)) : py::none();
+  d["overturned_above"] = separated ? py::object(py::float_(f.overturned_above)) : py::none();
+  d["iterations"] = f.iterations;
+  return d;
+}
+
+py::dict Fragility(const DoubleArray& x, const DoubleArray& overturned, const DoubleArray& trials) {
+  const std::vector<double> xs = ToVector(x, "x"), ks = ToVector(overturned, "overturned"),
+                            ns = ToVector(trials, "trials");
+  if (xs.size() != ks.size() || xs.size() != ns.size()) {
+    throw std::invalid_argument("x, overturned and trials must have the same length");
+  }
+  std::vector<sweep::FragilityPoint> points;
+  for (std::size_t i = 0; i < xs.size(); ++i) points.push_back({xs[i], ns[i], ks[i]});
+  return FragilityDict(sweep::FitLognormalFragility(points));
+}
+
+// The fragility of every block of a sweep's results, as `sweep-plot` fits
+// them (grouped by model and the block's alpha, p, mu as written).
+py::list SweepFragilities(const std::vector<std::string>& model, const std::vector<std::string>& alpha,
+                          const std::vector<std::string>& p, const std::vector<std::string>& mu,
+                          const DoubleArray& pga_g, const DoubleArray& peak, const std::vector<bool>& overturned) {
+  std::vector<sweep::ResultRow> rows(model.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    sweep::ResultRow& r = rows[i];
+    r.model = model[i];
+    r.alpha_text = alpha[i];
+    r.p_text = p[i];
+    r.mu_text = mu[i];
+    r.pga_g = pga_g.at(static_cast<py::ssize_t>(i));
+    r.peak_theta_over_alpha = peak.at(static_cast<py::ssize_t>(i));
+    r.overturned = overturned[i];
+  }
+  py::list out;
+  for (const sweep::BlockFragility& f : sweep::FitFragilities(rows)) {
+    py::dict d = FragilityDict(f.fit);
+    d["model"] = f.model;
+    d["alpha"] = f.alpha;
+    d["p"] = f.p;
+    d["mu"] = f.mu;
+    d["rows"] = f.rows;
+    d["overturned"] = f.overturned;
+    out.append(d);
+  }
+  return out;
+}
+
+}  // namespace
+
+void RegisterAnalysis(py::module_& m) {
+  m.def("_reconstruct", &Reconstruct, py::arg("input"), py::arg("rig"), py::arg("progress"));
+  m.def("_fit", &Fit, py::arg("input"), py::arg("t"), py::arg("theta"), py::arg("table_t"), py::arg("table_a"),
+        py::arg("accel"), py::arg("width"), py::arg("height"), py::arg("chamfer"), py::arg("method"),
+        py::arg("quarter_time"), py::arg("alpha_band"), py::arg("min_impacts"), py::arg("progress"));
+  m.def(
+      "_sweep",
+      [](const std::vector<std::string>& records, const std::string& scale, bool pga_g,
+         const std::vector<double>& alpha, const std::vector<double>& p, const std::vector<double>& mu,
+         const std::vector<double>& width, const std::vector<double>& height,
+         const std::vector<std::string>& polygons, const std::string& model, std::optional<double> duration,
+         double rate, double l, std::optional<double> rtol, unsigned threads, const py::object& progress) {
+        sweep::PlanOptions o;
+        o.records = records;
+        o.scale = scale;
+        o.pga_g = pga_g;
+        o.alpha = alpha;
+        o.p = p;
+        o.mu = mu;
+        o.width = width;
+        o.height = height;
+        o.polygons = polygons;
+        o.model = model;
+        o.duration_s = duration;
+        o.rate_hz = rate;
+        o.l = l;
+        if (rtol) o.rtol = *rtol;
+        return Sweep(o, threads, progress);
+      },
+      py::arg("records"), py::arg("scale"), py::arg("pga_g"), py::arg("alpha"), py::arg("p"), py::arg("mu"),
+      py::arg("width"), py::arg("height"), py::arg("polygons"), py::arg("model"), py::arg("duration"),
+      py::arg("rate"), py::arg("l"), py::arg("rtol"), py::arg("threads"), py::arg("progress"));
+  m.def("_fragility", &Fragility, py::arg("x"), py::arg("overturned"), py::arg("trials"));
+  m.def("_sweep_fragilities", &SweepFragilities, py::arg("model"), py::arg("alpha"), py::arg("p"), py::arg("mu"),
+        py::arg("pga_g"), py::arg("peak"), py::arg("overturned"));
+}
+
+}  // namespace rocklab::python

@@ -1,0 +1,647 @@
+"""rocklab: the rocking-block laboratory's data and models in Python.
+
+The same C++ core as the ``rocklab`` command line (docs/python.md):
+
+- ``block_params``: alpha, p and mu of a section (``rocklab params``);
+- ``simulate``: Housner's model or the complex formulation under a table
+  motion (``rocklab simulate``), numpy out;
+- ``read_log``, ``read_raw``, ``info``: recorded LCM logs and raw CSV/LVM
+  files into numpy structured arrays (``rocklab export``, ``rocklab info``);
+- ``reconstruct``: theta and the checks from a raw file (``rocklab
+  reconstruct``);
+- ``fit``: alpha, p and mu from a record (``rocklab fit``);
+- ``sweep``, ``fragility``: campaigns over records x blocks x scales and
+  their lognormal fragility (``rocklab sweep``, ``rocklab sweep-plot``);
+- the LCM message types of the lab (``rocklab.raw_frame_t`` etc., generated
+  by ``lcm-gen -p``) where the package was built with them.
+
+SI units throughout (m, s, rad, m/s^2). Every call releases the GIL while
+it works; long ones take ``progress=callable(done, total)`` and stop with
+KeyboardInterrupt on Ctrl-C. Bad arguments raise ValueError with the
+command line's message (naming the option, e.g. ``--alpha``), files that
+cannot be read raise OSError.
+"""
+
+import os as _os
+import warnings as _warnings
+
+import numpy as _np
+
+from . import _rocklab
+from ._lcm_types import *  # noqa: F401,F403  the LCM types (lcm-gen -p), rocklab.raw_frame_t etc.
+
+__all__ = [
+    "block_params",
+    "simulate",
+    "SimulationResult",
+    "read_log",
+    "read_raw",
+    "LogTables",
+    "info",
+    "reconstruct",
+    "Reconstruction",
+    "fit",
+    "FitResult",
+    "sweep",
+    "fragility",
+    "SWEEP_DTYPE",
+    "DEFAULT_L",
+    "GRAVITY",
+]
+
+from . import _lcm_types  # noqa: E402
+
+__all__ += sorted(n for n in vars(_lcm_types) if n.endswith("_t"))
+
+#: Default l of the complex formulation (normalised momentum of psi), 1.
+DEFAULT_L = _rocklab.DEFAULT_L
+#: Gravity used throughout, m/s^2.
+GRAVITY = _rocklab.GRAVITY
+
+#: dtype of SimulationResult.events.
+EVENT_DTYPE = _np.dtype(
+    [
+        ("time", _np.dtype("f8", metadata={"unit": "s"})),
+        ("kind", "U8"),
+        ("value", _np.dtype("f8", metadata={"unit": "m/s^2 | rad/s | rad"})),
+    ]
+)
+
+
+def block_params(width=None, height=None, chamfer=0.0, *, polygon=None):
+    """alpha, p and mu of a block from its geometry (``rocklab params --json``).
+
+    Either a rectangle ``width`` x ``height`` (2b x 2h, m) with an optional
+    45 degree ``chamfer`` leg on both base corners (m), or ``polygon``: the
+    path of a CSV of vertices (header ``x,z``, m) or an (N, 2) array of
+    vertices (x, z), m, in order, standing on its base.
+
+    Returns a dict with the keys of ``rocklab params --json``: ``alpha``
+    (rad), ``p`` (rad/s), ``mu`` (1; ``mu_general``), ``mu_housner``,
+    ``R`` (m), ``I_O_per_mass`` (m^2), ``area``, ``centroid``,
+    ``symmetric``, and per side ``plus_side`` / ``minus_side`` (alpha, R,
+    p, mu, I_O_per_mass, pivot) for asymmetric sections.
+
+    Raises ValueError for a bad geometry, OSError for an unreadable file.
+    """
+    if polygon is not None:
+        if width is not None or height is not None or chamfer != 0.0:
+            raise ValueError("give either --polygon or --width/--height/--chamfer, not both")
+        if isinstance(polygon, (str, _os.PathLike)):
+            return _rocklab._polygon_file_params(_os.fspath(polygon))
+        return _rocklab._polygon_array_params(_np.asarray(polygon, dtype=float))
+    if width is None and height is None:
+        raise ValueError("--width and --height are required (or --polygon FILE.csv)")
+    if width is None or height is None:
+        raise ValueError("--width and --height are both required")
+    return _rocklab._rectangle_params(float(width), float(height), float(chamfer))
+
+
+class SimulationResult:
+    """What ``simulate`` returns.
+
+    Attributes:
+        t: output times, s (k / rate, k = 0 .. floor(duration * rate)).
+        theta: rocking angle at t, rad (> 0 about the +x corner).
+        theta_dot: angular velocity at t, rad/s.
+        events: structured array (EVENT_DTYPE): ``time`` (s), ``kind``
+            ("uplift", "impact", "rest", "overturn") and ``value``: uplift:
+            the table acceleration, m/s^2; impact: theta_dot just before,
+            rad/s; rest: 0; overturn: theta, rad.
+        summary: the dict of ``rocklab simulate --json`` (uplift_time,
+            peak_abs_theta, peak_time, impacts, overturned, final_regime,
+            solver statistics, cpu_time, ...).
+    """
+
+    __slots__ = ("t", "theta", "theta_dot", "events", "summary")
+
+    def __init__(self, t, theta, theta_dot, events, summary):
+        self.t = t
+        self.theta = theta
+        self.theta_dot = theta_dot
+        self.events = events
+        self.summary = summary
+
+    def impacts(self):
+        """The events of kind "impact" (a view of ``events``)."""
+        return self.events[self.events["kind"] == "impact"]
+
+    def __repr__(self):
+        s = self.summary
+        return (
+            f"SimulationResult({s['model']}, {s['samples']} samples, "
+            f"{s['impacts']} impacts, peak |theta| {s['peak_abs_theta']:.5g} rad"
+            f"{', overturned' if s['overturned'] else ''})"
+        )
+
+
+def simulate(
+    model="housner",
+    alpha=None,
+    p=None,
+    mu=None,
+    *,
+    excitation=None,
+    accel=None,
+    theta0=0.0,
+    duration,
+    rate,
+    l=DEFAULT_L,
+    complex_handoff=0.0,
+    rtol=None,
+    progress=None,
+):
+    """Simulates a rocking block, as ``rocklab simulate``.
+
+    Args:
+        model: "housner" or "complex" (the paper's eq. (10)).
+        alpha: slenderness angle, rad, in (0, pi/2). A dict from
+            block_params may be given instead, for alpha, p and mu.
+        p: frequency parameter, rad/s, > 0.
+        mu: coefficient of restitution, in (0, 1].
+        excitation: a table motion spec ("sine:amp=0.006,freq=5,duration=20",
+            "hanning:amp=M,freq=HZ,duration=S,start=S") or a list of them
+            (summed), as ``--excitation``.
+        accel: a table-acceleration record: the path of a ``time,accel``
+            CSV (s, m/s^2) or a PEER .AT2 file (``--accel``), or a pair
+            ``(t, a)`` of arrays (s, m/s^2; linear between samples, zero
+            outside). Summed with ``excitation`` when both are given.
+        theta0: initial rocking angle, rad (0: at rest).
+        duration: simulated time, s, >= 0.
+        rate: output rate, Hz, > 0.
+        l: complex formulation momentum, > 0.
+        complex_handoff: complex formulation, opt-in l -> 0 hand-off (see
+            ``--complex-handoff``); 0: eq. (10) throughout.
+        rtol: CVODE relative tolerance, in (0, 1e-3] (``--rtol``; default
+            the model's, 1e-10).
+        progress: None or callable(done_s, duration_s), called at most
+            every 0.1 s.
+
+    Returns:
+        SimulationResult: t, theta, theta_dot (numpy arrays), events and
+        summary (the statistics of ``simulate --json``).
+
+    Raises:
+        ValueError: a bad value, with the command line's message
+            ("--alpha must be in (0, pi/2) rad, got 2").
+        OSError: an ``accel`` file that cannot be read.
+    """
+    if isinstance(alpha, dict):
+        block = alpha
+        alpha = block["alpha"]
+        p = block["p"] if p is None else p
+        mu = block["mu"] if mu is None else mu
+    for name, value in (("--alpha", alpha), ("--p", p), ("--mu", mu)):
+        if value is None:
+            raise ValueError(f"{name} is required")
+    if excitation is None:
+        excitations = []
+    elif isinstance(excitation, str):
+        excitations = [excitation]
+    else:
+        excitations = list(excitation)
+    accel_path, accel_t, accel_a = "", None, None
+    if isinstance(accel, (str, _os.PathLike)):
+        accel_path = _os.fspath(accel)
+    elif accel is not None:
+        try:
+            accel_t, accel_a = accel
+        except (TypeError, ValueError):
+            raise ValueError("accel must be a path or a pair (t, a) of 1-D arrays (s, m/s^2)") from None
+        accel_t = _np.asarray(accel_t, dtype=float)
+        accel_a = _np.asarray(accel_a, dtype=float)
+    r = _rocklab._simulate(
+        str(model), float(alpha), float(p), float(mu), excitations, accel_path, accel_t, accel_a,
+        float(theta0), float(duration), float(rate), float(l), float(complex_handoff),
+        None if rtol is None else float(rtol), progress,
+    )
+    ev = r["events"]
+    events = _np.empty(len(ev["time"]), dtype=EVENT_DTYPE)
+    events["time"] = ev["time"]
+    events["kind"] = ev["kind"]
+    events["value"] = ev["value"]
+    return SimulationResult(r["t"], r["theta"], r["theta_dot"], events, r["summary"])
+
+
+class LogTables(dict):
+    """What ``read_log`` and ``read_raw`` return: {table name: structured array}.
+
+    A log's tables are named by their channel (a channel that changed type
+    has a second table ``CHANNEL_<type>``); a raw file's table is ``data``.
+    Each array has one field per message field (``time`` first, s, the
+    sample clock; arrays as ``values_0`` .. ``values_{n-1}``); each field's
+    unit is in its dtype's metadata (``a.dtype.fields["theta"][0].metadata
+    ["unit"]``, or ``a.dtype.metadata["units"]``), as are the table's
+    ``channel`` and ``lcm_type`` (``a.dtype.metadata``).
+
+    Attribute ``summary``: the counts of ``rocklab export`` (rows,
+    outside_window, filtered, unknown_type, undecodable, damaged_regions,
+    damaged_bytes, damaged_events, bad_rows, bad_values, read_error) and
+    ``problems``, the lines it prints about the damage.
+    """
+
+    def __init__(self, tables, summary):
+        super().__init__(tables)
+        self.summary = summary
+
+
+def _warn_damage(path, summary, what):
+    # The damage line of every log-reading command (pipeline::ReportDamage).
+    if summary["damaged_regions"] > 0:
+        regions = summary["damaged_regions"]
+        _warnings.warn(
+            f"{what}: {path} is damaged: {regions} region{'s' if regions != 1 else ''} skipped "
+            f"({summary['damaged_bytes']} bytes, {summary['damaged_events']} events lost); "
+            "the rest was read",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    if summary["read_error"]:
+        _warnings.warn(f"{what}: {summary['read_error']}", RuntimeWarning, stacklevel=3)
+
+
+def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
+    """Reads a recorded LCM log (rocklab's or lcm-logger's) into numpy.
+
+    The tables of ``rocklab export``: one structured array per selected
+    channel, one row per message that decodes, one field per message field.
+
+    Args:
+        path: the log.
+        channels: regular expression (ECMAScript) matched against the whole
+            channel name, as ``--channels``.
+        start, end: window, s from the record's first sample (the
+            sample-clock utime of its first rocklab message); end None: to
+            the end.
+        progress: None or callable(rows_read, None), at most every 0.1 s.
+
+    Returns:
+        LogTables: {channel: structured array}, with ``.summary``.
+
+    A damaged log is read as the command line reads it: damaged regions are
+    skipped, counted in ``.summary`` and reported once as a RuntimeWarning.
+
+    Raises:
+        ValueError: a bad regex or window, or a file that is not an LCM log.
+        OSError: a file that cannot be opened.
+    """
+    path = _os.fspath(path)
+    tables, summary = _rocklab._read_log(
+        path, str(channels), float(start), -1.0 if end is None else float(end), progress
+    )
+    _warn_damage(path, summary, "rocklab.read_log")
+    return LogTables(tables, summary)
+
+
+def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
+    """Reads a raw DAQ file (CSV, LabVIEW .lvm) or a PEER .AT2 record into numpy.
+
+    CSV and LVM: the table ``data`` of ``rocklab export``: ``time`` (s)
+    then the channels by name, NaN where a value is missing; bad rows
+    skipped and counted as the DAQ's sources do.
+
+    .AT2 (by extension): the ground-motion record as ``simulate --accel``
+    and ``sweep --records`` read it: ``data`` with ``time`` (s, k DT) and
+    ``accel`` (m/s^2, the file's g times 9.81); a malformed file raises
+    ValueError naming its line. ``rig``, ``rate`` and the window do not
+    apply.
+
+    Args:
+        path: the .csv or .lvm file.
+        rig: a rig file (TOML) naming the channels' units, or None.
+        rate: sample rate for files without a time column or time base, Hz.
+        start, end: window, s from the first row's time; end None: to the end.
+        progress: None or callable(rows_read, None).
+
+    Returns:
+        LogTables: {"data": structured array}, with ``.summary`` (bad_rows,
+        bad_values, read_error, ...).
+    """
+    path = _os.fspath(path)
+    if path.lower().endswith(".at2"):
+        t, a, _ = _rocklab._read_acceleration(path)
+        dtype = _np.dtype(
+            [("time", _np.dtype("f8", metadata={"unit": "s"})), ("accel", _np.dtype("f8", metadata={"unit": "m/s^2"}))],
+            metadata={"source": path, "units": {"time": "s", "accel": "m/s^2"}},
+        )
+        data = _np.empty(len(t), dtype=dtype)
+        data["time"], data["accel"] = t, a
+        summary = dict(rows=len(t), outside_window=0, bad_rows=0, bad_values=0, read_error="", problems=[],
+                       format="at2")
+        return LogTables({"data": data}, summary)
+    tables, summary = _rocklab._read_raw(
+        path, "" if rig is None else _os.fspath(rig), float(rate), float(start),
+        -1.0 if end is None else float(end), progress,
+    )
+    _warn_damage(path, summary, "rocklab.read_raw")
+    return LogTables(tables, summary)
+
+
+def info(path, rig=None, *, rate=0.0):
+    """What a recorded LCM log or a raw CSV/LVM file holds: ``rocklab info --json``.
+
+    Args:
+        path: an LCM log, or a raw .csv / .lvm file.
+        rig: raw files: a rig file (TOML) naming the channels' units.
+        rate: raw files without a time column: sample rate, Hz.
+
+    Returns:
+        dict: the JSON of ``rocklab info --json`` (docs/export.md), e.g.
+        for a log ``channels`` (name, type, count, rate, sequence gaps),
+        ``damaged_regions``, the rig's RL_DAQ_CONFIG.
+    """
+    import json
+
+    return json.loads(
+        _rocklab._info_json(_os.fspath(path), "" if rig is None else _os.fspath(rig), float(rate))
+    )
+
+
+class Reconstruction:
+    """What ``reconstruct`` returns.
+
+    Attributes:
+        states: structured array, one row per reconstructed sample: ``time``
+            (s), ``theta``, ``theta_dot``, ``theta_mirror``, ``theta_camera``,
+            ``sliding`` (m), ``twist`` (rad), ``out_of_plane`` (m), ``jump``
+            (m), ``tilt`` (rad), ``table_displacement`` (m),
+            ``table_acceleration`` (m/s^2), ``flags`` (bitmask of the checks,
+            docs/acquisition.md), ``leds_used``; units in the dtype metadata.
+        events: structured array of the checks' events: ``time`` (s),
+            ``kind`` (event_t's constant), ``value``, ``detail``.
+        summary: counts as ``rocklab reconstruct`` prints them (rows,
+            bad_rows, bad_values, gaps, missing, duplicates, out_of_order,
+            invalid_led_samples, flagged, damage, read_error, problems).
+    """
+
+    __slots__ = ("states", "events", "summary")
+
+    def __init__(self, states, events, summary):
+        self.states = states
+        self.events = events
+        self.summary = summary
+
+    def __repr__(self):
+        return f"Reconstruction({len(self.states)} samples, {self.summary['flagged']} flagged)"
+
+
+def reconstruct(raw, rig, *, progress=None):
+    """Reconstructs theta and the checks from a raw file, as ``rocklab reconstruct``.
+
+    Args:
+        raw: the raw file: .csv, .lvm or an LCM log (RL_RAW).
+        rig: the rig configuration (TOML): channels, calibration, geometry.
+        progress: None or callable(sample_time_s, None).
+
+    Returns:
+        Reconstruction: ``states`` (theta, theta_dot, the mirror and camera
+        thetas, sliding, twist, flags, ...), ``events``, ``summary``.
+    """
+    raw, rig = _os.fspath(raw), _os.fspath(rig)
+    columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
+    names = list(columns)
+    dtype = _np.dtype(
+        [(n, _np.dtype(columns[n][0].dtype, metadata={"unit": columns[n][1]})) for n in names],
+        metadata={"source": raw, "units": {n: columns[n][1] for n in names}},
+    )
+    states = _np.empty(len(columns["time"][0]), dtype=dtype)
+    for n in names:
+        states[n] = columns[n][0]
+    ev = _np.array(
+        [tuple(e) for e in events],
+        dtype=[("time", "f8"), ("kind", "i1"), ("value", "f8"), ("detail", "U64")],
+    )
+    _warn_damage(raw, summary, "rocklab.reconstruct")
+    return Reconstruction(states, ev, summary)
+
+
+class FitResult(dict):
+    """What ``fit`` returns: the dict of ``rocklab fit --json``.
+
+    Keys: alpha (rad), p (rad/s), mu; their standard errors alpha_stderr,
+    p_stderr, mu_stderr (None when withheld); alpha_p_correlation;
+    rms_residual (s for impacts, rad for trajectory), noise (rad),
+    residual_to_noise, converged; impacts (per impact: n, time, peak, mu_n,
+    tau, residual); theory and alpha_band (from the geometry); warnings.
+    The same values are attributes: ``r.alpha``, ``r.warnings``.
+    """
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def fit(
+    t,
+    theta=None,
+    width=None,
+    height=None,
+    *,
+    chamfer=0.0,
+    method="impacts",
+    table=None,
+    quarter_time="exact",
+    alpha_band=0.01,
+    min_impacts=4,
+    progress=None,
+):
+    """Fits alpha, p and mu to a recorded test, as ``rocklab fit``.
+
+    Args:
+        t: sample times, s (with ``theta``); or the path of a record: a CSV
+            with a ``time,theta`` header or a rocklab LCM log (RL_THETA,
+            RL_TABLE), as ``--input``.
+        theta: rocking angle at t, rad (NaN: a lost sample).
+        width, height, chamfer: block geometry (2b, 2h, chamfer leg; m): the
+            theoretical row, the admissible alpha band, the trajectory
+            method's start.
+        method: "impacts" (the paper's, free rocking) or "trajectory" (the
+            whole record, free or forced).
+        table: the table acceleration of a forced record: a pair (t, a) of
+            arrays (s, m/s^2), or the path of a ``time,accel`` CSV.
+        quarter_time: impacts method: "exact" (corrected eq. 12) or
+            "slender" (eq. 13).
+        alpha_band: admissible error on b, m.
+        min_impacts: fewest impacts accepted (>= 3).
+        progress: trajectory method: None or callable(model_runs,
+            max_runs), after each iteration. An exception it raises comes
+            out of fit once the fit has ended.
+
+    Returns:
+        FitResult (a dict, keys of ``rocklab fit --json``).
+
+    Raises:
+        ValueError: bad options, or a record that cannot give an answer
+            (the CLI's message: never rocks, too few impacts, ...).
+        OSError: a file that cannot be read.
+    """
+    path, ts, th, table_t, table_a, accel = "", None, None, None, None, ""
+    if isinstance(t, (str, _os.PathLike)):
+        if theta is not None:
+            raise ValueError("give either a record path or the arrays t and theta")
+        path = _os.fspath(t)
+    else:
+        if theta is None:
+            raise ValueError("theta is required with the array t")
+        ts = _np.asarray(t, dtype=float)
+        th = _np.asarray(theta, dtype=float)
+    if isinstance(table, (str, _os.PathLike)):
+        accel = _os.fspath(table)
+    elif table is not None:
+        table_t, table_a = (_np.asarray(x, dtype=float) for x in table)
+    r = _rocklab._fit(
+        path, ts, th, table_t, table_a, accel,
+        None if width is None else float(width), None if height is None else float(height), float(chamfer),
+        str(method), str(quarter_time), float(alpha_band), int(min_impacts), progress,
+    )
+    return FitResult(r)
+
+
+#: dtype of sweep's results: the columns of ``rocklab sweep``'s CSV.
+SWEEP_DTYPE = _np.dtype(
+    [
+        ("record", "U256"),
+        ("scale", "f8"),
+        ("pga_g", "f8"),
+        ("alpha", "f8"),
+        ("p", "f8"),
+        ("mu", "f8"),
+        ("model", "U8"),
+        ("peak_theta_over_alpha", "f8"),
+        ("overturned", "?"),
+        ("overturn_time", "f8"),
+        ("impacts", "i8"),
+        ("uplift_time", "f8"),
+        ("peak_time", "f8"),
+        ("block", "U256"),
+        ("alpha_minus", "f8"),
+        ("p_minus", "f8"),
+        ("mu_minus", "f8"),
+    ],
+    metadata={
+        "units": {
+            "scale": "1", "pga_g": "g", "alpha": "rad", "p": "rad/s", "mu": "1", "peak_theta_over_alpha": "1",
+            "overturn_time": "s", "uplift_time": "s", "peak_time": "s", "alpha_minus": "rad", "p_minus": "rad/s",
+            "mu_minus": "1",
+        }
+    },
+)
+
+
+def _sweep_rows(text):
+    import csv
+    import io
+
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader)
+    assert header == list(SWEEP_DTYPE.names), header
+    rows = []
+    for r in reader:
+        values = []
+        for name, field in zip(SWEEP_DTYPE.names, r):
+            kind = SWEEP_DTYPE[name].kind
+            if kind == "f":
+                values.append(float(field) if field != "" else _np.nan)
+            elif kind == "i":
+                values.append(int(field))
+            elif kind == "b":
+                values.append(field == "1")
+            else:
+                values.append(field)
+        rows.append(tuple(values))
+    return _np.array(rows, dtype=SWEEP_DTYPE)
+
+
+def sweep(
+    records,
+    *,
+    model,
+    scale="1:1:1",
+    pga_g=False,
+    alpha=(),
+    p=(),
+    mu=(),
+    width=(),
+    height=(),
+    polygon=(),
+    duration=None,
+    rate=1000.0,
+    l=DEFAULT_L,
+    rtol=None,
+    threads=0,
+    progress=None,
+    csv_text=False,
+):
+    """Runs a rocking campaign, as ``rocklab sweep``: every (record, block, scale).
+
+    Args:
+        records: paths of ground-motion records (``time,accel`` CSV or PEER
+            .AT2), as ``--records``.
+        model: "housner" or "complex".
+        scale: "A:B:N", N values from A to B: factors on each record, or the
+            target PGA in g with ``pga_g=True``.
+        alpha, p, mu: blocks by their parameters (rad, rad/s, 1; mu empty:
+            Housner's 1 - 1.5 sin^2 alpha), as ``--alpha --p --mu``.
+        width, height: blocks as rectangles (2b, 2h; m); polygon: section
+            files (x,z CSV).
+        duration: simulated time per case, s (None: record end + 10 s).
+        rate: rate at which peak theta is sampled, Hz.
+        l: complex formulation momentum.
+        rtol: CVODE relative tolerance, in (0, 1e-3] (None: the model's 1e-10).
+        threads: worker threads (0: all cores).
+        progress: None or callable(cases_done, cases).
+        csv_text: also return the CSV text (``rocklab sweep --out``'s bytes).
+
+    Returns:
+        A structured array (SWEEP_DTYPE: the columns of sweep's CSV, in its
+        case order: record outermost, then block, then scale); with
+        ``csv_text``, (array, text).
+    """
+
+    def floats(v):
+        return [float(x) for x in _np.atleast_1d(v)] if v is not None else []
+
+    text = _rocklab._sweep(
+        [_os.fspath(r) for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
+        str(scale), bool(pga_g), floats(alpha), floats(p), floats(mu), floats(width), floats(height),
+        [_os.fspath(x) for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
+        str(model), None if duration is None else float(duration), float(rate), float(l),
+        None if rtol is None else float(rtol), int(threads), progress,
+    )
+    rows = _sweep_rows(text)
+    return (rows, text) if csv_text else rows
+
+
+def fragility(x, overturned=None, trials=None):
+    """Lognormal fragility, P(x) = Phi(ln(x / median) / beta), by maximum likelihood.
+
+    Two forms:
+
+    - ``fragility(x, overturned, trials=None)``: intensities x (e.g. PGA in
+      g, > 0) and the count overturned at each (or booleans), out of
+      ``trials`` (default 1 each): one fit (sweep::FitLognormalFragility).
+    - ``fragility(results)``: a result array of ``sweep``: one fit per block
+      (model, alpha, p, mu) against pga_g, as ``rocklab sweep-plot``.
+
+    Returns:
+        dict (or a list of them, one per block): ``status`` ("fitted",
+        "none", "all", "separated"), ``median`` and ``beta`` (fitted),
+        ``log_likelihood``, ``safe_below`` / ``overturned_above``
+        (separated: the bracket of the median), ``iterations``; per block
+        also model, alpha, p, mu, rows, overturned.
+    """
+    if overturned is None and isinstance(x, _np.ndarray) and x.dtype.names and "pga_g" in x.dtype.names:
+        r = x
+        text = [repr(float(v)) for v in r["alpha"]], [repr(float(v)) for v in r["p"]], [repr(float(v)) for v in r["mu"]]
+        return _rocklab._sweep_fragilities(
+            [str(m) for m in r["model"]], *text, _np.asarray(r["pga_g"], float),
+            _np.asarray(r["peak_theta_over_alpha"], float), [bool(o) for o in r["overturned"]],
+        )
+    if overturned is None:
+        raise ValueError("fragility(x, overturned[, trials]) or fragility(sweep_results)")
+    x = _np.asarray(x, dtype=float)
+    k = _np.asarray(overturned, dtype=float)
+    n = _np.ones_like(x) if trials is None else _np.asarray(trials, dtype=float)
+    return _rocklab._fragility(x, k, n)

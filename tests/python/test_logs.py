@@ -1,0 +1,189 @@
+"""rocklab.read_log, read_raw and info against `rocklab export` and `rocklab info`.
+
+Oracle: the command line of the same build on the same files: `export
+--out X.csv` prints every double with %.17g (round trip: the values must be
+equal exactly) and integers in full; `info --json` is compared key by key.
+The log is written by `rocklab run --max --log` from the bundled free
+rocking sample, and damaged here by overwriting bytes in its middle.
+"""
+
+import csv
+import os
+import re
+import warnings
+
+import numpy as np
+import pytest
+
+import rocklab
+
+
+@pytest.fixture(scope="module")
+def log_path(cli, source_dir, tmp_path_factory):
+    path = tmp_path_factory.mktemp("log") / "free.lcm"
+    cli.run("run", "--rig", os.path.join(source_dir, "data/rigs/lab_rig.toml"), "--input",
+            os.path.join(source_dir, "data/samples/free_rocking.csv"), "--max", "--log", path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def damaged_log(log_path, tmp_path_factory):
+    data = bytearray(log_path.read_bytes())
+    middle = len(data) // 2
+    data[middle:middle + 300] = b"\xff" * 300  # a region of garbage: a bad sync word, impossible lengths
+    path = tmp_path_factory.mktemp("damaged") / "damaged.lcm"
+    path.write_bytes(bytes(data))
+    return path
+
+
+def read_export_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def assert_table_equals_csv(array, path):
+    header, rows = read_export_csv(path)
+    assert list(array.dtype.names) == header
+    assert len(array) == len(rows)
+    for j, name in enumerate(header):
+        column = [r[j] for r in rows]
+        kind = array.dtype[name].kind
+        if kind == "f":
+            expected = np.array([float(x) if x != "" else np.nan for x in column])
+            np.testing.assert_array_equal(array[name], expected, err_msg=name)
+        elif kind == "i":
+            np.testing.assert_array_equal(array[name], np.array([int(x) for x in column]), err_msg=name)
+        else:
+            assert list(array[name]) == column, name
+
+
+@pytest.mark.parametrize(
+    "kwargs,args",
+    [
+        (dict(), []),
+        (dict(channels="RL_(THETA|EVENT|MODEL_.*)"), ["--channels", "RL_(THETA|EVENT|MODEL_.*)"]),
+        (dict(start=0.25, end=0.5), ["--start", 0.25, "--end", 0.5]),
+    ],
+)
+def test_read_log_equals_export(cli, log_path, tmp_path, kwargs, args):
+    out = tmp_path / "out.csv"
+    cli.run("export", log_path, "--out", out, "--quiet", *args)
+    files = {f.name[len("out_"):-len(".csv")]: f for f in tmp_path.iterdir() if f.name.startswith("out_")}
+    tables = rocklab.read_log(log_path, **kwargs)
+    assert set(tables) == set(files)
+    assert len(tables) >= 3
+    for name, path in files.items():
+        assert_table_equals_csv(tables[name], path)
+    assert tables.summary["damaged_regions"] == 0
+    assert tables.summary["rows"] == sum(len(a) for a in tables.values())
+
+
+def test_read_log_units_and_types(log_path):
+    tables = rocklab.read_log(log_path, "RL_THETA|RL_TABLE")
+    theta = tables["RL_THETA"]
+    assert theta.dtype.fields["theta"][0].metadata["unit"] == "rad"
+    assert theta.dtype.fields["time"][0].metadata["unit"] == "s"
+    assert theta.dtype.metadata["units"]["theta_dot"] == "rad/s"
+    assert theta.dtype.metadata["lcm_type"] == "rocklab.block_state_t"
+    assert theta.dtype.metadata["channel"] == "RL_THETA"
+    assert tables["RL_TABLE"].dtype.metadata["units"]["acceleration"] == "m/s^2"
+    # The sample clock: time = utime / 1e6 at 1 kHz (to the last bit of a double).
+    np.testing.assert_allclose(theta["time"], theta["utime"] / 1e6, rtol=4.5e-16, atol=0)
+    assert np.all(np.diff(theta["seq"]) == 1)
+
+
+def test_info_equals_cli(cli, log_path, source_dir):
+    assert rocklab.info(log_path) == cli.json("info", log_path, "--json")
+    raw = os.path.join(source_dir, "data/samples/slip.lvm")
+    rig = os.path.join(source_dir, "data/rigs/lab_rig.toml")
+    assert rocklab.info(raw, rig) == cli.json("info", raw, "--json", "--rig", rig)
+
+
+def test_damaged_log_is_read_and_counted_as_the_cli_does(cli, damaged_log, tmp_path):
+    out = tmp_path / "out.csv"
+    proc = cli.run("export", damaged_log, "--out", out, "--quiet", expect=1)
+    assert "is damaged" in proc.stderr
+    files = {f.name[len("out_"):-len(".csv")]: f for f in tmp_path.iterdir() if f.name.startswith("out_")}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tables = rocklab.read_log(damaged_log)
+    info = cli.json("info", damaged_log, "--json")
+    assert info["damaged_regions"] >= 1
+    for key in ("damaged_regions", "damaged_bytes", "damaged_events"):
+        assert tables.summary[key] == info[key], key
+    assert len(tables.summary["problems"]) >= 1
+    assert any(issubclass(w.category, RuntimeWarning) and "is damaged" in str(w.message) for w in caught)
+    assert set(tables) == set(files)
+    for name, path in files.items():
+        assert_table_equals_csv(tables[name], path)
+
+
+def test_read_raw_equals_export(cli, source_dir, tmp_path):
+    rig = os.path.join(source_dir, "data/rigs/lab_rig.toml")
+    for sample, args in (("slip.lvm", dict(rig=rig)), ("free_rocking.csv", dict(rate=1000, start=0.1, end=0.3))):
+        raw = os.path.join(source_dir, "data/samples", sample)
+        out = tmp_path / f"{sample}.csv"
+        cli_args = ["--rig", rig] if "rig" in args else ["--rate", 1000, "--start", 0.1, "--end", 0.3]
+        proc = cli.run("export", raw, "--out", out, "--quiet", *cli_args)
+        tables = rocklab.read_raw(raw, **args)
+        assert list(tables) == ["data"]
+        assert_table_equals_csv(tables["data"], out)
+        m = re.search(r"(\d+) rows written .* (\d+) outside the window, (\d+) bad rows skipped, (\d+) bad values",
+                      proc.stderr)
+        assert m, proc.stderr
+        s = tables.summary
+        assert (s["rows"], s["outside_window"], s["bad_rows"], s["bad_values"]) == tuple(map(int, m.groups()))
+    units = rocklab.read_raw(os.path.join(source_dir, "data/samples/slip.lvm"), rig)["data"].dtype.metadata["units"]
+    assert units["time"] == "s" and units["table_acc"] != ""
+
+
+def test_errors_are_the_clis(cli, log_path, tmp_path, source_dir):
+    with pytest.raises(ValueError) as e:
+        rocklab.read_log(log_path, "(")
+    assert str(e.value) == cli.error("export", log_path, "--out", tmp_path / "x.csv", "--channels", "(")
+    with pytest.raises(ValueError) as e:
+        rocklab.read_log(log_path, start=2, end=1)
+    assert str(e.value) == cli.error("export", log_path, "--out", tmp_path / "x.csv", "--start", 2, "--end", 1)
+    with pytest.raises(FileNotFoundError):
+        rocklab.read_log(tmp_path / "missing.lcm")
+    with pytest.raises(FileNotFoundError):
+        rocklab.info(tmp_path / "missing.lcm")
+    with pytest.raises(ValueError, match="not an LCM log"):
+        rocklab.read_log(os.path.join(source_dir, "data/samples/free_rocking.csv"))
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    with pytest.raises(OSError) as e:
+        rocklab.read_raw(empty)
+    assert str(e.value) == cli.error("export", empty, "--out", tmp_path / "y.csv")[len("INPUT: "):]
+
+
+def test_read_log_progress(log_path):
+    calls = []
+    tables = rocklab.read_log(log_path, progress=lambda done, total: calls.append((done, total)))
+    assert calls[-1] == (float(tables.summary["rows"]), None)
+
+
+def test_read_raw_at2(cli, tmp_path):
+    # Oracle: the PEER format by hand: NPTS values in g, sample k at k DT,
+    # converted with g = 9.81 (ERRATA item 1's g); and `simulate --accel`
+    # of the same file equal to simulate with these arrays.
+    at2 = tmp_path / "rec.AT2"
+    values_g = [0.01, -0.02, 0.3, 0.0, -0.005, 0.06, 0.07, -0.4, 0.25, 0.0]
+    at2.write_text("PEER NGA STRONG MOTION DATABASE RECORD\nSynthetic\nACCELERATION TIME SERIES IN UNITS OF G\n"
+                   f"NPTS= {len(values_g)}, DT= .0100 SEC\n"
+                   + "\n".join(" ".join(f"{v:.4E}" for v in values_g[i:i + 5]) for i in range(0, 10, 5)) + "\n")
+    data = rocklab.read_raw(at2)["data"]
+    np.testing.assert_allclose(data["time"], np.arange(10) * 0.01, rtol=1e-15, atol=1e-17)
+    np.testing.assert_allclose(data["accel"], np.array(values_g) * 9.81, rtol=1e-15, atol=0)
+    assert data.dtype.metadata["units"]["accel"] == "m/s^2"
+    a = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=at2, duration=0.2, rate=100)
+    b = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=(data["time"], data["accel"]), duration=0.2, rate=100)
+    np.testing.assert_array_equal(a.theta, b.theta)
+    assert a.summary["uplift_time"] is not None
+    bad = tmp_path / "bad.AT2"
+    bad.write_text(at2.read_text().replace("NPTS= 10", "NPTS= 12"))
+    with pytest.raises(ValueError) as e:
+        rocklab.read_raw(bad)
+    assert str(e.value) == cli.error("simulate", "--alpha", 0.05, "--p", 5, "--mu", 0.9, "--accel", bad,
+                                     "--duration", 1, "--rate", 10, "--out", tmp_path / "x.csv")[len("--accel: "):]
