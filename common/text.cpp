@@ -50,7 +50,7 @@ bool ParseNumber(std::string_view field, bool decimal_comma, double& out) {
   return ec == std::errc() && ptr == last;
 }
 
-bool IsUtf8(std::string_view text) {
+std::size_t Utf8ValidPrefix(std::string_view text) {
   std::size_t i = 0;
   const std::size_t n = text.size();
   while (i < n) {
@@ -71,22 +71,24 @@ bool IsUtf8(std::string_view text) {
       more = 3;
       cp = c & 0x07;
     } else {
-      return false;
+      return i;
     }
-    if (i + static_cast<std::size_t>(more) >= n) return false;
+    if (i + static_cast<std::size_t>(more) >= n) return i;
     for (int k = 1; k <= more; ++k) {
       const auto d = static_cast<unsigned char>(text[i + k]);
-      if ((d & 0xC0) != 0x80) return false;
+      if ((d & 0xC0) != 0x80) return i;
       cp = (cp << 6) | (d & 0x3F);
     }
     if ((more == 2 && cp < 0x800) || (more == 3 && (cp < 0x10000 || cp > 0x10FFFF)) ||
         (cp >= 0xD800 && cp <= 0xDFFF)) {
-      return false;
+      return i;
     }
     i += static_cast<std::size_t>(more) + 1;
   }
-  return true;
+  return n;
 }
+
+bool IsUtf8(std::string_view text) { return Utf8ValidPrefix(text) == text.size(); }
 
 std::string ToUtf8(std::string_view text) {
   if (IsUtf8(text)) return std::string(text);
@@ -148,13 +150,15 @@ bool HasExtension(std::string_view path, std::string_view extension) {
   return true;
 }
 
-std::string Quote(std::string_view text, std::size_t max_bytes) {
+namespace {
+
+// Appends `text` to `out`: printable ASCII as is, backslash (and with
+// `quote` the single quote) escaped, every other byte as \xNN.
+void AppendEscaped(std::string& out, std::string_view text, bool quote) {
   static const char kHex[] = "0123456789abcdef";
-  std::string out = "'";
-  const std::size_t n = text.size() < max_bytes ? text.size() : max_bytes;
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c == '\\' || c == '\'') {
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '\\' || (quote && c == '\'')) {
       out += '\\';
       out += static_cast<char>(c);
     } else if (c >= 0x20 && c < 0x7f) {
@@ -165,8 +169,22 @@ std::string Quote(std::string_view text, std::size_t max_bytes) {
       out += kHex[c & 0xf];
     }
   }
+}
+
+}  // namespace
+
+std::string Quote(std::string_view text, std::size_t max_bytes) {
+  std::string out = "'";
+  const std::size_t n = text.size() < max_bytes ? text.size() : max_bytes;
+  AppendEscaped(out, text.substr(0, n), true);
   out += '\'';
   if (n < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
+  return out;
+}
+
+std::string Escape(std::string_view text) {
+  std::string out;
+  AppendEscaped(out, text, false);
   return out;
 }
 

@@ -47,8 +47,16 @@ inline constexpr std::size_t kMaxQuotedBytes = 48;
 /// A message built with it is one line of plain ASCII whatever the input.
 std::string Quote(std::string_view text, std::size_t max_bytes = kMaxQuotedBytes);
 
+/// `text` escaped as Quote does, without the quotes and the bound: for a
+/// message a library wrote about input (it may echo the input's bytes).
+std::string Escape(std::string_view text);
+
 /// Whether `text` is well-formed UTF-8 (no overlong forms, no surrogates).
 bool IsUtf8(std::string_view text);
+
+/// Bytes of `text` before its first byte that is not well-formed UTF-8 (the
+/// start of an invalid or cut sequence); text.size() when it all is.
+std::size_t Utf8ValidPrefix(std::string_view text);
 
 /// `text` as UTF-8 when it is, else read as Windows-1252 (a superset of the
 /// printable Latin-1 that LabVIEW on Windows writes) and transcoded: 0xE3

@@ -61,6 +61,7 @@ struct DaqNode::Impl : ProcessorSink {
   Clock::time_point last_log{};
   int64_t suppressed_logs{0};
   int64_t health_in{0}, health_out{0};  // counts at the last health
+  bool ready_sent{false};               // READY=1 went to systemd
   Pacer pacer{0};
 
   // Messages published since the last frame was paced. The flush at the end
@@ -167,12 +168,27 @@ struct DaqNode::Impl : ProcessorSink {
     config_msg.mu = config.rig.block.mu.value_or(nan);
   }
 
+  // A live input waiting for its header (at the open, or after a restart):
+  // the source calls this every wait slice. Under systemd the node is ready
+  // once its input is open (listening, or the file open), and the heartbeat
+  // and the watchdog go on while nothing arrives.
+  void OnWaitingForHeader() {
+    if (!ready_sent) {
+      ready_sent = true;
+      common::NotifySystemd("READY=1");
+    }
+    if (last_health == Clock::time_point{} ||
+        Clock::now() - last_health >= std::chrono::duration<double>(config.health_period_s)) {
+      PublishHealth("waiting for header");
+    }
+  }
+
+  // RL_HEALTH. Before the source is open (waiting for its header) there are
+  // no counts yet, and no sample: utime is 0.
   void PublishHealth(const char* state) {
     common::NotifyWatchdog();  // the heartbeat is the watchdog's (a no-op outside systemd)
     const auto now = Clock::now();
-    const double dt = std::chrono::duration<double>(now - last_health).count();
-    const ProcessorCounts& counts = processor->counts();
-    const SourceStats& src = source->stats();
+    const double dt = last_health == Clock::time_point{} ? 0 : std::chrono::duration<double>(now - last_health).count();
     health_msg.utime = newest_utime;
     health_msg.node = "daq";
     health_msg.state = state;
@@ -180,14 +196,18 @@ struct DaqNode::Impl : ProcessorSink {
     health_msg.count_out = stats.published;
     health_msg.rate_in_hz = dt > 0 ? (stats.frames_read - health_in) / dt : 0;
     health_msg.rate_out_hz = dt > 0 ? (stats.published - health_out) / dt : 0;
-    stats.gaps = processor->sequence().gaps;
-    stats.missing = processor->sequence().missing;
-    stats.bad_samples = src.bad_rows + src.bad_values + counts.rejected;
-    stats.damaged_regions = src.damaged_regions;
-    stats.damaged_bytes = src.damaged_bytes;
-    stats.damaged_events = src.damaged_events;
-    stats.restarts = src.restarts;
-    stats.restart_lost = src.restart_lost;
+    if (processor && source) {
+      const ProcessorCounts& counts = processor->counts();
+      const SourceStats& src = source->stats();
+      stats.gaps = processor->sequence().gaps;
+      stats.missing = processor->sequence().missing;
+      stats.bad_samples = src.bad_rows + src.bad_values + counts.rejected;
+      stats.damaged_regions = src.damaged_regions;
+      stats.damaged_bytes = src.damaged_bytes;
+      stats.damaged_events = src.damaged_events;
+      stats.restarts = src.restarts;
+      stats.restart_lost = src.restart_lost;
+    }
     health_msg.dropped = stats.missing;  // samples lost before reaching the node
     health_msg.gaps = stats.gaps;
     health_msg.bad_samples = stats.bad_samples;
@@ -224,6 +244,7 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   options.idle_timeout_s = m.config.idle_timeout_s;
   options.stop = m.config.stop;
   options.lcm_url = m.config.lcm_url;
+  options.on_wait = [impl] { impl->OnWaitingForHeader(); };
   m.source = OpenSource(m.config.input, options);
   m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
                                             m.source->path(), m);
@@ -244,7 +265,10 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
   // sample clock (a message stamped 0 before an epoch-based clock would put
   // a log's first event decades before the rest).
   bool started = false;
-  common::NotifySystemd("READY=1");  // under systemd: the source is open, reading starts
+  if (!m.ready_sent) {  // under systemd: the source is open, reading starts
+    m.ready_sent = true;
+    common::NotifySystemd("READY=1");
+  }
   double next_config_s = std::numeric_limits<double>::quiet_NaN();
   Frame frame;
   while (true) {

@@ -16,7 +16,10 @@
 /// Processor pairs them), so no subscriber has to align them.
 /// Live inputs (tcp://, lcm://, --follow) are not paced: each frame goes out
 /// as it arrives; while none arrives Run wakes every 0.1 s for RL_HEALTH
-/// (and the systemd watchdog, common/sd_notify.h).
+/// (and the systemd watchdog, common/sd_notify.h). While a text input waits
+/// for its header (in the constructor, or after a restart) the source calls
+/// back every 0.1 s: READY=1 once (the input is open), then RL_HEALTH
+/// "waiting for header" (utime 0: no sample yet) and WATCHDOG=1.
 /// When paced (or live), a burst of more than 16 messages between two frames (the
 /// differentiators' flush at the end or after a long gap) is spread at 1 ms
 /// per 16 messages, below LCM's default subscriber queue of 30.

@@ -101,11 +101,11 @@ class BlockLineInput : public LineInput {
       } else if (got == Fill::kEnd) {
         return EndOfInput(line, too_long);
       } else if (got == Fill::kBreak) {
-        if (HasPending()) return TakePending(line, too_long);
+        if (HasPending()) return TakePending(line, too_long, LineStatus::kCut);
       } else if (got == Fill::kRestart) {
         if (HasPending()) {
           restart_next_ = true;
-          return TakePending(line, too_long);
+          return TakePending(line, too_long, LineStatus::kCut);
         }
         ++restarts_;
         return LineStatus::kRestart;
@@ -121,16 +121,17 @@ class BlockLineInput : public LineInput {
 
  private:
   bool HasPending() const { return !pending_.empty() || pending_too_long_; }
-  LineStatus TakePending(std::string_view& line, bool& too_long) {
+  LineStatus TakePending(std::string_view& line, bool& too_long, LineStatus status = LineStatus::kLine) {
     line = pending_;
     pending_taken_ = true;  // cleared at the next Read, when the view is dead
     too_long = pending_too_long_;
     pending_too_long_ = false;
-    return LineStatus::kLine;
+    return status;
   }
-  // A partial last line is delivered (the reader counts it if it is bad).
+  // A partial last line is delivered: a plain file's last line may lack its
+  // '\n'; a live input's was still being written (kCut, counted as bad).
   LineStatus EndOfInput(std::string_view& line, bool& too_long) {
-    if (HasPending()) return TakePending(line, too_long);
+    if (HasPending()) return TakePending(line, too_long, live_ ? LineStatus::kCut : LineStatus::kLine);
     return LineStatus::kEnd;
   }
 
@@ -224,8 +225,26 @@ class FollowFileInput final : public LiveLineInput {
 
  protected:
   Fill FillBuffer(char* buf, std::size_t cap, std::size_t& len) override {
+    if (restart_after_data_) {
+      restart_after_data_ = false;
+      return StartOver();
+    }
+    // Written again from its start (the acquisition program restarting its
+    // test with one truncating write): the file never looked shorter, but
+    // what was read is no longer there.
+    if (!SameBytes(offset_)) return StartOver();
+    const off_t at = offset_;
     const ssize_t n = ReadSome(buf, cap);
     if (n > 0) {
+      if (!SameBytes(at)) {
+        // Rewritten between the check and the read: the bytes read are the
+        // new file's if the file holds them there now (read again from its
+        // start), else they were the old file's last bytes (kept, then the
+        // new file from its start).
+        if (FileHolds(at, buf, static_cast<std::size_t>(n))) return StartOver();
+        restart_after_data_ = true;
+      }
+      Remember(at, buf, static_cast<std::size_t>(n));
       len = static_cast<std::size_t>(n);
       return Fill::kData;
     }
@@ -237,8 +256,10 @@ class FollowFileInput final : public LiveLineInput {
         // A writer finishes the old file before it moves the new one in,
         // but its last bytes may have landed after the read above: read
         // the old file to its end first, then switch.
+        const off_t last_at = offset_;
         const ssize_t last = ReadSome(buf, cap);
         if (last > 0) {
+          Remember(last_at, buf, static_cast<std::size_t>(last));
           len = static_cast<std::size_t>(last);
           return Fill::kData;
         }
@@ -246,14 +267,11 @@ class FollowFileInput final : public LiveLineInput {
         if (fd >= 0) {
           ::close(fd_);
           fd_ = fd;
-          offset_ = 0;
+          Forget();
           return Fill::kRestart;
         }
       } else if (ours.st_size < offset_) {
-        if (::lseek(fd_, 0, SEEK_SET) == 0) {
-          offset_ = 0;
-          return Fill::kRestart;
-        }
+        return StartOver();
       }
     }
     std::this_thread::sleep_for(kFollowPoll);
@@ -261,6 +279,12 @@ class FollowFileInput final : public LiveLineInput {
   }
 
  private:
+  // Bytes of the file kept to recognise it: its first kHeadBytes (a new
+  // test's header and first rows differ from the old one's) and the
+  // kTailBytes before the read position (what the next bytes continue).
+  static constexpr std::size_t kHeadBytes = 256;
+  static constexpr std::size_t kTailBytes = 64;
+
   ssize_t ReadSome(char* buf, std::size_t cap) {
     while (true) {
       const ssize_t n = ::read(fd_, buf, cap);
@@ -273,9 +297,63 @@ class FollowFileInput final : public LiveLineInput {
     }
   }
 
+  // Reads the file from its start again (kRestart).
+  Fill StartOver() {
+    if (::lseek(fd_, 0, SEEK_SET) != 0) throw std::runtime_error(std::strerror(errno));
+    Forget();
+    return Fill::kRestart;
+  }
+  void Forget() {
+    offset_ = 0;
+    head_.clear();
+    tail_.clear();
+  }
+
+  // Keeps the head and the tail after `n` bytes read at `at`.
+  void Remember(off_t at, const char* buf, std::size_t n) {
+    if (static_cast<std::size_t>(at) == head_.size() && head_.size() < kHeadBytes) {
+      head_.append(buf, std::min(n, kHeadBytes - head_.size()));
+    }
+    if (n >= kTailBytes) {
+      tail_.assign(buf + n - kTailBytes, kTailBytes);
+    } else {
+      tail_.append(buf, n);
+      if (tail_.size() > kTailBytes) tail_.erase(0, tail_.size() - kTailBytes);
+    }
+  }
+
+  // Whether the file is at least `upto` bytes long and still holds the head
+  // and the tail read before `upto`. A file that cannot be looked at counts
+  // as the same (the read reports its error).
+  bool SameBytes(off_t upto) {
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0) return true;
+    if (st.st_size < upto) return false;
+    return FileHolds(0, head_.data(), head_.size()) &&
+           FileHolds(upto - static_cast<off_t>(tail_.size()), tail_.data(), tail_.size());
+  }
+
+  // Whether the file holds `want` (n bytes) at `at`.
+  bool FileHolds(off_t at, const char* want, std::size_t n) {
+    if (n == 0) return true;
+    check_.resize(n);
+    std::size_t got = 0;
+    while (got < n) {
+      const ssize_t r = ::pread(fd_, check_.data() + got, n - got, at + static_cast<off_t>(got));
+      if (r < 0 && errno == EINTR) continue;
+      if (r <= 0) return false;
+      got += static_cast<std::size_t>(r);
+    }
+    return std::memcmp(check_.data(), want, n) == 0;
+  }
+
   std::string path_;
   int fd_{-1};
   off_t offset_{0};
+  std::string head_;  // the file's first bytes read, at most kHeadBytes
+  std::string tail_;  // the bytes read just before offset_, at most kTailBytes
+  std::vector<char> check_;
+  bool restart_after_data_{false};
 };
 
 class TcpLineInput final : public LiveLineInput {

@@ -23,6 +23,10 @@ enum class LineStatus {
   kEnd,      ///< no more lines (end of a plain file; stop; idle timeout)
   kIdle,     ///< nothing complete arrived within one wait slice (live inputs, may_idle only)
   kRestart,  ///< the input started over (file replaced or truncated, reconnected): a header comes next
+  /// Live inputs only: `line` holds the start of a line the input broke off
+  /// before its '\n' (a dropped connection, a replaced or rewritten file,
+  /// the stop or the idle timeout). Never a whole row: the reader counts it.
+  kCut,
 };
 
 /// How long a live input waits for data before returning kIdle, ms.
@@ -43,7 +47,9 @@ class LineInput {
   /// skipped); memory stays bounded by the block and `max_bytes`.
   /// With may_idle false a live input blocks until a line, the stop or the
   /// idle timeout; with may_idle true it returns kIdle after one slice.
-  /// A partial last line (no '\n') is delivered when the input ends.
+  /// A partial last line (no '\n') is delivered when the input ends: as
+  /// kLine by a plain file or stream, as kCut by a live input (whose last
+  /// line was still being written).
   /// @throws std::runtime_error with the cause of a read error (never taken
   ///         for the end of the input); the reader adds the file and line.
   virtual LineStatus Read(std::string_view& line, bool& too_long, std::size_t max_bytes, bool may_idle) = 0;
@@ -68,8 +74,11 @@ std::unique_ptr<LineInput> StreamLines(std::unique_ptr<std::istream> in);
 /// @throws std::runtime_error "PATH: cannot open the input file" when it cannot be opened.
 std::unique_ptr<LineInput> FileLines(const std::string& path);
 /// Lines of the file at `path`, followed as it grows: a partial last line
-/// waits for its '\n'; a file replaced at `path` (another inode) or
-/// truncated is read from its start after the old one's last byte (kRestart).
+/// waits for its '\n'; a file replaced at `path` (another inode), truncated
+/// (shorter than what was read) or written again from its start (its first
+/// bytes, or the bytes just before the read position, changed: a truncation
+/// and rewrite in one write never shows a shorter file) is read from its
+/// start after the old one's last byte (kRestart).
 /// @throws std::runtime_error when the file cannot be opened.
 std::unique_ptr<LineInput> FollowFile(const std::string& path, const LiveOptions& options);
 /// Lines from a TCP server at host:port; reconnects with a backoff of 0.1 s

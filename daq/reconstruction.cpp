@@ -6,6 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "common/text.h"
+
 namespace rocklab::daq {
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -85,13 +87,16 @@ Reconstructor::Reconstructor(const RigConfig& rig, const std::vector<std::string
   }
   if (!missing.empty()) {
     std::ostringstream msg;
-    msg << rig.path << ":" << missing[0]->line << ": channel '" << missing[0]->name << "' (sensor '"
-        << missing[0]->sensor << "') is not in " << source_path << " (its channels:";
-    for (const auto& name : source_channels) msg << " " << name;
+    // Names come from the rig file and from the input (a file's header, a
+    // tcp:// peer, a log's RL_DAQ_CONFIG): quoted, every byte escaped.
+    using common::Quote;
+    msg << rig.path << ":" << missing[0]->line << ": channel " << Quote(missing[0]->name) << " (sensor "
+        << Quote(missing[0]->sensor) << ") is not in " << source_path << " (its channels:";
+    for (const auto& name : source_channels) msg << " " << Quote(name);
     msg << ")";
     if (missing.size() > 1) {
       msg << "; also missing:";
-      for (size_t i = 1; i < missing.size(); ++i) msg << " " << missing[i]->name;
+      for (size_t i = 1; i < missing.size(); ++i) msg << " " << Quote(missing[i]->name);
     }
     throw std::runtime_error(msg.str());
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -15,7 +16,11 @@
 namespace rocklab::daq {
 namespace {
 
-constexpr double kMaxLengthM = 100.0;  // any length in the rig, m
+constexpr double kMaxLengthM = 100.0;  // any length or coordinate in the rig, m
+// The smallest size (width, height, lever, spacing, chamfer, polygon edge)
+// of a laboratory rig, m: below it a value is a typo or a unit slip, and a
+// degenerate block would fail far from the file (issue 23).
+constexpr double kMinSizeM = 1e-3;
 constexpr int kMaxLeds = 64;           // LEDs a rigid fit may require
 
 // Reads keys out of the parsed document, naming file, line and key in every
@@ -26,7 +31,7 @@ class Reader {
 
   [[noreturn]] void Fail(int line, const std::string& key, const std::string& what) const {
     std::ostringstream msg;
-    msg << path_ << ":" << line << ": key '" << key << "' " << what;
+    msg << path_ << ":" << line << ": key " << common::Quote(key) << " " << what;  // keys come from the file
     throw std::runtime_error(msg.str());
   }
 
@@ -202,12 +207,24 @@ int RigConfig::LagSamples(const DifferentiatorConfig& d) const {
 }
 
 RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
+  // TOML is UTF-8; toml++ is not trusted with anything else (its
+  // header-only build reaches an "unreachable" on some invalid sequences).
+  if (const std::size_t bad = common::Utf8ValidPrefix(text); bad < text.size()) {
+    const std::size_t line_start = bad == 0 ? std::string::npos : text.rfind('\n', bad - 1);
+    const std::size_t column = bad - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
+    const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(bad), '\n');
+    char byte[8];
+    std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(text[bad]));
+    std::ostringstream msg;
+    msg << path << ":" << line << ": the rig file is not valid UTF-8 (byte " << byte << " at column " << column << ")";
+    throw std::runtime_error(msg.str());
+  }
   toml::table root;
   try {
     root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     std::ostringstream msg;
-    msg << path << ":" << e.source().begin.line << ": " << e.description();
+    msg << path << ":" << e.source().begin.line << ": " << common::Escape(e.description());  // may echo input
     throw std::runtime_error(msg.str());
   }
   Reader r(path);
@@ -221,16 +238,16 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   // [block]
   {
     const toml::table& t = *r.Table(root, "", "block", true);
-    rig.block.width_m = r.Double(t, "block", "width_m", std::nullopt);
-    rig.block.height_m = r.Double(t, "block", "height_m", std::nullopt);
+    rig.block.width_m = r.Bounded(t, "block", "width_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+    rig.block.height_m = r.Bounded(t, "block", "height_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
     rig.block.chamfer_m = r.Double(t, "block", "chamfer_m", 0.0);
-    r.Check(rig.block.width_m > 0 && rig.block.width_m <= kMaxLengthM, t, "block", "width_m",
-            "must be in (0, 100] m");
-    r.Check(rig.block.height_m > 0 && rig.block.height_m <= kMaxLengthM, t, "block", "height_m",
-            "must be in (0, 100] m");
-    r.Check(rig.block.chamfer_m >= 0 && rig.block.chamfer_m < 0.5 * rig.block.width_m &&
-                rig.block.chamfer_m < 0.5 * rig.block.height_m,
-            t, "block", "chamfer_m", "must be in [0, min(width, height) / 2)");
+    {
+      const double c = rig.block.chamfer_m;
+      const double half = 0.5 * std::min(rig.block.width_m, rig.block.height_m);
+      std::ostringstream msg;
+      msg << "must be 0 or in [" << kMinSizeM << ", " << half << ") m (min(width, height) / 2), got " << c;
+      r.Check(c == 0 || (c >= kMinSizeM && c < half), t, "block", "chamfer_m", msg.str());
+    }
     rig.block.alpha = r.OptionalDouble(t, "block", "alpha");
     rig.block.p = r.OptionalDouble(t, "block", "p");
     rig.block.mu = r.OptionalDouble(t, "block", "mu");
@@ -248,13 +265,26 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
         const toml::array* xz = vertex.as_array();
         const auto x = xz != nullptr && xz->size() == 2 ? xz->get(0)->value<double>() : std::nullopt;
         const auto z = xz != nullptr && xz->size() == 2 ? xz->get(1)->value<double>() : std::nullopt;
-        if (!x || !z || !std::isfinite(*x) || !std::isfinite(*z)) {
+        if (!x || !z || !(std::abs(*x) <= kMaxLengthM) || !(std::abs(*z) <= kMaxLengthM)) {
           r.Fail(Reader::LineOf(vertex), "block.polygon",
-                 "vertex " + std::to_string(i) + " must be a pair of finite numbers [x, z] (m)");
+                 "vertex " + std::to_string(i) + " must be a pair of finite numbers [x, z] within [-100, 100] m");
         }
         rig.block.polygon_m.push_back({*x, *z});
       }
       r.Check(rig.block.polygon_m.size() >= 3, t, "block", "polygon", "must list at least 3 [x, z] vertices");
+      // Each edge, the closing one too, is a length of the rig (a repeated
+      // vertex is an edge of 0 m).
+      const auto& v = rig.block.polygon_m;
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const std::size_t j = (i + 1) % v.size();
+        const double edge = std::hypot(v[j][0] - v[i][0], v[j][1] - v[i][1]);
+        if (!(edge >= kMinSizeM && edge <= kMaxLengthM)) {
+          std::ostringstream msg;
+          msg << "edge from vertex " << i << " to vertex " << j << " is " << edge << " m long: each edge must be in ["
+              << kMinSizeM << ", " << kMaxLengthM << "] m";
+          r.Fail(rig.block.polygon_line, "block.polygon", msg.str());
+        }
+      }
       r.Check(rig.block.chamfer_m == 0.0, t, "block", "chamfer_m",
               "must be 0 with block.polygon (the polygon gives the section)");
     }
@@ -266,9 +296,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
 
   if (const toml::table* t = r.Table(root, "", "mirror", false)) {
     rig.mirror.present = true;
-    rig.mirror.lever_m = r.Double(*t, "mirror", "lever_m", std::nullopt);
-    r.Check(rig.mirror.lever_m > 0 && rig.mirror.lever_m <= kMaxLengthM, *t, "mirror", "lever_m",
-            "must be in (0, 100] m");
+    rig.mirror.lever_m = r.Bounded(*t, "mirror", "lever_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
     rig.mirror.rest_s_m = r.Bounded(*t, "mirror", "rest_s_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
     rig.mirror.rest_n_m = r.Bounded(*t, "mirror", "rest_n_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
     r.RejectUnknown(*t, "mirror");
@@ -296,7 +324,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
         led.z_m = r.Bounded(*lt, "camera.led", "z_m", std::nullopt, -kMaxLengthM, kMaxLengthM, " m");
         const std::string role = cam.name + "." + led.name;
         r.Check(roles.count(role + ".x") == 0, *lt, "camera.led", "name",
-                "repeats LED '" + role + "'");
+                "repeats LED " + common::Quote(role));
         roles.insert({role + ".x", role + ".z"});
         r.RejectUnknown(*lt, "camera.led");
         cam.leds.push_back(led);
@@ -308,9 +336,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
 
   if (const toml::table* t = r.Table(root, "", "out_of_plane", false)) {
     rig.out_of_plane.present = true;
-    rig.out_of_plane.spacing_m = r.Double(*t, "out_of_plane", "spacing_m", std::nullopt);
-    r.Check(rig.out_of_plane.spacing_m > 0 && rig.out_of_plane.spacing_m <= kMaxLengthM, *t, "out_of_plane",
-            "spacing_m", "must be in (0, 100] m");
+    rig.out_of_plane.spacing_m =
+        r.Bounded(*t, "out_of_plane", "spacing_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
     r.RejectUnknown(*t, "out_of_plane");
     roles.insert({"oop.a", "oop.b"});
   }
@@ -384,7 +411,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     if (role == "oop.b") twin = "oop.a";
     if (!twin.empty() && used_roles.count(twin) == 0) {
       r.Fail(rig.FindSensor(role)->line, "channel.sensor",
-             "maps '" + role + "' but no channel maps '" + twin + "'");
+             "maps " + common::Quote(role) + " but no channel maps " + common::Quote(twin));
     }
   }
   r.Check(!rig.mirror.present || used_roles.count("mirror.s") == 1, root, "", "mirror",

@@ -118,6 +118,11 @@ struct SourceOptions {
   /// Live sources end once *stop is true (also while waiting for a header).
   /// Non-owning, may be null; must outlive the source.
   const std::atomic<bool>* stop{};
+  /// Live text sources (tcp://, tcp-listen://, --follow): called every wait
+  /// slice (0.1 s) while they wait for a header, at the open and after a
+  /// restart, on the reading thread (the DAQ node's heartbeat). May be
+  /// empty; must not throw.
+  std::function<void()> on_wait;
   /// lcm:// sources: the LCM URL to subscribe on (empty: LCM's default).
   std::string lcm_url;
 };
@@ -147,9 +152,12 @@ std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const st
 /// With `listen` (tcp-listen://HOST:PORT) the DAQ listens and the
 /// acquisition PC connects (LabVIEW's TCP Open Connection); the same
 /// reconnection rules hold.
+/// A row broken off by a dropped connection (or left unfinished at the
+/// stop or the idle timeout) is no sample: counted as a bad row, reported.
 /// @throws std::invalid_argument on a malformed address; std::runtime_error
-///         when no header arrived before the stop or the idle timeout, or
-///         when it cannot listen.
+///         when no header arrived before the stop or the idle timeout (an
+///         "incomplete header" when only part of one did), or when it
+///         cannot listen.
 std::unique_ptr<Source> OpenTcpSource(const std::string& host_port, const SourceOptions& options,
                                       bool listen = false);
 /// raw_frame_t messages from another program on `channel` of options.lcm_url;

@@ -96,7 +96,7 @@ void SplitRow(std::string_view line, char sep, std::vector<std::string_view>& fi
 class TextSource : public Source {
  public:
   TextSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
-      : path_(path), input_(std::move(input)), on_problem_(options.on_problem) {}
+      : path_(path), input_(std::move(input)), on_problem_(options.on_problem), on_wait_(options.on_wait) {}
   bool live() const override { return input_->live(); }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
@@ -146,15 +146,20 @@ class TextSource : public Source {
 
   // Reads the next line into line_ (without its '\n'); false at the end of
   // the input. A line longer than kMaxLineBytes is cut there (line_too_long_
-  // says so) and the rest of it skipped. A read error is never the end of the
-  // file: it throws, naming the file and the last line read. A live input
-  // waits here (headers are read whole). When the input started over, the
-  // line is the first of the new stream and restarted_ is set.
+  // says so) and the rest of it skipped. A live input's line broken off
+  // before its '\n' sets line_cut_ (never a whole row). A read error is
+  // never the end of the file: it throws, naming the file and the last line
+  // read. A live input waits here (headers are read whole), calling
+  // on_wait_ every wait slice. When the input started over, the line is the
+  // first of the new stream and restarted_ is set.
   bool ReadLine(bool may_idle = false) {
+    line_cut_ = false;
+    // Waiting in slices lets on_wait_ run (the node's heartbeat).
+    const bool in_slices = may_idle || (on_wait_ && input_->live());
     while (true) {
       detail::LineStatus got;
       try {
-        got = input_->Read(line_, line_too_long_, kMaxLineBytes, may_idle);
+        got = input_->Read(line_, line_too_long_, kMaxLineBytes, in_slices);
       } catch (const std::exception& e) {
         std::ostringstream msg;
         msg << path_ << ": read error after line " << line_no_ << " (" << e.what()
@@ -162,7 +167,12 @@ class TextSource : public Source {
         throw std::runtime_error(msg.str());
       }
       if (got == detail::LineStatus::kEnd) return false;
-      if (got == detail::LineStatus::kIdle) throw Idle{};
+      if (got == detail::LineStatus::kIdle) {
+        if (may_idle) throw Idle{};
+        on_wait_();
+        continue;
+      }
+      line_cut_ = got == detail::LineStatus::kCut;
       if (got == detail::LineStatus::kRestart) {
         ++stats_.restarts;
         restarted_ = true;
@@ -213,6 +223,25 @@ class TextSource : public Source {
         << "last one; samples lost while it was away cannot be counted";
     ++stats_.warnings;
     Report(msg.str());
+  }
+
+  // A row a live input broke off before its line end (a dropped
+  // connection, a replaced file, the stop or the idle timeout): its last
+  // field may be cut short, so it is no sample. Reported, counted as bad.
+  bool SkipCutRow() {
+    if (!line_cut_ || Trim(line_).empty()) return false;  // a blank one is skipped as any blank line
+    ++stats_.rows;
+    ++stats_.bad_rows;
+    Report("row cut before its line end (the input broke off or ended): " + Quote(line_) + " (row skipped)");
+    return true;
+  }
+
+  // A header line a live input broke off before its line end: the read
+  // cannot go on with a header cut short (its last name would be wrong).
+  void FailIfHeaderCut() const {
+    if (!line_cut_) return;
+    Fail("incomplete header: " + std::to_string(line_.size()) + " bytes of a header line (" + Quote(line_) +
+         ") without its line end when the input " + (live() ? "broke off or ended" : "ended"));
   }
 
   // A line cut by ReadLine: reported, counted as a bad row.
@@ -341,8 +370,10 @@ class TextSource : public Source {
   std::string path_;
   std::unique_ptr<detail::LineInput> input_;
   ProblemCallback on_problem_;
+  std::function<void()> on_wait_;  // may be empty
   std::string_view line_;  // the current line, in the input's buffer: valid until the next ReadLine
   bool line_too_long_{false};
+  bool line_cut_{false};  // line_ was broken off before its '\n' (live inputs)
   int64_t frames_{0};  // rows delivered
   std::vector<std::string_view> fields_;
   int64_t line_no_{0};
@@ -380,10 +411,24 @@ class CsvSource final : public TextSource {
         options.delimiter != '\t') {
       throw std::invalid_argument("CSV source: the delimiter must be ',', ';' or tab");
     }
-    // Header: the first non-blank line.
+    // Header: the first non-blank line. One broken off by a dropped
+    // connection is skipped (the reconnection sends it again); one the
+    // input ended on is an incomplete header.
     bool got = false;
+    std::string cut;  // the last header line broken off, quoted
     while ((got = ReadLine())) {
+      if (line_cut_) {
+        if (Trim(line_).empty()) continue;
+        cut = Quote(line_);
+        ++stats_.warnings;
+        Report("header line " + cut + " broken off before its line end (skipped)");
+        continue;
+      }
       if (!Trim(line_).empty()) break;
+    }
+    if (!got && !cut.empty()) {
+      Fail("incomplete header: the input ended (stopped, or idle timeout) after a header line broken off "
+           "before its line end: " + cut);
     }
     if (!got && live()) Fail("no header line arrived (stopped, or idle timeout)");
     if (line_too_long_) Fail("header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
@@ -404,7 +449,7 @@ class CsvSource final : public TextSource {
         if (!HeaderAgain()) continue;
         continue;
       }
-      if (SkipLongRow()) {
+      if (SkipCutRow() || SkipLongRow()) {
         ++row_;
         continue;
       }
@@ -446,6 +491,12 @@ class CsvSource final : public TextSource {
     while (Trim(line_).empty()) {
       if (!ReadLine()) return false;
     }
+    if (line_cut_) {
+      // Broken off again: the next restart brings the header once more.
+      ++stats_.warnings;
+      Report("header line " + Quote(line_) + " after the restart broken off before its line end (skipped)");
+      return false;
+    }
     std::vector<std::string> names;
     std::vector<size_t> cols;
     int time_col = -1;
@@ -474,6 +525,7 @@ class LvmSource final : public TextSource {
   LvmSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
       : TextSource(std::move(input), path, options) {
     if (!ReadLine()) Fail(live() ? "no header arrived (stopped, or idle timeout)" : "empty file: expected 'LabVIEW Measurement'");
+    FailIfHeaderCut();
     ReadFileHeader();
     // The first segment defines the channels.
     if (!ReadSegmentHeader()) Fail("no segment: the file ends after its header");
@@ -495,7 +547,7 @@ class LvmSource final : public TextSource {
         rebase_pending_ = true;
         continue;
       }
-      if (SkipLongRow()) {
+      if (SkipCutRow() || SkipLongRow()) {
         if (!skip_segment_) ++segment_rows_;
         continue;
       }
@@ -533,6 +585,7 @@ class LvmSource final : public TextSource {
     char sep = '\t';
     XColumns x_columns = XColumns::kOne;
     while (ReadLine()) {
+      FailIfHeaderCut();
       Split(line_, '\t', fields_);
       const std::string_view key = Trim(fields_[0]);
       if (key == "***End_of_Header***") {
@@ -603,6 +656,8 @@ class LvmSource final : public TextSource {
       if (pending_header_line_) {
         pending_header_line_ = false;
         ++line_no_;
+      } else {
+        FailIfHeaderCut();
       }
       Split(line_, '\t', fields_);
       const std::string_view key = Trim(fields_[0]);
@@ -650,6 +705,7 @@ class LvmSource final : public TextSource {
     x0_s_ = x0.value_or(0.0);
     // Column header row.
     if (!ReadLine()) Fail("segment has no column header row");
+    FailIfHeaderCut();
     if (line_too_long_) Fail("column header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
     Split(line_, sep_, fields_);
     size_t n = fields_.size();

@@ -13,8 +13,9 @@
 // queue, so the log is in this thread's order of receipt; the
 // recorder's writer thread writes the file. Every second this thread warns
 // (once) when events were dropped. On SIGINT/SIGTERM (the handlers only set
-// the stop flag): dispatch what LCM already holds, Stop (the writer writes
-// what is queued, flushes, closes), print the summary, write --summary.
+// the stop flag): dispatch what LCM already holds for at most 0.3 s (data
+// that keeps flowing does not hold the stop), Stop (the writer writes what
+// is queued, flushes, closes), print the summary, write --summary.
 #include <poll.h>
 
 #include <algorithm>
@@ -28,6 +29,7 @@
 
 #include "common/bus_urls.h"
 #include "common/node_support.h"
+#include "common/text.h"
 #include "record/recorder.h"
 #include "tools/cli.h"
 
@@ -41,6 +43,11 @@ struct RecordCommand {
   std::string summary_json;
   double queue_mb{64};
 };
+
+// After SIGINT/SIGTERM, how long what is already in the sockets is still
+// taken, s: the socket buffers (4-16 MiB) hold about 1 s of a 5x replay,
+// but the stop must end the recording within a second, writing included.
+constexpr double kDrainAfterStopS = 0.3;
 
 long long RmemMax() {
   std::ifstream in("/proc/sys/net/core/rmem_max");
@@ -94,7 +101,11 @@ void PrintSummary(const record::RecorderStats& s) {
                s.files.size() == 1 ? "" : "s");
   std::fprintf(stderr, "  %-28s %10s %8s %8s %8s\n", "channel", "count", "dropped", "seq_gaps", "missing");
   for (const auto& c : s.channels) {
-    std::fprintf(stderr, "  %-28s %10lld %8lld %8s %8s\n", c.name.c_str(), static_cast<long long>(c.count),
+    // Channel names come from whoever publishes on the bus: escaped when
+    // they hold anything but printable ASCII.
+    const bool plain = std::all_of(c.name.begin(), c.name.end(), [](char ch) { return ch >= 0x20 && ch < 0x7f; });
+    const std::string name = plain ? c.name : common::Quote(c.name, 64);
+    std::fprintf(stderr, "  %-28s %10lld %8lld %8s %8s\n", name.c_str(), static_cast<long long>(c.count),
                  static_cast<long long>(c.dropped), c.seq.any ? std::to_string(c.seq.gaps).c_str() : "-",
                  c.seq.any ? std::to_string(c.seq.missing).c_str() : "-");
   }
@@ -166,8 +177,11 @@ int RunRecord(RecordCommand& c) {
     }
   }
   // What arrived before the stop (datagrams already in the socket too) is
-  // recorded: handle until 20 ms pass with nothing, at most 4 M events.
-  for (int n = 0; n < (1 << 22) && HandleAll(buses, 20) > 0; ++n) {
+  // recorded: handle until 20 ms pass with nothing, for at most
+  // kDrainAfterStopS. A stream that never pauses (a replay still running)
+  // would otherwise hold the stop for as long as it runs.
+  const double drain_end = common::HostNowS() + kDrainAfterStopS;
+  while (common::HostNowS() < drain_end && HandleAll(buses, 20) > 0) {
   }
   recorder->Stop();
   const record::RecorderStats stats = recorder->Stats();

@@ -99,5 +99,24 @@ TEST(TextTest, SniffDelimiter) {
   EXPECT_EQ(SniffDelimiter("time"), ',');
 }
 
+// Oracle: RFC 3629's well-formed sequences; the offset is that of the first
+// byte of the first sequence that is not one (issue 23: the rig file's
+// message names it).
+TEST(TextTest, Utf8ValidPrefixStopsAtTheFirstBadSequence) {
+  EXPECT_EQ(Utf8ValidPrefix("abc"), 3u);
+  EXPECT_EQ(Utf8ValidPrefix("\xC2\xB0" "C"), 3u);
+  EXPECT_EQ(Utf8ValidPrefix("ab\x80"), 2u);             // lone continuation
+  EXPECT_EQ(Utf8ValidPrefix("a\xC0\x80"), 1u);          // overlong NUL
+  EXPECT_EQ(Utf8ValidPrefix("\xED\xA0\x80"), 0u);      // surrogate
+  EXPECT_EQ(Utf8ValidPrefix("x\xF4\x90\x80\x80"), 1u);  // past U+10FFFF
+  EXPECT_EQ(Utf8ValidPrefix("xy\xE2\x82"), 2u);         // cut by the end
+}
+
+// Oracle: Quote's escaping without its quotes or bound.
+TEST(TextTest, EscapeLeavesPrintableAsciiAndEscapesTheRest) {
+  EXPECT_EQ(Escape("it's a \\ \x1b[2J\x07\xC3\xA9"), "it's a \\\\ \\x1b[2J\\x07\\xc3\\xa9");
+  EXPECT_EQ(Escape(std::string(100, 'a')), std::string(100, 'a'));
+}
+
 }  // namespace
 }  // namespace rocklab::common

@@ -70,7 +70,7 @@ TEST(RigConfig, ErrorsNameFileLineAndKey) {
   std::string text = kMinimal;
   // lever_m on line 7 made negative.
   EXPECT_EQ(Error(std::string(text).replace(text.find("1.5"), 3, "-1")),
-            "rig.toml:7: key 'mirror.lever_m' must be in (0, 100] m");
+            "rig.toml:7: key 'mirror.lever_m' must be in [0.001, 100] m, got -1");
   // A missing key is reported at its table's line.
   EXPECT_EQ(Error(std::string(text).replace(text.find("lever_m = 1.5\n"), 14, "")),
             "rig.toml:6: key 'mirror.lever_m' is missing");

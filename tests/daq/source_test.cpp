@@ -322,9 +322,9 @@ TEST(Reconstructor, ChannelTheRigNamesButTheFileLacksIsAStartUpError) {
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()),
               test::LabRigPath() + ":" + std::to_string(header) +
-                  ": channel 'low_L1_x' (sensor 'low.L1.x') is not in in.csv (its channels: mirror_s "
-                  "mirror_n); also missing: low_L1_z low_L2_x low_L2_z high_H1_x high_H1_z high_H2_x "
-                  "high_H2_z oop_a oop_b table_disp table_acc");
+                  ": channel 'low_L1_x' (sensor 'low.L1.x') is not in in.csv (its channels: 'mirror_s' "
+                  "'mirror_n'); also missing: 'low_L1_z' 'low_L2_x' 'low_L2_z' 'high_H1_x' 'high_H1_z' "
+                  "'high_H2_x' 'high_H2_z' 'oop_a' 'oop_b' 'table_disp' 'table_acc'");
   }
 }
 
