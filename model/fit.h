@@ -20,6 +20,7 @@
 /// bridged (impacts) or skipped (trajectory) and counted.
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -252,6 +253,15 @@ struct FitResult {
   std::vector<ImpactRow> impacts;     ///< impacts method
   std::optional<double> release_time_s;  ///< trajectory from a hold: fitted release time, s
   bool forced{};                      ///< trajectory: driven by the table record
+  /// Forced trajectory fit: how much the table record's sampling moves the
+  /// model. The model runs on the chord between table samples; the same run
+  /// on a C1 cubic through them differs by about the chord's error (h^2/8
+  /// times a'', against the cubic's h^4): the rms of that difference over
+  /// the residuals (rad), and the fitted values it shifts (linearised,
+  /// (J^T J)^-1 J^T d), which the standard errors above include in
+  /// quadrature. NaN / zero for a free record.
+  double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
+  BlockParams table_interpolation_shift;  ///< alpha (rad), p (rad/s), mu (1)
   std::vector<std::string> warnings;
 };
 

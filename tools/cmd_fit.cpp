@@ -80,6 +80,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"gaps", r.theta_gaps.gaps},
       {"longest_gap", r.theta_gaps.longest_s},
       {"missing_table_samples", r.table_gaps.missing_samples},
+      {"table_interpolation_error", Optional(r.table_interpolation_rad)},
       {"release_time", r.method == model::FitMethod::kTrajectory ? Optional(r.release_time_s)
                                                                 : Optional(r.features.release_time_s)},
       {"impacts", impacts},
@@ -89,7 +90,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
         {"p_stderr", "rad/s"}, {"mu_stderr", "1"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"},
         {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
         {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
-        {"residual_to_noise", "1"}, {"residual_noise", "s"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
+        {"residual_to_noise", "1"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {
