@@ -135,10 +135,17 @@ class RotatingLogBus final : public common::Bus {
   using Bus::Publish;
   bool Publish(const std::string& channel, const void* data, int size) override {
     bool logged = false;
+    const int64_t utime = common::PayloadUtime(data, size, last_utime_);
+    if (size >= 0 && utime == 0 && !stamped_) {
+      // A heartbeat sent while the input waits for its header carries no
+      // sample time: it goes out live but does not open the log at utime 0
+      // before an epoch-based sample clock (a 1x replay would wait for it).
+      return inner_.Publish(channel, data, size);
+    }
     if (size >= 0) {
-      logged = log_.Write(common::PayloadUtime(data, size, last_utime_), channel,
-                          static_cast<const uint8_t*>(data), static_cast<uint32_t>(size));
-      last_utime_ = common::PayloadUtime(data, size, last_utime_);
+      logged = log_.Write(utime, channel, static_cast<const uint8_t*>(data), static_cast<uint32_t>(size));
+      last_utime_ = utime;
+      stamped_ = true;
     }
     if (!logged) ++log_errors_;
     return inner_.Publish(channel, data, size) && logged;
@@ -159,6 +166,7 @@ class RotatingLogBus final : public common::Bus {
   record::RotatingLogWriter& log_;  // not owned
   int64_t last_utime_{0};
   int64_t log_errors_{0};
+  bool stamped_{false};  // a message with a sample time has been logged
 };
 
 }  // namespace
