@@ -11,6 +11,7 @@
 #include "daq/source.h"
 #include "model/block.h"
 #include "record/log_writer.h"
+#include "rocklab/health_t.hpp"
 
 namespace rocklab::pipeline {
 
@@ -136,16 +137,15 @@ class RotatingLogBus final : public common::Bus {
   bool Publish(const std::string& channel, const void* data, int size) override {
     bool logged = false;
     const int64_t utime = common::PayloadUtime(data, size, last_utime_);
-    if (size >= 0 && utime == 0 && !stamped_) {
-      // A heartbeat sent while the input waits for its header carries no
-      // sample time: it goes out live but does not open the log at utime 0
-      // before an epoch-based sample clock (a 1x replay would wait for it).
+    if (WaitingHeartbeat(channel, data, size, utime)) {
+      // Sent while the input waits for its header: no sample time (utime
+      // 0). It goes out live but does not open the log at 0 before an
+      // epoch-based sample clock (a 1x replay would wait for it).
       return inner_.Publish(channel, data, size);
     }
     if (size >= 0) {
       logged = log_.Write(utime, channel, static_cast<const uint8_t*>(data), static_cast<uint32_t>(size));
       last_utime_ = utime;
-      stamped_ = true;
     }
     if (!logged) ++log_errors_;
     return inner_.Publish(channel, data, size) && logged;
@@ -162,11 +162,21 @@ class RotatingLogBus final : public common::Bus {
   const Bus& root() const override { return inner_; }
 
  private:
+  // The DAQ node's RL_HEALTH while its input waits for a header.
+  static bool WaitingHeartbeat(const std::string& channel, const void* data, int size, int64_t utime) {
+    static const std::string kHealth = "HEALTH";
+    if (utime != 0 || size < 0 || channel.size() < kHealth.size() ||
+        channel.compare(channel.size() - kHealth.size(), kHealth.size(), kHealth) != 0) {
+      return false;
+    }
+    rocklab::health_t m;
+    return m.decode(data, 0, size) >= 0 && m.state == "waiting for header";
+  }
+
   common::Bus& inner_;             // not owned
   record::RotatingLogWriter& log_;  // not owned
   int64_t last_utime_{0};
   int64_t log_errors_{0};
-  bool stamped_{false};  // a message with a sample time has been logged
 };
 
 }  // namespace
