@@ -224,6 +224,7 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   options.idle_timeout_s = m.config.idle_timeout_s;
   options.stop = m.config.stop;
   options.lcm_url = m.config.lcm_url;
+  options.rig = &m.config.rig;
   m.source = OpenSource(m.config.input, options);
   m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
                                             m.source->path(), m);

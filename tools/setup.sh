@@ -17,6 +17,7 @@ packages=(
   libexpat1-dev
   libopenmpi-dev openmpi-bin
   libmatio-dev libhdf5-dev
+  libopencv-dev libavcodec-dev libavformat-dev libavutil-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.
