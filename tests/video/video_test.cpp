@@ -10,11 +10,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <string>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -311,6 +313,172 @@ TEST(VideoTracking, MjpegVideoGivesThetaWithinTheBoundOfItsMeasuredPixelError) {
   EXPECT_EQ(r.compared, kFrames - 1);
   EXPECT_LT(r.max, 5 * n.sigma_theta + bias);
   ExpectEventsCounted(r, false);
+}
+
+}  // namespace
+}  // namespace rocklab::video
+
+namespace rocklab::video {
+namespace {
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The theta column of a reconstruct CSV.
+std::vector<double> ThetaColumn(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<double> out;
+  while (std::getline(in, line)) {
+    const std::size_t a = line.find(','), b = line.find(',', a + 1);
+    out.push_back(std::strtod(line.substr(a + 1, b - a - 1).c_str(), nullptr));
+  }
+  return out;
+}
+
+TEST(VideoTracking, TrackCsvReconstructsLikeTheVideoInputThroughTheCli) {
+  const Scene s = MakeScene("video_cli", true);
+  const std::string raw = s.dir + "/raw.csv", from_raw = s.dir + "/theta_raw.csv", from_video = s.dir + "/theta_video.csv";
+  const std::string bin = ROCKLAB_BINARY;
+  ASSERT_EQ(std::system((bin + " track " + s.video_path + " --rig " + s.rig_path + " --out " + raw + " 2> " + s.dir +
+                         "/track.err")
+                            .c_str()),
+            0)
+      << Slurp(s.dir + "/track.err");
+  ASSERT_EQ(std::system((bin + " reconstruct --rig " + s.rig_path + " --input " + raw + " --out " + from_raw + " 2> " +
+                         s.dir + "/r1.err")
+                            .c_str()),
+            0)
+      << Slurp(s.dir + "/r1.err");
+  ASSERT_EQ(std::system((bin + " reconstruct --rig " + s.rig_path + " --input video:" + s.video_path + " --out " +
+                         from_video + " 2> " + s.dir + "/r2.err")
+                            .c_str()),
+            0)
+      << Slurp(s.dir + "/r2.err");
+  // Oracle: the same frames through two paths. The CSV holds 10 significant
+  // digits of each coordinate (1e-10 m at 0.5 m), so theta agrees to 1e-8 rad.
+  const std::vector<double> a = ThetaColumn(from_raw), b = ThetaColumn(from_video);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 250u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::isnan(a[i])) {
+      EXPECT_TRUE(std::isnan(b[i])) << i;
+    } else {
+      EXPECT_NEAR(a[i], b[i], 1e-8) << i;
+    }
+  }
+  // What track said: the drop, the occlusion and the clipped LED, counted.
+  const std::string err = Slurp(s.dir + "/track.err");
+  EXPECT_NE(err.find("299 frames tracked"), std::string::npos) << err;
+  EXPECT_NE(err.find("1 dropped in 1 places"), std::string::npos) << err;
+  EXPECT_NE(err.find("30 missing (1 occlusions)"), std::string::npos) << err;
+  EXPECT_NE(err.find("1 frame(s) dropped before this one"), std::string::npos) << err;
+  // The raw CSV's header: the rig's LED channels, then the quality columns.
+  std::ifstream in(raw);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("time,side_A_x,side_A_z,side_B_x,side_B_z,side_C_x,side_C_z,side_D_x,side_D_z,"
+                         "side_A_area_px,side_A_peak,side_A_flags,",
+                         0),
+            0u)
+      << header;
+}
+
+TEST(VideoTracking, ImageSequenceTakesItsTimesFromTheRigsFpsAndSaysSo) {
+  const std::string dir = test::ScratchDir("video_png");
+  const test::TestCamera cam = Camera();
+  std::filesystem::create_directories(dir + "/frames");
+  std::mt19937 rng(2026);
+  constexpr int kPngFrames = 60;
+  for (int k = 0; k < kPngFrames; ++k) {
+    char name[64];
+    std::snprintf(name, sizeof name, "/frames/%06d.png", k);
+    cv::imwrite(dir + name, Render(cam, k, rng));
+  }
+  std::string rig = RigText(cam);
+  rig.insert(rig.find("threshold"), "fps = 100.0\n");
+  std::ofstream(dir + "/rig.toml") << rig;
+  const Result r = Reconstruct(Scene{dir, dir + "/rig.toml", dir + "/frames/%06d.png"});
+  const NoiseBound n = ThetaSigma(kNoiseSigma);
+  // Oracle: Theta(t) at t = index / 100 Hz; the lossless case's bound.
+  EXPECT_TRUE(r.stats.times_from_fps);
+  EXPECT_NE(r.stats.rate_source.find("image sequence has no timestamps"), std::string::npos) << r.stats.rate_source;
+  EXPECT_EQ(r.stats.frames.frames, kPngFrames);
+  EXPECT_EQ(r.stats.frames.dropped, 0);
+  EXPECT_EQ(r.compared, kPngFrames);
+  EXPECT_LT(r.max, 5 * n.sigma_theta + 0.02 / n.sigma_px * n.sigma_theta);
+}
+
+TEST(VideoTracking, ImageSequenceWithoutFpsIsAStartUpErrorNamingTheKey) {
+  const std::string dir = test::ScratchDir("video_png_nofps");
+  std::filesystem::create_directories(dir + "/frames");
+  std::mt19937 rng(1);
+  cv::imwrite(dir + "/frames/000000.png", Render(Camera(), 0, rng));
+  std::ofstream(dir + "/rig.toml") << RigText(Camera());
+  RegisterSources();
+  const daq::RigConfig rig = daq::LoadRigConfig(dir + "/rig.toml");
+  daq::SourceOptions options;
+  options.rig = &rig;
+  try {
+    (void)daq::OpenSource("video:" + dir + "/frames/%06d.png", options);
+    ADD_FAILURE() << "opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("set [camera.video] fps"), std::string::npos) << e.what();
+  }
+}
+
+// Oracle for the rig errors: the file the test wrote, its line numbers.
+std::string OpenError(const std::string& name, const std::string& rig_text, const std::string& input) {
+  const std::string dir = test::ScratchDir(name);
+  std::ofstream(dir + "/rig.toml") << rig_text;
+  RegisterSources();
+  try {
+    const daq::RigConfig rig = daq::LoadRigConfig(dir + "/rig.toml");
+    daq::SourceOptions options;
+    options.rig = &rig;
+    (void)daq::OpenSource(input.empty() ? "video:" + dir + "/none.mkv" : input, options);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(VideoConfigErrors, NameTheFileLineAndKey) {
+  const std::string good = RigText(Camera());
+  // A misspelt key: unknown keys are errors, with their line.
+  std::string typo = good;
+  typo.replace(typo.find("threshold"), 9, "treshold");
+  const int typo_line = 1 + static_cast<int>(std::count(typo.begin(), typo.begin() + typo.find("treshold"), '\n'));
+  const std::string e1 = OpenError("video_cfg_typo", typo, "");
+  EXPECT_NE(e1.find("rig.toml:" + std::to_string(typo_line) + ": key 'camera.video.treshold' is not a video key"),
+            std::string::npos)
+      << e1;
+  // Three marks do not make a homography.
+  std::string three = good;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t at = three.find("  { u_px");
+    three.erase(at, three.find('\n', at) - at + 1);
+  }
+  const std::string e2 = OpenError("video_cfg_marks", three, "");
+  EXPECT_NE(e2.find("key 'camera.video.mark' must list at least 4 reference marks"), std::string::npos) << e2;
+  // No [camera.video] at all.
+  std::string none = good;
+  none.erase(none.find("[camera.video]"), none.find("[[channel]]") - none.find("[camera.video]"));
+  const std::string e3 = OpenError("video_cfg_none", none, "");
+  EXPECT_NE(e3.find("no [camera.video] section"), std::string::npos) << e3;
+  // A video that is not there.
+  const std::string e4 = OpenError("video_cfg_file", good, "");
+  EXPECT_NE(e4.find("none.mkv: cannot be opened as a video"), std::string::npos) << e4;
+  // A threshold out of range.
+  std::string high = good;
+  high.replace(high.find("threshold = 40"), 14, "threshold = 300");
+  const std::string e5 = OpenError("video_cfg_range", high, "");
+  EXPECT_NE(e5.find("key 'camera.video.threshold' must be in [1, 254] (is 300)"), std::string::npos) << e5;
 }
 
 }  // namespace
