@@ -5,7 +5,8 @@
 //     runs them per frame; wall and CPU time, resident memory at 10% of the
 //     run and at its end (flat: nothing grows per frame);
 //  2. end to end: an MJPG AVI of the same frames (OpenCV's writer) read by
-//     the video source's FrameReader (FFmpeg decoding) and tracked.
+//     the video source's FrameReader (FFmpeg decoding) and tracked, on one
+//     thread and with the decoding on its own (ReadAhead, as the source does).
 // Usage: rocklab_bench_video_tracking [FRAMES] (default 20000).
 #include <sys/resource.h>
 #include <unistd.h>
@@ -16,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -160,24 +162,29 @@ int main(int argc, char** argv) {
       w.write(bgr);
     }
   }
-  rocklab::video::FrameReader reader(path, false, std::nullopt);
-  rocklab::video::LedTracker tracker2(config, map);
-  cv::Mat gray;
-  double t = 0;
-  int64_t number = 0;
-  long read = 0;
-  const double cpu1 = CpuSeconds();
-  const auto t1 = std::chrono::steady_clock::now();
-  while (reader.Next(gray, t, number)) {
-    detector.Detect(gray, blobs);
-    tracker2.Track(blobs, t, samples);
-    ++read;
+  for (const bool ahead : {false, true}) {
+    rocklab::video::FrameReader reader(path, false, std::nullopt);
+    std::unique_ptr<rocklab::video::ReadAhead> read_ahead;
+    if (ahead) read_ahead = std::make_unique<rocklab::video::ReadAhead>(reader);
+    rocklab::video::LedTracker tracker2(config, map);
+    cv::Mat gray;
+    double t = 0;
+    int64_t number = 0;
+    long read = 0;
+    const double cpu1 = CpuSeconds();
+    const auto t1 = std::chrono::steady_clock::now();
+    while (ahead ? read_ahead->Next(gray, t, number) : reader.Next(gray, t, number)) {
+      detector.Detect(gray, blobs);
+      tracker2.Track(blobs, t, samples);
+      ++read;
+    }
+    const double wall2 = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    const double cpu2 = CpuSeconds() - cpu1;
+    std::printf("decode (MJPG, FFmpeg) + tracking 1280x720, %s: %ld frames in %.3f s wall, %.3f s CPU: "
+                "%.0f frames/s wall, %.0f frames per CPU-s; %lld fits\n",
+                ahead ? "decoding on its own thread (ReadAhead)" : "one thread", read, wall2, cpu2, read / wall2,
+                read / cpu2, static_cast<long long>(tracker2.counts().fits));
   }
-  const double wall2 = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-  const double cpu2 = CpuSeconds() - cpu1;
-  std::printf("decode (MJPG, FFmpeg) + tracking 1280x720: %ld frames in %.3f s wall, %.3f s CPU: %.0f frames/s wall, "
-              "%.0f frames per CPU-s; %lld fits\n",
-              read, wall2, cpu2, read / wall2, read / cpu2, static_cast<long long>(tracker2.counts().fits));
   std::filesystem::remove_all(dir_template);
   return 0;
 }

@@ -1,7 +1,12 @@
 #include "video/frame_reader.h"
 
 #include <cmath>
+#include <algorithm>
+#include <condition_variable>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -105,6 +110,88 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     ++counts_.frames;
     return true;
   }
+}
+
+}  // namespace rocklab::video
+
+namespace rocklab::video {
+
+struct ReadAhead::Impl {
+  struct Slot {
+    cv::Mat gray;
+    double time_s{};
+    int64_t number{};
+    FrameCounts counts;
+    bool end{false};
+  };
+  FrameReader* reader{};
+  std::vector<Slot> slots;
+  std::size_t head{0}, tail{0}, filled{0};  // producer writes slots[head], consumer reads slots[tail]
+  bool holding{false};                      // the consumer still uses slots[tail]
+  bool stop{false};
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::thread thread;
+
+  void Run() {
+    cv::Mat gray;
+    double t = 0;
+    int64_t n = 0;
+    while (true) {
+      const bool ok = reader->Next(gray, t, n);
+      std::unique_lock<std::mutex> lock(mutex);
+      // A full ring: wait for the consumer (the slot it holds counts as full).
+      changed.wait(lock, [&] { return stop || filled < slots.size(); });
+      if (stop) return;
+      Slot& s = slots[head];
+      lock.unlock();
+      if (ok) gray.copyTo(s.gray);  // reuses the slot's buffer at the same size
+      s.time_s = t;
+      s.number = n;
+      s.counts = reader->counts();
+      s.end = !ok;
+      lock.lock();
+      head = (head + 1) % slots.size();
+      ++filled;
+      changed.notify_all();
+      if (!ok) return;
+    }
+  }
+};
+
+ReadAhead::ReadAhead(FrameReader& reader, int depth) : impl_(std::make_unique<Impl>()) {
+  impl_->reader = &reader;
+  impl_->slots.resize(static_cast<std::size_t>(std::max(depth, 1)) + 1);
+  impl_->thread = std::thread([this] { impl_->Run(); });
+}
+
+ReadAhead::~ReadAhead() {
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->stop = true;
+  }
+  impl_->changed.notify_all();
+  impl_->thread.join();
+}
+
+bool ReadAhead::Next(cv::Mat& gray, double& time_s, int64_t& number) {
+  Impl& m = *impl_;
+  std::unique_lock<std::mutex> lock(m.mutex);
+  if (m.holding) {  // the previous frame is given back
+    m.tail = (m.tail + 1) % m.slots.size();
+    --m.filled;
+    m.holding = false;
+    m.changed.notify_all();
+  }
+  m.changed.wait(lock, [&] { return m.filled > 0; });
+  const Impl::Slot& s = m.slots[m.tail];
+  counts_ = s.counts;
+  if (s.end) return false;  // stays filled: every later call ends too
+  m.holding = true;
+  gray = s.gray;
+  time_s = s.time_s;
+  number = s.number;
+  return true;
 }
 
 }  // namespace rocklab::video

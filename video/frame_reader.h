@@ -76,3 +76,32 @@ class FrameReader {
 };
 
 }  // namespace rocklab::video
+
+namespace rocklab::video {
+
+/// A FrameReader on its own thread, a few frames ahead: decoding (FFmpeg)
+/// and tracking then share two cores. Threading: one decoding thread owns
+/// the reader; Next() (one consumer thread) takes frames in order from a
+/// ring of `depth` preallocated slots (no allocation per frame once the
+/// slots have the frame size); the decoder waits while the ring is full.
+/// The destructor stops and joins the thread (a blocked device read ends
+/// when its frame comes).
+class ReadAhead {
+ public:
+  /// `reader` is retained (non-owning), read only by the thread from now on.
+  ReadAhead(FrameReader& reader, int depth = 4);
+  ~ReadAhead();
+  ReadAhead(const ReadAhead&) = delete;
+  ReadAhead& operator=(const ReadAhead&) = delete;
+  /// As FrameReader::Next; `gray` stays valid until the next call. Never throws.
+  bool Next(cv::Mat& gray, double& time_s, int64_t& number);
+  /// The reader's counts as of the frame Next() returned last.
+  const FrameCounts& counts() const { return counts_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  FrameCounts counts_;
+};
+
+}  // namespace rocklab::video

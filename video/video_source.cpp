@@ -24,6 +24,7 @@ class VideoSource : public daq::Source {
         config_(LoadVideoConfig(*options.rig)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps),
+        read_ahead_(reader_),
         detector_(Options(config_)),
         tracker_(config_, map_) {
     for (const VideoLed& led : config_.leds) {
@@ -79,15 +80,15 @@ class VideoSource : public daq::Source {
     if (!error_.empty()) return daq::ReadStatus::kError;
     double t = 0;
     int64_t number = 0;
-    const int64_t dropped_before = reader_.counts().dropped;
-    if (!reader_.Next(gray_, t, number)) {
+    const int64_t dropped_before = read_ahead_.counts().dropped;
+    if (!read_ahead_.Next(gray_, t, number)) {
       Sync();
       return daq::ReadStatus::kEnd;
     }
-    const int64_t dropped = reader_.counts().dropped - dropped_before;
+    const int64_t dropped = read_ahead_.counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
-      if (reader_.counts().drop_events <= kShownDrops) {
+      if (read_ahead_.counts().drop_events <= kShownDrops) {
         Report(number, std::to_string(dropped) + " frame(s) dropped before this one (from the frame times)");
       }
     }
@@ -129,7 +130,7 @@ class VideoSource : public daq::Source {
     if (on_problem_) on_problem_(daq::Problem{daq::Location{&path_, line}, message});
   }
   void Sync() {
-    stats_.frames = reader_.counts();
+    stats_.frames = read_ahead_.counts();
     stats_.detector = detector_.counts();
     stats_.track = tracker_.counts();
     // Frames not delivered are the source's bad rows.
@@ -141,7 +142,8 @@ class VideoSource : public daq::Source {
   daq::ProblemCallback on_problem_;
   VideoConfig config_;
   PlaneMap map_;
-  FrameReader reader_;
+  FrameReader reader_;    // read only by read_ahead_'s thread once that exists
+  ReadAhead read_ahead_;  // decoding on its own thread, tracking on the caller's
   LedDetector detector_;
   LedTracker tracker_;
   std::vector<std::string> names_;
