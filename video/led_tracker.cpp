@@ -5,7 +5,6 @@
 namespace rocklab::video {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A second blob in a gate farther than this many times the nearest does not
 // make the LED ambiguous (the nearest is clearly it; the other is left over).
 constexpr double kClearRatio = 3.0;
