@@ -79,6 +79,15 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
       }
     }
     if (counts_.frames == 0 && last_number_ < 0) first_time_s_ = t;
+    if (!times_from_fps_ && index == 1 && counts_.frames == 1 && t <= first_time_s_) {
+      // No times from this video (the backend gives every frame the same):
+      // index / rate from here on, counted (the source says so).
+      times_from_fps_ = true;
+    }
+    if (times_from_fps_ && kind_ != Kind::kImageSequence) {
+      t = first_time_s_ + static_cast<double>(index) / rate_hz_;
+      ++counts_.untimed;
+    }
     const int64_t n = std::llround((t - first_time_s_) * rate_hz_);
     if (last_number_ >= 0) {
       if (t < last_time_s_) {

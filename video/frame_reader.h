@@ -28,6 +28,9 @@ struct FrameCounts {
   int64_t repeated{};  ///< frames with the number of the previous one (not delivered)
   int64_t backwards{}; ///< frames whose time went back (not delivered)
   int64_t unreadable{};  ///< frames that could not be decoded
+  /// Frames timed index / rate because the video turned out to give no
+  /// times (its second frame's time not after its first's).
+  int64_t untimed{};
 };
 
 class FrameReader {
@@ -50,6 +53,8 @@ class FrameReader {
   Kind kind() const { return kind_; }
   /// Nominal frame rate, Hz: the container's, else the fallback.
   double rate_hz() const { return rate_hz_; }
+  /// Image sequences: from the start. Other videos: once they turn out to
+  /// give no times (FrameCounts::untimed); read it on the reading thread.
   bool times_from_fps() const { return times_from_fps_; }
   /// Where the rate came from, for the start-up line.
   const std::string& rate_source() const { return rate_source_; }

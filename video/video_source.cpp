@@ -24,7 +24,6 @@ class VideoSource : public daq::Source {
         config_(LoadVideoConfig(*options.rig)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps),
-        read_ahead_(reader_),
         detector_(Options(config_)),
         tracker_(config_, map_) {
     for (const VideoLed& led : config_.leds) {
@@ -42,6 +41,7 @@ class VideoSource : public daq::Source {
     stats_.m_per_px = map_.scale_m_per_px();
     stats_.gate_m = tracker_.gate_m();
     stats_.rate_hz = reader_.rate_hz();
+    reader_rate_ = reader_.rate_hz();
     stats_.rate_source = reader_.rate_source();
     stats_.times_from_fps = reader_.times_from_fps();
     stats_.width_px = reader_.width();
@@ -67,10 +67,12 @@ class VideoSource : public daq::Source {
       ++stats_src_.warnings;
     }
     samples_.reserve(config_.leds.size());
+    // Last: from here on only its thread touches reader_.
+    read_ahead_ = std::make_unique<ReadAhead>(reader_);
   }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
-  double sample_rate_hz() const override { return reader_.rate_hz(); }
+  double sample_rate_hz() const override { return reader_rate_; }
   const daq::SourceStats& stats() const override { return stats_src_; }
   const std::string& path() const override { return path_; }
   bool live() const override { return device_; }
@@ -80,15 +82,22 @@ class VideoSource : public daq::Source {
     if (!error_.empty()) return daq::ReadStatus::kError;
     double t = 0;
     int64_t number = 0;
-    const int64_t dropped_before = read_ahead_.counts().dropped;
-    if (!read_ahead_.Next(gray_, t, number)) {
+    const int64_t dropped_before = read_ahead_->counts().dropped;
+    if (!read_ahead_->Next(gray_, t, number)) {
       Sync();
       return daq::ReadStatus::kEnd;
     }
-    const int64_t dropped = read_ahead_.counts().dropped - dropped_before;
+    if (read_ahead_->counts().untimed > 0 && !stats_.times_from_fps) {
+      stats_.times_from_fps = true;
+      stats_.rate_source += "; the video gives no frame times: index / rate";
+      ++stats_src_.warnings;
+      Report(number, "the video gives no frame times: frames are timed index / " + std::to_string(reader_rate_) +
+                         " Hz and drops cannot be seen");
+    }
+    const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
-      if (read_ahead_.counts().drop_events <= kShownDrops) {
+      if (read_ahead_->counts().drop_events <= kShownDrops) {
         Report(number, std::to_string(dropped) + " frame(s) dropped before this one (from the frame times)");
       }
     }
@@ -130,7 +139,7 @@ class VideoSource : public daq::Source {
     if (on_problem_) on_problem_(daq::Problem{daq::Location{&path_, line}, message});
   }
   void Sync() {
-    stats_.frames = read_ahead_.counts();
+    stats_.frames = read_ahead_->counts();
     stats_.detector = detector_.counts();
     stats_.track = tracker_.counts();
     // Frames not delivered are the source's bad rows.
@@ -142,13 +151,16 @@ class VideoSource : public daq::Source {
   daq::ProblemCallback on_problem_;
   VideoConfig config_;
   PlaneMap map_;
-  FrameReader reader_;    // read only by read_ahead_'s thread once that exists
-  ReadAhead read_ahead_;  // decoding on its own thread, tracking on the caller's
+  FrameReader reader_;  // read only by read_ahead_'s thread once that exists
   LedDetector detector_;
   LedTracker tracker_;
   std::vector<std::string> names_;
   daq::SourceStats stats_src_;
   VideoStats stats_;
+  double reader_rate_{};  // reader_.rate_hz(), read before read_ahead_ owns the reader
+  // Decoding on its own thread, tracking on the caller's; declared after
+  // reader_, so destroyed (its thread joined) before it.
+  std::unique_ptr<ReadAhead> read_ahead_;
   cv::Mat gray_;
   std::vector<Blob> blobs_;
   std::vector<LedSample> samples_;

@@ -3,7 +3,13 @@
 // library (OpenCV's calibration behind it).
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -111,6 +117,21 @@ TEST(CameraCalibrate, RecoversTheRenderingCamerasIntrinsics) {
   EXPECT_NEAR(back.fx_px, k.fx_px, 1e-6 * k.fx_px);
   EXPECT_NEAR(back.distortion[0], k.distortion[0], 1e-8);
   EXPECT_EQ(back.views, k.views);
+  // The command: the same calibration, its file, its report.
+  const std::string cmd = std::string(ROCKLAB_BINARY) + " camera-calibrate " + path + " --board 9x6 --square " +
+                          std::to_string(kSquareM) + " --out " + dir + "/cli.toml > " + dir + "/cli.out 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const Intrinsics cli = LoadIntrinsics(dir + "/cli.toml");
+  EXPECT_NEAR(cli.fx_px, k.fx_px, 1e-6 * k.fx_px);
+  EXPECT_NEAR(cli.rms_reprojection_px, k.rms_reprojection_px, 1e-5);
+  std::ifstream out(dir + "/cli.out");
+  const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("reprojection error: RMS"), std::string::npos) << text;
+  // A board size the video does not hold: an error naming the video, exit 2.
+  const std::string bad = std::string(ROCKLAB_BINARY) + " camera-calibrate " + path + " --board 7x5 --out " + dir +
+                          "/bad.toml > " + dir + "/bad.out 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(bad.c_str())), 2);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.toml"));
 }
 
 }  // namespace

@@ -25,6 +25,7 @@
 #include "daq/source.h"
 #include "tests/scratch.h"
 #include "tests/video/test_video.h"
+#include "video/frame_reader.h"
 #include "video/video_source.h"
 
 namespace rocklab::video {
@@ -474,11 +475,61 @@ TEST(VideoConfigErrors, NameTheFileLineAndKey) {
   // A video that is not there.
   const std::string e4 = OpenError("video_cfg_file", good, "");
   EXPECT_NE(e4.find("none.mkv: cannot be opened as a video"), std::string::npos) << e4;
+  // A V4L2 device that is not there.
+  const std::string e6 = OpenError("video_cfg_v4l2", good, "v4l2:" + test::ScratchDir("video_cfg_v4l2") + "/video9");
+  EXPECT_NE(e6.find("video9: cannot be opened as a video device (V4L2)"), std::string::npos) << e6;
   // A threshold out of range.
   std::string high = good;
   high.replace(high.find("threshold = 40"), 14, "threshold = 300");
   const std::string e5 = OpenError("video_cfg_range", high, "");
   EXPECT_NE(e5.find("key 'camera.video.threshold' must be in [1, 254] (is 300)"), std::string::npos) << e5;
+}
+
+}  // namespace
+}  // namespace rocklab::video
+
+namespace rocklab::video {
+namespace {
+
+// Frames at the times the test gives the container, read back by the
+// FrameReader. Oracle: the times written.
+FrameCounts ReadTimes(const std::string& name, const std::vector<int64_t>& pts_ms, std::vector<double>* times) {
+  const std::string path = test::ScratchDir(name) + "/times.mkv";
+  {
+    test::TestVideoWriter w(path, true, 64, 48, kFps);
+    cv::Mat f(48, 64, CV_8U, cv::Scalar(10));
+    for (int64_t p : pts_ms) w.Write(f, p);
+    w.Close();
+  }
+  FrameReader r(path, false, std::nullopt);
+  cv::Mat gray;
+  double t = 0;
+  int64_t n = 0;
+  while (r.Next(gray, t, n)) times->push_back(t);
+  return r.counts();
+}
+
+TEST(FrameReader, RepeatedAndDroppedFramesAreCountedFromTheContainersTimes) {
+  std::vector<double> times;
+  // 0, 10, 20, 20 (a repeat), 30, 60 (two dropped), 70 ms at 100 frames/s.
+  const FrameCounts c = ReadTimes("times_repeat", {0, 10, 20, 20, 30, 60, 70}, &times);
+  EXPECT_EQ(c.repeated, 1);
+  EXPECT_EQ(c.dropped, 2);
+  EXPECT_EQ(c.drop_events, 1);
+  EXPECT_EQ(c.frames, 6);
+  ASSERT_EQ(times.size(), 6u);
+  EXPECT_NEAR(times[4], 0.060, 1e-9);
+}
+
+TEST(FrameReader, AVideoWithoutTimesIsTimedByItsRateAndCounted) {
+  std::vector<double> times;
+  // Every frame at 0 ms: the container gives no times.
+  const FrameCounts c = ReadTimes("times_none", {0, 0, 0, 0}, &times);
+  EXPECT_EQ(c.frames, 4);
+  EXPECT_EQ(c.untimed, 3);
+  EXPECT_EQ(c.repeated, 0);
+  ASSERT_EQ(times.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(times[i], i / 100.0, 1e-12);
 }
 
 }  // namespace
