@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <stdexcept>
@@ -184,7 +185,12 @@ ReadAhead::~ReadAhead() {
 }
 
 bool ReadAhead::Next(cv::Mat& gray, double& time_s, int64_t& number) {
+  return Next(gray, time_s, number, -1.0, nullptr);
+}
+
+bool ReadAhead::Next(cv::Mat& gray, double& time_s, int64_t& number, double timeout_s, bool* timed_out) {
   Impl& m = *impl_;
+  if (timed_out != nullptr) *timed_out = false;
   std::unique_lock<std::mutex> lock(m.mutex);
   if (m.holding) {  // the previous frame is given back
     m.tail = (m.tail + 1) % m.slots.size();
@@ -192,7 +198,12 @@ bool ReadAhead::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     m.holding = false;
     m.changed.notify_all();
   }
-  m.changed.wait(lock, [&] { return m.filled > 0; });
+  if (timeout_s < 0) {
+    m.changed.wait(lock, [&] { return m.filled > 0; });
+  } else if (!m.changed.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return m.filled > 0; })) {
+    if (timed_out != nullptr) *timed_out = true;
+    return false;
+  }
   const Impl::Slot& s = m.slots[m.tail];
   counts_ = s.counts;
   if (s.end) return false;  // stays filled: every later call ends too

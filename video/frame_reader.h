@@ -100,6 +100,9 @@ class ReadAhead {
   ReadAhead& operator=(const ReadAhead&) = delete;
   /// As FrameReader::Next; `gray` stays valid until the next call. Never throws.
   bool Next(cv::Mat& gray, double& time_s, int64_t& number);
+  /// Next() waiting at most `timeout_s`; sets `*timed_out` (and returns
+  /// false) when no frame came in that time (a live device).
+  bool Next(cv::Mat& gray, double& time_s, int64_t& number, double timeout_s, bool* timed_out);
   /// The reader's counts as of the frame Next() returned last.
   const FrameCounts& counts() const { return counts_; }
 

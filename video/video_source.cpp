@@ -1,5 +1,7 @@
 #include "video/video_source.h"
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -14,6 +16,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Drop events reported one by one up to this many, then only counted.
 constexpr int64_t kShownDrops = 20;
+// A device's frames are waited for this long before Next() says kIdle, s.
+constexpr double kIdleWaitS = 0.1;
 
 class VideoSource : public daq::Source {
  public:
@@ -21,6 +25,8 @@ class VideoSource : public daq::Source {
       : path_(device ? "v4l2:" + spec : spec),
         device_(device),
         on_problem_(options.on_problem),
+        stop_(options.stop),
+        idle_timeout_s_(options.idle_timeout_s),
         config_(LoadVideoConfig(*options.rig)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps),
@@ -83,10 +89,19 @@ class VideoSource : public daq::Source {
     double t = 0;
     int64_t number = 0;
     const int64_t dropped_before = read_ahead_->counts().dropped;
-    if (!read_ahead_->Next(gray_, t, number)) {
+    bool idle = false;
+    // A device is waited on 0.1 s at a time (the DAQ's live contract: kIdle).
+    if (!read_ahead_->Next(gray_, t, number, device_ ? kIdleWaitS : -1.0, &idle)) {
       Sync();
+      if (idle) {
+        const double quiet_s = std::chrono::duration<double>(Clock::now() - last_frame_).count();
+        const bool stopped = stop_ != nullptr && stop_->load();
+        if (stopped || (idle_timeout_s_ > 0 && quiet_s > idle_timeout_s_)) return daq::ReadStatus::kEnd;
+        return daq::ReadStatus::kIdle;
+      }
       return daq::ReadStatus::kEnd;
     }
+    last_frame_ = Clock::now();
     if (read_ahead_->counts().untimed > 0 && !stats_.times_from_fps) {
       stats_.times_from_fps = true;
       stats_.rate_source += "; the video gives no frame times: index / rate";
@@ -146,9 +161,13 @@ class VideoSource : public daq::Source {
     stats_src_.bad_rows = stats_.frames.unreadable + stats_.frames.repeated + stats_.frames.backwards;
   }
 
+  using Clock = std::chrono::steady_clock;
   std::string path_;
   bool device_;
   daq::ProblemCallback on_problem_;
+  const std::atomic<bool>* stop_;  // non-owning, may be null (SourceOptions::stop)
+  double idle_timeout_s_;
+  Clock::time_point last_frame_{Clock::now()};
   VideoConfig config_;
   PlaneMap map_;
   FrameReader reader_;  // read only by read_ahead_'s thread once that exists

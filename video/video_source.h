@@ -14,7 +14,9 @@
 ///
 /// Frame numbers come from the frame times (frame_reader.h), so a dropped
 /// frame is a gap of the DAQ's sequence, counted like any other. Opening
-/// throws (bad rig section, unreadable video); Next() never throws.
+/// throws (bad rig section, unreadable video); Next() never throws. A
+/// device (v4l2:) is live: Next() says kIdle after 0.1 s without a frame,
+/// and ends on SourceOptions::stop or after its idle_timeout_s.
 
 #include <memory>
 #include <string>
