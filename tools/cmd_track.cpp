@@ -51,10 +51,11 @@ int RunTrack(const TrackOptions& o) {
   for (const std::string& n : source->channel_names()) std::fprintf(out, ",%s", n.c_str());
   std::fprintf(out, "\n");
   daq::Frame frame;
-  daq::ReadStatus status;
   int64_t rows = 0;
-  while ((o.max_frames == 0 || rows < o.max_frames) && !options.stop->load() &&
-         (status = source->Next(frame)) == daq::ReadStatus::kFrame) {
+  while ((o.max_frames == 0 || rows < o.max_frames) && !options.stop->load()) {
+    const daq::ReadStatus status = source->Next(frame);
+    if (status == daq::ReadStatus::kIdle) continue;  // a device between frames
+    if (status != daq::ReadStatus::kFrame) break;
     std::fprintf(out, "%.9f", frame.time_s);
     for (double v : frame.values) std::fprintf(out, ",%.10g", v);  // NaN prints "nan", read back as NaN
     std::fprintf(out, "\n");
