@@ -245,6 +245,7 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   options.stop = m.config.stop;
   options.lcm_url = m.config.lcm_url;
   options.on_wait = [impl] { impl->OnWaitingForHeader(); };
+  options.rig = &m.config.rig;
   m.source = OpenSource(m.config.input, options);
   m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
                                             m.source->path(), m);

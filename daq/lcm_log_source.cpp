@@ -112,7 +112,35 @@ std::unique_ptr<Source> OpenLcmLogSource(const std::string& path, const SourceOp
   return std::make_unique<LcmLogSource>(path, options);
 }
 
+namespace {
+struct RegisteredForm {
+  std::string prefix;
+  SourceOpener opener;
+};
+std::vector<RegisteredForm>& RegisteredForms() {
+  static std::vector<RegisteredForm> forms;
+  return forms;
+}
+}  // namespace
+
+void RegisterSourceForm(const std::string& prefix, SourceOpener opener) {
+  for (RegisteredForm& f : RegisteredForms()) {
+    if (f.prefix == prefix) {
+      f.opener = opener;
+      return;
+    }
+  }
+  RegisteredForms().push_back({prefix, opener});
+}
+
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options) {
+  for (const RegisteredForm& f : RegisteredForms()) {
+    if (path.rfind(f.prefix, 0) == 0) return f.opener(path.substr(f.prefix.size()), options);
+  }
+  if (path.rfind("video:", 0) == 0 || path.rfind("v4l2:", 0) == 0) {
+    throw std::invalid_argument(path + ": this rocklab was built without video inputs "
+                                       "(ROCKLAB_VIDEO; needs libopencv-dev)");
+  }
   if (path.rfind("tcp://", 0) == 0) return OpenTcpSource(path.substr(6), options);
   if (path.rfind("tcp-listen://", 0) == 0) return OpenTcpSource(path.substr(13), options, true);
   if (path.rfind("lcm://", 0) == 0) return OpenLcmLiveSource(path.substr(6), options);

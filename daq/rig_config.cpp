@@ -329,6 +329,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
         r.RejectUnknown(*lt, "camera.led");
         cam.leds.push_back(led);
       }
+      r.Get(*t, "camera", "video");  // [camera.video]: read by video/ (docs/video.md)
       r.RejectUnknown(*t, "camera");
       rig.cameras.push_back(std::move(cam));
     }

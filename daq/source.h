@@ -24,6 +24,8 @@
 
 namespace rocklab::daq {
 
+struct RigConfig;
+
 /// Where something happened in an input: "file:line" (LCM logs: the event
 /// number stands in for the line).
 struct Location {
@@ -125,6 +127,9 @@ struct SourceOptions {
   std::function<void()> on_wait;
   /// lcm:// sources: the LCM URL to subscribe on (empty: LCM's default).
   std::string lcm_url;
+  /// Inputs read through the rig (video:, v4l2:): the rig loaded. Non-owning,
+  /// may be null; must outlive the source.
+  const RigConfig* rig{};
 };
 
 /// CSV with a header row; a `time` column (s) if present, else time = seq / rate.
@@ -165,8 +170,18 @@ std::unique_ptr<Source> OpenTcpSource(const std::string& host_port, const Source
 /// @throws std::invalid_argument when `channel` is options.raw_channel (the
 ///         DAQ republishes there) or empty; std::runtime_error when LCM fails.
 std::unique_ptr<Source> OpenLcmLiveSource(const std::string& channel, const SourceOptions& options);
-/// By form: tcp://HOST:PORT, tcp-listen://HOST:PORT, lcm://CHANNEL; else by extension: .csv, .lvm
-/// (followed when options.follow), anything else is read as an LCM log.
+/// By form: tcp://HOST:PORT, tcp-listen://HOST:PORT, lcm://CHANNEL, a registered
+/// form (below); else by extension: .csv, .lvm (followed when options.follow),
+/// anything else is read as an LCM log.
+/// @throws std::invalid_argument for video: or v4l2: when no opener is registered
+///         (a build without video/).
 std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions& options);
+
+/// Opens an input of a form daq does not read itself; `spec` without the prefix.
+using SourceOpener = std::unique_ptr<Source> (*)(const std::string& spec, const SourceOptions& options);
+/// Makes OpenSource open inputs starting with `prefix` ("video:", "v4l2:")
+/// through `opener`: the seam of libraries daq does not link (video/). Call
+/// at start-up, before any OpenSource on another thread.
+void RegisterSourceForm(const std::string& prefix, SourceOpener opener);
 
 }  // namespace rocklab::daq

@@ -271,6 +271,7 @@ void CheckDaqStage(const DaqStageOptions& o) {
     so.raw_channel = o.prefix + "RAW";
     so.config_channel = o.prefix + "DAQ_CONFIG";
     so.delimiter = config.delimiter;
+    so.rig = &rig;
     for (const auto& c : rig.channels) so.fallback_channel_names.push_back(c.name);
     std::unique_ptr<daq::Source> source;
     try {

@@ -26,7 +26,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
   CLI::App* cmd = app.add_subcommand("daq", "DAQ node: publish a raw input's frames and reconstruction over LCM");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)");
   cmd->add_option("--input", opts->input,
-                  "raw input: .csv, .lvm or an LCM log; tcp://HOST:PORT or tcp-listen://[HOST]:PORT (CSV lines); lcm://CHANNEL (raw_frame_t)");
+                  "raw input: .csv, .lvm or an LCM log; tcp://HOST:PORT or tcp-listen://[HOST]:PORT (CSV lines); lcm://CHANNEL (raw_frame_t); video:FILE or v4l2:/dev/videoN (docs/video.md)");
   auto* speed = cmd->add_option("--speed", opts->speed, "sample-clock pace factor (1 = real time)")
                     ->capture_default_str();
   cmd->add_flag("--max", opts->max_speed, "as fast as possible")->excludes(speed);

@@ -119,6 +119,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   CsvSink sink;
   daq::SourceOptions options;
   options.sample_rate_hz = rig.sample_rate_hz;
+  options.rig = &rig;
   for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
   options.on_problem = [&sink](const daq::Problem& p) { sink.Show(daq::ToString(p)); };
   std::unique_ptr<daq::Source> source;
@@ -177,7 +178,7 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<ReconstructOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("reconstruct", "reconstruct theta and the checks from a raw file");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)")->required();
-  cmd->add_option("--input", opts->input, "raw file: .csv, .lvm or an LCM log")->required();
+  cmd->add_option("--input", opts->input, "raw file: .csv, .lvm, an LCM log, or video:FILE (docs/video.md)")->required();
   cmd->add_option("--out", opts->out_csv,
                   "output CSV: time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,"
                   "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask)")

@@ -6,6 +6,9 @@
 #include <spdlog/cfg/env.h>
 
 #include "tools/cli.h"
+#ifdef ROCKLAB_HAVE_VIDEO
+#include "video/video_source.h"
+#endif
 
 namespace rocklab::tools {
 void RegisterParams(CLI::App& app, CommandRun& run);
@@ -26,6 +29,10 @@ void RegisterSweep(CLI::App& app, CommandRun& run);
 void RegisterInfo(CLI::App& app, CommandRun& run);
 void RegisterExport(CLI::App& app, CommandRun& run);
 void RegisterSpy(CLI::App& app, CommandRun& run);  // spy, logplayer-gui
+#ifdef ROCKLAB_HAVE_VIDEO
+void RegisterTrack(CLI::App& app, CommandRun& run);
+void RegisterCameraCalibrate(CLI::App& app, CommandRun& run);
+#endif
 }  // namespace rocklab::tools
 
 int main(int argc, char** argv) {
@@ -57,6 +64,11 @@ int main(int argc, char** argv) {
       &RegisterSpy,
   };
   for (CommandRegistrar add : commands) add(app, run);
+#ifdef ROCKLAB_HAVE_VIDEO
+  RegisterTrack(app, run);
+  RegisterCameraCalibrate(app, run);
+  rocklab::video::RegisterSources();  // --input video:FILE, v4l2:/dev/videoN
+#endif
 
   std::string known;
   bool is_known = false;

@@ -1,0 +1,200 @@
+#include "video/led_tracker.h"
+
+#include <algorithm>
+
+namespace rocklab::video {
+namespace {
+
+// A second blob in a gate farther than this many times the nearest does not
+// make the LED ambiguous (the nearest is clearly it; the other is left over).
+constexpr double kClearRatio = 3.0;
+// Rates from two fits further apart than this are not trusted, s.
+constexpr double kMaxRateGapS = 0.5;
+
+struct Fit {
+  double phi, tx, tz, worst;
+  int worst_at;
+};
+
+// Least-squares rigid 2-D fit world = R(phi) model + t over the LEDs in `used`.
+Fit FitRigid(const std::vector<double>& mx, const std::vector<double>& mz, const std::vector<double>& wx,
+             const std::vector<double>& wz, const std::vector<int>& used) {
+  double cmx = 0, cmz = 0, cwx = 0, cwz = 0;
+  for (int i : used) {
+    cmx += mx[i];
+    cmz += mz[i];
+    cwx += wx[i];
+    cwz += wz[i];
+  }
+  const double n = static_cast<double>(used.size());
+  cmx /= n, cmz /= n, cwx /= n, cwz /= n;
+  double dot = 0, cross = 0;
+  for (int i : used) {
+    const double ax = mx[i] - cmx, az = mz[i] - cmz, bx = wx[i] - cwx, bz = wz[i] - cwz;
+    dot += ax * bx + az * bz;
+    cross += ax * bz - az * bx;
+  }
+  Fit f{std::atan2(cross, dot), 0, 0, 0, -1};
+  const double c = std::cos(f.phi), s = std::sin(f.phi);
+  f.tx = cwx - (c * cmx - s * cmz);
+  f.tz = cwz - (s * cmx + c * cmz);
+  for (int i : used) {
+    const double r = std::hypot(c * mx[i] - s * mz[i] + f.tx - wx[i], s * mx[i] + c * mz[i] + f.tz - wz[i]);
+    if (r > f.worst) {
+      f.worst = r;
+      f.worst_at = i;
+    }
+  }
+  return f;
+}
+
+}  // namespace
+
+LedTracker::LedTracker(const VideoConfig& config, const PlaneMap& map)
+    : map_(&map), leds_(config.leds), residual_m_(config.residual_m) {
+  double spacing = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < leds_.size(); ++i) {
+    for (std::size_t j = i + 1; j < leds_.size(); ++j) {
+      spacing = std::min(spacing, std::hypot(leds_[i].x_m - leds_[j].x_m, leds_[i].z_m - leds_[j].z_m));
+    }
+  }
+  gate_m_ = config.gate_m > 0 ? config.gate_m : (std::isfinite(spacing) ? 0.4 * spacing : 0.05);
+  const std::size_t n = leds_.size();
+  seen_.assign(n, false);
+  pred_.resize(n);
+  pick_.resize(n);
+  mx_.resize(n), mz_.resize(n), wx_.resize(n), wz_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    mx_[i] = leds_[i].x_m;
+    mz_[i] = leds_[i].z_m;
+  }
+  used_.reserve(n);
+}
+
+void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vector<LedSample>& out) {
+  ++counts_.frames;
+  const std::size_t n = leds_.size();
+  out.assign(n, LedSample{});
+
+  // Blobs on the plane.
+  blob_px_.clear();
+  for (const Blob& b : blobs) blob_px_.emplace_back(b.u_px, b.v_px);
+  map_->ToPlane(blob_px_, blob_xz_);
+  blob_users_.assign(blobs.size(), 0);
+
+  // The LEDs where the block's motion puts them now (at rest before a fit).
+  double pose[3] = {0, 0, 0};
+  if (have_pose_) {
+    const double dt = time_s - pose_time_s_;
+    for (int k = 0; k < 3; ++k) pose[k] = pose_[k] + (have_rate_ ? rate_[k] * dt : 0.0);
+  }
+  const double c = std::cos(pose[0]), s = std::sin(pose[0]);
+  for (std::size_t i = 0; i < n; ++i) {
+    pred_[i] = {c * mx_[i] - s * mz_[i] + pose[1], s * mx_[i] + c * mz_[i] + pose[2]};
+  }
+
+  // Nearest blob in each gate; a comparable second one makes the LED ambiguous.
+  for (std::size_t i = 0; i < n; ++i) {
+    int best = -1, second = -1;
+    double d1 = std::numeric_limits<double>::infinity(), d2 = d1;
+    for (std::size_t j = 0; j < blobs.size(); ++j) {
+      const double d = std::hypot(blob_xz_[j].x - pred_[i].x, blob_xz_[j].y - pred_[i].y);
+      if (!(d < gate_m_)) continue;
+      if (d < d1) {
+        second = best, d2 = d1;
+        best = static_cast<int>(j), d1 = d;
+      } else if (d < d2) {
+        second = static_cast<int>(j), d2 = d;
+      }
+    }
+    pick_[i] = best;
+    if (best < 0) {
+      out[i].flags |= kLedMissing;
+    } else if (blobs[static_cast<std::size_t>(best)].oversize) {
+      out[i].flags |= kLedMerged;  // a blob too large for one LED
+    } else if (second >= 0 && d2 < kClearRatio * d1) {
+      out[i].flags |= kLedAmbiguous;
+    }
+    if (best >= 0) ++blob_users_[static_cast<std::size_t>(best)];
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (pick_[i] >= 0 && (out[i].flags & kLedAmbiguous) == 0) {
+      // Claimed by another LED's gate as its nearest too: two LEDs in one blob.
+      for (std::size_t k = 0; k < n; ++k) {
+        if (k != i && pick_[k] == pick_[i]) out[i].flags |= kLedMerged;
+      }
+    }
+  }
+
+  // The identified LEDs, then the rigid fit; the worst one off it is dropped
+  // until the rest agree (two LEDs that disagree are both dropped).
+  used_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (out[i].flags != 0) continue;
+    const cv::Point2d& p = blob_xz_[static_cast<std::size_t>(pick_[i])];
+    wx_[i] = p.x;
+    wz_[i] = p.y;
+    used_.push_back(static_cast<int>(i));
+  }
+  bool fitted = false;
+  Fit fit{};
+  while (used_.size() >= 2) {
+    fit = FitRigid(mx_, mz_, wx_, wz_, used_);
+    if (fit.worst <= residual_m_) {
+      fitted = true;
+      break;
+    }
+    if (used_.size() == 2) {
+      for (int i : used_) out[static_cast<std::size_t>(i)].flags |= kLedInconsistent;
+      used_.clear();
+      break;
+    }
+    out[static_cast<std::size_t>(fit.worst_at)].flags |= kLedInconsistent;
+    used_.erase(std::find(used_.begin(), used_.end(), fit.worst_at));
+  }
+
+  // Samples, flags and counts.
+  for (std::size_t i = 0; i < n; ++i) {
+    LedSample& o = out[i];
+    if (pick_[i] >= 0) {
+      const Blob& b = blobs[static_cast<std::size_t>(pick_[i])];
+      o.u_px = b.u_px;
+      o.v_px = b.v_px;
+      o.area_px = b.area_px;
+      o.peak = b.peak;
+      o.saturated_px = b.saturated_px;
+    }
+    if (o.flags == 0) {
+      o.x_m = wx_[i];
+      o.z_m = wz_[i];
+      if (o.saturated_px > 0) {
+        o.flags |= kLedSaturated;
+        ++counts_.saturated;
+      }
+    }
+    if (o.flags & kLedMissing) {
+      ++counts_.missing_samples;
+      if (seen_[i]) ++counts_.occlusions;
+    }
+    counts_.merged += (o.flags & kLedMerged) ? 1 : 0;
+    counts_.ambiguous += (o.flags & kLedAmbiguous) ? 1 : 0;
+    counts_.inconsistent += (o.flags & kLedInconsistent) ? 1 : 0;
+    seen_[i] = (o.flags & kLedMissing) == 0;
+  }
+  for (std::size_t j = 0; j < blobs.size(); ++j) counts_.reflections += blob_users_[j] == 0 ? 1 : 0;
+
+  if (fitted) {
+    ++counts_.fits;
+    const double now[3] = {fit.phi, fit.tx, fit.tz};
+    const double dt = time_s - pose_time_s_;
+    have_rate_ = have_pose_ && dt > 0 && dt < kMaxRateGapS;
+    for (int k = 0; k < 3; ++k) {
+      rate_[k] = have_rate_ ? (now[k] - pose_[k]) / dt : 0.0;
+      pose_[k] = now[k];
+    }
+    have_pose_ = true;
+    pose_time_s_ = time_s;
+  }
+}
+
+}  // namespace rocklab::video

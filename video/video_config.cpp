@@ -1,0 +1,249 @@
+#include "video/video_config.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <toml++/toml.h>
+
+namespace rocklab::video {
+namespace {
+
+// Keys of one table, read with the file, line and key in every error;
+// Done() rejects the keys nobody read (a typo is never ignored).
+class Keys {
+ public:
+  Keys(const std::string& path, const toml::table& table, std::string prefix)
+      : path_(path), table_(table), prefix_(std::move(prefix)) {}
+
+  [[noreturn]] void Fail(int line, const std::string& key, const std::string& what) const {
+    std::ostringstream msg;
+    msg << path_ << ":" << line << ": key '" << Join(key) << "' " << what;
+    throw std::runtime_error(msg.str());
+  }
+  static int LineOf(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
+  int line() const { return LineOf(table_); }
+  int LineOfKey(const std::string& key) const {
+    const toml::node* n = table_.get(key);
+    return n != nullptr ? LineOf(*n) : line();
+  }
+
+  const toml::node* Get(const std::string& key) {
+    seen_.insert(key);
+    return table_.get(key);
+  }
+  std::optional<double> Number(const std::string& key, double lo, double hi) {
+    const toml::node* n = Get(key);
+    if (n == nullptr) return std::nullopt;
+    const std::optional<double> v = n->value<double>();
+    if (!v || !std::isfinite(*v)) Fail(LineOf(*n), key, "must be a number");
+    if (*v < lo || *v > hi) {
+      Fail(LineOf(*n), key, "must be in [" + Str(lo) + ", " + Str(hi) + "] (is " + Str(*v) + ")");
+    }
+    return v;
+  }
+  double Required(const std::string& key, double lo, double hi) {
+    const std::optional<double> v = Number(key, lo, hi);
+    if (!v) Fail(line(), key, "is missing");
+    return *v;
+  }
+  void Done() const {
+    for (const auto& [k, v] : table_) {
+      if (seen_.count(std::string(k.str())) == 0) Fail(LineOf(v), std::string(k.str()), "is not a video key");
+    }
+  }
+  std::string Join(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
+
+ private:
+  static std::string Str(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", v);
+    return b;
+  }
+  const std::string& path_;
+  const toml::table& table_;
+  std::string prefix_;
+  std::set<std::string> seen_;
+};
+
+constexpr double kMaxPx = 100000;
+constexpr double kMaxLengthM = 100;
+
+Intrinsics ParseIntrinsics(const std::string& path, const toml::table& t, const std::string& prefix) {
+  Keys k(path, t, prefix);
+  Intrinsics in;
+  in.fx_px = k.Required("fx_px", 1e-3, 1e7);
+  in.fy_px = k.Required("fy_px", 1e-3, 1e7);
+  in.cx_px = k.Required("cx_px", -kMaxPx, kMaxPx);
+  in.cy_px = k.Required("cy_px", -kMaxPx, kMaxPx);
+  in.width_px = static_cast<int>(k.Number("width_px", 0, kMaxPx).value_or(0));
+  in.height_px = static_cast<int>(k.Number("height_px", 0, kMaxPx).value_or(0));
+  in.rms_reprojection_px = k.Number("rms_reprojection_px", 0, kMaxPx).value_or(-1);
+  in.views = static_cast<int>(k.Number("views", 0, 1e6).value_or(0));
+  if (const toml::node* d = k.Get("distortion")) {
+    const toml::array* a = d->as_array();
+    if (a == nullptr || a->size() != 5) {
+      k.Fail(Keys::LineOf(*d), "distortion", "must be [k1, k2, p1, p2, k3]");
+    }
+    for (std::size_t i = 0; i < 5; ++i) {
+      const std::optional<double> v = a->get(i)->value<double>();
+      if (!v || !std::isfinite(*v) || std::abs(*v) > 1e3) {
+        k.Fail(Keys::LineOf(*d), "distortion", "must hold 5 finite numbers of at most 1000");
+      }
+      in.distortion[i] = *v;
+    }
+  }
+  k.Done();
+  return in;
+}
+
+std::string Slurp(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) throw std::runtime_error(path + ": cannot be read");
+  std::string text;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
+  std::fclose(f);
+  return text;
+}
+
+toml::table ParseFile(const std::string& path) {
+  const std::string text = Slurp(path);
+  try {
+    return toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream msg;
+    msg << path << ":" << e.source().begin.line << ": " << e.description();
+    throw std::runtime_error(msg.str());
+  }
+}
+
+}  // namespace
+
+Intrinsics LoadIntrinsics(const std::string& path) {
+  const toml::table root = ParseFile(path);
+  return ParseIntrinsics(path, root, "");
+}
+
+void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment) {
+  const std::string part = path + ".part";
+  std::FILE* f = std::fopen(part.c_str(), "w");
+  if (f == nullptr) throw std::runtime_error("cannot write '" + part + "'");
+  std::fprintf(f, "# %s\n", comment.c_str());
+  std::fprintf(f, "width_px = %d\nheight_px = %d\n", k.width_px, k.height_px);
+  std::fprintf(f, "fx_px = %.10g\nfy_px = %.10g\ncx_px = %.10g\ncy_px = %.10g\n", k.fx_px, k.fy_px,
+               k.cx_px, k.cy_px);
+  std::fprintf(f, "distortion = [%.10g, %.10g, %.10g, %.10g, %.10g]  # k1, k2, p1, p2, k3\n",
+               k.distortion[0], k.distortion[1], k.distortion[2], k.distortion[3], k.distortion[4]);
+  std::fprintf(f, "rms_reprojection_px = %.6g\nviews = %d\n", k.rms_reprojection_px, k.views);
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) {
+    std::remove(part.c_str());
+    throw std::runtime_error("cannot write '" + part + "'");
+  }
+  std::filesystem::rename(part, path);
+}
+
+VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
+  const toml::table root = ParseFile(rig.path);
+  const toml::array* cams = root["camera"].as_array();
+  const toml::table* video = nullptr;
+  const daq::CameraConfig* camera = nullptr;
+  if (cams != nullptr) {
+    for (std::size_t i = 0; i < cams->size() && i < rig.cameras.size(); ++i) {
+      const toml::table* t = cams->get(i)->as_table();
+      const toml::node* v = t != nullptr ? t->get("video") : nullptr;
+      if (v == nullptr) continue;
+      if (v->as_table() == nullptr) {
+        throw std::runtime_error(rig.path + ":" + std::to_string(Keys::LineOf(*v)) +
+                                 ": key 'camera.video' must be a table ([camera.video])");
+      }
+      if (video != nullptr) {
+        throw std::runtime_error(rig.path + ":" + std::to_string(Keys::LineOf(*v)) +
+                                 ": key 'camera.video': a second camera with video (one video input "
+                                 "reads one camera)");
+      }
+      video = v->as_table();
+      camera = &rig.cameras[i];
+    }
+  }
+  if (video == nullptr) {
+    throw std::runtime_error(rig.path + ": no [camera.video] section (a video input needs one: docs/video.md)");
+  }
+
+  VideoConfig c;
+  c.rig_path = rig.path;
+  c.camera = camera->name;
+  for (const daq::LedConfig& led : camera->leds) {
+    VideoLed v{led.name, led.x_m, led.z_m, rig.FindSensor(camera->name + "." + led.name + ".x"),
+               rig.FindSensor(camera->name + "." + led.name + ".z")};
+    if (v.x_channel == nullptr || v.z_channel == nullptr) {
+      throw std::runtime_error(rig.path + ":" + std::to_string(Keys::LineOf(*video)) + ": camera '" +
+                               camera->name + "' LED '" + led.name + "' needs channels with sensor " +
+                               camera->name + "." + led.name + ".x and .z for its video");
+    }
+    if (v.x_channel->gain == 0 || v.z_channel->gain == 0) {
+      throw std::runtime_error(rig.path + ":" + std::to_string(v.x_channel->line) + ": key 'channel.gain' of " +
+                               camera->name + "." + led.name + " must not be 0 for a video input");
+    }
+    c.leds.push_back(v);
+  }
+
+  Keys k(rig.path, *video, "camera.video");
+  if ((c.fps = k.Number("fps", 0.01, 1e6))) c.fps_line = k.LineOfKey("fps");
+  if (const toml::node* n = k.Get("roi_px")) {
+    const toml::array* a = n->as_array();
+    bool ok = a != nullptr && a->size() == 4;
+    for (std::size_t i = 0; ok && i < 4; ++i) {
+      const std::optional<int64_t> v = a->get(i)->value<int64_t>();
+      ok = v && *v >= 0 && *v <= kMaxPx;
+      if (ok) c.roi_px[i] = static_cast<int>(*v);
+    }
+    if (!ok) k.Fail(Keys::LineOf(*n), "roi_px", "must be [x, y, width, height], whole pixels >= 0");
+  }
+  c.threshold = k.Number("threshold", 1, 254).value_or(c.threshold);
+  c.min_area_px = static_cast<int>(k.Number("min_area_px", 1, 1e6).value_or(c.min_area_px));
+  c.max_area_px = static_cast<int>(k.Number("max_area_px", 1, 1e7).value_or(c.max_area_px));
+  if (c.max_area_px < c.min_area_px) k.Fail(k.LineOfKey("max_area_px"), "max_area_px", "must be >= min_area_px");
+  c.saturation = k.Number("saturation", 2, 255).value_or(c.saturation);
+  c.gate_m = k.Number("gate_m", 1e-6, kMaxLengthM).value_or(0);
+  c.residual_m = k.Number("residual_m", 1e-6, kMaxLengthM).value_or(c.residual_m);
+  if (const toml::node* n = k.Get("intrinsics")) {
+    if (const std::optional<std::string> file = n->value<std::string>()) {
+      // Relative to the rig file.
+      const std::filesystem::path p = std::filesystem::path(rig.path).parent_path() / *file;
+      c.intrinsics = LoadIntrinsics(p.string());
+    } else if (const toml::table* t = n->as_table()) {
+      c.intrinsics = ParseIntrinsics(rig.path, *t, "camera.video.intrinsics");
+    } else {
+      k.Fail(Keys::LineOf(*n), "intrinsics", "must be a file name (rocklab camera-calibrate's) or a table");
+    }
+  }
+  const toml::node* marks = k.Get("mark");
+  const toml::array* ma = marks != nullptr ? marks->as_array() : nullptr;
+  if (ma == nullptr || ma->size() < 4) {
+    k.Fail(marks != nullptr ? Keys::LineOf(*marks) : k.line(), "mark",
+           "must list at least 4 reference marks { u_px, v_px, x_m, z_m } (image to rig plane)");
+  }
+  for (const toml::node& node : *ma) {
+    const toml::table* t = node.as_table();
+    if (t == nullptr) k.Fail(Keys::LineOf(node), "mark", "must be tables { u_px, v_px, x_m, z_m }");
+    Keys mk(rig.path, *t, "camera.video.mark");
+    Mark m;
+    m.u_px = mk.Required("u_px", -kMaxPx, kMaxPx);
+    m.v_px = mk.Required("v_px", -kMaxPx, kMaxPx);
+    m.x_m = mk.Required("x_m", -kMaxLengthM, kMaxLengthM);
+    m.z_m = mk.Required("z_m", -kMaxLengthM, kMaxLengthM);
+    m.line = Keys::LineOf(node);
+    mk.Done();
+    c.marks.push_back(m);
+  }
+  k.Done();
+  return c;
+}
+
+}  // namespace rocklab::video

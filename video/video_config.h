@@ -1,0 +1,78 @@
+#pragma once
+/// @file
+/// A camera's `[camera.video]` section of the rig file (docs/video.md): how
+/// its video is read, where its LEDs are looked for, the lens and the
+/// reference marks that map the image to the rig plane. The daq/ parser
+/// leaves the section to this one; the keys here are read and checked with
+/// the file, line and key in every error, and unknown keys are errors.
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "daq/rig_config.h"
+
+namespace rocklab::video {
+
+/// Pinhole intrinsics and OpenCV's distortion (k1, k2, p1, p2, k3), pixels.
+struct Intrinsics {
+  double fx_px{}, fy_px{}, cx_px{}, cy_px{};
+  std::array<double, 5> distortion{};  ///< k1, k2, p1, p2, k3 (1)
+  int width_px{}, height_px{};         ///< image size the calibration holds for; 0 = unknown
+  double rms_reprojection_px{-1};      ///< from the calibration; < 0 = not known
+  int views{};                         ///< chessboard views used; 0 = not known
+};
+
+/// A reference mark on the rig plane: where it is in the image (as seen,
+/// distorted) and where it is in the rig frame.
+struct Mark {
+  double u_px{}, v_px{};  ///< image column, row (pixel centres at integers)
+  double x_m{}, z_m{};    ///< rig frame, m
+  int line{};             ///< in the rig file
+};
+
+/// One LED of the camera and the rig channels its coordinates go to.
+struct VideoLed {
+  std::string name;
+  double x_m{}, z_m{};  ///< block frame (= rig frame at rest), m
+  /// The rig's channels for `<camera>.<led>.x|z`; the source delivers
+  /// raw = (metres - offset) / gain, so the DAQ's calibration gives metres.
+  const daq::ChannelConfig* x_channel{};  ///< non-owning, into the RigConfig
+  const daq::ChannelConfig* z_channel{};
+};
+
+struct VideoConfig {
+  std::string rig_path;
+  std::string camera;  ///< the [[camera]]'s name
+  std::vector<VideoLed> leds;
+  /// Frame rate used only when the video has no timestamps (image sequences), Hz.
+  std::optional<double> fps;
+  int fps_line{};
+  /// Region searched for LEDs: x, y, width, height (px); width 0 = whole frame.
+  std::array<int, 4> roi_px{};
+  double threshold{40};        ///< 8-bit level a blob's pixels exceed
+  int min_area_px{2};          ///< smaller blobs are noise
+  int max_area_px{2000};       ///< larger ones are not one LED (merged, a reflection)
+  double saturation{255};      ///< 8-bit level at which a pixel is clipped
+  double gate_m{};             ///< identification radius around a prediction, m; 0 = 0.4 x smallest LED spacing
+  double residual_m{0.003};    ///< an identified LED further than this from the rigid fit is dropped, m
+  std::optional<Intrinsics> intrinsics;  ///< absent: an ideal lens (no undistortion)
+  std::vector<Mark> marks;     ///< >= 4: image-to-plane homography
+};
+
+/// The one camera of `rig` that has a `[camera.video]` section.
+/// @throws std::runtime_error "PATH:LINE: key 'camera.video.K' ..." on a
+///         missing, mistyped, unknown or out-of-range key, fewer than 4
+///         marks, an LED without its channels, or no (or more than one)
+///         camera with a video section.
+VideoConfig LoadVideoConfig(const daq::RigConfig& rig);
+
+/// Reads an intrinsics file as `rocklab camera-calibrate` writes it.
+/// @throws std::runtime_error naming the file, line and key.
+Intrinsics LoadIntrinsics(const std::string& path);
+/// Writes one (beside, then renamed: whole or not at all).
+/// @throws std::runtime_error naming the file.
+void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment);
+
+}  // namespace rocklab::video

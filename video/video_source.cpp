@@ -1,0 +1,214 @@
+#include "video/video_source.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "common/node_support.h"
+#include "daq/rig_config.h"
+#include "video/plane_map.h"
+#include "video/video_config.h"
+
+namespace rocklab::video {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Drop events reported one by one up to this many, then only counted.
+constexpr int64_t kShownDrops = 20;
+// A device's frames are waited for this long before Next() says kIdle, s.
+constexpr double kIdleWaitS = 0.1;
+
+class VideoSource : public daq::Source {
+ public:
+  VideoSource(const std::string& spec, bool device, const daq::SourceOptions& options)
+      : path_(device ? "v4l2:" + spec : spec),
+        device_(device),
+        on_problem_(options.on_problem),
+        stop_(options.stop),
+        idle_timeout_s_(options.idle_timeout_s),
+        config_(LoadVideoConfig(*options.rig)),
+        map_(config_.intrinsics, config_.marks, config_.rig_path),
+        reader_(spec, device, config_.fps),
+        detector_(Options(config_)),
+        tracker_(config_, map_) {
+    for (const VideoLed& led : config_.leds) {
+      names_.push_back(led.x_channel->name);
+      names_.push_back(led.z_channel->name);
+    }
+    for (const VideoLed& led : config_.leds) {
+      const std::string base = config_.camera + "_" + led.name;
+      names_.push_back(base + "_area_px");
+      names_.push_back(base + "_peak");
+      names_.push_back(base + "_flags");
+    }
+    stats_.mark_rms_m = map_.mark_rms_m();
+    stats_.mark_rms_px = map_.mark_rms_px();
+    stats_.m_per_px = map_.scale_m_per_px();
+    stats_.gate_m = tracker_.gate_m();
+    stats_.rate_hz = reader_.rate_hz();
+    reader_rate_ = reader_.rate_hz();
+    stats_.rate_source = reader_.rate_source();
+    stats_.times_from_fps = reader_.times_from_fps();
+    stats_.width_px = reader_.width();
+    stats_.height_px = reader_.height();
+    if (config_.intrinsics && config_.intrinsics->width_px > 0 && reader_.width() > 0 &&
+        (config_.intrinsics->width_px != reader_.width() || config_.intrinsics->height_px != reader_.height())) {
+      throw std::runtime_error(path_ + ": frames are " + std::to_string(reader_.width()) + "x" +
+                               std::to_string(reader_.height()) + " px but the intrinsics of " +
+                               config_.rig_path + " hold for " + std::to_string(config_.intrinsics->width_px) +
+                               "x" + std::to_string(config_.intrinsics->height_px));
+    }
+    auto log = common::NamedLogger("video");
+    log->info("{}: {}x{} px, {:.6g} frames/s from {}{}; camera '{}', {} LEDs; marks fit to {:.3g} mm "
+              "({:.3g} px), {:.3g} mm/px, gate {:.3g} mm",
+              path_, reader_.width(), reader_.height(), reader_.rate_hz(), reader_.rate_source(),
+              reader_.times_from_fps() ? " (frame times are index / fps)" : ", frame times from its timestamps",
+              config_.camera, config_.leds.size(), 1e3 * map_.mark_rms_m(), map_.mark_rms_px(),
+              1e3 * map_.scale_m_per_px(), 1e3 * tracker_.gate_m());
+    if (std::abs(reader_.rate_hz() - options.rig->sample_rate_hz) > 1e-3 * reader_.rate_hz()) {
+      Report(0, "the video's " + std::to_string(reader_.rate_hz()) + " frames/s differ from the rig's sample_rate_hz " +
+                    std::to_string(options.rig->sample_rate_hz) +
+                    " (the differentiators' windows are set from the rig's)");
+      ++stats_src_.warnings;
+    }
+    samples_.reserve(config_.leds.size());
+    // Last: from here on only its thread touches reader_.
+    read_ahead_ = std::make_unique<ReadAhead>(reader_);
+  }
+
+  const std::vector<std::string>& channel_names() const override { return names_; }
+  double sample_rate_hz() const override { return reader_rate_; }
+  const daq::SourceStats& stats() const override { return stats_src_; }
+  const std::string& path() const override { return path_; }
+  bool live() const override { return device_; }
+  const VideoStats& video_stats() const { return stats_; }
+
+  daq::ReadStatus Next(daq::Frame& frame) override {
+    if (!error_.empty()) return daq::ReadStatus::kError;
+    double t = 0;
+    int64_t number = 0;
+    const int64_t dropped_before = read_ahead_->counts().dropped;
+    bool idle = false;
+    // A device is waited on 0.1 s at a time (the DAQ's live contract: kIdle).
+    if (!read_ahead_->Next(gray_, t, number, device_ ? kIdleWaitS : -1.0, &idle)) {
+      Sync();
+      if (idle) {
+        const double quiet_s = std::chrono::duration<double>(Clock::now() - last_frame_).count();
+        const bool stopped = stop_ != nullptr && stop_->load();
+        if (stopped || (idle_timeout_s_ > 0 && quiet_s > idle_timeout_s_)) return daq::ReadStatus::kEnd;
+        return daq::ReadStatus::kIdle;
+      }
+      return daq::ReadStatus::kEnd;
+    }
+    last_frame_ = Clock::now();
+    if (read_ahead_->counts().untimed > 0 && !stats_.times_from_fps) {
+      stats_.times_from_fps = true;
+      stats_.rate_source += "; the video gives no frame times: index / rate";
+      ++stats_src_.warnings;
+      Report(number, "the video gives no frame times: frames are timed index / " + std::to_string(reader_rate_) +
+                         " Hz and drops cannot be seen");
+    }
+    const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
+    if (dropped > 0) {
+      ++stats_src_.warnings;
+      if (read_ahead_->counts().drop_events <= kShownDrops) {
+        Report(number, std::to_string(dropped) + " frame(s) dropped before this one (from the frame times)");
+      }
+    }
+    detector_.Detect(gray_, blobs_);
+    tracker_.Track(blobs_, t, samples_);
+    ++stats_src_.rows;
+    frame.seq = number;
+    frame.time_s = t;
+    frame.line = number + 1;
+    frame.comment.clear();
+    frame.values.resize(names_.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < samples_.size(); ++i) {
+      const VideoLed& led = config_.leds[i];
+      const LedSample& s = samples_[i];
+      frame.values[k++] = (s.x_m - led.x_channel->offset) / led.x_channel->gain;
+      frame.values[k++] = (s.z_m - led.z_channel->offset) / led.z_channel->gain;
+    }
+    for (const LedSample& s : samples_) {
+      frame.values[k++] = s.area_px > 0 ? s.area_px : kNaN;
+      frame.values[k++] = s.area_px > 0 ? s.peak : kNaN;
+      frame.values[k++] = static_cast<double>(s.flags);
+    }
+    Sync();
+    return daq::ReadStatus::kFrame;
+  }
+
+ private:
+  static DetectorOptions Options(const VideoConfig& c) {
+    DetectorOptions o;
+    o.roi_px = c.roi_px;
+    o.threshold = c.threshold;
+    o.min_area_px = c.min_area_px;
+    o.max_area_px = c.max_area_px;
+    o.saturation = c.saturation;
+    return o;
+  }
+  void Report(int64_t line, const std::string& message) {
+    if (on_problem_) on_problem_(daq::Problem{daq::Location{&path_, line}, message});
+  }
+  void Sync() {
+    stats_.frames = read_ahead_->counts();
+    stats_.detector = detector_.counts();
+    stats_.track = tracker_.counts();
+    // Frames not delivered are the source's bad rows.
+    stats_src_.bad_rows = stats_.frames.unreadable + stats_.frames.repeated + stats_.frames.backwards;
+  }
+
+  using Clock = std::chrono::steady_clock;
+  std::string path_;
+  bool device_;
+  daq::ProblemCallback on_problem_;
+  const std::atomic<bool>* stop_;  // non-owning, may be null (SourceOptions::stop)
+  double idle_timeout_s_;
+  Clock::time_point last_frame_{Clock::now()};
+  VideoConfig config_;
+  PlaneMap map_;
+  FrameReader reader_;  // read only by read_ahead_'s thread once that exists
+  LedDetector detector_;
+  LedTracker tracker_;
+  std::vector<std::string> names_;
+  daq::SourceStats stats_src_;
+  VideoStats stats_;
+  double reader_rate_{};  // reader_.rate_hz(), read before read_ahead_ owns the reader
+  // Decoding on its own thread, tracking on the caller's; declared after
+  // reader_, so destroyed (its thread joined) before it.
+  std::unique_ptr<ReadAhead> read_ahead_;
+  cv::Mat gray_;
+  std::vector<Blob> blobs_;
+  std::vector<LedSample> samples_;
+};
+
+std::unique_ptr<daq::Source> OpenVideoFile(const std::string& spec, const daq::SourceOptions& options) {
+  return OpenVideoSource(spec, false, options);
+}
+std::unique_ptr<daq::Source> OpenVideoDevice(const std::string& spec, const daq::SourceOptions& options) {
+  return OpenVideoSource(spec, true, options);
+}
+
+}  // namespace
+
+std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
+                                             const daq::SourceOptions& options) {
+  if (options.rig == nullptr) throw std::invalid_argument(spec + ": a video input needs the rig (--rig)");
+  if (spec.empty()) throw std::invalid_argument("video: no file (expected video:FILE or v4l2:/dev/videoN)");
+  return std::make_unique<VideoSource>(spec, device, options);
+}
+
+const VideoStats* VideoStatsOf(const daq::Source& source) {
+  const auto* v = dynamic_cast<const VideoSource*>(&source);
+  return v != nullptr ? &v->video_stats() : nullptr;
+}
+
+void RegisterSources() {
+  daq::RegisterSourceForm("video:", &OpenVideoFile);
+  daq::RegisterSourceForm("v4l2:", &OpenVideoDevice);
+}
+
+}  // namespace rocklab::video

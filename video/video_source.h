@@ -1,0 +1,57 @@
+#pragma once
+/// @file
+/// A camera's video as a DAQ source (`--input video:FILE`, `v4l2:/dev/videoN`):
+/// frames (frame_reader.h), LED blobs (led_detector.h), identification
+/// (led_tracker.h), the plane (plane_map.h), out as the rig's LED channels.
+///
+/// Channels, in order: for each LED of the rig's camera with a
+/// `[camera.video]` section, its `<camera>.<led>.x` and `.z` channels (the
+/// rig's names), delivered as raw = (metres - offset) / gain so the DAQ's
+/// calibration turns them back into metres; NaN where the LED was not
+/// identified. Then, per LED, `<camera>_<led>_area_px`, `_peak` (8-bit
+/// level) and `_flags` (led_tracker.h's LedFlag bits): carried in RL_RAW
+/// and the track CSV, ignored by the reconstruction.
+///
+/// Frame numbers come from the frame times (frame_reader.h), so a dropped
+/// frame is a gap of the DAQ's sequence, counted like any other. Opening
+/// throws (bad rig section, unreadable video); Next() never throws. A
+/// device (v4l2:) is live: Next() says kIdle after 0.1 s without a frame,
+/// and ends on SourceOptions::stop or after its idle_timeout_s.
+
+#include <memory>
+#include <string>
+
+#include "daq/source.h"
+#include "video/frame_reader.h"
+#include "video/led_detector.h"
+#include "video/led_tracker.h"
+
+namespace rocklab::video {
+
+/// What a video source counted.
+struct VideoStats {
+  FrameCounts frames;
+  DetectorCounts detector;
+  TrackCounts track;
+  double mark_rms_m{};       ///< homography residual at the reference marks, m
+  double mark_rms_px{};      ///< the same in the image, px
+  double m_per_px{};         ///< plane scale at the marks, m/px
+  double gate_m{};
+  double rate_hz{};
+  std::string rate_source;   ///< where the frame rate came from
+  bool times_from_fps{};     ///< no timestamps: times are frame index / fps
+  int width_px{}, height_px{};
+};
+
+/// `spec`: a video file or image pattern (device false), or /dev/videoN.
+/// Needs options.rig (the rig loaded from its file).
+/// @throws std::invalid_argument without options.rig; std::runtime_error
+///         naming the rig file (line, key) or the video.
+std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
+                                             const daq::SourceOptions& options);
+/// The counts of a source OpenVideoSource made; nullptr for any other source.
+const VideoStats* VideoStatsOf(const daq::Source& source);
+/// Registers `video:` and `v4l2:` with daq::OpenSource (call once at start-up).
+void RegisterSources();
+
+}  // namespace rocklab::video
