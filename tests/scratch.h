@@ -8,6 +8,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <set>
 #include <string>
 
 namespace rocklab::test {
@@ -20,6 +23,19 @@ inline std::string ScratchDir(const std::string& name) {
       std::filesystem::current_path() / "scratch" / (name + "-" + std::to_string(::getpid()));
   std::filesystem::create_directories(p);
   return p.string();
+}
+
+/// A file's bytes ("" when it cannot be read).
+inline std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// The names in a folder (what a writer left there).
+inline std::set<std::string> Listing(const std::string& dir) {
+  std::set<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.insert(e.path().filename().string());
+  return names;
 }
 
 }  // namespace rocklab::test

@@ -18,16 +18,8 @@
 namespace rocklab::common {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-std::set<std::string> Listing(const std::string& dir) {
-  std::set<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) names.insert(e.path().filename().string());
-  return names;
-}
+using test::Listing;
+using test::Slurp;
 
 TEST(AtomicFile, CommitGivesTheWholeFileAndLeavesNoTemporary) {
   const std::string dir = test::ScratchDir("atomic_commit");

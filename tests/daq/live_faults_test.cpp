@@ -30,9 +30,13 @@
 #include "daq/source.h"
 #include "rocklab/health_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/daq/loopback_tcp.h"
 
 namespace rocklab::daq {
 namespace {
+
+using test::Listen;
+using test::SendAll;
 
 constexpr double kRateHz = 200.0;
 
@@ -76,27 +80,6 @@ bool AnyContains(const std::vector<std::string>& lines, const std::string& part)
     if (l.find(part) != std::string::npos) return true;
   }
   return false;
-}
-
-int Listen(int& port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 || ::listen(fd, 1) != 0) return -1;
-  socklen_t n = sizeof addr;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &n);
-  port = ntohs(addr.sin_port);
-  return fd;
-}
-
-void SendAll(int fd, const std::string& text) {
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::send(fd, text.data() + done, text.size() - done, MSG_NOSIGNAL);
-    if (n <= 0) return;
-    done += static_cast<size_t>(n);
-  }
 }
 
 // Issue 23 point 1. The first connection ends in the middle of row 50's

@@ -23,9 +23,13 @@
 
 #include "daq/source.h"
 #include "tests/daq/daq_test_util.h"
+#include "tests/daq/loopback_tcp.h"
 
 namespace rocklab::daq {
 namespace {
+
+using test::Listen;
+using test::SendAll;
 
 constexpr double kRateHz = 200.0;
 
@@ -193,29 +197,6 @@ TEST(LiveSources, FollowedLvmTakesNewSegmentsAndAReplacedFile) {
   }
   EXPECT_EQ(got.stats.restarts, 1);
   EXPECT_EQ(got.stats.bad_rows, 0);
-}
-
-// A listening socket on 127.0.0.1 with an ephemeral port.
-int Listen(int& port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  addr.sin_port = 0;
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 || ::listen(fd, 1) != 0) return -1;
-  socklen_t n = sizeof addr;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &n);
-  port = ntohs(addr.sin_port);
-  return fd;
-}
-
-void SendAll(int fd, const std::string& text) {
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::send(fd, text.data() + done, text.size() - done, MSG_NOSIGNAL);
-    if (n <= 0) return;
-    done += static_cast<size_t>(n);
-  }
 }
 
 // The acquisition PC's side as the LabVIEW recipe does it: on every
