@@ -387,6 +387,7 @@ void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double 
       break;
     }
     if (passage_pending_) {
+      SetSegment(state_.time_s, t_s);  // the table at its impact, within this call's forcing
       if (!AdvancePassage(t_s)) break;
       continue;
     }

@@ -148,8 +148,9 @@ class RockingModel {
 
   /// Live stepping: the table acceleration sample `table_accel_mps2` (m/s^2)
   /// at t_s; between the previous sample and this one the acceleration is
-  /// linear (the first sample after Reset holds it constant). Never integrates
-  /// past t_s.
+  /// linear (the first sample after Reset holds it constant). Never evaluates
+  /// the forcing past t_s: a complex-model crossing solved in closed form that
+  /// ends after t_s (it lasts ~1e-3 v / p s) holds the table at t_s there.
   void Step(double t_s, double table_accel_mps2);
 
   virtual const ModelState& state() const = 0;
