@@ -30,6 +30,7 @@ struct FitCliOptions {
   std::string quarter_time{"exact"};
   double alpha_band_m{0.01};
   int min_impacts{4};
+  double rtol{model::FitOptions{}.rtol};
   bool json{};
   bool quiet{};
   std::string out_json;
@@ -184,6 +185,8 @@ int RunFit(const FitCliOptions& o) {
   }
   Require(o.alpha_band_m >= 0.0, "--alpha-band-m", ">= 0 m", o.alpha_band_m);
   Require(o.min_impacts >= 3, "--min-impacts", ">= 3", o.min_impacts);
+  Require(o.rtol > 0.0 && o.rtol < 1e-3, "--rtol", "in (0, 1e-3)", o.rtol);
+  fo.rtol = o.rtol;
   fo.alpha_band_m = o.alpha_band_m;
   fo.min_impacts = o.min_impacts;
 
@@ -277,6 +280,7 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--quarter-time", opts->quarter_time, "impacts method: exact (corrected eq. 12) | slender (eq. 13)");
   cmd->add_option("--alpha-band-m", opts->alpha_band_m, "admissible error on b, m (default 0.01)");
   cmd->add_option("--min-impacts", opts->min_impacts, "fewest impacts accepted (default 4)");
+  cmd->add_option("--rtol", opts->rtol, "trajectory method: the model's relative tolerance, in (0, 1e-3) (default 1e-8)");
   cmd->add_flag("--json", opts->json, "print the result as JSON");
   cmd->add_flag("--quiet", opts->quiet, "no progress lines on stderr");
   cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");

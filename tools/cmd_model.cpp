@@ -17,12 +17,15 @@ struct ModelCommand {
   std::string lcm_url;
   int lookahead{0};
   int threads{1};
+  double rtol{model::ModelOptions{}.rtol};
 };
 
 int RunModel(const ModelCommand& c) {
   const daq::RigConfig rig = LoadRig(c.rig_path);
   model::ModelNodeConfig cfg;
   cfg.variants = BuildVariants(c.variants, rig);
+  pipeline::Require(c.rtol > 0.0 && c.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", c.rtol);
+  for (model::VariantSpec& v : cfg.variants) v.options.rtol = c.rtol;
   cfg.lookahead_samples = c.lookahead;
   cfg.threads = c.threads;
   const std::atomic<bool>& stop = InstallStopSignals();
@@ -56,6 +59,7 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
                   "table samples held before one is stepped (default 0: each as it arrives; N > 0 "
                   "integrates across samples, N sample periods later)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--rtol", c->rtol, "the variants' relative tolerance, in (0, 1e-3] (default 1e-10)");
   cmd->add_option("--threads", c->threads,
                   "threads stepping the variants (default 1; 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);

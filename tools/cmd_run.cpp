@@ -49,6 +49,7 @@ struct RunCommand {
   bool max{};
   int lookahead{0};
   int threads{1};
+  double rtol{model::ModelOptions{}.rtol};
   bool quiet{};
   compare::CompareNodeConfig compare;
 };
@@ -90,6 +91,8 @@ int RunAll(RunCommand& c) {
   compare::CompareNode compare(c.compare, bus);
   model::ModelNodeConfig model_cfg;
   model_cfg.variants = BuildVariants(c.variants, rig);
+  pipeline::Require(c.rtol > 0.0 && c.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", c.rtol);
+  for (model::VariantSpec& v : model_cfg.variants) v.options.rtol = c.rtol;
   // Default 0 also with --max: on accelerometer data (and on the
   // differentiated displacement) 32 took more CPU, not less
   // (docs/performance.md, "Stepping across samples in the model node").
@@ -164,6 +167,7 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   auto* speed = cmd->add_option("--speed", c->speed,
                                 "sample-clock s per host s (default 1: real time); 0 = --max");
   cmd->add_flag("--max", c->max, "as fast as possible")->excludes(speed);
+  cmd->add_option("--rtol", c->rtol, "the variants' relative tolerance, in (0, 1e-3] (default 1e-10)");
   cmd->add_option("--lookahead", c->lookahead,
                   "table samples the model holds before stepping one (default 0: each as it arrives)")
       ->check(CLI::NonNegativeNumber);

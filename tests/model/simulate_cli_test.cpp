@@ -78,5 +78,22 @@ TEST(CliSimulate, RtolReachesTheModelAndIsChecked) {
   EXPECT_NE(bad.err.find("--rtol"), std::string::npos) << bad.err;
 }
 
+// Oracle: the same contract on the other commands that integrate: fit
+// (the trajectory method's model), model and run (every variant); 0 exits
+// 2 naming --rtol before anything runs.
+TEST(CliSimulate, RtolIsCheckedOnEveryCommandThatIntegrates) {
+  const std::string src = ROCKLAB_SOURCE_DIR;
+  const std::string rig = src + "/data/rigs/block1_rig.toml";
+  const std::vector<std::vector<std::string>> commands{
+      {"fit", "--input", src + "/data/samples/free_rocking.csv", "--width", "0.247", "--height", "1.0", "--rtol", "0"},
+      {"model", "--rig", rig, "--rtol", "0"},
+      {"run", "--rig", rig, "--input", src + "/data/samples/fig7_block1.csv", "--max", "--rtol", "0"}};
+  for (const auto& args : commands) {
+    const CliResult r = RunCli(args);
+    EXPECT_EQ(r.exit_code, 2) << args[0] << ": " << r.err;
+    EXPECT_NE(r.err.find("--rtol"), std::string::npos) << args[0] << ": " << r.err;
+  }
+}
+
 }  // namespace
 }  // namespace rocklab::test
