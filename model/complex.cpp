@@ -618,6 +618,7 @@ class ComplexModel final : public CvodeRockingModel {
     passage->t_impact_s = plan.t_impact_s;
     passage->t_exit_s = plan.out.t_s[kLegSteps];
     passage->impact_theta_dot = -from.alpha * plan.in.speed[kLegSteps] * std::cos(plan.in.ray_rad);
+    passage->after_theta_dot = to.alpha * plan.out.speed[0] * std::cos(plan.out.ray_rad);
     return true;
   }
 

@@ -57,6 +57,7 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
     double t_impact_s{};
     double t_exit_s{};
     double impact_theta_dot{};  ///< rad/s, just before the impact
+    double after_theta_dot{};   ///< rad/s, just after it
   };
   enum class SwitchResult { kNone, kReinit, kPassage };
   /// Called when g[2] crosses zero (no impact at the same time) at t_s; may

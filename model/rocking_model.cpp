@@ -291,6 +291,7 @@ bool CvodeRockingModel::Impact(double t_s, double theta_dot) {
                     TableAllowsRest(t_s);
   last_impact_s_ = t_s;
   if (!rest) return false;
+  events_.back().value_after = 0.0;
   Emit(t_s, EventKind::kRest, 0.0);
   EnterRest(t_s);
   last_impact_s_ = -std::numeric_limits<double>::infinity();
@@ -308,6 +309,7 @@ bool CvodeRockingModel::AdvancePassage(double t_s) {
     FillPassageState(passage_.t_impact_s);
     UpdateState(passage_.t_impact_s);
     if (Impact(passage_.t_impact_s, passage_.impact_theta_dot)) return true;  // at rest: passage dropped
+    events_.back().value_after = passage_.after_theta_dot;
   }
   if (t_s < passage_.t_exit_s) {
     FillPassageState(t_s);
@@ -463,9 +465,11 @@ void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double 
     }
     // An impact.
     if (Impact(t, state_.theta_dot)) continue;
+    const std::size_t impact_event = events_.size() - 1;
     if (ApplyImpact(y_)) {
       RestartRocking(t);
       UpdateState(t, y_);
+      events_[impact_event].value_after = state_.theta_dot;
     }
     if (stop_at_jump && t >= t_out) RestartAtDiscontinuity(t);
   }

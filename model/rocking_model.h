@@ -4,6 +4,7 @@
 /// with SUNDIALS CVODE, with the regime logic of ERRATA item 6 (rest, uplift,
 /// impacts, return to rest, overturning).
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,6 +39,10 @@ struct ModelEvent {
   /// uplift: table acceleration, m/s^2; impact: theta_dot just before, rad/s;
   /// rest: 0; overturn: theta, rad.
   double value{};
+  /// impact: theta_dot just after, rad/s (0 when the block rests there;
+  /// NaN for a complex-model crossing integrated through, where theta_dot
+  /// passes continuously and no before and after are apart); NaN otherwise.
+  double value_after{std::numeric_limits<double>::quiet_NaN()};
 };
 
 /// The state a model reports after each advance.

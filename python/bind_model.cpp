@@ -144,19 +144,22 @@ py::object Summary(const pipeline::ScenarioOptions& o, const pipeline::Scenario&
 
 // The model's events as columns: time (s), kind, value (ModelEvent::value:
 // uplift: table acceleration, m/s^2; impact: theta_dot just before, rad/s;
-// rest: 0; overturn: theta, rad).
+// rest: 0; overturn: theta, rad), theta_dot_after (impact: just after,
+// rad/s; NaN otherwise).
 py::dict EventColumns(const std::vector<model::ModelEvent>& events) {
-  std::vector<double> time, value;
+  std::vector<double> time, value, after;
   py::list kind;
   for (const model::ModelEvent& e : events) {
     time.push_back(e.time_s);
     value.push_back(e.value);
+    after.push_back(e.value_after);
     kind.append(model::ToString(e.kind));
   }
   py::dict d;
   d["time"] = OwnedArray(std::move(time));
   d["kind"] = kind;
   d["value"] = OwnedArray(std::move(value));
+  d["theta_dot_after"] = OwnedArray(std::move(after));
   return d;
 }
 

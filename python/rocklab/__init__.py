@@ -64,6 +64,7 @@ EVENT_DTYPE = _np.dtype(
         ("time", _np.dtype("f8", metadata={"unit": "s"})),
         ("kind", "U8"),
         ("value", _np.dtype("f8", metadata={"unit": "m/s^2 | rad/s | rad"})),
+        ("theta_dot_after", _np.dtype("f8", metadata={"unit": "rad/s"})),
     ]
 )
 
@@ -105,9 +106,12 @@ class SimulationResult:
         theta: rocking angle at t, rad (> 0 about the +x corner).
         theta_dot: angular velocity at t, rad/s.
         events: structured array (EVENT_DTYPE): ``time`` (s), ``kind``
-            ("uplift", "impact", "rest", "overturn") and ``value``: uplift:
+            ("uplift", "impact", "rest", "overturn"), ``value``: uplift:
             the table acceleration, m/s^2; impact: theta_dot just before,
-            rad/s; rest: 0; overturn: theta, rad.
+            rad/s; rest: 0; overturn: theta, rad; and ``theta_dot_after``:
+            impact: theta_dot just after, rad/s (0 where the block comes to
+            rest; NaN for a complex-model crossing integrated through),
+            NaN for the other kinds.
         summary: the dict of ``rocklab simulate --json`` (uplift_time,
             peak_abs_theta, peak_time, impacts, overturned, final_regime,
             solver statistics, cpu_time, ...).
@@ -220,6 +224,7 @@ def simulate(
     events["time"] = ev["time"]
     events["kind"] = ev["kind"]
     events["value"] = ev["value"]
+    events["theta_dot_after"] = ev["theta_dot_after"]
     return SimulationResult(r["t"], r["theta"], r["theta_dot"], events, r["summary"])
 
 

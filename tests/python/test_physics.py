@@ -123,6 +123,8 @@ def test_housner_figure8_matches_scipy_reference():
     ref_w = np.array([w for _, w in impacts])
     np.testing.assert_allclose(ours["time"][:12], ref_t, rtol=0, atol=1e-7)
     np.testing.assert_allclose(ours["value"][:12], ref_w, rtol=1e-5, atol=1e-7)
+    # ... and just after: Housner's restitution, theta_dot <- mu theta_dot.
+    np.testing.assert_allclose(ours["theta_dot_after"][:12], FIG8["mu"] * ref_w, rtol=1e-5, atol=1e-7)
     # theta at every output up to the 12th impact (the reference's dense
     # output); near an impact theta changes at |theta_dot| <= 0.5 rad/s, so
     # 1e-7 s of timing is 5e-8 rad: measured 1.0e-10 rad, bound 1e-7 rad.
