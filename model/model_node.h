@@ -40,11 +40,13 @@
 /// whose integration fails stops until the next reset (counted in failures()).
 ///
 /// Lookahead (ModelNodeConfig::lookahead_samples = N): with N = 0 every
-/// variant Steps to each table sample as it arrives (CVODE stops there; the
-/// acceleration is linear between samples). With N > 0 the node holds the
+/// variant Steps to each table sample as it arrives (its integrator stops
+/// there, Runge-Kutta by default: see `integrator`; the acceleration is
+/// linear between samples). With N > 0 the node holds the
 /// newest samples in a SampleWindow and steps sample k once sample k + N has
 /// arrived, with RockingModel::AdvanceAhead over the window up to its horizon:
-/// CVODE steps across the samples, and the state at each is its interpolant.
+/// the integrator steps across the samples, and the state at each is its
+/// interpolant.
 /// The messages are the same in kind, number and order, each stamped with
 /// its sample's utime, N sample periods later. Everything above holds per
 /// sample as it arrives (start, gaps, bad samples and their RL_EVENTs, which
