@@ -31,6 +31,7 @@
 #include "rocklab/health_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/daq/loopback_tcp.h"
+#include "tests/daq/notify_socket.h"
 
 namespace rocklab::daq {
 namespace {
@@ -257,18 +258,8 @@ class HealthBus final : public common::Bus {
 // Oracle: the datagrams on $NOTIFY_SOCKET and the RL_HEALTH states, before
 // any header was sent; the stop then ends the wait.
 void WaitsWithAHeartbeat(const std::string& input, bool follow) {
-  const std::string sock_path = test::ScratchDir() + "/wait_notify.sock";
-  ::unlink(sock_path.c_str());
-  const int sock = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  ASSERT_GE(sock, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  ASSERT_LT(sock_path.size(), sizeof addr.sun_path);
-  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", sock_path.c_str());
-  ASSERT_EQ(::bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-  timeval timeout{20, 0};  // a bound on a wait for a condition, not a sleep
-  ::setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  ::setenv("NOTIFY_SOCKET", sock_path.c_str(), 1);
+  test::NotifySocket notify("wait_notify.sock", 20);
+  ::setenv("NOTIFY_SOCKET", notify.path.c_str(), 1);
 
   DaqNodeConfig config;
   config.rig = LoadRigConfig(test::LabRigPath());
@@ -287,15 +278,12 @@ void WaitsWithAHeartbeat(const std::string& input, bool follow) {
       open_error = e.what();
     }
   });
-  std::vector<std::string> got;
-  char buf[256];
   bool ready = false, watchdog = false;
   while (!(ready && watchdog)) {
-    const ssize_t n = ::recv(sock, buf, sizeof buf, 0);
-    if (n <= 0) break;
-    got.emplace_back(buf, static_cast<size_t>(n));
-    ready = ready || got.back() == "READY=1";
-    watchdog = watchdog || (ready && got.back() == "WATCHDOG=1");
+    const std::string d = notify.Next();
+    if (d.empty()) break;
+    ready = ready || d == "READY=1";
+    watchdog = watchdog || (ready && d == "WATCHDOG=1");
   }
   bool waiting = false;
   for (int i = 0; i < 1000 && !waiting; ++i) {  // at most 20 s
@@ -305,7 +293,6 @@ void WaitsWithAHeartbeat(const std::string& input, bool follow) {
   stop = true;
   node.join();
   ::unsetenv("NOTIFY_SOCKET");
-  ::close(sock);
   EXPECT_TRUE(ready) << input;
   EXPECT_TRUE(watchdog) << input << ": no WATCHDOG=1 after READY=1";
   EXPECT_TRUE(waiting) << input << ": no RL_HEALTH \"waiting for header\"";

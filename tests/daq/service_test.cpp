@@ -27,6 +27,7 @@
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
+#include "tests/daq/notify_socket.h"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/tools/run_cli.h"
@@ -146,34 +147,16 @@ TEST(DaqService, CheckPrintsWhatWouldBeReadOrFails) {
   EXPECT_NE(r.err.find("must name a channel other than RL_RAW"), std::string::npos) << r.err;
 }
 
-// A datagram socket standing for systemd's $NOTIFY_SOCKET.
-struct NotifySocket {
-  std::string path = test::ScratchDir() + "/notify.sock";
-  int fd{-1};
-  NotifySocket() {
-    ::unlink(path.c_str());
-    fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
-    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) std::abort();
-    timeval timeout{10, 0};  // a bound on a wait for a condition, not a sleep
-    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  }
-  ~NotifySocket() { ::close(fd); }
-  std::string Next() {
-    char buf[256];
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    return n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string();
-  }
-  pid_t Start(const std::vector<std::string>& args, const std::string& name) {
-    ::setenv("NOTIFY_SOCKET", path.c_str(), 1);
-    const pid_t pid = rocklab::test::StartCli(args, test::ScratchDir() + "/" + name + ".out",
-                                              test::ScratchDir() + "/" + name + ".err");
-    ::unsetenv("NOTIFY_SOCKET");
-    return pid;
-  }
-};
+// Starts the command with $NOTIFY_SOCKET set to `notify` (its output in
+// NAME.out / NAME.err of the scratch folder).
+pid_t StartNotified(const test::NotifySocket& notify, const std::vector<std::string>& args,
+                    const std::string& name) {
+  ::setenv("NOTIFY_SOCKET", notify.path.c_str(), 1);
+  const pid_t pid = rocklab::test::StartCli(args, test::ScratchDir() + "/" + name + ".out",
+                                            test::ScratchDir() + "/" + name + ".err");
+  ::unsetenv("NOTIFY_SOCKET");
+  return pid;
+}
 
 // SIGTERM (systemctl stop) ends a live input: a followed file once it is
 // read (READY=1 says the node runs), an LCM channel with nothing on it, and
@@ -181,8 +164,8 @@ struct NotifySocket {
 TEST(DaqService, SigtermEndsLiveInputs) {
   const std::string raw = RawCsv("term_raw.csv");
   {
-    NotifySocket notify;
-    const pid_t daq = notify.Start({"daq", "--rig", test::LabRigPath(), "--input", raw, "--follow", "--lcm-url",
+    test::NotifySocket notify;
+    const pid_t daq = StartNotified(notify, {"daq", "--rig", test::LabRigPath(), "--input", raw, "--follow", "--lcm-url",
                                     "memq://"},
                                    "term_follow");
     EXPECT_EQ(notify.Next(), "READY=1");
@@ -191,8 +174,8 @@ TEST(DaqService, SigtermEndsLiveInputs) {
               std::string::npos);
   }
   {
-    NotifySocket notify;  // lcm://: SIGTERM interrupts LCM's wait
-    const pid_t daq = notify.Start({"daq", "--rig", test::LabRigPath(), "--input", "lcm://ACQ_RAW", "--lcm-url",
+    test::NotifySocket notify;  // lcm://: SIGTERM interrupts LCM's wait
+    const pid_t daq = StartNotified(notify, {"daq", "--rig", test::LabRigPath(), "--input", "lcm://ACQ_RAW", "--lcm-url",
                                     "memq://"},
                                    "term_lcm");
     EXPECT_EQ(notify.Next(), "READY=1");
@@ -241,32 +224,16 @@ TEST(DaqService, SigtermEndsLiveInputs) {
 // idle timeout.
 TEST(DaqService, NotifiesSystemdReadyWatchdogAndStopping) {
   const std::string raw = RawCsv("notify_raw.csv");
-  const std::string sock_path = test::ScratchDir() + "/notify.sock";
-  ::unlink(sock_path.c_str());
-  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  ASSERT_GE(fd, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  ASSERT_LT(sock_path.size(), sizeof addr.sun_path);
-  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", sock_path.c_str());
-  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-  timeval timeout{10, 0};  // a bound on a wait for a condition, not a sleep
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  ::setenv("NOTIFY_SOCKET", sock_path.c_str(), 1);
-  const pid_t daq = rocklab::test::StartCli({"daq", "--rig", test::LabRigPath(), "--input", raw, "--follow",
-                                             "--idle-timeout", "2.5", "--lcm-url", "memq://"},
-                                            test::ScratchDir() + "/notify.out", test::ScratchDir() + "/notify.err");
-  ::unsetenv("NOTIFY_SOCKET");
+  test::NotifySocket notify;
+  const pid_t daq = StartNotified(notify, {"daq", "--rig", test::LabRigPath(), "--input", raw, "--follow",
+                                           "--idle-timeout", "2.5", "--lcm-url", "memq://"},
+                                  "notify");
   std::vector<std::string> got;
-  char buf[256];
-  while (true) {
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n <= 0) break;
-    got.emplace_back(buf, static_cast<size_t>(n));
-    if (got.back() == "STOPPING=1") break;
+  for (std::string d = notify.Next(); !d.empty(); d = notify.Next()) {
+    got.push_back(d);
+    if (d == "STOPPING=1") break;
   }
   EXPECT_EQ(rocklab::test::StopProcess(daq, 0, 20.0), 0) << rocklab::test::ReadFile(test::ScratchDir() + "/notify.err");
-  ::close(fd);
   ASSERT_FALSE(got.empty());
   EXPECT_EQ(got.front(), "READY=1");
   EXPECT_EQ(got.back(), "STOPPING=1");
