@@ -232,8 +232,6 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
 Cvode::Stats Cvode::Counters() const {
   long steps = 0, rhs = 0, fails = 0;
   if (h_->rk) {
-    long implicit = 0;
-    (void)implicit;
     Check(ERKStepGetNumSteps(h_->mem, &steps), "ERKStepGetNumSteps");
     Check(ERKStepGetNumRhsEvals(h_->mem, &rhs), "ERKStepGetNumRhsEvals");
     Check(ERKStepGetNumErrTestFails(h_->mem, &fails), "ERKStepGetNumErrTestFails");
