@@ -315,8 +315,9 @@ void CheckDaqStage(const DaqStageOptions& o) {
   std::printf("ok\n");
 }
 
-std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,
-                                              const daq::RigConfig& rig) {
+std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts, const daq::RigConfig& rig,
+                                              double rtol) {
+  Require(rtol > 0.0 && rtol <= 1e-3, "--rtol", "in (0, 1e-3]", rtol);
   const model::BlockParams theory = TheoreticalParams(rig);
   std::vector<std::string> specs = texts;
   if (specs.empty()) specs = {"housner:housner:theoretical", "complex:complex:theoretical"};
@@ -324,6 +325,7 @@ std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& te
   for (const std::string& s : specs) {
     try {
       out.push_back(model::ParseVariant(s, theory));
+      out.back().options.rtol = rtol;
     } catch (const std::invalid_argument& e) {
       throw OptionError(std::string("--variant: ") + e.what());
     }

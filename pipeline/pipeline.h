@@ -103,10 +103,11 @@ int ReportDamage(long long regions, long long bytes, long long events, const std
                  const char* what, const char* rest);
 
 /// Variants from `--variant NAME:MODEL:PARAMS` options; none given: Housner
-/// and the complex formulation with the theoretical parameters. Errors
-/// become OptionError naming --variant.
-std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts,
-                                              const daq::RigConfig& rig);
+/// and the complex formulation with the theoretical parameters; every one
+/// with the relative tolerance `rtol` (`--rtol`, in (0, 1e-3]). Errors
+/// become OptionError naming --variant or --rtol.
+std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts, const daq::RigConfig& rig,
+                                              double rtol = model::ModelOptions{}.rtol);
 
 /// Checks the comparator's options; throws OptionError naming the option
 /// (--compare-rate, --window, --stale).

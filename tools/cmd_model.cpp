@@ -23,9 +23,7 @@ struct ModelCommand {
 int RunModel(const ModelCommand& c) {
   const daq::RigConfig rig = LoadRig(c.rig_path);
   model::ModelNodeConfig cfg;
-  cfg.variants = BuildVariants(c.variants, rig);
-  pipeline::Require(c.rtol > 0.0 && c.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", c.rtol);
-  for (model::VariantSpec& v : cfg.variants) v.options.rtol = c.rtol;
+  cfg.variants = BuildVariants(c.variants, rig, c.rtol);
   cfg.lookahead_samples = c.lookahead;
   cfg.threads = c.threads;
   const std::atomic<bool>& stop = InstallStopSignals();

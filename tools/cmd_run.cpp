@@ -90,9 +90,7 @@ int RunAll(RunCommand& c) {
   // before the model steps with the RL_TABLE that follows it.
   compare::CompareNode compare(c.compare, bus);
   model::ModelNodeConfig model_cfg;
-  model_cfg.variants = BuildVariants(c.variants, rig);
-  pipeline::Require(c.rtol > 0.0 && c.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", c.rtol);
-  for (model::VariantSpec& v : model_cfg.variants) v.options.rtol = c.rtol;
+  model_cfg.variants = BuildVariants(c.variants, rig, c.rtol);
   // Default 0 also with --max: on accelerometer data (and on the
   // differentiated displacement) 32 took more CPU, not less
   // (docs/performance.md, "Stepping across samples in the model node").
