@@ -11,7 +11,7 @@ Prints one JSON line: cpu_solve_s (process CPU of the integration alone),
 impacts, first/last impact time, peak |theta| at the outputs. --events writes
 time,kind,value rows like `rocklab simulate --events`.
 
-The physics follows model/housner.cpp and model/complex.cpp (ERRATA items
+The physics follows model/housner.cpp and model/complex.cpp (docs/errata.md items
 3-6): Housner's piecewise equation in physical time; the complex
 formulation as the planar motion of (x, y) = chi (cos psi, sin psi) under
 eq. (10)'s radial force, seeded at uplift at chi0 = max(chi_m, sqrt(l)) on

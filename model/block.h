@@ -20,7 +20,7 @@
 namespace rocklab::model {
 
 /// Gravity used throughout, m/s^2 (the value with which the paper's Table 1
-/// is reproduced; ERRATA item 1), written once in common/units.h.
+/// is reproduced; docs/errata.md item 1), written once in common/units.h.
 using common::kGravity;
 
 /// The parameters of one side (one pivot) of a section.
@@ -74,7 +74,7 @@ struct BlockGeometry {
   double i_o_per_area{};  ///< polar moment of area about the pivot / area, m^2 (I_O / M)
   double mu_housner{};    ///< 1 - 1.5 sin^2(alpha), eq. (11), 1
   /// Restitution of an impact onto the +x pivot, 1: 1 - (2 M R^2 / I_O)
-  /// sin^2(alpha) for a symmetric section (ERRATA item 8).
+  /// sin^2(alpha) for a symmetric section (docs/errata.md item 8).
   double mu_general{};
   double i_g_per_area{};  ///< polar moment of area about the centroid / area, m^2 (I_G / M)
   Eigen::Vector2d centroid_m{Eigen::Vector2d::Zero()};  ///< in the polygon's frame, m
@@ -90,7 +90,7 @@ struct BlockGeometry {
 
 /// A rectangle of width 2b and height 2h, optionally with a 45 degree chamfer
 /// of leg `chamfer_m` on both base corners; the pivot is then the inner end of
-/// the cut (ERRATA item 9).
+/// the cut (docs/errata.md item 9).
 /// @param width_m 2b, m; > 0
 /// @param height_m 2h, m; > 0
 /// @param chamfer_m leg of the base chamfer, m; in [0, min(b, h))
@@ -109,7 +109,7 @@ BlockGeometry RectangleBlock(double width_m, double height_m, double chamfer_m =
 /// pivot: I_G w + M r_new x (w x r_old) = I_O,new w', r = centroid - pivot, so
 /// mu = w'/w = (I_G + M r_new . r_old) / I_O,new; for a symmetric section
 /// r_new . r_old = R^2 cos(2 alpha) and mu = 1 - (2 M R^2 / I_O) sin^2 alpha
-/// (ERRATA item 8).
+/// (docs/errata.md item 8).
 /// @throws std::invalid_argument for fewer than 3 vertices, a vertex not
 ///         finite, a repeated vertex, crossing edges, zero area, a base that is
 ///         one vertex, or a centroid not above the base between the pivots.

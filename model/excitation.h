@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Table motions that drive the models: analytic sines (ERRATA item 11) and
+/// Table motions that drive the models: analytic sines (docs/errata.md item 11) and
 /// sampled acceleration records.
 
 #include <cstdint>
@@ -12,7 +12,7 @@
 namespace rocklab::model {
 
 /// The table acceleration u_g''(t) seen by a model. The models apply the
-/// inertial acceleration a = -u_g'' to the block (ERRATA item 5).
+/// inertial acceleration a = -u_g'' to the block (docs/errata.md item 5).
 class Forcing {
  public:
   virtual ~Forcing() = default;
@@ -61,7 +61,7 @@ std::unique_ptr<Excitation> MakeSine(const SineSpec& spec);
 
 /// u(t) = U A(t - t_c) sin(2 pi f (t - start)) with the Hanning window
 /// A(x) = (1 + cos(pi x / a)) / 2 of half-duration a = duration / 2 centred on
-/// t_c = start + a (paper footnote 4, ERRATA item 11). Displacement, velocity
+/// t_c = start + a (paper footnote 4, docs/errata.md item 11). Displacement, velocity
 /// and acceleration are exact and continuous.
 std::unique_ptr<Excitation> MakeHanningSine(const SineSpec& spec);
 

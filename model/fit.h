@@ -5,8 +5,8 @@
 /// - Impacts method (the paper's section 4, free rocking): impact times and
 ///   peaks from the record, least squares of the measured against the
 ///   predicted half-intervals over (alpha, p) with the corrected quarter time
-///   (ERRATA item 2; eq. 13 as an option), the admissible-alpha check, mu_n
-///   by eq. (14) (ERRATA item 7).
+///   (docs/errata.md item 2; eq. 13 as an option), the admissible-alpha check, mu_n
+///   by eq. (14) (docs/errata.md item 7).
 /// - Trajectory method (beyond the paper): least squares of the Housner
 ///   model's theta(t) against the whole record over (alpha, p, mu), free or
 ///   driven by the recorded table acceleration.

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Closed-form and quadrature results of free rocking (no table motion),
-/// corrected as in ERRATA items 2 and 7. Oracles for the models and the
+/// corrected as in docs/errata.md items 2 and 7. Oracles for the models and the
 /// basis of the paper's parameter identification.
 
 namespace rocklab::model {
@@ -21,7 +21,7 @@ double QuarterTimeSlender(double alpha, double p, double r);
 /// peak r before it (energy conservation between impacts), rad.
 double NextPeak(double alpha, double mu, double r);
 
-/// Eq. (14) (ERRATA item 7): mu_n = [(cos(alpha - r_n) - cos alpha) /
+/// Eq. (14) (docs/errata.md item 7): mu_n = [(cos(alpha - r_n) - cos alpha) /
 /// (cos(alpha - r_0) - cos alpha)]^(1/(2n)), r_n the peak after impact n.
 /// @throws std::invalid_argument unless n >= 1 and 0 < r_n, r_0 < alpha.
 double MuFromPeaks(double alpha, double r0, double rn, int n);

@@ -1,7 +1,7 @@
 #pragma once
 // Private to rocklab::model: the CVODE-driven regime machine shared by the
 // Housner and complex models (rest -> uplift -> rocking -> impacts -> rest or
-// overturn, ERRATA item 6). Derived classes supply the equations.
+// overturn, docs/errata.md item 6). Derived classes supply the equations.
 
 #include <algorithm>
 #include <limits>
@@ -107,7 +107,7 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   // Restarts the integrator at t_s from y_ in the rocking regime.
   void RestartRocking(double t_s);
   // While the table could lift the block (|u_g''| above g tan(alpha) of
-  // either pivot) it does not come to rest (ERRATA item 6).
+  // either pivot) it does not come to rest (docs/errata.md item 6).
   bool TableAllowsRest(double t_s) const;
   // An impact at t_s (event, rest rules); returns true when the block rests.
   bool Impact(double t_s, double theta_dot);

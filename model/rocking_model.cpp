@@ -408,7 +408,7 @@ void CvodeRockingModel::AdvanceAhead(double t_s, const Forcing& forcing, double 
         const double ug = table_accel(state_.time_s);
         if (ug > uplift_minus_mps2_ || ug < -uplift_plus_mps2_) {
           Emit(state_.time_s, EventKind::kUplift, ug);
-          // u_g'' > 0 pushes the block onto its -x corner (theta < 0), ERRATA 5/6.
+          // u_g'' > 0 pushes the block onto its -x corner (theta < 0), docs/errata.md item 5/6.
           StartRocking(state_.time_s, 0.0, 0.0, ug > 0.0 ? -1 : +1);
           continue;
         }

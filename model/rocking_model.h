@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Housner's piecewise model and the paper's complex formulation, integrated
-/// with SUNDIALS CVODE, with the regime logic of ERRATA item 6 (rest, uplift,
+/// with SUNDIALS CVODE, with the regime logic of docs/errata.md item 6 (rest, uplift,
 /// impacts, return to rest, overturning).
 
 #include <limits>

@@ -22,7 +22,7 @@ int RunDemo(const DemoOptions& o) {
   if (ec) throw UsageError("--out-dir: cannot create '" + o.out_dir + "': " + ec.message());
 
   // Figure 7: block 1 with Table 2's fitted parameters under a Hanning-windowed
-  // sine of 6 mm at 3.3 Hz (ERRATA items 10 and 11; the paper gives no window
+  // sine of 6 mm at 3.3 Hz (docs/errata.md items 10 and 11; the paper gives no window
   // length: 4 s starting at 0.5 s).
   ScenarioOptions base;
   base.alpha = 0.235;

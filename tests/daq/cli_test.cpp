@@ -72,7 +72,7 @@ int Rocklab(const std::string& args, std::string* err = nullptr) {
 }
 
 // Free rocking of the lab rig's block (alpha, p, mu of its 0.25 x 1.0 m
-// rectangle, ERRATA item 1) from 0.1 rad, at the rig's 1 kHz.
+// rectangle, docs/errata.md item 1) from 0.1 rad, at the rig's 1 kHz.
 const char* kScenario = "--alpha 0.24497866312686414 --p 3.780 --mu 0.91 --theta0 0.1 --duration 3 --rate 1000";
 
 std::string Synth(const std::string& name, const std::string& extra) {

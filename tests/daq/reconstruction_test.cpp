@@ -23,7 +23,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // Rocking-like test motion: theta crosses zero (both pivots are used), the
-// table moves 6 mm at 5 Hz (ERRATA item 11's figure 8 amplitude).
+// table moves 6 mm at 5 Hz (docs/errata.md item 11's figure 8 amplitude).
 TrueMotion Motion(double t) {
   TrueMotion m;
   m.time_s = t;

@@ -35,7 +35,7 @@ constexpr double kPi = 3.14159265358979323846;
 double W(double mu) { return std::sqrt(1 - std::pow(std::log(mu) / kPi, 2)); }
 
 // Oracle: free rocking per side from energy conservation between impacts
-// and the corrected eq. (12) (ERRATA item 2) evaluated with that side's
+// and the corrected eq. (12) (docs/errata.md item 2) evaluated with that side's
 // alpha and p. From a release at r_0 on side s: the impact comes T_s(r_0)
 // later with theta_dot^2 = 2 p_s^2 (cos(alpha_s - r_0) - cos alpha_s); the
 // block lands on the other pivot o with theta_dot' = mu_o theta_dot, rises
@@ -201,7 +201,7 @@ TEST(AsymmetricModel, HandOffLimitIsHousnerPerSide) {
 
 // Oracle: the uplift criterion of the side the block lifts onto. A table
 // acceleration ramp a t from rest lifts the block when a t = g tan(alpha_-)
-// (u_g'' > 0 tips it onto -x, ERRATA items 5-6) or, for -a t, when
+// (u_g'' > 0 tips it onto -x, docs/errata.md items 5-6) or, for -a t, when
 // a t = g tan(alpha_+). Tolerance 1e-9 s (CVODE root finding on a linear
 // forcing).
 TEST(AsymmetricModel, UpliftUsesTheSideItLiftsOnto) {

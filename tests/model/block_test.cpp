@@ -1,5 +1,5 @@
 // Tests of model/block.h. Oracle: the paper's Table 1 (as corrected by
-// ERRATA items 1 and 9) and closed forms for a rectangle.
+// docs/errata.md items 1 and 9) and closed forms for a rectangle.
 #include "model/block.h"
 #include "tests/scratch.h"
 
@@ -37,7 +37,7 @@ struct Row {
   double width_m, height_m, alpha, p, mu;
 };
 
-// ORACLE: Table 1 rows 1-3, p as ERRATA item 1 prints it (3.780, 3.809,
+// ORACLE: Table 1 rows 1-3, p as docs/errata.md item 1 prints it (3.780, 3.809,
 // 3.822: the paper prints 3.810 and 3.820, which a rectangle with g = 9.81
 // does not give). TOLERANCE: half a unit of the last printed digit (5e-4).
 TEST(BlockTest, TableOneRowsOneToThreeToPrintedDigits) {
@@ -57,7 +57,7 @@ TEST(BlockTest, TableOneRowsOneToThreeToPrintedDigits) {
   }
 }
 
-// ORACLE: ERRATA item 9 (alpha 0.310 printed in Table 1; p = 5.21 from the
+// ORACLE: docs/errata.md item 9 (alpha 0.310 printed in Table 1; p = 5.21 from the
 // polygon with a 4.2 cm chamfer). TOLERANCE: alpha 0.005 (the chamfer is
 // "about" 4.2 cm, the brief's bound); p 0.01 (two printed digits).
 TEST(BlockTest, TableOneRowFourWithChamfer) {
@@ -129,7 +129,7 @@ TEST(BlockTest, RightTrapezoidPerSideByHand) {
   EXPECT_NEAR(m.minus.mu, g.plus.mu, 1e-13);
 }
 
-// ORACLE: ERRATA item 8. For a symmetric section (block 4's chamfered
+// ORACLE: docs/errata.md item 8. For a symmetric section (block 4's chamfered
 // rectangle and a symmetric pentagon, "house" shape) r_new . r_old =
 // R^2 cos(2 alpha), so the pair-of-pivots restitution must reduce to
 // 1 - (2 M R^2 / I_O) sin^2(alpha) on both sides, and params() must be the

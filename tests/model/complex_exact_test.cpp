@@ -1,6 +1,6 @@
 // The complex model against eq. (10) itself, integrated here by code that is
 // not rocklab's: free rocking of block 1 from alpha/2, the planar form of
-// ERRATA item 4 (a particle at (x, y) = chi (cos psi, sin psi) under the
+// docs/errata.md item 4 (a particle at (x, y) = chi (cos psi, sin psi) under the
 // radial force -sin(alpha - alpha chi)/alpha + (2 ln mu / pi) l chi'/chi^2,
 // angular momentum x y' - y x' = l; theta = alpha x), in normalised time,
 // by an adaptive Dormand-Prince 5(4) pair in long double with absolute

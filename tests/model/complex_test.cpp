@@ -1,5 +1,5 @@
 // Tests of the complex formulation (model/complex.cpp) at its defaults:
-// eq. (10) through every excursion (ERRATA items 4 and 6), its exact l -> 0
+// eq. (10) through every excursion (docs/errata.md items 4 and 6), its exact l -> 0
 // limit across one impact (energy ratio mu^(2/w), the turn pi / w), free
 // rocking against the corrected eq. (12), the start from rest, and the
 // opt-in l -> 0 hand-off being opt-in and reported.
@@ -36,7 +36,7 @@ std::vector<double> ImpactTimes(const RockingModel& m) {
   return out;
 }
 
-// Oracle: the definition of the default (ERRATA item 4, issue 10 point 1):
+// Oracle: the definition of the default (docs/errata.md item 4, issue 10 point 1):
 // every rocking sample of the figure 8 scenario (uplift from rest, impacts,
 // rest, new uplifts) is produced by eq. (10), and the share of eq. (10) in the
 // rocking time is 1; Housner's model reports Housner and 0; the opt-in
@@ -133,14 +133,14 @@ TEST(ComplexDefaultTest, ImpactEventsCarryTheSpeedAfterTheCrossing) {
 
 // Oracle: the energy decay of free rocking as the per-impact ratio above,
 // impact after impact: the energy just before impact n+1 over the energy
-// just before impact n is mu^(2/w) (ERRATA item 3: each passage multiplies
+// just before impact n is mu^(2/w) (docs/errata.md item 3: each passage multiplies
 // the energy by mu^(2/w) -> mu^2 as l -> 0), for the first six impacts of a
 // release from alpha/2, so E_6 = E_0 mu^(12/w) within the sum of the six.
 // Between impacts eq. (10)'s damping term only removes energy
 // (dE/dt = (2 ln mu / pi) l chi_dot^2 / chi^2 <= 0 without table motion): the
 // energy sampled every 2 ms does not grow beyond the integration error.
 // TOLERANCE: 1e-4 relative per impact, the issue's bound of the one-impact
-// test: the finite-l error grows as the rocking decays (ERRATA item 4:
+// test: the finite-l error grows as the rocking decays (docs/errata.md item 4:
 // "later impacts drift more"; measured 5e-7 at the first impact, 7e-5 at
 // the sixth, printed below). Growth between samples at most 1e-6 of E_0,
 // 5x the integration error measured across one impact (2.1e-7, above;

@@ -42,7 +42,7 @@ TEST(ExcitationTest, SineClosedForm) {
   }
 }
 
-// ORACLE: ERRATA 11 — the acceleration is the exact second derivative of
+// ORACLE: docs/errata.md item 11 — the acceleration is the exact second derivative of
 // U A(t - tc) sin(2 pi f (t - start)): compared with central differences of
 // Displacement and Velocity, Richardson-extrapolated (4 D(h/2) - D(h)) / 3.
 // TOLERANCE: truncation ~h^4/480 max|u^(6)| with h = 1e-3 and
@@ -68,7 +68,7 @@ TEST(ExcitationTest, HanningDerivativesAreExact) {
   EXPECT_EQ(e->Displacement(4.6), 0.0);
   const double tc = 2.5;
   EXPECT_NEAR(e->Displacement(tc), 0.006 * std::sin(2 * kPi * 3.3 * 2.0), 1e-15);
-  // Not U (2 pi f)^2 times the window (the misreading ERRATA 11 warns of).
+  // Not U (2 pi f)^2 times the window (the misreading docs/errata.md item 11 warns of).
   const double naive = -0.006 * std::pow(2 * kPi * 3.3, 2) * 0.5 * (1 + std::cos(kPi * 0.3 / 2)) *
                        std::sin(2 * kPi * 3.3 * 2.3);
   EXPECT_GT(std::abs(e->TableAcceleration(2.8) - naive), 1e-3);

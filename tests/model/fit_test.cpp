@@ -27,7 +27,7 @@ using model::FitError;
 using model::FitOptions;
 using model::RecordError;
 
-// Table 2 block 1 (ERRATA item 10: p = 3.884 rad/s), geometry of Table 1 row 1.
+// Table 2 block 1 (docs/errata.md item 10: p = 3.884 rad/s), geometry of Table 1 row 1.
 const BlockParams kBlock1{0.235, 3.884, 0.937};
 const model::FitGeometry kBlock1Geometry{0.247, 1.0, 0.0};
 
@@ -88,7 +88,7 @@ TEST(FitImpacts, RecoversBlock1FromNoisyFreeRocking) {
 }
 
 // Eq. (13) against the exact quarter time on a stocky block: block 4
-// (ERRATA item 9: alpha = 0.31, p = 5.21 rad/s), released from 0.6 alpha,
+// (docs/errata.md item 9: alpha = 0.31, p = 5.21 rad/s), released from 0.6 alpha,
 // noise-free, inter-impact pairs only. The exact form recovers the truth
 // (to 0.01 %, measured 0.009 %); the slender form over-estimates alpha by
 // +1.36 % and under-estimates p by -1.39 %: that is its bias, asserted to
@@ -214,7 +214,7 @@ TEST(FitImpacts, BridgesMissingSamplesAndCountsThem) {
 // standard error is 1/sqrt(2 dof) = 17 %): each seed within [0.6, 1.5]
 // (measured 0.81 .. 1.37), their mean within [0.75, 1.25] (measured 1.03).
 // With a wrong model (the slender eq. (13) on the stocky block 4, whose
-// bias is 1.4 % on alpha, ERRATA item 2) on a record quiet enough
+// bias is 1.4 % on alpha, docs/errata.md item 2) on a record quiet enough
 // (0.001 deg) for the bias to show, the ratio must exceed
 // kMaxResidualToNoise (measured 2.7 against 0.7 for the exact form) and the
 // fit say it has not converged.

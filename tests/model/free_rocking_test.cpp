@@ -1,4 +1,4 @@
-// Tests of model/free_rocking.h. Oracles: ERRATA item 2's numbers, eq. (13)
+// Tests of model/free_rocking.h. Oracles: docs/errata.md item 2's numbers, eq. (13)
 // as the slender limit, an independent quadrature, energy conservation.
 #include "model/free_rocking.h"
 
@@ -35,7 +35,7 @@ double QuarterTimeBySineSubstitution(double alpha, double p, double r) {
   return Simpson(f, 0.0, kPi / 2, 40000) / (p * std::sqrt(2.0));
 }
 
-// ORACLE: ERRATA item 2: T(alpha/2) = 0.3396 s for alpha 0.235, p 3.884, and
+// ORACLE: docs/errata.md item 2: T(alpha/2) = 0.3396 s for alpha 0.235, p 3.884, and
 // the misprinted integrand gives 0.271 s. TOLERANCE: half a unit of the last
 // printed digit (5e-5 s and 5e-4 s).
 TEST(FreeRockingTest, ErrataTwoNumbers) {

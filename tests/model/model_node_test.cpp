@@ -62,9 +62,9 @@ TEST(ModelNode, FreeRockingFromTheMeasuredStartMatchesTheLibrary) {
   EXPECT_EQ(node.skipped_before_start(), 0);
 }
 
-// Oracle: ERRATA item 6 through the node. A measured |theta| below the rest
+// Oracle: docs/errata.md item 6 through the node. A measured |theta| below the rest
 // threshold (sensor noise) starts the block at rest; a table acceleration
-// above g tan(alpha) = 2.35 m/s^2 lifts it towards theta < 0 (ERRATA item 5);
+// above g tan(alpha) = 2.35 m/s^2 lifts it towards theta < 0 (docs/errata.md item 5);
 // table samples before the first RL_THETA are skipped and counted.
 TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
   DirectBus bus;

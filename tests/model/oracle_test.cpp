@@ -2,16 +2,16 @@
 // (issue 16, point 1). Nothing here calls rocklab's model code except the
 // model under test through its public API (model/rocking_model.h); the table
 // motions, the reference integrator and the closed forms are written here from
-// ERRATA items 5, 6 and 11 and docs/commands.md's definition of the excitations (`simulate --excitation`).
+// docs/errata.md items 5, 6 and 11 and docs/commands.md's definition of the excitations (`simulate --excitation`).
 // The golden files of scenario_test.cpp stay as a regression check only.
 //
 // 1. Closed form: the linearised slender block under a rectangular pulse of
-//    table acceleration. Housner's equation (ERRATA 5) on the +x corner,
+//    table acceleration. Housner's equation (docs/errata.md item 5) on the +x corner,
 //      theta'' = -p^2 [ sin(alpha - theta) + (u_g''/g) cos(alpha - theta) ],
 //    linearised for alpha, theta << 1 (sin x ~ x, cos x ~ 1):
 //      theta'' = p^2 (theta - alpha - u_g''/g).
 //    A block at rest under u_g'' = -A (A > g tan alpha) from t = 0 lifts off
-//    at once on its +x corner (ERRATA 6: u_g'' < -g tan alpha gives theta > 0).
+//    at once on its +x corner (docs/errata.md item 6: u_g'' < -g tan alpha gives theta > 0).
 //    With e = A/g - alpha, theta(0) = theta'(0) = 0:
 //      theta(t) = e (cosh(p t) - 1),   theta'(t) = e p sinh(p t),  t <= td.
 //    After the pulse (s = t - td), theta'' = p^2 (theta - alpha):
@@ -22,13 +22,13 @@
 //    the first impact (theta = 0) at cosh(p (s - s*)) = alpha / sqrt(c^2 - d^2),
 //      t_impact = td + s* + acosh(alpha / sqrt(c^2 - d^2)) / p,
 //    which is eq. (13) of the paper, T(r) = acosh(1 / (1 - r/alpha)) / p,
-//    for the peak r (ERRATA 2). For the constant pulse (td -> infinity) the
+//    for the peak r (docs/errata.md item 2). For the constant pulse (td -> infinity) the
 //    block leaves as theta = e (cosh(p t) - 1) and never comes back.
 //    The nonlinear model departs from these by O(alpha^2) relative: on
 //    [0, 2 alpha], sin x = x (1 - x^2/6 + ...) and cos x = 1 - x^2/2 + ...
 //
 // 2. A reference integrator: Housner's equation above (both corners), the
-//    rest/uplift rule of ERRATA 6 (rest until |u_g''| > g tan alpha, uplift
+//    rest/uplift rule of docs/errata.md item 6 (rest until |u_g''| > g tan alpha, uplift
 //    towards -sgn(u_g'')), impacts at theta = 0 with theta' <- mu theta', the
 //    corner switching, and back to rest when two impacts come closer than
 //    2 ms (the rule in docs/models.md), integrated by classical fixed-step RK4 at
@@ -59,7 +59,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kG = 9.81;  // m/s^2, the g of the model library (model/block.h)
 
 // ---------------------------------------------------------------------------
-// Table motions, from docs/commands.md (`--excitation`) and ERRATA 11, written here.
+// Table motions, from docs/commands.md (`--excitation`) and docs/errata.md item 11, written here.
 // u(t) = U W(t) sin(w (t - start)) on [start, start + duration], zero outside,
 // W = 1 (sine) or the Hanning window (1 + cos(pi x / a)) / 2, x = t - tc,
 // a = duration / 2, tc = start + a. Returns u''(t), m/s^2:
@@ -89,7 +89,7 @@ struct TableMotion {
   }
 };
 
-// Figure 7: block 1 (Table 2, p of Table 2: ERRATA 10) under
+// Figure 7: block 1 (Table 2, p of Table 2: docs/errata.md item 10) under
 // hanning:amp=0.006,freq=3.3,duration=4,start=0.5 over 8 s; figure 8: block 2
 // under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (tools/scenario.*,
 // tests/model/scenario_test.cpp, docs/models.md).
@@ -113,7 +113,7 @@ struct RefOptions {
   double rest_interval_s{2e-3};  // impacts closer than this: rest
   double sample_rate_hz{100};   // theta sampled at k / rate (steps land on them)
   std::vector<double> breaks_s;  // discontinuities of the forcing (steps land on them), s
-  // > 0: eq. (10)'s l -> 0 limit instead of Housner's model (ERRATA items
+  // > 0: eq. (10)'s l -> 0 limit instead of Housner's model (docs/errata.md items
   // 3, 4): Housner's equation in r = alpha chi on the line psi_k of the
   // current excursion, the table's push projected on it (cos psi_k), theta =
   // r cos psi_k, and each crossing keeps mu^(1/w) of the speed and turns
@@ -121,7 +121,7 @@ struct RefOptions {
   // = 0 for u = 1/chi), w = sqrt(1 - (ln mu / pi)^2). The value is w.
   double limit_w{0};
   // Only while the table cannot lift the block (|u_g''| <= g tan alpha)
-  // does the 2 ms rule put it to rest (ERRATA item 6).
+  // does the 2 ms rule put it to rest (docs/errata.md item 6).
   bool rest_needs_quiet_table{true};
   double theta0{0};      // initial state, rad and rad/s (both 0: at rest)
   double theta_dot0{0};
@@ -289,7 +289,7 @@ double MaxAbs(const std::vector<double>& v) {
 }
 
 // Oracle: the test's own table motion against the library's (both from the
-// docs/commands.md's definition; ERRATA 11: the exact second derivative).
+// docs/commands.md's definition; docs/errata.md item 11: the exact second derivative).
 // Tolerance: 1e-9 m/s^2 on peaks of 2.6 and 5.9 m/s^2 (round-off of two
 // different but exact formulas).
 TEST(OracleTest, TableMotionsAgreeWithTheLibrarys) {
@@ -446,7 +446,7 @@ TEST(OracleTest, ComplexFigure7ConvergesToEq10sLimit) {
   CompareComplexWithLimit(kFig7, {{1e-10, 3e-3, 1.2e-3}, {1e-12, 2.4e-3, 1e-3}, {1e-14, 1e-3, 4.2e-4}});
 }
 
-// Oracle: the reference integrator with ERRATA item 6's rest rule read
+// Oracle: the reference integrator with docs/errata.md item 6's rest rule read
 // whole: impacts 2 ms apart put the block to rest only while the table
 // cannot lift it. Block 1 on its +x corner at theta 1e-5 rad falling at
 // 0.01 rad/s under a constant u_g'' = -1.5 g tan(alpha) (a push onto the

@@ -1,7 +1,7 @@
 // Tests of model/rocking_model.h: the Housner and complex models against
 // free-rocking closed forms and quadratures (free_rocking.h), the uplift
-// criterion of ERRATA item 6, the convergence of the complex formulation to
-// Housner's (ERRATA items 3 and 4), stepping, overturning, rest, errors.
+// criterion of docs/errata.md item 6, the convergence of the complex formulation to
+// Housner's (docs/errata.md items 3 and 4), stepping, overturning, rest, errors.
 #include "model/rocking_model.h"
 
 #include <gtest/gtest.h>
@@ -96,8 +96,8 @@ TEST(HousnerTest, NegativeStartMirrors) {
   EXPECT_GT(impacts[0].value, 0.0);
 }
 
-// ORACLE: ERRATA item 6 — at rest the block lifts only when |u_g''| > g tan
-// alpha, onto theta < 0 for u_g'' > 0 (ERRATA 5). Constant accelerations 1 %
+// ORACLE: docs/errata.md item 6 — at rest the block lifts only when |u_g''| > g tan
+// alpha, onto theta < 0 for u_g'' > 0 (docs/errata.md item 5). Constant accelerations 1 %
 // either side of the threshold; both models.
 TEST(RockingModelTest, UpliftThreshold) {
   for (ModelKind kind : {ModelKind::kHousner, ModelKind::kComplex}) {
@@ -137,11 +137,11 @@ TEST(RockingModelTest, UpliftTimeByRootFinding) {
   }
 }
 
-// ORACLE: ERRATA items 3 and 4 — the complex formulation converges to
+// ORACLE: docs/errata.md items 3 and 4 — the complex formulation converges to
 // Housner as l -> 0: first-impact time (free rocking from alpha/2, block 1)
 // against QuarterTimeExact, and the energy ratio across the first impact
 // against mu^2. TOLERANCE: the error must fall monotonically with l and be
-// below 1e-4 s at l = 3e-4 (ERRATA quotes 3e-5 s there, 8e-4 s at 1e-2).
+// below 1e-4 s at l = 3e-4 (docs/errata.md item 4 quotes 3e-5 s there, 8e-4 s at 1e-2).
 // complex_resolved_energy = 0 (the default) keeps eq. (10) for every l;
 // the default l (1e-10) is tested in complex_test.cpp.
 TEST(ComplexTest, ConvergesToHousnerAsLFalls) {
@@ -281,7 +281,7 @@ TEST(RockingModelTest, LargePulseOverturns) {
   }
 }
 
-// ORACLE: ERRATA item 6 — free rocking decays (impact intervals shrink
+// ORACLE: docs/errata.md item 6 — free rocking decays (impact intervals shrink
 // geometrically) and the model returns to rest with theta = theta_dot = 0.
 // Housner: the energy E/(MgR) never grows (TOLERANCE 1e-7 relative, the
 // integration error). Not asserted for the complex model: its reported E is

@@ -1,6 +1,6 @@
 // The paper's figure 7 and figure 8 scenarios.
 //
-// Figure 7: block 1 of Table 2 (alpha 0.235, p 3.884 — ERRATA 10 —, mu
+// Figure 7: block 1 of Table 2 (alpha 0.235, p 3.884 — docs/errata.md item 10 —, mu
 // 0.937), table displacement hanning:amp=0.006,freq=3.3,duration=4,start=0.5,
 // simulated over [0, 8] s. Figure 8: block 2 (alpha 0.168, p 3.767, mu
 // 0.942), sine:amp=0.006,freq=5,duration=20,start=0, over [0, 20] s.

@@ -166,7 +166,7 @@ def test_read_log_progress(log_path):
 
 def test_read_raw_at2(cli, tmp_path):
     # Oracle: the PEER format by hand: NPTS values in g, sample k at k DT,
-    # converted with g = 9.81 (ERRATA item 1's g); and `simulate --accel`
+    # converted with g = 9.81 (docs/errata.md item 1's g); and `simulate --accel`
     # of the same file equal to simulate with these arrays.
     at2 = tmp_path / "rec.AT2"
     values_g = [0.01, -0.02, 0.3, 0.0, -0.005, 0.06, 0.07, -0.4, 0.25, 0.0]

@@ -1,12 +1,12 @@
 """rocklab.simulate against an independent integration of Housner's equation.
 
-Oracle: Housner's equation as ERRATA item 5 writes it,
+Oracle: Housner's equation as docs/errata.md item 5 writes it,
     theta'' = -p^2 [ sin(alpha sgn(theta) - theta) + (u_g''/g) cos(alpha sgn(theta) - theta) ],
 integrated here with scipy's solve_ivp (DOP853, rtol 1e-12) between impacts
 found by its event location; at an impact (theta = 0) theta_dot is
 multiplied by mu (Housner's restitution of the angular velocity) and the
 pivot changes side. The block starts at rest and lifts off where
-|u_g''| first exceeds g tan(alpha) (ERRATA item 6), onto theta > 0 when
+|u_g''| first exceeds g tan(alpha) (docs/errata.md item 6), onto theta > 0 when
 u_g'' < 0; the uplift time is found here by root finding on the table
 acceleration, which is written in the test from the excitation's
 definition (u = U sin(2 pi f t): u_g'' = -U (2 pi f)^2 sin(2 pi f t)).
@@ -22,7 +22,7 @@ from scipy.optimize import brentq
 
 import rocklab
 
-G = 9.81  # m/s^2, ERRATA item 1
+G = 9.81  # m/s^2, docs/errata.md item 1
 
 
 class HousnerReference:
@@ -89,7 +89,7 @@ def uplift(table_accel, alpha, t_end, dt=1e-4):
         if abs(table_accel(t + dt)) > limit:
             sign = math.copysign(1.0, table_accel(t + dt))
             tu = brentq(lambda x: abs(table_accel(x)) - limit, t, t + dt, xtol=1e-15)
-            return tu, -int(sign)  # u_g'' > 0 tips it onto theta < 0 (ERRATA item 6)
+            return tu, -int(sign)  # u_g'' > 0 tips it onto theta < 0 (docs/errata.md item 6)
         t += dt
     raise AssertionError("no uplift")
 
@@ -134,10 +134,10 @@ def test_housner_figure8_matches_scipy_reference():
 
 
 def test_complex_converges_to_the_reference():
-    # ERRATA item 4: eq. (10) tends to Housner's as l -> 0; at the default
+    # docs/errata.md item 4: eq. (10) tends to Housner's as l -> 0; at the default
     # l (1e-10) the first six impacts agree with the reference to 9.3e-6 s
     # (measured 24 Nov 2026 with the matched crossings; 2.2e-5 s before
-    # them; ERRATA: 3e-5 s for the first at l = 3e-4); bound 1e-4 s.
+    # them; docs/errata.md item 4: 3e-5 s for the first at l = 3e-4); bound 1e-4 s.
     tu, side, segments, impacts = forced_case()
     r = rocklab.simulate("complex", **FIG8, excitation="sine:amp=0.006,freq=5,duration=20", duration=20,
                          rate=1000)
@@ -148,7 +148,7 @@ def test_complex_converges_to_the_reference():
 
 def test_free_rocking_matches_scipy_reference():
     # Free rocking from theta0 = 0.1 rad: no table motion, impacts at the
-    # times of the corrected eq. (12) (ERRATA item 2), here by integration.
+    # times of the corrected eq. (12) (docs/errata.md item 2), here by integration.
     alpha, p, mu = 0.2, 3.8, 0.9
     ref = HousnerReference(alpha, p, mu, lambda t: 0.0)
     segments, impacts = ref.run(0.0, 0.1, 0.0, 1, 4.0, 8)

@@ -24,7 +24,7 @@ int CountLines(const std::string& text) {
 
 std::string FirstLine(const std::string& text) { return text.substr(0, text.find('\n')); }
 
-// Oracle: the paper's Table 1 (rows 1-3 with the corrections of ERRATA item
+// Oracle: the paper's Table 1 (rows 1-3 with the corrections of docs/errata.md item
 // 1: p in rad/s), printed to 3 decimals: agreement to half a unit of the last
 // printed digit.
 TEST(CliParams, JsonReproducesTable1Row1) {
@@ -70,7 +70,7 @@ TEST(CliSimulate, WritesTheDocumentedFiles) {
 TEST(CliSimulate, ExcitationLiftsTheBlockAndAccelFileIsRead) {
   const std::string dir = ScratchDir("simulate_accel");
   // A constant table acceleration of 3 m/s^2 from 0.1 s: above g tan(0.235) =
-  // 2.35 m/s^2, so the block lifts (towards theta < 0, ERRATA item 5).
+  // 2.35 m/s^2, so the block lifts (towards theta < 0, docs/errata.md item 5).
   WriteFile(dir + "/accel.csv", "time,accel\n0,0\n0.1,0\n0.1001,3\n2,3\n");
   const CliResult r = RunCli({"simulate", "--alpha", "0.235", "--p", "3.884", "--mu", "0.937",
                               "--accel", dir + "/accel.csv", "--duration", "0.5", "--rate", "100",

@@ -1,8 +1,8 @@
 // `rocklab demo` as a user runs it: the figure 7 table and the two
 // trajectory files. Oracle: the uplift time computed here from the
 // documented table motion (docs/commands.md, `--excitation`: u(t) = U A(t - t_c)
-// sin(2 pi f (t - start)), A the Hanning window of ERRATA item 11) and the
-// rest criterion of ERRATA item 6 (uplift when |u''| > g tan(alpha)), by a
+// sin(2 pi f (t - start)), A the Hanning window of docs/errata.md item 11) and the
+// rest criterion of docs/errata.md item 6 (uplift when |u''| > g tan(alpha)), by a
 // fine scan and bisection of a numerical second derivative written in this
 // test, not by model/excitation.cpp; both models share the rest logic, so
 // both must uplift then. Files: 8 s at 200 Hz, so 1601 rows (t = 0 .. 8 s).
