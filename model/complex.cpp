@@ -1,126 +1,15 @@
-// The paper's complex formulation (eq. 10 with ERRATA items 3-5). In
-// normalised time t = p tau:
-//   chi_ddot = l^2/chi^3 - sin(alpha - alpha chi)/alpha
-//              + (2 ln(mu)/pi) l chi_dot/chi^2
-//              + a/(g alpha) cos(alpha - alpha chi) cos(psi),   a = -u_g''
-//   psi_dot  = l/chi^2
-// theta = alpha chi cos(psi). An impact is psi crossing pi/2 + k pi.
-//
-// Coordinates. psi_dot = l/chi^2 says chi^2 psi_dot = l is conserved, and
-// l^2/chi^3 = chi psi_dot^2 is the centrifugal term of a particle in the
-// plane: eq. (10) is exactly the planar motion of a particle at
-// (x, y) = chi (cos psi, sin psi) under the purely radial force
-//   F_r = -sin(alpha - alpha chi)/alpha + (2 ln(mu)/pi) l chi_dot/chi^2
-//         + a/(g alpha) cos(alpha - alpha chi) x/chi,
-//   (x, y)'' = F_r (x, y)/chi,   chi_dot = (x x' + y y')/chi,
-// whose angular momentum x y' - y x' is l. The model integrates this form,
-// state (x, y, dx/dtau, dy/dtau) in physical time, theta = alpha x,
-// theta_dot = alpha dx/dtau; an impact is x crossing 0. It is eq. (10), not
-// an approximation of it: only the coordinates differ. With l small a
-// crossing passes the origin at the distance b = l / v (v the normalised
-// speed) within a time b / v. In (chi, psi) the solution turns psi by pi and
-// bends chi round a hyperbola there, and l^2/chi^3 is singular; in (x, y) the
-// path is a straight line, bent only by the damping term, and every term of
-// F_r is bounded except the damping term ~ v^2 / b. Exactly in the limit
-// l -> 0 (Binet's equation u'' - (2 ln mu / pi) u' + u = 0 for u = 1/chi(psi)
-// near the origin) a crossing multiplies the energy by mu^(2/w),
-// w = sqrt(1 - (ln mu / pi)^2), and turns the path by pi / w, not pi.
-//
-// Crossings (docs/models.md, "Crossings"): the state is integrated in a
-// frame turned onto the line of the motion, so y stays O(l); the damping
-// takes the state's own angular momentum; a crossing whose core is Binet's
-// is matched at r_m = 1e-3 v^2 (legs along the ray with gravity and table,
-// Binet's exact speed ratio and turn in the core), slower ones are
-// integrated through with tolerances scaled to l.
-//
-// Start from rest (ERRATA item 6). eq. (10) has no state of rest: a state
-// with zero velocity has no angular momentum. Its state of least energy is
-// the circular orbit chi = chi_m = (l^2 alpha / sin alpha)^(1/3) (V_min ~
-// 1.5 chi_m), which is not a start: near chi_m gravity and l^2/chi^3
-// dominate a table acceleration just above g tan(alpha), the block circles
-// and leaves on a ray turned by O(1) from psi = 0 whatever l is (measured on
-// figure 8's first uplift: from the orbit at psi = 0, 0.82 rad at l = 1e-6;
-// from the orbit where it crosses x = 0, 0.10 .. 0.45 rad for l from 1e-6
-// to 1e-9, theta at 0.1 s 24 % low at 1e-9). The uplift starts at chi0 with psi = 0 (or pi), chi_dot = 0 and
-// psi_dot = l/chi0^2 (y = 0, y' = +-l/chi0): theta_dot = 0 as in Housner's
-// model, theta = +-alpha chi0. With chi0 = sqrt(l), psi turns at a rate 1
-// (normalised) while x grows from chi0 in the time t_g the table's excess
-// acceleration (rate c, normalised) needs to move it that far, t_g ~
-// (6 chi0 / c)^(1/3) ~ l^(1/6); the ray leaves turned by ~ l^(1/6) (measured
-// on figure 8's first uplift: 0.033 rad at l = 1e-7, 0.015 at 1e-9), which
-// changes theta at second order, and the offset alpha sqrt(l) vanishes too
-// (2.4e-6 rad for block 1 at l = 1e-10). chi0 = 0.3 sqrt(l) loses figure 7
-// at l = 1e-10 (the turn is 11 times larger), 1 .. 3 sqrt(l) give the same
-// peaks within 0.3 % at l <= 3e-10 (docs/models.md).
-// Free starts (Reset with theta0 or theta_dot0) take y = 0 and the
-// transverse velocity l/chi (theta0 != 0), or start on the crossing at
-// y = -l / chi_dot (theta0 = 0).
-//
-// Return to rest (ERRATA item 6). Near the floor V_min the motion is eq.
-// (10)'s rest orbit, a circle crossing x = 0 twice per turn for ever, which
-// Housner's model would call endless impacts. At a crossing whose
-// regularised energy
-//   e = (x'^2 + y'^2)/2 + (cos(alpha - alpha chi) - cos(alpha))/alpha^2
-// (E / (M g R alpha^2) with the transverse motion) is below kRestEnergy
-// V_min the block returns to rest (besides the impact-interval rule).
-//
-// Opt-in approximation (ModelOptions::complex_resolved_energy = K > 0): below
-// K V_min the model integrates eq. (10)'s l -> 0 limit, Housner's equations
-// in x (y = 0, the side fixed, impact x -> 0 with x' <- mu x'); it switches
-// to eq. (10) when |x| rises through kResolvedChi chi_m with e >= K V_min
-// (y' = l/x added: the centrifugal energy V_min/108), and back to the limit
-// at a crossing with e < K V_min / 2 (leaving it with the energy
-// mu (e - V_min)). Uplift then starts in the limit. Every sample says which
-// equations produced it (ModelState::equations).
-//
-// Asymmetric sections (BlockParams::minus, issue 10 point 5). A section
-// with two different pivots has alpha_s, p_s and the restitution mu_s of an
-// impact landing on pivot s per side (s = +1 the +x pivot, theta > 0; -1 the
-// -x pivot). The model integrates eq. (10) per half-plane: while x is on side
-// s (side_, switched at each crossing of x = 0, which is the impact event
-// already), theta = alpha_s x and the right-hand side above has alpha_s and
-// p_s, i.e. eq. (10) of a symmetric block with side s's parameters. Its l -> 0
-// limit on that side is Housner's equation about pivot s, exactly. What is
-// per crossing:
-// - Damping. Near the origin the damping term dominates (~ v^2 / b against
-//   O(1) for gravity and the table), and the loss of a crossing is spread
-//   symmetrically about x = 0 (half before, half after). For the energy to
-//   leave multiplied by mu_new^(2/w_new), the restitution of the pivot it
-//   lands on, the whole passage takes the damping 2 ln(mu)/pi of the pivot the
-//   motion heads for, sign(dx/dtau): along a crossing x' keeps its sign (the
-//   path is a straight line there, bent only by this term), and x' changes
-//   sign only at the top of an excursion, where chi_dot ~ 0 and the term is
-//   ~ l^2 (a jump of the right-hand side far below CVODE's tolerances).
-// - The crossing x = 0, from side o to side n. theta = 0 on both sides;
-//   theta_dot = alpha x' is continuous when x' <- x' alpha_o / alpha_n. The
-//   rest of the state follows from eq. (10) near the origin: with only the
-//   damping term, (x, y)'' = D l chi_dot / chi^3 (x, y) (normalised) is
-//   invariant under positions * q, velocities / q, normalised time * q^2
-//   (chi^2 psi_dot = l unchanged; Binet's equation for u(psi) is scale-free),
-//   so the passage may be continued on side n from the similar state:
-//   positions / c, normalised velocities * c, with
-//   c = alpha_o p_o / (alpha_n p_n) fixed by theta_dot's continuity. In
-//   physical time: y <- y / c, (x', y') <- (x', y') alpha_o / alpha_n (x = 0
-//   stays; psi is unchanged, so is the turn pi / w_n of the crossing), and the
-//   angular momentum x y' - y x' in side n's normalised time is l again.
-//   The neglected gravity and table terms change the passage at O(b / v^2),
-//   b = l / v: O(l), as for the symmetric block. The integrator restarts there.
-// Hence, in the limit l -> 0, each half-cycle is Housner's about its pivot
-// and an impact multiplies theta_dot by mu_n^(1/w_n) (tests/model/
-// asymmetric_model_test.cpp: free rocking of a right trapezoid against
-// energy conservation and the corrected eq. (12) per side). Its distance
-// from that limit is the integration of strongly damped crossings (mu = 0.72
-// and 0.80), not the restart: measured at the eighth free-rocking impact from
-// alpha/4, l = 1e-10, rtol 1e-10 / 1e-12, the trapezoid 9.8e-5 / 2.1e-5 s, a
-// symmetric block with the +x side's alpha, p, mu = 0.718 7.3e-5 / 8.3e-6 s,
-// that block with the -x side's p 2 % higher 6.6e-5 / 7.5e-6 s, or with the
-// -x side's mu 0.8 2.1e-4 / 7.1e-6 s (block 1, mu = 0.937: 9.5e-5 / 2.6e-6 s).
-// The seed from
-// rest, the rest floor chi_m, V_min and the opt-in hand-off are those of the
-// side the block is on (the hand-off's limit multiplies x' by
-// mu_n alpha_o / alpha_n at an impact). A block whose two sides have the same
-// alpha, p and mu (a symmetric polygon, or BlockParams::minus repeating the +x
-// side) takes exactly the symmetric code path: no restart at a crossing.
+// The paper's complex formulation, eq. (10) as corrected in docs/errata.md
+// items 3-5, integrated in Cartesian coordinates (x, y) = chi (cos psi,
+// sin psi): the same equations, with theta = alpha x and an impact where x
+// crosses 0. Two things to know before editing:
+// - eq. (10) has no state of rest: an uplift starts at chi0 = sqrt(l) with
+//   psi = 0 or pi, and the block returns to rest at a crossing whose energy
+//   is below kRestEnergy V_min (docs/errata.md item 6);
+// - crossings of the origin are integrated in a frame turned onto the line
+//   of the motion, matched to Binet's solution where that is exact; an
+//   asymmetric section restarts the integrator at each crossing.
+// Derivations and measured accuracy: docs/models.md, "The complex
+// formulation in model/complex.cpp".
 
 #include <algorithm>
 #include <array>
@@ -458,7 +347,7 @@ class ComplexModel final : public CvodeRockingModel {
     double p{};                // rad/s
     double p2{};               // p^2, rad^2/s^2
     double mu{};               // restitution of a landing on this pivot, 1
-    double damping{};          // 2 ln(mu) / pi, ERRATA item 3
+    double damping{};          // 2 ln(mu) / pi, docs/errata.md item 3
     double w2{};               // 1 - damping^2 / 4
     double w{};                // Binet's frequency sqrt(w2), 1
     double chi_m{};            // radius of the rest orbit, 1

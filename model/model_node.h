@@ -20,39 +20,10 @@
 /// is dispatched (common::RunNodeLoop); Finish publishes RL_HEALTH "stopped";
 /// the destructor unsubscribes.
 ///
-/// Start and reset: the DAQ publishes the RL_THETA and RL_TABLE of a sample
-/// together (RL_THETA first), so the variants start at the first table
-/// sample from the newest RL_THETA, at that RL_THETA's utime, from its theta
-/// and theta_dot (|theta| below rest_threshold_rad counts as at rest, so
-/// sensor noise does not start a free rocking). Table samples before any
-/// RL_THETA are skipped and counted. (A log recorded before the DAQ paired
-/// them carries RL_THETA some 45 samples ahead: the variants then start at
-/// the table sample's utime from that newer theta.) A table utime that goes
-/// backwards (a replay restarting, a new test) resets every variant.
-///
-/// RL_TABLE carries the DAQ's sample seq: a forward jump counts the missing
-/// samples as gaps (RL_HEALTH gaps); a repeat or a step back does not.
-///
-/// A table acceleration that is not finite (a saturated channel) is a bad
-/// sample: the variants step with the last finite value, the sample is
-/// counted (bad_table_samples()) and the first of each stretch is reported as
-/// an RL_EVENT BAD_SAMPLE (a RECOVERED event ends the stretch). A variant
-/// whose integration fails stops until the next reset (counted in failures()).
-///
-/// Lookahead (ModelNodeConfig::lookahead_samples = N): with N = 0 every
-/// variant Steps to each table sample as it arrives (its integrator stops
-/// there, Runge-Kutta by default: see `integrator`; the acceleration is
-/// linear between samples). With N > 0 the node holds the
-/// newest samples in a SampleWindow and steps sample k once sample k + N has
-/// arrived, with RockingModel::AdvanceAhead over the window up to its horizon:
-/// the integrator steps across the samples, and the state at each is its
-/// interpolant.
-/// The messages are the same in kind, number and order, each stamped with
-/// its sample's utime, N sample periods later. Everything above holds per
-/// sample as it arrives (start, gaps, bad samples and their RL_EVENTs, which
-/// therefore go out before the held samples' RL_MODEL_*); the held samples
-/// are stepped with what is known (the window closed: the last interval
-/// linear) before a reset and in Finish.
+/// Start, reset, gaps, bad samples and the lookahead are described in
+/// docs/models.md ("The model node"): the variants start at the first table
+/// sample from the newest RL_THETA, and a table utime that goes back resets
+/// them all.
 
 #include <atomic>
 #include <cstdint>

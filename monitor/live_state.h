@@ -12,80 +12,9 @@
 /// first message of a new channel, variant or node and for text fields longer
 /// than any seen before.
 ///
-/// Memory bound (finite window): every series (the measured theta, each
-/// variant's theta, each variant's comparison) holds at most
-/// SeriesCapacity() = ceil(window_s * series_rate_hz) + 2 points; at most
-/// max_events events, max_intervals flag intervals, max_variants variants,
-/// max_nodes health entries and max_channels per-channel counters. What does
-/// not fit is counted (counters.dropped), never silently lost. With
-/// window_s = infinity the series grow with the record (the report's use)
-/// up to max_points when it is set: a series that reaches it halves its
-/// resolution (keeps the first point of every two slots and doubles its slot
-/// from then on), so a series of any length holds between max_points / 2 and
-/// max_points points; the events and flag intervals rings grow (doubling) up
-/// to max_events and max_intervals.
-///
-/// ## Snapshot / UpdateSince JSON schema (`"schema": "rocklab.monitor.v1"`)
-/// Times `t` are sample-clock seconds relative to `t0_utime` (the first
-/// sample of the record); angles of the series are in DEGREES (display);
-/// the latest comparison numbers are exactly as received (SI: rad, s, 1).
-/// NaN and infinities are written as null.
-/// ```
-/// {
-///   "schema": "rocklab.monitor.v1",
-///   "full": true,          // true: replaces everything the reader holds;
-///                          // false: points/events/flags after the reader's cursor
-///   "cursor": 1234,        // pass to UpdateSince() to get what comes after
-///   "record": 1,           // a record starts when the sample clock goes back
-///   "t0_utime": 1000000,   // sample clock of t = 0, us (null before any sample)
-///   "t_latest": 6.99,      // newest sample-clock time of the series, s (null: none)
-///   "window_s": 60,        // null: the whole record
-///   "series_rate_hz": 100, // at most this many points per second per series
-///   "max_points": 20000,   // points per series at most (null: no cap; a capped
-///                          // series is coarser than series_rate_hz)
-///   "from_s": 0, "to_s": null,  // the time window kept (null: no end)
-///   "measured": {"t": [..], "theta_deg": [..]},             // RL_THETA theta
-///   "table": {"t": [..], "accel_mps2": [..],                 // RL_TABLE u_g'' (m/s^2)
-///             "samples": 7000, "peak_accel_mps2": 2.6, "peak_disp_m": 0.006},
-///                          // samples and peaks: every RL_TABLE in from_s..to_s
-///   "variants": [          // in order of appearance
-///     {"name": "fitted_complex",
-///      "model": "complex", "alpha": 0.235, "p": 3.884, "mu": 0.937, "l": 0,
-///      "equations": "eq10",  // "housner", "eq10" or "limit": which equations produced
-///                          // the newest sample; null from an older log's model_state_t
-///                          // from RL_MODEL_<name> (rad, rad/s, 1, 1); null until seen
-///      "theta": {"t": [..], "theta_deg": [..]},              // RL_MODEL_<name>
-///      "comparison": {"t": [..], "error_deg": [..], "rms_window_deg": [..]},
-///      "latest": {         // the newest RL_COMPARE_<name>, exactly as received
-///        "utime": .., "t": .., "error": .., "rms_window": .., "window_s": ..,
-///        "rms_total": .., "nrms": .., "peak_error": .., "impact_timing_error": ..,
-///        "correlation": .., "valid": true, "samples": 6996} or null}],
-///   "flags": [             // sliding, jump, twist (RL_THETA flags), stale (RL_EVENT)
-///     {"id": 7, "flag": "sliding", "source": "daq", "start": 1.2, "end": 1.5}],
-///                          // "end": null while the flag is still raised
-///   "events": [
-///     {"t": 1.0, "utime": .., "source": "fitted_complex", "kind": "impact",
-///      "code": 2, "value": -0.31, "detail": "impact"}],
-///   "health": [            // latest RL_HEALTH per node
-///     {"node": "daq", "state": "running", "utime": .., "rate_in_hz": .., "rate_out_hz": ..,
-///      "count_in": .., "count_out": .., "dropped": .., "gaps": .., "bad_samples": ..,
-///      "lag_s": ..}],
-///   "config": {"rig_name": .., "calibration_id": .., "sample_rate_hz": ..,
-///              "alpha": .., "p": .., "mu": ..} or null,           // RL_DAQ_CONFIG
-///   "counters": {"messages": {"RL_THETA": 6996, ..},  // every ingested message
-///                "decode_errors": {"RL_THETA": 0, ..},
-///                "dropped": {"out_of_order": .., "events": .., "intervals": ..,
-///                            "variants": .., "nodes": .., "channels": ..,
-///                            "far_from_clock": ..},  // wild sample clocks
-///                "outside_window": ..},  // points and events left out by from_s..to_s
-///   "units": {..}          // unit of every quantity above
-/// }
-/// ```
-/// A full answer holds what lies in the window (points, events and flags that
-/// end at or after t_latest - window_s); an update holds only the points and
-/// events added after the cursor and the flags opened or closed after it,
-/// with the variants' metadata, health, config and counters in full.
-/// A reader whose cursor is from an earlier record gets a full answer.
+/// Memory is bounded by LiveOptions (what does not fit is counted in
+/// counters.dropped); the bound and the JSON schema of Snapshot() and
+/// UpdateSince() ("rocklab.monitor.v1") are in docs/monitor.md.
 
 #include <cmath>
 #include <cstddef>
@@ -146,7 +75,7 @@ class LiveState {
   /// @return true when the channel is one of the above and the payload decoded.
   bool Ingest(const std::string& channel, const void* data, int size);
 
-  /// Everything held, as one JSON object (schema above); same as UpdateSince(0).
+  /// Everything held, as one JSON object (docs/monitor.md); same as UpdateSince(0).
   nlohmann::json Snapshot() const;
   /// What changed after `cursor` (a "cursor" of an earlier answer; 0: all).
   nlohmann::json UpdateSince(std::uint64_t cursor) const;
