@@ -8,7 +8,7 @@
   model: rocklab.simulate's CPU (time.process_time around the call: the
   solve, the arrays, the events and the summary) against `rocklab simulate
   --json --out /dev/null`'s CPU (os.wait4: the whole process) and its
-  `cpu_time` (the solve alone). Target (issue 27): the call within 1.1x the
+  `cpu_time` (the solve alone). Target: the call within 1.1x the
   command's CPU.
 - read_log: the log of bench/figures.py's `run` figure (synth of N s at
   1 kHz, `rocklab run --max --log` with its four variants), read whole by

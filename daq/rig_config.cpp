@@ -19,7 +19,7 @@ namespace {
 constexpr double kMaxLengthM = 100.0;  // any length or coordinate in the rig, m
 // The smallest size (width, height, lever, spacing, chamfer, polygon edge)
 // of a laboratory rig, m: below it a value is a typo or a unit slip, and a
-// degenerate block would fail far from the file (issue 23).
+// degenerate block would fail far from the file.
 constexpr double kMinSizeM = 1e-3;
 constexpr int kMaxLeds = 64;           // LEDs a rigid fit may require
 

@@ -245,7 +245,7 @@ TEST(LcmLog, DamageAtTheStartAndFilesThatAreNotLogs) {
   EXPECT_TRUE(StartsWithLcmSync(WriteWithLiblcm("sync.lcm", Ramp(2))));
 }
 
-// Issue 12 item 5. Oracle: /dev/full refuses every write (ENOSPC). 3000
+// Oracle: /dev/full refuses every write (ENOSPC). 3000
 // events of 1 KiB (3 MB, three buffer flushes and the close) are all lost
 // and all counted as lost: write_errors() equals the events written to it,
 // events() is 0, and the reason is kept.

@@ -100,7 +100,7 @@ TEST(TextTest, SniffDelimiter) {
 }
 
 // Oracle: RFC 3629's well-formed sequences; the offset is that of the first
-// byte of the first sequence that is not one (issue 23: the rig file's
+// byte of the first sequence that is not one (the rig file's
 // message names it).
 TEST(TextTest, Utf8ValidPrefixStopsAtTheFirstBadSequence) {
   EXPECT_EQ(Utf8ValidPrefix("abc"), 3u);

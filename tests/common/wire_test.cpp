@@ -232,7 +232,7 @@ void Put32(std::vector<std::uint8_t>& b, int at, std::int32_t v) {
   b[at + 3] = static_cast<std::uint8_t>(u);
 }
 
-// Oracle: issue 12 ("lengths are bounded before any allocation"). Each
+// Oracle: docs/reliability.md ("lengths are bounded before any allocation"). Each
 // length field of each type set in turn to a huge count (0x7f00000e: 17 GB
 // of doubles), one past what remains, 0 and -1 for a string, -1 for a count:
 // the guarded decode refuses it and no allocation during it exceeds the

@@ -17,7 +17,7 @@ constexpr double kRateHz = 1000.0;
 std::int64_t Utime(int k) { return static_cast<std::int64_t>(std::llround(k * 1e6 / kRateHz)); }
 double Time(int k) { return k / kRateHz; }
 
-// Oracle: issue 23, item 8. Signals that never cross zero have no crossing
+// Oracle: signals that never cross zero have no crossing
 // to match: the timing and peak errors are NaN (no value), not 0 (a
 // perfect match); once a crossing is matched they are numbers.
 TEST(Comparator, NoMatchedCrossingGivesNoTimingOrPeakError) {

@@ -165,7 +165,7 @@ TEST(CompareNode, SummaryJsonNamesItsQuantities) {
   EXPECT_EQ(j.at("units").at("rms"), "rad");
 }
 
-// Issue 23, item 8: with no crossing matched, the summary printed timing
+// With no crossing matched, the summary printed timing
 // and peak errors of 0, which reads as a perfect match. Oracle: constant
 // signals have no zero crossing, so nothing is matched: the keys stay,
 // their values are null; the table shows "-" and says why.
@@ -214,7 +214,7 @@ TEST(CompareNode, NoMatchedCrossingIsNullAndADashNotZero) {
 namespace rocklab::compare {
 namespace {
 
-// Oracle: issue 10 point 1. A log written before model_state2_t carries
+// Oracle: the channel contract (docs/channels.md). A log written before model_state2_t carries
 // model_state_t on RL_MODEL_*: the node still compares it (told apart by the
 // fingerprint), exactly as the new type: a model 0.02 rad above the
 // measurement has RMS 0.02 rad over the 10 pairs, with nothing dropped.
@@ -253,7 +253,7 @@ struct HealthTap {
   rocklab::health_t last{};
 };
 
-// Oracle: issue 12 item 3, counting by hand. A 1 kHz feed over memq with
+// Oracle: counting by hand. A 1 kHz feed over memq with
 // RL_THETA seq 10, 11, 12 and 13 dropped (4 missing by seq) and RL_MODEL_a's
 // messages at 30 and 31 ms dropped (no seq: a 3 ms step of the sample clock
 // is 2 missing samples): RL_HEALTH "stopped" says gaps = 6.
@@ -298,7 +298,7 @@ int StaleOrRecovered(const Tap& tap) {
   return n;
 }
 
-// Oracle: issue 12 item 5. Offline (`run --max`) staleness follows the
+// Oracle: offline (`run --max`) staleness follows the
 // sample clock: a 300 ms host stall in the middle of a continuous 1 kHz
 // feed (stale after 50 ms) makes no STALE or RECOVERED event; the same
 // stall on the host clock (live) makes them (the control: the stall is

@@ -234,7 +234,7 @@ TEST(SynthReconstruct, BadOptionsAndInputsExitWithUsageErrors) {
   EXPECT_EQ(err, "rocklab: --rig: /nonexistent.toml: cannot open the rig file\n");
 }
 
-// Issue 12, items 5 and 10: a file none of whose rows can be used, and a
+// A file none of whose rows can be used, and a
 // read error, end the command with a non-zero exit and a message naming the
 // file (they were exit 0 with nothing, or half the rows, written).
 TEST(SynthReconstruct, UnusableInputsExitNonZeroNamingTheFile) {

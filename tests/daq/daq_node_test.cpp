@@ -188,7 +188,7 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
   EXPECT_FALSE(stats.stopped_early);
 }
 
-// Issue 11: the RL_THETA and RL_TABLE of a sample go out together, RL_THETA
+// The RL_THETA and RL_TABLE of a sample go out together, RL_THETA
 // first, so no subscriber has to hold either back. Oracle: every RL_TABLE
 // is the message right after an RL_THETA of the same seq (the simulated
 // drops included: a dropped sample has neither).
@@ -376,7 +376,7 @@ TEST(DaqNode, SourceProblemsArePublishedAsEventsWithFileAndLine) {
   EXPECT_EQ(c->raw.size(), ReadFrames(good, rig).size() - 1);  // only the ragged row is missing
 }
 
-// Issue 12 item 4: source.h's contract ("Next() never throws"). An input
+// daq/source.h's contract ("Next() never throws"). An input
 // none of whose rows can be used ends the read with ReadStatus::kError: Run
 // does not throw, the node still shuts down in order (RL_HEALTH "stopping"
 // then "stopped"), and the stats name the file for the command's exit.

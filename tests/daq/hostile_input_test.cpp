@@ -1,5 +1,5 @@
 // Hostile and damaged input to the text sources and the acquisition pipeline
-// (issue 12, docs/reliability.md). Oracles: the fixture each test writes
+// (docs/reliability.md). Oracles: the fixture each test writes
 // (what a correct reader makes of it is known row by row) and the promises
 // of daq/source.h and daq/sequence_checker.h: nothing read is lost without a
 // counter, a read error is an error naming the file, a message quotes at

@@ -1,4 +1,4 @@
-// Independent oracles for the DAQ (issue 16, point 2): raw frames computed
+// Independent oracles for the DAQ: raw frames computed
 // here from the rig geometry and DESIGN.md's measurement models, never by
 // daq/rig_simulator.cpp, fed through the reconstruction, the processor and
 // `rocklab reconstruct`. A sign or geometry convention shared by the

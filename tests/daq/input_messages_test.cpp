@@ -1,4 +1,4 @@
-// Messages about bad input (issue 23 points 9 and 10): bytes from an input
+// Messages about bad input: bytes from an input
 // (column names of a file or a tcp:// peer, names and keys of a rig file)
 // reach a terminal or the journal only escaped; rig lengths have physical
 // ranges named with file, line and key; a rig file that is not UTF-8 is
@@ -84,7 +84,7 @@ TEST(InputMessages, RigMessagesEscapeKeysAndNames) {
   EXPECT_NE(what.find("repeats LED 'c.\\x07'"), std::string::npos) << what;
 }
 
-// Issue 23 point 10: every length of the rig within 1 mm .. 100 m (a
+// Every length of the rig within 1 mm .. 100 m (a
 // width of 1e-300 passed, then `run` failed on a polygon naming neither
 // file nor key).
 TEST(InputMessages, RigLengthsHavePhysicalRanges) {
@@ -121,7 +121,7 @@ TEST(InputMessages, RigLengthsHavePhysicalRanges) {
   EXPECT_EQ(RigParseError(rig("width_m = 0.001\nheight_m = 0.001\n", "")), "accepted");
 }
 
-// Issue 23 point 10: invalid UTF-8 (a lone continuation byte, an overlong
+// Invalid UTF-8 (a lone continuation byte, an overlong
 // NUL, a surrogate, a code point past U+10FFFF, a sequence cut by the end)
 // in a comment, a string or a key. toml++'s header-only build can reach
 // its "unreachable" on some of these: the file is checked first.

@@ -1,4 +1,4 @@
-// Live inputs under the faults a lab meets (issue 23): a row cut by a
+// Live inputs under the faults a lab meets: a row cut by a
 // dropped connection or by the idle timeout, a followed file rewritten in
 // place, a header that never finishes, and the DAQ node's heartbeat to
 // systemd and RL_HEALTH while it waits for its header.
@@ -83,7 +83,7 @@ bool AnyContains(const std::vector<std::string>& lines, const std::string& part)
   return false;
 }
 
-// Issue 23 point 1. The first connection ends in the middle of row 50's
+// The first connection ends in the middle of row 50's
 // last field ("...,13" of "...,13.00"): parsed, it would pass for a value
 // nobody measured. The second connection sends rows 51..99.
 // Oracle: rows 0..49 and 51..99 as sent; row 50 is one bad row, no frame.
@@ -123,7 +123,7 @@ TEST(LiveFaults, TcpRowCutByADroppedConnectionIsCountedNotPublished) {
   EXPECT_TRUE(AnyContains(problems, "cut")) << (problems.empty() ? "" : problems[0]);
 }
 
-// Issue 23 point 2. --follow: the last line never gets its '\n' before the
+// --follow: the last line never gets its '\n' before the
 // idle timeout ends the input.
 // Oracle: the 10 whole rows are frames; the unfinished one is a bad row.
 TEST(LiveFaults, FollowedLastLineUnfinishedAtTheIdleTimeoutIsCounted) {
@@ -188,7 +188,7 @@ void RewriteInOneWrite(bool truncate) {
 TEST(LiveFaults, FollowedFileOverwrittenFromItsStartStartsANewSegment) { RewriteInOneWrite(false); }
 TEST(LiveFaults, FollowedFileTruncatedAndRewrittenStartsANewSegment) { RewriteInOneWrite(true); }
 
-// Issue 23 point 4. A header line that never gets its '\n' (the peer stalls
+// A header line that never gets its '\n' (the peer stalls
 // mid-header) until the idle timeout, over tcp:// and --follow.
 // Oracle: the open fails saying the header is incomplete, not that a rig
 // channel is missing from a header cut short.
@@ -251,7 +251,7 @@ class HealthBus final : public common::Bus {
   std::vector<std::string> states_;
 };
 
-// Issue 23 point 5. `daq` on tcp-listen://, tcp:// and --follow, nothing
+// `daq` on tcp-listen://, tcp:// and --follow, nothing
 // arriving: the unit is Type=notify with a watchdog, so the node must say
 // READY=1 once it listens (or has its file open), then WATCHDOG=1 and
 // RL_HEALTH "waiting for header" while no header comes.

@@ -140,7 +140,7 @@ TEST(RigConfig, ReadmeExampleIsTheBundledRigFile) {
 namespace rocklab::daq {
 namespace {
 
-// Item 8 of issue 12: rig values are bounded, the message naming the key and
+// Rig values are bounded, the message naming the key and
 // the allowed range. Oracle: the ranges of rig_config.h and docs/acquisition.md.
 std::string RigError(const std::string& extra, double rate_hz = 1000) {
   std::ostringstream text;

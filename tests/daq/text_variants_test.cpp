@@ -40,7 +40,7 @@ const char* kFileHeaderNoX =
     "Multi_Headings\tNo\nX_Columns\tNo\nTime_Pref\tRelative\nOperator\tlab\n***End_of_Header***\t\n\n";
 
 // X_Columns No as Write To Measurement File writes it: the X_Value column is
-// in the column row but empty in every row (the 0 frames of 16 384).
+// in the column row but empty in every row (once read as 0 frames of 16 384).
 TEST(LvmVariants, XColumnsNoTakesTimeFromX0AndDeltaX) {
   const std::string text = std::string(kFileHeaderNoX) +
                            "Channels\t2\t\nSamples\t3\t3\t\nX0\t1.5000000000000000E+0\t1.5\t\n"

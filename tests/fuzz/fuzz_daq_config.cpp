@@ -1,5 +1,5 @@
 // Fuzz target: a `rocklab daq --config` TOML file through
-// pipeline::ApplyDaqConfigFile (issue 14). Input: the file's bytes, written
+// pipeline::ApplyDaqConfigFile. Input: the file's bytes, written
 // to a scratch file of this process (the reader takes a path).
 // Invariants: it returns or throws OptionError whose message is one bounded
 // line of printable ASCII naming the file; a key given "on the command line"

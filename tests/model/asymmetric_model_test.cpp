@@ -231,7 +231,7 @@ TEST(AsymmetricModel, UpliftUsesTheSideItLiftsOnto) {
 // TOLERANCE: peak |theta| within 1 %, the bound docs/models.md states for the
 // symmetric scenarios at the default l (measured -0.12 %); the first seven
 // impacts, while the pulse drives the block (|theta_dot| > 0.15 rad/s),
-// within 1e-3 s, the bound for free rocking (measured 1.8e-4 s).
+// within 1e-3 s, the bound set for free rocking (measured 1.8e-4 s).
 // Later impacts at 0.06 rad/s make the two models drift apart (both then
 // chatter to rest, 58 against 56 impacts): not compared.
 TEST(AsymmetricModel, ForcedComplexMeetsHousnerPerSide) {

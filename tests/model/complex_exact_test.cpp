@@ -146,7 +146,7 @@ std::vector<double> ImpactTimes(const std::vector<ModelEvent>& events) {
 // Oracle: the integration above (its own error: 1e-9 s at the 10th impact,
 // measured by tightening its tolerances 100 times). Tolerances: impact
 // times 1.3e-6 s on every path over 10 impacts (3x the worst measured,
-// 4.4e-7 s through Simulate; the bound is 2e-6 s); the energy
+// 4.4e-7 s through Simulate; the bound set is 2e-6 s); the energy
 // ratio between consecutive excursions (regularised energy at the apex,
 // the crossing's loss) within 1e-6 of the exact one (measured below).
 TEST(ComplexExactTest, FreeRockingAtL1e8MatchesEq10OnEveryPath) {

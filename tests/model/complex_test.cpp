@@ -36,7 +36,7 @@ std::vector<double> ImpactTimes(const RockingModel& m) {
   return out;
 }
 
-// Oracle: the definition of the default (docs/errata.md item 4, issue 10 point 1):
+// Oracle: the definition of the default (docs/errata.md item 4):
 // every rocking sample of the figure 8 scenario (uplift from rest, impacts,
 // rest, new uplifts) is produced by eq. (10), and the share of eq. (10) in the
 // rocking time is 1; Housner's model reports Housner and 0; the opt-in
@@ -90,7 +90,7 @@ TEST(ComplexDefaultTest, EveryExcursionIsEquation10) {
 // 0.8779445, 2.8e-5 below mu^2). Free rocking from alpha/2, energy at 0.6 s
 // (after the first impact at 0.34 s, before the second) over the start.
 // TOLERANCE: 2e-6 relative to mu^(2/w): the finite-l and integration errors,
-// measured 2.1e-7 at the default l; the issue's bound, 1e-4 relative to
+// measured 2.1e-7 at the default l; the bound set, 1e-4 relative to
 // mu^2, follows.
 TEST(ComplexDefaultTest, EnergyRatioAcrossOneImpact) {
   const double a = kBlock1.alpha, mu = kBlock1.mu;
@@ -139,7 +139,7 @@ TEST(ComplexDefaultTest, ImpactEventsCarryTheSpeedAfterTheCrossing) {
 // Between impacts eq. (10)'s damping term only removes energy
 // (dE/dt = (2 ln mu / pi) l chi_dot^2 / chi^2 <= 0 without table motion): the
 // energy sampled every 2 ms does not grow beyond the integration error.
-// TOLERANCE: 1e-4 relative per impact, the issue's bound of the one-impact
+// TOLERANCE: 1e-4 relative per impact, the bound of the one-impact
 // test: the finite-l error grows as the rocking decays (docs/errata.md item 4:
 // "later impacts drift more"; measured 5e-7 at the first impact, 7e-5 at
 // the sixth, printed below). Growth between samples at most 1e-6 of E_0,
@@ -197,7 +197,7 @@ TEST(ComplexDefaultTest, EachCrossingTurnsTheLineByPiOverW) {
 // Oracle: corrected eq. (12) (QuarterTimeExact) with NextPeak: impact n at
 // T(r0) + 2 T(r1) + ... + 2 T(r_{n-1}), r_n the peak after n impacts. With the
 // speed multiplied by mu at each impact (Housner) the complex model must stay
-// within 1e-3 s over 10 impacts (issue 10); with mu^(1/w), eq. (10)'s own
+// within 1e-3 s over 10 impacts; with mu^(1/w), eq. (10)'s own
 // l -> 0 limit, within 5e-4 s. TOLERANCE: measured 5.5e-4 s and 2.8e-4 s at
 // impact 10 (3.2e-4 s of the first is the difference of the two limits, the
 // rest the integration at rtol 1e-10: 1.4e-5 s at rtol 1e-12).

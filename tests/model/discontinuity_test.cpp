@@ -1,4 +1,4 @@
-// Discontinuous forcing (issue 10 point 3): a jump of the table acceleration
+// Discontinuous forcing: a jump of the table acceleration
 // while the block rocks (a step, the end of a motion, the end of a record)
 // stops the integrator at the jump and restarts it there; a jump nobody
 // declared is recovered from; nothing aborts. Both models.
@@ -117,7 +117,7 @@ TEST(DiscontinuityTest, StepWhileRocking) {
   EXPECT_NEAR(c->state().theta, h->state().theta, 1e-4);
 }
 
-// Oracle: the issue's failing command (CVode flag -3 before): block 2 under
+// Oracle: a command that once failed (CVode flag -3 before): block 2 under
 // the 6 mm, 5 Hz sine that stops at 5.05 s while the block rocks, 12 s. Both
 // models run through; the integrator restarts once, at 5.05 s; afterwards
 // the block rocks freely, so Housner's energy never grows between outputs
@@ -237,7 +237,7 @@ class JumpingOscillator final : public detail::OdeSystem {
 // Oracle: the closed form y(t) = J + (cos 1 - J) cos(t - 1) - sin(1) sin(t - 1)
 // for t >= 1. The jump J = 1e9 at the end of the previous Advance (its value
 // at t = 1 is the left one) makes CVODE fail repeatedly on its first step
-// (CV_ERR_FAILURE, measured: the abort of issue 10), and again after a
+// (CV_ERR_FAILURE, measured: the abort the model once had), and again after a
 // restart there with a fresh history (the jump is at the restart time); the
 // wrapper then restarts 16 ulp later and completes: two recoveries. TOLERANCE: 1e-9 relative
 // (rtol 1e-10 over ~1000 steps).

@@ -33,7 +33,7 @@ std::string FreeCsv(const std::string& dir, double duration_s = 8.0) {
 int CountLines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
 
 // Oracle: the synthetic truth (1 % / 0.005 as the library test) and the
-// issue's list of JSON names.
+// JSON names of docs/commands.md (`rocklab fit`).
 TEST(CliFit, ImpactsJsonAndParamsFile) {
   const std::string dir = ScratchDir("fit_json");
   const CliResult r = RunCli({"fit", "--input", FreeCsv(dir), "--width", "0.247", "--height", "1.0",
@@ -166,7 +166,7 @@ TEST(CliFit, TrajectoryWithAccelOnAReconstructedForcedRecord) {
   EXPECT_NEAR(j.at("mu").get<double>() / mu, 1.0, 0.01);
 }
 
-// Issue 10: a record with missing samples (20 in a row and 0.1 % at random,
+// A record with missing samples (20 in a row and 0.1 % at random,
 // as the rig simulator drops them) is fitted, and the output says what the
 // fit knows. Oracle: the samples removed here, the synthetic truth (1 % /
 // 0.005 as the library test) and the documented keys.

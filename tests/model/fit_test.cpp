@@ -1,7 +1,7 @@
 // Parameter identification (model/fit.h) and record reading (model/record.h).
 // Oracle throughout: records synthesised by the Housner model on CVODE
 // (rtol 1e-10) with known (alpha, p, mu), sampled like a test, with seeded
-// Gaussian noise of 0.02 degrees (the issue's figure).
+// Gaussian noise of 0.02 degrees (a lab's figure).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -61,7 +61,7 @@ TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
   EXPECT_NEAR(*f.r0_rad, 0.6 * kBlock1.alpha, 1e-6);
 }
 
-// The issue's acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise;
+// The acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise;
 // alpha and p within 1 %, mu within 0.005, for three seeds (measured worst:
 // alpha -0.31 %, p +0.17 %, mu 0.9370 +- 1e-4). The release time is only
 // known to ~4 ms at this noise, so the release pair is not used (a warning
@@ -184,7 +184,7 @@ TEST(FitNoise, EstimateIsTheSeededNoiseWithAndWithoutGaps) {
   EXPECT_LT(model::EstimateThetaNoise(clean), 1e-5);
 }
 
-// The issue's complaint: a record with dropped samples (the rig simulator's
+// A record with dropped samples (the rig simulator's
 // default 0.1 %) must be fitted. Oracle: the synthetic truth, to the same
 // 1 % / 0.005 as the gap-free acceptance test; the missing count is the
 // number removed; the residual reaches the noise (the model is right).
@@ -434,7 +434,7 @@ TEST(FitErrors, AlphaOutsideTheAdmissibleBandIsRejected) {
   EXPECT_NO_THROW(model::FitImpacts(rec, o));
 }
 
-// Gaps are counted, not errors (issue 10: a record with one dropped sample,
+// Gaps are counted, not errors (a record with one dropped sample,
 // as the rig simulator's 0.1 % and the demo make, must be fitted).
 // Oracle: the samples removed here.
 TEST(RecordErrors, GapsAreCountedAndNonMonotonicTimeIsAnError) {

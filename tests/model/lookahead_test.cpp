@@ -1,5 +1,5 @@
-// The model node's lookahead (ModelNodeConfig::lookahead_samples, issue 15
-// point 1): the SampleWindow forcing it integrates across, and the node with
+// The model node's lookahead (ModelNodeConfig::lookahead_samples,
+// docs/models.md): the SampleWindow forcing it integrates across, and the node with
 // N > 0 against the node with N = 0 over the direct bus. The forced response
 // against the independent RK4 reference is in oracle_test.cpp
 // (OracleTest.NodeLookaheadOnSampledFigure*).

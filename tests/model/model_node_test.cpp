@@ -219,7 +219,7 @@ TEST(ModelNode, VariantSyntax) {
 namespace rocklab::model {
 namespace {
 
-// Oracle: issue 10 point 1, the channel contract. RL_MODEL_<name> carries
+// Oracle: the channel contract (docs/channels.md). RL_MODEL_<name> carries
 // model_state2_t and its `equations` says what produced the sample: the
 // complex variant integrates eq. (10) while it rocks (EQUATIONS_EQ10), the
 // Housner variant Housner's equations (EQUATIONS_HOUSNER), at every sample;
@@ -262,7 +262,7 @@ TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
 namespace rocklab::model {
 namespace {
 
-// Oracle: issue 12 item 3, counting by hand. RL_TABLE over memq at 500 Hz
+// Oracle: counting by hand. RL_TABLE over memq at 500 Hz
 // with seq 100..104 and 300 dropped (6 samples missing by seq). RL_HEALTH "stopped" carries gaps = 6.
 TEST(ModelNode, CountsRlTableSequenceGapsInHealth) {
   common::LcmBus bus("memq://");

@@ -1,5 +1,5 @@
 // Independent oracles for the forced response of rocklab's Housner model
-// (issue 16, point 1). Nothing here calls rocklab's model code except the
+// (docs/testing.md). Nothing here calls rocklab's model code except the
 // model under test through its public API (model/rocking_model.h); the table
 // motions, the reference integrator and the closed forms are written here from
 // docs/errata.md items 5, 6 and 11 and docs/commands.md's definition of the excitations (`simulate --excitation`).
@@ -326,7 +326,7 @@ TEST(OracleTest, ReferenceIntegratorConvergesAtFourthOrder) {
   }
 }
 
-// Oracle: the figures of a third, independent RK4 quoted in issue 16: figure
+// Oracle: the figures of a third, independent RK4 quoted in scenario_test.cpp: figure
 // 8 peaks at 0.024721 rad (first excursion) with 199 impacts in 20 s, figure
 // 7 at 0.038490 rad. The quoted figures are cut, not rounded, to six decimals
 // (this reference gives 0.0247214 and 0.0384908 rad): each peak must lie in
@@ -645,7 +645,7 @@ TEST(OracleTest, SlenderBlockUnderConstantPushMatchesTheClosedForm) {
 }
 
 // ---------------------------------------------------------------------------
-// The model node's lookahead (issue 15 point 1) on the figures' tables
+// The model node's lookahead on the figures' tables
 // sampled at 1 kHz, as the node sees a DAQ's RL_TABLE.
 //
 // Oracle: the reference integrator on the exact (analytic) table motion.

@@ -131,12 +131,12 @@ int Impacts(const Trajectory& t) {
 }
 
 // ORACLE: an independent exact integration of Housner's equations (scipy,
-// tolerances 1e-10, issue 10): figure 7 peak |theta| 0.038490 rad, figure 8
+// tolerances 1e-10): figure 7 peak |theta| 0.038490 rad, figure 8
 // 0.024721 rad and 199 impacts; rocklab's Housner model sampled at 1 kHz
 // must give them (TOLERANCE 5e-6 rad: the 1 kHz sampling of the peak,
 // theta'' h^2 / 8 < 4e-7 rad, and the printed digits). The complex model at
 // its defaults (eq. (10) throughout, l = 1e-10) must meet Housner's limit
-// (issue 10): peak within 1 %, impact count within 3 %, the same uplift time
+// closely: peak within 1 %, impact count within 3 %, the same uplift time
 // (the same rest-regime root finding: 1e-9 s), eq. (10) for all of the
 // rocking time. Measured: figure 7 -0.09 %, 92 against 92 impacts; figure 8
 // -0.01 %, 199 against 199 (docs/models.md, for other l). Figure 7 is

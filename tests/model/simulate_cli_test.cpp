@@ -1,4 +1,4 @@
-// `rocklab simulate` as a user runs it (issue 10): the command that aborted
+// `rocklab simulate` as a user runs it: the command that aborted
 // on a forcing ending while the block rocks exits 0, and --json reports the
 // equations' share and the solver's work.
 #include <gtest/gtest.h>
@@ -12,7 +12,7 @@
 namespace rocklab::test {
 namespace {
 
-// Oracle: the issue's command (exit 1, "CVode failed with flag -3" before)
+// Oracle: a command that once failed (exit 1, "CVode failed with flag -3" before)
 // exits 0 and writes 12 s at 200 Hz; the JSON's keys as documented in the
 // docs/commands.md (`simulate --json`): eq10_fraction 0 for Housner, 1 for the complex model at its
 // defaults, between 0 and 1 with the opt-in hand-off (whose use is echoed).

@@ -112,7 +112,7 @@ const json& VariantNamed(const json& snap, const std::string& name) {
   return none;
 }
 
-// Oracle: issue 10 point 1. RL_MODEL_<name> from the model node
+// Oracle: the channel contract (docs/channels.md). RL_MODEL_<name> from the model node
 // (model_state2_t) shows which equations produced the newest sample; a log
 // written before it carries model_state_t on the same channels: still shown
 // (same theta in degrees, parameters), "equations" null (it does not say).

@@ -422,7 +422,7 @@ std::size_t ResidentBytes() {
   return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
 }
 
-// Issue 12, item 3: with cpp-httplib, 1000 idle connections left a GET
+// With cpp-httplib, 1000 idle connections left a GET
 // unanswered after 90 s and one client streaming header lines grew the
 // process by 1.8 GB. Here 300 idle connections and a header flood are open
 // while the page and the snapshot are asked for. Oracles: "answered" is a
@@ -548,7 +548,7 @@ int OpenStream(int port, const char* from, int rcvbuf = 0) {
   return fd;
 }
 
-// Issue 23, item 12: 8 event streams from one address denied every other
+// 8 event streams from one address denied every other
 // client (503). Oracle: the options. Two streams per address: a third from
 // the same address gets 503, one from another address 200.
 TEST_F(MonitorServerTest, EventStreamsAreLimitedPerAddress) {
@@ -564,7 +564,7 @@ TEST_F(MonitorServerTest, EventStreamsAreLimitedPerAddress) {
   for (int fd : fds) close(fd);
 }
 
-// Issue 23, item 12: streams that read nothing give up their slots. Every
+// Streams that read nothing give up their slots. Every
 // slot is taken by clients that read nothing (a snapshot of several MB
 // against a 4 KiB receive buffer: their output blocks); a client from
 // another address that asks, again on a 503, gets a stream within the
@@ -621,7 +621,7 @@ TEST_F(MonitorServerTest, StreamsThatDoNotReadAreDroppedForOneThatAsks) {
   for (int fd : stalled) close(fd);
 }
 
-// Issue 23, item 13: connections trickling one header byte every 5 s held
+// Connections trickling one header byte every 5 s held
 // their slots for good (an idle timeout that each byte reset). Now the
 // headers must be whole within header_timeout_s, however they trickle.
 // Oracle: the options (header_timeout_s 1 s, idle_timeout_s 30 s: only the
@@ -648,7 +648,7 @@ TEST_F(MonitorServerTest, AHeaderTricklingInIsCutAtItsDeadline) {
   EXPECT_EQ(RawRequest(port(), Get("/")), 200);
 }
 
-// Issue 23, item 13: 8 addresses x 400 slow connections took all 1024
+// 8 addresses x 400 slow connections took all 1024
 // slots. With 64 per address, two addresses' full shares leave room: a GET
 // from a third is answered, the 65th connection of an address is closed at
 // once. Oracle: the options (max_connections 160).
@@ -679,7 +679,7 @@ TEST_F(MonitorServerTest, PerAddressCapsLeaveRoomForOthers) {
   for (int h : held) close(h);
 }
 
-// Issue 23, item 14: headers up to 11.5 KB got 200, 12 000 bytes no answer.
+// Headers up to 11.5 KB got 200, 12 000 bytes no answer.
 // Oracle: max_header_bytes = 8192 counts the request line, the header lines
 // with their CRLFs and the empty line: 8192 bytes is answered, one more is
 // 431, and so is every larger size up to 64 KiB.
@@ -696,7 +696,7 @@ TEST_F(MonitorServerTest, TheHeaderLimitIsExactly8KiB) {
   }
 }
 
-// Issue 12, item 3: an RL_THETA with utime near INT64_MIN became the
+// An RL_THETA with utime near INT64_MIN became the
 // monitor's time origin (one point at t = 9.2e12 s, nothing counted). Now
 // it is refused and counted as a decode error of its channel; the origin is
 // the first good message. Oracle: the two good messages' times.

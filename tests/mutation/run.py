@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Mutation check of rocklab's physics tests (issue 16, point 3).
+"""Mutation check of rocklab's physics tests.
 
 Each mutant is one small, wrong change to the physics (a sign, a factor, a
 swapped term) in the Housner right-hand side, the complex model's eq. (10),
@@ -42,7 +42,7 @@ LAYERS = {
 MUTANTS = [
     ("housner_forcing", "model", "model/housner.cpp",
      "ug / kGravity * std::cos(phi)", "ug / kGravity * std::cos(sp_.alpha * side_)",
-     "Housner RHS: the forcing term's cos(alpha s - theta) frozen at theta = 0 (the issue's example)"),
+     "Housner RHS: the forcing term's cos(alpha s - theta) frozen at theta = 0 (a plausible slip)"),
     ("housner_gravity_sign", "model", "model/housner.cpp",
      "-sp_.p * sp_.p * (std::sin(phi) +", "-sp_.p * sp_.p * (-std::sin(phi) +",
      "Housner RHS: the restoring term's sign"),

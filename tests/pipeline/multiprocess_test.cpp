@@ -256,7 +256,7 @@ class MultiProcess : public ::testing::Test {
   std::string dir, raw;
 };
 
-// Issue 4: daq, model and compare as processes over udpm, rocklab record
+// `daq`, `model` and `compare` as processes over udpm, rocklab record
 // recording; lcm-logplayer replays the DAQ's messages of that log into
 // fresh model and compare processes: the two summaries must be equal.
 // Oracle: exact equality of the two summary JSON documents. Both
@@ -339,7 +339,7 @@ TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
   EXPECT_EQ(nlohmann::json::parse(test::ReadFile(dir + "/run.json")), a);
 }
 
-// Issue 4: killing the model process mid-run gives a STALE event from the
+// Killing the model process mid-run gives a STALE event from the
 // comparator for its variant; a new model process started mid-record
 // recovers (RECOVERED, and RL_COMPARE_fitted resumes). Oracles: the event
 // kinds and their order; the model node's documented start rule (the
@@ -438,7 +438,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   EXPECT_GT(last_compare_utime, first.utime);
 }
 
-// Issue 4: SIGTERM to every node as a process exits 0 after a final
+// SIGTERM to every node as a process exits 0 after a final
 // RL_HEALTH "stopped", read from a rocklab record log: rocklab daq, model and
 // compare mid-run, then rocklab run over udpm (all three nodes in one
 // process: their "stopped" in the shutdown order of tools/cmd_run.cpp).

@@ -112,7 +112,7 @@ std::vector<std::pair<std::string, std::string>> ModelAndComparePayloads(const s
   return out;
 }
 
-// Issue 4 item 5: the same input gives byte-identical RL_MODEL_* and
+// The same input gives byte-identical RL_MODEL_* and
 // RL_COMPARE_* payloads at --max, --speed 10 and --speed 1. Oracle: the
 // --max run; exact equality (every message is stamped with the sample clock,
 // and the stages are connected by direct calls in one thread, so the host
@@ -145,7 +145,7 @@ TEST(RocklabRun, ModelAndComparePayloadsAreTheSameAtEverySpeed) {
   }
 }
 
-// Issue 11: the demo's log has stamps that never go back (the newest
+// The demo's log has stamps that never go back (the newest
 // sample-clock utime so far), every payload keeps its own utime, and
 // `rocklab replay` publishes every event of it. Oracle: the events counted
 // in the file by liblcm's own reader.
@@ -250,7 +250,7 @@ TEST(RocklabRun, StartUpErrorsNameTheOption) {
   EXPECT_EQ(r.err, "rocklab: --log: cannot write '/nonexistent/x.lcm'\n");
 }
 
-// Issue 12 item 5: `--log /dev/full`. Every event that cannot be written
+// `--log /dev/full`. Every event that cannot be written
 // is counted and reported at exit, with exit 1. Oracle: the events of the
 // same run written to a real file. The two runs publish the same messages
 // except RL_HEALTH, whose periodic messages follow the host clock: the lost

@@ -109,7 +109,7 @@ TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
   EXPECT_EQ(next, sent.size());
 }
 
-// Issue 23 point 6. SIGTERM while data flows (a publisher that never pauses
+// SIGTERM while data flows (a publisher that never pauses
 // for 20 ms, as a 1x or 20x replay does): the recorder stops within a
 // second, writing what it holds, rather than draining a stream that does not
 // end. Oracle: the publisher is still sending when the recorder exits (so
@@ -161,7 +161,7 @@ TEST(RecordUdpmTest, SigtermStopsWithinASecondWhileDataFlows) {
   EXPECT_EQ(raw["name"], "RL_RAW");
   EXPECT_EQ(raw["count"].get<int64_t>(), CountLogEvents(log, "RL_RAW"));
   EXPECT_EQ(raw["received"].get<int64_t>(), raw["count"].get<int64_t>() + raw["dropped"].get<int64_t>());
-  // Issue 23 point 9: the summary on stderr escapes the channel's name.
+  // The summary on stderr escapes the channel's name.
   const std::string err = ReadFile(dir + "/err");
   EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
   EXPECT_NE(err.find("'RL_\\x1b]0;title\\x07'"), std::string::npos) << err;

@@ -71,7 +71,7 @@ TEST(RecordReport, ReadsEveryEventOfTheLog) {
   EXPECT_FALSE(r.snapshot.at("measured").at("t").empty());
 }
 
-// Issue 23, item 8. Oracle: the RL_COMPARE messages written: one variant
+// Oracle: the RL_COMPARE messages written: one variant
 // whose comparison has no matched crossing (NaN timing and peak errors, as
 // the comparator publishes them) and one with a matched crossing. The first
 // caption line says so and the page's JSON holds null, not 0.

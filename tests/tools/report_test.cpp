@@ -422,7 +422,7 @@ TEST_F(RocklabReport, UndecodableMessagesAreCountedNotFatal) {
   EXPECT_EQ(snap.at("measured").at("theta_deg").size(), 3u);
 }
 
-// Oracle: issue 10 point 1. A log recorded before model_state2_t carries
+// Oracle: the channel contract (docs/channels.md). A log recorded before model_state2_t carries
 // model_state_t on RL_MODEL_*: the report still shows the variant (its
 // theta as the log has it, its parameters in the caption), nothing counted
 // as a decode error.
