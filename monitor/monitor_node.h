@@ -4,8 +4,9 @@
 /// theory-versus-experiment page.
 ///
 /// Threading: the thread that calls Run handles the bus, each message going
-/// into the LiveState (decoded there, under its mutex); cpp-httplib's threads
-/// serve the page, the snapshot and the event streams, reading the LiveState.
+/// into the LiveState (decoded there, under its mutex); the server's
+/// libmicrohttpd thread serves the page, the snapshot and the event streams,
+/// reading the LiveState (monitor/server.h).
 /// Nothing is published.
 ///
 /// Shutdown order (Run): the stop flag ends the bus loop (polled every
