@@ -1,0 +1,120 @@
+#!/usr/bin/env python3
+"""Checks that the docs name only what exists in the code.
+
+Usage: check_names.py SOURCE_DIR. Reads README.md, CONTRIBUTING.md and
+docs/*.md and fails (exit 1, one line per problem: page:line: what) when
+- a `rocklab::NAME` that is not a C++ namespace or an LCM type is not a
+  CMake target (an ALIAS, an installed export name, or rocklabConfig's),
+- `rocklab COMMAND` (in backticks, or a `$B COMMAND` / `rocklab COMMAND`
+  line of a code block) is not a subcommand the sources register with
+  add_subcommand,
+- a repository path (`folder/...` of a top-level folder, or a Markdown
+  link's target) does not exist.
+Oracle: the source tree itself, read as text; nothing is built or run.
+"""
+import os
+import re
+import sys
+
+root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else ".")
+SKIP_DIRS = {".git", "build", "node_modules"}
+
+
+def files_under(exts):
+    for dp, dn, fn in os.walk(root):
+        dn[:] = [d for d in dn if d not in SKIP_DIRS and not d.startswith("build")]
+        for n in fn:
+            if n.endswith(exts) or n in exts:
+                yield os.path.join(dp, n)
+
+
+def read(path):
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return f.read()
+
+
+# CMake targets: aliases, installed export names, rocklabConfig's imported targets.
+targets = set()
+cmake_text = {p: read(p) for p in files_under((".cmake", ".cmake.in", "CMakeLists.txt"))}
+renamed = set()
+for text in cmake_text.values():
+    targets.update(re.findall(r"add_library\(rocklab::(\w+)", text))
+    m = re.search(r"foreach\(folder ([\w ]+)\)\s*\n\s*if\(TARGET rocklab_\$\{folder\}\)", text)
+    if m:
+        renamed.update(m.group(1).split())
+for text in cmake_text.values():
+    for group in re.findall(r"install\(TARGETS ([\w ]+?) EXPORT", text):
+        for t in group.split():
+            folder = t[len("rocklab_"):] if t.startswith("rocklab_") else None
+            targets.add(folder if folder in renamed else t)
+
+# C++ namespaces and LCM types under rocklab:: are not targets.
+namespaces = set()
+for p in files_under((".h", ".cpp", ".hpp")):
+    namespaces.update(re.findall(r"namespace rocklab::(\w+)", read(p)))
+lcm_types = {os.path.splitext(n)[0] for n in os.listdir(os.path.join(root, "lcm_types")) if n.endswith(".lcm")}
+
+# Subcommands registered anywhere in the sources (tools/cmd_*.cpp today).
+commands = set()
+for p in files_under((".cpp",)):
+    if os.sep + "tests" + os.sep in p:
+        continue
+    commands.update(re.findall(r'add_subcommand\(\s*"([\w-]+)"', read(p)))
+
+top_dirs = {d for d in os.listdir(root) if os.path.isdir(os.path.join(root, d)) and d not in SKIP_DIRS}
+top_dirs.discard("build")
+
+pages = [os.path.join(root, n) for n in ("README.md", "CONTRIBUTING.md") if os.path.exists(os.path.join(root, n))]
+pages += sorted(os.path.join(root, "docs", n) for n in os.listdir(os.path.join(root, "docs")) if n.endswith(".md"))
+
+problems = []
+checked = {"targets": 0, "commands": 0, "paths": 0}
+
+
+def check_path(page, lineno, token, base):
+    token = token.split("#")[0].rstrip(".,;:)")
+    token = re.sub(r":\d+(-\d+)?$", "", token)  # file.cpp:58-148
+    if not token or re.search(r"[*?<>{}$ ]|\.\.\.", token):
+        return
+    full = os.path.normpath(os.path.join(base, token))
+    checked["paths"] += 1
+    if not os.path.exists(full):
+        problems.append(f"{os.path.relpath(page, root)}:{lineno}: no such file: {token}")
+
+
+for page in pages:
+    in_code = False
+    for lineno, line in enumerate(read(page).split("\n"), 1):
+        if line.lstrip().startswith("```"):
+            in_code = not in_code
+            continue
+        for name in re.findall(r"rocklab::(\w+)(?!\w|::|\()", line):
+            if name in namespaces or name in lcm_types or name.endswith("_t"):
+                continue
+            checked["targets"] += 1
+            if name not in targets:
+                problems.append(f"{os.path.relpath(page, root)}:{lineno}: no CMake target rocklab::{name}")
+        spans = re.findall(r"`([^`]+)`", line) if not in_code else [line]
+        for span in spans:
+            cmd = re.match(r"\s*(?:\$B|rocklab|build/tools/rocklab)\s+([a-z][\w-]*)", span)
+            if cmd and (not in_code or span.lstrip().startswith(("$B ", "rocklab "))):
+                checked["commands"] += 1
+                if cmd.group(1) not in commands:
+                    problems.append(f"{os.path.relpath(page, root)}:{lineno}: no command rocklab {cmd.group(1)}")
+            if in_code:
+                continue
+            tok = span.strip()
+            first = tok.split("/")[0]
+            if "/" in tok and first in top_dirs and " " not in tok:
+                check_path(page, lineno, tok, root)
+        if not in_code:
+            for target in re.findall(r"\]\(([^)\s]+)\)", line):
+                if re.match(r"[a-z]+:", target) or target.startswith("#"):
+                    continue
+                check_path(page, lineno, target, os.path.dirname(page))
+
+print(f"checked {len(pages)} pages: {checked['targets']} targets, "
+      f"{checked['commands']} commands, {checked['paths']} paths")
+for p in problems:
+    print(p)
+sys.exit(1 if problems else 0)
