@@ -4,25 +4,13 @@
 /// raw channel (RL_RAW, raw_frame_t, one per acquisition frame: the largest
 /// and most frequent messages) from the main bus's URL and `--raw-url`.
 ///
-/// The default keeps RL_RAW off the main udpm group, so that nodes that never
-/// read it (model, compare, monitor) do not receive it:
-///  - main `udpm://A.B.C.D:PORT?OPTS` -> raw `udpm://A.B.C.(D+1):(PORT+1)?OPTS`
-///    (LCM's default udpm://239.255.76.67:7667?ttl=0 -> udpm://239.255.76.68:7668?ttl=0).
-///    D = 255 wraps to 0; PORT 65535 has no successor (an error: give --raw-url).
-///    Both change: a group of its own keeps the frames off the wire to hosts
-///    that never join it (with IGMP snooping), a port of its own keeps them
-///    out of the main sockets on a host where some process joined the raw
-///    group (Linux delivers a group's datagrams to every socket bound to the
-///    port on INADDR_ANY, as LCM's are, once any socket on the host joined it;
-///    measured in docs/performance.md, "Raw frames on their own group");
-///  - any other provider (memq://, file://, tcpq://): the main bus itself.
-/// `--raw-url URL` names the raw bus; `--raw-url same` keeps RL_RAW on the
-/// main bus (the behaviour before the split). A raw udpm URL on the main
-/// URL's group and port is the main bus (never two instances on one socket
-/// address: a subscriber would receive every message twice); on the main
-/// URL's port with another group it is refused (for the reason above, the
-/// main sockets would receive it, and `rocklab record` on both buses wrote
-/// every message twice).
+/// By default a udpm main URL `udpm://A.B.C.D:PORT?OPTS` sends RL_RAW to
+/// `udpm://A.B.C.(D+1):(PORT+1)?OPTS`, a group and a port of its own, so
+/// nodes that never read it do not receive it; any other provider keeps
+/// RL_RAW on the main bus, as does `--raw-url same`. A raw URL that would
+/// share the main sockets is refused or merged (never two instances on one
+/// socket address). The rule, its edge cases and why both group and port
+/// change: docs/channels.md.
 
 #include <string>
 

@@ -22,9 +22,8 @@
 /// output in the stream O(n) (one dot product per derivative in use), each of
 /// the first 2m-lag outputs of a segment one fit over its cut window
 /// (O(n order^2)), and Finish one fit whose polynomial gives the last `lag`
-/// outputs. (The first version tabulated every position's weights: O(m n^2)
-/// set-up, 103 s and 245 MB for m = 1000.) half_window is bounded by
-/// kMaxHalfWindow.
+/// outputs (docs/reliability.md has what a tabulated set-up cost). half_window
+/// is bounded by kMaxHalfWindow.
 
 #include <cstdint>
 #include <vector>

@@ -23,7 +23,7 @@ namespace {
 
 // Hand-off radius of the opt-in approximation, in units of chi_m.
 constexpr double kResolvedChi = 6.0;
-// Back to rest at a crossing below this multiple of V_min (see above).
+// Back to rest at a crossing below this multiple of V_min (docs/models.md).
 constexpr double kRestEnergy = 2.0;
 // Absolute tolerance on x, y (and on x', y' / p) per unit l: a crossing
 // integrated through (a slow one, see kCoreTolerance) passes the origin at

@@ -26,10 +26,8 @@
 /// client that reads nothing of its answer) is closed. Event streams: at
 /// most max_streams, max_streams_per_host from one address; a stream whose
 /// client has stopped reading (its output blocked for stream_stall_s) is
-/// dropped when another asks for its slot. cpp-httplib, used before, gives each
-/// connection a worker thread from a fixed pool and has no bound on the
-/// number of header lines: 1000 idle sockets starved every request and one
-/// client streaming header lines grew the process to 1.8 GB.
+/// dropped when another asks for its slot. Why libmicrohttpd and not a
+/// thread per connection, with the measured loads: docs/reliability.md.
 ///
 /// Threading: libmicrohttpd's polling thread runs every callback; a ticker
 /// thread resumes the event streams (suspended between pushes) once per push
