@@ -9,7 +9,9 @@ docs/*.md and fails (exit 1, one line per problem: page:line: what) when
   line of a code block) is not a subcommand the sources register with
   add_subcommand,
 - a repository path (`folder/...` of a top-level folder, or a Markdown
-  link's target) does not exist.
+  link's target) does not exist,
+- a test named as `Suite.Case` has no TEST/TEST_F/TEST_P(Suite, Case), or a
+  ctest target `NAME_test` is not registered (rocklab_add_gtest, add_test).
 Oracle: the source tree itself, read as text; nothing is built or run.
 """
 import os
@@ -61,6 +63,16 @@ for p in files_under((".cpp",)):
         continue
     commands.update(re.findall(r'add_subcommand\(\s*"([\w-]+)"', read(p)))
 
+# Tests: GoogleTest cases and ctest names.
+gtests = set()
+ctest_names = set()
+for p in files_under((".cpp", "CMakeLists.txt")):
+    text = read(p)
+    gtests.update(re.findall(r"\bTEST(?:_F|_P)?\(\s*(\w+),\s*(\w+)\)", text))
+    ctest_names.update(re.findall(r"rocklab_add_gtest\((\w+)", text))
+    ctest_names.update(re.findall(r"add_test\(NAME ([\w.]+)", text))
+gtest_suites = {suite for suite, _ in gtests}
+
 top_dirs = {d for d in os.listdir(root) if os.path.isdir(os.path.join(root, d)) and d not in SKIP_DIRS}
 top_dirs.discard("build")
 
@@ -68,7 +80,7 @@ pages = [os.path.join(root, n) for n in ("README.md", "CONTRIBUTING.md") if os.p
 pages += sorted(os.path.join(root, "docs", n) for n in os.listdir(os.path.join(root, "docs")) if n.endswith(".md"))
 
 problems = []
-checked = {"targets": 0, "commands": 0, "paths": 0}
+checked = {"targets": 0, "commands": 0, "paths": 0, "tests": 0}
 
 
 def check_path(page, lineno, token, base):
@@ -104,6 +116,15 @@ for page in pages:
             if in_code:
                 continue
             tok = span.strip()
+            case = re.fullmatch(r"([A-Z]\w+)\.([A-Z]\w+)", tok)
+            if case and (case.group(1) in gtest_suites or case.group(1).endswith("Test")):
+                checked["tests"] += 1
+                if (case.group(1), case.group(2)) not in gtests:
+                    problems.append(f"{os.path.relpath(page, root)}:{lineno}: no test {tok}")
+            if re.fullmatch(r"[a-z][a-z0-9_]*_test", tok):
+                checked["tests"] += 1
+                if tok not in ctest_names:
+                    problems.append(f"{os.path.relpath(page, root)}:{lineno}: no ctest target {tok}")
             first = tok.split("/")[0]
             if "/" in tok and first in top_dirs and " " not in tok:
                 check_path(page, lineno, tok, root)
@@ -114,7 +135,7 @@ for page in pages:
                 check_path(page, lineno, target, os.path.dirname(page))
 
 print(f"checked {len(pages)} pages: {checked['targets']} targets, "
-      f"{checked['commands']} commands, {checked['paths']} paths")
+      f"{checked['commands']} commands, {checked['paths']} paths, {checked['tests']} tests")
 for p in problems:
     print(p)
 sys.exit(1 if problems else 0)
