@@ -11,7 +11,10 @@ docs/*.md and fails (exit 1, one line per problem: page:line: what) when
 - a repository path (`folder/...` of a top-level folder, or a Markdown
   link's target) does not exist,
 - a test named as `Suite.Case` has no TEST/TEST_F/TEST_P(Suite, Case), or a
-  ctest target `NAME_test` is not registered (rocklab_add_gtest, add_test).
+  ctest target `NAME_test` is not registered (rocklab_add_gtest, add_test),
+- a code name in backticks (`ns::Name`, `Class::Member`, a CamelCase
+  identifier such as `LiveState`) appears nowhere in the code, CMake,
+  scripts or unit files.
 Oracle: the source tree itself, read as text; nothing is built or run.
 """
 import os
@@ -73,6 +76,12 @@ for p in files_under((".cpp", "CMakeLists.txt")):
     ctest_names.update(re.findall(r"add_test\(NAME ([\w.]+)", text))
 gtest_suites = {suite for suite, _ in gtests}
 
+# Every word of the code, CMake files, scripts and unit files.
+code_words = set()
+for p in files_under((".h", ".cpp", ".hpp", ".py", ".pyi", ".lcm", ".cmake", ".in", ".js", ".sh",
+                      ".toml", ".service", ".timer", "CMakeLists.txt")):
+    code_words.update(re.findall(r"\w+", read(p)))
+
 top_dirs = {d for d in os.listdir(root) if os.path.isdir(os.path.join(root, d)) and d not in SKIP_DIRS}
 top_dirs.discard("build")
 
@@ -80,7 +89,7 @@ pages = [os.path.join(root, n) for n in ("README.md", "CONTRIBUTING.md") if os.p
 pages += sorted(os.path.join(root, "docs", n) for n in os.listdir(os.path.join(root, "docs")) if n.endswith(".md"))
 
 problems = []
-checked = {"targets": 0, "commands": 0, "paths": 0, "tests": 0}
+checked = {"targets": 0, "commands": 0, "paths": 0, "tests": 0, "names": 0}
 
 
 def check_path(page, lineno, token, base):
@@ -121,6 +130,12 @@ for page in pages:
                 checked["tests"] += 1
                 if (case.group(1), case.group(2)) not in gtests:
                     problems.append(f"{os.path.relpath(page, root)}:{lineno}: no test {tok}")
+            names = [w for m in re.finditer(r"\b(?:\w+::)+\w+", tok) for w in re.findall(r"\w+", m.group(0))]
+            names += re.findall(r"(?<![\w.*:-])([A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+)(?![\w.*:-])", tok)
+            for w in names:
+                checked["names"] += 1
+                if w not in code_words:
+                    problems.append(f"{os.path.relpath(page, root)}:{lineno}: no such name in the code: {w} (in `{tok}`)")
             if re.fullmatch(r"[a-z][a-z0-9_]*_test", tok):
                 checked["tests"] += 1
                 if tok not in ctest_names:
@@ -135,7 +150,8 @@ for page in pages:
                 check_path(page, lineno, target, os.path.dirname(page))
 
 print(f"checked {len(pages)} pages: {checked['targets']} targets, "
-      f"{checked['commands']} commands, {checked['paths']} paths, {checked['tests']} tests")
+      f"{checked['commands']} commands, {checked['paths']} paths, {checked['tests']} tests, "
+      f"{checked['names']} code names")
 for p in problems:
     print(p)
 sys.exit(1 if problems else 0)
