@@ -1,5 +1,5 @@
 // rocklab_bench_video_tracking: frames per second of LED tracking at 720p
-// (docs/video.md, "Speed"). Two figures:
+// (docs/video.md, "Measured"). Two figures:
 //  1. tracking: blob detection, identification and the plane mapping of
 //     in-memory 1280x720 grey frames (4 LEDs, noise), as the video source
 //     runs them per frame; wall and CPU time, resident memory at 10% of the

@@ -14,7 +14,10 @@ docs/*.md and fails (exit 1, one line per problem: page:line: what) when
   ctest target `NAME_test` is not registered (rocklab_add_gtest, add_test),
 - a code name in backticks (`ns::Name`, `Class::Member`, a CamelCase
   identifier such as `LiveState`) appears nowhere in the code, CMake,
-  scripts or unit files.
+  scripts or unit files;
+and, the other way round, when a source file's comment points to a
+`docs/PAGE.md` that does not exist, or quotes from it (`docs/PAGE.md,
+"Section"`) a heading or phrase the page does not hold.
 Oracle: the source tree itself, read as text; nothing is built or run.
 """
 import os
@@ -149,9 +152,38 @@ for page in pages:
                     continue
                 check_path(page, lineno, target, os.path.dirname(page))
 
+# Pointers from the code to the docs.
+def flat(text):
+    return re.sub(r"\s+", " ", re.sub(r"[`*]", "", text)).lower()
+
+doc_text = {os.path.basename(p): flat(read(p)) for p in pages if os.sep + "docs" + os.sep in p}
+checked["pointers"] = 0
+errata_page = read(os.path.join(root, "docs", "errata.md"))
+for p in files_under((".h", ".cpp", ".hpp", ".py", ".sh", ".cmake", "CMakeLists.txt")):
+    if os.path.samefile(p, __file__):
+        continue
+    text = read(p)
+    for m in re.finditer(r'docs/([\w-]+\.md)(?:,? \(?"([^"]+)")?', text):
+        checked["pointers"] += 1
+        line = text.count("\n", 0, m.start()) + 1
+        where = f"{os.path.relpath(p, root)}:{line}"
+        page, quote = m.group(1), m.group(2)
+        if page not in doc_text:
+            problems.append(f"{where}: no such page docs/{page}")
+        elif quote:
+            quote = flat(re.sub(r"\s*\n\s*(//+|#)?", " ", quote)).rstrip(".,:; ")
+            if quote not in doc_text[page]:
+                problems.append(f'{where}: docs/{page} holds no "{quote}"')
+    for m in re.finditer(r"docs/errata\.md items? (\d+)(?:(?:-|, | and )(\d+))*", text):
+        for n in re.findall(r"\d+", m.group(0)[len("docs/errata.md"):]):
+            checked["pointers"] += 1
+            if f'<a id="item-{n}"></a>' not in errata_page:
+                line = text.count("\n", 0, m.start()) + 1
+                problems.append(f"{os.path.relpath(p, root)}:{line}: docs/errata.md has no item {n}")
+
 print(f"checked {len(pages)} pages: {checked['targets']} targets, "
       f"{checked['commands']} commands, {checked['paths']} paths, {checked['tests']} tests, "
-      f"{checked['names']} code names")
+      f"{checked['names']} code names; {checked['pointers']} pointers from the code")
 for p in problems:
     print(p)
 sys.exit(1 if problems else 0)

@@ -1,8 +1,8 @@
 // `rocklab model` and `rocklab compare` as a user starts them: their
 // start-up errors (exit 2, a message naming the option and the value), and
 // a run over memq:// stopped by SIGINT (exit 0, the end-of-run lines), which
-// needs no network namespace. Oracle: the CLI contract of docs/commands.md ("exit 2:
-// bad arguments or configuration, naming the option") and each command's
+// needs no network namespace. Oracle: the CLI contract of docs/commands.md ("Command
+// line": exit code 2, one line naming the option) and each command's
 // own end-of-run output.
 #include <signal.h>
 #include <unistd.h>
