@@ -10,7 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/lcm_log.h"
-#include "common/node_support.h"
+#include "common/logger_clock.h"
 
 namespace rocklab::common {
 namespace {
