@@ -16,7 +16,7 @@ bool IsMemq(const std::string& url) { return url.rfind("memq://", 0) == 0; }
 RunGraph::RunGraph(const RunGraphConfig& c) {
   if (!IsMemq(c.lcm_url)) {
     net_ = OpenLcmBus(c.lcm_url);
-    direct_.SubscribeRaw(".*", [this](const std::string& channel, const void* data, int size) {
+    forward_ = direct_.SubscribeRaw(".*", [this](const std::string& channel, const void* data, int size) {
       if (!net_->Publish(channel, data, size)) ++forward_errors_;
     });
   }

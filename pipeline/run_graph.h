@@ -28,7 +28,10 @@
 #include <string>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
+#include "common/lcm_bus.h"
 #include "common/lcm_log.h"
+#include "common/log_writing_bus.h"
 #include "compare/compare_node.h"
 #include "daq/daq_node.h"
 #include "model/model_node.h"
@@ -75,6 +78,7 @@ class RunGraph {
   common::DirectBus direct_;
   std::unique_ptr<common::LcmBus> net_;
   std::int64_t forward_errors_{};
+  common::Subscription forward_;  // direct_ -> net_
   std::unique_ptr<common::LogWriter> log_;
   std::unique_ptr<common::LogWritingBus> logged_;
   common::Bus* bus_{};

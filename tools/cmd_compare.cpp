@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "common/lcm_bus.h"
 #include "compare/compare_flags.h"
 #include "compare/compare_node.h"
 #include "pipeline/pipeline.h"

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "common/lcm_bus.h"
 #include "model/model_node.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "common/lcm_bus.h"
 #include "monitor/monitor_node.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"

@@ -12,7 +12,9 @@
 #include <string>
 
 #include "common/bus_urls.h"
+#include "common/lcm_bus.h"
 #include "common/progress.h"
+#include "common/routing_bus.h"
 #include "pipeline/log_replay.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"
