@@ -4,6 +4,8 @@
 
 namespace rocklab::monitor {
 
+using namespace live_detail;  // NOLINT(google-build-using-namespace): the private helpers of live_state_impl.h
+
 json LiveState::Impl::Update(std::uint64_t cursor) const {
   const bool full = cursor == 0 || cursor < record_start_seq;
   const bool windowed = std::isfinite(options.window_s) && has_clock;
