@@ -1,4 +1,4 @@
-#include "model/record.h"
+#include "model/test_record.h"
 
 #include <algorithm>
 #include <cmath>
