@@ -423,6 +423,19 @@ struct LiveState::Impl {
   // -- output -----------------------------------------------------------------
 
   json Update(std::uint64_t cursor) const;
+  // The parts of Update (live_json.cpp): what one update carries.
+  struct UpdateWindow {
+    bool full{};              // a full snapshot (else what changed after `cursor`)
+    std::uint64_t cursor{};   // the page's cursor (seq)
+    std::int64_t from_utime{};  // full: the window's start, us
+  };
+  json SeriesJson(const Series& s, const char* a_name, const char* b_name, const UpdateWindow& w) const;
+  json VariantsJson(const UpdateWindow& w) const;
+  json FlagsJson(const UpdateWindow& w) const;
+  json EventsJson(const UpdateWindow& w) const;
+  json HealthJson() const;
+  json CountersJson() const;
+  static json UnitsJson();
   double T(std::int64_t utime) const { return static_cast<double>(utime - t0_utime) * 1e-6; }
 
   const LiveOptions options;
