@@ -92,7 +92,7 @@ struct TableMotion {
 
 // Figure 7: block 1 (Table 2, p of Table 2: ERRATA 10) under
 // hanning:amp=0.006,freq=3.3,duration=4,start=0.5 over 8 s; figure 8: block 2
-// under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (tools/scenario.*,
+// under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (pipeline/scenario.*,
 // tests/model/scenario_test.cpp, docs/models.md).
 struct Case {
   const char* name;
