@@ -1,23 +1,29 @@
 #pragma once
 /// @file
-/// The transport seam every node talks to: publish bytes or a typed LCM
-/// message on a channel, subscribe a handler to a channel regex, and handle
-/// what arrived with a timeout. Three implementations:
-///  - LcmBus: an LCM instance (udpm:// between processes, memq://);
-///  - DirectBus: in one process, Publish calls the matching handlers at once
-///    (synchronous, no queue, no copy through memq): `rocklab run`;
-///  - LogWritingBus: a decorator that writes every published message to an
-///    LCM log (common::LogWriter), then publishes it on the bus it wraps;
-///  - RoutingBus: a decorator that publishes the channels matching a regex
-///    on a second bus (RL_RAW on its own udpm group: common/bus_urls.h).
+/// The transport seam every node talks to (as Drake's DrakeLcmInterface):
+/// publish bytes or a typed LCM message on a channel, subscribe a handler to
+/// a channel regex, and handle what arrived with a timeout. The
+/// implementations have their own headers:
+///  - common/lcm_bus.h, LcmBus: an LCM instance (udpm:// between processes,
+///    memq://);
+///  - common/direct_bus.h, DirectBus: in one process, Publish calls the
+///    matching handlers at once (synchronous, no queue): `rocklab run`;
+///  - common/log_writing_bus.h, LogWritingBus: a decorator that writes every
+///    published message to an LCM log, then publishes it on the bus it wraps;
+///  - common/routing_bus.h, RoutingBus: a decorator that publishes the
+///    channels matching a regex on a second bus (RL_RAW on its own group).
+///
+/// A subscription lasts as long as the Subscription handle it returns: the
+/// handle is move-only and unsubscribes when destroyed (or Reset). A handle
+/// that outlives its bus does nothing.
 ///
 /// Guarded dispatch (all buses): a typed subscription decodes inside the bus,
-/// through common::GuardedDecode: the wire pre-check (common/wire.h: every
-/// string length and array count within the bytes that remain, before
-/// lcm-gen's decode allocates anything), then decode(). A message that does
-/// not pass never reaches the handler: it is counted per channel (decode_errors()) and
-/// dropped, with a warning naming the channel at most once a second per
-/// channel. A handler's exception is caught, logged the same way and counted
+/// through common::GuardedDecode (common/wire.h: every string length and
+/// array count checked against the bytes that remain before lcm-gen's decode
+/// allocates anything). A message that does not pass never reaches the
+/// handler: it is counted per channel (decode_errors()) and dropped, with a
+/// warning naming the channel at most once a second per channel. A
+/// handler's exception is caught, logged the same way and counted
 /// (handler_errors()). Nothing escapes a handler into the transport.
 ///
 /// Threading: handlers run on the thread that calls HandleTimeout (LcmBus)
@@ -28,24 +34,49 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <vector>
+#include <utility>
 
+#include "common/bus_counters.h"
+#include "common/encode_buffers.h"
 #include "common/wire.h"
 
 namespace rocklab::common {
 
-class LogWriter;
+class Bus;
+
+/// A subscription on a Bus: move-only; unsubscribes when destroyed, reset or
+/// assigned over. Empty when default-constructed or moved from.
+class [[nodiscard]] Subscription {
+ public:
+  Subscription() = default;
+  ~Subscription() { Reset(); }
+  Subscription(Subscription&& other) noexcept
+      : bus_(std::move(other.bus_)), id_(std::exchange(other.id_, 0)) {}
+  Subscription& operator=(Subscription&& other) noexcept;
+  Subscription(const Subscription&) = delete;
+  Subscription& operator=(const Subscription&) = delete;
+
+  /// Unsubscribes now (nothing when empty or when the bus is gone).
+  void Reset() noexcept;
+  /// True while it holds a subscription.
+  bool active() const { return id_ != 0; }
+
+ private:
+  friend class Bus;
+  Subscription(std::weak_ptr<Bus*> bus, int id) : bus_(std::move(bus)), id_(id) {}
+  std::weak_ptr<Bus*> bus_;
+  int id_{};
+};
 
 class Bus {
  public:
   /// channel, payload bytes, size in bytes.
   using RawHandler = std::function<void(const std::string& channel, const void* data, int size)>;
-  using SubscriptionId = int;
   /// LCM's default subscriber queue (30) is 30 ms of a 1 kHz channel.
   static constexpr int kDefaultQueue = 4096;
 
-  Bus() = default;
-  virtual ~Bus() = default;
+  Bus();
+  virtual ~Bus();
   Bus(const Bus&) = delete;
   Bus& operator=(const Bus&) = delete;
 
@@ -55,33 +86,34 @@ class Bus {
 
   /// Encodes `msg` (an lcm-gen type) into a reused buffer and publishes it.
   template <class Msg>
-  bool Publish(const std::string& channel, const Msg& msg);
+  bool Publish(const std::string& channel, const Msg& msg) {
+    return encode_buffers_.EncodeThen(
+        msg, [&](const void* data, int size) { return Publish(channel, data, size); });
+  }
 
   /// Subscribes `handler` to every channel matching `channel_regex` (whole
   /// name, ECMAScript/POSIX-compatible subset as LCM's). `queue_capacity`:
   /// messages a queued transport (LcmBus) may hold before it drops.
   /// @throws std::invalid_argument for a bad regex.
-  virtual SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
-                                      int queue_capacity = kDefaultQueue) = 0;
+  virtual Subscription SubscribeRaw(const std::string& channel_regex, RawHandler handler,
+                                    int queue_capacity = kDefaultQueue) = 0;
 
   /// Typed subscription: decodes into a Msg kept by the subscription (no
   /// allocation per message beyond what Msg's own vectors need), guarded as
   /// the file comment says.
   template <class Msg>
-  SubscriptionId Subscribe(const std::string& channel_regex,
-                           std::function<void(const std::string& channel, const Msg& msg)> handler,
-                           int queue_capacity = kDefaultQueue);
+  Subscription Subscribe(const std::string& channel_regex,
+                         std::function<void(const std::string& channel, const Msg& msg)> handler,
+                         int queue_capacity = kDefaultQueue);
 
   /// As Subscribe, with `decode`, a callable `const char*(const void* data,
   /// int size, Msg& msg)` returning nullptr or the reason (for a channel that
   /// carries more than one type, e.g. common::SubscribeModelState). It must
   /// guard as GuardedDecode does and never throw.
   template <class Msg, class Decode>
-  SubscriptionId SubscribeDecoded(const std::string& channel_regex, Decode decode,
-                                  std::function<void(const std::string& channel, const Msg& msg)> handler,
-                                  int queue_capacity = kDefaultQueue);
-
-  virtual void Unsubscribe(SubscriptionId id) = 0;
+  Subscription SubscribeDecoded(const std::string& channel_regex, Decode decode,
+                                std::function<void(const std::string& channel, const Msg& msg)> handler,
+                                int queue_capacity = kDefaultQueue);
 
   /// Dispatches what has arrived, waiting up to `timeout_ms` for it.
   /// @return > 0 when messages were handled, 0 on timeout, < 0 on a transport
@@ -90,126 +122,37 @@ class Bus {
 
   /// Messages that did not decode, per channel (typed subscriptions; a
   /// decorator reports those of the bus it wraps).
-  const std::map<std::string, std::int64_t>& decode_errors() const { return root().decode_errors_; }
+  const std::map<std::string, std::int64_t>& decode_errors() const { return counters_->decode_errors(); }
   /// Handler exceptions caught, per channel.
-  const std::map<std::string, std::int64_t>& handler_errors() const { return root().handler_errors_; }
+  const std::map<std::string, std::int64_t>& handler_errors() const { return counters_->handler_errors(); }
   /// Totals of both.
-  std::int64_t decode_error_count() const;
-  std::int64_t handler_error_count() const;
+  std::int64_t decode_error_count() const { return counters_->decode_error_count(); }
+  std::int64_t handler_error_count() const { return counters_->handler_error_count(); }
 
  protected:
-  /// The bus that keeps the counters: itself, or for a decorator the bus it wraps.
-  virtual const Bus& root() const { return *this; }
-  Bus& root() { return const_cast<Bus&>(static_cast<const Bus*>(this)->root()); }
+  /// A decorator's base: it counts into the counters of `wrapped`.
+  struct SharesCountersWith {
+    const Bus& wrapped;
+  };
+  explicit Bus(SharesCountersWith shared);
+
+  /// The handle of subscription `id` of this bus (an implementation's
+  /// SubscribeRaw returns it; a decorator returns its inner bus's handle).
+  Subscription MakeSubscription(int id) const { return Subscription(self_, id); }
   /// Runs `handler` on one message, exceptions caught, logged and counted.
-  void Dispatch(const RawHandler& handler, const std::string& channel, const void* data, int size);
+  void Dispatch(const RawHandler& handler, const std::string& channel, const void* data, int size) {
+    counters_->Dispatch(handler, channel, data, size);
+  }
 
  private:
-  void CountDecodeError(const std::string& channel, const char* why);
-  void Warn(std::map<std::string, double>& last, const std::string& channel, const std::string& what);
+  friend class Subscription;
+  /// Ends subscription `id` (called by its handle). A bus that only hands
+  /// out another bus's handles (a decorator) has nothing to end.
+  virtual void Unsubscribe(int /*id*/) {}
 
-  std::map<std::string, std::int64_t> decode_errors_, handler_errors_;
-  std::map<std::string, double> last_decode_warning_s_, last_handler_warning_s_;
-  // Encoding buffers, one per nesting depth (a DirectBus handler publishing
-  // while its message is still being dispatched must not overwrite it).
-  std::vector<std::vector<std::uint8_t>> encode_buffers_;
-  int encode_depth_{};
-};
-
-/// An LCM instance behind the Bus interface (PIMPL: no LCM header here).
-class LcmBus final : public Bus {
- public:
-  /// @param url LCM URL; empty: LCM_DEFAULT_URL or LCM's own default.
-  /// @throws std::runtime_error naming the URL when LCM does not open it.
-  explicit LcmBus(const std::string& url);
-  ~LcmBus() override;
-
-  using Bus::Publish;
-  bool Publish(const std::string& channel, const void* data, int size) override;
-  SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
-                              int queue_capacity = kDefaultQueue) override;
-  void Unsubscribe(SubscriptionId id) override;
-  int HandleTimeout(int timeout_ms) override;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
-/// In-process, synchronous: Publish runs every matching handler before it
-/// returns, in subscription order. A handler may publish (nested dispatch).
-class DirectBus final : public Bus {
- public:
-  DirectBus();
-  ~DirectBus() override;
-
-  using Bus::Publish;
-  bool Publish(const std::string& channel, const void* data, int size) override;
-  SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
-                              int queue_capacity = kDefaultQueue) override;
-  void Unsubscribe(SubscriptionId id) override;
-  /// Nothing is ever queued: sleeps `timeout_ms` (a node's idle loop) and returns 0.
-  int HandleTimeout(int timeout_ms) override;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
-/// Writes each published message to `log` (stamp: the message's utime, the
-/// int64 after the 8-byte fingerprint every rocklab type starts with; the
-/// writer keeps stamps non-decreasing), then publishes it on `inner`.
-/// Subscriptions and HandleTimeout go to `inner`. Both are not owned and
-/// must outlive the decorator.
-class LogWritingBus final : public Bus {
- public:
-  LogWritingBus(Bus& inner, LogWriter& log);
-
-  using Bus::Publish;
-  bool Publish(const std::string& channel, const void* data, int size) override;
-  SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
-                              int queue_capacity = kDefaultQueue) override;
-  void Unsubscribe(SubscriptionId id) override;
-  int HandleTimeout(int timeout_ms) override;
-
- protected:
-  using Bus::root;
-  const Bus& root() const override { return inner_; }
-
- private:
-  Bus& inner_;      // not owned
-  LogWriter& log_;  // not owned
-};
-
-/// Publishes each message whose channel matches `channel_regex` (whole name)
-/// on `routed`, every other on `main`: the raw frames' publishers (the DAQ
-/// stage, replay) send RL_RAW to its own group this way
-/// (common/bus_urls.h). A publisher's bus: subscriptions and HandleTimeout
-/// go to `main` (and its counters are main's). Whether a channel matches is
-/// decided once per channel name (a lookup per message, no allocation after
-/// a channel's first message). Both buses are not owned and must outlive it.
-class RoutingBus final : public Bus {
- public:
-  /// @throws std::invalid_argument for a bad regex.
-  RoutingBus(Bus& main, Bus& routed, const std::string& channel_regex);
-  ~RoutingBus() override;
-
-  using Bus::Publish;
-  bool Publish(const std::string& channel, const void* data, int size) override;
-  SubscriptionId SubscribeRaw(const std::string& channel_regex, RawHandler handler,
-                              int queue_capacity = kDefaultQueue) override;
-  void Unsubscribe(SubscriptionId id) override;
-  int HandleTimeout(int timeout_ms) override;
-
- protected:
-  using Bus::root;
-  const Bus& root() const override { return main_; }
-
- private:
-  struct Impl;
-  Bus& main_;    // not owned
-  Bus& routed_;  // not owned
-  std::unique_ptr<Impl> impl_;
+  std::shared_ptr<BusCounters> counters_;
+  std::shared_ptr<Bus*> self_;  // what the handles watch: gone with the bus
+  EncodeBuffers encode_buffers_;
 };
 
 /// The sample-clock utime of a rocklab message's bytes (after the 8-byte
@@ -218,30 +161,16 @@ std::int64_t PayloadUtime(const void* data, int size, std::int64_t fallback);
 
 // ---- templates ----
 
-template <class Msg>
-bool Bus::Publish(const std::string& channel, const Msg& msg) {
-  if (static_cast<int>(encode_buffers_.size()) <= encode_depth_) encode_buffers_.emplace_back();
-  std::vector<std::uint8_t>& buf = encode_buffers_[encode_depth_];
-  const int size = msg.getEncodedSize();
-  if (size < 0) return false;
-  if (buf.size() < static_cast<std::size_t>(size)) buf.resize(size);
-  if (msg.encode(buf.data(), 0, size) != size) return false;
-  ++encode_depth_;
-  const bool ok = Publish(channel, buf.data(), size);
-  --encode_depth_;
-  return ok;
-}
-
 template <class Msg, class Decode>
-Bus::SubscriptionId Bus::SubscribeDecoded(const std::string& channel_regex, Decode decode,
-                                          std::function<void(const std::string&, const Msg&)> handler,
-                                          int queue_capacity) {
+Subscription Bus::SubscribeDecoded(const std::string& channel_regex, Decode decode,
+                                   std::function<void(const std::string&, const Msg&)> handler,
+                                   int queue_capacity) {
   return SubscribeRaw(
       channel_regex,
-      [this, decode = std::move(decode), handler = std::move(handler), msg = Msg{}](
+      [counters = counters_, decode = std::move(decode), handler = std::move(handler), msg = Msg{}](
           const std::string& channel, const void* data, int size) mutable {
         if (const char* why = decode(data, size, msg)) {
-          CountDecodeError(channel, why);
+          counters->CountDecodeError(channel, why);
           return;
         }
         handler(channel, msg);
@@ -250,9 +179,9 @@ Bus::SubscriptionId Bus::SubscribeDecoded(const std::string& channel_regex, Deco
 }
 
 template <class Msg>
-Bus::SubscriptionId Bus::Subscribe(const std::string& channel_regex,
-                                   std::function<void(const std::string&, const Msg&)> handler,
-                                   int queue_capacity) {
+Subscription Bus::Subscribe(const std::string& channel_regex,
+                            std::function<void(const std::string&, const Msg&)> handler,
+                            int queue_capacity) {
   return SubscribeDecoded<Msg>(
       channel_regex,
       [](const void* data, int size, Msg& msg) { return GuardedDecode(data, size, msg); },

@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "common/text.h"
+
 namespace rocklab::common {
 namespace {
 
@@ -16,8 +18,6 @@ struct UdpmAddress {
   int port{kLcmDefaultPort};
   std::string options;  // from '?' on, as given ("" when none)
 };
-
-bool StartsWith(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
 // A decimal integer in [lo, hi] filling `text` exactly.
 bool ParseInt(const std::string& text, int lo, int hi, int& out) {

@@ -32,7 +32,7 @@ const char* DecodeModelState(const void* data, int size, rocklab::model_state2_t
   return GuardedDecode(data, size, out);
 }
 
-Bus::SubscriptionId SubscribeModelState(
+Subscription SubscribeModelState(
     Bus& bus, const std::string& channel_regex,
     std::function<void(const std::string&, const rocklab::model_state2_t&)> handler,
     int queue_capacity) {

@@ -25,7 +25,7 @@ void ToModelState2(const rocklab::model_state_t& in, rocklab::model_state2_t& ou
 
 /// Subscribes `handler` to both types on `channel_regex`, with the typed
 /// subscription's guard and counters (Bus::SubscribeDecoded).
-Bus::SubscriptionId SubscribeModelState(
+Subscription SubscribeModelState(
     Bus& bus, const std::string& channel_regex,
     std::function<void(const std::string& channel, const rocklab::model_state2_t& msg)> handler,
     int queue_capacity = Bus::kDefaultQueue);

@@ -1,28 +1,9 @@
 #include "common/node_support.h"
-#include "common/sd_notify.h"
-
-#include <chrono>
-
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
 
 #include "common/bus.h"
+#include "common/sd_notify.h"
 
 namespace rocklab::common {
-
-std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name) {
-  if (auto existing = spdlog::get(name)) return existing;
-  try {
-    return spdlog::stderr_color_mt(name);
-  } catch (const spdlog::spdlog_ex&) {  // another thread registered it first
-    return spdlog::get(name);
-  }
-}
-
-double HostNowS() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
 
 bool RunNodeLoop(Bus& bus, const std::atomic<bool>& stop, const std::function<void()>& periodic,
                  int drain_max, const std::string& log_name, int quiet_ms) {

@@ -1,8 +1,7 @@
 #pragma once
 /// @file
-/// What the nodes share: one named stderr logger per module, the host's
-/// monotonic clock (rates, timeouts and health periods only: message times
-/// come from the acquisition sample clock), and the loop of a node.
+/// The loop of a node (the named loggers and the host clock are
+/// common/logger_clock.h).
 ///
 /// Every node has one shape:
 ///   class XNode {
@@ -17,22 +16,13 @@
 
 #include <atomic>
 #include <functional>
-#include <memory>
 #include <string>
 
-#include <spdlog/logger.h>
+#include "common/logger_clock.h"  // NamedLogger, HostNowS: kept here for the includes that had them
 
 namespace rocklab::common {
 
 class Bus;
-
-/// The logger named `name` from spdlog's registry, created on stderr (stdout
-/// carries the commands' own output) the first time it is asked for. Safe
-/// when two threads ask for a new name at once.
-std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
-
-/// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
-double HostNowS();
 
 /// The loop of every subscribing node: handles `bus` with a 100 ms timeout
 /// until `stop`, calling `periodic` after every wait, so health and stale

@@ -15,6 +15,11 @@ namespace rocklab::common {
 /// `s` without surrounding spaces, tabs, '\r' and '\n'.
 std::string_view Trim(std::string_view s);
 
+/// Whether `s` begins with `prefix`.
+inline bool StartsWith(std::string_view s, std::string_view prefix) {
+  return s.substr(0, prefix.size()) == prefix;
+}
+
 /// Splits `line` at `sep` into `fields` (cleared first; capacity is reused).
 void Split(std::string_view line, char sep, std::vector<std::string_view>& fields);
 

@@ -121,7 +121,7 @@ class CompareNode {
 
   CompareNodeConfig config_;
   common::Bus& bus_;  // not owned
-  std::vector<common::Bus::SubscriptionId> subscriptions_;
+  std::vector<common::Subscription> subscriptions_;
   std::map<std::string, std::unique_ptr<Variant>> variants_;
   std::vector<Variant*> order_;  // variants in order of appearance
 

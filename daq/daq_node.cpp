@@ -13,7 +13,7 @@
 #include "daq/pacer.h"
 #include "daq/processor.h"
 #include "daq/source.h"
-#include "common/node_support.h"
+#include "common/logger_clock.h"
 #include "common/sd_notify.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config_t.hpp"

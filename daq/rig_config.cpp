@@ -206,9 +206,12 @@ int RigConfig::LagSamples(const DifferentiatorConfig& d) const {
   return d.lag_s ? static_cast<int>(std::lround(*d.lag_s * sample_rate_hz)) : HalfWindow(d);
 }
 
-RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
-  // TOML is UTF-8; toml++ is not trusted with anything else (its
-  // header-only build reaches an "unreachable" on some invalid sequences).
+namespace {
+
+// The rig file's text as a TOML table: UTF-8 checked first (toml++ is not
+// trusted with anything else: its header-only build reaches an
+// "unreachable" on some invalid sequences); errors name path and line.
+toml::table ParseToml(const std::string& text, const std::string& path) {
   if (const std::size_t bad = common::Utf8ValidPrefix(text); bad < text.size()) {
     const std::size_t line_start = bad == 0 ? std::string::npos : text.rfind('\n', bad - 1);
     const std::size_t column = bad - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
@@ -227,73 +230,68 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     msg << path << ":" << e.source().begin.line << ": " << common::Escape(e.description());  // may echo input
     throw std::runtime_error(msg.str());
   }
-  Reader r(path);
-  RigConfig rig;
-  rig.path = path;
-  rig.name = r.String(root, "", "name", std::nullopt);
-  rig.calibration_id = r.String(root, "", "calibration_id", std::string());
-  rig.sample_rate_hz = r.Bounded(root, "", "sample_rate_hz", std::nullopt, kMinSampleRateHz,
-                                 kMaxSampleRateHz, " Hz");
+  return root;
+}
 
-  // [block]
+// [block]: the size, the optional fitted parameters and polygon.
+void ParseBlock(Reader& r, const toml::table& root, BlockConfig& block) {
+  const toml::table& t = *r.Table(root, "", "block", true);
+  block.width_m = r.Bounded(t, "block", "width_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+  block.height_m = r.Bounded(t, "block", "height_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+  block.chamfer_m = r.Double(t, "block", "chamfer_m", 0.0);
   {
-    const toml::table& t = *r.Table(root, "", "block", true);
-    rig.block.width_m = r.Bounded(t, "block", "width_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
-    rig.block.height_m = r.Bounded(t, "block", "height_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
-    rig.block.chamfer_m = r.Double(t, "block", "chamfer_m", 0.0);
-    {
-      const double c = rig.block.chamfer_m;
-      const double half = 0.5 * std::min(rig.block.width_m, rig.block.height_m);
-      std::ostringstream msg;
-      msg << "must be 0 or in [" << kMinSizeM << ", " << half << ") m (min(width, height) / 2), got " << c;
-      r.Check(c == 0 || (c >= kMinSizeM && c < half), t, "block", "chamfer_m", msg.str());
-    }
-    rig.block.alpha = r.OptionalDouble(t, "block", "alpha");
-    rig.block.p = r.OptionalDouble(t, "block", "p");
-    rig.block.mu = r.OptionalDouble(t, "block", "mu");
-    r.Check(!rig.block.alpha || (*rig.block.alpha > 0 && *rig.block.alpha < common::kPi / 2), t, "block",
-            "alpha", "must be in (0, pi/2) rad");
-    r.Check(!rig.block.p || *rig.block.p > 0, t, "block", "p", "must be > 0 rad/s");
-    r.Check(!rig.block.mu || (*rig.block.mu > 0 && *rig.block.mu <= 1), t, "block", "mu",
-            "must be in (0, 1]");
-    // polygon = [[x, z], ...]: numbers here; the geometry (simple polygon,
-    // centroid over the base) is checked where the model derives from it.
-    if (const toml::array* poly = r.Array(t, "block", "polygon")) {
-      rig.block.polygon_line = Reader::LineOf(*poly);
-      for (std::size_t i = 0; i < poly->size(); ++i) {
-        const toml::node& vertex = *poly->get(i);
-        const toml::array* xz = vertex.as_array();
-        const auto x = xz != nullptr && xz->size() == 2 ? xz->get(0)->value<double>() : std::nullopt;
-        const auto z = xz != nullptr && xz->size() == 2 ? xz->get(1)->value<double>() : std::nullopt;
-        if (!x || !z || !(std::abs(*x) <= kMaxLengthM) || !(std::abs(*z) <= kMaxLengthM)) {
-          r.Fail(Reader::LineOf(vertex), "block.polygon",
-                 "vertex " + std::to_string(i) + " must be a pair of finite numbers [x, z] within [-100, 100] m");
-        }
-        rig.block.polygon_m.push_back({*x, *z});
-      }
-      r.Check(rig.block.polygon_m.size() >= 3, t, "block", "polygon", "must list at least 3 [x, z] vertices");
-      // Each edge, the closing one too, is a length of the rig (a repeated
-      // vertex is an edge of 0 m).
-      const auto& v = rig.block.polygon_m;
-      for (std::size_t i = 0; i < v.size(); ++i) {
-        const std::size_t j = (i + 1) % v.size();
-        const double edge = std::hypot(v[j][0] - v[i][0], v[j][1] - v[i][1]);
-        if (!(edge >= kMinSizeM && edge <= kMaxLengthM)) {
-          std::ostringstream msg;
-          msg << "edge from vertex " << i << " to vertex " << j << " is " << edge << " m long: each edge must be in ["
-              << kMinSizeM << ", " << kMaxLengthM << "] m";
-          r.Fail(rig.block.polygon_line, "block.polygon", msg.str());
-        }
-      }
-      r.Check(rig.block.chamfer_m == 0.0, t, "block", "chamfer_m",
-              "must be 0 with block.polygon (the polygon gives the section)");
-    }
-    r.RejectUnknown(t, "block");
+    const double c = block.chamfer_m;
+    const double half = 0.5 * std::min(block.width_m, block.height_m);
+    std::ostringstream msg;
+    msg << "must be 0 or in [" << kMinSizeM << ", " << half << ") m (min(width, height) / 2), got " << c;
+    r.Check(c == 0 || (c >= kMinSizeM && c < half), t, "block", "chamfer_m", msg.str());
   }
+  block.alpha = r.OptionalDouble(t, "block", "alpha");
+  block.p = r.OptionalDouble(t, "block", "p");
+  block.mu = r.OptionalDouble(t, "block", "mu");
+  r.Check(!block.alpha || (*block.alpha > 0 && *block.alpha < common::kPi / 2), t, "block",
+          "alpha", "must be in (0, pi/2) rad");
+  r.Check(!block.p || *block.p > 0, t, "block", "p", "must be > 0 rad/s");
+  r.Check(!block.mu || (*block.mu > 0 && *block.mu <= 1), t, "block", "mu",
+          "must be in (0, 1]");
+  // polygon = [[x, z], ...]: numbers here; the geometry (simple polygon,
+  // centroid over the base) is checked where the model derives from it.
+  if (const toml::array* poly = r.Array(t, "block", "polygon")) {
+    block.polygon_line = Reader::LineOf(*poly);
+    for (std::size_t i = 0; i < poly->size(); ++i) {
+      const toml::node& vertex = *poly->get(i);
+      const toml::array* xz = vertex.as_array();
+      const auto x = xz != nullptr && xz->size() == 2 ? xz->get(0)->value<double>() : std::nullopt;
+      const auto z = xz != nullptr && xz->size() == 2 ? xz->get(1)->value<double>() : std::nullopt;
+      if (!x || !z || !(std::abs(*x) <= kMaxLengthM) || !(std::abs(*z) <= kMaxLengthM)) {
+        r.Fail(Reader::LineOf(vertex), "block.polygon",
+               "vertex " + std::to_string(i) + " must be a pair of finite numbers [x, z] within [-100, 100] m");
+      }
+      block.polygon_m.push_back({*x, *z});
+    }
+    r.Check(block.polygon_m.size() >= 3, t, "block", "polygon", "must list at least 3 [x, z] vertices");
+    // Each edge, the closing one too, is a length of the rig (a repeated
+    // vertex is an edge of 0 m).
+    const auto& v = block.polygon_m;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const std::size_t j = (i + 1) % v.size();
+      const double edge = std::hypot(v[j][0] - v[i][0], v[j][1] - v[i][1]);
+      if (!(edge >= kMinSizeM && edge <= kMaxLengthM)) {
+        std::ostringstream msg;
+        msg << "edge from vertex " << i << " to vertex " << j << " is " << edge << " m long: each edge must be in ["
+            << kMinSizeM << ", " << kMaxLengthM << "] m";
+        r.Fail(block.polygon_line, "block.polygon", msg.str());
+      }
+    }
+    r.Check(block.chamfer_m == 0.0, t, "block", "chamfer_m",
+            "must be 0 with block.polygon (the polygon gives the section)");
+  }
+  r.RejectUnknown(t, "block");
+}
 
-  // Sensor roles the rest of the file makes available.
-  std::set<std::string> roles = {"table.displacement", "table.acceleration"};
-
+// [mirror], [[camera]] and [out_of_plane]: the sensors, whose roles the
+// channels may map (added to `roles`).
+void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<std::string>& roles) {
   if (const toml::table* t = r.Table(root, "", "mirror", false)) {
     rig.mirror.present = true;
     rig.mirror.lever_m = r.Bounded(*t, "mirror", "lever_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
@@ -342,9 +340,11 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     r.RejectUnknown(*t, "out_of_plane");
     roles.insert({"oop.a", "oop.b"});
   }
+}
 
+// [checks]: the DAQ's tolerances.
+void ParseChecks(Reader& r, const toml::table& root, CheckTolerances& c) {
   if (const toml::table* t = r.Table(root, "", "checks", false)) {
-    CheckTolerances& c = rig.checks;
     const char* keys[] = {"sliding_m", "jump_m",      "twist_rad",      "out_of_plane_m",
                           "tilt_rad",  "disagree_rad", "led_sigma_m", "mirror_sigma_m",
                           "sigmas"};
@@ -365,11 +365,11 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
     c.min_leds = r.Int(*t, "checks", "min_leds", c.min_leds, 2, kMaxLeds);
     r.RejectUnknown(*t, "checks");
   }
+}
 
-  ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz, false);
-  ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz, true);
-
-  // [[channel]]
+// [[channel]]: each channel's sensor role, gain, offset and range; every
+// role in `roles`, mapped once, camera LEDs and the out-of-plane pair whole.
+void ParseChannels(Reader& r, const toml::table& root, const std::set<std::string>& roles, RigConfig& rig) {
   const toml::array* channels = r.Array(root, "", "channel");
   if (channels == nullptr || channels->empty()) {
     r.Fail(1, "channel", "is missing: the rig must map at least one channel");
@@ -417,6 +417,27 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   }
   r.Check(!rig.mirror.present || used_roles.count("mirror.s") == 1, root, "", "mirror",
           "is declared but no channel maps sensor 'mirror.s'");
+}
+
+}  // namespace
+
+RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
+  const toml::table root = ParseToml(text, path);
+  Reader r(path);
+  RigConfig rig;
+  rig.path = path;
+  rig.name = r.String(root, "", "name", std::nullopt);
+  rig.calibration_id = r.String(root, "", "calibration_id", std::string());
+  rig.sample_rate_hz = r.Bounded(root, "", "sample_rate_hz", std::nullopt, kMinSampleRateHz,
+                                 kMaxSampleRateHz, " Hz");
+  ParseBlock(r, root, rig.block);
+  // Sensor roles the rest of the file makes available.
+  std::set<std::string> roles = {"table.displacement", "table.acceleration"};
+  ParseSensors(r, root, rig, roles);
+  ParseChecks(r, root, rig.checks);
+  ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz, false);
+  ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz, true);
+  ParseChannels(r, root, roles, rig);
   r.RejectUnknown(root, "");
   return rig;
 }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ class Forcing {
   virtual double NextDiscontinuity(double /*t_s*/) const {
     return std::numeric_limits<double>::infinity();
   }
+  /// The table displacement u_g at t_s (s), m, when the forcing knows it in
+  /// closed form (an Excitation); nullopt otherwise (a record, or a sum
+  /// holding one: integrate the acceleration, as TableMotion does).
+  virtual std::optional<double> ExactDisplacement(double /*t_s*/) const { return std::nullopt; }
 };
 
 /// No table motion: u_g'' = 0 everywhere (free rocking).
@@ -42,6 +47,7 @@ class Excitation : public Forcing {
  public:
   virtual double Displacement(double t_s) const = 0;  ///< m
   virtual double Velocity(double t_s) const = 0;      ///< m/s
+  std::optional<double> ExactDisplacement(double t_s) const override { return Displacement(t_s); }
 };
 
 /// Parameters of a sine table motion.

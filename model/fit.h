@@ -29,7 +29,7 @@
 #include <Eigen/Core>
 
 #include "model/block.h"
-#include "model/record.h"
+#include "model/test_record.h"
 
 namespace rocklab::model {
 

@@ -111,18 +111,14 @@ double MuStderr(const FreeRockingFeatures& f, double alpha, double alpha_stderr)
   }
 }
 
-}  // namespace
-
-FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  FitResult out = StartFit(FitMethod::kImpacts, record, options);
-  const FreeRockingFeatures& f = out.features;
+// The impacts method's preconditions: free rocking with enough impacts.
+void RequireFreeRockingImpacts(const RockingRecord& record, const FitOptions& options,
+                               const FreeRockingFeatures& f) {
   if (record.has_table() && MaxAbsTable(record) > kForcedTableAccel) {
     throw FitError(record.source + ": not free rocking: the table acceleration reaches " +
                    Num(MaxAbsTable(record), 3) + " m/s^2 (a forced test); the impacts method needs "
                    "free rocking, use --method trajectory");
   }
-
   const int n_impacts = static_cast<int>(f.impact_time_s.size());
   if (n_impacts < options.min_impacts) {
     std::string times;
@@ -132,19 +128,24 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
                    "); the impacts method needs at least " + std::to_string(options.min_impacts) +
                    " impacts of free rocking with peaks above " + Num(f.min_peak_rad, 3) + " rad");
   }
+}
 
-  // tau_n*: half the interval between impacts n and n+1, paired with the
-  // peak r_n between them. Free rocking is symmetric about each peak, so the
-  // half interval is exactly T(r_n), and it needs neither the peak time
-  // (poorly defined where theta is flat) nor the release time. The release
-  // pair (first impact minus release time, with r_0) is added only when a
-  // hold makes the release identifiable to the precision of a crossing: it is
-  // the largest amplitude and the one that best separates alpha from p, but
-  // the onset of a fall from rest is quadratic in time, so noise blurs it
-  // (0.02 deg at 500 Hz: about 2.5 ms against 0.3 ms for a crossing) and an
-  // unweighted sum of squares would then be dominated by it.
+// tau_n*: half the interval between impacts n and n+1, paired with the
+// peak r_n between them. Free rocking is symmetric about each peak, so the
+// half interval is exactly T(r_n), and it needs neither the peak time
+// (poorly defined where theta is flat) nor the release time. The release
+// pair (first impact minus release time, with r_0) is added only when a
+// hold makes the release identifiable to the precision of a crossing: it is
+// the largest amplitude and the one that best separates alpha from p, but
+// the onset of a fall from rest is quadratic in time, so noise blurs it
+// (0.02 deg at 500 Hz: about 2.5 ms against 0.3 ms for a crossing) and an
+// unweighted sum of squares would then be dominated by it. Sets
+// `release_pair` when the first pair is the release pair.
+std::vector<TauPair> MakeTauPairs(const FreeRockingFeatures& f, const FitOptions& options,
+                                  bool& release_pair) {
+  const int n_impacts = static_cast<int>(f.impact_time_s.size());
   std::vector<TauPair> pairs;
-  bool release_pair = false;
+  release_pair = false;
   if (options.use_release && f.release_time_s && f.r0_rad &&
       f.release_time_stderr_s <= options.max_release_stderr_s) {
     pairs.push_back({*f.r0_rad, f.impact_time_s[0] - *f.release_time_s, 0, 0, 1.0, 0.0,
@@ -155,11 +156,13 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
     pairs.push_back({f.peak_rad[i], (f.impact_time_s[i + 1] - f.impact_time_s[i]) / 2, i, i + 1, -0.5, 0.5,
                      0.0, f.peak_stderr_rad[i]});
   }
+  return pairs;
+}
 
-  // Start: scan alpha over (max r, pi/2); for each alpha the best p is
-  // closed form (T = F(r; alpha) / p is linear in 1/p).
-  QuarterTimeFunctor functor(pairs, options.quarter_time);
-  const double r_max = functor.r_max();
+// The fit's start: scan alpha over (max r, pi/2); for each alpha the best p
+// is closed form (T = F(r; alpha) / p is linear in 1/p).
+Eigen::VectorXd StartingPoint(const std::vector<TauPair>& pairs, QuarterTime kind, double r_max,
+                              const std::string& source) {
   double best_alpha = kNaN;
   double best_p = kNaN;
   double best_rss = std::numeric_limits<double>::infinity();
@@ -171,7 +174,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
     double sft = 0.0;
     double stt = 0.0;
     for (const TauPair& q : pairs) {
-      const double fq = QuarterTimeOf(options.quarter_time, alpha, 1.0, q.r);
+      const double fq = QuarterTimeOf(kind, alpha, 1.0, q.r);
       sff += fq * fq;
       sft += fq * q.tau;
       stt += q.tau * q.tau;
@@ -183,46 +186,28 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
       best_p = sff / sft;
     }
   }
-  if (!std::isfinite(best_alpha)) throw FitError(record.source + ": no starting point for the fit");
-
+  if (!std::isfinite(best_alpha)) throw FitError(source + ": no starting point for the fit");
   Eigen::VectorXd x(2);
   x << best_alpha, best_p;
-  const LmOutcome lm = RunLm(functor, x, 1e-12, 1e-12, 1e-12, 400, options, start);
-  if (lm.x(0) >= kPi / 2 - 1e-3) {
-    throw FitError(record.source + ": not free rocking: no block explains the half intervals between "
-                   "the impacts (the fitted alpha runs to pi/2, rms residual " +
-                   Num(std::sqrt(lm.residuals.squaredNorm() / static_cast<double>(pairs.size())) * 1e3, 3) +
-                   " ms); the impacts method needs free rocking, use --method trajectory for a forced test");
-  }
-  if (!LmConverged(lm.status) || !(lm.x(0) > r_max) || !(lm.x(1) > 0)) {
-    throw FitError(record.source + ": the least-squares fit of (alpha, p) did not converge (status " +
-                   std::to_string(static_cast<int>(lm.status)) + ")");
-  }
-  out.params.alpha = lm.x(0);
-  out.params.p = lm.x(1);
-  out.residuals = static_cast<int>(pairs.size());
-  out.dof = out.residuals - 2;
-  out.rms_residual = std::sqrt(lm.residuals.squaredNorm() / out.residuals);
-  out.iterations = lm.iterations;
-  out.evaluations = lm.evaluations;
-  // What the noise alone gives the half intervals: their covariance S from
-  // the impact-time, release-time and peak standard errors (the peak through
-  // dT/dr at the solution). Neighbouring half intervals share an impact, so
-  // S is tridiagonal: cov(tau_n, tau_n+1) = -0.25 se^2 of the shared impact
-  // (-0.5 se^2 next to the release pair). The fit is the paper's unweighted
-  // least squares; its covariance is the sandwich
-  // (J^T J)^-1 J^T S J (J^T J)^-1, scaled up by the reduced chi-square when
-  // the residual exceeds the noise (never down).
+  return x;
+}
+
+// What the noise alone gives the half intervals: their covariance S from
+// the impact-time, release-time and peak standard errors (the peak through
+// dT/dr at the solution `x` = (alpha, p)). Neighbouring half intervals share
+// an impact, so S is tridiagonal: cov(tau_n, tau_n+1) = -0.25 se^2 of the
+// shared impact (-0.5 se^2 next to the release pair).
+Eigen::MatrixXd HalfIntervalNoise(const std::vector<TauPair>& pairs, const FreeRockingFeatures& f,
+                                  QuarterTime kind, const Eigen::VectorXd& x) {
   const auto m = static_cast<Eigen::Index>(pairs.size());
   Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(m, m);
-  std::vector<double> pair_sigma(pairs.size());
   for (Eigen::Index i = 0; i < m; ++i) {
     const TauPair& q = pairs[static_cast<std::size_t>(i)];
-    const double a = lm.x(0);
+    const double a = x(0);
     const double h = 1e-6 * q.r;
     const double r_hi = std::min(q.r + h, 0.5 * (q.r + a));
-    const double dtdr = (QuarterTimeOf(options.quarter_time, a, lm.x(1), r_hi) -
-                         QuarterTimeOf(options.quarter_time, a, lm.x(1), q.r - h)) / (r_hi - (q.r - h));
+    const double dtdr = (QuarterTimeOf(kind, a, x(1), r_hi) -
+                         QuarterTimeOf(kind, a, x(1), q.r - h)) / (r_hi - (q.r - h));
     for (Eigen::Index j = 0; j < m; ++j) {
       const TauPair& o = pairs[static_cast<std::size_t>(j)];
       double c = 0.0;
@@ -241,21 +226,26 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
       noise_cov(i, j) = c;
     }
     noise_cov(i, i) += q.release_var + dtdr * dtdr * q.r_se * q.r_se;
-    pair_sigma[static_cast<std::size_t>(i)] = std::sqrt(noise_cov(i, i));
   }
-  SetNoiseVerdict(lm.residuals, pair_sigma, LmConverged(lm.status), out);
-  {
-    const Eigen::MatrixXd& jac = lm.jacobian;
-    Eigen::FullPivLU<Eigen::MatrixXd> lu(jac.transpose() * jac);
-    if (lu.isInvertible() && noise_cov.allFinite()) {
-      const Eigen::MatrixXd inv = lu.inverse();
-      const double scale = std::isfinite(out.residual_to_noise)
-                               ? std::max(1.0, out.residual_to_noise * out.residual_to_noise)
-                               : 1.0;
-      out.covariance = scale * inv * jac.transpose() * noise_cov * jac * inv;
-    } else {
-      out.covariance = Covariance(lm);
-    }
+  return noise_cov;
+}
+
+// The fit is the paper's unweighted least squares; its covariance is the
+// sandwich (J^T J)^-1 J^T S J (J^T J)^-1 with S the half intervals' noise,
+// scaled up by the reduced chi-square when the residual exceeds the noise
+// (never down). Sets out.covariance and, unless withheld, the standard
+// errors of alpha and p and their correlation.
+void SetCovariance(const LmOutcome& lm, const Eigen::MatrixXd& noise_cov, FitResult& out) {
+  const Eigen::MatrixXd& jac = lm.jacobian;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(jac.transpose() * jac);
+  if (lu.isInvertible() && noise_cov.allFinite()) {
+    const Eigen::MatrixXd inv = lu.inverse();
+    const double scale = std::isfinite(out.residual_to_noise)
+                             ? std::max(1.0, out.residual_to_noise * out.residual_to_noise)
+                             : 1.0;
+    out.covariance = scale * inv * jac.transpose() * noise_cov * jac * inv;
+  } else {
+    out.covariance = Covariance(lm);
   }
   out.mu_stderr = kNaN;
   if (!out.stderr_withheld) {
@@ -263,18 +253,16 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
     out.p_stderr = std::sqrt(out.covariance(1, 1));
     out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
   }
+}
 
-  if (out.band && (out.params.alpha < out.band->lo || out.params.alpha > out.band->hi)) {
-    throw FitError(record.source + ": fitted alpha " + Num(out.params.alpha, 4) +
-                   " rad (p " + Num(out.params.p, 4) + " rad/s) is outside the admissible band [" +
-                   Num(out.band->lo, 4) + ", " + Num(out.band->hi, 4) + "] rad (geometric alpha " +
-                   Num(out.band->geometric, 4) + " rad, b +- " + Num(out.band->band_m, 3) +
-                   " m): solution rejected (the paper's rule; widen with --alpha-band-m)");
-  }
-
-  // mu_n by eq. (14) with the fitted alpha; without r_0 the first
-  // inter-impact peak is the reference and n counts from it.
+// One row per impact (and the release): tau_n, residual, noise, and mu_n by
+// eq. (14) with the fitted alpha; without r_0 the first inter-impact peak is
+// the reference and n counts from it. Returns the mu_n computed.
+std::vector<double> AddImpactRows(const FreeRockingFeatures& f, const std::vector<TauPair>& pairs,
+                                  bool release_pair, const LmOutcome& lm,
+                                  const std::vector<double>& pair_sigma, FitResult& out) {
   const double alpha = out.params.alpha;
+  const int n_impacts = static_cast<int>(f.impact_time_s.size());
   std::vector<double> mus;
   const int offset = release_pair ? 1 : 0;
   if (f.r0_rad) {
@@ -308,6 +296,58 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
     }
     out.impacts.push_back(row);
   }
+  return mus;
+}
+
+}  // namespace
+
+FitResult FitImpacts(const RockingRecord& record, const FitOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  FitResult out = StartFit(FitMethod::kImpacts, record, options);
+  const FreeRockingFeatures& f = out.features;
+  RequireFreeRockingImpacts(record, options, f);
+
+  bool release_pair = false;
+  const std::vector<TauPair> pairs = MakeTauPairs(f, options, release_pair);
+  QuarterTimeFunctor functor(pairs, options.quarter_time);
+  const double r_max = functor.r_max();
+  Eigen::VectorXd x = StartingPoint(pairs, options.quarter_time, r_max, record.source);
+  const LmOutcome lm = RunLm(functor, x, 1e-12, 1e-12, 1e-12, 400, options, start);
+  if (lm.x(0) >= kPi / 2 - 1e-3) {
+    throw FitError(record.source + ": not free rocking: no block explains the half intervals between "
+                   "the impacts (the fitted alpha runs to pi/2, rms residual " +
+                   Num(std::sqrt(lm.residuals.squaredNorm() / static_cast<double>(pairs.size())) * 1e3, 3) +
+                   " ms); the impacts method needs free rocking, use --method trajectory for a forced test");
+  }
+  if (!LmConverged(lm.status) || !(lm.x(0) > r_max) || !(lm.x(1) > 0)) {
+    throw FitError(record.source + ": the least-squares fit of (alpha, p) did not converge (status " +
+                   std::to_string(static_cast<int>(lm.status)) + ")");
+  }
+  out.params.alpha = lm.x(0);
+  out.params.p = lm.x(1);
+  out.residuals = static_cast<int>(pairs.size());
+  out.dof = out.residuals - 2;
+  out.rms_residual = std::sqrt(lm.residuals.squaredNorm() / out.residuals);
+  out.iterations = lm.iterations;
+  out.evaluations = lm.evaluations;
+
+  const Eigen::MatrixXd noise_cov = HalfIntervalNoise(pairs, f, options.quarter_time, lm.x);
+  std::vector<double> pair_sigma(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    pair_sigma[i] = std::sqrt(noise_cov(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)));
+  }
+  SetNoiseVerdict(lm.residuals, pair_sigma, LmConverged(lm.status), out);
+  SetCovariance(lm, noise_cov, out);
+
+  if (out.band && (out.params.alpha < out.band->lo || out.params.alpha > out.band->hi)) {
+    throw FitError(record.source + ": fitted alpha " + Num(out.params.alpha, 4) +
+                   " rad (p " + Num(out.params.p, 4) + " rad/s) is outside the admissible band [" +
+                   Num(out.band->lo, 4) + ", " + Num(out.band->hi, 4) + "] rad (geometric alpha " +
+                   Num(out.band->geometric, 4) + " rad, b +- " + Num(out.band->band_m, 3) +
+                   " m): solution rejected (the paper's rule; widen with --alpha-band-m)");
+  }
+
+  const std::vector<double> mus = AddImpactRows(f, pairs, release_pair, lm, pair_sigma, out);
   if (mus.empty()) throw FitError(record.source + ": no mu_n could be computed");
   out.params.mu = std::accumulate(mus.begin(), mus.end(), 0.0) / static_cast<double>(mus.size());
   out.mu_spread = StdDev(mus);

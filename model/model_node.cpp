@@ -222,7 +222,7 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
 }
 
 ModelNode::~ModelNode() {
-  for (common::Bus::SubscriptionId id : subscriptions_) bus_.Unsubscribe(id);
+  subscriptions_.clear();  // no handler runs from here on
   workers_.reset();  // joins the workers before the variants go
 }
 

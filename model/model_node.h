@@ -130,7 +130,7 @@ class ModelNode {
 
   ModelNodeConfig config_;
   common::Bus& bus_;  // not owned
-  std::vector<common::Bus::SubscriptionId> subscriptions_;
+  std::vector<common::Subscription> subscriptions_;
   std::vector<std::unique_ptr<Variant>> variants_;
   std::unique_ptr<Workers> workers_;  // null when single-threaded
   std::string event_channel_, health_channel_;

@@ -1,6 +1,6 @@
 #include "model/rocking_model.h"
 
-#include "common/node_support.h"
+#include "common/logger_clock.h"
 #include "model/numbers.h"
 
 #include <spdlog/spdlog.h>

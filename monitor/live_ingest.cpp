@@ -7,6 +7,8 @@
 
 namespace rocklab::monitor {
 
+using namespace live_detail;  // NOLINT(google-build-using-namespace): the private helpers of live_state_impl.h
+
 bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int size) {
   ++seq;
   ChannelCount* count = CountFor(channel);

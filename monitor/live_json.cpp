@@ -4,75 +4,101 @@
 
 namespace rocklab::monitor {
 
-json LiveState::Impl::Update(std::uint64_t cursor) const {
-  const bool full = cursor == 0 || cursor < record_start_seq;
-  const bool windowed = std::isfinite(options.window_s) && has_clock;
-  const std::int64_t from_utime =
-      windowed ? latest_utime - static_cast<std::int64_t>(std::llround(options.window_s * 1e6))
-               : std::numeric_limits<std::int64_t>::min();
-  auto first = [&](const Series& s) { return full ? s.FirstFrom(from_utime) : s.FirstAfter(cursor); };
-  auto number = [](double x) { return std::isfinite(x) ? json(x) : json(nullptr); };
+using namespace live_detail;  // NOLINT(google-build-using-namespace): the private helpers of live_state_impl.h
 
-  // One series as {"t": [...], "<a_name>": [...] (, "<b_name>": [...])}.
-  auto series = [&](const Series& s, const char* a_name, const char* b_name) {
-    json t = json::array(), a = json::array(), b = json::array();
-    for (std::size_t i = first(s); i < s.size(); ++i) {
-      t.push_back(T(s[i].utime));
-      a.push_back(number(s[i].a));
-      if (b_name) b.push_back(number(s[i].b));
-    }
-    json out = {{"t", std::move(t)}, {a_name, std::move(a)}};
-    if (b_name) out[b_name] = std::move(b);
-    return out;
-  };
+namespace {
+
+json Number(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
+
+}  // namespace
+
+json LiveState::Impl::Update(std::uint64_t cursor) const {
+  UpdateWindow w;
+  w.cursor = cursor;
+  w.full = cursor == 0 || cursor < record_start_seq;
+  const bool windowed = std::isfinite(options.window_s) && has_clock;
+  w.from_utime = windowed ? latest_utime - static_cast<std::int64_t>(std::llround(options.window_s * 1e6))
+                          : std::numeric_limits<std::int64_t>::min();
 
   json doc;
   doc["schema"] = "rocklab.monitor.v1";
-  doc["full"] = full;
+  doc["full"] = w.full;
   doc["cursor"] = seq;
   doc["record"] = record;
   doc["t0_utime"] = has_clock ? json(t0_utime) : json(nullptr);
   doc["t_latest"] = has_clock ? json(T(latest_utime)) : json(nullptr);
-  doc["window_s"] = number(options.window_s);
+  doc["window_s"] = Number(options.window_s);
   doc["series_rate_hz"] = options.series_rate_hz;
   doc["max_points"] = options.max_points > 0 ? json(options.max_points) : json(nullptr);
   doc["from_s"] = options.from_s;
-  doc["to_s"] = number(options.to_s);
-  doc["measured"] = series(measured, "theta_deg", nullptr);
-  json table_doc = series(table, "accel_mps2", nullptr);
+  doc["to_s"] = Number(options.to_s);
+  doc["measured"] = SeriesJson(measured, "theta_deg", nullptr, w);
+  json table_doc = SeriesJson(table, "accel_mps2", nullptr, w);
   table_doc["samples"] = table_samples;
   table_doc["peak_accel_mps2"] = table_peak_accel;
   table_doc["peak_disp_m"] = table_peak_disp;
   doc["table"] = std::move(table_doc);
+  doc["variants"] = VariantsJson(w);
+  doc["flags"] = FlagsJson(w);
+  doc["events"] = EventsJson(w);
+  doc["health"] = HealthJson();
+  doc["config"] = has_config ? json{{"rig_name", rig_name},
+                                    {"calibration_id", calibration_id},
+                                    {"sample_rate_hz", Number(sample_rate_hz)},
+                                    {"alpha", Number(alpha)},
+                                    {"p", Number(p)},
+                                    {"mu", Number(mu)}}
+                             : json(nullptr);
+  doc["counters"] = CountersJson();
+  doc["units"] = UnitsJson();
+  return doc;
+}
 
+// One series as {"t": [...], "<a_name>": [...] (, "<b_name>": [...])}: the
+// points the update carries (in the window, or after the cursor).
+json LiveState::Impl::SeriesJson(const Series& s, const char* a_name, const char* b_name,
+                                 const UpdateWindow& w) const {
+  json t = json::array(), a = json::array(), b = json::array();
+  const std::size_t first = w.full ? s.FirstFrom(w.from_utime) : s.FirstAfter(w.cursor);
+  for (std::size_t i = first; i < s.size(); ++i) {
+    t.push_back(T(s[i].utime));
+    a.push_back(Number(s[i].a));
+    if (b_name) b.push_back(Number(s[i].b));
+  }
+  json out = {{"t", std::move(t)}, {a_name, std::move(a)}};
+  if (b_name) out[b_name] = std::move(b);
+  return out;
+}
+
+json LiveState::Impl::VariantsJson(const UpdateWindow& w) const {
   json variant_list = json::array();
   for (const auto& v : variants) {
     json j = {{"name", v->name}};
     if (v->has_params) {
       j["model"] = v->params.model;
-      j["alpha"] = number(v->params.alpha);
-      j["p"] = number(v->params.p);
-      j["mu"] = number(v->params.mu);
-      j["l"] = number(v->params.l);
+      j["alpha"] = Number(v->params.alpha);
+      j["p"] = Number(v->params.p);
+      j["mu"] = Number(v->params.mu);
+      j["l"] = Number(v->params.l);
       const char* equations = EquationsName(v->params.equations);
       j["equations"] = equations != nullptr ? json(equations) : json(nullptr);
     } else {
       for (const char* k : {"model", "alpha", "p", "mu", "l", "equations"}) j[k] = nullptr;
     }
-    j["theta"] = series(v->theta, "theta_deg", nullptr);
-    j["comparison"] = series(v->comparison, "error_deg", "rms_window_deg");
+    j["theta"] = SeriesJson(v->theta, "theta_deg", nullptr, w);
+    j["comparison"] = SeriesJson(v->comparison, "error_deg", "rms_window_deg", w);
     if (v->has_latest) {
       const rocklab::comparison_t& m = v->latest;
       j["latest"] = {{"utime", m.utime},
                      {"t", T(m.utime)},
-                     {"error", number(m.error)},
-                     {"rms_window", number(m.rms_window)},
-                     {"window_s", number(m.window_s)},
-                     {"rms_total", number(m.rms_total)},
-                     {"nrms", number(m.nrms)},
-                     {"peak_error", number(m.peak_error)},
-                     {"impact_timing_error", number(m.impact_timing_error)},
-                     {"correlation", number(m.correlation)},
+                     {"error", Number(m.error)},
+                     {"rms_window", Number(m.rms_window)},
+                     {"window_s", Number(m.window_s)},
+                     {"rms_total", Number(m.rms_total)},
+                     {"nrms", Number(m.nrms)},
+                     {"peak_error", Number(m.peak_error)},
+                     {"impact_timing_error", Number(m.impact_timing_error)},
+                     {"correlation", Number(m.correlation)},
                      {"valid", m.valid != 0},
                      {"samples", m.samples}};
     } else {
@@ -80,14 +106,17 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
     }
     variant_list.push_back(std::move(j));
   }
-  doc["variants"] = std::move(variant_list);
+  return variant_list;
+}
 
+// The flag intervals, cut to the time window (from_s..to_s); an interval
+// outside it is left out.
+json LiveState::Impl::FlagsJson(const UpdateWindow& w) const {
   json flags = json::array();
   for (std::size_t i = 0; i < intervals.size(); ++i) {
     const Interval& iv = intervals[i];
-    const bool wanted = full ? (iv.open || iv.end >= from_utime) : iv.seq > cursor;
+    const bool wanted = w.full ? (iv.open || iv.end >= w.from_utime) : iv.seq > w.cursor;
     if (!wanted) continue;
-    // Cut to the time window (from_s..to_s); an interval outside it is left out.
     const double start = std::max(T(iv.start), options.from_s);
     if ((!iv.open && T(iv.end) < options.from_s) || start > options.to_s) continue;
     const bool open_in_window = iv.open && !std::isfinite(options.to_s);
@@ -98,67 +127,67 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
                      {"start", start},
                      {"end", open_in_window ? json(nullptr) : json(end)}});
   }
-  doc["flags"] = std::move(flags);
+  return flags;
+}
 
+json LiveState::Impl::EventsJson(const UpdateWindow& w) const {
   json event_list = json::array();
   for (std::size_t i = 0; i < events.size(); ++i) {
     const Event& e = events[i];
-    if (full ? e.utime < from_utime : e.seq <= cursor) continue;
+    if (w.full ? e.utime < w.from_utime : e.seq <= w.cursor) continue;
     event_list.push_back({{"t", T(e.utime)},
                           {"utime", e.utime},
                           {"source", e.source},
                           {"kind", EventKindName(e.kind)},
                           {"code", e.kind},
-                          {"value", number(e.value)},
+                          {"value", Number(e.value)},
                           {"detail", e.detail}});
   }
-  doc["events"] = std::move(event_list);
+  return event_list;
+}
 
+json LiveState::Impl::HealthJson() const {
   json health_list = json::array();
   for (const auto& [node, h] : health) {
     health_list.push_back({{"node", node}, {"state", h.state}, {"utime", h.utime},
-                           {"rate_in_hz", number(h.rate_in_hz)}, {"rate_out_hz", number(h.rate_out_hz)},
+                           {"rate_in_hz", Number(h.rate_in_hz)}, {"rate_out_hz", Number(h.rate_out_hz)},
                            {"count_in", h.count_in}, {"count_out", h.count_out},
                            {"dropped", h.dropped}, {"gaps", h.gaps}, {"bad_samples", h.bad_samples},
-                           {"lag_s", number(h.lag_s)}});
+                           {"lag_s", Number(h.lag_s)}});
   }
-  doc["health"] = std::move(health_list);
+  return health_list;
+}
 
-  doc["config"] = has_config ? json{{"rig_name", rig_name},
-                                    {"calibration_id", calibration_id},
-                                    {"sample_rate_hz", number(sample_rate_hz)},
-                                    {"alpha", number(alpha)},
-                                    {"p", number(p)},
-                                    {"mu", number(mu)}}
-                             : json(nullptr);
-
+json LiveState::Impl::CountersJson() const {
   json messages = json::object(), decode_errors = json::object();
   for (const auto& [channel, c] : channels) {
     messages[channel] = c.messages;
     decode_errors[channel] = c.decode_errors;
   }
-  doc["counters"] = {{"messages", std::move(messages)},
-                     {"decode_errors", std::move(decode_errors)},
-                     {"dropped",
-                      {{"out_of_order", dropped_out_of_order},
-                       {"events", dropped_events},
-                       {"intervals", dropped_intervals},
-                       {"variants", dropped_variants},
-                       {"nodes", dropped_nodes},
-                       {"channels", dropped_channels},
-                       {"far_from_clock", dropped_far_from_clock}}},
-                     {"outside_window", outside_window}};
-  doc["units"] = {{"t", "s"}, {"t_latest", "s"}, {"t0_utime", "us"}, {"utime", "us"},
-                  {"window_s", "s"}, {"series_rate_hz", "Hz"}, {"theta_deg", "deg"},
-                  {"error_deg", "deg"}, {"rms_window_deg", "deg"}, {"error", "rad"},
-                  {"rms_window", "rad"}, {"rms_total", "rad"}, {"nrms", "1"},
-                  {"peak_error", "rad"}, {"impact_timing_error", "s"}, {"correlation", "1"},
-                  {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"},
-                  {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
-                  {"lag_s", "s"}, {"start", "s"}, {"end", "s"}, {"accel_mps2", "m/s^2"},
-                  {"peak_accel_mps2", "m/s^2"}, {"peak_disp_m", "m"}, {"from_s", "s"}, {"to_s", "s"},
-                  {"value", "per event kind, see lcm_types/event.lcm"}};
-  return doc;
+  return json{{"messages", std::move(messages)},
+              {"decode_errors", std::move(decode_errors)},
+              {"dropped",
+               {{"out_of_order", dropped_out_of_order},
+                {"events", dropped_events},
+                {"intervals", dropped_intervals},
+                {"variants", dropped_variants},
+                {"nodes", dropped_nodes},
+                {"channels", dropped_channels},
+                {"far_from_clock", dropped_far_from_clock}}},
+              {"outside_window", outside_window}};
+}
+
+json LiveState::Impl::UnitsJson() {
+  return json{{"t", "s"}, {"t_latest", "s"}, {"t0_utime", "us"}, {"utime", "us"},
+              {"window_s", "s"}, {"series_rate_hz", "Hz"}, {"theta_deg", "deg"},
+              {"error_deg", "deg"}, {"rms_window_deg", "deg"}, {"error", "rad"},
+              {"rms_window", "rad"}, {"rms_total", "rad"}, {"nrms", "1"},
+              {"peak_error", "rad"}, {"impact_timing_error", "s"}, {"correlation", "1"},
+              {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"},
+              {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
+              {"lag_s", "s"}, {"start", "s"}, {"end", "s"}, {"accel_mps2", "m/s^2"},
+              {"peak_accel_mps2", "m/s^2"}, {"peak_disp_m", "m"}, {"from_s", "s"}, {"to_s", "s"},
+              {"value", "per event kind, see lcm_types/event.lcm"}};
 }
 
 }  // namespace rocklab::monitor

@@ -9,6 +9,8 @@
 
 namespace rocklab::monitor {
 
+using namespace live_detail;  // NOLINT(google-build-using-namespace): the private helpers of live_state_impl.h
+
 void LiveOptions::Validate() const {
   auto check = [](bool ok, const char* name) {
     if (!ok) throw std::invalid_argument(std::string("monitor option ") + name + " out of range");

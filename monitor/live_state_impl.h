@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "common/ring.h"
+#include "common/text.h"
 #include "common/units.h"
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
@@ -39,9 +40,7 @@ using common::kDegPerRad;
 constexpr std::size_t kGrowingInitialCapacity = 4096;
 constexpr std::size_t kMaxTextBytes = 256;  // event details and names are cut here
 
-inline bool StartsWith(std::string_view s, std::string_view prefix) {
-  return s.size() >= prefix.size() && s.substr(0, prefix.size()) == prefix;
-}
+using common::StartsWith;
 
 // The block-state flags the page shows as bands, in this order.
 struct FlagBit {
@@ -234,10 +233,17 @@ struct ChannelCount {
 
 }  // namespace live_detail
 
-// The state's types by their short names in the three parts (a private header).
-using namespace live_detail;  // NOLINT(google-build-using-namespace)
-
 struct LiveState::Impl {
+  // The helper types by their short names (each .cpp of the state names
+  // the rest of live_detail itself).
+  using Series = live_detail::Series;
+  using Interval = live_detail::Interval;
+  using Event = live_detail::Event;
+  using ChannelCount = live_detail::ChannelCount;
+  using json = nlohmann::json;
+  template <class T>
+  using Ring = common::Ring<T>;
+
   struct Variant {
     Variant(std::string_view n, std::size_t capacity, bool grows, std::size_t max_points)
         : name(n), theta(capacity, grows, max_points), comparison(capacity, grows, max_points) {}
@@ -253,7 +259,7 @@ struct LiveState::Impl {
   explicit Impl(const LiveOptions& o)
       : options(o),
         grows(!std::isfinite(o.window_s)),
-        capacity(grows ? kGrowingInitialCapacity
+        capacity(grows ? live_detail::kGrowingInitialCapacity
                        : static_cast<std::size_t>(std::ceil(o.window_s * o.series_rate_hz)) + 2),
         period_us(1e6 / o.series_rate_hz),
         measured(capacity, grows, o.max_points),
@@ -395,10 +401,10 @@ struct LiveState::Impl {
     iv.id = ++last_interval_id;
     iv.seq = seq;
     iv.flag = flag;
-    AssignText(iv.source, source);
+    live_detail::AssignText(iv.source, source);
     iv.start = iv.end = utime;
     iv.open = true;
-    PushGrowing(intervals, iv, grows, options.max_intervals, dropped_intervals);
+    live_detail::PushGrowing(intervals, iv, grows, options.max_intervals, dropped_intervals);
     return iv.id;
   }
 
@@ -417,6 +423,19 @@ struct LiveState::Impl {
   // -- output -----------------------------------------------------------------
 
   json Update(std::uint64_t cursor) const;
+  // The parts of Update (live_json.cpp): what one update carries.
+  struct UpdateWindow {
+    bool full{};              // a full snapshot (else what changed after `cursor`)
+    std::uint64_t cursor{};   // the page's cursor (seq)
+    std::int64_t from_utime{};  // full: the window's start, us
+  };
+  json SeriesJson(const Series& s, const char* a_name, const char* b_name, const UpdateWindow& w) const;
+  json VariantsJson(const UpdateWindow& w) const;
+  json FlagsJson(const UpdateWindow& w) const;
+  json EventsJson(const UpdateWindow& w) const;
+  json HealthJson() const;
+  json CountersJson() const;
+  static json UnitsJson();
   double T(std::int64_t utime) const { return static_cast<double>(utime - t0_utime) * 1e-6; }
 
   const LiveOptions options;
@@ -455,7 +474,7 @@ struct LiveState::Impl {
   Ring<Interval> intervals;
   Interval interval_scratch;
   std::uint64_t last_interval_id{};
-  std::array<std::uint64_t, kFlagBits.size()> open_flags{};  // interval id, 0: none
+  std::array<std::uint64_t, live_detail::kFlagBits.size()> open_flags{};  // interval id, 0: none
   std::map<std::string, std::uint64_t, std::less<>> open_stale;  // source -> interval id
 
   Ring<Event> events;

@@ -23,7 +23,7 @@ MonitorNode::MonitorNode(const MonitorNodeConfig& config, common::Bus& bus)
       config_.queue_capacity);
 }
 
-MonitorNode::~MonitorNode() { bus_.Unsubscribe(subscription_); }
+MonitorNode::~MonitorNode() { subscription_.Reset(); }
 
 std::string MonitorNode::url() const { return server_->url(); }
 

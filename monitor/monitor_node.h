@@ -59,7 +59,7 @@ class MonitorNode {
   common::Bus& bus_;  // not owned
   LiveState state_;
   std::unique_ptr<MonitorServer> server_;
-  common::Bus::SubscriptionId subscription_{};
+  common::Subscription subscription_;
   bool started_{};
 };
 

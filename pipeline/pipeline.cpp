@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "common/bus_urls.h"
+#include "common/lcm_bus.h"
+#include "common/routing_bus.h"
 #include "common/text.h"
 #include "daq/source.h"
 #include "model/block.h"
@@ -132,7 +134,8 @@ daq::DaqNodeConfig StageConfig(const DaqStageOptions& o, const std::atomic<bool>
 // one file, event numbers continuing across files), then publishes it.
 class RotatingLogBus final : public common::Bus {
  public:
-  RotatingLogBus(common::Bus& inner, record::RotatingLogWriter& log) : inner_(inner), log_(log) {}
+  RotatingLogBus(common::Bus& inner, record::RotatingLogWriter& log)
+      : Bus(SharesCountersWith{inner}), inner_(inner), log_(log) {}
   using Bus::Publish;
   bool Publish(const std::string& channel, const void* data, int size) override {
     bool logged = false;
@@ -150,16 +153,11 @@ class RotatingLogBus final : public common::Bus {
     if (!logged) ++log_errors_;
     return inner_.Publish(channel, data, size) && logged;
   }
-  SubscriptionId SubscribeRaw(const std::string& regex, RawHandler handler, int queue) override {
+  common::Subscription SubscribeRaw(const std::string& regex, RawHandler handler, int queue) override {
     return inner_.SubscribeRaw(regex, std::move(handler), queue);
   }
-  void Unsubscribe(SubscriptionId id) override { inner_.Unsubscribe(id); }
   int HandleTimeout(int timeout_ms) override { return inner_.HandleTimeout(timeout_ms); }
   int64_t log_errors() const { return log_errors_; }
-
- protected:
-  using Bus::root;
-  const Bus& root() const override { return inner_; }
 
  private:
   // The DAQ node's RL_HEALTH while its input waits for a header.

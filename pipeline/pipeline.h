@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/lcm_bus.h"
 #include "compare/compare_node.h"
 #include "daq/daq_node.h"
 #include "daq/rig_config.h"

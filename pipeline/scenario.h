@@ -3,7 +3,7 @@
 /// One scenario of a model under a table motion, as `rocklab simulate`,
 /// `synth` and `demo` run it: the option values, their checks, the model and
 /// its forcing, a streaming run and its summary, the events CSV. The
-/// command-line options themselves are in tools/scenario.h.
+/// command-line flags that fill its options are pipeline/scenario_flags.h.
 
 #include <cstdio>
 #include <functional>
@@ -18,7 +18,7 @@
 
 namespace rocklab::pipeline {
 
-/// Values of the scenario options, as parsed (tools::AddScenarioOptions).
+/// Values of the scenario options, as parsed (AddScenarioOptions).
 struct ScenarioOptions {
   std::string model{"housner"};         ///< housner | complex
   double alpha{};                       ///< rad

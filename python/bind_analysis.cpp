@@ -18,7 +18,7 @@
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "model/fit.h"
-#include "model/record.h"
+#include "model/test_record.h"
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
 #include "python/bindings.h"

@@ -4,9 +4,11 @@
 #include <memory>
 #include <string>
 
+#include "common/lcm_bus.h"
+#include "compare/compare_flags.h"
 #include "compare/compare_node.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -18,9 +20,9 @@ struct CompareCommand {
 };
 
 int RunCompare(CompareCommand& c) {
-  ValidateCompareOptions(c.config);
+  pipeline::ValidateCompareOptions(c.config);
   const std::atomic<bool>& stop = InstallStopSignals();
-  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(SubscriberUrl(c.lcm_url));
+  const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   compare::CompareNode node(c.config, *bus);
   node.Run(stop);
   const auto summary = node.Summary();
@@ -34,7 +36,7 @@ int RunCompare(CompareCommand& c) {
 void RegisterCompare(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<CompareCommand>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("compare", "live error between experiment and models (LCM node)");
-  AddCompareOptions(*cmd, c->config);
+  compare::AddCompareOptions(*cmd, c->config);
   cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
   cmd->callback([c, &run] { run = [c] { return RunCompare(*c); }; });

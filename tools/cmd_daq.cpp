@@ -14,13 +14,13 @@
 #include <memory>
 #include <string>
 
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 
 void RegisterDaq(CLI::App& app, CommandRun& run) {
-  auto opts = std::make_shared<DaqStageOptions>();  // shared: owned by the callback
+  auto opts = std::make_shared<pipeline::DaqStageOptions>();  // shared: owned by the callback
   auto config_path = std::make_shared<std::string>();
   auto check = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("daq", "DAQ node: publish a raw input's frames and reconstruction over LCM");
@@ -54,7 +54,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
       };
       return;
     }
-    run = [opts] { return RunDaqStage(*opts, "daq", InstallStopSignals()); };
+    run = [opts] { return pipeline::RunDaqStage(*opts, "daq", InstallStopSignals()); };
   });
 }
 

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "common/units.h"
+#include "pipeline/scenario.h"
 #include "tools/cli.h"
-#include "tools/scenario.h"
 
 namespace rocklab::tools {
 namespace {
@@ -24,7 +24,7 @@ int RunDemo(const DemoOptions& o) {
   // Figure 7: block 1 with Table 2's fitted parameters under a Hanning-windowed
   // sine of 6 mm at 3.3 Hz (docs/errata.md items 10 and 11; the paper gives no window
   // length: 4 s starting at 0.5 s).
-  ScenarioOptions base;
+  pipeline::ScenarioOptions base;
   base.alpha = 0.235;
   base.p = 3.884;
   base.mu = 0.937;
@@ -39,14 +39,14 @@ int RunDemo(const DemoOptions& o) {
   std::printf("%-8s  %10s  %14s  %8s  %7s  %-10s  %s\n", "model", "uplift_s", "peak_theta_deg",
               "peak_s", "impacts", "final", "trajectory");
   for (const char* name : {"housner", "complex"}) {
-    ScenarioOptions so = base;
+    pipeline::ScenarioOptions so = base;
     so.model = name;
-    Scenario s = BuildScenario(so);
+    pipeline::Scenario s = pipeline::BuildScenario(so);
     const std::string path = (std::filesystem::path(o.out_dir) / (std::string(name) + ".csv")).string();
-    OutputFile out(path);
+    pipeline::OutputFile out(path);
     std::FILE* f = out.get();
     std::fprintf(f, "time,theta,theta_dot\n");
-    const RunSummary r = RunScenario(s, so, [f](double t, double theta, double theta_dot) {
+    const pipeline::RunSummary r = pipeline::RunScenario(s, so, [f](double t, double theta, double theta_dot) {
       std::fprintf(f, "%.9g,%.12g,%.12g\n", t, theta, theta_dot);
     });
     out.Close();

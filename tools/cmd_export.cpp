@@ -11,8 +11,8 @@
 
 #include "common/progress.h"
 #include "export/export.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -44,7 +44,7 @@ int RunExport(ExportCliOptions& o) {
   }
   const bool log = exporter::IsLcmLog(o.input);
   if (!o.rig_path.empty()) {
-    for (const auto& c : LoadRig(o.rig_path).channels) o.options.units.emplace_back(c.name, c.unit);
+    for (const auto& c : pipeline::LoadRig(o.rig_path).channels) o.options.units.emplace_back(c.name, c.unit);
   }
   std::unique_ptr<exporter::TableSink> sink;
   try {
@@ -85,7 +85,7 @@ int RunExport(ExportCliOptions& o) {
                      t.channel.c_str(), static_cast<long long>(t.reshaped));
       }
     }
-    return ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, o.input, "rocklab export",
+    return pipeline::ReportDamage(s.damaged_regions, s.damaged_bytes, s.damaged_events, o.input, "rocklab export",
                         "; the rest was exported") == 0
                ? 0
                : kFailureExit;

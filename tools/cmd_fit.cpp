@@ -13,7 +13,7 @@
 #include "common/progress.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
-#include "model/record.h"
+#include "model/test_record.h"
 #include "tools/cli.h"
 
 namespace rocklab::tools {

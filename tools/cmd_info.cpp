@@ -8,8 +8,8 @@
 
 #include "export/export.h"
 #include "export/info.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -24,7 +24,7 @@ struct InfoOptions {
 std::vector<std::pair<std::string, std::string>> RigUnits(const std::string& rig_path) {
   std::vector<std::pair<std::string, std::string>> units;
   if (rig_path.empty()) return units;
-  for (const auto& c : LoadRig(rig_path).channels) units.emplace_back(c.name, c.unit);
+  for (const auto& c : pipeline::LoadRig(rig_path).channels) units.emplace_back(c.name, c.unit);
   return units;
 }
 

@@ -4,9 +4,10 @@
 #include <string>
 #include <vector>
 
+#include "common/lcm_bus.h"
 #include "model/model_node.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -21,14 +22,14 @@ struct ModelCommand {
 };
 
 int RunModel(const ModelCommand& c) {
-  const daq::RigConfig rig = LoadRig(c.rig_path);
+  const daq::RigConfig rig = pipeline::LoadRig(c.rig_path);
   model::ModelNodeConfig cfg;
-  cfg.variants = BuildVariants(c.variants, rig, c.rtol);
+  cfg.variants = pipeline::BuildVariants(c.variants, rig, c.rtol);
   cfg.lookahead_samples = c.lookahead;
   cfg.threads = c.threads;
   const std::atomic<bool>& stop = InstallStopSignals();
   const std::string url = SubscriberUrl(c.lcm_url);
-  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(url);
+  const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(url);
   model::ModelNode node(cfg, *bus);
   for (const model::VariantSpec& v : cfg.variants) {
     std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",

@@ -8,9 +8,10 @@
 #include <memory>
 #include <string>
 
+#include "common/lcm_bus.h"
 #include "monitor/monitor_node.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 
 namespace rocklab::tools {
 namespace {
@@ -45,7 +46,7 @@ int RunMonitor(const MonitorCommand& c) {
   monitor::MonitorNodeConfig config;
   ParseHttp(c.http, config.server);
   config.live.window_s = c.window_s;
-  const std::unique_ptr<common::LcmBus> bus = OpenLcmBus(SubscriberUrl(c.lcm_url));
+  const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   const std::atomic<bool>& stop = InstallStopSignals();
   std::unique_ptr<monitor::MonitorNode> node;
   try {

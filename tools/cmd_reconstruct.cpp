@@ -8,12 +8,12 @@
 #include <memory>
 #include <string>
 
+#include "common/csv_number.h"
 #include "daq/processor.h"
 #include "daq/source.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/scenario.h"
 #include "tools/cli.h"
-#include "common/csv_number.h"
-#include "tools/pipeline.h"
-#include "tools/scenario.h"
 
 namespace rocklab::tools {
 namespace {
@@ -112,10 +112,10 @@ class CsvSink : public daq::ProcessorSink {
 };
 
 int RunReconstruct(const ReconstructOptions& o) {
-  const daq::RigConfig rig = LoadRig(o.rig_path);
+  const daq::RigConfig rig = pipeline::LoadRig(o.rig_path);
   // The input is opened before the output exists: a bad --input leaves a
   // previous --out as it was (and the output is renamed only when complete).
-  std::unique_ptr<OutputFile> out;  // declared before the sink: outlives its last Flush
+  std::unique_ptr<pipeline::OutputFile> out;  // declared before the sink: outlives its last Flush
   CsvSink sink;
   daq::SourceOptions options;
   options.sample_rate_hz = rig.sample_rate_hz;
@@ -129,7 +129,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   } catch (const std::exception& e) {
     throw UsageError(std::string("--input: ") + e.what());
   }
-  out = std::make_unique<OutputFile>(o.out_csv);
+  out = std::make_unique<pipeline::OutputFile>(o.out_csv);
   sink.Start(out->get());
   try {
     processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);

@@ -28,7 +28,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/bus_urls.h"
-#include "common/node_support.h"
+#include "common/logger_clock.h"
 #include "common/text.h"
 #include "record/recorder.h"
 #include "tools/cli.h"

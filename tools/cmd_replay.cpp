@@ -12,10 +12,12 @@
 #include <string>
 
 #include "common/bus_urls.h"
+#include "common/lcm_bus.h"
 #include "common/progress.h"
-#include "tools/cli.h"
+#include "common/routing_bus.h"
 #include "pipeline/log_replay.h"
-#include "tools/pipeline.h"
+#include "pipeline/pipeline.h"
+#include "tools/cli.h"
 
 namespace rocklab::tools {
 namespace {
@@ -43,7 +45,7 @@ int RunLogReplay(const ReplayCommand& c) {
     throw UsageError(e.what());
   }
   const std::atomic<bool>& stop = InstallStopSignals();
-  const std::unique_ptr<common::LcmBus> main_bus = OpenLcmBus(c.lcm_url);
+  const std::unique_ptr<common::LcmBus> main_bus = pipeline::OpenLcmBus(c.lcm_url);
   const std::unique_ptr<common::LcmBus> raw_bus = pipeline::OpenRawBus(c.lcm_url, c.raw_url);
   std::unique_ptr<common::RoutingBus> routing;
   if (raw_bus) {
@@ -92,7 +94,7 @@ int RunReplay(const ReplayCommand& c) {
                      " applies to LOG.lcm only, not to --rig --input (the DAQ stage plays the "
                      "whole raw file)");
   }
-  DaqStageOptions daq;
+  pipeline::DaqStageOptions daq;
   daq.rig_path = c.rig_path;
   daq.input = c.input;
   daq.speed = c.replay.speed;
@@ -100,7 +102,7 @@ int RunReplay(const ReplayCommand& c) {
   daq.lcm_url = c.lcm_url;
   daq.raw_url = c.raw_url;
   common::FileProgress progress("replay", c.input, c.quiet || !c.replay.max_speed);
-  return RunDaqStage(daq, "replay", InstallStopSignals());
+  return pipeline::RunDaqStage(daq, "replay", InstallStopSignals());
 }
 
 }  // namespace

@@ -7,21 +7,22 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tools/cli.h"
-#include "tools/scenario.h"
 #include "common/units.h"
+#include "pipeline/scenario.h"
+#include "pipeline/scenario_flags.h"
+#include "tools/cli.h"
 
 namespace rocklab::tools {
 namespace {
 
 struct SimulateOptions {
-  ScenarioOptions scenario;
+  pipeline::ScenarioOptions scenario;
   std::string out_csv;
   std::string events_csv;
   bool json{};
 };
 
-nlohmann::json SummaryJson(const ScenarioOptions& o, const Scenario& s, const RunSummary& r,
+nlohmann::json SummaryJson(const pipeline::ScenarioOptions& o, const pipeline::Scenario& s, const pipeline::RunSummary& r,
                            double cpu_s) {
   const model::SolverStats stats = s.model->solver_stats();
   auto optional = [](const std::optional<double>& v) {
@@ -59,17 +60,17 @@ nlohmann::json SummaryJson(const ScenarioOptions& o, const Scenario& s, const Ru
 }
 
 int RunSimulate(const SimulateOptions& o) {
-  Scenario s = BuildScenario(o.scenario);
-  OutputFile out(o.out_csv);
+  pipeline::Scenario s = pipeline::BuildScenario(o.scenario);
+  pipeline::OutputFile out(o.out_csv);
   std::FILE* f = out.get();
   std::fprintf(f, "time,theta,theta_dot\n");
   const std::clock_t cpu0 = std::clock();
-  const RunSummary r = RunScenario(s, o.scenario, [f](double t, double theta, double theta_dot) {
+  const pipeline::RunSummary r = pipeline::RunScenario(s, o.scenario, [f](double t, double theta, double theta_dot) {
     std::fprintf(f, "%.9g,%.12g,%.12g\n", t, theta, theta_dot);
   });
   const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
   out.Close();
-  if (!o.events_csv.empty()) WriteEventsCsv(o.events_csv, s.model->events());
+  if (!o.events_csv.empty()) pipeline::WriteEventsCsv(o.events_csv, s.model->events());
 
   if (o.json) {
     std::printf("%s\n", SummaryJson(o.scenario, s, r, cpu_s).dump(2).c_str());
@@ -100,7 +101,7 @@ int RunSimulate(const SimulateOptions& o) {
 void RegisterSimulate(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SimulateOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("simulate", "simulate a rocking block (housner or complex)");
-  AddScenarioOptions(*cmd, opts->scenario);
+  pipeline::AddScenarioOptions(*cmd, opts->scenario);
   cmd->add_option("--out", opts->out_csv, "output CSV: time,theta,theta_dot (s, rad, rad/s)")
       ->required();
   cmd->add_option("--events", opts->events_csv, "events CSV: time,kind (s, name)");

@@ -10,9 +10,11 @@
 #include <string>
 
 #include "daq/rig_simulator.h"
+#include "model/table_motion.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/scenario.h"
+#include "pipeline/scenario_flags.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
-#include "tools/scenario.h"
 
 namespace rocklab::tools {
 namespace {
@@ -24,7 +26,7 @@ struct Fault {
 
 struct SynthOptions {
   std::string rig_path;
-  ScenarioOptions scenario;
+  pipeline::ScenarioOptions scenario;
   double noise_scale{1.0};
   double occlusion{daq::SimulatorNoise::Typical().occlusion};
   double drop{daq::SimulatorNoise::Typical().drop};
@@ -57,40 +59,8 @@ std::optional<Fault> ParseFault(const std::string& text, const std::string& opti
   return f;
 }
 
-// The table's displacement and acceleration at each output sample. Analytic
-// excitations give them exactly; a sampled acceleration record (or a sum
-// containing one) is integrated twice by the trapezoidal rule from rest.
-class TableMotion {
- public:
-  explicit TableMotion(const model::Forcing& forcing)
-      : forcing_(forcing), exact_(dynamic_cast<const model::Excitation*>(&forcing)) {}
-  void At(double t, double& displacement, double& acceleration) {
-    acceleration = forcing_.TableAcceleration(t);
-    if (exact_ != nullptr) {
-      displacement = exact_->Displacement(t);
-      return;
-    }
-    if (started_) {
-      const double dt = t - t_;
-      const double v = v_ + 0.5 * (a_ + acceleration) * dt;
-      u_ += 0.5 * (v_ + v) * dt;
-      v_ = v;
-    }
-    started_ = true;
-    t_ = t;
-    a_ = acceleration;
-    displacement = u_;
-  }
-
- private:
-  const model::Forcing& forcing_;
-  const model::Excitation* exact_;  // non-owning; null for records
-  bool started_{false};
-  double t_{}, a_{}, v_{}, u_{};
-};
-
 int RunSynth(const SynthOptions& o) {
-  const daq::RigConfig rig = LoadRig(o.rig_path);
+  const daq::RigConfig rig = pipeline::LoadRig(o.rig_path);
   Require(std::abs(o.scenario.rate_hz - rig.sample_rate_hz) <= 1e-9 * rig.sample_rate_hz,
           "--rate", "the rig's sample_rate_hz (" + std::to_string(rig.sample_rate_hz) + " Hz)",
           o.scenario.rate_hz);
@@ -99,7 +69,7 @@ int RunSynth(const SynthOptions& o) {
   Require(o.drop >= 0 && o.drop < 1, "--drop", "in [0, 1)", o.drop);
   const std::optional<Fault> slip = ParseFault(o.slip_text, "--slip");
   const std::optional<Fault> twist = ParseFault(o.twist_text, "--twist");
-  Scenario scenario = BuildScenario(o.scenario);
+  pipeline::Scenario scenario = pipeline::BuildScenario(o.scenario);
 
   daq::SimulatorNoise noise = daq::SimulatorNoise::Typical().Scaled(o.noise_scale);
   noise.occlusion = o.occlusion;
@@ -114,14 +84,14 @@ int RunSynth(const SynthOptions& o) {
     throw UsageError(std::string("--out: ") + e.what());
   }
   raw->StartSegment(0.0, static_cast<int64_t>(std::floor(o.scenario.duration_s * o.scenario.rate_hz + 1e-9)) + 1);
-  OutputFile truth(o.truth_csv);
+  pipeline::OutputFile truth(o.truth_csv);
   std::FILE* tf = truth.get();
   std::fprintf(tf, "time,theta,theta_dot,table_displacement,table_acceleration,slip,twist,dropped\n");
 
-  TableMotion table(*scenario.forcing);
+  model::TableMotion table(*scenario.forcing);
   std::vector<double> values;
   long written = 0, dropped = 0;
-  const RunSummary summary = RunScenario(scenario, o.scenario, [&](double t, double theta, double theta_dot) {
+  const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, [&](double t, double theta, double theta_dot) {
     daq::TrueMotion m;
     m.time_s = t;
     m.theta = theta;
@@ -152,7 +122,7 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SynthOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("synth", "rig simulator: a model run written as a raw channel file");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)")->required();
-  AddScenarioOptions(*cmd, opts->scenario);
+  pipeline::AddScenarioOptions(*cmd, opts->scenario);
   cmd->add_option("--noise-scale", opts->noise_scale,
                   "multiplies the typical sensor noise (0.2 mm LEDs, 0.1 mm mirror spot, ...)")
       ->capture_default_str();

@@ -8,8 +8,8 @@
 
 #include "daq/rig_config.h"
 #include "daq/source.h"
+#include "pipeline/pipeline.h"
 #include "tools/cli.h"
-#include "tools/pipeline.h"
 #include "video/video_source.h"
 
 namespace rocklab::tools {
@@ -25,7 +25,7 @@ struct TrackOptions {
 constexpr int kShownProblems = 20;
 
 int RunTrack(const TrackOptions& o) {
-  const daq::RigConfig rig = LoadRig(o.rig_path);
+  const daq::RigConfig rig = pipeline::LoadRig(o.rig_path);
   long problems = 0;
   daq::SourceOptions options;
   options.sample_rate_hz = rig.sample_rate_hz;

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "common/node_support.h"
+#include "common/logger_clock.h"
 #include "daq/rig_config.h"
 #include "video/plane_map.h"
 #include "video/video_config.h"

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
 #include "daq/daq_node.h"
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
@@ -135,13 +136,13 @@ int main(int argc, char** argv) {
   theta_us.reserve(static_cast<size_t>(n));
   table_us.reserve(static_cast<size_t>(n));
   rocklab::common::DirectBus bus;
-  bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
+  const rocklab::common::Subscription sub1 = bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
     if (m.seq >= 0 && m.seq < written_count.load()) raw_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
   });
-  bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t& m) {
+  const rocklab::common::Subscription sub2 = bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t& m) {
     if (!writer_done.load() && m.seq >= 0 && m.seq < written_count.load()) theta_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
   });
-  bus.Subscribe<rocklab::table_state_t>("RL_TABLE", [&](const std::string&, const rocklab::table_state_t& m) {
+  const rocklab::common::Subscription sub3 = bus.Subscribe<rocklab::table_state_t>("RL_TABLE", [&](const std::string&, const rocklab::table_state_t& m) {
     if (!writer_done.load() && m.seq >= 0 && m.seq < written_count.load()) table_us.push_back(Us(Clock::now() - written[static_cast<size_t>(m.seq)]));
   });
   rocklab::daq::DaqNodeConfig config;

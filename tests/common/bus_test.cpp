@@ -8,10 +8,14 @@
 
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
+#include "common/direct_bus.h"
+#include "common/lcm_bus.h"
 #include "common/lcm_log.h"
+#include "common/log_writing_bus.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/scratch.h"
@@ -45,11 +49,11 @@ std::vector<std::uint8_t> HostileRawFrame() {
 TEST(DirectBus, DeliversTypedMessagesSynchronouslyInSubscriptionOrder) {
   DirectBus bus;
   std::vector<std::string> seen;
-  bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string& c, const rocklab::block_state_t& m) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string& c, const rocklab::block_state_t& m) {
     seen.push_back("first " + c + " " + std::to_string(m.utime));
     if (m.utime == 1) bus.Publish("RL_THETA_ECHO", Theta(100, 0.5));  // nested
   });
-  bus.Subscribe<rocklab::block_state_t>("RL_THETA.*", [&](const std::string& c, const rocklab::block_state_t& m) {
+  const common::Subscription sub2 = bus.Subscribe<rocklab::block_state_t>("RL_THETA.*", [&](const std::string& c, const rocklab::block_state_t& m) {
     seen.push_back("second " + c + " " + std::to_string(m.utime) + " " + std::to_string(m.theta));
   });
   EXPECT_TRUE(bus.Publish("RL_THETA", Theta(1, 0.25)));
@@ -68,12 +72,12 @@ TEST(DirectBus, DeliversTypedMessagesSynchronouslyInSubscriptionOrder) {
 TEST(DirectBus, UndecodableMessagesAndHandlerExceptionsAreCountedNotThrown) {
   DirectBus bus;
   int thetas = 0, frames = 0, after_throw = 0;
-  bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++thetas; });
-  bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
+  const common::Subscription sub3 = bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++thetas; });
+  const common::Subscription sub4 = bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
     ++frames;
     if (m.seq == 7) throw std::runtime_error("handler bug");
   });
-  bus.SubscribeRaw("RL_RAW", [&](const std::string&, const void*, int) { ++after_throw; });
+  const common::Subscription sub5 = bus.SubscribeRaw("RL_RAW", [&](const std::string&, const void*, int) { ++after_throw; });
 
   const char shortish[5] = {1, 2, 3, 4, 5};
   EXPECT_NO_THROW(bus.Publish("RL_THETA", shortish, 5));
@@ -100,7 +104,7 @@ TEST(DirectBus, UndecodableMessagesAndHandlerExceptionsAreCountedNotThrown) {
 TEST(LcmBus, GuardedDecodeOnLcmDispatch) {
   LcmBus bus("memq://");
   int frames = 0;
-  bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t&) { ++frames; });
+  const common::Subscription sub6 = bus.Subscribe<rocklab::raw_frame_t>("RL_RAW", [&](const std::string&, const rocklab::raw_frame_t&) { ++frames; });
   const std::vector<std::uint8_t> hostile = HostileRawFrame();
   ASSERT_TRUE(bus.Publish("RL_RAW", hostile.data(), static_cast<int>(hostile.size())));
   rocklab::raw_frame_t good{};
@@ -122,7 +126,7 @@ TEST(LogWritingBus, WritesEveryPublishedMessageWithStampsInOrder) {
       test::ScratchDir("bus_test") + "/log.lcm";
   DirectBus direct;
   int delivered = 0;
-  direct.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++delivered; });
+  const common::Subscription sub7 = direct.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++delivered; });
   {
     LogWriter writer(path);
     LogWritingBus bus(direct, writer);
@@ -142,6 +146,67 @@ TEST(LogWritingBus, WritesEveryPublishedMessageWithStampsInOrder) {
   }
   EXPECT_EQ(stamps, (std::vector<std::int64_t>{1000, 3000, 3000, 4000}));
   EXPECT_EQ(utimes, (std::vector<std::int64_t>{1000, 3000, 2000, 4000}));  // payloads unchanged
+}
+
+// Oracle: the handle's documented life: a subscription delivers while its
+// handle lives, moves with it, ends when it is destroyed or Reset (also
+// from inside a dispatch), and a handle that outlives its bus does nothing.
+TEST(Subscription, LastsAsLongAsItsHandle) {
+  auto bus = std::make_unique<DirectBus>();
+  int a = 0, b = 0;
+  Subscription keep;
+  {
+    Subscription sa = bus->SubscribeRaw("X", [&](const std::string&, const void*, int) { ++a; });
+    Subscription sb = bus->SubscribeRaw("X", [&](const std::string&, const void*, int) { ++b; });
+    EXPECT_TRUE(bus->Publish("X", "1", 1));
+    keep = std::move(sb);  // moves: still subscribed
+    EXPECT_FALSE(sb.active());
+  }  // sa ends here
+  EXPECT_TRUE(bus->Publish("X", "2", 1));
+  EXPECT_EQ(a, 1);
+  EXPECT_EQ(b, 2);
+  EXPECT_TRUE(keep.active());
+  keep.Reset();
+  EXPECT_FALSE(keep.active());
+  EXPECT_TRUE(bus->Publish("X", "3", 1));
+  EXPECT_EQ(b, 2);
+
+  // A handler ending its own subscription: this message is its last.
+  Subscription self;
+  int c = 0;
+  self = bus->SubscribeRaw("Y", [&](const std::string&, const void*, int) {
+    ++c;
+    self.Reset();
+  });
+  EXPECT_TRUE(bus->Publish("Y", "1", 1));
+  EXPECT_TRUE(bus->Publish("Y", "2", 1));
+  EXPECT_EQ(c, 1);
+
+  Subscription outlives = bus->SubscribeRaw("Z", [](const std::string&, const void*, int) {});
+  bus.reset();
+  outlives.Reset();  // the bus is gone: nothing to end, no crash (ASan build checks)
+  EXPECT_FALSE(outlives.active());
+}
+
+// Oracle: a decorator's subscriptions are its inner bus's, so they end with
+// their handles too, and the counters are the inner bus's.
+TEST(Subscription, ThroughADecoratorEndsOnTheInnerBus) {
+  const std::string path = test::ScratchDir("bus_test") + "/decorated.lcm";
+  DirectBus direct;
+  LogWriter writer(path);
+  LogWritingBus bus(direct, writer);
+  int n = 0;
+  {
+    const Subscription s = bus.SubscribeRaw("X", [&](const std::string&, const void*, int) { ++n; });
+    EXPECT_TRUE(bus.Publish("X", "1", 1));
+  }
+  EXPECT_TRUE(bus.Publish("X", "2", 1));
+  EXPECT_EQ(n, 1);
+  const Subscription t = bus.Subscribe<rocklab::block_state_t>(
+      "X", [](const std::string&, const rocklab::block_state_t&) {});
+  EXPECT_TRUE(bus.Publish("X", "3", 1));  // one byte: does not decode
+  EXPECT_EQ(direct.decode_error_count(), 1);
+  EXPECT_EQ(bus.decode_error_count(), 1);
 }
 
 }  // namespace

@@ -14,6 +14,8 @@
 #include <string>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
+#include "common/routing_bus.h"
 
 namespace rocklab::common {
 namespace {
@@ -115,8 +117,8 @@ TEST(RawChannel, PrefixAndExactRegex) {
 TEST(RoutingBus, SendsTheMatchingChannelsToTheRoutedBus) {
   DirectBus main, raw;
   std::map<std::string, int> on_main, on_raw;
-  main.SubscribeRaw(".*", [&](const std::string& ch, const void*, int) { ++on_main[ch]; });
-  raw.SubscribeRaw(".*", [&](const std::string& ch, const void*, int) { ++on_raw[ch]; });
+  const common::Subscription sub1 = main.SubscribeRaw(".*", [&](const std::string& ch, const void*, int) { ++on_main[ch]; });
+  const common::Subscription sub2 = raw.SubscribeRaw(".*", [&](const std::string& ch, const void*, int) { ++on_raw[ch]; });
   RoutingBus bus(main, raw, ExactChannelRegex(RawChannel()));
   const char payload[4] = {1, 2, 3, 4};
   for (int i = 0; i < 3; ++i) {
@@ -128,7 +130,7 @@ TEST(RoutingBus, SendsTheMatchingChannelsToTheRoutedBus) {
   EXPECT_EQ(on_raw, (std::map<std::string, int>{{"RL_RAW", 3}}));
   EXPECT_EQ(on_main, (std::map<std::string, int>{{"RL_THETA", 3}, {"RL_RAWX", 1}, {"XRL_RAW", 1}}));
   int seen = 0;
-  bus.SubscribeRaw("RL_EVENT", [&](const std::string&, const void*, int) { ++seen; });
+  const common::Subscription sub3 = bus.SubscribeRaw("RL_EVENT", [&](const std::string&, const void*, int) { ++seen; });
   main.Publish("RL_EVENT", payload, 4);
   EXPECT_EQ(seen, 1);
   EXPECT_THROW(RoutingBus(main, raw, "RL_(RAW"), std::invalid_argument);

@@ -17,6 +17,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/direct_bus.h"
+#include "common/lcm_bus.h"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
@@ -32,14 +34,15 @@ using test::Theta;
 // What the node publishes, as received on the bus.
 struct Tap {
   void Listen(common::Bus& bus) {
-    bus.Subscribe<rocklab::comparison_t>(
+    subscriptions.push_back(bus.Subscribe<rocklab::comparison_t>(
         "RL_COMPARE_.*", [this](const std::string& channel, const rocklab::comparison_t& m) {
           channels.push_back(channel);
           compares.push_back(m);
-        });
-    bus.Subscribe<rocklab::event_t>(
-        "RL_EVENT", [this](const std::string&, const rocklab::event_t& m) { events.push_back(m); });
+        }));
+    subscriptions.push_back(bus.Subscribe<rocklab::event_t>(
+        "RL_EVENT", [this](const std::string&, const rocklab::event_t& m) { events.push_back(m); }));
   }
+  std::vector<common::Subscription> subscriptions;
   std::vector<std::string> channels;
   std::vector<rocklab::comparison_t> compares;
   std::vector<rocklab::event_t> events;
@@ -247,9 +250,10 @@ namespace {
 // What the node says in RL_HEALTH, as received.
 struct HealthTap {
   void Listen(common::Bus& bus) {
-    bus.Subscribe<rocklab::health_t>(
+    subscription = bus.Subscribe<rocklab::health_t>(
         "RL_HEALTH", [this](const std::string&, const rocklab::health_t& m) { last = m; });
   }
+  common::Subscription subscription;
   rocklab::health_t last{};
 };
 

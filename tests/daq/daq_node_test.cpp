@@ -19,6 +19,8 @@
 #include "daq/daq_node.h"
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
+#include "common/lcm_bus.h"
 #include "daq/processor.h"
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
@@ -29,8 +31,8 @@
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
-#include "tests/tools/udpm_netns.h"
 #include "tests/skip.h"
+#include "tests/tools/udpm_netns.h"
 
 namespace rocklab::daq {
 namespace {
@@ -79,12 +81,13 @@ struct Collector {
   std::vector<rocklab::event_t> events;
   std::vector<rocklab::health_t> health;
   std::vector<rocklab::daq_config_t> config;
+  std::vector<common::Subscription> subscriptions;  // end with the collector (or its bus)
   template <class Msg>
   void Add(common::Bus& bus, const char* channel, std::vector<Msg>& into) {
-    bus.Subscribe<Msg>(channel, [this, &into](const std::string& c, const Msg& m) {
+    subscriptions.push_back(bus.Subscribe<Msg>(channel, [this, &into](const std::string& c, const Msg& m) {
       order.push_back(c);
       into.push_back(m);
-    });
+    }));
   }
   void Subscribe(common::Bus& bus) {
     Add(bus, "RL_RAW", raw);
@@ -128,7 +131,7 @@ std::unique_ptr<Collector> RunOnDirectBusUntil(const RigConfig& rig, const std::
   auto c = std::make_unique<Collector>();
   c->Subscribe(bus);
   std::int64_t raw = 0;
-  bus.SubscribeRaw("RL_RAW", [&raw, &stop, stop_at_raw](const std::string&, const void*, int) {
+  const common::Subscription counter = bus.SubscribeRaw("RL_RAW", [&raw, &stop, stop_at_raw](const std::string&, const void*, int) {
     if (++raw >= stop_at_raw) stop = true;
   });
   DaqNode node(ConfigFor(rig, input, speed), bus);

@@ -238,8 +238,7 @@ class HealthBus final : public common::Bus {
     states_.push_back(h.state);
     return true;
   }
-  SubscriptionId SubscribeRaw(const std::string&, RawHandler, int) override { return 0; }
-  void Unsubscribe(SubscriptionId) override {}
+  common::Subscription SubscribeRaw(const std::string&, RawHandler, int) override { return {}; }
   int HandleTimeout(int) override { return 0; }
   std::vector<std::string> states() {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
 #include "common/model_state.h"
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
@@ -60,6 +61,7 @@ void CheckHandled(const Msg& m) {
 
 struct Nodes {
   DirectBus bus;
+  std::vector<rocklab::common::Subscription> subscriptions;
   Nodes() {
     Sub<rocklab::raw_frame_t>("RL_RAW");
     Sub<rocklab::daq_config_t>("RL_DAQ_CONFIG");
@@ -68,12 +70,12 @@ struct Nodes {
     Sub<rocklab::comparison_t>("RL_COMPARE_.*");
     Sub<rocklab::event_t>("RL_EVENT");
     Sub<rocklab::health_t>("RL_HEALTH");
-    rocklab::common::SubscribeModelState(
-        bus, "RL_MODEL_.*", [](const std::string&, const rocklab::model_state2_t& m) { CheckHandled(m); });
+    subscriptions.push_back(rocklab::common::SubscribeModelState(
+        bus, "RL_MODEL_.*", [](const std::string&, const rocklab::model_state2_t& m) { CheckHandled(m); }));
   }
   template <class Msg>
   void Sub(const std::string& channel) {
-    bus.Subscribe<Msg>(channel, [](const std::string&, const Msg& m) { CheckHandled(m); });
+    subscriptions.push_back(bus.Subscribe<Msg>(channel, [](const std::string&, const Msg& m) { CheckHandled(m); }));
   }
 };
 

@@ -14,7 +14,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 
-#include "model/record.h"
+#include "model/test_record.h"
 #include "rocklab/block_state_t.hpp"
 #include "tests/model/fit_synthetic.h"
 #include "tests/tools/run_cli.h"

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "model/excitation.h"
-#include "model/record.h"
+#include "model/test_record.h"
 #include "model/rocking_model.h"
 
 namespace rocklab::test {

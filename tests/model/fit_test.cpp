@@ -1,4 +1,4 @@
-// Parameter identification (model/fit.h) and record reading (model/record.h).
+// Parameter identification (model/fit.h) and record reading (model/test_record.h).
 // Oracle throughout: records synthesised by the Housner model on CVODE
 // (rtol 1e-10) with known (alpha, p, mu), sampled like a test, with seeded
 // Gaussian noise of 0.02 degrees (a lab's figure).
@@ -13,7 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "model/fit.h"
-#include "model/record.h"
+#include "model/test_record.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/model/fit_synthetic.h"

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
 #include "model/excitation.h"
 #include "model/model_node.h"
 #include "rocklab/event_t.hpp"
@@ -111,10 +112,10 @@ std::vector<double> Fig8Samples(double seconds) {
 Published RunNode(const std::vector<double>& accel, int lookahead, int threads = 1) {
   common::DirectBus bus;
   Published out;
-  bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_.*", [&](const std::string&, const rocklab::model_state2_t& m) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_.*", [&](const std::string&, const rocklab::model_state2_t& m) {
     out.states.push_back(m);
   });
-  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+  const common::Subscription sub2 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
     if (e.source == "model") {
       out.node_events.push_back(e);
     } else {
@@ -216,7 +217,7 @@ TEST(ModelNodeLookahead, ResetFlushesAndBadSamplesAreHeld) {
   {
     common::DirectBus bus;
     std::vector<rocklab::model_state2_t> got;
-    bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
+    const common::Subscription sub3 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
       got.push_back(m);
     });
     ModelNodeConfig cfg;

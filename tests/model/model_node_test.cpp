@@ -9,6 +9,8 @@
 #include <map>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
+#include "common/lcm_bus.h"
 #include "model/excitation.h"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health_t.hpp"
@@ -104,7 +106,7 @@ TEST(ModelNode, StartsFromTheThetaPublishedWithTheTableSample) {
 TEST(ModelNode, NonFiniteTableSampleHoldsTheLastValueAndTheVariantGoesOn) {
   DirectBus bus;
   std::vector<rocklab::event_t> events;
-  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
     if (e.source == "model") events.push_back(e);
   });
   ModelNode node(Config("h:housner:theoretical"), bus);
@@ -154,11 +156,11 @@ TEST(ModelNode, PublishesEveryVariantAndItsImpacts) {
   common::LcmBus bus("memq://");
   std::vector<std::string> channels;
   int impacts = 0;
-  bus.Subscribe<rocklab::model_state2_t>(
+  const common::Subscription sub2 = bus.Subscribe<rocklab::model_state2_t>(
       "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t&) {
         channels.push_back(channel);
       });
-  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& m) {
+  const common::Subscription sub3 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& m) {
     if (m.kind == rocklab::event_t::IMPACT) ++impacts;
   });
   ModelNodeConfig cfg = Config("fit:housner:alpha=0.235,p=3.884,mu=0.937");
@@ -227,7 +229,7 @@ namespace {
 TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
   common::LcmBus bus("memq://");
   std::map<std::string, std::vector<rocklab::model_state2_t>> got;
-  bus.Subscribe<rocklab::model_state2_t>(
+  const common::Subscription sub4 = bus.Subscribe<rocklab::model_state2_t>(
       "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t& m) {
         got[channel].push_back(m);
       });
@@ -267,7 +269,7 @@ namespace {
 TEST(ModelNode, CountsRlTableSequenceGapsInHealth) {
   common::LcmBus bus("memq://");
   rocklab::health_t last{};
-  bus.Subscribe<rocklab::health_t>("RL_HEALTH",
+  const common::Subscription sub5 = bus.Subscribe<rocklab::health_t>("RL_HEALTH",
                                    [&](const std::string&, const rocklab::health_t& m) { last = m; });
   ModelNode node(Config("h:housner:theoretical"), bus);
   bus.Publish("RL_THETA", Theta(0, 0.0));

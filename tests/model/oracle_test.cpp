@@ -48,6 +48,7 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/direct_bus.h"
 #include "model/model_node.h"
 #include "model/rocking_model.h"
 #include "rocklab/event_t.hpp"
@@ -91,7 +92,7 @@ struct TableMotion {
 
 // Figure 7: block 1 (Table 2, p of Table 2: docs/errata.md item 10) under
 // hanning:amp=0.006,freq=3.3,duration=4,start=0.5 over 8 s; figure 8: block 2
-// under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (tools/scenario.*,
+// under sine:amp=0.006,freq=5,duration=20,start=0 over 20 s (pipeline/scenario.*,
 // tests/model/scenario_test.cpp, docs/models.md).
 struct Case {
   const char* name;
@@ -682,10 +683,10 @@ struct NodeRun {
 NodeRun RunNodeOnSamples(const Case& c, int lookahead) {
   common::DirectBus bus;
   NodeRun out;
-  bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
     if (m.utime % 10000 == 0) out.theta_100hz.push_back(m.theta);
   });
-  bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+  const common::Subscription sub2 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
     if (e.source == "h" && e.kind == rocklab::event_t::IMPACT) out.impact_times.push_back(e.utime * 1e-6);
   });
   ModelNodeConfig cfg;

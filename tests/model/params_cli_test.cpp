@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daq/rig_config.h"
-#include "model/record.h"
+#include "model/test_record.h"
 #include "tests/model/fit_synthetic.h"
 #include "tests/tools/run_cli.h"
 

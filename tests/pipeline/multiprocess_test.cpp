@@ -441,7 +441,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
 // SIGTERM to every node as a process exits 0 after a final
 // RL_HEALTH "stopped", read from a rocklab record log: rocklab daq, model and
 // compare mid-run, then rocklab run over udpm (all three nodes in one
-// process: their "stopped" in the shutdown order of tools/cmd_run.cpp).
+// process: their "stopped" in the shutdown order of pipeline/run_graph.h).
 // Oracles: the exit codes, the last RL_HEALTH of each node, the DAQ's
 // frame count against RL_RAW in the log (what was read was published), and
 // the comparator's summary table on stdout.

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "common/bus.h"
+#include "common/lcm_bus.h"
 #include "compare/compare_node.h"
 #include "model/model_node.h"
 #include "rocklab/block_state_t.hpp"
@@ -36,11 +37,13 @@ class MemqBurst {
  public:
   MemqBurst(common::Bus& bus, std::function<void(common::Bus&, int)> publish_one, StopBy stop_by)
       : bus_(bus), publish_one_(std::move(publish_one)), stop_by_(stop_by) {
-    bus.Subscribe<rocklab::health_t>("RL_HEALTH", [this](const std::string&, const rocklab::health_t& h) {
-      last_health_ = h;
-      OnHealth();
-    });
-    bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; });
+    subscriptions_.push_back(
+        bus.Subscribe<rocklab::health_t>("RL_HEALTH", [this](const std::string&, const rocklab::health_t& h) {
+          last_health_ = h;
+          OnHealth();
+        }));
+    subscriptions_.push_back(
+        bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; }));
   }
   const std::atomic<bool>& stop() const { return stop_; }
   const rocklab::health_t& last_health() const { return last_health_; }
@@ -63,6 +66,7 @@ class MemqBurst {
   bool sent_{};
   rocklab::health_t last_health_{};
   std::atomic<bool> stop_{false};
+  std::vector<common::Subscription> subscriptions_;  // last: end before the fields their handlers use
 };
 
 using test::OneHousnerVariant;

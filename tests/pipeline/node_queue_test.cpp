@@ -18,14 +18,15 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/bus.h"
+#include "common/lcm_bus.h"
 #include "compare/compare_node.h"
 #include "model/model_node.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/pipeline/node_inputs.h"
-#include "tests/tools/udpm_netns.h"
 #include "tests/skip.h"
+#include "tests/tools/udpm_netns.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -47,8 +48,10 @@ class Burst {
   Burst(common::Bus& node_bus, std::string channel,
         std::function<void(lcm::LCM&, int)> publish_one, StopBy stop_by = StopBy::kMarker)
       : channel_(std::move(channel)), publish_one_(std::move(publish_one)), stop_by_(stop_by) {
-    node_bus.SubscribeRaw("RL_HEALTH", [this](const std::string&, const void*, int) { OnHealth(); });
-    node_bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; });
+    subscriptions_.push_back(
+        node_bus.SubscribeRaw("RL_HEALTH", [this](const std::string&, const void*, int) { OnHealth(); }));
+    subscriptions_.push_back(
+        node_bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; }));
     lcm::Subscription* s = probe_.subscribe(channel_, &Burst::OnProbe, this);
     s->setQueueCapacity(kBurst + 100);
   }
@@ -83,6 +86,7 @@ class Burst {
   bool sent_{};
   int probed_{};
   std::atomic<bool> stop_{false};
+  std::vector<common::Subscription> subscriptions_;  // last: end before the fields their handlers use
 };
 
 using test::OneHousnerVariant;

@@ -1,7 +1,7 @@
 // `rocklab run`: daq, model and compare in one process, through the binary.
 // Oracles: the parameters the bundled synthetic test was generated with
 // (data/samples/README.md), the payloads of the same run at another speed,
-// and the node shutdown order written in tools/cmd_run.cpp.
+// and the node shutdown order written in pipeline/run_graph.h (RunGraph::Run).
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -179,7 +179,7 @@ TEST(RocklabRun, LogStampsNeverGoBackAndReplayPublishesEveryEvent) {
       << replay.err;
 }
 
-// SIGTERM to a paced run: exit 0 after the shutdown order of cmd_run.cpp.
+// SIGTERM to a paced run: exit 0 after the shutdown order of RunGraph::Run.
 // Oracle: in the --log, the last RL_HEALTH of each node (daq, model,
 // compare) says "stopped", the daq's comes before the model's and the
 // comparator's, the run stopped early (fewer frames than the 7 s input),

@@ -18,10 +18,11 @@
 #include <utility>
 #include <vector>
 
+#include "common/direct_bus.h"
 #include "rocklab/event_t.hpp"
+#include "tests/skip.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
-#include "tests/skip.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -48,7 +49,7 @@ std::string WriteLog(const std::string& name) {
 std::vector<std::string> Play(const std::string& path, const ReplayOptions& o, ReplayCounts* counts) {
   common::DirectBus bus;
   std::vector<std::string> got;
-  bus.SubscribeRaw(".*", [&got](const std::string& channel, const void* data, int size) {
+  const common::Subscription tap = bus.SubscribeRaw(".*", [&got](const std::string& channel, const void* data, int size) {
     got.push_back(channel + ":" + std::string(static_cast<const char*>(data), size));
   });
   std::atomic<bool> stop{false};
@@ -59,9 +60,10 @@ std::vector<std::string> Play(const std::string& path, const ReplayOptions& o, R
 // Sets `stop` when the n-th event is published on `bus` (a DirectBus
 // delivers on the publisher's thread: the replay sees the stop before its
 // next event). A condition, not a sleep.
-void StopAtEvent(common::DirectBus& bus, std::atomic<bool>& stop, std::int64_t n) {
+// The subscription lasts as long as the returned handle.
+common::Subscription StopAtEvent(common::DirectBus& bus, std::atomic<bool>& stop, std::int64_t n) {
   auto count = std::make_shared<std::int64_t>(0);  // shared: owned by the handler
-  bus.SubscribeRaw(".*", [count, &stop, n](const std::string&, const void*, int) {
+  return bus.SubscribeRaw(".*", [count, &stop, n](const std::string&, const void*, int) {
     if (++*count >= n) stop.store(true);
   });
 }
@@ -109,7 +111,7 @@ TEST(Replay, LoopPlaysAgainUntilStopped) {
   // The stop comes with the first event of the fourth pass (5 events a
   // pass), not after a fixed time: the DirectBus delivers on the replay's
   // own thread, so the count is exact however loaded the machine is.
-  StopAtEvent(lcm, stop, 3 * 5 + 1);
+  const common::Subscription stopper = StopAtEvent(lcm, stop, 3 * 5 + 1);
   const ReplayCounts n = ReplayLog(WriteLog("loop.lcm"), o, lcm, stop);
   EXPECT_EQ(n.passes, 4);
   EXPECT_EQ(n.published, 16);
@@ -208,7 +210,7 @@ TEST(Replay, EveryLoopPassPublishesTheStartOfTestConfig) {
   o.loop = true;
   common::DirectBus lcm;
   std::atomic<bool> stop{false};
-  StopAtEvent(lcm, stop, 3 * (2 + 200 + 155) + 1);  // the first event of the fourth pass
+  const common::Subscription stopper = StopAtEvent(lcm, stop, 3 * (2 + 200 + 155) + 1);  // the first event of the fourth pass
   const ReplayCounts n = ReplayLog(WriteDemoLikeLog("loop_config.lcm", 200), o, lcm, stop);
   ASSERT_GE(n.passes, 3);
   EXPECT_GE(n.per_channel.at("RL_DAQ_CONFIG"), n.passes - 1);

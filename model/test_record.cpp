@@ -1,4 +1,4 @@
-#include "model/record.h"
+#include "model/test_record.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <string_view>
+#include <vector>
 
 #include <memory>
 
@@ -30,22 +32,6 @@ std::string Num(double v) {
 [[noreturn]] void Fail(const std::string& where, const std::string& what) {
   throw RecordError(where + ": " + what);
 }
-
-std::string Trim(const std::string& s) { return std::string(common::Trim(s)); }
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string field;
-  std::istringstream in(line);
-  while (std::getline(in, field, ',')) out.push_back(Trim(field));
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
-
-// Parses the whole field as a number ("nan" parses, as NaN); false otherwise.
-bool ParseDouble(const std::string& s, double& v) { return common::ParseDouble(s, v); }
-
-bool StartsWithLcmSyncWord(const std::string& path) { return common::StartsWithLcmSync(path); }
 
 std::string Where(const std::string& source, int64_t line, bool lcm) {
   return source + (lcm ? ":event " : ":") + std::to_string(line);
@@ -126,7 +112,7 @@ GapCount CountGaps(const std::vector<double>& t, const std::vector<int64_t>& lin
 }
 
 RockingRecord ReadRecord(const std::string& path, const RecordOptions& options) {
-  RockingRecord r = StartsWithLcmSyncWord(path) ? ReadThetaLcmLog(path, options) : ReadThetaCsv(path);
+  RockingRecord r = common::StartsWithLcmSync(path) ? ReadThetaLcmLog(path, options) : ReadThetaCsv(path);
   CheckRecord(r, options);
   return r;
 }
@@ -144,11 +130,13 @@ RockingRecord ReadThetaCsv(const std::string& path) {
   int64_t lost_before_first = 0;  // rows with no theta before the first sample
   int64_t lost_pending = 0;       // since the last sample
   int64_t first_lost_line = 0;
+  std::vector<std::string_view> fields;  // views into the trimmed line
   while (std::getline(in, text)) {
     ++line_no;
-    const std::string trimmed = Trim(text);
+    const std::string trimmed(common::Trim(text));
     if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::vector<std::string> fields = SplitCsv(trimmed);
+    common::Split(trimmed, ',', fields);
+    for (std::string_view& f : fields) f = common::Trim(f);
     if (time_col < 0) {
       for (std::size_t i = 0; i < fields.size(); ++i) {
         if (fields[i] == "time") time_col = static_cast<int>(i);
@@ -168,10 +156,10 @@ RockingRecord ReadThetaCsv(const std::string& path) {
     }
     double t = 0.0;
     double theta = 0.0;
-    if (!ParseDouble(fields[time_col], t)) {
-      Fail(Where(path, line_no, false), "time is not a number: '" + fields[time_col] + "'");
+    if (!common::ParseDouble(fields[time_col], t)) {
+      Fail(Where(path, line_no, false), "time is not a number: '" + std::string(fields[time_col]) + "'");
     }
-    if (!ParseDouble(fields[theta_col], theta) || !std::isfinite(theta)) {
+    if (!common::ParseDouble(fields[theta_col], theta) || !std::isfinite(theta)) {
       // A lost sample: left out and counted (the time step shows it inside
       // the record; at its ends it is counted here).
       if (r.time_s.empty()) ++lost_before_first;
@@ -279,7 +267,7 @@ void AddTableCsv(const std::string& path, RockingRecord& record) {
 }
 
 void CheckRecord(const RockingRecord& record, const RecordOptions& options) {
-  const bool lcm = StartsWithLcmSyncWord(record.source);
+  const bool lcm = common::StartsWithLcmSync(record.source);
   if (record.time_s.size() != record.theta.size() || record.line.size() != record.time_s.size()) {
     throw RecordError(record.source + ": time, theta and line have different lengths");
   }

@@ -1,6 +1,8 @@
-#include "tools/scenario.h"
+#include "pipeline/scenario_flags.h"
 
-namespace rocklab::tools {
+#include <CLI/CLI.hpp>
+
+namespace rocklab::pipeline {
 
 void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
   cmd.add_option("--model", o.model, "housner | complex")->capture_default_str();
@@ -26,4 +28,4 @@ void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
       ->capture_default_str();
 }
 
-}  // namespace rocklab::tools
+}  // namespace rocklab::pipeline

@@ -1,0 +1,23 @@
+#pragma once
+/// @file
+/// One named stderr logger per module, and the host's monotonic clock
+/// (rates, timeouts and health periods only: message times come from the
+/// acquisition sample clock). Everything that logs includes this, not the
+/// node loop's header.
+
+#include <memory>
+#include <string>
+
+#include <spdlog/logger.h>
+
+namespace rocklab::common {
+
+/// The logger named `name` from spdlog's registry, created on stderr (stdout
+/// carries the commands' own output) the first time it is asked for. Safe
+/// when two threads ask for a new name at once.
+std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
+
+/// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
+double HostNowS();
+
+}  // namespace rocklab::common
