@@ -3,16 +3,9 @@
 /// The loop of a node (the named loggers and the host clock are
 /// common/logger_clock.h).
 ///
-/// Every node has one shape:
-///   class XNode {
-///    public:
-///     XNode(XNodeConfig config, common::Bus& bus);  // subscribes; throws on bad config
-///     void Run(const std::atomic<bool>& stop);      // RunNodeLoop, then Finish
-///     void Finish();                                // last messages, RL_HEALTH "stopped"
-///   };
-/// and its shutdown order written above the class. On a DirectBus (`rocklab
-/// run`) nobody calls Run for the subscribing nodes: the source node's Run
-/// drives them through the bus, and the command calls their Finish.
+/// The nodes' shape (constructor subscribes, Run loops, Finish sends the
+/// last messages) and where each node differs: docs/architecture.md, "The
+/// four nodes share a shape".
 
 #include <atomic>
 #include <functional>
