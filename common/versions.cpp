@@ -52,6 +52,7 @@ void Upgrade(const rocklab::event_t& in, rocklab::event2_t& out) {
 void Upgrade(const rocklab::health_t& in, rocklab::health2_t& out) {
   out.utime = in.utime;
   out.seq = kNoSeq;
+  out.sender.clear();
   out.node = in.node;
   out.state = in.state;
   out.rate_in_hz = in.rate_in_hz;

@@ -9,7 +9,8 @@
 /// told apart by the fingerprint, and read them as the successor with
 /// seq = kNoSeq (nothing to count). RL_EVENT and RL_HEALTH have several
 /// publishers, each numbering its own messages: their gaps are counted per
-/// sender (event2_t.sender, health2_t.node), see ChannelSeqGaps.
+/// sender (event2_t.sender, health2_t.sender: unique per process), see
+/// ChannelSeqGaps.
 
 #include <cstdint>
 #include <functional>
@@ -40,7 +41,7 @@ namespace rocklab::common {
 inline constexpr std::int64_t kNoSeq = -1;
 
 /// The older type's fields copied into its successor; seq = kNoSeq (and
-/// event2_t.sender empty, model_state3_t.equations EQUATIONS_UNKNOWN for a
+/// event2_t/health2_t.sender empty, model_state3_t.equations EQUATIONS_UNKNOWN for a
 /// model_state_t).
 void Upgrade(const rocklab::comparison_t& in, rocklab::comparison2_t& out);
 void Upgrade(const rocklab::daq_config_t& in, rocklab::daq_config2_t& out);
@@ -109,7 +110,7 @@ Bus::SubscriptionId SubscribeVersioned(
 /// The sequence number of a rocklab message that carries one (raw_frame_t,
 /// block_state_t, table_state_t and the successors above: int64 utime, int64
 /// seq right after the fingerprint), read from its bytes; and its sender
-/// (event2_t.sender, health2_t.node: the string after seq; empty for the
+/// (event2_t.sender, health2_t.sender: the string after seq; empty for the
 /// single-publisher types). False for any other type, or bytes too short.
 /// `sender` points into `data`.
 bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& sender);

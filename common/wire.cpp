@@ -82,7 +82,8 @@ const WireField kEvent2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "se
       {F, 8, 0, "count_in"}, {F, 8, 0, "count_out"}, {F, 8, 0, "dropped"}, {F, 8, 0, "gaps"},  \
       {F, 8, 0, "bad_samples"}, {F, 8, 0, "lag_s"}
 const WireField kHealth[] = {{F, 8, 0, "utime"}, ROCKLAB_HEALTH_FIELDS};
-const WireField kHealth2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_HEALTH_FIELDS};
+const WireField kHealth2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "sender"},
+                              ROCKLAB_HEALTH_FIELDS};
 #undef ROCKLAB_HEALTH_FIELDS
 #define ROCKLAB_MODEL_STATE_FIELDS                                                            \
   {S, 0, 0, "name"}, {S, 0, 0, "model"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},          \

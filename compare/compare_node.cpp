@@ -237,6 +237,7 @@ void CompareNode::PublishHealth(const char* state) {
   rocklab::health2_t h{};
   h.utime = newest_utime_;
   h.seq = health_seq_++;
+  h.sender = "compare";
   h.node = "compare";
   h.state = state;
   h.count_in = theta_count_ + model_count_;

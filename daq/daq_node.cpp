@@ -197,6 +197,7 @@ struct DaqNode::Impl : ProcessorSink {
     const double dt = last_health == Clock::time_point{} ? 0 : std::chrono::duration<double>(now - last_health).count();
     health_msg.utime = newest_utime;
     health_msg.seq = health_seq++;
+    health_msg.sender = "daq";
     health_msg.node = "daq";
     health_msg.state = state;
     health_msg.count_in = stats.frames_read;

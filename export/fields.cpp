@@ -127,7 +127,10 @@ void Visit(const rocklab::event2_t& m, V& v) {
 template <class M, class V>
 void VisitHealth(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::health2_t>) v.Int("seq", m.seq, "");
+  if constexpr (std::is_same_v<M, rocklab::health2_t>) {
+    v.Int("seq", m.seq, "");
+    v.Text("sender", m.sender);
+  }
   v.Text("node", m.node);
   v.Text("state", m.state);
   v.Real("rate_in_hz", m.rate_in_hz, "Hz");

@@ -209,6 +209,7 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int threads = std::min(static_cast<int>(variants_.size()), config_.threads > 0 ? config_.threads : cores);
   if (threads > 1) workers_ = std::make_unique<Workers>(*this, threads);
+  sender_ = "model:" + variants_.front()->spec.name;
   event_channel_ = config_.channel_prefix + "EVENT";
   health_channel_ = config_.channel_prefix + "HEALTH";
   last_health_host_s_ = HostNowS();
@@ -263,7 +264,7 @@ void ModelNode::PublishEvent(std::int64_t utime, std::int8_t kind, double value,
   rocklab::event2_t ev;
   ev.utime = utime;
   ev.seq = event_seq_++;
-  ev.sender = "model";
+  ev.sender = sender_;
   ev.source = "model";
   ev.kind = kind;
   ev.value = value;
@@ -364,7 +365,7 @@ void ModelNode::StepAll(const Target& target) {
       rocklab::event2_t ev;
       ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
       ev.seq = event_seq_++;
-      ev.sender = "model";
+      ev.sender = sender_;
       ev.source = v->spec.name;
       ev.kind = EventCode(e.kind);
       ev.value = e.value;
@@ -406,6 +407,7 @@ void ModelNode::PublishHealth(const char* state) {
   rocklab::health2_t h{};
   h.utime = last_table_utime_ == INT64_MIN ? 0 : last_table_utime_;
   h.seq = health_seq_++;
+  h.sender = sender_;
   h.node = "model";
   h.state = state;
   h.count_in = table_count_;

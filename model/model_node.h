@@ -182,6 +182,9 @@ class ModelNode {
   common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
   common::SeqGaps theta_seq_;  // RL_THETA seq (its missing: RL_HEALTH gaps)
   std::int64_t event_seq_{}, health_seq_{};  // seq of the next RL_EVENT, RL_HEALTH
+  // RL_EVENT/RL_HEALTH sender: "model:<first variant>", unique on the bus
+  // (several model processes may run; each RL_MODEL_<name> has one).
+  std::string sender_;
   double last_health_host_s_{};
 };
 

@@ -67,6 +67,7 @@ TEST(Versions, OlderTypesReadAsTheirSuccessorWithNoSeq) {
   h.lag_s = 0.5;
   const rocklab::health2_t h2 = Decode<HealthDecoder>(h);
   EXPECT_EQ(h2.seq, kNoSeq);
+  EXPECT_EQ(h2.sender, "");
   EXPECT_EQ(h2.node, "model");
   EXPECT_EQ(h2.gaps, 4);
   EXPECT_EQ(h2.lag_s, 0.5);
@@ -150,8 +151,9 @@ TEST(Versions, WireSeqReadsEveryCurrentTypeAndNoOlderOne) {
   check(Bytes(e), true, 7, "compare");
   rocklab::health2_t h{};
   h.seq = 8;
-  h.node = "daq";
-  check(Bytes(h), true, 8, "daq");
+  h.sender = "model:fit";
+  h.node = "model";
+  check(Bytes(h), true, 8, "model:fit");
   check(Bytes(rocklab::comparison_t{}), false, 0, "");
   check(Bytes(rocklab::event_t{}), false, 0, "");
   check(Bytes(rocklab::health_t{}), false, 0, "");

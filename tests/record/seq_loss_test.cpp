@@ -193,6 +193,7 @@ std::vector<Sent> Stream(bool old_types) {
       rocklab::health2_t h{};
       h.utime = utime;
       h.seq = k;
+      h.sender = node;
       h.node = node;
       h.state = "running";
       if (old_types) {
