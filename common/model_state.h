@@ -4,6 +4,8 @@
 /// equations produced each sample) or model_state_t (logs written before).
 /// Consumers accept both, told apart by the fingerprint; a model_state_t is
 /// read as a model_state2_t with equations = EQUATIONS_UNKNOWN.
+/// Superseded by common/versions.h (model_state3_t, with seq, and the other
+/// types' successors); kept for code built against it.
 
 #include <functional>
 #include <string>

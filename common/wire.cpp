@@ -5,11 +5,16 @@
 #include <cstring>
 
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -48,29 +53,46 @@ const WireField kBlockState[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},
     {F, 8, 0, "theta_mirror"}, {F, 8, 0, "theta_camera"}, {F, 8, 0, "sliding"}, {F, 8, 0, "jump"},
     {F, 8, 0, "twist"}, {F, 8, 0, "out_of_plane"}, {F, 4, 0, "leds_used"}, {F, 4, 0, "flags"}};
-const WireField kComparison[] = {
-    {F, 8, 0, "utime"}, {S, 0, 0, "name"}, {F, 8, 0, "error"}, {F, 8, 0, "rms_window"},
-    {F, 8, 0, "window_s"}, {F, 8, 0, "rms_total"}, {F, 8, 0, "nrms"}, {F, 8, 0, "peak_error"},
-    {F, 8, 0, "impact_timing_error"}, {F, 8, 0, "correlation"}, {F, 1, 0, "valid"},
-    {F, 8, 0, "samples"}};
+#define ROCKLAB_COMPARISON_FIELDS                                                             \
+  {S, 0, 0, "name"}, {F, 8, 0, "error"}, {F, 8, 0, "rms_window"}, {F, 8, 0, "window_s"},      \
+      {F, 8, 0, "rms_total"}, {F, 8, 0, "nrms"}, {F, 8, 0, "peak_error"},                     \
+      {F, 8, 0, "impact_timing_error"}, {F, 8, 0, "correlation"}, {F, 1, 0, "valid"},          \
+      {F, 8, 0, "samples"}
+const WireField kComparison[] = {{F, 8, 0, "utime"}, ROCKLAB_COMPARISON_FIELDS};
+const WireField kComparison2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_COMPARISON_FIELDS};
+#undef ROCKLAB_COMPARISON_FIELDS
 const WireField kDaqConfig[] = {
     {F, 8, 0, "utime"}, {S, 0, 0, "rig_name"}, {S, 0, 0, "calibration_id"},
     {F, 8, 0, "sample_rate_hz"}, {N, 4, 0, "num_channels"}, {SA, 0, 4, "channel_names"},
     {SA, 0, 4, "channel_units"}, {SA, 0, 4, "channel_sensors"}, {A, 8, 4, "gain"},
     {A, 8, 4, "offset"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"}, {F, 8, 0, "mu"}};
+// As daq_config_t with seq at index 1: the arrays' count is field 5.
+const WireField kDaqConfig2[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "rig_name"}, {S, 0, 0, "calibration_id"},
+    {F, 8, 0, "sample_rate_hz"}, {N, 4, 0, "num_channels"}, {SA, 0, 5, "channel_names"},
+    {SA, 0, 5, "channel_units"}, {SA, 0, 5, "channel_sensors"}, {A, 8, 5, "gain"},
+    {A, 8, 5, "offset"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"}, {F, 8, 0, "mu"}};
 const WireField kEvent[] = {{F, 8, 0, "utime"}, {S, 0, 0, "source"}, {F, 1, 0, "kind"},
                             {F, 8, 0, "value"}, {S, 0, 0, "detail"}};
-const WireField kHealth[] = {
-    {F, 8, 0, "utime"}, {S, 0, 0, "node"}, {S, 0, 0, "state"}, {F, 8, 0, "rate_in_hz"},
-    {F, 8, 0, "rate_out_hz"}, {F, 8, 0, "count_in"}, {F, 8, 0, "count_out"}, {F, 8, 0, "dropped"},
-    {F, 8, 0, "gaps"}, {F, 8, 0, "bad_samples"}, {F, 8, 0, "lag_s"}};
+const WireField kEvent2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "sender"},
+                             {S, 0, 0, "source"}, {F, 1, 0, "kind"}, {F, 8, 0, "value"},
+                             {S, 0, 0, "detail"}};
+#define ROCKLAB_HEALTH_FIELDS                                                                 \
+  {S, 0, 0, "node"}, {S, 0, 0, "state"}, {F, 8, 0, "rate_in_hz"}, {F, 8, 0, "rate_out_hz"},   \
+      {F, 8, 0, "count_in"}, {F, 8, 0, "count_out"}, {F, 8, 0, "dropped"}, {F, 8, 0, "gaps"},  \
+      {F, 8, 0, "bad_samples"}, {F, 8, 0, "lag_s"}
+const WireField kHealth[] = {{F, 8, 0, "utime"}, ROCKLAB_HEALTH_FIELDS};
+const WireField kHealth2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "sender"},
+                              ROCKLAB_HEALTH_FIELDS};
+#undef ROCKLAB_HEALTH_FIELDS
 #define ROCKLAB_MODEL_STATE_FIELDS                                                            \
-  {F, 8, 0, "utime"}, {S, 0, 0, "name"}, {S, 0, 0, "model"}, {F, 8, 0, "theta"},              \
-      {F, 8, 0, "theta_dot"}, {F, 8, 0, "chi"}, {F, 8, 0, "psi"}, {F, 8, 0, "energy"},        \
-      {F, 4, 0, "impact_count"}, {F, 1, 0, "regime"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"},     \
-      {F, 8, 0, "mu"}, {F, 8, 0, "l"}
-const WireField kModelState[] = {ROCKLAB_MODEL_STATE_FIELDS};
-const WireField kModelState2[] = {ROCKLAB_MODEL_STATE_FIELDS, {F, 1, 0, "equations"}};
+  {S, 0, 0, "name"}, {S, 0, 0, "model"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},          \
+      {F, 8, 0, "chi"}, {F, 8, 0, "psi"}, {F, 8, 0, "energy"}, {F, 4, 0, "impact_count"},      \
+      {F, 1, 0, "regime"}, {F, 8, 0, "alpha"}, {F, 8, 0, "p"}, {F, 8, 0, "mu"}, {F, 8, 0, "l"}
+const WireField kModelState[] = {{F, 8, 0, "utime"}, ROCKLAB_MODEL_STATE_FIELDS};
+const WireField kModelState2[] = {{F, 8, 0, "utime"}, ROCKLAB_MODEL_STATE_FIELDS, {F, 1, 0, "equations"}};
+const WireField kModelState3[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_MODEL_STATE_FIELDS,
+                                  {F, 1, 0, "equations"}};
 #undef ROCKLAB_MODEL_STATE_FIELDS
 const WireField kRawFrame[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {N, 4, 0, "num_channels"}, {A, 8, 2, "values"}};
@@ -180,11 +202,16 @@ int WireLengthOffsets(const WireLayout& layout, const void* data, int size, int*
   }
 ROCKLAB_WIRE_LAYOUT(block_state_t, kBlockState)
 ROCKLAB_WIRE_LAYOUT(comparison_t, kComparison)
+ROCKLAB_WIRE_LAYOUT(comparison2_t, kComparison2)
 ROCKLAB_WIRE_LAYOUT(daq_config_t, kDaqConfig)
+ROCKLAB_WIRE_LAYOUT(daq_config2_t, kDaqConfig2)
 ROCKLAB_WIRE_LAYOUT(event_t, kEvent)
+ROCKLAB_WIRE_LAYOUT(event2_t, kEvent2)
 ROCKLAB_WIRE_LAYOUT(health_t, kHealth)
+ROCKLAB_WIRE_LAYOUT(health2_t, kHealth2)
 ROCKLAB_WIRE_LAYOUT(model_state_t, kModelState)
 ROCKLAB_WIRE_LAYOUT(model_state2_t, kModelState2)
+ROCKLAB_WIRE_LAYOUT(model_state3_t, kModelState3)
 ROCKLAB_WIRE_LAYOUT(raw_frame_t, kRawFrame)
 ROCKLAB_WIRE_LAYOUT(table_state_t, kTableState)
 #undef ROCKLAB_WIRE_LAYOUT

@@ -12,9 +12,11 @@
 #include "common/model_state.h"
 #include "common/node_support.h"
 #include "common/units.h"
-#include "rocklab/comparison_t.hpp"
+#include "common/versions.h"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 
 namespace rocklab::compare {
 namespace {
@@ -45,7 +47,7 @@ void CompareNodeConfig::Validate() const {
 }
 
 struct CompareNode::Variant {
-  Variant(const CompareNodeConfig& c, const rocklab::model_state2_t& first)
+  Variant(const CompareNodeConfig& c, const rocklab::model_state3_t& first)
       : name(first.name), model(first.model), channel(c.channel_prefix + "COMPARE_" + first.name),
         alpha(first.alpha), p(first.p), mu(first.mu), comparator(c.comparator),
         pending(c.align_capacity) {}
@@ -64,6 +66,8 @@ struct CompareNode::Variant {
   double last_host_s{};
   std::int64_t last_utime{INT64_MIN};  // newest model utime, us
   bool stale{};
+  common::SeqGaps model_seq;      // RL_MODEL_<name>'s seq
+  std::int64_t compare_seq{};     // seq of the next RL_COMPARE_<name>
 };
 
 CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
@@ -77,10 +81,10 @@ CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
         CheckStale();  // on a DirectBus nobody runs the idle loop
       },
       config_.subscriber_queue));
-  // model_state2_t from the model node, model_state_t from older logs.
-  subscriptions_.push_back(common::SubscribeModelState(
+  // model_state3_t from the model node, model_state2_t or model_state_t from older logs.
+  subscriptions_.push_back(common::SubscribeVersioned<common::ModelStateDecoder>(
       bus_, config_.channel_prefix + "MODEL_.*",
-      [this](const std::string&, const rocklab::model_state2_t& m) { HandleModel(m); },
+      [this](const std::string&, const rocklab::model_state3_t& m) { HandleModel(m); },
       config_.subscriber_queue));
 }
 
@@ -88,7 +92,7 @@ CompareNode::~CompareNode() {
   subscriptions_.clear();  // no handler runs from here on
 }
 
-CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state2_t& msg) {
+CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state3_t& msg) {
   auto it = variants_.find(msg.name);
   if (it != variants_.end()) return *it->second;
   auto v = std::make_unique<Variant>(config_, msg);
@@ -136,7 +140,7 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   }
 }
 
-void CompareNode::HandleModel(const rocklab::model_state2_t& msg) {
+void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   ++model_count_;
   Variant& v = VariantFor(msg);
   v.last_host_s = HostNowS();
@@ -144,10 +148,15 @@ void CompareNode::HandleModel(const rocklab::model_state2_t& msg) {
     v.stale = false;
     PublishEvent(rocklab::event_t::RECOVERED, msg.name, 0.0, "model flowing again");
   }
-  // RL_MODEL_* has no seq: a gap is a step of the sample clock over 1.5
-  // sample periods (one message per table sample).
-  if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime &&
-      2 * (msg.utime - v.last_utime) > 3 * period_us_) {
+  // Gaps: a forward jump of the model node's seq. Older types have none: a
+  // gap is then a step of the sample clock over 1.5 sample periods (one
+  // message per table sample).
+  if (msg.seq != common::kNoSeq) {
+    const std::int64_t before = v.model_seq.missing;
+    v.model_seq.Add(msg.seq);
+    model_gaps_ += v.model_seq.missing - before;
+  } else if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime &&
+             2 * (msg.utime - v.last_utime) > 3 * period_us_) {
     model_gaps_ += (msg.utime - v.last_utime + period_us_ / 2) / period_us_ - 1;
   }
   v.last_utime = std::max(v.last_utime, msg.utime);
@@ -191,8 +200,9 @@ void CompareNode::PublishCompare(Variant& v) {
   const ComparisonMetrics& m = v.comparator.metrics();
   v.last_pub_utime = m.utime;
   v.dirty = false;
-  rocklab::comparison_t out;
+  rocklab::comparison2_t out;
   out.utime = m.utime;
+  out.seq = v.compare_seq++;
   out.name = v.name;
   out.error = m.error;
   out.rms_window = m.rms_window;
@@ -212,8 +222,10 @@ void CompareNode::PublishEvent(std::int8_t kind, const std::string& source, doub
                                const std::string& detail) {
   Log()->log(kind == rocklab::event_t::RECOVERED ? spdlog::level::info : spdlog::level::warn,
              "{}: {}", source, detail);
-  rocklab::event_t ev;
+  rocklab::event2_t ev;
   ev.utime = newest_utime_;
+  ev.seq = event_seq_++;
+  ev.sender = "compare";
   ev.source = source;
   ev.kind = kind;
   ev.value = value;
@@ -222,8 +234,10 @@ void CompareNode::PublishEvent(std::int8_t kind, const std::string& source, doub
 }
 
 void CompareNode::PublishHealth(const char* state) {
-  rocklab::health_t h{};
+  rocklab::health2_t h{};
   h.utime = newest_utime_;
+  h.seq = health_seq_++;
+  h.sender = "compare";
   h.node = "compare";
   h.state = state;
   h.count_in = theta_count_ + model_count_;

@@ -29,7 +29,7 @@
 #include "common/ring.h"
 #include "compare/comparator.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 
 namespace rocklab::compare {
 
@@ -86,15 +86,17 @@ class CompareNode {
 
   /// What the handlers call.
   void HandleTheta(const rocklab::block_state_t& msg);
-  /// RL_MODEL_* carries model_state2_t or (older logs) model_state_t.
-  void HandleModel(const rocklab::model_state2_t& msg);
+  /// RL_MODEL_* carries model_state3_t or (older logs) model_state2_t,
+  /// model_state_t, read as model_state3_t with seq = common::kNoSeq.
+  void HandleModel(const rocklab::model_state3_t& msg);
 
   /// Loops on the bus until `stop` (stale checks and health while idle), then Finish.
   void Run(const std::atomic<bool>& stop);
 
   /// Stale checks on the configured clock (and the periodic RL_HEALTH).
   void CheckStale();
-  /// Sequence gaps seen: RL_THETA (seq), RL_MODEL_* (sample clock).
+  /// Messages missing by their sequence numbers: RL_THETA (seq), RL_MODEL_*
+  /// (seq; the sample clock for older types, which have none).
   std::int64_t theta_gaps() const { return theta_seq_.missing; }
   std::int64_t model_gaps() const { return model_gaps_; }
   /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
@@ -112,7 +114,7 @@ class CompareNode {
 
  private:
   struct Variant;
-  Variant& VariantFor(const rocklab::model_state2_t& msg);
+  Variant& VariantFor(const rocklab::model_state3_t& msg);
   void Pair(Variant& v, std::int64_t utime, double measured, bool valid, double modelled);
   void PublishCompare(Variant& v);
   void PublishEvent(std::int8_t kind, const std::string& source, double value,
@@ -135,11 +137,12 @@ class CompareNode {
 
   std::int64_t theta_count_{}, model_count_{}, published_{};
   std::int64_t theta_out_of_order_{};  // RL_THETA not newer than the last: dropped, counted
-  // Sequence gaps (RL_HEALTH gaps): RL_THETA by its seq; RL_MODEL_* (no seq)
-  // on the sample clock, a utime step over 1.5 sample periods (the period:
-  // the smallest RL_THETA utime step seen).
+  // Sequence gaps (RL_HEALTH gaps): RL_THETA by its seq; RL_MODEL_* by its
+  // seq, or (older types, no seq) on the sample clock, a utime step over 1.5
+  // sample periods (the period: the smallest RL_THETA utime step seen).
   common::SeqGaps theta_seq_;  // RL_THETA seq (its missing: RL_HEALTH gaps)
-  std::int64_t model_gaps_{};
+  std::int64_t model_gaps_{};  // RL_MODEL_* messages missing (seq, or the sample clock)
+  std::int64_t event_seq_{}, health_seq_{};  // seq of the next RL_EVENT, RL_HEALTH
   std::int64_t last_theta_utime_{INT64_MIN};
   std::int64_t period_us_{};  // 0 until two RL_THETA are seen
   double last_theta_host_s_{};

@@ -16,9 +16,10 @@
 #include "common/logger_clock.h"
 #include "common/sd_notify.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/daq_config_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
@@ -50,11 +51,14 @@ struct DaqNode::Impl : ProcessorSink {
   DaqNodeStats stats;
   std::string ch_config, ch_raw, ch_table, ch_theta, ch_event, ch_health;
 
-  rocklab::daq_config_t config_msg;
+  rocklab::daq_config2_t config_msg;
   rocklab::raw_frame_t raw_msg;
   rocklab::block_state_t theta_msg;
   rocklab::table_state_t table_msg;
-  rocklab::health_t health_msg;
+  rocklab::health2_t health_msg;
+  // seq of the next RL_DAQ_CONFIG, RL_EVENT, RL_HEALTH (RL_RAW, RL_THETA and
+  // RL_TABLE carry the sample's own number).
+  int64_t config_seq{0}, event_seq{0}, health_seq{0};
 
   int64_t newest_utime{0};
   Clock::time_point last_health{};
@@ -112,8 +116,10 @@ struct DaqNode::Impl : ProcessorSink {
   }
 
   void OnEvent(const DaqEvent& e) override {
-    rocklab::event_t msg;
+    rocklab::event2_t msg;
     msg.utime = e.utime;
+    msg.seq = event_seq++;
+    msg.sender = "daq";
     msg.source = "daq";
     msg.kind = e.kind;
     msg.value = e.value;
@@ -190,6 +196,8 @@ struct DaqNode::Impl : ProcessorSink {
     const auto now = Clock::now();
     const double dt = last_health == Clock::time_point{} ? 0 : std::chrono::duration<double>(now - last_health).count();
     health_msg.utime = newest_utime;
+    health_msg.seq = health_seq++;
+    health_msg.sender = "daq";
     health_msg.node = "daq";
     health_msg.state = state;
     health_msg.count_in = stats.frames_read;
@@ -306,6 +314,7 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
     m.newest_utime = frame.utime();
     if (!(frame.time_s < next_config_s)) {  // first frame, then every config_period_s
       m.config_msg.utime = m.newest_utime;
+      m.config_msg.seq = m.config_seq++;
       m.Publish(m.ch_config, m.config_msg);
       next_config_s = frame.time_s + m.config.config_period_s;
     }
@@ -326,7 +335,10 @@ void DaqNode::Run(const std::atomic<bool>& stop) {
     if (m.stats.stopped_early) break;
   }
   if (!started) m.PublishHealth("starting");                             // an empty input
-  if (std::isnan(next_config_s)) m.Publish(m.ch_config, m.config_msg);  // an empty input
+  if (std::isnan(next_config_s)) {  // an empty input
+    m.config_msg.seq = m.config_seq++;
+    m.Publish(m.ch_config, m.config_msg);
+  }
   common::NotifySystemd("STOPPING=1");
   m.PublishHealth("stopping");
   m.processor->Finish();

@@ -7,11 +7,11 @@
 #include <stdexcept>
 
 #include "common/lcm_log.h"
+#include "common/versions.h"
 #include "common/wire.h"
 
 #include "daq/source.h"
 #include "common/text.h"
-#include "rocklab/daq_config_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 
 namespace rocklab::daq {
@@ -28,10 +28,12 @@ class LcmLogSource final : public Source {
       // by the second pass only.
       common::LogReader scan(path);  // throws naming the file
       common::LogEvent ev;
-      rocklab::daq_config_t config;
+      // daq_config2_t, or daq_config_t from a log written before it.
+      rocklab::daq_config2_t config;
+      common::DaqConfigDecoder decode;
       while (scan.Next(ev)) {
         if (ev.channel != options.config_channel) continue;
-        if (common::GuardedDecode(ev.data.data(), static_cast<int>(ev.data.size()), config)) continue;
+        if (decode(ev.data.data(), static_cast<int>(ev.data.size()), config)) continue;
         names_ = config.channel_names;
         if (config.sample_rate_hz > 0) rate_hz_ = config.sample_rate_hz;
         break;

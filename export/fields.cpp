@@ -9,11 +9,16 @@
 
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -39,9 +44,12 @@ void Visit(const rocklab::block_state_t& m, V& v) {
   v.Int("flags", m.flags, "");
 }
 
-template <class V>
-void Visit(const rocklab::comparison_t& m, V& v) {
+// The successors (comparison2_t, ...) list the older type's fields with
+// `seq` after utime: one body for both.
+template <class M, class V>
+void VisitComparison(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
+  if constexpr (std::is_same_v<M, rocklab::comparison2_t>) v.Int("seq", m.seq, "");
   v.Text("name", m.name);
   v.Real("error", m.error, "rad");
   v.Real("rms_window", m.rms_window, "rad");
@@ -56,8 +64,19 @@ void Visit(const rocklab::comparison_t& m, V& v) {
 }
 
 template <class V>
-void Visit(const rocklab::daq_config_t& m, V& v) {
+void Visit(const rocklab::comparison_t& m, V& v) {
+  VisitComparison(m, v);
+}
+
+template <class V>
+void Visit(const rocklab::comparison2_t& m, V& v) {
+  VisitComparison(m, v);
+}
+
+template <class M, class V>
+void VisitDaqConfig(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
+  if constexpr (std::is_same_v<M, rocklab::daq_config2_t>) v.Int("seq", m.seq, "");
   v.Text("rig_name", m.rig_name);
   v.Text("calibration_id", m.calibration_id);
   v.Real("sample_rate_hz", m.sample_rate_hz, "Hz");
@@ -73,8 +92,22 @@ void Visit(const rocklab::daq_config_t& m, V& v) {
 }
 
 template <class V>
-void Visit(const rocklab::event_t& m, V& v) {
+void Visit(const rocklab::daq_config_t& m, V& v) {
+  VisitDaqConfig(m, v);
+}
+
+template <class V>
+void Visit(const rocklab::daq_config2_t& m, V& v) {
+  VisitDaqConfig(m, v);
+}
+
+template <class M, class V>
+void VisitEvent(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
+  if constexpr (std::is_same_v<M, rocklab::event2_t>) {
+    v.Int("seq", m.seq, "");
+    v.Text("sender", m.sender);
+  }
   v.Text("source", m.source);
   v.Int("kind", m.kind, "");
   v.Real("value", m.value, "");  // the unit depends on kind (event_t.lcm)
@@ -82,8 +115,22 @@ void Visit(const rocklab::event_t& m, V& v) {
 }
 
 template <class V>
-void Visit(const rocklab::health_t& m, V& v) {
+void Visit(const rocklab::event_t& m, V& v) {
+  VisitEvent(m, v);
+}
+
+template <class V>
+void Visit(const rocklab::event2_t& m, V& v) {
+  VisitEvent(m, v);
+}
+
+template <class M, class V>
+void VisitHealth(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
+  if constexpr (std::is_same_v<M, rocklab::health2_t>) {
+    v.Int("seq", m.seq, "");
+    v.Text("sender", m.sender);
+  }
   v.Text("node", m.node);
   v.Text("state", m.state);
   v.Real("rate_in_hz", m.rate_in_hz, "Hz");
@@ -96,10 +143,21 @@ void Visit(const rocklab::health_t& m, V& v) {
   v.Real("lag_s", m.lag_s, "s");
 }
 
-// model_state_t and model_state2_t share their first fields.
+template <class V>
+void Visit(const rocklab::health_t& m, V& v) {
+  VisitHealth(m, v);
+}
+
+template <class V>
+void Visit(const rocklab::health2_t& m, V& v) {
+  VisitHealth(m, v);
+}
+
+// model_state_t, model_state2_t and model_state3_t share their fields (3: seq after utime).
 template <class M, class V>
 void VisitModelState(const M& m, V& v) {
   v.Int("utime", m.utime, "us");
+  if constexpr (std::is_same_v<M, rocklab::model_state3_t>) v.Int("seq", m.seq, "");
   v.Text("name", m.name);
   v.Text("model", m.model);
   v.Real("theta", m.theta, "rad");
@@ -122,6 +180,12 @@ void Visit(const rocklab::model_state_t& m, V& v) {
 
 template <class V>
 void Visit(const rocklab::model_state2_t& m, V& v) {
+  VisitModelState(m, v);
+  v.Int("equations", m.equations, "");
+}
+
+template <class V>
+void Visit(const rocklab::model_state3_t& m, V& v) {
   VisitModelState(m, v);
   v.Int("equations", m.equations, "");
 }
@@ -270,10 +334,15 @@ MessageType Entry(const char* name) {
 const std::vector<MessageType>& MessageTypes() {
   static const std::vector<MessageType> types = {
       Entry<rocklab::block_state_t>("block_state_t"),
+      Entry<rocklab::comparison2_t>("comparison2_t"),
       Entry<rocklab::comparison_t>("comparison_t"),
+      Entry<rocklab::daq_config2_t>("daq_config2_t"),
       Entry<rocklab::daq_config_t>("daq_config_t"),
+      Entry<rocklab::event2_t>("event2_t"),
       Entry<rocklab::event_t>("event_t"),
+      Entry<rocklab::health2_t>("health2_t"),
       Entry<rocklab::health_t>("health_t"),
+      Entry<rocklab::model_state3_t>("model_state3_t"),
       Entry<rocklab::model_state2_t>("model_state2_t"),
       Entry<rocklab::model_state_t>("model_state_t"),
       Entry<rocklab::raw_frame_t>("raw_frame_t"),

@@ -10,10 +10,10 @@
 
 #include "common/lcm_log.h"
 #include "common/text.h"
+#include "common/versions.h"
 #include "common/wire.h"
 #include "daq/source.h"
 #include "export/fields.h"
-#include "rocklab/daq_config_t.hpp"
 
 namespace rocklab::exporter {
 namespace {
@@ -27,8 +27,7 @@ struct ChannelWork {
   ChannelInfo info;
   std::vector<std::pair<std::int64_t, std::unique_ptr<MessageDecoder>>> decoders;
   std::int64_t decoded{};
-  bool have_seq{false};
-  std::int64_t last_seq{};
+  common::ChannelSeqGaps seq;  // per sender on RL_EVENT and RL_HEALTH
 };
 
 void Rate(ChannelInfo& c, std::int64_t decoded) {
@@ -48,8 +47,11 @@ LogInfo ReadLogInfo(const std::string& path) {
   info.file_bytes = FileBytes(path);
   common::LogReader log(path);
   std::map<std::string, ChannelWork> channels;
-  const std::int64_t config_hash = rocklab::daq_config_t::getHash();
-  rocklab::daq_config_t config, first_config;
+  // daq_config2_t, or daq_config_t from a log written before it.
+  const std::int64_t config_hash = rocklab::daq_config2_t::getHash();
+  const std::int64_t config_v1_hash = rocklab::daq_config_t::getHash();
+  common::DaqConfigDecoder decode_config;
+  rocklab::daq_config2_t config, first_config;
   std::int64_t first_stamp = 0, last_stamp = 0;
   common::LogEvent ev;
   while (log.Next(ev)) {
@@ -95,21 +97,18 @@ LogInfo ReadLogInfo(const std::string& path) {
     }
     info.first_time = std::min(info.first_time, t);
     info.last_time = std::max(info.last_time, t);
-    if (decoder->has_seq()) {
+    // Every current rocklab type's seq (common::WireSeq; older types have none).
+    std::int64_t s = 0;
+    std::string_view sender;
+    if (common::WireSeq(ev.data.data(), size, s, sender)) {
+      ch.seq.Add(sender, s);
       c.has_seq = true;
-      const std::int64_t s = decoder->seq();
-      if (ch.have_seq) {
-        if (s > ch.last_seq + 1) {
-          ++c.seq_gaps;
-          c.seq_missing += s - ch.last_seq - 1;
-        } else if (s <= ch.last_seq) {
-          ++c.seq_back;
-        }
-      }
-      ch.have_seq = true;
-      ch.last_seq = s;
+      c.seq_gaps = ch.seq.gaps;
+      c.seq_missing = ch.seq.missing;
+      c.seq_back = ch.seq.back;
     }
-    if (fingerprint == config_hash && !common::GuardedDecode(ev.data.data(), size, config)) {
+    if ((fingerprint == config_hash || fingerprint == config_v1_hash) &&
+        !decode_config(ev.data.data(), size, config)) {
       ++info.config_messages;
       if (!info.has_config) {
         info.has_config = true;
@@ -124,8 +123,9 @@ LogInfo ReadLogInfo(const std::string& path) {
         info.p = config.p;
         info.mu = config.mu;
       } else {
-        // utime differs by design; everything else should not.
+        // utime and seq differ by design; everything else should not.
         config.utime = first_config.utime;
+        config.seq = first_config.seq;
         if (config.getEncodedSize() != first_config.getEncodedSize() ||
             config.rig_name != first_config.rig_name || config.calibration_id != first_config.calibration_id ||
             config.channel_names != first_config.channel_names || config.gain != first_config.gain ||

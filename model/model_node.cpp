@@ -11,8 +11,9 @@
 #include <spdlog/spdlog.h>
 
 #include "common/node_support.h"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 
 namespace rocklab::model {
 namespace {
@@ -26,20 +27,20 @@ std::shared_ptr<spdlog::logger> Log() {
 
 std::int8_t RegimeCode(Regime r) {
   switch (r) {
-    case Regime::kRest: return rocklab::model_state2_t::REGIME_REST;
-    case Regime::kRocking: return rocklab::model_state2_t::REGIME_ROCKING;
-    case Regime::kOverturned: return rocklab::model_state2_t::REGIME_OVERTURNED;
+    case Regime::kRest: return rocklab::model_state3_t::REGIME_REST;
+    case Regime::kRocking: return rocklab::model_state3_t::REGIME_ROCKING;
+    case Regime::kOverturned: return rocklab::model_state3_t::REGIME_OVERTURNED;
   }
-  return rocklab::model_state2_t::REGIME_REST;
+  return rocklab::model_state3_t::REGIME_REST;
 }
 
 std::int8_t EquationsCode(Equations e) {
   switch (e) {
-    case Equations::kHousner: return rocklab::model_state2_t::EQUATIONS_HOUSNER;
-    case Equations::kEq10: return rocklab::model_state2_t::EQUATIONS_EQ10;
-    case Equations::kLimit: return rocklab::model_state2_t::EQUATIONS_LIMIT;
+    case Equations::kHousner: return rocklab::model_state3_t::EQUATIONS_HOUSNER;
+    case Equations::kEq10: return rocklab::model_state3_t::EQUATIONS_EQ10;
+    case Equations::kLimit: return rocklab::model_state3_t::EQUATIONS_LIMIT;
   }
-  return rocklab::model_state2_t::EQUATIONS_UNKNOWN;
+  return rocklab::model_state3_t::EQUATIONS_UNKNOWN;
 }
 
 std::int8_t EventCode(EventKind k) {
@@ -96,7 +97,7 @@ struct ModelNode::Variant {
   VariantSpec spec;
   std::unique_ptr<RockingModel> model;
   std::string channel;
-  rocklab::model_state2_t msg{};
+  rocklab::model_state3_t msg{};  // its seq: the next message's number on `channel`
   bool failed{};
   bool failed_now{};   // failed at the sample being stepped (logged by the handler)
   std::string error;   // its message
@@ -208,6 +209,7 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int threads = std::min(static_cast<int>(variants_.size()), config_.threads > 0 ? config_.threads : cores);
   if (threads > 1) workers_ = std::make_unique<Workers>(*this, threads);
+  sender_ = "model:" + variants_.front()->spec.name;
   event_channel_ = config_.channel_prefix + "EVENT";
   health_channel_ = config_.channel_prefix + "HEALTH";
   last_health_host_s_ = HostNowS();
@@ -228,7 +230,7 @@ ModelNode::~ModelNode() {
 
 std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
-const rocklab::model_state2_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
+const rocklab::model_state3_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
 void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
   const bool at_rest = !std::isfinite(theta.theta) || std::abs(theta.theta) < config_.rest_threshold_rad;
@@ -252,14 +254,17 @@ void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_ut
 }
 
 void ModelNode::HandleTheta(const rocklab::block_state_t& msg) {
+  theta_seq_.Add(msg.seq);
   last_theta_ = msg;  // plain data and short strings: no allocation
   have_theta_ = true;
 }
 
 void ModelNode::PublishEvent(std::int64_t utime, std::int8_t kind, double value,
                              const std::string& detail) {
-  rocklab::event_t ev;
+  rocklab::event2_t ev;
   ev.utime = utime;
+  ev.seq = event_seq_++;
+  ev.sender = sender_;
   ev.source = "model";
   ev.kind = kind;
   ev.value = value;
@@ -354,10 +359,13 @@ void ModelNode::StepAll(const Target& target) {
     }
     if (v->failed) continue;
     bus_.Publish(v->channel, v->msg);
+    ++v->msg.seq;
     ++published_;
     for (const ModelEvent& e : v->model->events()) {
-      rocklab::event_t ev;
+      rocklab::event2_t ev;
       ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
+      ev.seq = event_seq_++;
+      ev.sender = sender_;
       ev.source = v->spec.name;
       ev.kind = EventCode(e.kind);
       ev.value = e.value;
@@ -396,8 +404,10 @@ void ModelNode::StepVariant(std::size_t i, const Target& target) {
 }
 
 void ModelNode::PublishHealth(const char* state) {
-  rocklab::health_t h{};
+  rocklab::health2_t h{};
   h.utime = last_table_utime_ == INT64_MIN ? 0 : last_table_utime_;
+  h.seq = health_seq_++;
+  h.sender = sender_;
   h.node = "model";
   h.state = state;
   h.count_in = table_count_;
@@ -405,7 +415,7 @@ void ModelNode::PublishHealth(const char* state) {
   // Dropped: table samples before the start and messages that did not decode.
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
-  h.gaps = table_seq_.missing;
+  h.gaps = table_seq_.missing + theta_seq_.missing;
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

@@ -3,7 +3,7 @@
 /// The model node: runs one or more model variants beside the experiment.
 /// It subscribes RL_TABLE (and RL_THETA for the initial state), steps every
 /// variant to each table sample's time (never ahead of the data it has) and
-/// publishes RL_MODEL_<name> (model_state2_t: the state and which equations
+/// publishes RL_MODEL_<name> (model_state3_t: the state and which equations
 /// produced it) stamped with that sample's utime.
 ///
 /// Threading: handlers run where the bus dispatches (the caller of Run on an
@@ -39,7 +39,7 @@
 #include "model/rocking_model.h"
 #include "model/variant.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::model {
@@ -94,7 +94,7 @@ class ModelNode {
   void HandleTheta(const rocklab::block_state_t& msg);
 
   /// The latest state of variant i (in configuration order).
-  const rocklab::model_state2_t& latest(std::size_t i) const;
+  const rocklab::model_state3_t& latest(std::size_t i) const;
   std::size_t variant_count() const;
   std::int64_t table_count() const { return table_count_; }
   std::int64_t skipped_before_start() const { return skipped_before_start_; }
@@ -104,6 +104,8 @@ class ModelNode {
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
   /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
   std::int64_t table_gaps() const { return table_seq_.missing; }
+  /// RL_THETA samples missing by their seq, also in RL_HEALTH gaps.
+  std::int64_t theta_gaps() const { return theta_seq_.missing; }
 
  private:
   struct Variant;
@@ -149,6 +151,11 @@ class ModelNode {
   SampleWindow window_;
   common::Ring<std::int64_t> held_utime_;
   common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
+  common::SeqGaps theta_seq_;  // RL_THETA seq (its missing: RL_HEALTH gaps)
+  std::int64_t event_seq_{}, health_seq_{};  // seq of the next RL_EVENT, RL_HEALTH
+  // RL_EVENT/RL_HEALTH sender: "model:<first variant>", unique on the bus
+  // (several model processes may run; each RL_MODEL_<name> has one).
+  std::string sender_;
   double last_health_host_s_{};
 };
 

@@ -2,7 +2,6 @@
 // buffers, bounded, counted).
 #include "monitor/live_state_impl.h"
 
-#include "common/model_state.h"
 #include "common/wire.h"
 
 namespace rocklab::monitor {
@@ -18,6 +17,12 @@ bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int siz
   bool known = true;
   const bool ok = Dispatch(kind, data, size, known);
   if (known && !ok && count) ++count->decode_errors;
+  std::int64_t message_seq = 0;
+  std::string_view sender;
+  // Every current rocklab type numbers its messages (also on channels not shown, e.g. RL_RAW).
+  if ((ok || !known) && count && common::WireSeq(data, size, message_seq, sender)) {
+    count->seq.Add(sender, message_seq);
+  }
   if (hold_current) {
     hold_current = false;
     const auto* bytes = static_cast<const std::uint8_t*>(data);
@@ -113,8 +118,8 @@ bool LiveState::Impl::IngestTable(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int size) {
-  // model_state2_t, or model_state_t from a log written before it.
-  if (common::DecodeModelState(data, size, model_msg, model_v1_msg) != nullptr ||
+  // model_state3_t, or model_state2_t / model_state_t from a log written before it.
+  if (model_decoder(data, size, model_msg) != nullptr ||
       !UsableUtime(model_msg.utime)) {
     return false;
   }
@@ -128,11 +133,11 @@ bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int s
 }
 
 bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int size) {
-  if (!DecodeSample(compare_msg, data, size)) return false;
+  if (compare_decoder(data, size, compare_msg) != nullptr || !UsableUtime(compare_msg.utime)) return false;
   if (!SeeSampleClock(compare_msg.utime)) return true;  // held
   Variant* v = VariantFor(name);
   if (!v) return true;
-  const rocklab::comparison_t& m = compare_msg;
+  const rocklab::comparison2_t& m = compare_msg;
   AddPoint(v->comparison, m.utime, m.error * kDegPerRad, m.rms_window * kDegPerRad);
   if (T(m.utime) <= options.to_s) {  // the newest comparison inside the window
     v->has_latest = true;
@@ -142,8 +147,8 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
 }
 
 bool LiveState::Impl::IngestEvent(const void* data, int size) {
-  if (common::GuardedDecode(data, size, event_msg) != nullptr || !UsableUtime(event_msg.utime)) return false;
-  const rocklab::event_t& m = event_msg;
+  if (event_decoder(data, size, event_msg) != nullptr || !UsableUtime(event_msg.utime)) return false;
+  const rocklab::event2_t& m = event_msg;
   if (!has_clock) {
     has_clock = true;
     t0_utime = latest_utime = m.utime;
@@ -187,21 +192,21 @@ bool LiveState::Impl::IngestEvent(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestHealth(const void* data, int size) {
-  if (common::GuardedDecode(data, size, health_msg) != nullptr) return false;
+  if (health_decoder(data, size, health_msg) != nullptr) return false;
   auto it = health.find(health_msg.node);
   if (it == health.end()) {
     if (health.size() >= options.max_nodes) {
       ++dropped_nodes;
       return true;
     }
-    it = health.emplace(health_msg.node, rocklab::health_t{}).first;
+    it = health.emplace(health_msg.node, rocklab::health2_t{}).first;
   }
   it->second = health_msg;
   return true;
 }
 
 bool LiveState::Impl::IngestConfig(const void* data, int size) {
-  if (common::GuardedDecode(data, size, config_msg) != nullptr) return false;
+  if (config_decoder(data, size, config_msg) != nullptr) return false;
   // A configuration on a clock far from the page's: the DAQ started a new
   // test, so the next sample that agrees with it is taken as the new clock.
   if (has_clock && UsableUtime(config_msg.utime) &&

@@ -88,7 +88,7 @@ json LiveState::Impl::VariantsJson(const UpdateWindow& w) const {
     j["theta"] = SeriesJson(v->theta, "theta_deg", nullptr, w);
     j["comparison"] = SeriesJson(v->comparison, "error_deg", "rms_window_deg", w);
     if (v->has_latest) {
-      const rocklab::comparison_t& m = v->latest;
+      const rocklab::comparison2_t& m = v->latest;
       j["latest"] = {{"utime", m.utime},
                      {"t", T(m.utime)},
                      {"error", Number(m.error)},
@@ -159,13 +159,20 @@ json LiveState::Impl::HealthJson() const {
 }
 
 json LiveState::Impl::CountersJson() const {
-  json messages = json::object(), decode_errors = json::object();
+  json messages = json::object(), decode_errors = json::object(), seq_gaps = json::object(),
+       seq_missing = json::object();
   for (const auto& [channel, c] : channels) {
     messages[channel] = c.messages;
     decode_errors[channel] = c.decode_errors;
+    if (c.seq.any) {  // the channel's type carries a sequence number
+      seq_gaps[channel] = c.seq.gaps;
+      seq_missing[channel] = c.seq.missing;
+    }
   }
   return json{{"messages", std::move(messages)},
               {"decode_errors", std::move(decode_errors)},
+              {"seq_gaps", std::move(seq_gaps)},
+              {"seq_missing", std::move(seq_missing)},
               {"dropped",
                {{"out_of_order", dropped_out_of_order},
                 {"events", dropped_events},

@@ -67,9 +67,11 @@ class LiveState {
   LiveState& operator=(const LiveState&) = delete;
 
   /// Decodes one LCM message by its channel name: <prefix>THETA
-  /// (block_state_t), <prefix>TABLE (table_state_t), <prefix>MODEL_<name> (model_state2_t or model_state_t),
-  /// <prefix>COMPARE_<name> (comparison_t), <prefix>EVENT (event_t),
-  /// <prefix>HEALTH (health_t), <prefix>DAQ_CONFIG (daq_config_t).
+  /// (block_state_t), <prefix>TABLE (table_state_t), <prefix>MODEL_<name> (model_state3_t, or
+  /// model_state2_t, model_state_t), <prefix>COMPARE_<name> (comparison2_t or comparison_t),
+  /// <prefix>EVENT (event2_t or event_t), <prefix>HEALTH (health2_t or health_t),
+  /// <prefix>DAQ_CONFIG (daq_config2_t or daq_config_t). The older types come from logs
+  /// written before the current ones; they carry no seq.
   /// Every message is counted under its channel; one that fails to decode is
   /// counted as a decode error of its channel. Never throws.
   /// @return true when the channel is one of the above and the payload decoded.

@@ -22,12 +22,7 @@
 #include "common/units.h"
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
-#include "rocklab/model_state2_t.hpp"
-#include "rocklab/model_state_t.hpp"
+#include "common/versions.h"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::monitor {
@@ -79,9 +74,9 @@ inline const char* EventKindName(std::int8_t kind) {
 // (JSON null) when unknown (a model_state_t from an older log).
 inline const char* EquationsName(std::int8_t code) {
   switch (code) {
-    case rocklab::model_state2_t::EQUATIONS_HOUSNER: return "housner";
-    case rocklab::model_state2_t::EQUATIONS_EQ10: return "eq10";
-    case rocklab::model_state2_t::EQUATIONS_LIMIT: return "limit";
+    case rocklab::model_state3_t::EQUATIONS_HOUSNER: return "housner";
+    case rocklab::model_state3_t::EQUATIONS_EQ10: return "eq10";
+    case rocklab::model_state3_t::EQUATIONS_LIMIT: return "limit";
     default: return nullptr;
   }
 }
@@ -229,6 +224,7 @@ struct Event {
 struct ChannelCount {
   std::int64_t messages{};
   std::int64_t decode_errors{};
+  common::ChannelSeqGaps seq;  // the publishers' sequence numbers (per sender)
 };
 
 }  // namespace live_detail
@@ -249,11 +245,11 @@ struct LiveState::Impl {
         : name(n), theta(capacity, grows, max_points), comparison(capacity, grows, max_points) {}
     std::string name;
     bool has_params{};
-    rocklab::model_state2_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l, equations
+    rocklab::model_state3_t params;  // the newest RL_MODEL_<name>: model, alpha, p, mu, l, equations
     Series theta;       // a: theta, deg
     Series comparison;  // a: error, deg; b: rms_window, deg
     bool has_latest{};
-    rocklab::comparison_t latest;
+    rocklab::comparison2_t latest;
   };
 
   explicit Impl(const LiveOptions& o)
@@ -479,7 +475,7 @@ struct LiveState::Impl {
 
   Ring<Event> events;
   Event event_scratch;
-  std::map<std::string, rocklab::health_t, std::less<>> health;  // by node
+  std::map<std::string, rocklab::health2_t, std::less<>> health;  // by node
 
   bool has_config{};
   std::string rig_name, calibration_id;
@@ -492,12 +488,17 @@ struct LiveState::Impl {
   // Decoding buffers, reused: strings keep their capacity.
   rocklab::block_state_t theta_msg;
   rocklab::table_state_t table_msg;
-  rocklab::model_state2_t model_msg;   // RL_MODEL_*: model_state2_t, or
-  rocklab::model_state_t model_v1_msg; // model_state_t from an older log
-  rocklab::comparison_t compare_msg;
-  rocklab::event_t event_msg;
-  rocklab::health_t health_msg;
-  rocklab::daq_config_t config_msg;
+  // The older types (logs written before) are read as the current ones.
+  rocklab::model_state3_t model_msg;
+  common::ModelStateDecoder model_decoder;
+  rocklab::comparison2_t compare_msg;
+  common::ComparisonDecoder compare_decoder;
+  rocklab::event2_t event_msg;
+  common::EventDecoder event_decoder;
+  rocklab::health2_t health_msg;
+  common::HealthDecoder health_decoder;
+  rocklab::daq_config2_t config_msg;
+  common::DaqConfigDecoder config_decoder;
 };
 
 }  // namespace rocklab::monitor

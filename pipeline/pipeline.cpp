@@ -13,7 +13,7 @@
 #include "daq/source.h"
 #include "model/block.h"
 #include "record/log_writer.h"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 
 namespace rocklab::pipeline {
 
@@ -167,7 +167,7 @@ class RotatingLogBus final : public common::Bus {
         channel.compare(channel.size() - kHealth.size(), kHealth.size(), kHealth) != 0) {
       return false;
     }
-    rocklab::health_t m;
+    rocklab::health2_t m;
     return m.decode(data, 0, size) >= 0 && m.state == "waiting for header";
   }
 

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/logger_clock.h"
+#include "common/versions.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -19,21 +20,6 @@ namespace {
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> logger = common::NamedLogger("record");
   return logger;
-}
-
-int64_t GetBe64(const uint8_t* p) {
-  uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
-  return static_cast<int64_t>(v);
-}
-
-// Types whose encoding starts with int64 utime, int64 seq (after the 8-byte
-// fingerprint): their sequence numbers are checked.
-bool HasSeq(const uint8_t* data, uint32_t size) {
-  if (size < 24) return false;
-  const int64_t hash = GetBe64(data);
-  return hash == rocklab::raw_frame_t::getHash() || hash == rocklab::block_state_t::getHash() ||
-         hash == rocklab::table_state_t::getHash();
 }
 
 RotationOptions Rotation(const RecorderOptions& o) {
@@ -134,8 +120,11 @@ void Recorder::WriterLoop() {
     failing = false;
     ++c.count;
     c.bytes += ev.size;
-    if (!HasSeq(ev.data, ev.size)) return;
-    c.seq.Add(GetBe64(ev.data + 16));
+    // Every rocklab type's seq (per sender on RL_EVENT and RL_HEALTH).
+    int64_t seq = 0;
+    std::string_view sender;
+    if (!common::WireSeq(ev.data, static_cast<int>(ev.size), seq, sender)) return;
+    c.seq.Add(sender, seq);
   };
   // The file is flushed at most 100 ms after an event is written, so readers
   // of a growing log (and a test waiting for its probe) see it.

@@ -20,11 +20,13 @@
 /// - LCM's per-subscription queue: raised to `lcm_queue_messages`;
 /// - the recorder's queue: counted per channel (`dropped`);
 /// - write errors: counted per channel (`dropped`) with the error logged.
-/// Channels whose type carries a sample sequence number right after utime
-/// (rocklab's raw_frame_t, block_state_t, table_state_t, recognised by their
-/// LCM fingerprint) are checked: `seq_gaps` jumps forward, `seq_missing`
-/// the numbers skipped, `seq_back` numbers that went back or repeated. A gap
-/// at the source (a DAQ that lost samples) shows the same way.
+/// Channels whose type carries a sequence number right after utime (every
+/// current rocklab type, recognised by its LCM fingerprint: common::WireSeq)
+/// are checked: `seq_gaps` jumps forward, `seq_missing` the numbers skipped,
+/// `seq_back` numbers that went back or repeated; on RL_EVENT and RL_HEALTH
+/// per sender (each node numbers its own), summed. A gap at the source (a
+/// DAQ that lost samples) shows the same way. Older types (logs replayed
+/// from before) carry none and are not checked.
 
 #include <atomic>
 #include <cstdint>
@@ -37,7 +39,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "common/seq_gaps.h"
+#include "common/versions.h"
 #include "record/event_queue.h"
 #include "record/log_writer.h"
 
@@ -69,7 +71,7 @@ struct ChannelStats {
   int64_t dropped{};      ///< received but not written (queue full, write error)
   /// Sequence numbers (JSON seq_gaps, seq_missing, seq_back); `seq.any`:
   /// the type carries one (JSON has_seq).
-  common::SeqGaps seq;
+  common::ChannelSeqGaps seq;
 };
 
 struct RecorderStats {

@@ -144,6 +144,9 @@ RecordReport ReadRecordLog(const std::string& log_path, const ReportOptions& opt
   for (const auto& [channel, n] : counters.at("decode_errors").items()) {
     r.decode_errors += n.get<std::int64_t>();
   }
+  for (const auto& [channel, n] : counters.at("seq_missing").items()) {
+    r.seq_missing += n.get<std::int64_t>();
+  }
   if (r.snapshot.at("measured").at("t").empty()) {
     throw ReportInputError("'" + log_path + "': no " + theta_channel + " sample between " +
                            Format("%g s and %g s", options.start_s, options.end_s) +

@@ -63,6 +63,9 @@ struct RecordReport {
   TablePeaks table;
   std::int64_t events{};       ///< LCM events read
   std::int64_t decode_errors{};///< events of known channels that did not decode (all channels)
+  /// Messages missing by their publishers' sequence numbers, all channels
+  /// (counters.seq_missing: lost before the log was written).
+  std::int64_t seq_missing{};
   std::int64_t damaged_regions{};  ///< damaged regions of the log skipped
   std::int64_t damaged_bytes{};    ///< bytes in them
   std::int64_t damaged_events{};   ///< events lost in them

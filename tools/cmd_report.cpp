@@ -107,6 +107,11 @@ int RunReport(ReportCommand& c) {
   }
   std::fprintf(stderr, "report: %s: %lld events, %lld that did not decode\n", c.log_path.c_str(),
                static_cast<long long>(record.events), static_cast<long long>(record.decode_errors));
+  if (record.seq_missing > 0) {
+    std::fprintf(stderr, "report: %lld messages missing by their sequence numbers (lost before the log): %s\n",
+                 static_cast<long long>(record.seq_missing),
+                 record.snapshot.at("counters").at("seq_missing").dump().c_str());
+  }
   for (const std::string& problem : record.problems) std::fprintf(stderr, "report: %s\n", problem.c_str());
   pipeline::ReportDamage(record.damaged_regions, record.damaged_bytes, record.damaged_events,
                          c.log_path, "report", "; the page shows the rest");

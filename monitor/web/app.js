@@ -365,6 +365,9 @@
       cell(row, channel, {'data-channel': channel, 'data-field': 'channel'});
       cell(row, String(count), {'data-channel': channel, 'data-field': 'messages'});
       cell(row, String(c.decode_errors[channel] || 0), {'data-channel': channel, 'data-field': 'decode_errors'});
+      // Messages missing by their publishers' seq ('-': an older type without one).
+      const missing = c.seq_missing && channel in c.seq_missing ? String(c.seq_missing[channel]) : '-';
+      cell(row, missing, {'data-channel': channel, 'data-field': 'seq_missing'});
       body.appendChild(row);
     }
     const dropped = Object.entries(c.dropped).filter(([, n]) => n > 0);

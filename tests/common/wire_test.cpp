@@ -17,11 +17,16 @@
 #include <vector>
 
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -123,6 +128,39 @@ std::map<std::string, Sample> Samples() {
   m2.model = "complex";
   m2.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
   all["model_state2_t"] = Make(m2);
+  rocklab::comparison2_t cmp2{};
+  cmp2.seq = 5;
+  cmp2.name = "fit";
+  cmp2.valid = true;
+  all["comparison2_t"] = Make(cmp2);
+  rocklab::daq_config2_t cfg2{};
+  cfg2.seq = 2;
+  cfg2.rig_name = "rig";
+  cfg2.calibration_id = "cal";
+  cfg2.num_channels = 3;
+  cfg2.channel_names = {"a", "bb", "ccc"};
+  cfg2.channel_units = {"m", "rad", "m/s^2"};
+  cfg2.channel_sensors = {"x", "y", "z"};
+  cfg2.gain = {1, 2, 3};
+  cfg2.offset = {0, 0.5, 1};
+  all["daq_config2_t"] = Make(cfg2);
+  rocklab::event2_t ev2{};
+  ev2.seq = 9;
+  ev2.sender = "daq";
+  ev2.source = "daq";
+  ev2.detail = "gap of 3";
+  all["event2_t"] = Make(ev2);
+  rocklab::health2_t h2{};
+  h2.seq = 4;
+  h2.node = "model";
+  h2.state = "running";
+  all["health2_t"] = Make(h2);
+  rocklab::model_state3_t m3{};
+  m3.seq = 11;
+  m3.name = "c";
+  m3.model = "complex";
+  m3.equations = rocklab::model_state3_t::EQUATIONS_LIMIT;
+  all["model_state3_t"] = Make(m3);
   rocklab::raw_frame_t raw{};
   raw.seq = 7;
   raw.num_channels = 3;

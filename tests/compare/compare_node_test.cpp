@@ -19,9 +19,9 @@
 
 #include "common/direct_bus.h"
 #include "common/lcm_bus.h"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/scratch.h"
 #include "tests/tools/lcm_messages.h"
 
@@ -34,18 +34,18 @@ using test::Theta;
 // What the node publishes, as received on the bus.
 struct Tap {
   void Listen(common::Bus& bus) {
-    subscriptions.push_back(bus.Subscribe<rocklab::comparison_t>(
-        "RL_COMPARE_.*", [this](const std::string& channel, const rocklab::comparison_t& m) {
+    subscriptions.push_back(bus.Subscribe<rocklab::comparison2_t>(
+        "RL_COMPARE_.*", [this](const std::string& channel, const rocklab::comparison2_t& m) {
           channels.push_back(channel);
           compares.push_back(m);
         }));
-    subscriptions.push_back(bus.Subscribe<rocklab::event_t>(
-        "RL_EVENT", [this](const std::string&, const rocklab::event_t& m) { events.push_back(m); }));
+    subscriptions.push_back(bus.Subscribe<rocklab::event2_t>(
+        "RL_EVENT", [this](const std::string&, const rocklab::event2_t& m) { events.push_back(m); }));
   }
   std::vector<common::Subscription> subscriptions;
   std::vector<std::string> channels;
-  std::vector<rocklab::comparison_t> compares;
-  std::vector<rocklab::event_t> events;
+  std::vector<rocklab::comparison2_t> compares;
+  std::vector<rocklab::event2_t> events;
 };
 
 // Oracle: a model that is the measurement plus 0.01 rad has RMS 0.01 rad
@@ -138,14 +138,14 @@ TEST(CompareNode, StaleAndRecoveredEvents) {
   node.CheckStale();
   node.CheckStale();  // once only
   ASSERT_EQ(tap.events.size(), 2u);  // daq and model m
-  EXPECT_EQ(tap.events[0].kind, +rocklab::event_t::STALE);  // + : LCM constants have no definition to bind a reference to
+  EXPECT_EQ(tap.events[0].kind, +rocklab::event2_t::STALE);  // + : LCM constants have no definition to bind a reference to
   EXPECT_EQ(tap.events[0].source, "daq");
   EXPECT_EQ(tap.events[1].source, "m");
   node.HandleTheta(Theta(1000, 0.0));
   node.HandleModel(Model("m", 1000, 0.0));
   ASSERT_EQ(tap.events.size(), 4u);
-  EXPECT_EQ(tap.events[2].kind, +rocklab::event_t::RECOVERED);
-  EXPECT_EQ(tap.events[3].kind, +rocklab::event_t::RECOVERED);
+  EXPECT_EQ(tap.events[2].kind, +rocklab::event2_t::RECOVERED);
+  EXPECT_EQ(tap.events[3].kind, +rocklab::event2_t::RECOVERED);
 }
 
 // Oracle: the documented JSON keys, with the values the comparator holds.
@@ -217,7 +217,7 @@ TEST(CompareNode, NoMatchedCrossingIsNullAndADashNotZero) {
 namespace rocklab::compare {
 namespace {
 
-// Oracle: the channel contract (docs/channels.md). A log written before model_state2_t carries
+// Oracle: the channel contract (docs/channels.md). A log written before model_state3_t carries
 // model_state_t on RL_MODEL_*: the node still compares it (told apart by the
 // fingerprint), exactly as the new type: a model 0.02 rad above the
 // measurement has RMS 0.02 rad over the 10 pairs, with nothing dropped.
@@ -250,17 +250,18 @@ namespace {
 // What the node says in RL_HEALTH, as received.
 struct HealthTap {
   void Listen(common::Bus& bus) {
-    subscription = bus.Subscribe<rocklab::health_t>(
-        "RL_HEALTH", [this](const std::string&, const rocklab::health_t& m) { last = m; });
+    subscription = bus.Subscribe<rocklab::health2_t>(
+        "RL_HEALTH", [this](const std::string&, const rocklab::health2_t& m) { last = m; });
   }
   common::Subscription subscription;
-  rocklab::health_t last{};
+  rocklab::health2_t last{};
 };
 
-// Oracle: counting by hand. A 1 kHz feed over memq with
-// RL_THETA seq 10, 11, 12 and 13 dropped (4 missing by seq) and RL_MODEL_a's
-// messages at 30 and 31 ms dropped (no seq: a 3 ms step of the sample clock
-// is 2 missing samples): RL_HEALTH "stopped" says gaps = 6.
+// Oracle: counting by hand. A 1 kHz feed over memq with RL_THETA seq 10,
+// 11, 12 and 13 dropped (4 missing by seq), RL_MODEL_a's messages seq 30 and
+// 31 dropped (2 missing by seq) and RL_MODEL_old's (model_state_t from an
+// older log: no seq) at 40, 41 and 42 ms dropped (a 4 ms step of the sample
+// clock: 3 missing samples): RL_HEALTH "stopped" says gaps = 9.
 TEST(CompareNode, CountsSequenceGapsOfWhatItReadsInHealth) {
   common::LcmBus bus("memq://");
   HealthTap health;
@@ -270,7 +271,10 @@ TEST(CompareNode, CountsSequenceGapsOfWhatItReadsInHealth) {
     rocklab::block_state_t theta = test::Theta(1000 * k, 0.01);
     theta.seq = k;
     if (k < 10 || k > 13) bus.Publish("RL_THETA", theta);
-    if (k != 30 && k != 31) bus.Publish("RL_MODEL_a", test::Model("a", 1000 * k, 0.01));
+    rocklab::model_state3_t model = test::Model("a", 1000 * k, 0.01);
+    model.seq = k;
+    if (k != 30 && k != 31) bus.Publish("RL_MODEL_a", model);
+    if (k < 40 || k > 42) bus.Publish("RL_MODEL_old", test::OldModel("old", 1000 * k, 0.01));
     while (bus.HandleTimeout(0) > 0) {
     }
   }
@@ -278,9 +282,9 @@ TEST(CompareNode, CountsSequenceGapsOfWhatItReadsInHealth) {
   while (bus.HandleTimeout(0) > 0) {
   }
   EXPECT_EQ(node.theta_gaps(), 4);
-  EXPECT_EQ(node.model_gaps(), 2);
+  EXPECT_EQ(node.model_gaps(), 2 + 3);
   EXPECT_EQ(health.last.state, "stopped");
-  EXPECT_EQ(health.last.gaps, 6);
+  EXPECT_EQ(health.last.gaps, 9);
 }
 
 // Publishes 1 kHz RL_THETA and RL_MODEL_m from `from` to `to` ms of sample
@@ -296,8 +300,8 @@ void FeedMs(common::Bus& bus, int from, int to) {
 
 int StaleOrRecovered(const Tap& tap) {
   int n = 0;
-  for (const rocklab::event_t& e : tap.events) {
-    n += e.kind == rocklab::event_t::STALE || e.kind == rocklab::event_t::RECOVERED;
+  for (const rocklab::event2_t& e : tap.events) {
+    n += e.kind == rocklab::event2_t::STALE || e.kind == rocklab::event2_t::RECOVERED;
   }
   return n;
 }
@@ -342,12 +346,12 @@ TEST(CompareNode, SampleClockStalenessSeesASilentInputOnTheSampleClock) {
   FeedMs(bus, 0, 10);
   for (int k = 10; k < 210; ++k) bus.Publish("RL_MODEL_m", test::Model("m", 1000 * k, 0.0));
   ASSERT_EQ(tap.events.size(), 1u);
-  EXPECT_EQ(tap.events[0].kind, +rocklab::event_t::STALE);
+  EXPECT_EQ(tap.events[0].kind, +rocklab::event2_t::STALE);
   EXPECT_EQ(tap.events[0].source, "daq");
   EXPECT_EQ(tap.events[0].utime, 60'000);  // 51 ms past the last RL_THETA at 9 ms
   FeedMs(bus, 210, 211);
   ASSERT_EQ(tap.events.size(), 2u);
-  EXPECT_EQ(tap.events[1].kind, +rocklab::event_t::RECOVERED);
+  EXPECT_EQ(tap.events[1].kind, +rocklab::event2_t::RECOVERED);
 }
 
 }  // namespace

@@ -20,7 +20,7 @@
 #include "daq/reconstruction.h"
 #include "daq/rig_config.h"
 #include "daq/rig_simulator.h"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/tools/log_count.h"
 #include "tests/tools/run_cli.h"
@@ -293,7 +293,7 @@ TEST(DaqCommand, SigintStopsPublishesWhatWasReadAndExitsZero) {
   lcm::LogFile in(log, "r");
   ASSERT_TRUE(in.good());
   int64_t raw_frames = 0;
-  rocklab::health_t last;
+  rocklab::health2_t last;
   while (const lcm::LogEvent* ev = in.readNextEvent()) {
     if (ev->channel == "RL_RAW") ++raw_frames;
     if (ev->channel == "RL_HEALTH") last.decode(ev->data, 0, ev->datalen);

@@ -25,9 +25,9 @@
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
@@ -78,9 +78,9 @@ struct Collector {
   std::vector<rocklab::raw_frame_t> raw;
   std::vector<rocklab::block_state_t> theta;
   std::vector<rocklab::table_state_t> table;
-  std::vector<rocklab::event_t> events;
-  std::vector<rocklab::health_t> health;
-  std::vector<rocklab::daq_config_t> config;
+  std::vector<rocklab::event2_t> events;
+  std::vector<rocklab::health2_t> health;
+  std::vector<rocklab::daq_config2_t> config;
   std::vector<common::Subscription> subscriptions;  // end with the collector (or its bus)
   template <class Msg>
   void Add(common::Bus& bus, const char* channel, std::vector<Msg>& into) {
@@ -185,7 +185,7 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
   EXPECT_EQ(last.gaps, proc.sequence().gaps);
   EXPECT_EQ(last.dropped, proc.sequence().missing);
   int gap_events = 0;
-  for (const auto& e : c->events) gap_events += e.kind == rocklab::event_t::GAP;
+  for (const auto& e : c->events) gap_events += e.kind == rocklab::event2_t::GAP;
   EXPECT_EQ(gap_events, proc.sequence().gaps);
   EXPECT_EQ(stats.publish_errors, 0);
   EXPECT_FALSE(stats.stopped_early);
@@ -370,7 +370,7 @@ TEST(DaqNode, SourceProblemsArePublishedAsEventsWithFileAndLine) {
   const auto c = RunOnMemq(rig, bad, 0, stop);
   std::vector<std::string> details;
   for (const auto& e : c->events) {
-    if (e.kind == rocklab::event_t::BAD_SAMPLE) details.push_back(e.detail);
+    if (e.kind == rocklab::event2_t::BAD_SAMPLE) details.push_back(e.detail);
   }
   ASSERT_EQ(details.size(), 2u);
   EXPECT_EQ(details[0].rfind(bad + ":10: row has 14 fields, the header has 15", 0), 0u) << details[0];

@@ -20,7 +20,7 @@
 #include "daq/sequence_checker.h"
 #include "daq/source.h"
 #include "common/text.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
 namespace rocklab::daq {

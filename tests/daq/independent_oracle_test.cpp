@@ -41,7 +41,7 @@
 #include "daq/processor.h"
 #include "daq/reconstruction.h"
 #include "daq/rig_config.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "tests/tools/run_cli.h"
 
 namespace rocklab::daq {
@@ -287,8 +287,8 @@ TEST(IndependentOracleTest, ProcessorRecoversAKnownMotion) {
     }
     return nullptr;
   };
-  const DaqEvent* slid = first(rocklab::event_t::SLIDING);
-  const DaqEvent* twisted = first(rocklab::event_t::TWIST);
+  const DaqEvent* slid = first(rocklab::event2_t::SLIDING);
+  const DaqEvent* twisted = first(rocklab::event2_t::TWIST);
   ASSERT_NE(slid, nullptr);
   ASSERT_NE(twisted, nullptr);
   EXPECT_EQ(slid->utime, 1200000);

@@ -28,7 +28,7 @@
 #include "common/bus.h"
 #include "daq/daq_node.h"
 #include "daq/source.h"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/daq/loopback_tcp.h"
 #include "tests/daq/notify_socket.h"
@@ -232,7 +232,7 @@ class HealthBus final : public common::Bus {
   using Bus::Publish;
   bool Publish(const std::string& channel, const void* data, int size) override {
     if (channel != "RL_HEALTH") return true;
-    rocklab::health_t h;
+    rocklab::health2_t h;
     if (h.decode(data, 0, size) < 0) return false;
     std::lock_guard<std::mutex> lock(mutex_);
     states_.push_back(h.state);

@@ -13,7 +13,7 @@
 #include "daq/processor.h"
 #include "daq/reconstruction.h"
 #include "daq/rig_simulator.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
@@ -151,7 +151,7 @@ TEST(Reconstruction, NoisyRoundTripCarriesTheInjectedNoiseOnly) {
   // No sample beyond 6 sigma (probability 2e-9 per sample).
   EXPECT_LT(max_m, 6 * sigma_m);
   EXPECT_LT(max_c, 6 * sigma_c);
-  EXPECT_EQ(run->sink.CountEvents(rocklab::event_t::DISAGREE), 0);
+  EXPECT_EQ(run->sink.CountEvents(rocklab::event2_t::DISAGREE), 0);
 
   // theta_dot: the centred Savitzky-Golay derivative of A sin(w t) is
   // A G cos(w t), G = sum_k w_k sin(w k dt); its noise is sigma_m * ||w||.
@@ -233,27 +233,27 @@ void ExpectFlaggedWithin10ms(const std::function<void(TrueMotion&)>& fault, doub
   for (const BlockState& s : clean->sink.block) {
     ASSERT_EQ(s.flags & ~(kFlagNoCamera | kFlagNoMirror), 0) << s.time_s;
   }
-  for (const auto& e : clean->sink.events) EXPECT_EQ(e.kind, int8_t{rocklab::event_t::GAP});
+  for (const auto& e : clean->sink.events) EXPECT_EQ(e.kind, int8_t{rocklab::event2_t::GAP});
 }
 
 TEST(Checks, SlipOf3mmIsFlaggedWithin10ms) {
   ExpectFlaggedWithin10ms([](TrueMotion& m) { m.slip_m = 0.003; }, 2.0037, kFlagSliding,
-                          rocklab::event_t::SLIDING);
+                          rocklab::event2_t::SLIDING);
 }
 
 TEST(Checks, TwistIsFlaggedWithin10ms) {
   ExpectFlaggedWithin10ms([](TrueMotion& m) { m.twist_rad = 0.03; }, 1.5021, kFlagTwist,
-                          rocklab::event_t::TWIST);
+                          rocklab::event2_t::TWIST);
 }
 
 TEST(Checks, JumpIsFlaggedWithin10ms) {
   ExpectFlaggedWithin10ms([](TrueMotion& m) { m.lift_m = 0.003; }, 2.5, kFlagJump,
-                          rocklab::event_t::JUMP);
+                          rocklab::event2_t::JUMP);
 }
 
 TEST(Checks, OutOfPlaneIsFlaggedWithin10ms) {
   ExpectFlaggedWithin10ms([](TrueMotion& m) { m.out_of_plane_m = 0.005; }, 3.25, kFlagOutOfPlane,
-                          rocklab::event_t::OUT_OF_PLANE);
+                          rocklab::event2_t::OUT_OF_PLANE);
 }
 
 TEST(Checks, MirrorCameraDisagreementIsFlaggedAndRecovers) {
@@ -274,8 +274,8 @@ TEST(Checks, MirrorCameraDisagreementIsFlaggedAndRecovers) {
   }
   EXPECT_GT(flagged, 0);
   // Two excursions in one period (theta > 0 and < 0): two events, two recoveries.
-  EXPECT_EQ(run->sink.CountEvents(rocklab::event_t::DISAGREE), 2);
-  EXPECT_EQ(run->sink.CountEvents(rocklab::event_t::RECOVERED), 2);
+  EXPECT_EQ(run->sink.CountEvents(rocklab::event2_t::DISAGREE), 2);
+  EXPECT_EQ(run->sink.CountEvents(rocklab::event2_t::RECOVERED), 2);
 }
 
 TEST(TableMotion, DifferentiatedDisplacementMatchesTheExactAcceleration) {
@@ -315,7 +315,7 @@ TEST(Sequence, DroppedSamplesAreCountedAsGapsNeverHidden) {
   ASSERT_GT(missing, 10);
   const auto run = Process(rig, frames);
   EXPECT_EQ(run->sequence.missing, missing);
-  EXPECT_EQ(run->sink.CountEvents(rocklab::event_t::GAP), run->sequence.gaps);
+  EXPECT_EQ(run->sink.CountEvents(rocklab::event2_t::GAP), run->sequence.gaps);
   EXPECT_EQ(run->sink.block.size(), frames.size());  // every received frame is reconstructed
   // The differentiator restarts after each gap: theta_dot stays close to the truth
   // everywhere (noise-free: only the filter's bias and the short-segment fits).
@@ -367,7 +367,7 @@ TEST(Checks, NoFalseFlagInAMinuteOfCleanRocking) {
   int flagged = 0;
   for (const BlockState& s : run->sink.block) flagged += (s.flags & kChecks) != 0;
   EXPECT_EQ(flagged, 0);
-  for (const auto& e : run->sink.events) EXPECT_EQ(e.kind, int8_t{rocklab::event_t::GAP});
+  for (const auto& e : run->sink.events) EXPECT_EQ(e.kind, int8_t{rocklab::event2_t::GAP});
 }
 
 }  // namespace

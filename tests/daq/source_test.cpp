@@ -18,7 +18,7 @@
 
 #include "daq/processor.h"
 #include "daq/source.h"
-#include "rocklab/daq_config_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/daq/daq_test_util.h"
 
@@ -275,7 +275,7 @@ TEST(LcmLogSource, ReadsRawFramesWithTheLoggedChannelNames) {
     raw.utime = 70000;
     raw.values = {0.25, -1.0};
     write("RL_RAW", raw, 1);  // before the config: still decoded
-    rocklab::daq_config_t config;
+    rocklab::daq_config2_t config;
     config.num_channels = 2;
     config.channel_names = {"x", "y"};
     config.channel_units = {"m", "m"};

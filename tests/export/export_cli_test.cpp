@@ -21,7 +21,7 @@
 
 #include "common/lcm_log.h"
 #include "daq/source.h"
-#include "rocklab/daq_config_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/export/readback.h"
@@ -45,7 +45,7 @@ std::string MakeLog(const std::string& dir) {
   const std::int64_t t0 = 10'000'000;
   {
     common::LogWriter w(a);
-    rocklab::daq_config_t c{};
+    rocklab::daq_config2_t c{};
     c.utime = t0;
     c.rig_name = "block1";
     c.calibration_id = "cal-2026-11";
@@ -137,7 +137,7 @@ TEST_F(InfoExport, InfoJsonSaysWhatTheLogHolds) {
   EXPECT_EQ(ch["RL_TABLE"]["type"], "table_state_t");
   EXPECT_EQ(ch["RL_TABLE"]["seq_gaps"], 0);
   EXPECT_NEAR(ch["RL_TABLE"]["rate_hz"].get<double>(), 1000.0, 1e-6);
-  EXPECT_EQ(ch["RL_DAQ_CONFIG"]["seq_gaps"], nullptr);  // the type has no seq
+  EXPECT_EQ(ch["RL_DAQ_CONFIG"]["seq_gaps"], 0);  // daq_config2_t has a seq (daq_config_t: null, SeqLoss.*)
   EXPECT_EQ(ch["FOREIGN"]["type"], "unknown");
   EXPECT_EQ(ch["FOREIGN"]["count"], 2);
   EXPECT_EQ(ch["FOREIGN"]["fingerprint"], "0x0102030405060708");

@@ -1,7 +1,8 @@
 // Fuzz target: the decode of every rocklab type as the nodes receive it,
 // through the Bus's typed path (common::Bus::Subscribe: the wire pre-check,
-// then lcm-gen's decode) on a DirectBus, and RL_MODEL_* through
-// common::SubscribeModelState (either model type). Input: the first byte
+// then lcm-gen's decode) on a DirectBus, and the channels whose type has a
+// successor through common::SubscribeVersioned (the current type or an
+// older one), and common::WireSeq on every payload. Input: the first byte
 // picks the channel (and so the type), the rest is the payload; when the
 // second byte is odd the payload starts with that type's fingerprint, so
 // the fuzzer reaches the fields at once.
@@ -13,19 +14,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/bus.h"
 #include "common/direct_bus.h"
-#include "common/model_state.h"
+#include "common/versions.h"
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
-#include "rocklab/model_state2_t.hpp"
-#include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/fuzz/fuzz_util.h"
@@ -64,18 +60,22 @@ struct Nodes {
   std::vector<rocklab::common::Subscription> subscriptions;
   Nodes() {
     Sub<rocklab::raw_frame_t>("RL_RAW");
-    Sub<rocklab::daq_config_t>("RL_DAQ_CONFIG");
+    Versioned<rocklab::common::DaqConfigDecoder>("RL_DAQ_CONFIG");
     Sub<rocklab::table_state_t>("RL_TABLE");
     Sub<rocklab::block_state_t>("RL_THETA");
-    Sub<rocklab::comparison_t>("RL_COMPARE_.*");
-    Sub<rocklab::event_t>("RL_EVENT");
-    Sub<rocklab::health_t>("RL_HEALTH");
-    subscriptions.push_back(rocklab::common::SubscribeModelState(
-        bus, "RL_MODEL_.*", [](const std::string&, const rocklab::model_state2_t& m) { CheckHandled(m); }));
+    Versioned<rocklab::common::ComparisonDecoder>("RL_COMPARE_.*");
+    Versioned<rocklab::common::EventDecoder>("RL_EVENT");
+    Versioned<rocklab::common::HealthDecoder>("RL_HEALTH");
+    Versioned<rocklab::common::ModelStateDecoder>("RL_MODEL_.*");
   }
   template <class Msg>
   void Sub(const std::string& channel) {
     subscriptions.push_back(bus.Subscribe<Msg>(channel, [](const std::string&, const Msg& m) { CheckHandled(m); }));
+  }
+  template <class Decoder>
+  void Versioned(const std::string& channel) {
+    subscriptions.push_back(rocklab::common::SubscribeVersioned<Decoder>(
+        bus, channel, [](const std::string&, const typename Decoder::Message& m) { CheckHandled(m); }));
   }
 };
 
@@ -92,12 +92,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const Pick picks[] = {
       {"RL_RAW", static_cast<std::int64_t>(rocklab::raw_frame_t::getHash())},
       {"RL_DAQ_CONFIG", static_cast<std::int64_t>(rocklab::daq_config_t::getHash())},
+      {"RL_DAQ_CONFIG", static_cast<std::int64_t>(rocklab::daq_config2_t::getHash())},
       {"RL_TABLE", static_cast<std::int64_t>(rocklab::table_state_t::getHash())},
       {"RL_THETA", static_cast<std::int64_t>(rocklab::block_state_t::getHash())},
       {"RL_COMPARE_a", static_cast<std::int64_t>(rocklab::comparison_t::getHash())},
+      {"RL_COMPARE_a", static_cast<std::int64_t>(rocklab::comparison2_t::getHash())},
       {"RL_EVENT", static_cast<std::int64_t>(rocklab::event_t::getHash())},
+      {"RL_EVENT", static_cast<std::int64_t>(rocklab::event2_t::getHash())},
       {"RL_HEALTH", static_cast<std::int64_t>(rocklab::health_t::getHash())},
+      {"RL_HEALTH", static_cast<std::int64_t>(rocklab::health2_t::getHash())},
       {"RL_MODEL_a", static_cast<std::int64_t>(rocklab::model_state2_t::getHash())},
+      {"RL_MODEL_c", static_cast<std::int64_t>(rocklab::model_state3_t::getHash())},
       {"RL_MODEL_b", static_cast<std::int64_t>(rocklab::model_state_t::getHash())},
   };
   const Pick& pick = picks[data[0] % (sizeof picks / sizeof picks[0])];
@@ -108,6 +113,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   payload.insert(payload.end(), data + 2, data + size);
 
+  std::int64_t seq = 0;
+  std::string_view sender;
+  if (rocklab::common::WireSeq(payload.data(), static_cast<int>(payload.size()), seq, sender) &&
+      (sender.data() != nullptr &&
+       (sender.data() < reinterpret_cast<const char*>(payload.data()) ||
+        sender.data() + sender.size() > reinterpret_cast<const char*>(payload.data() + payload.size())))) {
+    Violated("WireSeq's sender lies outside the message");
+  }
   const std::int64_t errors_before = nodes.bus.decode_error_count();
   const std::int64_t handled_before = handled;
   nodes.bus.Publish(pick.channel, payload.data(), static_cast<int>(payload.size()));

@@ -23,10 +23,10 @@
 
 #include "monitor/live_state.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "tests/fuzz/fuzz_util.h"
 
@@ -100,7 +100,7 @@ std::vector<std::uint8_t> Build(int kind, Bytes& in, std::string& channel) {
     }
     case 3: {
       channel = "RL_COMPARE_a";
-      rocklab::comparison_t m{};
+      rocklab::comparison2_t m{};
       m.utime = in.Get<std::int64_t>();
       m.name = in.Text();
       m.error = in.Get<double>();
@@ -112,7 +112,7 @@ std::vector<std::uint8_t> Build(int kind, Bytes& in, std::string& channel) {
     }
     case 4: {
       channel = "RL_EVENT";
-      rocklab::event_t m{};
+      rocklab::event2_t m{};
       m.utime = in.Get<std::int64_t>();
       m.source = in.Text();
       m.kind = in.Get<std::int8_t>();
@@ -122,7 +122,7 @@ std::vector<std::uint8_t> Build(int kind, Bytes& in, std::string& channel) {
     }
     case 5: {
       channel = "RL_HEALTH";
-      rocklab::health_t m{};
+      rocklab::health2_t m{};
       m.utime = in.Get<std::int64_t>();
       m.node = in.Text();
       m.state = in.Text();
@@ -133,7 +133,7 @@ std::vector<std::uint8_t> Build(int kind, Bytes& in, std::string& channel) {
     }
     default: {
       channel = "RL_DAQ_CONFIG";
-      rocklab::daq_config_t m{};
+      rocklab::daq_config2_t m{};
       m.utime = in.Get<std::int64_t>();
       m.rig_name = in.Text();
       m.sample_rate_hz = in.Get<double>();

@@ -16,7 +16,7 @@
 #include "common/direct_bus.h"
 #include "model/excitation.h"
 #include "model/model_node.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "tests/model/node_messages.h"
 
 namespace rocklab::model {
@@ -94,9 +94,9 @@ using node_messages::Table;
 using node_messages::Theta;
 
 struct Published {
-  std::vector<rocklab::model_state2_t> states;  // every RL_MODEL_*, in order
-  std::map<std::string, std::vector<rocklab::event_t>> events;  // model events by variant
-  std::vector<rocklab::event_t> node_events;  // source "model": BAD_SAMPLE, RECOVERED
+  std::vector<rocklab::model_state3_t> states;  // every RL_MODEL_*, in order
+  std::map<std::string, std::vector<rocklab::event2_t>> events;  // model events by variant
+  std::vector<rocklab::event2_t> node_events;  // source "model": BAD_SAMPLE, RECOVERED
 };
 
 // Figure 8's table (block 2, 6 mm at 5 Hz) sampled at 1 kHz, `seconds` long.
@@ -112,10 +112,10 @@ std::vector<double> Fig8Samples(double seconds) {
 Published RunNode(const std::vector<double>& accel, int lookahead, int threads = 1) {
   common::DirectBus bus;
   Published out;
-  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_.*", [&](const std::string&, const rocklab::model_state2_t& m) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state3_t>("RL_MODEL_.*", [&](const std::string&, const rocklab::model_state3_t& m) {
     out.states.push_back(m);
   });
-  const common::Subscription sub2 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+  const common::Subscription sub2 = bus.Subscribe<rocklab::event2_t>("RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) {
     if (e.source == "model") {
       out.node_events.push_back(e);
     } else {
@@ -134,7 +134,7 @@ Published RunNode(const std::vector<double>& accel, int lookahead, int threads =
   return out;
 }
 
-std::vector<double> Times(const std::vector<rocklab::event_t>& events, std::int8_t kind) {
+std::vector<double> Times(const std::vector<rocklab::event2_t>& events, std::int8_t kind) {
   std::vector<double> t;
   for (const auto& e : events) {
     if (e.kind == kind) t.push_back(static_cast<double>(e.utime) * 1e-6);
@@ -180,8 +180,8 @@ TEST(ModelNodeLookahead, OneMessagePerSampleInOrderWithTheSameEvents) {
   for (const char* name : {"h", "c"}) {
     const auto& e0 = n0.events.at(name);
     const auto& e32 = n32.events.at(name);
-    const auto i0 = Times(e0, rocklab::event_t::IMPACT), i32 = Times(e32, rocklab::event_t::IMPACT);
-    const auto u0 = Times(e0, rocklab::event_t::UPLIFT), u32 = Times(e32, rocklab::event_t::UPLIFT);
+    const auto i0 = Times(e0, rocklab::event2_t::IMPACT), i32 = Times(e32, rocklab::event2_t::IMPACT);
+    const auto u0 = Times(e0, rocklab::event2_t::UPLIFT), u32 = Times(e32, rocklab::event2_t::UPLIFT);
     ASSERT_GT(i0.size(), 10u) << name;
     ASSERT_EQ(i32.size(), i0.size()) << name;
     ASSERT_EQ(u32.size(), u0.size()) << name;
@@ -216,8 +216,8 @@ TEST(ModelNodeLookahead, ResetFlushesAndBadSamplesAreHeld) {
   // Reset mid-window: 300 samples, then the 1001 from utime 0 again.
   {
     common::DirectBus bus;
-    std::vector<rocklab::model_state2_t> got;
-    const common::Subscription sub3 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
+    std::vector<rocklab::model_state3_t> got;
+    const common::Subscription sub3 = bus.Subscribe<rocklab::model_state3_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state3_t& m) {
       got.push_back(m);
     });
     ModelNodeConfig cfg;
@@ -254,9 +254,9 @@ TEST(ModelNodeLookahead, ResetFlushesAndBadSamplesAreHeld) {
   ASSERT_EQ(bad.states.size(), held.states.size());
   for (std::size_t i = 0; i < bad.states.size(); ++i) ASSERT_EQ(bad.states[i].theta, held.states[i].theta) << i;
   ASSERT_EQ(bad.node_events.size(), 2u);
-  EXPECT_EQ(bad.node_events[0].kind, +rocklab::event_t::BAD_SAMPLE);
+  EXPECT_EQ(bad.node_events[0].kind, +rocklab::event2_t::BAD_SAMPLE);
   EXPECT_EQ(bad.node_events[0].utime, 400'000);
-  EXPECT_EQ(bad.node_events[1].kind, +rocklab::event_t::RECOVERED);
+  EXPECT_EQ(bad.node_events[1].kind, +rocklab::event2_t::RECOVERED);
   EXPECT_EQ(bad.node_events[1].utime, 410'000);
   EXPECT_TRUE(held.node_events.empty());
 }

@@ -12,8 +12,8 @@
 #include "common/direct_bus.h"
 #include "common/lcm_bus.h"
 #include "model/excitation.h"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/model/node_messages.h"
 #include "tests/scratch.h"
 
@@ -76,7 +76,7 @@ TEST(ModelNode, StartsAtRestBelowTheThresholdAndLiftsWithTheTable) {
   for (int k = 1; k <= 500; ++k) node.HandleTable(Table(1000 * k, k < 100 ? 0.0 : 3.0));
   EXPECT_EQ(node.skipped_before_start(), 1);
   EXPECT_LT(node.latest(0).theta, -1e-3);
-  EXPECT_EQ(node.latest(0).regime, +rocklab::model_state2_t::REGIME_ROCKING);
+  EXPECT_EQ(node.latest(0).regime, +rocklab::model_state3_t::REGIME_ROCKING);
 }
 
 // Oracle: the DAQ publishes the RL_THETA and RL_TABLE of a sample together,
@@ -105,8 +105,8 @@ TEST(ModelNode, StartsFromTheThetaPublishedWithTheTableSample) {
 // one RECOVERED closes it.
 TEST(ModelNode, NonFiniteTableSampleHoldsTheLastValueAndTheVariantGoesOn) {
   DirectBus bus;
-  std::vector<rocklab::event_t> events;
-  const common::Subscription sub1 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
+  std::vector<rocklab::event2_t> events;
+  const common::Subscription sub1 = bus.Subscribe<rocklab::event2_t>("RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) {
     if (e.source == "model") events.push_back(e);
   });
   ModelNode node(Config("h:housner:theoretical"), bus);
@@ -125,9 +125,9 @@ TEST(ModelNode, NonFiniteTableSampleHoldsTheLastValueAndTheVariantGoesOn) {
   EXPECT_EQ(node.failures(), 0);
   EXPECT_EQ(node.bad_table_samples(), 100);
   ASSERT_EQ(events.size(), 2u);
-  EXPECT_EQ(events[0].kind, +rocklab::event_t::BAD_SAMPLE);
+  EXPECT_EQ(events[0].kind, +rocklab::event2_t::BAD_SAMPLE);
   EXPECT_EQ(events[0].utime, 200'000);
-  EXPECT_EQ(events[1].kind, +rocklab::event_t::RECOVERED);
+  EXPECT_EQ(events[1].kind, +rocklab::event2_t::RECOVERED);
   EXPECT_EQ(events[1].utime, 300'000);
   EXPECT_NE(events[1].detail.find("100 bad samples"), std::string::npos) << events[1].detail;
 }
@@ -156,12 +156,12 @@ TEST(ModelNode, PublishesEveryVariantAndItsImpacts) {
   common::LcmBus bus("memq://");
   std::vector<std::string> channels;
   int impacts = 0;
-  const common::Subscription sub2 = bus.Subscribe<rocklab::model_state2_t>(
-      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t&) {
+  const common::Subscription sub2 = bus.Subscribe<rocklab::model_state3_t>(
+      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state3_t&) {
         channels.push_back(channel);
       });
-  const common::Subscription sub3 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& m) {
-    if (m.kind == rocklab::event_t::IMPACT) ++impacts;
+  const common::Subscription sub3 = bus.Subscribe<rocklab::event2_t>("RL_EVENT", [&](const std::string&, const rocklab::event2_t& m) {
+    if (m.kind == rocklab::event2_t::IMPACT) ++impacts;
   });
   ModelNodeConfig cfg = Config("fit:housner:alpha=0.235,p=3.884,mu=0.937");
   cfg.variants.push_back(ParseVariant("theory:complex:theoretical", BlockParams{0.242, 3.780, 0.914}));
@@ -222,15 +222,15 @@ namespace rocklab::model {
 namespace {
 
 // Oracle: the channel contract (docs/channels.md). RL_MODEL_<name> carries
-// model_state2_t and its `equations` says what produced the sample: the
+// model_state3_t and its `equations` says what produced the sample: the
 // complex variant integrates eq. (10) while it rocks (EQUATIONS_EQ10), the
 // Housner variant Housner's equations (EQUATIONS_HOUSNER), at every sample;
 // the decoded message equals what latest() holds.
 TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
   common::LcmBus bus("memq://");
-  std::map<std::string, std::vector<rocklab::model_state2_t>> got;
-  const common::Subscription sub4 = bus.Subscribe<rocklab::model_state2_t>(
-      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state2_t& m) {
+  std::map<std::string, std::vector<rocklab::model_state3_t>> got;
+  const common::Subscription sub4 = bus.Subscribe<rocklab::model_state3_t>(
+      "RL_MODEL_.*", [&](const std::string& channel, const rocklab::model_state3_t& m) {
         got[channel].push_back(m);
       });
   ModelNodeConfig cfg = Config("h:housner:theoretical");
@@ -245,13 +245,13 @@ TEST(ModelNode, PublishesModelState2WithTheEquationsOfEachSample) {
   ASSERT_EQ(got["RL_MODEL_h"].size(), 500u);
   ASSERT_EQ(got["RL_MODEL_c"].size(), 500u);
   int complex_rocking = 0;
-  for (const rocklab::model_state2_t& m : got["RL_MODEL_h"]) {
-    EXPECT_EQ(m.equations, +rocklab::model_state2_t::EQUATIONS_HOUSNER) << m.utime;
+  for (const rocklab::model_state3_t& m : got["RL_MODEL_h"]) {
+    EXPECT_EQ(m.equations, +rocklab::model_state3_t::EQUATIONS_HOUSNER) << m.utime;
   }
-  for (const rocklab::model_state2_t& m : got["RL_MODEL_c"]) {
-    if (m.regime != rocklab::model_state2_t::REGIME_ROCKING) continue;
+  for (const rocklab::model_state3_t& m : got["RL_MODEL_c"]) {
+    if (m.regime != rocklab::model_state3_t::REGIME_ROCKING) continue;
     ++complex_rocking;
-    EXPECT_EQ(m.equations, +rocklab::model_state2_t::EQUATIONS_EQ10) << m.utime;
+    EXPECT_EQ(m.equations, +rocklab::model_state3_t::EQUATIONS_EQ10) << m.utime;
   }
   EXPECT_GT(complex_rocking, 400);  // 0.1 rad of a 0.235 rad block rocks for the whole second
   EXPECT_EQ(got["RL_MODEL_c"].back().equations, node.latest(1).equations);
@@ -268,9 +268,9 @@ namespace {
 // with seq 100..104 and 300 dropped (6 samples missing by seq). RL_HEALTH "stopped" carries gaps = 6.
 TEST(ModelNode, CountsRlTableSequenceGapsInHealth) {
   common::LcmBus bus("memq://");
-  rocklab::health_t last{};
-  const common::Subscription sub5 = bus.Subscribe<rocklab::health_t>("RL_HEALTH",
-                                   [&](const std::string&, const rocklab::health_t& m) { last = m; });
+  rocklab::health2_t last{};
+  const common::Subscription sub5 = bus.Subscribe<rocklab::health2_t>("RL_HEALTH",
+                                   [&](const std::string&, const rocklab::health2_t& m) { last = m; });
   ModelNode node(Config("h:housner:theoretical"), bus);
   bus.Publish("RL_THETA", Theta(0, 0.0));
   for (int k = 0; k < 500; ++k) {

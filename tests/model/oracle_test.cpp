@@ -51,7 +51,7 @@
 #include "common/direct_bus.h"
 #include "model/model_node.h"
 #include "model/rocking_model.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 
 namespace rocklab::model {
 namespace {
@@ -683,11 +683,11 @@ struct NodeRun {
 NodeRun RunNodeOnSamples(const Case& c, int lookahead) {
   common::DirectBus bus;
   NodeRun out;
-  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state2_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state2_t& m) {
+  const common::Subscription sub1 = bus.Subscribe<rocklab::model_state3_t>("RL_MODEL_h", [&](const std::string&, const rocklab::model_state3_t& m) {
     if (m.utime % 10000 == 0) out.theta_100hz.push_back(m.theta);
   });
-  const common::Subscription sub2 = bus.Subscribe<rocklab::event_t>("RL_EVENT", [&](const std::string&, const rocklab::event_t& e) {
-    if (e.source == "h" && e.kind == rocklab::event_t::IMPACT) out.impact_times.push_back(e.utime * 1e-6);
+  const common::Subscription sub2 = bus.Subscribe<rocklab::event2_t>("RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) {
+    if (e.source == "h" && e.kind == rocklab::event2_t::IMPACT) out.impact_times.push_back(e.utime * 1e-6);
   });
   ModelNodeConfig cfg;
   VariantSpec h;

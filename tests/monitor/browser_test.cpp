@@ -7,7 +7,7 @@
 // (its final RL_COMPARE, which equals the summary JSON the run writes), and
 // saves a screenshot: build/test-artifacts/monitor.png.
 //
-// Which fields match: comparison_t.rms_total is the summary's "rms",
+// Which fields match: comparison2_t.rms_total is the summary's "rms",
 // .nrms "nrms", .correlation "correlation", .samples "samples" (the final
 // RL_COMPARE is published from the same ComparisonMetrics as the summary).
 // The page prints them with %.6g: a shown number must equal the summary's

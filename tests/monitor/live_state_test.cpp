@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "tests/tools/lcm_messages.h"
 
@@ -46,8 +46,8 @@ bool Feed(LiveState& s, const std::string& channel, const Msg& m) {
 using test::Model;
 using test::Theta;
 
-rocklab::comparison_t Compare(const std::string& name, std::int64_t utime, double error) {
-  rocklab::comparison_t m{};
+rocklab::comparison2_t Compare(const std::string& name, std::int64_t utime, double error) {
+  rocklab::comparison2_t m{};
   m.utime = utime;
   m.name = name;
   m.error = error;
@@ -63,9 +63,9 @@ rocklab::comparison_t Compare(const std::string& name, std::int64_t utime, doubl
   return m;
 }
 
-rocklab::event_t Event(std::int64_t utime, const std::string& source, std::int8_t kind,
+rocklab::event2_t Event(std::int64_t utime, const std::string& source, std::int8_t kind,
                        double value) {
-  rocklab::event_t m{};
+  rocklab::event2_t m{};
   m.utime = utime;
   m.source = source;
   m.kind = kind;
@@ -113,15 +113,15 @@ const json& VariantNamed(const json& snap, const std::string& name) {
 }
 
 // Oracle: the channel contract (docs/channels.md). RL_MODEL_<name> from the model node
-// (model_state2_t) shows which equations produced the newest sample; a log
+// (model_state3_t) shows which equations produced the newest sample; a log
 // written before it carries model_state_t on the same channels: still shown
 // (same theta in degrees, parameters), "equations" null (it does not say).
 TEST(LiveState, ShowsModelState2EquationsAndStillTheOldModelState) {
   LiveState s;
   ASSERT_TRUE(Feed(s, "RL_THETA", Theta(kT0, 0.1)));
-  rocklab::model_state2_t now = Model("new", kT0, 0.2);
+  rocklab::model_state3_t now = Model("new", kT0, 0.2);
   now.model = "complex";
-  now.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
+  now.equations = rocklab::model_state3_t::EQUATIONS_EQ10;
   EXPECT_TRUE(Feed(s, "RL_MODEL_new", now));
   EXPECT_TRUE(Feed(s, "RL_MODEL_old", test::OldModel("old", kT0, 0.3)));
   const json snap = s.Snapshot();
@@ -141,9 +141,9 @@ TEST(LiveState, ThetaAndModelsInDegreesAgainstTimeFromTheFirstSample) {
   LiveState s;
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0, 0.1)));
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 20'000, -0.2)));
-  rocklab::model_state2_t model = Model("fit", kT0 + 20'000, 0.3);
+  rocklab::model_state3_t model = Model("fit", kT0 + 20'000, 0.3);
   model.model = "complex";
-  model.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
+  model.equations = rocklab::model_state3_t::EQUATIONS_EQ10;
   model.l = 0.5;
   EXPECT_TRUE(Feed(s, "RL_MODEL_fit", model));
   const json snap = s.Snapshot();
@@ -173,7 +173,7 @@ TEST(LiveState, ThetaAndModelsInDegreesAgainstTimeFromTheFirstSample) {
 TEST(LiveState, LatestComparisonExactlyAsReceivedAndSeriesInDegrees) {
   LiveState s;
   EXPECT_TRUE(Feed(s, "RL_COMPARE_fit", Compare("fit", kT0, 3e-3)));
-  rocklab::comparison_t last = Compare("fit", kT0 + 50'000, -2e-3);
+  rocklab::comparison2_t last = Compare("fit", kT0 + 50'000, -2e-3);
   last.valid = false;
   last.samples = 51;
   EXPECT_TRUE(Feed(s, "RL_COMPARE_fit", last));
@@ -263,14 +263,14 @@ TEST(LiveState, EventsAreCappedAndCounted) {
   o.max_events = 10;
   LiveState s(o);
   for (int k = 0; k < 1000; ++k) {
-    ASSERT_TRUE(Feed(s, "RL_EVENT", Event(kT0 + k * 1000, "fit", rocklab::event_t::IMPACT, -0.1 * k)));
+    ASSERT_TRUE(Feed(s, "RL_EVENT", Event(kT0 + k * 1000, "fit", rocklab::event2_t::IMPACT, -0.1 * k)));
   }
   const json snap = s.Snapshot();
   const json& ev = snap.at("events");
   ASSERT_EQ(ev.size(), 10u);
   EXPECT_EQ(snap.at("counters").at("dropped").at("events").get<std::int64_t>(), 990);
   EXPECT_EQ(ev.back().at("kind"), "impact");
-  EXPECT_EQ(ev.back().at("code").get<int>(), int{rocklab::event_t::IMPACT});
+  EXPECT_EQ(ev.back().at("code").get<int>(), int{rocklab::event2_t::IMPACT});
   EXPECT_EQ(ev.back().at("source"), "fit");
   EXPECT_DOUBLE_EQ(ev.back().at("value").get<double>(), -0.1 * 999);
   EXPECT_DOUBLE_EQ(ev.back().at("t").get<double>(), 0.999);
@@ -313,7 +313,7 @@ TEST(LiveState, IntervalsAreCappedAndCounted) {
 // "sliding back within tolerance") changes no interval.
 TEST(LiveState, StaleIntervalsFromEvents) {
   LiveState s;
-  using E = rocklab::event_t;
+  using E = rocklab::event2_t;
   Feed(s, "RL_THETA", Theta(kT0, 0.0));
   Feed(s, "RL_EVENT", Event(kT0 + 2'000'000, "daq", E::STALE, 1.2));
   Feed(s, "RL_EVENT", Event(kT0 + 2'500'000, "fit", E::RECOVERED, 0));
@@ -335,7 +335,7 @@ TEST(LiveState, StaleIntervalsFromEvents) {
 // STALE and RECOVERED: one interval, closed.
 TEST(LiveState, StaleIntervalOfALongSourceCloses) {
   LiveState s;
-  using E = rocklab::event_t;
+  using E = rocklab::event2_t;
   const std::string source(1000, 'm');
   Feed(s, "RL_THETA", Theta(kT0, 0.0));
   Feed(s, "RL_EVENT", Event(kT0 + 1'000'000, source, E::STALE, 1.0));
@@ -360,15 +360,15 @@ TEST(LiveState, DecodeErrorsAreCountedPerChannelNeverThrown) {
   EXPECT_FALSE(s.Ingest("RL_MODEL_fit", model.data(), static_cast<int>(model.size()) - 3));
   // A string length of 0 (its NUL is part of the length): the generated
   // decoder throws on it.
-  auto bad_string = Encode(Event(kT0, "daq", rocklab::event_t::GAP, 1));
-  for (int i = 16; i < 20; ++i) bad_string[static_cast<std::size_t>(i)] = 0;  // source's length
+  auto bad_string = Encode(Event(kT0, "daq", rocklab::event2_t::GAP, 1));
+  for (int i = 24; i < 28; ++i) bad_string[static_cast<std::size_t>(i)] = 0;  // sender's length (after utime, seq)
   EXPECT_FALSE(s.Ingest("RL_EVENT", bad_string.data(), static_cast<int>(bad_string.size())));
   // A config claiming two billion channels in a short payload.
-  rocklab::daq_config_t config{};
+  rocklab::daq_config2_t config{};
   config.rig_name = "rig";
   config.calibration_id = "cal";
   auto huge = Encode(config);
-  const std::size_t count_at = 16 + 4 + 4 + 4 + 4 + 8;  // after utime, two strings, the rate
+  const std::size_t count_at = 24 + 4 + 4 + 4 + 4 + 8;  // after utime, seq, two strings, the rate
   huge[count_at] = 0x7f;
   EXPECT_FALSE(s.Ingest("RL_DAQ_CONFIG", huge.data(), static_cast<int>(huge.size())));
   huge[count_at] = 0xff;  // negative
@@ -398,7 +398,7 @@ TEST(LiveState, DecodeErrorsAreCountedPerChannelNeverThrown) {
 
 TEST(LiveState, HealthPerNodeAndRigConfig) {
   LiveState s;
-  rocklab::health_t h{};
+  rocklab::health2_t h{};
   h.utime = kT0;
   h.node = "daq";
   h.state = "running";
@@ -413,7 +413,7 @@ TEST(LiveState, HealthPerNodeAndRigConfig) {
   h.node = "compare";
   h.state = "stale";
   EXPECT_TRUE(Feed(s, "RL_HEALTH", h));
-  rocklab::daq_config_t config{};
+  rocklab::daq_config2_t config{};
   config.rig_name = "block1";
   config.calibration_id = "cal-2024";
   config.sample_rate_hz = 1000;
@@ -461,7 +461,7 @@ TEST(LiveState, UpdatesCarryOnlyWhatCameAfterTheCursor) {
   EXPECT_EQ(quiet.at("cursor").get<std::uint64_t>(), cursor);
 
   FeedRun(s, 0.1, kT0 + 500'000);  // 0.5 .. 0.6 s
-  Feed(s, "RL_EVENT", Event(kT0 + 550'000, "a", rocklab::event_t::IMPACT, -0.2));
+  Feed(s, "RL_EVENT", Event(kT0 + 550'000, "a", rocklab::event2_t::IMPACT, -0.2));
   const json update = s.UpdateSince(cursor);
   EXPECT_FALSE(update.at("full").get<bool>());
   const json& t = update.at("measured").at("t");
@@ -494,7 +494,7 @@ TEST(LiveState, UpdatesCarryIntervalsClosedAfterTheCursor) {
 TEST(LiveState, ClockGoingBackStartsANewRecord) {
   LiveState s;
   FeedRun(s, 3.0);
-  Feed(s, "RL_EVENT", Event(kT0 + 100'000, "a", rocklab::event_t::UPLIFT, 2.5));
+  Feed(s, "RL_EVENT", Event(kT0 + 100'000, "a", rocklab::event2_t::UPLIFT, 2.5));
   const auto cursor = s.Snapshot().at("cursor").get<std::uint64_t>();
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 2'900'000, 0.0)));  // decoded ...
   EXPECT_EQ(s.Snapshot().at("counters").at("dropped").at("out_of_order").get<int>(), 1);  // ... dropped
@@ -523,7 +523,7 @@ TEST(LiveState, AWildSampleMidTestIsCountedAndIgnored) {
   FeedRun(s, 3.0);
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 3'600'000'000, 0.5)));  // an hour ahead
   EXPECT_TRUE(Feed(s, "RL_THETA", Theta(kT0 - 2'000'000, 0.5)));      // 5 s back
-  Feed(s, "RL_EVENT", Event(kT0 + 7'200'000'000, "daq", rocklab::event_t::UPLIFT, 1.0));
+  Feed(s, "RL_EVENT", Event(kT0 + 7'200'000'000, "daq", rocklab::event2_t::UPLIFT, 1.0));
   FeedRun(s, 1.0, kT0 + 3'000'000);
   const json snap = s.Snapshot();
   EXPECT_EQ(snap.at("record").get<int>(), 1);
@@ -573,7 +573,7 @@ TEST(LiveState, ADaqConfigOnANewClockStartsTheNewRecordAtOnce) {
     FeedRun(s, 3.0);
     const std::int64_t t1 = kT0 + 100'000'000;
     if (config) {
-      rocklab::daq_config_t c{};
+      rocklab::daq_config2_t c{};
       c.utime = t1;
       c.rig_name = "block1";
       c.sample_rate_hz = 1000;

@@ -32,7 +32,7 @@
 
 #include "monitor/assets.h"
 #include "monitor/live_state.h"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/tools/lcm_messages.h"
 
 namespace rocklab::monitor {
@@ -308,7 +308,7 @@ class StreamReader {
 // Oracle: the snapshot and the stream still answer, with U+FFFD in place of
 // the invalid byte; the server process lives on.
 TEST_F(MonitorServerTest, TextThatIsNotUtf8IsReplacedNotFatal) {
-  rocklab::health_t h{};
+  rocklab::health2_t h{};
   h.utime = 1'000'000;
   h.node = "daq\xff";
   h.state = "running";

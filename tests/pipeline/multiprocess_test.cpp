@@ -28,10 +28,10 @@
 #include <nlohmann/json.hpp>
 
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/event_t.hpp"
-#include "rocklab/health_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/event2_t.hpp"
+#include "rocklab/health2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
@@ -125,21 +125,21 @@ class Watch {
     return true;
   }
 
-  std::map<std::string, rocklab::health_t> health;  // newest per node
-  std::vector<rocklab::event_t> events;
-  std::map<std::string, rocklab::comparison_t> compare;  // newest per channel
+  std::map<std::string, rocklab::health2_t> health;  // newest per node
+  std::vector<rocklab::event2_t> events;
+  std::map<std::string, rocklab::comparison2_t> compare;  // newest per channel
   std::int64_t tables{}, thetas{};
   std::int64_t first_theta_utime{-1};
 
  private:
-  void OnHealth(const lcm::ReceiveBuffer*, const std::string&, const rocklab::health_t* m) {
+  void OnHealth(const lcm::ReceiveBuffer*, const std::string&, const rocklab::health2_t* m) {
     health[m->node] = *m;
   }
-  void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const rocklab::event_t* m) {
+  void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const rocklab::event2_t* m) {
     events.push_back(*m);
   }
   void OnCompare(const lcm::ReceiveBuffer*, const std::string& channel,
-                 const rocklab::comparison_t* m) {
+                 const rocklab::comparison2_t* m) {
     compare[channel] = *m;
   }
   void OnTable(const lcm::ReceiveBuffer*, const std::string&, const rocklab::table_state_t*) {
@@ -211,8 +211,8 @@ std::pair<std::int64_t, std::int64_t> CopyDaqMessages(const std::string& in,
     const LogEvent e{ev->channel, std::string(static_cast<const char*>(ev->data), ev->datalen)};
     bool daq = e.channel == "RL_DAQ_CONFIG" || e.channel == "RL_RAW" ||
                e.channel == "RL_TABLE" || e.channel == "RL_THETA";
-    if (e.channel == "RL_EVENT") daq = Decode<rocklab::event_t>(e).source == "daq";
-    if (e.channel == "RL_HEALTH") daq = Decode<rocklab::health_t>(e).node == "daq";
+    if (e.channel == "RL_EVENT") daq = Decode<rocklab::event2_t>(e).source == "daq";
+    if (e.channel == "RL_HEALTH") daq = Decode<rocklab::health2_t>(e).node == "daq";
     if (!daq) continue;
     tables += e.channel == "RL_TABLE";
     thetas += e.channel == "RL_THETA";
@@ -375,15 +375,15 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
     return c != watch.compare.end() && c->second.utime >= watch.first_theta_utime + 1'600'000;
   })) << test::ReadFile(model.err);
   EXPECT_EQ(test::StopProcess(model.pid, SIGKILL), 128 + SIGKILL);
-  ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event_t::STALE, "fitted"); }));
-  EXPECT_FALSE(watch.HasEvent(rocklab::event_t::RECOVERED, "fitted"));
+  ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event2_t::STALE, "fitted"); }));
+  EXPECT_FALSE(watch.HasEvent(rocklab::event2_t::RECOVERED, "fitted"));
 
   model = Start("model_2", ModelArgs({kFitted}));
-  ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event_t::RECOVERED, "fitted"); }))
+  ASSERT_TRUE(watch.Until([&] { return watch.HasEvent(rocklab::event2_t::RECOVERED, "fitted"); }))
       << test::ReadFile(model.err);
   std::int64_t recovered_utime = 0;
   for (const auto& e : watch.events) {
-    if (e.kind == rocklab::event_t::RECOVERED && e.source == "fitted") recovered_utime = e.utime;
+    if (e.kind == rocklab::event2_t::RECOVERED && e.source == "fitted") recovered_utime = e.utime;
   }
   ASSERT_TRUE(watch.Until([&] { return watch.compare["RL_COMPARE_fitted"].utime > recovered_utime; }))
       << "RL_COMPARE_fitted did not resume";
@@ -395,7 +395,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   // From the log: the restarted model's first message, after the longest
   // silence of RL_MODEL_fitted, against RL_THETA of the same utime.
   std::map<std::int64_t, double> measured;  // utime -> theta
-  std::vector<rocklab::model_state2_t> states;
+  std::vector<rocklab::model_state3_t> states;
   std::vector<std::string> compare_events;
   std::int64_t last_compare_utime = 0;
   for (const LogEvent& e : ReadLog(log)) {
@@ -403,14 +403,14 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
       const auto t = Decode<rocklab::block_state_t>(e);
       measured[t.utime] = t.theta;
     } else if (e.channel == "RL_MODEL_fitted") {
-      states.push_back(Decode<rocklab::model_state2_t>(e));
+      states.push_back(Decode<rocklab::model_state3_t>(e));
     } else if (e.channel == "RL_COMPARE_fitted") {
-      last_compare_utime = Decode<rocklab::comparison_t>(e).utime;
+      last_compare_utime = Decode<rocklab::comparison2_t>(e).utime;
     } else if (e.channel == "RL_EVENT") {
-      const auto ev = Decode<rocklab::event_t>(e);
-      if (ev.source == "fitted" && (ev.kind == rocklab::event_t::STALE ||
-                                    ev.kind == rocklab::event_t::RECOVERED)) {
-        compare_events.push_back(ev.kind == rocklab::event_t::STALE ? "stale" : "recovered");
+      const auto ev = Decode<rocklab::event2_t>(e);
+      if (ev.source == "fitted" && (ev.kind == rocklab::event2_t::STALE ||
+                                    ev.kind == rocklab::event2_t::RECOVERED)) {
+        compare_events.push_back(ev.kind == rocklab::event2_t::STALE ? "stale" : "recovered");
       }
     }
   }
@@ -422,7 +422,7 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
       restart = i;
     }
   }
-  const rocklab::model_state2_t& first = states[restart];
+  const rocklab::model_state3_t& first = states[restart];
   const std::int64_t silence_us = first.utime - states[restart - 1].utime;
   EXPECT_GT(silence_us, 1'000'000) << "no gap where the model was dead";
   ASSERT_EQ(measured.count(first.utime), 1u) << "no RL_THETA at the restart's utime";
@@ -451,14 +451,14 @@ TEST_F(MultiProcess, SigtermStopsEveryNodeAfterAFinalStoppedHealth) {
 
   auto last_health = [](const std::string& log, std::map<std::string, std::size_t>* order,
                         std::int64_t* raw_frames) {
-    std::map<std::string, rocklab::health_t> last;
+    std::map<std::string, rocklab::health2_t> last;
     std::size_t index = 0;
     *raw_frames = 0;
     for (const LogEvent& e : ReadLog(log)) {
       ++index;
       *raw_frames += e.channel == "RL_RAW";
       if (e.channel != "RL_HEALTH") continue;
-      const auto h = Decode<rocklab::health_t>(e);
+      const auto h = Decode<rocklab::health2_t>(e);
       last[h.node] = h;
       (*order)[h.node] = index;
     }

@@ -18,7 +18,7 @@
 #include "compare/compare_node.h"
 #include "model/model_node.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/pipeline/node_inputs.h"
 
@@ -38,7 +38,7 @@ class MemqBurst {
   MemqBurst(common::Bus& bus, std::function<void(common::Bus&, int)> publish_one, StopBy stop_by)
       : bus_(bus), publish_one_(std::move(publish_one)), stop_by_(stop_by) {
     subscriptions_.push_back(
-        bus.Subscribe<rocklab::health_t>("RL_HEALTH", [this](const std::string&, const rocklab::health_t& h) {
+        bus.Subscribe<rocklab::health2_t>("RL_HEALTH", [this](const std::string&, const rocklab::health2_t& h) {
           last_health_ = h;
           OnHealth();
         }));
@@ -46,7 +46,7 @@ class MemqBurst {
         bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; }));
   }
   const std::atomic<bool>& stop() const { return stop_; }
-  const rocklab::health_t& last_health() const { return last_health_; }
+  const rocklab::health2_t& last_health() const { return last_health_; }
 
  private:
   void OnHealth() {
@@ -64,7 +64,7 @@ class MemqBurst {
   std::function<void(common::Bus&, int)> publish_one_;
   StopBy stop_by_;
   bool sent_{};
-  rocklab::health_t last_health_{};
+  rocklab::health2_t last_health_{};
   std::atomic<bool> stop_{false};
   std::vector<common::Subscription> subscriptions_;  // last: end before the fields their handlers use
 };

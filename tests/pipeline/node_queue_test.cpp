@@ -22,7 +22,7 @@
 #include "compare/compare_node.h"
 #include "model/model_node.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/pipeline/node_inputs.h"
 #include "tests/skip.h"

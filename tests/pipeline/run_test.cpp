@@ -18,7 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/tools/log_count.h"
 #include "tests/tools/run_cli.h"
 
@@ -211,14 +211,14 @@ TEST(RocklabRun, SigtermExitsZeroAfterFinalHealth) {
 
   lcm::LogFile in(log, "r");
   ASSERT_TRUE(in.good());
-  std::map<std::string, rocklab::health_t> last;
+  std::map<std::string, rocklab::health2_t> last;
   std::map<std::string, int64_t> last_index;
   int64_t index = 0, raw = 0;
   while (const lcm::LogEvent* ev = in.readNextEvent()) {
     ++index;
     if (ev->channel == "RL_RAW") ++raw;
     if (ev->channel != "RL_HEALTH") continue;
-    rocklab::health_t h;
+    rocklab::health2_t h;
     ASSERT_GE(h.decode(ev->data, 0, ev->datalen), 0);
     last[h.node] = h;
     last_index[h.node] = index;

@@ -51,7 +51,7 @@ def test_lcm_types_decode_a_log_as_export_does(tmp_path):
     subprocess.run([cli, "export", str(log), "--out", str(tmp_path / "x.csv"), "--channels", "RL_THETA|RL_EVENT",
                     "--quiet"], check=True, capture_output=True)
     thetas = [rocklab.block_state_t.decode(d) for c, d in events(log) if c == "RL_THETA"]
-    kinds = [rocklab.event_t.decode(d) for c, d in events(log) if c == "RL_EVENT"]
+    kinds = [rocklab.event2_t.decode(d) for c, d in events(log) if c == "RL_EVENT"]
     with open(tmp_path / "x_RL_THETA.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert len(thetas) == len(rows) > 100

@@ -13,7 +13,7 @@
 
 #include "common/lcm_log.h"
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
+#include "rocklab/comparison2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/scratch.h"
 
@@ -88,7 +88,7 @@ TEST(RecordReport, AComparisonWithoutAMatchedCrossingIsSaidNotZero) {
       th.encode(buf.data(), 0, static_cast<int>(buf.size()));
       log.Write("RL_THETA", buf.data(), buf.size(), th.utime);
       for (const char* name : {"none", "some"}) {
-        rocklab::comparison_t c{};
+        rocklab::comparison2_t c{};
         c.utime = 1000 * k;
         c.name = name;
         c.nrms = 0.25;

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 
 namespace rocklab::test {
@@ -21,7 +21,7 @@ inline rocklab::block_state_t Theta(std::int64_t utime, double theta, std::int32
 
 /// RL_MODEL_<name> at `utime` (us): a Housner variant with Table 2's block 1
 /// parameters (alpha 0.235 rad, p 3.884 rad/s, mu 0.937) at theta (rad), in
-/// either model state type (model_state_t or model_state2_t).
+/// either model state type (model_state_t or model_state3_t).
 template <class ModelMsg>
 ModelMsg HousnerModelState(const std::string& name, std::int64_t utime, double theta) {
   ModelMsg m{};
@@ -35,10 +35,10 @@ ModelMsg HousnerModelState(const std::string& name, std::int64_t utime, double t
   return m;
 }
 
-/// As the model node publishes it (model_state2_t, Housner's equations).
-inline rocklab::model_state2_t Model(const std::string& name, std::int64_t utime, double theta) {
-  auto m = HousnerModelState<rocklab::model_state2_t>(name, utime, theta);
-  m.equations = rocklab::model_state2_t::EQUATIONS_HOUSNER;
+/// As the model node publishes it (model_state3_t, Housner's equations).
+inline rocklab::model_state3_t Model(const std::string& name, std::int64_t utime, double theta) {
+  auto m = HousnerModelState<rocklab::model_state3_t>(name, utime, theta);
+  m.equations = rocklab::model_state3_t::EQUATIONS_HOUSNER;
   return m;
 }
 

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "common/direct_bus.h"
-#include "rocklab/event_t.hpp"
+#include "rocklab/event2_t.hpp"
 #include "tests/skip.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
@@ -318,7 +318,7 @@ std::vector<std::pair<std::string, std::string>> DaqMessages(const std::string& 
     bool keep = ev->channel == "RL_DAQ_CONFIG" || ev->channel == "RL_RAW" ||
                 ev->channel == "RL_TABLE" || ev->channel == "RL_THETA";
     if (ev->channel == "RL_EVENT") {
-      rocklab::event_t e;
+      rocklab::event2_t e;
       keep = e.decode(ev->data, 0, ev->datalen) >= 0 && e.source == "daq";
     }
     if (keep) out.emplace_back(ev->channel, std::move(data));

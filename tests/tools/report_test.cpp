@@ -22,9 +22,9 @@
 #include <nlohmann/json.hpp>
 
 #include "rocklab/block_state_t.hpp"
-#include "rocklab/comparison_t.hpp"
-#include "rocklab/daq_config_t.hpp"
-#include "rocklab/model_state2_t.hpp"
+#include "rocklab/comparison2_t.hpp"
+#include "rocklab/daq_config2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "tests/tools/lcm_messages.h"
 #include "rocklab/table_state_t.hpp"
@@ -59,7 +59,7 @@ const std::string& Fig7Log() {
 struct LogFacts {
   std::map<std::int64_t, double> theta;                          // utime -> rad
   std::map<std::string, std::map<std::int64_t, double>> models;  // name -> utime -> rad
-  std::map<std::string, rocklab::model_state2_t> last_model;
+  std::map<std::string, rocklab::model_state3_t> last_model;
   std::map<std::string, double> last_nrms;
   std::map<std::string, bool> matched;  // the last RL_COMPARE's timing error is a number
   std::string rig, calibration;
@@ -71,9 +71,9 @@ LogFacts ReadLog(const std::string& path) {
   lcm::LogFile log(path, "r");
   EXPECT_TRUE(log.good()) << path;
   rocklab::block_state_t theta{};
-  rocklab::model_state2_t model{};
-  rocklab::comparison_t compare{};
-  rocklab::daq_config_t config{};
+  rocklab::model_state3_t model{};
+  rocklab::comparison2_t compare{};
+  rocklab::daq_config2_t config{};
   rocklab::table_state_t table{};
   while (const lcm::LogEvent* ev = log.readNextEvent()) {
     const std::string& channel = ev->channel;
@@ -217,8 +217,8 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
 
   // The caption, line for line, from the log's own messages.
   const LogFacts log = ReadLog(Fig7Log());
-  const rocklab::model_state2_t& fitted = log.last_model.at("fitted");
-  const rocklab::model_state2_t& theory = log.last_model.at("theory");
+  const rocklab::model_state3_t& fitted = log.last_model.at("fitted");
+  const rocklab::model_state3_t& theory = log.last_model.at("theory");
   const double span_s =
       static_cast<double>(log.theta.rbegin()->first - log.theta.begin()->first) * 1e-6;
   // No crossing matched (RL_COMPARE's timing error NaN) is said, not shown as 0.
@@ -422,7 +422,7 @@ TEST_F(RocklabReport, UndecodableMessagesAreCountedNotFatal) {
   EXPECT_EQ(snap.at("measured").at("theta_deg").size(), 3u);
 }
 
-// Oracle: the channel contract (docs/channels.md). A log recorded before model_state2_t carries
+// Oracle: the channel contract (docs/channels.md). A log recorded before model_state3_t carries
 // model_state_t on RL_MODEL_*: the report still shows the variant (its
 // theta as the log has it, its parameters in the caption), nothing counted
 // as a decode error.

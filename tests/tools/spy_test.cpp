@@ -42,11 +42,11 @@ const std::string kSource = ROCKLAB_SOURCE_DIR;
 
 // Every channel of the replay and its rocklab type (docs/channels.md).
 const std::map<std::string, std::string> kExpected = {
-    {"RL_DAQ_CONFIG", "daq_config_t"},       {"RL_RAW", "raw_frame_t"},
+    {"RL_DAQ_CONFIG", "daq_config2_t"},       {"RL_RAW", "raw_frame_t"},
     {"RL_TABLE", "table_state_t"},           {"RL_THETA", "block_state_t"},
-    {"RL_MODEL_fitted", "model_state2_t"},   {"RL_MODEL_theory", "model_state2_t"},
-    {"RL_COMPARE_fitted", "comparison_t"},   {"RL_COMPARE_theory", "comparison_t"},
-    {"RL_HEALTH", "health_t"}};
+    {"RL_MODEL_fitted", "model_state3_t"},   {"RL_MODEL_theory", "model_state3_t"},
+    {"RL_COMPARE_fitted", "comparison2_t"},   {"RL_COMPARE_theory", "comparison2_t"},
+    {"RL_HEALTH", "health2_t"}};
 
 bool InCi() {
   const char* ci = std::getenv("CI");

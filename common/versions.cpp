@@ -1,0 +1,161 @@
+#include "common/versions.h"
+
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
+namespace rocklab::common {
+
+void Upgrade(const rocklab::comparison_t& in, rocklab::comparison2_t& out) {
+  out.utime = in.utime;
+  out.seq = kNoSeq;
+  out.name = in.name;
+  out.error = in.error;
+  out.rms_window = in.rms_window;
+  out.window_s = in.window_s;
+  out.rms_total = in.rms_total;
+  out.nrms = in.nrms;
+  out.peak_error = in.peak_error;
+  out.impact_timing_error = in.impact_timing_error;
+  out.correlation = in.correlation;
+  out.valid = in.valid;
+  out.samples = in.samples;
+}
+
+void Upgrade(const rocklab::daq_config_t& in, rocklab::daq_config2_t& out) {
+  out.utime = in.utime;
+  out.seq = kNoSeq;
+  out.rig_name = in.rig_name;
+  out.calibration_id = in.calibration_id;
+  out.sample_rate_hz = in.sample_rate_hz;
+  out.num_channels = in.num_channels;
+  out.channel_names = in.channel_names;
+  out.channel_units = in.channel_units;
+  out.channel_sensors = in.channel_sensors;
+  out.gain = in.gain;
+  out.offset = in.offset;
+  out.alpha = in.alpha;
+  out.p = in.p;
+  out.mu = in.mu;
+}
+
+void Upgrade(const rocklab::event_t& in, rocklab::event2_t& out) {
+  out.utime = in.utime;
+  out.seq = kNoSeq;
+  out.sender.clear();
+  out.source = in.source;
+  out.kind = in.kind;
+  out.value = in.value;
+  out.detail = in.detail;
+}
+
+void Upgrade(const rocklab::health_t& in, rocklab::health2_t& out) {
+  out.utime = in.utime;
+  out.seq = kNoSeq;
+  out.sender.clear();
+  out.node = in.node;
+  out.state = in.state;
+  out.rate_in_hz = in.rate_in_hz;
+  out.rate_out_hz = in.rate_out_hz;
+  out.count_in = in.count_in;
+  out.count_out = in.count_out;
+  out.dropped = in.dropped;
+  out.gaps = in.gaps;
+  out.bad_samples = in.bad_samples;
+  out.lag_s = in.lag_s;
+}
+
+namespace {
+template <class M>
+void UpgradeModel(const M& in, rocklab::model_state3_t& out) {
+  out.utime = in.utime;
+  out.seq = kNoSeq;
+  out.name = in.name;
+  out.model = in.model;
+  out.theta = in.theta;
+  out.theta_dot = in.theta_dot;
+  out.chi = in.chi;
+  out.psi = in.psi;
+  out.energy = in.energy;
+  out.impact_count = in.impact_count;
+  out.regime = in.regime;
+  out.alpha = in.alpha;
+  out.p = in.p;
+  out.mu = in.mu;
+  out.l = in.l;
+}
+
+std::int64_t Be64(const std::uint8_t* p) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
+}
+}  // namespace
+
+void Upgrade(const rocklab::model_state_t& in, rocklab::model_state3_t& out) {
+  UpgradeModel(in, out);
+  out.equations = rocklab::model_state3_t::EQUATIONS_UNKNOWN;
+}
+
+void Upgrade(const rocklab::model_state2_t& in, rocklab::model_state3_t& out) {
+  UpgradeModel(in, out);
+  out.equations = in.equations;
+}
+
+bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& sender) {
+  // fingerprint (8), utime (8), seq (8)
+  if (data == nullptr || size < 24) return false;
+  static const std::int64_t kSingle[] = {
+      static_cast<std::int64_t>(rocklab::raw_frame_t::getHash()),
+      static_cast<std::int64_t>(rocklab::block_state_t::getHash()),
+      static_cast<std::int64_t>(rocklab::table_state_t::getHash()),
+      static_cast<std::int64_t>(rocklab::comparison2_t::getHash()),
+      static_cast<std::int64_t>(rocklab::daq_config2_t::getHash()),
+      static_cast<std::int64_t>(rocklab::model_state3_t::getHash())};
+  static const std::int64_t kSenders[] = {static_cast<std::int64_t>(rocklab::event2_t::getHash()),
+                                          static_cast<std::int64_t>(rocklab::health2_t::getHash())};
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  const std::int64_t fingerprint = Be64(b);
+  for (std::int64_t h : kSingle) {
+    if (h == fingerprint) {
+      seq = Be64(b + 16);
+      sender = {};
+      return true;
+    }
+  }
+  for (std::int64_t h : kSenders) {
+    if (h != fingerprint) continue;
+    // The string after seq: int32 length including the NUL, then the bytes.
+    if (size < 28) return false;
+    const std::int64_t len = static_cast<std::int32_t>((std::uint32_t{b[24]} << 24) | (std::uint32_t{b[25]} << 16) |
+                                                       (std::uint32_t{b[26]} << 8) | std::uint32_t{b[27]});
+    if (len < 1 || len > size - 28) return false;
+    seq = Be64(b + 16);
+    sender = std::string_view(reinterpret_cast<const char*>(b + 28), static_cast<std::size_t>(len - 1));
+    return true;
+  }
+  return false;
+}
+
+void ChannelSeqGaps::Add(std::string_view sender, std::int64_t seq) {
+  SeqGaps* s = nullptr;
+  for (auto& [name, gaps_of] : senders) {
+    if (name == sender) s = &gaps_of;
+  }
+  if (s == nullptr) {
+    if (senders.size() >= kMaxSenders) {
+      ++unkeyed;
+      return;
+    }
+    senders.emplace_back(std::string(sender), SeqGaps{});
+    s = &senders.back().second;
+  }
+  const SeqGaps before = *s;
+  s->Add(seq);
+  any = true;
+  gaps += s->gaps - before.gaps;
+  missing += s->missing - before.missing;
+  back += s->back - before.back;
+}
+
+}  // namespace rocklab::common
