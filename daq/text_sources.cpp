@@ -1,7 +1,3 @@
-#pragma once
-// The private header of the CSV and LVM sources (csv_source.cpp,
-// lvm_source.cpp).
-//
 // CSV and LabVIEW .lvm sources: one line-oriented reader, two header parsers.
 // The lines come from a detail::LineInput: a file read to its end, a file
 // followed as it grows (--follow) or a TCP stream (tcp://). A live input may
@@ -23,28 +19,28 @@
 #include "common/text.h"
 
 namespace rocklab::daq {
-namespace text_detail {
+namespace {
 
 using common::ParseNumber;
 using common::Quote;
 using common::Split;
 using common::Trim;
 
-inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A line longer than this is skipped (a row) or refused (a header): a
 // corrupt file with no line ends must not take the memory of the host.
-inline constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
 // Times beyond +-1e12 s (31 700 years) are corrupt: they would overflow the
 // int64 microseconds every message carries and the sample numbering.
-inline constexpr double kMaxAbsTimeS = 1e12;
+constexpr double kMaxAbsTimeS = 1e12;
 // UTF-8 byte order mark (EF BB BF), ignored before the first line.
-inline constexpr std::string_view kByteOrderMark{"\xEF\xBB\xBF"};
+constexpr std::string_view kByteOrderMark{"\xEF\xBB\xBF"};
 // Sample rates a file's time base may give, Hz.
-inline constexpr double kMinRateHz = 1e-6;
-inline constexpr double kMaxRateHz = 1e6;
+constexpr double kMinRateHz = 1e-6;
+constexpr double kMaxRateHz = 1e6;
 
 // 10^k, k in [0, 22]: exact doubles.
-inline constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
                              1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
 // The common field, "[+-]DIGITS[.DIGITS]" (no blanks, no exponent, at most
@@ -53,7 +49,7 @@ inline constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e
 // are exact doubles, and one IEEE division rounds their quotient correctly,
 // as from_chars must (Clinger's fast path). False for anything else, which
 // goes to ParseNumber: a false here decides nothing.
-inline bool ParsePlainDecimal(std::string_view field, double& out) {
+bool ParsePlainDecimal(std::string_view field, double& out) {
   const char* p = field.data();
   const char* const end = p + field.size();
   bool negative = false;
@@ -82,7 +78,7 @@ inline bool ParsePlainDecimal(std::string_view field, double& out) {
 
 // common::Split for data rows: a byte loop, which beats a memchr call per
 // field on fields of a few bytes. Same fields: `line` cut at every `sep`.
-inline void SplitRow(std::string_view line, char sep, std::vector<std::string_view>& fields) {
+void SplitRow(std::string_view line, char sep, std::vector<std::string_view>& fields) {
   fields.clear();
   const char* start = line.data();
   const char* const end = start + line.size();
@@ -403,17 +399,406 @@ class TextSource : public Source {
   std::optional<double> first_time_;
 };
 
-inline std::unique_ptr<detail::LineInput> StreamOrFail(std::unique_ptr<std::istream> in, const std::string& name) {
+class CsvSource final : public TextSource {
+ public:
+  CsvSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(input), path, options) {
+    rate_hz_ = options.sample_rate_hz;
+    if (!(rate_hz_ >= kMinRateHz && rate_hz_ <= kMaxRateHz)) {
+      throw std::invalid_argument("CSV source: sample_rate_hz must be in [1e-6, 1e6] Hz");
+    }
+    if (options.delimiter != 0 && options.delimiter != ',' && options.delimiter != ';' &&
+        options.delimiter != '\t') {
+      throw std::invalid_argument("CSV source: the delimiter must be ',', ';' or tab");
+    }
+    // Header: the first non-blank line. One broken off by a dropped
+    // connection is skipped (the reconnection sends it again); one the
+    // input ended on is an incomplete header.
+    bool got = false;
+    std::string cut;  // the last header line broken off, quoted
+    while ((got = ReadLine())) {
+      if (line_cut_) {
+        if (Trim(line_).empty()) continue;
+        cut = Quote(line_);
+        ++stats_.warnings;
+        Report("header line " + cut + " broken off before its line end (skipped)");
+        continue;
+      }
+      if (!Trim(line_).empty()) break;
+    }
+    if (!got && !cut.empty()) {
+      Fail("incomplete header: the input ended (stopped, or idle timeout) after a header line broken off "
+           "before its line end: " + cut);
+    }
+    if (!got && live()) Fail("no header line arrived (stopped, or idle timeout)");
+    if (line_too_long_) Fail("header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
+    if (Trim(line_).empty()) Fail("empty file: expected a header row");
+    restarted_ = false;
+    sep_ = options.delimiter != 0 ? options.delimiter : common::SniffDelimiter(line_);
+    // ';' and tab leave ',' free to be a decimal comma (what European
+    // spreadsheets and LabVIEW's spreadsheet VIs write): each field is read
+    // with '.' first, then with ','.
+    decimal_ = sep_ == ',' ? Decimal::kPoint : Decimal::kSniff;
+    ParseHeader(names_, value_cols_, time_col_, columns_);
+  }
+
+  ReadStatus ReadNext(Frame& frame) override {
+    while (ReadDataLine()) {
+      if (restarted_) {
+        restarted_ = false;
+        if (!HeaderAgain()) continue;
+        continue;
+      }
+      if (SkipCutRow() || SkipLongRow()) {
+        ++row_;
+        continue;
+      }
+      if (Trim(line_).empty()) continue;
+      SplitRow(line_, sep_, fields_);
+      if (ParseRow(row_++, frame)) return ReadStatus::kFrame;
+    }
+    return End();
+  }
+
+ private:
+  void ParseHeader(std::vector<std::string>& names, std::vector<size_t>& cols, int& time_col, size_t& columns) {
+    Split(line_, sep_, fields_);
+    columns = fields_.size();
+    time_col = -1;
+    names.clear();
+    cols.clear();
+    for (size_t i = 0; i < fields_.size(); ++i) {
+      const std::string name = common::ToUtf8(Trim(fields_[i]));
+      if (name.empty()) Fail("header column " + std::to_string(i + 1) + " has no name");
+      double ignored = 0;
+      if (ParseValue(name, ignored)) Fail("no header row: column name " + Quote(name) + " is a number");
+      if (name == "time") {
+        time_col = static_cast<int>(i);
+        continue;
+      }
+      for (const auto& n : names) {
+        if (n == name) Fail("column " + Quote(name) + " appears twice in the header");
+      }
+      names.push_back(name);
+      cols.push_back(i);
+    }
+  }
+
+  // The input started over (a reconnection, a replaced file): line_ should
+  // be the same header again (blank lines before it skipped). Another header
+  // stops the read: the channels of a run do not change under it.
+  bool HeaderAgain() {
+    while (Trim(line_).empty()) {
+      if (!ReadLine()) return false;
+    }
+    if (line_cut_) {
+      // Broken off again: the next restart brings the header once more.
+      ++stats_.warnings;
+      Report("header line " + Quote(line_) + " after the restart broken off before its line end (skipped)");
+      return false;
+    }
+    std::vector<std::string> names;
+    std::vector<size_t> cols;
+    int time_col = -1;
+    size_t columns = 0;
+    ParseHeader(names, cols, time_col, columns);
+    if (names != names_ || time_col != time_col_) {
+      Fail("the header after the restart names other columns than the first header");
+    }
+    value_cols_ = cols;
+    columns_ = columns;
+    rebase_pending_ = true;
+    return true;
+  }
+
+  int64_t row_{0};
+};
+
+// LabVIEW Measurement file (NI's "LabVIEW Measurement File (.lvm) Format"):
+// a file header, then segments, each with a header (Channels, Samples, X0,
+// Delta_X, ... one value per channel) ended by ***End_of_Header***, a column
+// row and data rows. X_Columns: One (one X_Value column), No (the X_Value
+// column is empty or absent: time is X0 + k Delta_X), Multi (an X_Value
+// column before every channel: the first is used, the others checked).
+class LvmSource final : public TextSource {
+ public:
+  LvmSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
+      : TextSource(std::move(input), path, options) {
+    if (!ReadLine()) Fail(live() ? "no header arrived (stopped, or idle timeout)" : "empty file: expected 'LabVIEW Measurement'");
+    FailIfHeaderCut();
+    ReadFileHeader();
+    // The first segment defines the channels.
+    if (!ReadSegmentHeader()) Fail("no segment: the file ends after its header");
+  }
+
+  ReadStatus ReadNext(Frame& frame) override {
+    while (ReadDataLine()) {
+      if (restarted_) {
+        // A replaced file: its own file header, then segments whose
+        // channels must be the first file's.
+        restarted_ = false;
+        EndSegment();
+        try {
+          ReadFileHeader();
+        } catch (const std::exception& e) {
+          Fail(std::string("after the file was replaced: ") + e.what());
+        }
+        if (!ReadSegmentHeaderNoThrow()) return End();
+        rebase_pending_ = true;
+        continue;
+      }
+      if (SkipCutRow() || SkipLongRow()) {
+        if (!skip_segment_) ++segment_rows_;
+        continue;
+      }
+      const std::string_view trimmed = Trim(line_);
+      if (trimmed.empty()) continue;
+      SplitRow(line_, sep_, fields_);
+      const std::string_view first = Trim(fields_[0]);
+      if (first == "Channels" || first == "***End_of_Header***") {
+        // A new segment starts: its header was the next thing in the file.
+        --line_no_;
+        pending_header_line_ = true;
+        EndSegment();
+        if (!ReadSegmentHeaderNoThrow()) return End();
+        continue;
+      }
+      if (skip_segment_) {
+        ++stats_.rows;
+        ++stats_.bad_rows;
+        continue;
+      }
+      if (ParseRow(segment_rows_++, frame)) return ReadStatus::kFrame;
+    }
+    EndSegment();
+    return End();
+  }
+
+ private:
+  // line_ is the file's first line. File header: key<TAB>value lines up to
+  // ***End_of_Header***.
+  void ReadFileHeader() {
+    if (Trim(line_).rfind("LabVIEW Measurement", 0) != 0) Fail("not a LabVIEW Measurement file");
+    bool ended = false;
+    bool decimal_given = false;
+    Decimal decimal = Decimal::kPoint;
+    char sep = '\t';
+    XColumns x_columns = XColumns::kOne;
+    while (ReadLine()) {
+      FailIfHeaderCut();
+      Split(line_, '\t', fields_);
+      const std::string_view key = Trim(fields_[0]);
+      if (key == "***End_of_Header***") {
+        ended = true;
+        break;
+      }
+      const std::string_view value = fields_.size() > 1 ? Trim(fields_[1]) : std::string_view();
+      if (key == "Separator") {
+        if (value == "Tab") sep = '\t';
+        else if (value == "Comma") sep = ',';
+        else Fail("Separator " + Quote(value) + " is not Tab or Comma");
+      } else if (key == "Decimal_Separator") {
+        decimal_given = true;
+        decimal = (value == ",") ? Decimal::kComma : Decimal::kPoint;
+      } else if (key == "X_Columns") {
+        if (value == "No") x_columns = XColumns::kNo;
+        else if (value == "Multi") x_columns = XColumns::kMulti;
+        else if (value == "One") x_columns = XColumns::kOne;
+        else Fail("X_Columns " + Quote(value) + " is not No, One or Multi");
+      }
+    }
+    if (!ended) Fail("truncated file header: no ***End_of_Header***");
+    if (sep == ',' && decimal_given && decimal == Decimal::kComma) {
+      Fail("Separator Comma with Decimal_Separator ',' is ambiguous");
+    }
+    // Without a Decimal_Separator line (older writers) each number is read
+    // with '.' first, then with ',' (only possible with Tab separators).
+    if (!decimal_given) decimal = sep == '\t' ? Decimal::kSniff : Decimal::kPoint;
+    if (!names_.empty() && (sep != sep_)) Fail("the replaced file has another Separator");
+    sep_ = sep;
+    decimal_ = decimal;
+    x_columns_ = x_columns;
+  }
+
+  void EndSegment() {
+    if (segment_done_) return;
+    segment_done_ = true;
+    if (samples_ && *samples_ != segment_rows_) {
+      ++stats_.warnings;
+      std::ostringstream msg;
+      msg << "segment " << segment_ << " header says Samples " << *samples_ << " but it has "
+          << segment_rows_ << " rows (the rows are used)";
+      Report(msg.str());
+    }
+  }
+
+  bool ReadSegmentHeaderNoThrow() {
+    try {
+      return ReadSegmentHeader();
+    } catch (const Idle&) {
+      throw;
+    } catch (const std::exception& e) {
+      ++stats_.warnings;
+      Report(std::string(e.what()) + " (rest of the file skipped)");
+      return false;
+    }
+  }
+
+  // Reads one segment header and its column row. Returns false at end of file.
+  bool ReadSegmentHeader() {
+    std::optional<double> x0;
+    std::optional<double> dx;
+    samples_.reset();
+    bool ended = false;
+    bool any = false;
+    const bool first_segment = names_.empty();
+    while (pending_header_line_ || ReadLine()) {
+      if (pending_header_line_) {
+        pending_header_line_ = false;
+        ++line_no_;
+      } else {
+        FailIfHeaderCut();
+      }
+      Split(line_, '\t', fields_);
+      const std::string_view key = Trim(fields_[0]);
+      if (key.empty() && fields_.size() <= 2) continue;
+      any = true;
+      if (key == "***End_of_Header***") {
+        ended = true;
+        break;
+      }
+      if (key == "X0" || key == "Delta_X" || key == "Samples") {
+        // One value per channel; the first is used (the channels share one
+        // clock here: a segment whose channels have other time bases is
+        // not one frame per row).
+        double v = 0;
+        if (fields_.size() < 2 || !ParseValue(fields_[1], v)) {
+          Fail(std::string(key) + " is not a number");
+        }
+        if (key == "X0") {
+          if (!(std::abs(v) <= kMaxAbsTimeS)) Fail("X0 must be within [-1e12, 1e12] s");
+          x0 = v;
+        }
+        if (key == "Delta_X") dx = v;
+        if (key == "Samples") {
+          // Checked before the conversion: 1e300 has no int64 value. Samples
+          // only cross-checks the rows, so a bad one is a warning.
+          if (v >= 0 && v <= 1e15 && v == std::floor(v)) {
+            samples_ = static_cast<int64_t>(v);
+          } else {
+            ++stats_.warnings;
+            Report("Samples " + Quote(Trim(fields_[1])) + " is not a row count in [0, 1e15] (ignored)");
+          }
+        }
+      }
+    }
+    if (!any) return false;
+    if (!ended) Fail("truncated segment header: no ***End_of_Header***");
+    ++segment_;
+    stats_.segments = segment_;
+    segment_done_ = false;
+    segment_rows_ = 0;
+    x_disagreement_reported_ = false;
+    if (!dx || !(*dx >= 1.0 / kMaxRateHz && *dx <= 1.0 / kMinRateHz)) {
+      Fail("segment header has no Delta_X in [1e-6, 1e6] s");
+    }
+    x0_s_ = x0.value_or(0.0);
+    // Column header row.
+    if (!ReadLine()) Fail("segment has no column header row");
+    FailIfHeaderCut();
+    if (line_too_long_) Fail("column header row longer than " + std::to_string(kMaxLineBytes) + " bytes");
+    Split(line_, sep_, fields_);
+    size_t n = fields_.size();
+    while (n > 0 && Trim(fields_[n - 1]).empty()) --n;
+    const bool comment = n > 0 && Trim(fields_[n - 1]) == "Comment";
+    if (comment) --n;
+    std::vector<size_t> x_cols;
+    std::vector<std::string> names;
+    std::vector<size_t> cols;
+    for (size_t i = 0; i < n; ++i) {
+      const std::string name = common::ToUtf8(Trim(fields_[i]));
+      if (name == "X_Value") {
+        x_cols.push_back(i);
+        continue;
+      }
+      if (name.empty()) Fail("column " + std::to_string(i + 1) + " has no name");
+      names.push_back(name);
+      cols.push_back(i);
+    }
+    if (x_cols.size() > 1 && x_columns_ == XColumns::kOne) {
+      Fail("more than one X_Value column with X_Columns One");
+    }
+    // X_Columns No: the X_Value column (when written) is empty: the time base is X0 and Delta_X.
+    const int time_col = (x_columns_ == XColumns::kNo || x_cols.empty()) ? -1 : static_cast<int>(x_cols[0]);
+    if (first_segment) {
+      names_ = std::move(names);
+      rate_hz_ = 1.0 / *dx;
+      skip_segment_ = false;
+    } else {
+      skip_segment_ = names != names_ || std::abs(1.0 / *dx - rate_hz_) > 1e-9 * rate_hz_;
+      if (skip_segment_) {
+        ++stats_.warnings;
+        Report("segment " + std::to_string(segment_) +
+               " has other channels or another Delta_X than segment 1 (its rows are skipped)");
+        return true;
+      }
+    }
+    value_cols_ = std::move(cols);
+    columns_ = n;
+    has_comment_ = comment;
+    time_col_ = time_col;
+    other_x_cols_.clear();
+    if (time_col >= 0) other_x_cols_.assign(x_cols.begin() + 1, x_cols.end());
+    return true;
+  }
+
+  enum class XColumns { kNo, kOne, kMulti };
+  XColumns x_columns_{XColumns::kOne};
+  bool pending_header_line_{false};
+  bool skip_segment_{false};
+  bool segment_done_{true};
+  int segment_{0};
+  int64_t segment_rows_{0};
+  std::optional<int64_t> samples_;
+};
+
+std::unique_ptr<detail::LineInput> StreamOrFail(std::unique_ptr<std::istream> in, const std::string& name) {
   if (!in || !*in) throw std::runtime_error(name + ": cannot open the input file");
   return detail::StreamLines(std::move(in));
 }
 
-inline detail::LiveOptions Live(const SourceOptions& options) {
+detail::LiveOptions Live(const SourceOptions& options) {
   detail::LiveOptions live;
   live.stop = options.stop;
   live.idle_timeout_s = options.idle_timeout_s;
   return live;
 }
 
-}  // namespace text_detail
+}  // namespace
+
+std::unique_ptr<Source> OpenCsvSource(const std::string& path, const SourceOptions& options) {
+  auto lines = options.follow ? detail::FollowFile(path, Live(options)) : detail::FileLines(path);
+  return std::make_unique<CsvSource>(std::move(lines), path, options);
+}
+
+std::unique_ptr<Source> OpenLvmSource(const std::string& path, const SourceOptions& options) {
+  auto lines = options.follow ? detail::FollowFile(path, Live(options)) : detail::FileLines(path);
+  return std::make_unique<LvmSource>(std::move(lines), path, options);
+}
+
+std::unique_ptr<Source> OpenCsvStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options) {
+  return std::make_unique<CsvSource>(StreamOrFail(std::move(in), name), name, options);
+}
+
+std::unique_ptr<Source> OpenLvmStream(std::unique_ptr<std::istream> in, const std::string& name,
+                                      const SourceOptions& options) {
+  return std::make_unique<LvmSource>(StreamOrFail(std::move(in), name), name, options);
+}
+
+std::unique_ptr<Source> OpenTcpSource(const std::string& host_port, const SourceOptions& options, bool listen) {
+  return std::make_unique<CsvSource>(detail::TcpLines(host_port, Live(options), listen),
+                                     (listen ? "tcp-listen://" : "tcp://") + host_port, options);
+}
+
 }  // namespace rocklab::daq
