@@ -95,6 +95,29 @@ struct H5Writer::Impl {
     Check(H5Awrite(attr.get(), utf8.get(), &p), "H5Awrite", 0);
   }
 
+  // The named values of an integer column: `code_values` (int64) and
+  // `code_names` (strings), index for index, and `code_kind` "enum" or
+  // "bitmask".
+  void CodeAttributes(hid_t object, const Column& c) {
+    const hsize_t n = c.codes.size();
+    Handle aspace(Check(H5Screate_simple(1, &n, nullptr), "H5Screate_simple"), H5Sclose);
+    std::vector<std::int64_t> values;
+    std::vector<const char*> names;
+    for (const Code& code : c.codes) {
+      values.push_back(code.value);
+      names.push_back(code.name.c_str());
+    }
+    Handle v(Check(H5Acreate2(object, "code_values", H5T_STD_I64LE, aspace.get(), H5P_DEFAULT, H5P_DEFAULT),
+                   "H5Acreate2"),
+             H5Aclose);
+    Check(H5Awrite(v.get(), H5T_NATIVE_INT64, values.data()), "H5Awrite", 0);
+    Handle t(Check(H5Acreate2(object, "code_names", utf8.get(), aspace.get(), H5P_DEFAULT, H5P_DEFAULT),
+                   "H5Acreate2"),
+             H5Aclose);
+    Check(H5Awrite(t.get(), utf8.get(), names.data()), "H5Awrite", 0);
+    TextAttribute(object, "code_kind", c.bitmask ? "bitmask" : "enum");
+  }
+
   void Flush(Table& t) {
     if (t.buffered == 0) return;
     const hsize_t start = static_cast<hsize_t>(t.written);
@@ -207,6 +230,8 @@ int H5Writer::AddTable(const std::string& name, const std::vector<Column>& colum
     if (d < 0) throw std::runtime_error(m.path + ": cannot create dataset " + group_name + "/" + c.name);
     b.dataset = Handle(d, H5Dclose);
     if (!c.unit.empty()) m.TextAttribute(d, "units", c.unit);
+    if (!c.description.empty()) m.TextAttribute(d, "description", c.description);
+    if (!c.codes.empty()) m.CodeAttributes(d, c);
     switch (c.type) {
       case ColumnType::kDouble: b.real.resize(chunk); break;
       case ColumnType::kInt: b.integer.resize(chunk); break;
