@@ -110,6 +110,7 @@ void NameRawColumns(const rocklab::daq_config_t& config, bool calibrated, std::v
     } else {
       c.description = "channel " + name + (sensor.empty() ? "" : " (sensor " + sensor + ")") +
                       ", raw (= values_" + std::to_string(k) + "); " + calibration;
+      c.same_as = columns[from].name;  // HDF5: one dataset, two names
     }
     columns.push_back(c);
     t.named.push_back({from, columns.size() - 1, gain, offset});

@@ -151,9 +151,16 @@ void Visit(const rocklab::table_state_t& m, V& v) {
 // .lcm files; tests/export/codes_test.cpp fails when an .lcm file has a
 // constant group no legend names.
 
+// name_column: the field also gets a text column FIELD_name. Only event
+// kinds: events are a few a second, so their names cost nothing, and they
+// are what a reader filters on; a text column beside a 1 kHz field (flags,
+// regime, equations) would take more room than the data (HDF5 keeps a
+// variable-length string per row: +71 % on those tables of a 7 s test's
+// .h5, docs/export.md), so those carry the legend only.
 struct Legend {
   const char* field;
   bool bitmask;
+  bool name_column;
   std::vector<Code> codes;
 };
 
@@ -163,21 +170,21 @@ const std::vector<Legend>& Legends() {
   using M = rocklab::model_state2_t;
   using T = rocklab::table_state_t;
   static const std::vector<Legend> legends = {
-      {"kind", false,
+      {"kind", false, true,
        {{E::UPLIFT, "UPLIFT"}, {E::IMPACT, "IMPACT"}, {E::REST, "REST"}, {E::OVERTURN, "OVERTURN"},
         {E::SLIDING, "SLIDING"}, {E::TWIST, "TWIST"}, {E::GAP, "GAP"}, {E::STALE, "STALE"}, {E::JUMP, "JUMP"},
         {E::OUT_OF_PLANE, "OUT_OF_PLANE"}, {E::DISAGREE, "DISAGREE"}, {E::RECOVERED, "RECOVERED"},
         {E::BAD_SAMPLE, "BAD_SAMPLE"}, {E::COMMENT, "COMMENT"}}},
-      {"flags", true,
+      {"flags", true, false,
        {{B::FLAG_SLIDING, "SLIDING"}, {B::FLAG_JUMP, "JUMP"}, {B::FLAG_TWIST, "TWIST"},
         {B::FLAG_OUT_OF_PLANE, "OUT_OF_PLANE"}, {B::FLAG_DISAGREE, "DISAGREE"}, {B::FLAG_NO_MIRROR, "NO_MIRROR"},
         {B::FLAG_NO_CAMERA, "NO_CAMERA"}}},
-      {"regime", false,
+      {"regime", false, false,
        {{M::REGIME_REST, "REST"}, {M::REGIME_ROCKING, "ROCKING"}, {M::REGIME_OVERTURNED, "OVERTURNED"}}},
-      {"equations", false,
+      {"equations", false, false,
        {{M::EQUATIONS_UNKNOWN, "UNKNOWN"}, {M::EQUATIONS_HOUSNER, "HOUSNER"}, {M::EQUATIONS_EQ10, "EQ10"},
         {M::EQUATIONS_LIMIT, "LIMIT"}}},
-      {"accel_source", false,
+      {"accel_source", false, false,
        {{T::ACCEL_ACCELEROMETER, "ACCELEROMETER"}, {T::ACCEL_DIFFERENTIATED, "DIFFERENTIATED"},
         {T::ACCEL_EXACT, "EXACT"}}},
   };
@@ -305,9 +312,9 @@ class TypedDecoder final : public MessageDecoder {
     columns.push_back({"time", ColumnType::kDouble, "s"});
     ColumnVisitor v{&columns, &array_sizes_};
     Visit(msg_, v);
-    // Integer fields with named values: the legend on the column, and a
-    // text column FIELD_name after the fields (appended: the fields keep
-    // their positions).
+    // Integer fields with named values: the legend on the column, and for
+    // some (Legend::name_column) a text column FIELD_name after the fields
+    // (appended: the fields keep their positions).
     const std::size_t fields = columns.size();
     for (std::size_t i = 0; i < fields; ++i) {
       if (columns[i].type != ColumnType::kInt) continue;
@@ -315,6 +322,7 @@ class TypedDecoder final : public MessageDecoder {
       if (!legend) continue;
       columns[i].codes = legend->codes;
       columns[i].bitmask = legend->bitmask;
+      if (!legend->name_column) continue;
       columns.push_back({columns[i].name + "_name", ColumnType::kString, ""});
       columns.back().description = legend->bitmask ? "the set bits of " + columns[i].name + " by name, '|' between"
                                                    : "the name of " + columns[i].name + "'s code";

@@ -11,9 +11,9 @@
 /// values_0 .. values_{n-1} (n from the channel's first message); int8..int64
 /// and boolean are integer columns, double a real column, string a text
 /// column. An integer field with named values (FieldCodes: kind, flags,
-/// regime, equations, accel_source) carries them in its Column::codes and
-/// gets a text column FIELD_name after all the fields (one name, or a
-/// bitmask's set bits joined by '|'; a value without a name in decimal).
+/// regime, equations, accel_source) carries them in its Column::codes; an
+/// event's `kind` also gets a text column kind_name after all the fields
+/// (the code's name; a value without a name in decimal).
 
 #include <cstdint>
 #include <memory>

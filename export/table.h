@@ -39,6 +39,11 @@ struct Column {
   std::string description;  ///< one line: what the column holds where its name does not say
   std::vector<Code> codes;  ///< integer columns: the named values
   bool bitmask{false};      ///< codes are bits; a value is the OR of several
+  /// The name of an earlier column of the table that always holds the same
+  /// values (the caller fills both): HDF5 makes this column a second link
+  /// to that dataset (no second copy; it shares its attributes); the other
+  /// formats write it again.
+  std::string same_as;
 };
 
 

@@ -3,11 +3,13 @@
 // - a LabVIEW file's units (Y_Unit_Label), its Comment column and its empty
 //   fields (counted as empty values, not as bad ones);
 // - RL_RAW's columns named after RL_DAQ_CONFIG's channels, raw or calibrated;
-// - the names of integer codes (kind, flags, regime, equations, accel_source).
+// - the names of integer codes (kind, flags, regime, equations, accel_source):
+//   a legend in every format, and a column kind_name for events.
 // Oracles: the fixture text; the .lcm files' constants (parsed here, not
 // taken from export/fields.cpp); gain * raw + offset evaluated here in
 // double (the export evaluates the same expression: compared with ==).
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <cmath>
 #include <filesystem>
@@ -296,7 +298,7 @@ TEST(LogMetadata, CodesHaveTheirNamesInEveryFormat) {
     const test::ReadColumn* kind = Find(event, "kind");
     const test::ReadColumn* kind_name = Find(event, "kind_name");
     ASSERT_TRUE(kind && kind_name);
-    EXPECT_EQ(Int(*kind, 0), rocklab::event_t::IMPACT);
+    EXPECT_EQ(Int(*kind, 0), static_cast<std::int64_t>(rocklab::event_t::IMPACT));
     EXPECT_EQ(kind_name->text, (std::vector<std::string>{"IMPACT", "99"}));
     // The name columns follow the fields: the fields keep their positions.
     EXPECT_EQ(event.back().name, "kind_name");
@@ -304,25 +306,19 @@ TEST(LogMetadata, CodesHaveTheirNamesInEveryFormat) {
     EXPECT_NE(km.codes.find("1=UPLIFT;2=IMPACT;"), std::string::npos) << km.codes;
     EXPECT_NE(km.codes.find("14=COMMENT"), std::string::npos) << km.codes;
 
+    // The 1 kHz code fields: the legend only (no text column per row).
     const auto theta = ReadTable(out, "RL_THETA", false);
-    const test::ReadColumn* flags_name = Find(theta, "flags_name");
-    ASSERT_TRUE(flags_name);
-    EXPECT_EQ(flags_name->text, (std::vector<std::string>{"SLIDING|NO_MIRROR|128", ""}));
-    EXPECT_NE(MetaOf(out, "RL_THETA", "flags").codes.find("1|=SLIDING;2|=JUMP;"), std::string::npos);
-
+    EXPECT_EQ(theta.back().name, "flags");
+    EXPECT_EQ(MetaOf(out, "RL_THETA", "flags").codes,
+              "1|=SLIDING;2|=JUMP;4|=TWIST;8|=OUT_OF_PLANE;16|=DISAGREE;32|=NO_MIRROR;64|=NO_CAMERA");
     const auto model = ReadTable(out, "RL_MODEL_housner", false);
-    const test::ReadColumn* regime = Find(model, "regime_name");
-    const test::ReadColumn* equations = Find(model, "equations_name");
-    ASSERT_TRUE(regime && equations);
-    EXPECT_EQ(regime->text, (std::vector<std::string>{"ROCKING"}));
-    EXPECT_EQ(equations->text, (std::vector<std::string>{"EQ10"}));
+    EXPECT_EQ(model.back().name, "equations");
+    const test::ReadColumn* regime = Find(model, "regime");
+    ASSERT_TRUE(regime);
+    EXPECT_EQ(Int(*regime, 0), static_cast<std::int64_t>(rocklab::model_state2_t::REGIME_ROCKING));
     EXPECT_EQ(MetaOf(out, "RL_MODEL_housner", "regime").codes, "0=REST;1=ROCKING;2=OVERTURNED");
     EXPECT_EQ(MetaOf(out, "RL_MODEL_housner", "equations").codes, "-1=UNKNOWN;0=HOUSNER;1=EQ10;2=LIMIT");
-
-    const auto table = ReadTable(out, "RL_TABLE", false);
-    const test::ReadColumn* accel = Find(table, "accel_source_name");
-    ASSERT_TRUE(accel);
-    EXPECT_EQ(accel->text, (std::vector<std::string>{"EXACT"}));
+    EXPECT_EQ(MetaOf(out, "RL_TABLE", "accel_source").codes, "0=ACCELEROMETER;1=DIFFERENTIATED;2=EXACT");
   }
 }
 
@@ -395,10 +391,32 @@ TEST(LogMetadata, RawColumnsAreNamedAfterTheRigsChannelsRawByDefault) {
           << v0.description;
       const Meta named = MetaOf(out, "RL_RAW", "table_disp");
       EXPECT_EQ(named.unit, calibrated ? "m" : "");
-      EXPECT_NE(named.description.find(calibrated ? "calibrated from values_1" : "raw (= values_1)"),
-                std::string::npos)
-          << named.description;
+      // HDF5, raw: table_disp is a second link to values_1's dataset, so
+      // it has values_1's description.
+      const std::string want = calibrated ? "calibrated from values_1"
+                               : ext == ".h5" ? "channel table_disp (sensor table.displacement), raw;"
+                                              : "raw (= values_1)";
+      EXPECT_NE(named.description.find(want), std::string::npos) << named.description;
     }
+  }
+}
+
+// HDF5, raw: a channel's column is a second name of values_k's dataset,
+// not a copy (calibrated: its own dataset). Oracle: the objects' addresses.
+TEST(LogMetadata, Hdf5RawChannelColumnsAreLinksNotCopies) {
+  const std::string log = WriteLog("raw_links.lcm", true);
+  for (const bool calibrated : {false, true}) {
+    ExportOptions o;
+    o.calibrated = calibrated;
+    const std::string out = Export(log, Dir() + (calibrated ? "/links_cal.h5" : "/links.h5"), o, true);
+    hid_t f = H5Fopen(out.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    H5O_info_t a{}, b{};
+    ASSERT_GE(H5Oget_info_by_name2(f, "RL_RAW/values_1", &a, H5O_INFO_BASIC, H5P_DEFAULT), 0);
+    ASSERT_GE(H5Oget_info_by_name2(f, "RL_RAW/table_disp", &b, H5O_INFO_BASIC, H5P_DEFAULT), 0);
+    EXPECT_EQ(a.addr == b.addr, !calibrated);
+    EXPECT_EQ(a.rc, calibrated ? 1u : 2u);
+    H5Fclose(f);
   }
 }
 
