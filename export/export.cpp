@@ -59,10 +59,11 @@ std::string Number(double x) {
 // A dataset-safe, unique column name for channel `name` (HDF5 takes '/' for
 // a path; an empty name or one a field has already is prefixed).
 std::string ColumnName(const std::string& name, const std::vector<Column>& columns) {
-  std::string n = name;
-  for (char& c : n) {
+  std::string base = name;
+  for (char& c : base) {
     if (c == '/') c = '_';
   }
+  std::string n = base;
   auto taken = [&columns](const std::string& x) {
     if (x.empty() || x == "." || x == "..") return true;
     for (const Column& c : columns) {
@@ -70,8 +71,8 @@ std::string ColumnName(const std::string& name, const std::vector<Column>& colum
     }
     return false;
   };
-  if (taken(n)) n = "channel_" + n;
-  for (int k = 2; taken(n); ++k) n = "channel_" + name + "_" + std::to_string(k);
+  if (taken(n)) n = "channel_" + base;
+  for (int k = 2; taken(n); ++k) n = "channel_" + base + "_" + std::to_string(k);
   return n;
 }
 

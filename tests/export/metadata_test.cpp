@@ -420,6 +420,36 @@ TEST(LogMetadata, Hdf5RawChannelColumnsAreLinksNotCopies) {
   }
 }
 
+// Channel names that cannot be column names as they are: '/' (an HDF5
+// path) becomes '_'; a name a field already has gets `channel_`.
+TEST(LogMetadata, RawChannelNamesAreMadeSafeColumnNames) {
+  const std::string path = Dir() + "/odd_names.lcm";
+  {
+    common::LogWriter w(path);
+    rocklab::daq_config_t c = Config();
+    c.num_channels = 2;
+    c.channel_names = {"a/b", "values_0"};
+    c.channel_units = {"m", "m"};
+    c.channel_sensors = {"", ""};
+    c.gain = {1, 1};
+    c.offset = {0, 0};
+    Put(w, "RL_DAQ_CONFIG", c);
+    rocklab::raw_frame_t f{};
+    f.num_channels = 2;
+    f.values = {1, 2};
+    Put(w, "RL_RAW", f);
+    ASSERT_TRUE(w.Close());
+  }
+  for (const std::string& ext : kExts) {
+    const std::string out = Export(path, Dir() + "/odd_names" + ext, ExportOptions{}, true);
+    const auto raw = ReadTable(out, "RL_RAW", false);
+    ASSERT_EQ(raw.size(), 8u) << ext;
+    EXPECT_EQ(raw[6].name, "a_b") << ext;
+    EXPECT_EQ(raw[7].name, "channel_values_0") << ext;
+    EXPECT_EQ(Real(raw[7], 0), 2.0) << ext;
+  }
+}
+
 // A raw frame before any RL_DAQ_CONFIG: nothing to name the columns after;
 // they stay values_N and the export says why.
 TEST(LogMetadata, RawBeforeAnyConfigStaysUnnamedAndSaysSo) {
