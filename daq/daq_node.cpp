@@ -255,6 +255,13 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   options.on_wait = [impl] { impl->OnWaitingForHeader(); };
   options.rig = &m.config.rig;
   m.source = OpenSource(m.config.input, options);
+  // The units the file states against the rig's: a contradiction of a
+  // channel with raw_unit stops here; one the rig leaves open is a warning.
+  for (const std::string& w : CheckFileUnits(m.config.rig, m.source->channel_names(), m.source->channel_units(),
+                                             m.source->path())) {
+    ++m.stats.problems;
+    m.log->warn("{}", w);
+  }
   m.processor = std::make_unique<Processor>(m.config.rig, m.source->channel_names(),
                                             m.source->path(), m);
   // A live source arrives on its own clock: pacing it would only add latency.

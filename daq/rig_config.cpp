@@ -395,6 +395,7 @@ void ParseChannels(Reader& r, const toml::table& root, const std::set<std::strin
             "must not be 0 (|gain| >= 1e-300)");
     ch.offset = r.Double(*t, "channel", "offset", 0.0);
     ch.unit = r.String(*t, "channel", "unit", std::string(ch.sensor == "table.acceleration" ? "m/s^2" : "m"));
+    ch.raw_unit = r.String(*t, "channel", "raw_unit", std::string());
     ch.raw_min = r.Double(*t, "channel", "raw_min", ch.raw_min);
     ch.raw_max = r.Double(*t, "channel", "raw_max", ch.raw_max);
     r.Check(ch.raw_min < ch.raw_max, *t, "channel", "raw_max", "must be > raw_min");
@@ -440,6 +441,34 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   ParseChannels(r, root, roles, rig);
   r.RejectUnknown(root, "");
   return rig;
+}
+
+std::vector<std::string> CheckFileUnits(const RigConfig& rig, const std::vector<std::string>& names,
+                                        const std::vector<std::string>& units, const std::string& source_path) {
+  using common::Quote;
+  std::vector<std::string> warnings;
+  for (const ChannelConfig& c : rig.channels) {
+    for (std::size_t i = 0; i < names.size() && i < units.size(); ++i) {
+      if (names[i] != c.name || units[i].empty()) continue;
+      const std::string& file = units[i];
+      std::ostringstream msg;
+      msg << rig.path << ":" << c.line << ": channel " << Quote(c.name) << " (sensor " << Quote(c.sensor) << ")";
+      if (!c.raw_unit.empty()) {
+        if (file != c.raw_unit) {
+          msg << " has raw_unit " << Quote(c.raw_unit) << " but " << source_path << " says its values are in "
+              << Quote(file) << " (Y_Unit_Label): the calibration (gain " << c.gain << ", offset " << c.offset
+              << " to " << c.unit << ") would be wrong; fix the rig file or the input";
+          throw std::runtime_error(msg.str());
+        }
+      } else if (c.gain == 1.0 && c.offset == 0.0 && file != c.unit) {
+        msg << " is in " << Quote(c.unit) << " with gain 1 and offset 0, so its raw values are taken as "
+            << Quote(c.unit) << ", but " << source_path << " says they are in " << Quote(file)
+            << " (Y_Unit_Label); set the channel's gain and offset, or raw_unit to have such a file refused";
+        warnings.push_back(msg.str());
+      }
+    }
+  }
+  return warnings;
 }
 
 RigConfig LoadRigConfig(const std::string& path) {

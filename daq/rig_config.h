@@ -28,6 +28,9 @@ struct ChannelConfig {
   double gain{1.0};    ///< physical unit per raw unit
   double offset{0.0};  ///< physical unit
   std::string unit;    ///< physical unit after calibration ("m", "m/s^2")
+  /// The unit of the raw values as a raw file states it (LVM Y_Unit_Label);
+  /// "" = not said. A file stating another unit is refused (CheckFileUnits).
+  std::string raw_unit;
   double raw_min{-std::numeric_limits<double>::infinity()};  ///< raw unit
   double raw_max{std::numeric_limits<double>::infinity()};   ///< raw unit
   int line{};          ///< line of the channel's table in the rig file
@@ -140,6 +143,17 @@ struct RigConfig {
 /// @throws std::runtime_error "PATH:LINE: key 'a.b' ..." on a TOML syntax
 ///         error, a missing or mistyped key, an unknown key, an unknown sensor
 ///         role, a duplicated channel or sensor, or a value out of range.
+/// The units a raw file states for its channels (Source::channel_units(),
+/// in `names` order; empty: it states none) against the rig's channels.
+/// A channel whose `raw_unit` is set and whose file unit differs: throws
+/// std::runtime_error naming the rig file and line, the channel, both
+/// units and the file. A channel without `raw_unit`, calibrated by the
+/// identity (gain 1, offset 0), whose file unit differs from its `unit`:
+/// one warning line returned (the raw values are taken as `unit`). Units
+/// are compared as written (after trimming).
+std::vector<std::string> CheckFileUnits(const RigConfig& rig, const std::vector<std::string>& names,
+                                        const std::vector<std::string>& units, const std::string& source_path);
+
 RigConfig LoadRigConfig(const std::string& path);
 /// Same, from text; `path` only names the source in messages.
 RigConfig ParseRigConfig(const std::string& text, const std::string& path);

@@ -83,6 +83,14 @@ class Source {
   virtual ~Source() = default;
   /// Channel names in frame order (without the time column).
   virtual const std::vector<std::string>& channel_names() const = 0;
+  /// The unit of each channel's values as the file states it (LVM:
+  /// Y_Unit_Label of the first segment), in channel_names() order, "" where
+  /// it states none; empty when the format carries no units (CSV, LCM).
+  /// These are the units of the raw values, before the rig's calibration.
+  virtual std::vector<std::string> channel_units() const { return {}; }
+  /// Whether frames may carry Frame::comment (LVM with a Comment column in
+  /// its first segment).
+  virtual bool has_comments() const { return false; }
   /// Nominal sample rate, Hz (from the file's time base where it has one).
   virtual double sample_rate_hz() const = 0;
   /// Reads the next frame into `frame`, reusing its storage. Never throws;

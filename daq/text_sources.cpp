@@ -100,6 +100,8 @@ class TextSource : public Source {
   bool live() const override { return input_->live(); }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
+  std::vector<std::string> channel_units() const override { return units_; }
+  bool has_comments() const override { return comments_column_; }
   double sample_rate_hz() const override { return rate_hz_; }
   const SourceStats& stats() const override { return stats_; }
   const std::string& path() const override { return path_; }
@@ -380,6 +382,8 @@ class TextSource : public Source {
   SourceStats stats_;
 
   std::vector<std::string> names_;  // channel names, frame order
+  std::vector<std::string> units_;  // LVM: Y_Unit_Label of segment 1 per channel ("" none); CSV: empty
+  bool comments_column_{false};     // LVM: segment 1's column row ends with Comment
   std::vector<size_t> value_cols_;  // column of each channel
   size_t columns_{};                // fields per row
   int time_col_{-1};
@@ -648,6 +652,7 @@ class LvmSource final : public TextSource {
   bool ReadSegmentHeader() {
     std::optional<double> x0;
     std::optional<double> dx;
+    std::vector<std::string> units;  // Y_Unit_Label, one per channel
     samples_.reset();
     bool ended = false;
     bool any = false;
@@ -666,6 +671,13 @@ class LvmSource final : public TextSource {
       if (key == "***End_of_Header***") {
         ended = true;
         break;
+      }
+      if (key == "Y_Unit_Label") {
+        // One label per channel in channel order (X_Value columns have
+        // none: X_Unit_Label is theirs), Windows-1252 or UTF-8 text.
+        units.clear();
+        for (size_t i = 1; i < fields_.size(); ++i) units.push_back(common::ToUtf8(Trim(fields_[i])));
+        continue;
       }
       if (key == "X0" || key == "Delta_X" || key == "Samples") {
         // One value per channel; the first is used (the channels share one
@@ -730,11 +742,25 @@ class LvmSource final : public TextSource {
     }
     // X_Columns No: the X_Value column (when written) is empty: the time base is X0 and Delta_X.
     const int time_col = (x_columns_ == XColumns::kNo || x_cols.empty()) ? -1 : static_cast<int>(x_cols[0]);
+    // Labels past the channels (trailing tabs) are dropped; missing ones are "".
+    units.resize(names.size());
     if (first_segment) {
       names_ = std::move(names);
+      units_ = std::move(units);
+      comments_column_ = comment;
       rate_hz_ = 1.0 / *dx;
       skip_segment_ = false;
     } else {
+      // Another unit in a later segment: its rows are kept (the channels
+      // are the same) but the first segment's units are what the file is
+      // said to hold, so the disagreement is reported and counted.
+      for (size_t i = 0; i < units.size() && i < units_.size(); ++i) {
+        if (!units[i].empty() && units[i] != units_[i] && names == names_) {
+          ++stats_.warnings;
+          Report("segment " + std::to_string(segment_) + " gives channel " + Quote(names_[i]) + " the unit " +
+                 Quote(units[i]) + " where segment 1 says " + Quote(units_[i]) + " (segment 1's is reported)");
+        }
+      }
       skip_segment_ = names != names_ || std::abs(1.0 / *dx - rate_hz_) > 1e-9 * rate_hz_;
       if (skip_segment_) {
         ++stats_.warnings;

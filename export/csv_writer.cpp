@@ -64,7 +64,7 @@ int CsvWriter::AddTable(const std::string& name, const std::vector<Column>& colu
       throw std::runtime_error(path + ": two tables map to this file name (" + name + ")");
     }
   }
-  File file{common::AtomicFile(path), nullptr, columns};
+  File file{common::AtomicFile(path), nullptr, columns, name};
   file.f = file.file.stream();
   for (std::size_t i = 0; i < columns.size(); ++i) {
     if (i) std::fputc(',', file.f);
@@ -91,7 +91,32 @@ void CsvWriter::Append(int table, const Row& row) {
   }
 }
 
+std::string CsvWriter::LegendPath(const std::string& out) {
+  std::string stem = out;
+  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
+  return stem + ".columns.csv";  // a '.' no TablePath gives: it cannot be a table's file
+}
+
 void CsvWriter::Close() {
+  if (closed_) return;
+  if (!files_.empty()) {
+    std::vector<Row> rows;
+    for (const File& file : files_) AppendLegendRows(file.name, file.columns, rows);
+    const bool single = single_table_;
+    single_table_ = true;  // AddTable: the legend goes to the path given here
+    const std::string out = out_;
+    out_ = LegendPath(out);
+    std::vector<File> tables = std::move(files_);
+    files_.clear();
+    const int legend = AddTable("rocklab_columns", LegendColumns());
+    for (const Row& r : rows) Append(legend, r);
+    File legend_file = std::move(files_.back());
+    files_ = std::move(tables);
+    files_.push_back(std::move(legend_file));
+    out_ = out;
+    single_table_ = single;
+  }
+  closed_ = true;
   std::vector<common::AtomicFile*> all;
   for (File& file : files_) {
     file.f = nullptr;  // Finish closes it

@@ -6,6 +6,9 @@
 /// decimal; text always in double quotes with `"` doubled; names quoted
 /// where they hold a comma, a quote or a line break. UTF-8, `\n` line ends.
 ///
+/// Metadata CSV has no place for in a table's file (units, the names of
+/// codes, descriptions) goes to one legend file, LegendPath(out).
+///
 /// Each file is written beside its name (common::AtomicFile) and Close()
 /// renames them all once every one is complete; a writer destroyed without
 /// Close() leaves the previous files as they were.
@@ -36,15 +39,21 @@ class CsvWriter final : public TableSink {
 
   /// The file a table named `name` goes to when not single_table.
   static std::string TablePath(const std::string& out, const std::string& name);
+  /// The legend file (export/table.h: LegendColumns) Close() writes beside
+  /// the tables: STEM.columns.csv (one row per column of every table: its
+  /// unit, codes and description).
+  static std::string LegendPath(const std::string& out);
 
  private:
   struct File {
     common::AtomicFile file;
     std::FILE* f{};  // file's stream
     std::vector<Column> columns;
+    std::string name;  // the table's
   };
   std::string out_;
   bool single_table_;
+  bool closed_{false};
   std::vector<File> files_;
 };
 

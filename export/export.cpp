@@ -1,6 +1,7 @@
 #include "export/export.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <regex>
 #include <stdexcept>
 #include <unordered_map>
@@ -13,6 +14,8 @@
 #include "export/fields.h"
 #include "export/h5_writer.h"
 #include "export/mat_writer.h"
+#include "rocklab/daq_config_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
 
 namespace rocklab::exporter {
 namespace {
@@ -23,6 +26,14 @@ bool InWindow(double t_s, const ExportOptions& o) {
   return (o.start_s <= 0 || t_s >= o.start_s) && (o.end_s < 0 || t_s <= o.end_s);
 }
 
+// A raw_frame_t column named after a rig channel: values_k (raw) copied,
+// or calibrated.
+struct NamedRaw {
+  std::size_t from;  // values_k's column
+  std::size_t to;    // the named column
+  double gain{1.0}, offset{0.0};
+};
+
 // One (channel, type) of a log being exported.
 struct ChannelTable {
   std::unique_ptr<MessageDecoder> decoder;
@@ -30,7 +41,82 @@ struct ChannelTable {
   std::size_t summary{};  // index in ExportSummary::tables
   Row row;
   bool warned{false};
+  std::vector<NamedRaw> named;  // raw_frame_t: the channel-named columns
+  bool calibrated{false};
 };
+
+// The shortest of %.15g..%.17g that reads back to x ("0.05", not
+// "0.050000000000000003").
+std::string Number(double x) {
+  std::string text;
+  for (int digits = 15; digits <= 17; ++digits) {
+    text = common::Format("%.*g", digits, x);
+    if (std::strtod(text.c_str(), nullptr) == x) break;
+  }
+  return text;
+}
+
+// A dataset-safe, unique column name for channel `name` (HDF5 takes '/' for
+// a path; an empty name or one a field has already is prefixed).
+std::string ColumnName(const std::string& name, const std::vector<Column>& columns) {
+  std::string base = name;
+  for (char& c : base) {
+    if (c == '/') c = '_';
+  }
+  std::string n = base;
+  auto taken = [&columns](const std::string& x) {
+    if (x.empty() || x == "." || x == "..") return true;
+    for (const Column& c : columns) {
+      if (c.name == x) return true;
+    }
+    return false;
+  };
+  if (taken(n)) n = "channel_" + base;
+  for (int k = 2; taken(n); ++k) n = "channel_" + base + "_" + std::to_string(k);
+  return n;
+}
+
+// raw_frame_t's columns named after the rig's channels (`config`): one per
+// values_k that the config names, appended after the fields; values_k get
+// a description saying which channel they are.
+void NameRawColumns(const rocklab::daq_config_t& config, bool calibrated, std::vector<Column>& columns,
+                    ChannelTable& t) {
+  t.named.clear();
+  t.calibrated = calibrated;
+  std::size_t first = columns.size();
+  for (std::size_t i = 0; i < columns.size(); ++i) {
+    if (columns[i].name == "values_0") first = i;
+  }
+  for (std::size_t k = 0; first + k < columns.size() && k < config.channel_names.size(); ++k) {
+    const std::size_t from = first + k;
+    if (columns[from].name != "values_" + std::to_string(k)) break;
+    const std::string& name = config.channel_names[k];
+    const std::string unit = k < config.channel_units.size() ? config.channel_units[k] : "";
+    const std::string sensor = k < config.channel_sensors.size() ? config.channel_sensors[k] : "";
+    const double gain = k < config.gain.size() ? config.gain[k] : 1.0;
+    const double offset = k < config.offset.size() ? config.offset[k] : 0.0;
+    const std::string calibration = "physical = gain * raw + offset in " + (unit.empty() ? "?" : unit) +
+                                    ", gain " + Number(gain) + ", offset " + Number(offset) +
+                                    " (RL_DAQ_CONFIG, rig " + config.rig_name + ", calibration " +
+                                    config.calibration_id + ")";
+    columns[from].description = "channel " + name + (sensor.empty() ? "" : " (sensor " + sensor + ")") +
+                                ", raw; " + calibration;
+    Column c;
+    c.name = ColumnName(name, columns);
+    c.type = ColumnType::kDouble;
+    if (calibrated) {
+      c.unit = unit;
+      c.description = "channel " + name + (sensor.empty() ? "" : " (sensor " + sensor + ")") +
+                      ", calibrated from values_" + std::to_string(k) + ": " + calibration;
+    } else {
+      c.description = "channel " + name + (sensor.empty() ? "" : " (sensor " + sensor + ")") +
+                      ", raw (= values_" + std::to_string(k) + "); " + calibration;
+      c.same_as = columns[from].name;  // HDF5: one dataset, two names
+    }
+    columns.push_back(c);
+    t.named.push_back({from, columns.size() - 1, gain, offset});
+  }
+}
 
 struct ChannelState {
   bool selected{false};
@@ -83,12 +169,21 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
   std::vector<Column> columns;
   bool have_origin = false;
   std::int64_t origin_us = 0;
+  // The first daq_config_t on any channel (selected or not): what RL_RAW's
+  // columns are named after.
+  const std::int64_t config_fingerprint = rocklab::daq_config_t::getHash();
+  const std::int64_t raw_fingerprint = rocklab::raw_frame_t::getHash();
+  rocklab::daq_config_t config;
+  bool have_config = false;
 
   common::LogEvent ev;
   while (log.Next(ev)) {
     const int size = static_cast<int>(ev.data.size());
     const std::int64_t fingerprint = common::WireFingerprint(ev.data.data(), size);
     const MessageType* type = FindMessageType(fingerprint);
+    if (!have_config && fingerprint == config_fingerprint) {
+      have_config = common::GuardedDecode(ev.data.data(), size, config) == nullptr;
+    }
     // The record's first sample: the first message of a rocklab type whose
     // lengths are sound, whatever the channel filter (so windows agree
     // between exports of different channels).
@@ -133,6 +228,15 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
     }
     if (t->table < 0) {
       t->decoder->Columns(columns);
+      if (fingerprint == raw_fingerprint) {
+        if (have_config) {
+          NameRawColumns(config, options.calibrated, columns, *t);
+        } else if (on_problem) {
+          on_problem(path + ": event " + std::to_string(ev.number) + " on " + ev.channel +
+                     ": no daq_config_t (RL_DAQ_CONFIG) before the first raw frame: its columns stay "
+                     "values_0.. without channel names");
+        }
+      }
       std::string name = ev.channel;
       if (ch.tables.size() > 1) name += std::string("_") + type->name;
       t->table = sink.AddTable(name, columns);
@@ -143,6 +247,10 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
       summary.tables.push_back({ev.channel, type->name, 0, 0});
     }
     if (!t->decoder->Fill(t->row)) ++summary.tables[t->summary].reshaped;
+    for (const NamedRaw& n : t->named) {
+      const double raw = t->row.real[n.from];
+      t->row.real[n.to] = t->calibrated ? n.gain * raw + n.offset : raw;
+    }
     sink.Append(t->table, t->row);
     ++summary.tables[t->summary].rows;
     ++summary.rows;
@@ -170,12 +278,30 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
     throw InputError(e.what());
   }
   std::vector<Column> columns{{"time", ColumnType::kDouble, "s"}};
-  for (const std::string& name : source->channel_names()) {
-    std::string unit;
+  const std::vector<std::string>& names = source->channel_names();
+  const std::vector<std::string> file_units = source->channel_units();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    std::string rig_unit;
     for (const auto& [n, u] : options.units) {
-      if (n == name) unit = u;
+      if (n == names[i]) rig_unit = u;
     }
-    columns.push_back({name, ColumnType::kDouble, unit});
+    Column c{names[i], ColumnType::kDouble, rig_unit};
+    if (i < file_units.size() && !file_units[i].empty()) {
+      c.unit = file_units[i];
+      c.description = "raw values, unit from the file (LVM Y_Unit_Label)";
+      if (!rig_unit.empty() && rig_unit != c.unit) c.description += "; the rig calibrates them to " + rig_unit;
+    } else if (!rig_unit.empty()) {
+      c.description = "raw values; unit: the rig's for the channel (--rig; the file states none)";
+    }
+    columns.push_back(c);
+  }
+  // LVM's Comment column: a text column after the channels.
+  std::size_t comment = 0;
+  if (source->has_comments()) {
+    Column c{ColumnName("comment", columns), ColumnType::kString, ""};
+    c.description = "the row's Comment text in the LVM file (\"\" for none)";
+    columns.push_back(c);
+    comment = columns.size() - 1;
   }
   const int table = sink.AddTable("data", columns);
   sink.Describe(table, "source", path);
@@ -195,9 +321,10 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
       continue;
     }
     row.real[0] = frame.time_s;
-    for (std::size_t i = 0; i + 1 < columns.size(); ++i) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
       row.real[i + 1] = i < frame.values.size() ? frame.values[i] : std::nan("");
     }
+    if (comment > 0) row.text[comment] = frame.comment;
     sink.Append(table, row);
     ++summary.rows;
   }
@@ -205,6 +332,8 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
   summary.tables.push_back({"data", "raw", summary.rows, 0});
   summary.bad_rows = source->stats().bad_rows;
   summary.bad_values = source->stats().bad_values;
+  summary.empty_values = source->stats().empty_values;
+  summary.comments = source->stats().comments;
   return summary;
 }
 

@@ -6,8 +6,13 @@
 /// From a log: one table per selected channel (named by the channel; a
 /// channel that changes type gets a second table CHANNEL_<type>), one row
 /// per message that decodes, every field by its type (export/fields.h).
+/// A raw_frame_t table also gets a column per channel named after the
+/// rig's channel (from the log's daq_config_t): raw values, or calibrated
+/// ones with ExportOptions::calibrated; values_0.. stay as they were.
 /// From a raw file: one table `data`, `time` (s) then the channels by their
-/// names, NaN where a value is missing. Both stream: rows go to the sink as
+/// names (units: the file's, else the rig's), NaN where a value is
+/// missing, and a text column `comment` when an LVM has a Comment column.
+/// Both stream: rows go to the sink as
 /// they are read.
 ///
 /// The window: --start/--end in s from the record's first sample (a log:
@@ -38,7 +43,11 @@ struct ExportOptions {
   double end_s{-1.0};          ///< s from the first sample; < 0: to the end
   double sample_rate_hz{};     ///< raw files without a time column or time base, Hz
   /// Raw files: units of the channels by name (from a rig file); others "".
+  /// A unit the file states itself (LVM Y_Unit_Label) is the one used.
   std::vector<std::pair<std::string, std::string>> units;
+  /// Logs: RL_RAW's channel-named columns hold gain * raw + offset in the
+  /// channel's unit (RL_DAQ_CONFIG) instead of the raw values.
+  bool calibrated{false};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -59,6 +68,8 @@ struct ExportSummary {
   std::int64_t undecodable{};          ///< selected log events of a rocklab type that did not decode
   std::int64_t damaged_regions{}, damaged_bytes{}, damaged_events{};  ///< logs (common::LogReader)
   std::int64_t bad_rows{}, bad_values{};  ///< raw files (daq::SourceStats)
+  std::int64_t empty_values{};            ///< raw files: empty fields, written as NaN
+  std::int64_t comments{};                ///< raw files: rows with LVM Comment text (kept)
   std::string read_error;  ///< raw files: why the read stopped early; empty when it ended
 };
 

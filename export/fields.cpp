@@ -208,6 +208,89 @@ void Visit(const rocklab::table_state_t& m, V& v) {
   v.Int("accel_source", m.accel_source, "");
 }
 
+// ---- the named values -------------------------------------------------------
+// By field name, not by type: a later type (model_state3_t, ...) with a
+// field of the same name and meaning gets its legend without an entry here.
+// The values are the generated constants, so they cannot drift from the
+// .lcm files; tests/export/codes_test.cpp fails when an .lcm file has a
+// constant group no legend names.
+
+// name_column: the field also gets a text column FIELD_name. Only event
+// kinds: events are a few a second, so their names cost nothing, and they
+// are what a reader filters on; a text column beside a 1 kHz field (flags,
+// regime, equations) would take more room than the data (HDF5 keeps a
+// variable-length string per row: +71 % on those tables of a 7 s test's
+// .h5, docs/export.md), so those carry the legend only.
+struct Legend {
+  const char* field;
+  bool bitmask;
+  bool name_column;
+  std::vector<Code> codes;
+};
+
+const std::vector<Legend>& Legends() {
+  using B = rocklab::block_state_t;
+  using E = rocklab::event_t;
+  using M = rocklab::model_state2_t;
+  using T = rocklab::table_state_t;
+  static const std::vector<Legend> legends = {
+      {"kind", false, true,
+       {{E::UPLIFT, "UPLIFT"}, {E::IMPACT, "IMPACT"}, {E::REST, "REST"}, {E::OVERTURN, "OVERTURN"},
+        {E::SLIDING, "SLIDING"}, {E::TWIST, "TWIST"}, {E::GAP, "GAP"}, {E::STALE, "STALE"}, {E::JUMP, "JUMP"},
+        {E::OUT_OF_PLANE, "OUT_OF_PLANE"}, {E::DISAGREE, "DISAGREE"}, {E::RECOVERED, "RECOVERED"},
+        {E::BAD_SAMPLE, "BAD_SAMPLE"}, {E::COMMENT, "COMMENT"}}},
+      {"flags", true, false,
+       {{B::FLAG_SLIDING, "SLIDING"}, {B::FLAG_JUMP, "JUMP"}, {B::FLAG_TWIST, "TWIST"},
+        {B::FLAG_OUT_OF_PLANE, "OUT_OF_PLANE"}, {B::FLAG_DISAGREE, "DISAGREE"}, {B::FLAG_NO_MIRROR, "NO_MIRROR"},
+        {B::FLAG_NO_CAMERA, "NO_CAMERA"}}},
+      {"regime", false, false,
+       {{M::REGIME_REST, "REST"}, {M::REGIME_ROCKING, "ROCKING"}, {M::REGIME_OVERTURNED, "OVERTURNED"}}},
+      {"equations", false, false,
+       {{M::EQUATIONS_UNKNOWN, "UNKNOWN"}, {M::EQUATIONS_HOUSNER, "HOUSNER"}, {M::EQUATIONS_EQ10, "EQ10"},
+        {M::EQUATIONS_LIMIT, "LIMIT"}}},
+      {"accel_source", false, false,
+       {{T::ACCEL_ACCELEROMETER, "ACCELEROMETER"}, {T::ACCEL_DIFFERENTIATED, "DIFFERENTIATED"},
+        {T::ACCEL_EXACT, "EXACT"}}},
+  };
+  return legends;
+}
+
+const Legend* FindLegend(const std::string& field) {
+  for (const Legend& l : Legends()) {
+    if (field == l.field) return &l;
+  }
+  return nullptr;
+}
+
+// The name of `value` under `column`'s codes into `out` (reusing its
+// storage): an enumeration's constant, or a bitmask's set bits joined by
+// '|' ("" for 0). A value or bits without a name are written in decimal.
+void CodeName(const Column& column, std::int64_t value, std::string& out) {
+  out.clear();
+  if (!column.bitmask) {
+    for (const Code& c : column.codes) {
+      if (c.value == value) {
+        out += c.name;
+        return;
+      }
+    }
+    out += std::to_string(value);
+    return;
+  }
+  std::int64_t rest = value;
+  for (const Code& c : column.codes) {
+    if ((value & c.value) == c.value && c.value != 0) {
+      if (!out.empty()) out += '|';
+      out += c.name;
+      rest &= ~c.value;
+    }
+  }
+  if (rest != 0) {
+    if (!out.empty()) out += '|';
+    out += std::to_string(rest);
+  }
+}
+
 // ---- the visitors -------------------------------------------------------------
 
 // Field names in order, arrays once.
@@ -289,14 +372,32 @@ class TypedDecoder final : public MessageDecoder {
   void Columns(std::vector<Column>& columns) override {
     columns.clear();
     array_sizes_.clear();
+    named_.clear();
     columns.push_back({"time", ColumnType::kDouble, "s"});
     ColumnVisitor v{&columns, &array_sizes_};
     Visit(msg_, v);
+    // Integer fields with named values: the legend on the column, and for
+    // some (Legend::name_column) a text column FIELD_name after the fields
+    // (appended: the fields keep their positions).
+    const std::size_t fields = columns.size();
+    for (std::size_t i = 0; i < fields; ++i) {
+      if (columns[i].type != ColumnType::kInt) continue;
+      const Legend* legend = FindLegend(columns[i].name);
+      if (!legend) continue;
+      columns[i].codes = legend->codes;
+      columns[i].bitmask = legend->bitmask;
+      if (!legend->name_column) continue;
+      columns.push_back({columns[i].name + "_name", ColumnType::kString, ""});
+      columns.back().description = legend->bitmask ? "the set bits of " + columns[i].name + " by name, '|' between"
+                                                   : "the name of " + columns[i].name + "'s code";
+      named_.push_back({i, columns.size() - 1, columns[i]});
+    }
   }
   bool Fill(Row& row) override {
     row.real[0] = static_cast<double>(msg_.utime) * 1e-6;
     RowVisitor v{&row, &array_sizes_};
     Visit(msg_, v);
+    for (const Named& n : named_) CodeName(n.column, row.integer[n.code], row.text[n.name]);
     return !v.reshaped;
   }
   std::int64_t utime() const override { return msg_.utime; }
@@ -310,8 +411,14 @@ class TypedDecoder final : public MessageDecoder {
   }
 
  private:
+  struct Named {
+    std::size_t code;  // the integer column
+    std::size_t name;  // its FIELD_name column
+    Column column;     // with the codes
+  };
   Msg msg_{};
   std::vector<std::size_t> array_sizes_;
+  std::vector<Named> named_;
 };
 
 template <class Msg>
@@ -349,6 +456,13 @@ const std::vector<MessageType>& MessageTypes() {
       Entry<rocklab::table_state_t>("table_state_t"),
   };
   return types;
+}
+
+const std::vector<Code>* FieldCodes(const std::string& field, bool* bitmask) {
+  const Legend* l = FindLegend(field);
+  if (!l) return nullptr;
+  if (bitmask) *bitmask = l->bitmask;
+  return &l->codes;
 }
 
 const MessageType* FindMessageType(std::int64_t fingerprint) {

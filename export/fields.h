@@ -10,7 +10,10 @@
 /// then the fields in .lcm order; an array field `values[n]` becomes
 /// values_0 .. values_{n-1} (n from the channel's first message); int8..int64
 /// and boolean are integer columns, double a real column, string a text
-/// column.
+/// column. An integer field with named values (FieldCodes: kind, flags,
+/// regime, equations, accel_source) carries them in its Column::codes; an
+/// event's `kind` also gets a text column kind_name after all the fields
+/// (the code's name; a value without a name in decimal).
 
 #include <cstdint>
 #include <memory>
@@ -55,6 +58,11 @@ struct MessageType {
   /// The field names in .lcm order (arrays once, by their name), no `time`.
   std::vector<std::string> (*field_names)(){};
 };
+
+/// The named values of an integer field by its name (in whatever type it
+/// is), nullptr when it has none; *bitmask (may be null) says whether they
+/// are bits.
+const std::vector<Code>* FieldCodes(const std::string& field, bool* bitmask = nullptr);
 
 /// Every rocklab type, in lcm_types/ file-name order.
 const std::vector<MessageType>& MessageTypes();

@@ -46,6 +46,7 @@ class Handle {
 
 struct ColumnBuffer {
   Column column;
+  bool link{false};  // a second name of an earlier dataset (Column::same_as): nothing to write
   Handle dataset;
   std::vector<double> real;
   std::vector<std::int64_t> integer;
@@ -95,12 +96,36 @@ struct H5Writer::Impl {
     Check(H5Awrite(attr.get(), utf8.get(), &p), "H5Awrite", 0);
   }
 
+  // The named values of an integer column: `code_values` (int64) and
+  // `code_names` (strings), index for index, and `code_kind` "enum" or
+  // "bitmask".
+  void CodeAttributes(hid_t object, const Column& c) {
+    const hsize_t n = c.codes.size();
+    Handle aspace(Check(H5Screate_simple(1, &n, nullptr), "H5Screate_simple"), H5Sclose);
+    std::vector<std::int64_t> values;
+    std::vector<const char*> names;
+    for (const Code& code : c.codes) {
+      values.push_back(code.value);
+      names.push_back(code.name.c_str());
+    }
+    Handle v(Check(H5Acreate2(object, "code_values", H5T_STD_I64LE, aspace.get(), H5P_DEFAULT, H5P_DEFAULT),
+                   "H5Acreate2"),
+             H5Aclose);
+    Check(H5Awrite(v.get(), H5T_NATIVE_INT64, values.data()), "H5Awrite", 0);
+    Handle t(Check(H5Acreate2(object, "code_names", utf8.get(), aspace.get(), H5P_DEFAULT, H5P_DEFAULT),
+                   "H5Acreate2"),
+             H5Aclose);
+    Check(H5Awrite(t.get(), utf8.get(), names.data()), "H5Awrite", 0);
+    TextAttribute(object, "code_kind", c.bitmask ? "bitmask" : "enum");
+  }
+
   void Flush(Table& t) {
     if (t.buffered == 0) return;
     const hsize_t start = static_cast<hsize_t>(t.written);
     const hsize_t count = static_cast<hsize_t>(t.buffered);
     const hsize_t size = start + count;
     for (ColumnBuffer& c : t.columns) {
+      if (c.link) continue;
       hid_t d = c.dataset.get();
       Check(H5Dset_extent(d, &size), "H5Dset_extent", 0);
       Handle fspace(Check(H5Dget_space(d), "H5Dget_space"), H5Sclose);
@@ -196,10 +221,20 @@ int H5Writer::AddTable(const std::string& name, const std::vector<Column>& colum
   m.Check(H5Pset_chunk_cache(dapl.get(), 0, 0, 1.0), "H5Pset_chunk_cache", 0);
   Handle space(m.Check(H5Screate_simple(1, &zero, &unlimited), "H5Screate_simple"), H5Sclose);
 
-  std::string names;
   for (const Column& c : columns) {
     ColumnBuffer b;
     b.column = c;
+    if (!c.same_as.empty()) {
+      bool earlier = false;
+      for (const ColumnBuffer& e : t.columns) earlier = earlier || (!e.link && e.column.name == c.same_as);
+      if (!earlier) throw std::logic_error(m.path + ": column " + c.name + " is same_as " + c.same_as + ", not an earlier column");
+      if (H5Lcreate_hard(g, c.same_as.c_str(), g, c.name.c_str(), lcpl.get(), H5P_DEFAULT) < 0) {
+        throw std::runtime_error(m.path + ": cannot link " + group_name + "/" + c.name + " to " + c.same_as);
+      }
+      b.link = true;
+      t.columns.push_back(std::move(b));
+      continue;
+    }
     hid_t type = c.type == ColumnType::kDouble ? H5T_IEEE_F64LE
                  : c.type == ColumnType::kInt  ? H5T_STD_I64LE
                                                : m.utf8.get();
@@ -207,6 +242,8 @@ int H5Writer::AddTable(const std::string& name, const std::vector<Column>& colum
     if (d < 0) throw std::runtime_error(m.path + ": cannot create dataset " + group_name + "/" + c.name);
     b.dataset = Handle(d, H5Dclose);
     if (!c.unit.empty()) m.TextAttribute(d, "units", c.unit);
+    if (!c.description.empty()) m.TextAttribute(d, "description", c.description);
+    if (!c.codes.empty()) m.CodeAttributes(d, c);
     switch (c.type) {
       case ColumnType::kDouble: b.real.resize(chunk); break;
       case ColumnType::kInt: b.integer.resize(chunk); break;
@@ -239,6 +276,7 @@ void H5Writer::Append(int table, const Row& row) {
   const std::size_t k = static_cast<std::size_t>(t.buffered);
   for (std::size_t i = 0; i < t.columns.size(); ++i) {
     ColumnBuffer& c = t.columns[i];
+    if (c.link) continue;
     switch (c.column.type) {
       case ColumnType::kDouble: c.real[k] = row.real[i]; break;
       case ColumnType::kInt: c.integer[k] = row.integer[i]; break;

@@ -9,7 +9,11 @@
 ///
 /// Types: double columns 64-bit IEEE floats, integer columns 64-bit signed
 /// integers, text columns variable-length UTF-8 strings. Each dataset has a
-/// `units` attribute when its column has a unit; each group a `columns`
+/// `units` attribute when its column has a unit, a `description` when it
+/// has one, and integer columns with named values (an enumeration, a
+/// bitmask) `code_values`, `code_names` and `code_kind` ("enum" or
+/// "bitmask"); a column Column::same_as another is a second hard link to
+/// that dataset; each group a `columns`
 /// attribute (the column names in order; the group also tracks creation
 /// order) and any Describe()d attributes. Names are UTF-8; `/` in a table
 /// name becomes `_`. h5py, MATLAB's h5read and pandas (via h5py) read it.

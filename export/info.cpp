@@ -160,12 +160,15 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
   so.sample_rate_hz = sample_rate_hz;
   std::unique_ptr<daq::Source> source = daq::OpenSource(path, so);
   info.channels = source->channel_names();
-  for (const std::string& name : info.channels) {
+  info.file_units = source->channel_units();
+  info.file_units.resize(info.channels.size());
+  for (std::size_t i = 0; i < info.channels.size(); ++i) {
     std::string unit;
     for (const auto& [n, u] : units) {
-      if (n == name) unit = u;
+      if (n == info.channels[i]) unit = u;
     }
-    info.units.push_back(unit);
+    info.rig_units.push_back(unit);
+    info.units.push_back(info.file_units[i].empty() ? unit : info.file_units[i]);
   }
   info.rate_hz = source->sample_rate_hz();
   daq::Frame frame;
@@ -187,6 +190,8 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
   const daq::SourceStats& s = source->stats();
   info.bad_rows = s.bad_rows;
   info.bad_values = s.bad_values;
+  info.empty_values = s.empty_values;
+  info.comments = s.comments;
   info.warnings = s.warnings;
   info.segments = info.format == "lvm" ? s.segments : (info.rows > 0 ? 1 : 0);
   info.span = info.last_time - info.first_time;
@@ -241,9 +246,10 @@ std::string ToText(const LogInfo& info) {
 std::string ToText(const RawInfo& info) {
   std::string out;
   out += Format("file:      %s (%s, %" PRId64 " bytes)\n", info.path.c_str(), info.format.c_str(), info.file_bytes);
-  out += Format("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values read as NaN, %" PRId64
-             " warnings)\n",
-             info.rows, info.bad_rows, info.bad_values, info.warnings);
+  out += Format("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values and %" PRId64
+             " empty values read as NaN, %" PRId64 " warnings)\n",
+             info.rows, info.bad_rows, info.bad_values, info.empty_values, info.warnings);
+  if (info.comments > 0) out += Format("comments:  %" PRId64 " rows with Comment text\n", info.comments);
   if (info.has_time) {
     out += Format("time:      %.9g s .. %.9g s, span %.9g s\n", info.first_time, info.last_time, info.span);
   }
@@ -252,7 +258,18 @@ std::string ToText(const RawInfo& info) {
   out += Format("gaps:      %" PRId64 " (%" PRId64 " samples missing)\n", info.seq_gaps, info.seq_missing);
   out += Format("channels:  %zu\n", info.channels.size());
   for (std::size_t i = 0; i < info.channels.size(); ++i) {
-    out += "  " + info.channels[i] + "  [" + (info.units[i].empty() ? std::string("raw, unit not in the file") : info.units[i]) + "]\n";
+    const std::string& file = i < info.file_units.size() ? info.file_units[i] : std::string();
+    const std::string& rig = i < info.rig_units.size() ? info.rig_units[i] : std::string();
+    std::string unit;
+    if (!file.empty()) {
+      unit = file + ", from the file";
+      if (!rig.empty() && rig != file) unit += "; the rig calibrates to " + rig;
+    } else if (!rig.empty()) {
+      unit = rig + ", from the rig";
+    } else {
+      unit = "raw, unit not in the file";
+    }
+    out += "  " + info.channels[i] + "  [" + unit + "]\n";
   }
   if (!info.read_error.empty()) out += "read stopped: " + info.read_error + "\n";
   return out;
@@ -316,6 +333,8 @@ nlohmann::json ToJson(const RawInfo& info) {
   j["rows"] = info.rows;
   j["bad_rows"] = info.bad_rows;
   j["bad_values"] = info.bad_values;
+  j["empty_values"] = info.empty_values;
+  j["comments"] = info.comments;
   j["warnings"] = info.warnings;
   j["segments"] = info.segments;
   j["rate_hz"] = Number(info.rate_hz);
@@ -328,8 +347,13 @@ nlohmann::json ToJson(const RawInfo& info) {
   j["read_error"] = info.read_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(info.read_error);
   j["channels"] = nlohmann::json::array();
   for (std::size_t i = 0; i < info.channels.size(); ++i) {
+    auto text = [](const std::vector<std::string>& v, std::size_t k) {
+      return k < v.size() && !v[k].empty() ? nlohmann::json(v[k]) : nlohmann::json(nullptr);
+    };
     j["channels"].push_back({{"name", info.channels[i]},
-                             {"unit", info.units[i].empty() ? nlohmann::json(nullptr) : nlohmann::json(info.units[i])}});
+                             {"unit", text(info.units, i)},
+                             {"file_unit", text(info.file_units, i)},
+                             {"rig_unit", text(info.rig_units, i)}});
   }
   return j;
 }

@@ -51,9 +51,13 @@ struct RawInfo {
   std::string path;
   std::string format;  ///< "csv" or "lvm"
   std::int64_t file_bytes{};
-  std::vector<std::string> channels, units;  ///< units: from --rig, "" when unknown
+  std::vector<std::string> channels, units;  ///< units of the values: the file's, else --rig's, "" when unknown
+  std::vector<std::string> file_units;       ///< as the file states them (LVM Y_Unit_Label), "" none
+  std::vector<std::string> rig_units;        ///< the rig's calibrated unit (--rig), "" none
   std::int64_t rows{};        ///< data rows delivered
   std::int64_t bad_rows{}, bad_values{}, warnings{};
+  std::int64_t empty_values{};  ///< empty fields, read as NaN (not in bad_values)
+  std::int64_t comments{};      ///< LVM rows with Comment text
   std::int64_t segments{};    ///< LVM segments (CSV: 1)
   double rate_hz{};           ///< the file's nominal rate, Hz
   double measured_rate_hz{};  ///< (rows - 1) / span, Hz

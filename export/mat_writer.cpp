@@ -136,6 +136,8 @@ std::string Unique(const std::string& base, std::set<std::string>& taken) {
 
 }  // namespace
 
+constexpr const char* kLegendVariable = "rocklab_columns";
+
 struct MatWriter::Impl {
   std::string path;  // the target, as messages name it
   std::string dir;
@@ -211,6 +213,7 @@ MatWriter::MatWriter(const std::string& path) : impl_(new Impl) {
   impl_->out.emplace(path);
   impl_->mat = Mat_CreateVer(impl_->out->path().c_str(), "rocklab export (MAT v5)", MAT_FT_MAT5);
   if (!impl_->mat) throw std::runtime_error(path + ": cannot create the MAT file");
+  impl_->variables.insert(kLegendVariable);  // a table of that name becomes rocklab_columns_2
 }
 
 MatWriter::~MatWriter() {
@@ -273,6 +276,34 @@ void MatWriter::Close() {
   Impl& m = *impl_;
   if (!m.mat) return;
   std::string error;
+  // The legend: every column's unit, codes and description, named as in
+  // the file (variable, field), written last as one more table.
+  if (!m.tables.empty()) {
+    try {
+      std::vector<Row> rows;
+      for (const MatTable& t : m.tables) {
+        std::vector<Column> columns;
+        for (const MatColumn& c : t.columns) {
+          columns.push_back(c.column);
+          columns.back().name = c.field;
+        }
+        AppendLegendRows(t.variable, columns, rows);
+      }
+      MatTable legend;
+      legend.variable = kLegendVariable;
+      for (const Column& c : LegendColumns()) {
+        MatColumn mc;
+        mc.column = c;
+        mc.field = c.name;
+        mc.spool = std::make_unique<Spool>(m.dir);
+        legend.columns.push_back(std::move(mc));
+      }
+      m.tables.push_back(std::move(legend));
+      for (const Row& r : rows) Append(static_cast<int>(m.tables.size()) - 1, r);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
   for (MatTable& t : m.tables) {
     try {
       if (error.empty()) m.WriteTable(t);

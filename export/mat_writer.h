@@ -12,6 +12,11 @@
 /// `_`, at most 63 characters, `_2`, `_3`... added where that makes two
 /// names equal). MatWriter::Identifier says what a name becomes.
 ///
+/// Metadata: a struct variable `rocklab_columns` (written at Close) is the
+/// legend of every table (export/table.h: LegendColumns): fields table,
+/// column (the MATLAB identifiers), unit, codes, description, one row per
+/// column of every table.
+///
 /// Memory: MAT v5 writes a variable in one piece, so rows are spooled while
 /// they arrive (one unlinked temporary file per column beside the output)
 /// and each struct is written at Close from the spool files mapped into

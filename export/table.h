@@ -11,17 +11,41 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rocklab::exporter {
 
 enum class ColumnType : std::uint8_t { kDouble, kInt, kString };
 
+/// A named value of an integer column (an enumeration constant of an .lcm
+/// type, or one bit of a bitmask).
+struct Code {
+  std::int64_t value{};
+  std::string name;  ///< the constant's name without its prefix ("IMPACT", "SLIDING")
+};
+
 struct Column {
+  Column() = default;
+  /// What every table gives: its name, type and unit (the metadata below
+  /// set where there is some).
+  Column(std::string name_, ColumnType type_ = ColumnType::kDouble, std::string unit_ = {})
+      : name(std::move(name_)), type(type_), unit(std::move(unit_)) {}
   std::string name;  ///< UTF-8; unique within its table
   ColumnType type{ColumnType::kDouble};
   std::string unit;  ///< SI unit ("s", "rad", "m/s^2"), "1" dimensionless, "" none (counts, text)
+  // Metadata beside the values (HDF5: attributes of the dataset; CSV and
+  // MAT: the legend table, see LegendColumns). Empty: none.
+  std::string description;  ///< one line: what the column holds where its name does not say
+  std::vector<Code> codes;  ///< integer columns: the named values
+  bool bitmask{false};      ///< codes are bits; a value is the OR of several
+  /// The name of an earlier column of the table that always holds the same
+  /// values (the caller fills both): HDF5 makes this column a second link
+  /// to that dataset (no second copy; it shares its attributes); the other
+  /// formats write it again.
+  std::string same_as;
 };
+
 
 struct Row {
   std::vector<double> real;
@@ -34,6 +58,16 @@ struct Row {
     text.resize(columns);
   }
 };
+
+/// The legend of a set of tables: one row per column of every table, for
+/// formats without per-column attributes (CSV: a file STEM.columns.csv;
+/// MAT: a struct variable `rocklab_columns`). Columns: table, column, unit,
+/// codes ("1=UPLIFT;2=IMPACT", bits "1|=SLIDING;2|=JUMP"), description.
+std::vector<Column> LegendColumns();
+/// The codes of `c` as the legend writes them ("" when it has none).
+std::string CodesText(const Column& c);
+/// Appends the legend rows of table `table`'s `columns` to `rows`.
+void AppendLegendRows(const std::string& table, const std::vector<Column>& columns, std::vector<Row>& rows);
 
 /// Where tables go. Tables may be added at any time; rows of different
 /// tables may interleave. Errors of the file (cannot create, disk full)

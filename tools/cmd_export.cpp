@@ -1,5 +1,5 @@
 // rocklab export INPUT --out OUT.{csv,mat,h5} [--channels REGEX] [--start S]
-// [--end S] [--rig RIG.toml] [--rate HZ] [--quiet]: a recorded LCM log or a
+// [--end S] [--rig RIG.toml] [--rate HZ] [--raw | --calibrated] [--quiet]: a recorded LCM log or a
 // raw CSV/LVM file as tables for Python and MATLAB (docs/export.md).
 #include <cerrno>
 #include <cstdio>
@@ -23,6 +23,7 @@ struct ExportCliOptions {
   exporter::ExportOptions options;
   std::string rig_path;
   bool quiet{false};
+  bool raw{false};  // the default; named so that a script can say it
 };
 
 // Problems printed one per line up to this many, then only counted.
@@ -92,9 +93,10 @@ int RunExport(ExportCliOptions& o) {
   }
   std::fprintf(stderr,
                "rocklab export: %lld rows written to %s; %lld outside the window, %lld bad rows skipped, "
-               "%lld bad values written as NaN\n",
+               "%lld bad values and %lld empty values written as NaN, %lld comments kept\n",
                static_cast<long long>(s.rows), files.c_str(), static_cast<long long>(s.outside_window),
-               static_cast<long long>(s.bad_rows), static_cast<long long>(s.bad_values));
+               static_cast<long long>(s.bad_rows), static_cast<long long>(s.bad_values),
+               static_cast<long long>(s.empty_values), static_cast<long long>(s.comments));
   if (!s.read_error.empty()) {
     std::fprintf(stderr, "rocklab export: %s\n", s.read_error.c_str());
     return kFailureExit;
@@ -117,6 +119,12 @@ void RegisterExport(CLI::App& app, CommandRun& run) {
   cmd->add_option("--end", opts->options.end_s, "s from the record's first sample (default: to the end)");
   cmd->add_option("--rig", opts->rig_path, "raw files: rig configuration (TOML) naming the channels' units");
   cmd->add_option("--rate", opts->options.sample_rate_hz, "raw files without a time column: sample rate, Hz");
+  auto* raw = cmd->add_flag("--raw", opts->raw,
+                             "logs: RL_RAW's channel-named columns hold the raw values (the default)");
+  cmd->add_flag("--calibrated", opts->options.calibrated,
+                "logs: RL_RAW's channel-named columns hold gain * raw + offset in the channel's unit "
+                "(RL_DAQ_CONFIG); values_0.. stay raw either way")
+      ->excludes(raw);
   cmd->add_flag("--quiet", opts->quiet, "no progress bar");
   cmd->callback([opts, &run] { run = [opts] { return RunExport(*opts); }; });
 }

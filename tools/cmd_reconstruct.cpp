@@ -10,6 +10,7 @@
 
 #include "common/csv_number.h"
 #include "daq/processor.h"
+#include "daq/rig_config.h"
 #include "daq/source.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/scenario.h"
@@ -126,6 +127,11 @@ int RunReconstruct(const ReconstructOptions& o) {
   std::unique_ptr<daq::Processor> processor;
   try {
     source = daq::OpenSource(o.input, options);
+    // The units the file states against the rig's (as the DAQ node does).
+    for (const std::string& w :
+         daq::CheckFileUnits(rig, source->channel_names(), source->channel_units(), source->path())) {
+      sink.Show(w);
+    }
   } catch (const std::exception& e) {
     throw UsageError(std::string("--input: ") + e.what());
   }

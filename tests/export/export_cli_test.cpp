@@ -188,10 +188,34 @@ TEST_F(InfoExport, ExportWritesTheLogAndSaysTheDamage) {
   EXPECT_EQ(r.err.find('\r'), std::string::npos) << "a progress bar on a pipe";
   EXPECT_EQ(test::H5Groups(out), (std::vector<std::string>{"RL_RAW", "RL_TABLE"}));
   const auto raw = test::ReadH5Table(out, "RL_RAW");
-  ASSERT_EQ(raw.size(), 6u);  // time utime seq num_channels values_0 values_1
+  // time utime seq num_channels values_0 values_1, then the channels by
+  // RL_DAQ_CONFIG's names (raw: the default).
+  ASSERT_EQ(raw.size(), 8u);
   EXPECT_EQ(raw[4].name, "values_0");
   EXPECT_EQ(raw[4].real, (std::vector<double>{0, 0.5, 1.0, 1.0, 1.0}));
   EXPECT_EQ(raw[2].integer, (std::vector<std::int64_t>{0, 1, 2, 5, 6}));
+  EXPECT_EQ(raw[6].name, "mirror_s");
+  EXPECT_EQ(raw[6].real, raw[4].real);
+  EXPECT_EQ(raw[7].name, "table_disp");
+  EXPECT_EQ(raw[7].unit, "");
+}
+
+// --calibrated: gain * raw + offset in the channel's unit (oracle: the
+// config written above: mirror_s gain 1 offset 0 in m); --raw with it is a
+// usage error; --help says both.
+TEST_F(InfoExport, ExportCalibratedNamesTheRawChannelsInTheirUnits) {
+  const std::string out = dir_ + "/cal.h5";
+  const auto r = test::RunCli({"export", log_, "--out", out, "--channels", "RL_RAW", "--calibrated"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;  // the log's damage
+  const auto raw = test::ReadH5Table(out, "RL_RAW");
+  ASSERT_EQ(raw.size(), 8u);
+  EXPECT_EQ(raw[6].name, "mirror_s");
+  EXPECT_EQ(raw[6].unit, "m");
+  EXPECT_EQ(raw[6].real, raw[4].real);
+  EXPECT_EQ(test::RunCli({"export", log_, "--out", out, "--raw", "--calibrated"}).exit_code, 2);
+  const auto help = test::RunCli({"export", "--help"});
+  EXPECT_NE(help.out.find("--calibrated"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--raw"), std::string::npos) << help.out;
 }
 
 TEST_F(InfoExport, ExportRefusesAnUnknownExtension) {

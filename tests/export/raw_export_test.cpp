@@ -67,9 +67,11 @@ TEST(RawExport, EveryFormatHoldsWhatTheSourceReads) {
     const auto read = ext == ".h5" ? test::ReadH5Table(out, "data")
                       : ext == ".mat" ? test::ReadMatTable(out, "data")
                                       : test::ReadCsvTable(out);
-    ASSERT_EQ(read.size(), truth.names.size() + 1) << ext;
+    // time, the channels, and slip.lvm's Comment column as `comment`.
+    ASSERT_EQ(read.size(), truth.names.size() + 2) << ext;
     EXPECT_EQ(read[0].name, "time");
-    for (std::size_t c = 0; c < read.size(); ++c) {
+    EXPECT_EQ(read.back().name, "comment");
+    for (std::size_t c = 0; c + 1 < read.size(); ++c) {
       if (c > 0) {
         EXPECT_EQ(read[c].name, truth.names[c - 1]) << ext;
       }

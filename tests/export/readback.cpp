@@ -29,6 +29,42 @@ std::string ReadAttrText(hid_t obj, const char* name) {
   return out;
 }
 
+// A 1-D attribute of strings (empty when absent).
+std::vector<std::string> ReadAttrStrings(hid_t obj, const char* name) {
+  std::vector<std::string> out;
+  if (H5Aexists(obj, name) <= 0) return out;
+  hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
+  hid_t as = H5Aget_space(a);
+  hsize_t n = 0;
+  H5Sget_simple_extent_dims(as, &n, nullptr);
+  std::vector<char*> p(n);
+  hid_t mt = H5Tcopy(H5T_C_S1);
+  H5Tset_size(mt, H5T_VARIABLE);
+  H5Tset_cset(mt, H5T_CSET_UTF8);
+  if (n && H5Aread(a, mt, p.data()) >= 0) {
+    for (char* q : p) out.emplace_back(q ? q : "");
+    H5Dvlen_reclaim(mt, as, H5P_DEFAULT, p.data());
+  }
+  H5Tclose(mt);
+  H5Sclose(as);
+  H5Aclose(a);
+  return out;
+}
+
+std::vector<std::int64_t> ReadAttrInts(hid_t obj, const char* name) {
+  std::vector<std::int64_t> out;
+  if (H5Aexists(obj, name) <= 0) return out;
+  hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
+  hid_t as = H5Aget_space(a);
+  hsize_t n = 0;
+  H5Sget_simple_extent_dims(as, &n, nullptr);
+  out.resize(n);
+  if (n) H5Aread(a, H5T_NATIVE_INT64, out.data());
+  H5Sclose(as);
+  H5Aclose(a);
+  return out;
+}
+
 std::string Utf8(const std::vector<std::uint16_t>& u) {
   std::string s;
   for (std::size_t i = 0; i < u.size(); ++i) {
@@ -81,6 +117,10 @@ std::vector<ReadColumn> ReadH5Table(const std::string& path, const std::string& 
     hsize_t n = 0;
     H5Sget_simple_extent_dims(s, &n, nullptr);
     c.unit = ReadAttrText(d, "units");
+    c.description = ReadAttrText(d, "description");
+    c.code_values = ReadAttrInts(d, "code_values");
+    c.code_names = ReadAttrStrings(d, "code_names");
+    c.code_kind = ReadAttrText(d, "code_kind");
     if (H5Tget_class(t) == H5T_FLOAT) {
       c.kind = 'd';
       c.real.resize(n);

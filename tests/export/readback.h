@@ -16,6 +16,10 @@ struct ReadColumn {
   std::vector<std::int64_t> integer;
   std::vector<std::string> text;  ///< CSV: every field as written (unquoted)
   std::string unit;               ///< HDF5 only: the `units` attribute
+  std::string description;        ///< HDF5 only: the `description` attribute
+  std::vector<std::int64_t> code_values;  ///< HDF5 only: `code_values`
+  std::vector<std::string> code_names;    ///< HDF5 only: `code_names`
+  std::string code_kind;                  ///< HDF5 only: `code_kind`
   std::size_t size() const { return kind == 'd' ? real.size() : kind == 'i' ? integer.size() : text.size(); }
 };
 
