@@ -3,8 +3,9 @@
 # find_package(rocklab): rocklabConfig.cmake (cmake/rocklabConfig.cmake.in)
 # finds the dependencies as this build does, then includes the exported
 # targets, named after their folder: rocklab::model, rocklab::daq, ...
-# (EXPORT_NAME below; the old rocklab::rocklab_<folder> names were used by
-# nothing and are gone).
+# (EXPORT_NAME below). rocklab::export and rocklab::sweep were installed as
+# rocklab::rocklab_export and rocklab::rocklab_sweep before issue 24: the
+# config file keeps those names as aliases.
 #
 # CPack: `cd build && cpack -G DEB` makes rocklab_<version>_<arch>.deb with
 # the binary, the static libraries, the headers (incl. the generated LCM
@@ -16,13 +17,15 @@ include(CMakePackageConfigHelpers)
 set(ROCKLAB_INSTALL_DATADIR ${CMAKE_INSTALL_DATADIR}/rocklab)
 set(ROCKLAB_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/rocklab)
 
-foreach(folder lcm common lcmtypes model daq compare monitor report pipeline record tools)
+foreach(folder lcm common lcmtypes model daq compare monitor report pipeline record export sweep tools)
   if(TARGET rocklab_${folder})
     set_target_properties(rocklab_${folder} PROPERTIES EXPORT_NAME ${folder})
   endif()
 endforeach()
 
 install(EXPORT rocklabTargets NAMESPACE rocklab:: DESTINATION ${ROCKLAB_INSTALL_CMAKEDIR})
+# What the config file must find again for the static libraries' links.
+set(ROCKLAB_PACKAGE_MPI ${ROCKLAB_MPI})
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/rocklabConfig.cmake.in
   ${PROJECT_BINARY_DIR}/rocklabConfig.cmake
   INSTALL_DESTINATION ${ROCKLAB_INSTALL_CMAKEDIR}

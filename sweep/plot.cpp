@@ -11,6 +11,7 @@
 
 #include "common/atomic_file.h"
 #include "common/text.h"
+#include "sweep/results_h5.h"
 
 namespace rocklab::sweep {
 namespace {
@@ -84,6 +85,7 @@ const std::string kMedianStyle = "with linespoints lw 2.5 pt 5 ps 0.7 lc rgb '#0
 }  // namespace
 
 std::vector<ResultRow> ReadResults(const std::string& path) {
+  if (IsHdf5File(path)) return ReadResultsH5(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open for reading");
   std::string line;

@@ -25,7 +25,9 @@ struct ResultRow {
   bool overturned{};
 };
 
-/// Reads a results CSV by its header's column names (extra columns allowed).
+/// Reads a sweep's results: the HDF5 file of `sweep --out FILE.h5` (by its
+/// signature, whatever the name: ReadResultsH5), else a CSV by its header's
+/// column names (extra columns allowed).
 /// @throws std::runtime_error "FILE:LINE: ..." for a missing column, a
 ///   field that is not a number, or a short row.
 std::vector<ResultRow> ReadResults(const std::string& path);

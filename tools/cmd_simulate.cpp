@@ -105,7 +105,12 @@ void RegisterSimulate(CLI::App& app, CommandRun& run) {
       ->required();
   cmd->add_option("--events", opts->events_csv, "events CSV: time,kind (s, name)");
   cmd->add_flag("--json", opts->json, "print the run summary as JSON");
-  cmd->callback([opts, &run] { run = [opts] { return RunSimulate(*opts); }; });
+  cmd->callback([opts, cmd, &run] {
+    run = [opts, cmd] {
+      ResolveDuration(*cmd, opts->scenario);
+      return RunSimulate(*opts);
+    };
+  });
 }
 
 }  // namespace rocklab::tools

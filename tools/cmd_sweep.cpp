@@ -12,9 +12,13 @@
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
+#include "tools/scenario.h"
 
 namespace rocklab::tools {
 namespace {
+
+static_assert(sweep::Plan::kDefaultTail_s == kDefaultTail_s, "simulate --accel and sweep: the same default tail");
 
 struct SweepCommandOptions {
   sweep::PlanOptions plan;
@@ -129,7 +133,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SweepCommandOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("sweep", "overturning and peak rocking over records x blocks x scales");
   sweep::PlanOptions& p = opts->plan;
-  cmd->add_option("--records", p.records, "ground-motion records: time,accel CSV (s, m/s^2)")->required()->expected(1, -1);
+  cmd->add_option("--records", p.records, "ground-motion records: " + FormatsHelp(DataKind::kGroundMotion))->required()->expected(1, -1);
   cmd->add_option("--scale", p.scale, "A:B:N, N values from A to B: factors on each record (default 1:1:1)");
   cmd->add_flag("--pga-g", p.pga_g, "the --scale values are the target PGA in g");
   cmd->add_option("--alpha", p.alpha, "blocks: alpha values, rad")->expected(1, -1);
@@ -143,7 +147,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
   cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-10)");
   cmd->add_option("--rtol", p.rtol, "CVODE relative tolerance, in (0, 1e-3] (default 1e-10)");
-  cmd->add_option("--out", opts->out, "results CSV (.h5: not built yet)")->required();
+  cmd->add_option("--out", opts->out, "results: " + FormatsHelp(DataKind::kSweepResults) + " by the extension (--resume: CSV only)")->required();
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
   cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
@@ -152,7 +156,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
 
   auto plot = std::make_shared<PlotCommandOptions>();
   CLI::App* pc = app.add_subcommand("sweep-plot", "rocking spectra, overturning maps and fragility of a sweep");
-  pc->add_option("results", plot->results, "results CSV of rocklab sweep")->required();
+  pc->add_option("results", plot->results, "results of rocklab sweep: " + FormatsHelp(DataKind::kSweepResults))->required();
   pc->add_option("--out-dir", plot->plot.out_dir, "folder for the figures and fragility.csv (default .)");
   pc->add_option("--format", plot->format, "svg (default) or png");
   pc->add_option("--gnuplot", plot->plot.gnuplot, "gnuplot program (default gnuplot)");

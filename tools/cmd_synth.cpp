@@ -168,7 +168,12 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
                   "truth CSV: time,theta,theta_dot,table_displacement,table_acceleration,slip,"
                   "twist,dropped (s, rad, rad/s, m, m/s^2, m, rad, 0/1)")
       ->required();
-  cmd->callback([opts, &run] { run = [opts] { return RunSynth(*opts); }; });
+  cmd->callback([opts, cmd, &run] {
+    run = [opts, cmd] {
+      ResolveDuration(*cmd, opts->scenario);
+      return RunSynth(*opts);
+    };
+  });
 }
 
 }  // namespace rocklab::tools

@@ -1,5 +1,12 @@
 #include "tools/scenario.h"
 
+#include <cmath>
+#include <exception>
+
+#include "model/excitation.h"
+#include "tools/cli.h"
+#include "tools/formats.h"
+
 namespace rocklab::tools {
 
 void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
@@ -14,8 +21,10 @@ void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
                  "or hanning:amp=M,freq=HZ,duration=S,start=S")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd.add_option("--accel", o.accel_csv,
-                 "table acceleration record, CSV with header time,accel (s, m/s^2)");
-  cmd.add_option("--duration", o.duration_s, "simulated time, s, >= 0")->required();
+                 "table acceleration record: " + FormatsHelp(DataKind::kGroundMotion));
+  cmd.add_option("--duration", o.duration_s,
+                 "simulated time, s, >= 0 (default with --accel: the record's end + 10 s, as sweep; "
+                 "required otherwise)");
   cmd.add_option("--rate", o.rate_hz, "output rate, Hz, > 0")->required();
   cmd.add_option("--l", o.l, "complex formulation momentum, > 0")->capture_default_str();
   cmd.add_option("--rtol", o.rtol, "CVODE relative tolerance, in (0, 1e-3]")->capture_default_str();
@@ -24,6 +33,18 @@ void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
                  "(Housner's equations) below K times the energy floor V_min ~ l^(2/3); "
                  "0 (default): eq. (10) throughout")
       ->capture_default_str();
+}
+
+void ResolveDuration(const CLI::App& cmd, ScenarioOptions& o) {
+  if (cmd.count("--duration") > 0) return;
+  if (o.accel_csv.empty()) {
+    throw UsageError("--duration is required (without --accel; with it, the default is the record's end + 10 s)");
+  }
+  try {
+    o.duration_s = model::ReadAccelerationRows(o.accel_csv).time_s.back() + kDefaultTail_s;
+  } catch (const std::exception& e) {
+    throw UsageError(std::string("--accel: ") + e.what());
+  }
 }
 
 }  // namespace rocklab::tools

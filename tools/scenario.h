@@ -20,4 +20,15 @@ using pipeline::WriteEventsCsv;
 /// --rate --l --complex-handoff to `cmd`, storing into `options` (which must outlive parsing).
 void AddScenarioOptions(CLI::App& cmd, ScenarioOptions& options);
 
+/// Seconds simulated after an --accel record's last sample when --duration
+/// is not given: the free rocking after the shaking (`rocklab sweep`'s
+/// sweep::Plan::kDefaultTail_s, the same 10 s).
+inline constexpr double kDefaultTail_s = 10.0;
+
+/// After parsing `cmd`: without --duration, sets options.duration_s to the
+/// --accel record's last time + kDefaultTail_s (as `rocklab sweep` does).
+/// @throws UsageError naming --duration (no --accel either) or --accel (a
+///   bad record: FILE:LINE).
+void ResolveDuration(const CLI::App& cmd, ScenarioOptions& options);
+
 }  // namespace rocklab::tools
