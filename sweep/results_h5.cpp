@@ -91,6 +91,8 @@ std::vector<ResultRow> ReadResultsH5(const std::string& path) {
   if (!group.ok()) throw std::runtime_error(path + ": /results is not a group");
   const Dataset record = ReadColumn(path, group.get(), "record", true);
   const Dataset model = ReadColumn(path, group.get(), "model", true);
+  const bool has_block = H5Lexists(group.get(), "block", H5P_DEFAULT) > 0;
+  const Dataset block = has_block ? ReadColumn(path, group.get(), "block", true) : Dataset{};
   const char* const numeric[] = {"scale", "pga_g", "alpha", "p", "mu", "peak_theta_over_alpha", "overturned"};
   std::vector<Dataset> numbers;
   for (const char* name : numeric) numbers.push_back(ReadColumn(path, group.get(), name, false));
@@ -105,6 +107,7 @@ std::vector<ResultRow> ReadResultsH5(const std::string& path) {
     ResultRow& r = rows[i];
     r.record = record.text[i];
     r.model = model.text[i];
+    if (i < block.text.size() && !block.text[i].empty()) r.block = block.text[i];
     double* out[] = {&r.scale, &r.pga_g, &r.alpha, &r.p, &r.mu, &r.peak_theta_over_alpha};
     for (std::size_t k = 0; k < 6; ++k) {
       *out[k] = numbers[k].real[i];

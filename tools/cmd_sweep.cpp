@@ -80,6 +80,14 @@ int RunSweepCommand(SweepCommandOptions& o) {
   return 0;
 }
 
+// An interval's end in g, or "unbounded" where the likelihood leaves it open.
+std::string Bound(double g, bool open) {
+  if (open) return "unbounded";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g g", g);
+  return buf;
+}
+
 struct PlotCommandOptions {
   std::string results;
   sweep::PlotOptions plot;
@@ -100,13 +108,17 @@ int RunSweepPlot(PlotCommandOptions& o) {
   }
   if (rows.empty()) throw UsageError(o.results + ": no rows");
   const std::vector<sweep::BlockFragility> fits = sweep::FitFragilities(rows);
-  std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood):\n");
+  std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood; "
+              "PGAs tried per block in fragility.csv):\n");
   for (const sweep::BlockFragility& f : fits) {
     std::printf("  %s alpha %s rad, p %s rad/s, mu %s: %zu rows, %zu overturned: ", f.model.c_str(), f.alpha.c_str(),
                 f.p.c_str(), f.mu.c_str(), f.rows, f.overturned);
     switch (f.fit.status) {
       case sweep::FragilityFit::Status::kFitted:
-        std::printf("median %.4g g, dispersion %.4g\n", f.fit.median, f.fit.beta);
+        std::printf("median %.4g g, dispersion %.4g; median 95 %% interval (profile likelihood) %s to %s\n",
+                    f.fit.median, f.fit.beta, Bound(f.band.median_low, f.band.median_low_open).c_str(),
+                    Bound(f.band.median_high, f.band.median_high_open).c_str());
+        if (!f.caveat.empty()) std::printf("    caveat: %s\n", f.caveat.c_str());
         break;
       case sweep::FragilityFit::Status::kSeparated:
         std::printf("no finite fit (outcomes separated): median between %.4g and %.4g g, dispersion -> 0\n",
