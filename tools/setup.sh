@@ -27,7 +27,7 @@ command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 # under Xvfb, and the sanitizer and fuzz pass (tools/test.sh, build-asan/)
 # needs clang with its sanitizer and libFuzzer runtimes; only tools/test.sh asks.
 if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
-  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb)
+  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb lintian)
 fi
 missing=()
 for p in "${packages[@]}"; do
