@@ -36,6 +36,15 @@ if(NOT main_deb OR NOT dev_deb)
   message(FATAL_ERROR "deb test: expected rocklab_*.deb and rocklab-dev_*.deb in ${WORK_DIR}")
 endif()
 
+# The sizes docs/packaging.md quotes, printed for measuring again.
+foreach(deb ${main_deb} ${dev_deb})
+  file(SIZE ${deb} bytes)
+  run("dpkg-deb -f" dpkg-deb -f ${deb} Installed-Size)
+  string(STRIP "${last_output}" installed)
+  get_filename_component(name ${deb} NAME)
+  message(STATUS "deb test: ${name}: ${bytes} bytes, Installed-Size ${installed} KiB")
+endforeach()
+
 run("dpkg-deb -c rocklab" dpkg-deb -c ${main_deb})
 set(main_files "${last_output}")
 run("dpkg-deb -c rocklab-dev" dpkg-deb -c ${dev_deb})
