@@ -193,5 +193,24 @@ TEST(Formats, SweepPlotGivesTheSameFitsFromCsvAndHdf5) {
   EXPECT_EQ(ReadFile(dir + "/from_csv/fragility.csv"), ReadFile(dir + "/from_h5/fragility.csv"));
 }
 
+// sweep --merge copies CSV rows as written: an HDF5 shard or an .h5 --out
+// is refused in one line that says so (not misread as a bad header).
+TEST(Formats, MergeSaysItTakesCsv) {
+  const std::string dir = ScratchDir("formats_merge");
+  const std::string h5 = SweepResults(dir, ".h5");
+  const std::vector<std::string> sweep = {"sweep", "--records", dir + "/record.csv", "--alpha", "0.2", "--p", "2", "3",
+                                          "--model", "housner", "--scale", "0.1:1:4", "--pga-g", "--duration", "3"};
+  std::vector<std::string> args = sweep;
+  args.insert(args.end(), {"--merge", h5, "--out", dir + "/all.csv"});
+  CliResult r = RunCli(args);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("is HDF5: merge takes the shards' CSVs"), std::string::npos) << r.err;
+  args = sweep;
+  args.insert(args.end(), {"--merge", dir + "/x.csv", "--out", dir + "/all.h5"});
+  r = RunCli(args);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--merge writes CSV"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace rocklab::test
