@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 23 point 15: what `rocklab record` loses when its disk stalls, and
+# What `rocklab record` loses when its disk stalls, and
 # how much of it the sequence numbers show. A synthetic test (synth, four
 # model variants: every channel) is run once into a log; then, in a private
 # network namespace on loopback (DESIGN.md: ttl=0, nothing leaves the
@@ -63,7 +63,7 @@ SCRIPT
 import json, sys
 sent = {c["name"]: c for c in json.load(open(sys.argv[1]))["channels"]}
 got = {c["name"]: c for c in json.load(open(sys.argv[2]))["channels"]}
-# Types with a seq before issue 23 point 15: only these losses were counted.
+# Types that carried a seq before the successor types: only these losses were counted.
 before = {"RL_RAW", "RL_THETA", "RL_TABLE"}
 kinds = {}
 for name, c in sent.items():

@@ -130,4 +130,74 @@ FragilityFit FitLognormalFragility(const std::vector<FragilityPoint>& points) {
   return fit;
 }
 
+FragilityBand LikelihoodBand(const std::vector<FragilityPoint>& points, const FragilityFit& fit,
+                             const std::vector<double>& xs) {
+  FragilityBand band;
+  band.x = xs;
+  const double b0 = 1.0 / fit.beta, a0 = -std::log(fit.median) * b0;
+  // Observed information at the estimate (the Newton iteration's -Hessian).
+  double haa = 0, hab = 0, hbb = 0;
+  for (const FragilityPoint& p : points) {
+    if (p.trials <= 0) continue;
+    const double u = std::log(p.x), eta = a0 + b0 * u;
+    const double m = p.overturned, s = p.trials - p.overturned;
+    const double l1 = MillsRatio(eta), l2 = MillsRatio(-eta);
+    const double w = m * l1 * (eta + l1) + s * l2 * (l2 - eta);
+    haa += w;
+    hab += w * u;
+    hbb += w * u * u;
+  }
+  const double det = haa * hbb - hab * hab;
+  const double se_a = det > 0 ? std::sqrt(hbb / det) : 1.0, se_b = det > 0 ? std::sqrt(haa / det) : b0;
+  constexpr int kGrid = 241;
+  constexpr double kSpan = 6.0;            // standard errors each side
+  constexpr double kHalfChi2 = 3.841458820694124 / 2;  // chi-square(1) 0.95 quantile / 2
+  const double a_lo = a0 - kSpan * se_a, a_step = 2 * kSpan * se_a / (kGrid - 1);
+  const double b_lo = std::max(b0 - kSpan * se_b, 1e-3 * b0), b_hi = b0 + kSpan * se_b;
+  const double b_step = (b_hi - b_lo) / (kGrid - 1);
+  const bool b_floored = b_lo > b0 - kSpan * se_b;  // the grid starts at b ~ 0, not 6 se below
+  std::vector<double> eta_lo(xs.size(), INFINITY), eta_hi(xs.size(), -INFINITY);
+  double log_median_lo = INFINITY, log_median_hi = -INFINITY;
+  bool low_at_edge = false, high_at_edge = false;
+  for (int i = 0; i < kGrid; ++i) {
+    const double a = a_lo + i * a_step;
+    for (int j = 0; j < kGrid; ++j) {
+      const double b = b_lo + j * b_step;
+      if (fit.log_likelihood - LogLikelihoodAB(points, a, b) > kHalfChi2) continue;
+      const bool edge = i == 0 || i == kGrid - 1 || j == 0 || j == kGrid - 1;
+      const double log_median = -a / b;
+      if (log_median < log_median_lo) {
+        log_median_lo = log_median;
+        low_at_edge = edge;
+      }
+      if (log_median > log_median_hi) {
+        log_median_hi = log_median;
+        high_at_edge = edge;
+      }
+      // b -> 0 (beta -> infinity, a curve flat in x) inside the region: the
+      // median exp(-a / b) is unbounded on the side of -a's sign.
+      if (j == 0 && b_floored) {
+        (a < 0 ? band.median_high_open : band.median_low_open) = true;
+      }
+      for (std::size_t k = 0; k < xs.size(); ++k) {
+        const double eta = a + b * std::log(xs[k]);
+        eta_lo[k] = std::min(eta_lo[k], eta);
+        eta_hi[k] = std::max(eta_hi[k], eta);
+      }
+    }
+  }
+  band.median_low_open = band.median_low_open || low_at_edge;
+  band.median_high_open = band.median_high_open || high_at_edge;
+  // The estimate itself is always inside; the grid holds it (i = j = 120
+  // when b0 - 6 se_b > 1e-3 b0, else near it).
+  band.median_low = std::exp(std::min(log_median_lo, std::log(fit.median)));
+  band.median_high = std::exp(std::max(log_median_hi, std::log(fit.median)));
+  for (std::size_t k = 0; k < xs.size(); ++k) {
+    const double eta = a0 + b0 * std::log(xs[k]);
+    band.p_low.push_back(NormalCdf(std::min(eta_lo[k], eta)));
+    band.p_high.push_back(NormalCdf(std::max(eta_hi[k], eta)));
+  }
+  return band;
+}
+
 }  // namespace rocklab::sweep

@@ -14,6 +14,7 @@
 /// was not); separated outcomes (every safe x at or below every overturned
 /// x) make beta -> 0, and the fit reports the bracket instead.
 
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -51,6 +52,25 @@ const char* ToString(FragilityFit::Status status);
 /// are ignored).
 /// @throws std::invalid_argument for x <= 0 or not finite, or counts out of range.
 FragilityFit FitLognormalFragility(const std::vector<FragilityPoint>& points);
+
+/// The 95 % profile-likelihood intervals of a fitted curve: the points
+/// (a, b) with 2 (L_max - L(a, b)) <= 3.841 (chi-square, 1 degree of
+/// freedom, 0.95), projected on the median exp(-a / b) and on P(x) at each
+/// x asked for (pointwise). Found on a 241 x 241 grid over (a, b), 6
+/// standard errors (the observed information's) each side of the estimate
+/// (b > 0); when the region reaches the grid's edge the interval is open on
+/// that side (the likelihood does not bound it: few outcomes, or a median
+/// far outside the data).
+struct FragilityBand {
+  double median_low{}, median_high{};  ///< in the unit of x
+  bool median_low_open{}, median_high_open{};  ///< the region reached the grid's edge on that side
+  std::vector<double> x;                      ///< where the band is given
+  std::vector<double> p_low, p_high;          ///< P(overturn) bounds at each x
+};
+
+/// The band of `fit` (status kFitted) over `points`, at `xs`.
+FragilityBand LikelihoodBand(const std::vector<FragilityPoint>& points, const FragilityFit& fit,
+                             const std::vector<double>& xs);
 
 /// The log-likelihood above at (median, beta), for checks.
 double FragilityLogLikelihood(const std::vector<FragilityPoint>& points, double median, double beta);

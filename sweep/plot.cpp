@@ -1,16 +1,20 @@
 #include "sweep/plot.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <map>
+#include <optional>
+#include <set>
 #include <stdexcept>
 
 #include "common/atomic_file.h"
 #include "common/text.h"
+#include "sweep/results_h5.h"
 
 namespace rocklab::sweep {
 namespace {
@@ -21,6 +25,20 @@ std::string Num(double v) {
   if (!std::isfinite(v)) return "NaN";
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+constexpr std::size_t kBandPoints = 200;
+
+std::string Num4(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+std::string Num3(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
 }
 
@@ -41,6 +59,66 @@ std::string Terminal(const PlotOptions& o) {
              : "set terminal pngcairo size 900,600 font 'sans,10' background '#ffffff'\n";
 }
 std::string Extension(const PlotOptions& o) { return o.format == report::FigureFormat::kSvg ? ".svg" : ".png"; }
+
+// A name's part from a value as written: letters, digits, '.', '-' and '+'
+// kept, anything else '_'.
+std::string Slug(const std::string& text) {
+  std::string out;
+  for (char c : text) out += std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' ? c : '_';
+  return out;
+}
+
+// Curves on one spectrum against p, at most.
+constexpr std::size_t kMaxCurves = 10;
+
+// A title in lines that fit the figure whole. gnuplot centres the title
+// on the plot area, which a key outside on the right pushes left, so a
+// line may be at most (width - 2 x key) wide: 900 px - 2 x 180 px at 11 px
+// sans-serif, whose glyphs average under 0.62 em (DejaVu Sans, the
+// fontconfig default: 0.55 em over lowercase text and digits), 79 characters.
+// Lines break after ", " or ": " or "; ".
+constexpr std::size_t kTitleChars = 79;
+std::string WrapTitle(const std::string& title) {
+  std::string out, line;
+  std::size_t from = 0;
+  while (from < title.size()) {
+    std::size_t cut = title.size();
+    for (const char* sep : {", ", ": ", "; ", ". "}) {
+      const std::size_t at = title.find(sep, from);
+      if (at != std::string::npos) cut = std::min(cut, at + 2);
+    }
+    const std::string piece = title.substr(from, cut - from);
+    if (!line.empty() && line.size() + piece.size() > kTitleChars) {
+      out += (out.empty() ? "" : "\n") + line.substr(0, line.find_last_not_of(' ') + 1);
+      line.clear();
+    }
+    line += piece;
+    from = cut;
+  }
+  if (!line.empty()) out += (out.empty() ? "" : "\n") + line;
+  return out;
+}
+
+// `text` as a gnuplot double-quoted string, its newlines as \n (a
+// single-quoted string would print them as they are); other control
+// characters become spaces.
+std::string DoubleQuoted(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (c == '\n') {
+      out += "\\n";
+    } else {
+      out += static_cast<unsigned char>(c) < 0x20 ? ' ' : c;
+    }
+  }
+  return out + "\"";
+}
+
+// A title wrapped to kTitleChars a line, as a gnuplot string.
+std::string TitleLiteral(const std::string& title) { return DoubleQuoted(WrapTitle(title)); }
 
 // A curve as a gnuplot data block $name, then its plot clause.
 struct Series {
@@ -74,6 +152,18 @@ void Draw(const PlotOptions& o, const std::string& file, const std::string& setu
   report.files.push_back(path);
 }
 
+// A figure from a whole gnuplot script body (after terminal and output).
+void DrawRaw(const PlotOptions& o, const std::string& file, const std::string& body, PlotReport& report) {
+  const std::string path = (std::filesystem::path(o.out_dir) / (file + Extension(o))).string();
+  report::RunGnuplot(
+      o.gnuplot,
+      [&](const std::string& output) {
+        return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + body + "set output\n";
+      },
+      path);
+  report.files.push_back(path);
+}
+
 const char* const kColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                                 "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
 std::string RecordStyle(std::size_t k) {
@@ -84,6 +174,7 @@ const std::string kMedianStyle = "with linespoints lw 2.5 pt 5 ps 0.7 lc rgb '#0
 }  // namespace
 
 std::vector<ResultRow> ReadResults(const std::string& path) {
+  if (IsHdf5File(path)) return ReadResultsH5(path);
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open for reading");
   std::string line;
@@ -93,6 +184,8 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
   const char* const needed[] = {"record", "scale", "pga_g", "alpha", "p", "mu", "model", "peak_theta_over_alpha",
                                 "overturned"};
   std::vector<std::size_t> at;
+  std::optional<std::size_t> block_at;
+  std::string r_block;
   std::vector<ResultRow> rows;
   while (std::getline(in, line)) {
     ++line_no;
@@ -106,9 +199,11 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
         if (it == column.end()) throw std::runtime_error(where + "no column '" + name + "' in the header (a sweep's results?)");
         at.push_back(it->second);
       }
+      if (column.count("block")) block_at = column["block"];
       continue;
     }
     const std::size_t last = *std::max_element(at.begin(), at.end());
+    if (block_at && *block_at < fields.size()) r_block = std::string(common::Trim(fields[*block_at]));
     if (fields.size() <= last) throw std::runtime_error(where + "a short row " + common::Quote(line));
     ResultRow r;
     r.record = std::string(fields[at[0]]);
@@ -127,6 +222,7 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
     const std::string_view over = common::Trim(fields[at[8]]);
     if (over != "0" && over != "1") throw std::runtime_error(where + "overturned " + common::Quote(over) + " is not 0 or 1");
     r.overturned = over == "1";
+    if (!r_block.empty()) r.block = r_block;
     if (!(r.pga_g > 0) || !(r.alpha > 0)) throw std::runtime_error(where + "pga_g and alpha must be > 0");
     rows.push_back(std::move(r));
   }
@@ -141,7 +237,12 @@ std::vector<BlockFragility> FitFragilities(const std::vector<ResultRow>& rows) {
   for (const ResultRow& r : rows) {
     const auto [it, fresh] = index.emplace(BlockKey(r), out.size());
     if (fresh) {
-      out.push_back({r.model, r.alpha_text, r.p_text, r.mu_text, 0, 0, {}});
+      BlockFragility fresh_block;
+      fresh_block.model = r.model;
+      fresh_block.alpha = r.alpha_text;
+      fresh_block.p = r.p_text;
+      fresh_block.mu = r.mu_text;
+      out.push_back(std::move(fresh_block));
       points.emplace_back();
     }
     BlockFragility& b = out[it->second];
@@ -155,7 +256,26 @@ std::vector<BlockFragility> FitFragilities(const std::vector<ResultRow>& rows) {
   for (std::size_t i = 0; i < out.size(); ++i) {
     std::vector<FragilityPoint> v;
     for (const auto& [x, pt] : points[i]) v.push_back(pt);
-    out[i].fit = FitLognormalFragility(v);
+    BlockFragility& b = out[i];
+    b.fit = FitLognormalFragility(v);
+    b.pga_min_g = v.front().x;
+    b.pga_max_g = v.back().x;
+    if (b.fit.status != FragilityFit::Status::kFitted) continue;
+    std::vector<double> xs(kBandPoints);
+    for (std::size_t k = 0; k < kBandPoints; ++k) xs[k] = 1.1 * b.pga_max_g * static_cast<double>(k + 1) / kBandPoints;
+    b.band = LikelihoodBand(v, b.fit, xs);
+    std::vector<std::string> notes;
+    if (b.fit.median > b.pga_max_g) notes.push_back("median above the highest PGA tried (" + Num(b.pga_max_g) + " g): extrapolated");
+    if (b.fit.median < b.pga_min_g) notes.push_back("median below the lowest PGA tried (" + Num(b.pga_min_g) + " g): extrapolated");
+    if (b.overturned < kFewOutcomes) notes.push_back("only " + std::to_string(b.overturned) + " overturned");
+    if (b.rows - b.overturned < kFewOutcomes) notes.push_back("only " + std::to_string(b.rows - b.overturned) + " safe");
+    if (b.band.median_low_open || b.band.median_high_open) {
+      notes.push_back("the likelihood leaves the median's 95 % interval open");
+    } else if (b.band.median_high > 10 * b.pga_max_g || b.band.median_low < 0.1 * b.pga_min_g) {
+      notes.push_back("the median's 95 % interval (" + Num3(b.band.median_low) + " to " + Num3(b.band.median_high) +
+                      " g) reaches past 10 times the PGAs tried");
+    }
+    for (const std::string& n : notes) b.caveat += (b.caveat.empty() ? "" : "; ") + n;
   }
   return out;
 }
@@ -183,6 +303,26 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
       by[r->record].push_back(r);
     }
     return std::make_pair(names, by);
+  };
+
+  // Names: a figure is named after what it shows (spectrum_vs_pga_housner_
+  // alpha0.2_p3_mu0.9.svg); the same name twice gets _2, _3, ...
+  std::map<std::string, int> names_used;
+  auto unique = [&names_used](const std::string& name) {
+    const int n = ++names_used[name];
+    return n == 1 ? name : name + "_" + std::to_string(n);
+  };
+  // mu is in a name only where one (model, alpha) has several.
+  std::map<std::string, std::map<std::string, int>> mus_of;
+  for (const ResultRow& r : rows) mus_of[r.model + "," + r.alpha_text][r.mu_text] = 1;
+  auto mu_part = [&mus_of](const ResultRow& r) {
+    return mus_of[r.model + "," + r.alpha_text].size() > 1 ? "_mu" + Slug(r.mu_text) : std::string();
+  };
+  // A block by its label when it has one (rectangle WxH, polygon file),
+  // else by alpha, p (and mu).
+  auto block_part = [&mu_part](const ResultRow& r) {
+    return r.block != "-" && !r.block.empty() ? "_block" + Slug(r.block)
+                                              : "_alpha" + Slug(r.alpha_text) + "_p" + Slug(r.p_text) + mu_part(r);
   };
 
   // Spectra against PGA / (g tan alpha), one figure per block with 2+ scales.
@@ -217,15 +357,18 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     std::sort(median.xy.begin(), median.xy.end());
     series.push_back(std::move(median));
     const ResultRow& r0 = *v.front();
-    Draw(o, "spectrum_pga_" + std::to_string(b + 1),
-         "set title " + GnuplotQuoted("rocking spectrum, " + r0.model + ", alpha " + r0.alpha_text + " rad, p " +
-                                      r0.p_text + " rad/s, mu " + r0.mu_text + " (overturned at 1)") +
+    Draw(o, unique("spectrum_vs_pga_" + Slug(r0.model) + block_part(r0)),
+         "set title " + TitleLiteral(("rocking spectrum against PGA, " + r0.model + ", alpha " + r0.alpha_text +
+                                               " rad, p " + r0.p_text + " rad/s, mu " + r0.mu_text +
+                                               " (overturned at 1)")) +
              " noenhanced\nset xlabel 'PGA / (g tan alpha)'\nset ylabel 'peak theta / alpha'\nset yrange [0:1.05]\n"
              "set key outside right top\n",
          series, report);
   }
 
-  // Spectra against p: per (model, alpha, mu) and scale position, with 2+ p.
+  // Spectra against p: one figure per (model, alpha, mu) with 3 or more p
+  // (2 points make no spectrum), the median over the records against p,
+  // one curve per scale step (at most kMaxCurves, evenly chosen).
   drawn = 0;
   std::map<std::string, std::vector<const ResultRow*>> by_family;  // model, alpha, mu
   std::vector<std::string> family_order;
@@ -235,75 +378,122 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     if (f.empty()) family_order.push_back(key);
     f.push_back(&r);
   }
-  std::size_t figure = 0;
   for (const std::string& key : family_order) {
     const auto& v = by_family[key];
     std::map<std::string, int> ps;
     for (const ResultRow* r : v) ps[r->p_text] = 1;
-    if (ps.size() < 2) continue;
+    if (ps.size() < 3) continue;
+    if (drawn++ >= o.max_figures_per_kind) {
+      ++report.skipped;
+      continue;
+    }
     // Scale position j of each row within its (record, p).
     std::map<std::string, std::size_t> seen;
     std::map<std::size_t, std::vector<const ResultRow*>> by_position;
     for (const ResultRow* r : v) by_position[seen[r->record + "," + r->p_text]++].push_back(r);
+    const std::size_t steps = by_position.size();
+    std::vector<Series> series;
+    std::set<std::string> records;
+    std::size_t curve = 0;
     for (const auto& [j, at_scale] : by_position) {
-      ++figure;
-      if (drawn++ >= o.max_figures_per_kind) {
-        ++report.skipped;
-        continue;
+      // Every step when they fit, else kMaxCurves evenly spread (first and last kept).
+      if (steps > kMaxCurves) {
+        bool keep = false;
+        for (std::size_t c = 0; c < kMaxCurves && !keep; ++c) keep = j == c * (steps - 1) / (kMaxCurves - 1);
+        if (!keep) continue;
       }
-      const auto [names, by] = records_of(at_scale);
-      std::vector<Series> series;
       std::map<double, std::vector<double>> at_p;
-      for (std::size_t k = 0; k < names.size(); ++k) {
-        Series s{names[k], {}, RecordStyle(k)};
-        for (const ResultRow* r : by.at(names[k])) {
-          s.xy.emplace_back(r->p, Ordinate(*r));
-          at_p[r->p].push_back(Ordinate(*r));
-        }
-        std::sort(s.xy.begin(), s.xy.end());
-        series.push_back(std::move(s));
+      std::set<double> pgas;
+      for (const ResultRow* r : at_scale) {
+        at_p[r->p].push_back(Ordinate(*r));
+        pgas.insert(r->pga_g);
+        records.insert(r->record);
       }
-      Series median{"median", {}, kMedianStyle};
-      for (const auto& [p, ys] : at_p) median.xy.emplace_back(p, Median(ys));
-      series.push_back(std::move(median));
       const ResultRow& r0 = *at_scale.front();
-      char scale[64];
-      std::snprintf(scale, sizeof scale, "scale %.6g (PGA %.4g g for %s)", r0.scale, r0.pga_g, r0.record.c_str());
-      Draw(o, "spectrum_p_" + std::to_string(figure),
-           "set title " + GnuplotQuoted("rocking spectrum, " + r0.model + ", alpha " + r0.alpha_text + " rad, mu " +
-                                        r0.mu_text + ", " + scale) +
-               " noenhanced\nset xlabel 'p (rad/s)'\nset ylabel 'peak theta / alpha'\nset yrange [0:1.05]\n"
-               "set key outside right top\n",
-           series, report);
+      Series s{pgas.size() == 1 ? "PGA " + Num4(r0.pga_g) + " g" : "scale " + Num4(r0.scale), {}, RecordStyle(curve++)};
+      for (const auto& [p, ys] : at_p) s.xy.emplace_back(p, Median(ys));
+      series.push_back(std::move(s));
     }
+    const ResultRow& r0 = *v.front();
+    Draw(o, unique("spectrum_vs_p_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + mu_part(r0)),
+         "set title " + TitleLiteral(("rocking spectrum against p, " + r0.model + ", alpha " + r0.alpha_text +
+                                               " rad, mu " + r0.mu_text + ": median of " + std::to_string(records.size()) +
+                                               " records" + (steps > kMaxCurves ? ", " + std::to_string(kMaxCurves) +
+                                               " of " + std::to_string(steps) + " scale steps" : "") +
+                                               " (overturned at 1)")) +
+             " noenhanced\nset xlabel 'p (rad/s)'\nset ylabel 'peak theta / alpha'\nset yrange [0:1.05]\n"
+             "set key outside right top\n",
+         series, report);
   }
 
-  // Overturning map per model: p against PGA / (g tan alpha), coloured by
-  // the share of records that overturned.
-  std::map<std::string, std::map<std::pair<double, double>, std::pair<double, double>>> maps;
+  // Overturning maps: p against PGA / (g tan alpha), coloured by the share
+  // of records that overturned, one per (model, alpha, mu) with 2 or more
+  // p. Blocks that are alone at their alpha (rectangles, polygons) share
+  // one map per model, a column per block.
+  struct Cell {
+    double rows{}, overturned{};
+  };
+  std::map<std::string, std::map<std::pair<double, double>, Cell>> family_cells;
+  std::map<std::string, const ResultRow*> family_first;
   for (const ResultRow& r : rows) {
-    auto& cell = maps[r.model][{r.p, r.pga_g / std::tan(r.alpha)}];
-    cell.first += 1;
-    cell.second += r.overturned ? 1 : 0;
+    const std::string key = r.model + "," + r.alpha_text + "," + r.mu_text;
+    Cell& c = family_cells[key][{r.p, r.pga_g / std::tan(r.alpha)}];
+    c.rows += 1;
+    c.overturned += r.overturned ? 1 : 0;
+    if (!family_first.count(key)) family_first[key] = &r;
   }
-  for (const auto& [model, cells] : maps) {
-    const std::string path = (std::filesystem::path(o.out_dir) / ("overturn_map_" + model + Extension(o))).string();
-    std::string s = "set grid\nset title " + GnuplotQuoted("overturning map, " + model) +
-                    " noenhanced\nset xlabel 'p (rad/s)'\nset ylabel 'PGA / (g tan alpha)'\n"
-                    "set cblabel 'share of records overturned'\nset cbrange [0:1]\n"
-                    "set palette defined (0 '#2c7bb6', 0.5 '#ffffbf', 1 '#d7191c')\n$m << EOD\n";
-    for (const auto& [xy, counts] : cells) s += Num(xy.first) + " " + Num(xy.second) + " " + Num(counts.second / counts.first) + "\n";
-    s += "EOD\nplot $m using 1:2:3 with points pt 5 ps 1.5 lc palette notitle\nset output\n";
-    report::RunGnuplot(
-        o.gnuplot,
-        [&](const std::string& output) {
-          return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + s;
-        },
-        path);
-    report.files.push_back(path);
+  const std::string map_setup =
+      "set cblabel 'share of records overturned'\nset cbrange [0:1]\n"
+      "set palette defined (0 '#2c7bb6', 0.5 '#ffffbf', 1 '#d7191c')\n";
+  std::map<std::string, std::vector<std::string>> lone_blocks;  // model -> family keys with one p
+  drawn = 0;
+  for (const std::string& key : family_order) {
+    const auto& cells = family_cells[key];
+    std::set<double> ps;
+    for (const auto& [xy, c] : cells) ps.insert(xy.first);
+    const ResultRow& r0 = *family_first[key];
+    if (ps.size() < 2) {
+      lone_blocks[r0.model].push_back(key);
+      continue;
+    }
+    if (drawn++ >= o.max_figures_per_kind) {
+      ++report.skipped;
+      continue;
+    }
+    std::string data = "$m << EOD\n";
+    for (const auto& [xy, c] : cells) data += Num(xy.first) + " " + Num(xy.second) + " " + Num(c.overturned / c.rows) + "\n";
+    DrawRaw(o, unique("overturn_map_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + mu_part(r0)),
+            "set grid\nset title " +
+                TitleLiteral(("overturning map, " + r0.model + ", alpha " + r0.alpha_text + " rad, mu " +
+                                        r0.mu_text)) +
+                " noenhanced\nset xlabel 'p (rad/s)'\nset ylabel 'PGA / (g tan alpha)'\n" + map_setup + data +
+                "EOD\nplot $m using 1:2:3 with points pt 5 ps 1.5 lc palette notitle\n",
+            report);
+  }
+  for (const auto& [model, keys] : lone_blocks) {
+    if (drawn++ >= o.max_figures_per_kind) {
+      ++report.skipped;
+      continue;
+    }
+    std::string tics, data = "$m << EOD\n";
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const ResultRow& r0 = *family_first[keys[i]];
+      tics += (i ? ", " : "") + DoubleQuoted((r0.block != "-" ? r0.block + "\n" : "") + "alpha " + Num3(r0.alpha) + ", p " + Num3(r0.p)) + " " + std::to_string(i + 1);
+      for (const auto& [xy, c] : family_cells[keys[i]]) {
+        data += std::to_string(i + 1) + " " + Num(xy.second) + " " + Num(c.overturned / c.rows) + "\n";
+      }
+    }
+    DrawRaw(o, unique("overturn_map_" + Slug(model) + "_by_block"),
+            "set grid\nset title " + TitleLiteral(("overturning map, " + model + ", a column per block")) +
+                " noenhanced\nset bmargin 6\nset xlabel 'block (alpha rad, p rad/s)' offset 0,-1\nset ylabel 'PGA / (g tan alpha)'\n"
+                "set xrange [0.5:" + std::to_string(keys.size()) + ".5]\nset xtics (" + tics + ") noenhanced\n" +
+                map_setup + data + "EOD\nplot $m using 1:2:3 with points pt 5 ps 1.5 lc palette notitle\n",
+            report);
   }
 
-  // Fragility curves per block.
+  // Fragility curves per block: the fraction overturned at each PGA, the
+  // fitted lognormal and its 95 % profile-likelihood band; the caveats in
+  // the title.
   drawn = 0;
   for (std::size_t b = 0; b < fragilities.size(); ++b) {
     const BlockFragility& f = fragilities[b];
@@ -312,44 +502,64 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
       continue;
     }
     std::map<double, std::pair<double, double>> at_pga;
+    const ResultRow* first = nullptr;
     for (const ResultRow& r : rows) {
       if (r.model != f.model || r.alpha_text != f.alpha || r.p_text != f.p || r.mu_text != f.mu) continue;
       at_pga[r.pga_g].first += 1;
       at_pga[r.pga_g].second += r.overturned ? 1 : 0;
+      if (first == nullptr) first = &r;
     }
     Series points{"fraction overturned", {}, "with points pt 7 ps 0.8 lc rgb '#1f77b4'"};
-    double x_max = 0;
-    for (const auto& [x, c] : at_pga) {
-      points.xy.emplace_back(x, c.second / c.first);
-      x_max = std::max(x_max, x);
-    }
+    for (const auto& [x, c] : at_pga) points.xy.emplace_back(x, c.second / c.first);
+    std::vector<Series> series;
+    std::string title = "fragility, " + f.model + ", alpha " + f.alpha + " rad, p " + f.p + " rad/s, mu " + f.mu + ": " +
+                        std::to_string(f.overturned) + " of " + std::to_string(f.rows) + " cases overturned";
     std::string curve;
-    std::string title = "fragility, " + f.model + ", alpha " + f.alpha + " rad, p " + f.p + " rad/s, mu " + f.mu;
     if (f.fit.status == FragilityFit::Status::kFitted) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "norm(log(x/%.9g)/%.9g) with lines lw 2 lc rgb '#d62728' title 'lognormal: median %.4g g, beta %.3g'",
-                    f.fit.median, f.fit.beta, f.fit.median, f.fit.beta);
+      Series band{"95 % band (profile likelihood)", {}, "with filledcurves fs transparent solid 0.25 noborder lc rgb '#d62728'"};
+      for (std::size_t k = 0; k < f.band.x.size(); ++k) band.xy.emplace_back(f.band.x[k], f.band.p_low[k]);
+      Series high{"", {}, ""};
+      for (std::size_t k = 0; k < f.band.x.size(); ++k) high.xy.emplace_back(f.band.x[k], f.band.p_high[k]);
+      // The band as one closed polygon: low forwards, high backwards.
+      for (auto it = high.xy.rbegin(); it != high.xy.rend(); ++it) band.xy.push_back(*it);
+      series.push_back(std::move(band));
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "norm(log(x/%.9g)/%.9g) with lines lw 2 lc rgb '#d62728' title 'lognormal: median %.4g g "
+                    "(95 %%: %s to %s), beta %.3g'",
+                    f.fit.median, f.fit.beta, f.fit.median,
+                    f.band.median_low_open ? "unbounded" : (Num3(f.band.median_low) + " g").c_str(),
+                    f.band.median_high_open ? "unbounded" : (Num3(f.band.median_high) + " g").c_str(), f.fit.beta);
       curve = buf;
+      if (!f.caveat.empty()) title += ". Caveat: " + f.caveat;
     } else {
       title += " (no fit: " + std::string(ToString(f.fit.status)) + ")";
     }
-    Draw(o, "fragility_" + std::to_string(b + 1),
-         "set title " + GnuplotQuoted(title) + " noenhanced\nset xlabel 'PGA (g)'\nset ylabel 'P(overturn)'\n"
-         "set yrange [-0.02:1.02]\nset xrange [0:" + Num(1.1 * x_max) + "]\nset samples 400\nset key left top\n",
-         {points}, report, curve);
+    series.push_back(std::move(points));
+    const double x_max = 1.1 * f.pga_max_g;
+    Draw(o, unique("fragility_" + Slug(f.model) + (first ? block_part(*first) : "")),
+         "set title " + TitleLiteral((title)) + " noenhanced\nset xlabel 'PGA (g)'\nset ylabel 'P(overturn)'\n"
+         "set yrange [-0.02:1.02]\nset xrange [0:" + Num(x_max) + "]\nset samples 400\nset key left top Left reverse\n",
+         series, report, curve);
   }
 
   // The fits as a table.
   const std::string table = (std::filesystem::path(o.out_dir) / "fragility.csv").string();
   std::ostringstream out;
-  out << "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g\n";
+  out << "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g,"
+         "pga_min_g,pga_max_g,median_low_g,median_high_g,caveat\n";
   for (const BlockFragility& f : fragilities) {
     const bool fitted = f.fit.status == FragilityFit::Status::kFitted;
     const bool separated = f.fit.status == FragilityFit::Status::kSeparated;
     out << f.model << ',' << f.alpha << ',' << f.p << ',' << f.mu << ',' << f.rows << ',' << f.overturned << ','
         << ToString(f.fit.status) << ',' << (fitted ? Num(f.fit.median) : "") << ',' << (fitted ? Num(f.fit.beta) : "")
         << ',' << (separated ? Num(f.fit.safe_below) : "") << ',' << (separated ? Num(f.fit.overturned_above) : "")
-        << '\n';
+        << ',' << Num(f.pga_min_g) << ',' << Num(f.pga_max_g) << ','
+        << (fitted && !f.band.median_low_open ? Num(f.band.median_low) : "") << ','
+        << (fitted && !f.band.median_high_open ? Num(f.band.median_high) : "") << ',';
+    std::string caveat = f.caveat;
+    std::replace(caveat.begin(), caveat.end(), ',', ';');
+    out << caveat << '\n';
   }
   common::WriteFileAtomically(table, out.str());
   report.files.push_back(table);

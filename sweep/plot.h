@@ -20,21 +20,41 @@ namespace rocklab::sweep {
 struct ResultRow {
   std::string record, model;
   std::string alpha_text, p_text, mu_text;  ///< as written (they name the block)
+  std::string block{"-"};  ///< the `block` column when there is one: "-", "WxH" or a polygon file's name
   double scale{}, pga_g{}, alpha{}, p{}, mu{};
   double peak_theta_over_alpha{};
   bool overturned{};
 };
 
-/// Reads a results CSV by its header's column names (extra columns allowed).
+/// Reads a sweep's results: the HDF5 file of `sweep --out FILE.h5` (by its
+/// signature, whatever the name: ReadResultsH5), else a CSV by its header's
+/// column names (extra columns allowed).
 /// @throws std::runtime_error "FILE:LINE: ..." for a missing column, a
 ///   field that is not a number, or a short row.
 std::vector<ResultRow> ReadResults(const std::string& path);
+
+/// Fewer overturned (or fewer safe) cases than this and a fitted curve
+/// carries a caveat: with under about 10 events per fitted parameter a
+/// binary regression's estimates are biased and their intervals unreliable
+/// (Peduzzi et al. 1996, J Clin Epidemiol 49, the "10 events per
+/// variable" rule, for logistic regression; the probit behaves alike).
+inline constexpr std::size_t kFewOutcomes = 10;
 
 /// The fragility of one block.
 struct BlockFragility {
   std::string model, alpha, p, mu;  ///< as written
   std::size_t rows{}, overturned{};
   FragilityFit fit;
+  double pga_min_g{}, pga_max_g{};  ///< the PGAs tried, g
+  /// kFitted: the 95 % profile-likelihood band (LikelihoodBand) at 200
+  /// PGAs from 0 to 1.1 x pga_max_g and the median's interval.
+  FragilityBand band;
+  /// kFitted: what makes the fit weak, "" when nothing does: the median
+  /// outside [pga_min_g, pga_max_g] (extrapolated), fewer than
+  /// kFewOutcomes overturned or safe cases, an interval the likelihood
+  /// leaves open or that reaches beyond 10 x pga_max_g (or below
+  /// pga_min_g / 10). Printed by sweep-plot, in the figure and in fragility.csv.
+  std::string caveat;
 };
 
 /// Fits every block's fragility against PGA in g (rows grouped by block, in

@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -27,6 +28,7 @@
 #include "common/atomic_file.h"
 #include "common/text.h"
 #include "pipeline/option_error.h"
+#include "sweep/results_h5.h"
 
 namespace rocklab::sweep {
 namespace {
@@ -365,6 +367,21 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
 }
 
 void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+  // CSV only, in and out (rows are copied as written); say so rather than
+  // misread an HDF5 shard or write CSV under an .h5 name.
+  const auto is_h5_name = [](const std::string& path) {
+    const std::string ext = std::filesystem::path(path).extension().string();
+    return ext == ".h5" || ext == ".hdf5";
+  };
+  if (is_h5_name(out_path)) {
+    throw OptionError("--merge writes CSV: give --out FILE.csv ('" + out_path + "' names an HDF5 file)");
+  }
+  for (const std::string& part : parts) {
+    if (IsHdf5File(part)) {
+      throw OptionError("--merge: " + part + " is HDF5: merge takes the shards' CSVs (--out FILE.csv for each "
+                        "shard); sweep-plot and info read an .h5 sweep as it is");
+    }
+  }
   const std::size_t n = plan.size();
   std::unordered_map<std::string, std::size_t> index_of;
   index_of.reserve(n);

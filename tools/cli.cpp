@@ -1,5 +1,7 @@
 #include "tools/cli.h"
 
+#include <algorithm>
+#include <cctype>
 #include <csignal>
 
 #include "common/bus_urls.h"
@@ -32,6 +34,83 @@ const std::atomic<bool>& InstallStopSignals() {
   sigaction(SIGTERM, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
   return g_stop;
+}
+
+std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string DidYouMean(std::string_view word, const std::vector<std::string>& names) {
+  std::string best;
+  std::size_t best_distance = 0;
+  for (const std::string& name : names) {
+    const std::size_t d = EditDistance(word, name);
+    const std::size_t limit = std::min<std::size_t>(2, std::max(word.size(), name.size()) / 3);
+    if (d <= limit && (best.empty() || d < best_distance)) {
+      best = name;
+      best_distance = d;
+    }
+  }
+  if (!best.empty() || word.empty()) return best;
+  std::string prefix_of;
+  for (const std::string& name : names) {
+    if (name.compare(0, word.size(), word) != 0) continue;
+    if (!prefix_of.empty()) return "";  // the start of two names: no guess
+    prefix_of = name;
+  }
+  return prefix_of;
+}
+
+std::string UnknownOption(const CLI::App& cmd, const std::vector<std::string>& args) {
+  std::vector<std::string> names;  // with their dashes
+  auto known = [&cmd](const std::string& name) {
+    return cmd.get_option_no_throw(name) != nullptr;
+  };
+  for (const CLI::Option* opt : cmd.get_options()) {
+    for (const std::string& l : opt->get_lnames()) names.push_back("--" + l);
+    for (const std::string& s : opt->get_snames()) names.push_back("-" + s);
+  }
+  for (const std::string& arg : args) {
+    if (arg == "--") break;
+    std::string name;
+    if (arg.size() > 2 && arg.compare(0, 2, "--") == 0) {
+      name = arg.substr(0, arg.find('='));
+    } else if (arg.size() == 2 && arg[0] == '-' && std::isalpha(static_cast<unsigned char>(arg[1]))) {
+      name = arg;
+    } else {
+      continue;
+    }
+    if (known(name)) continue;
+    std::string message = cmd.get_name() + ": unknown option " + name;
+    const std::string near = DidYouMean(name, names);
+    message += near.empty() ? "" : " (did you mean " + near + "?)";
+    return message + "; `rocklab help " + cmd.get_name() + "` lists its options";
+  }
+  return "";
+}
+
+std::string CommandList(const CLI::App& app) {
+  std::string out = app.get_description() + "\n\nusage: rocklab COMMAND [OPTIONS]\n\ncommands:\n";
+  std::size_t width = 0;
+  for (const CLI::App* sub : app.get_subcommands({})) width = std::max(width, sub->get_name().size());
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    out += "  " + sub->get_name() + std::string(width + 2 - sub->get_name().size(), ' ') +
+           sub->get_description() + "\n";
+  }
+  out += "\nrocklab help COMMAND (or rocklab COMMAND --help): the command's options\n"
+         "rocklab --version: the version; docs/commands.md: every command in full\n";
+  return out;
 }
 
 }  // namespace rocklab::tools

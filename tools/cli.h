@@ -7,6 +7,8 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -47,5 +49,27 @@ std::string SubscriberUrl(const std::string& url);
 /// (common/bus_urls.h, docs/channels.md).
 CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url);
 
+/// Levenshtein distance between `a` and `b` (insertions, deletions,
+/// substitutions, each 1).
+std::size_t EditDistance(std::string_view a, std::string_view b);
+
+/// The name of `names` closest to `word` when it is close enough to be a
+/// typo of it (edit distance at most 2, and at most a third of the longer
+/// name), or when `word` is the start of exactly one name; else "".
+std::string DidYouMean(std::string_view word, const std::vector<std::string>& names);
+
+/// The first option of `args` (a subcommand's arguments, after its name)
+/// that `cmd` does not have, as a one-line message naming it and the
+/// nearest option it has ("unknown option --duraton (did you mean
+/// --duration?)"); "" when every option is known. Run before CLI11 parses:
+/// CLI11 checks required options first and would report a misspelt
+/// required option as missing. Long options (`--name`, `--name=value`) and
+/// one-letter short ones (`-h`) are checked; values (also negative numbers)
+/// and whatever follows a bare `--` are not.
+std::string UnknownOption(const CLI::App& cmd, const std::vector<std::string>& args);
+
+/// The command list: one line per subcommand of `app` (name and
+/// description), in registration order, with how to get one command's help.
+std::string CommandList(const CLI::App& app);
 
 }  // namespace rocklab::tools

@@ -15,6 +15,7 @@
 #include "model/fit.h"
 #include "model/test_record.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
 
 namespace rocklab::tools {
 namespace {
@@ -275,7 +276,7 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--width", opts->width_m, "block width 2b, m");
   cmd->add_option("--height", opts->height_m, "block height 2h, m");
   cmd->add_option("--chamfer", opts->chamfer_m, "45 degree base chamfer leg, m");
-  cmd->add_option("--accel", opts->accel_csv, "table acceleration CSV time,accel (s, m/s^2) for a CSV record");
+  cmd->add_option("--accel", opts->accel_csv, "table acceleration of a CSV record: " + FormatsHelp(DataKind::kGroundMotion));
   cmd->add_option("--method", opts->method, "impacts (paper, free rocking) | trajectory (whole record)");
   cmd->add_option("--quarter-time", opts->quarter_time, "impacts method: exact (corrected eq. 12) | slender (eq. 13)");
   cmd->add_option("--alpha-band-m", opts->alpha_band_m, "admissible error on b, m (default 0.01)");

@@ -10,8 +10,12 @@
 #include "export/info.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
 
 namespace rocklab::tools {
+
+bool InfoOfOtherFormats(const std::string& path, bool json, std::string& text);  // cmd_info_formats.cpp
+
 namespace {
 
 struct InfoOptions {
@@ -32,7 +36,9 @@ int RunInfo(const InfoOptions& o) {
   Require(o.rate_hz >= 0, "--rate", ">= 0 Hz", o.rate_hz);
   std::string text;
   try {
-    if (exporter::IsLcmLog(o.input)) {
+    if (InfoOfOtherFormats(o.input, o.json, text)) {
+      // a ground-motion record or a sweep's results (cmd_info_formats.cpp)
+    } else if (exporter::IsLcmLog(o.input)) {
       const exporter::LogInfo info = exporter::ReadLogInfo(o.input);
       text = o.json ? exporter::ToJson(info).dump(2) + "\n" : exporter::ToText(info);
     } else {
@@ -52,8 +58,11 @@ int RunInfo(const InfoOptions& o) {
 
 void RegisterInfo(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<InfoOptions>();  // shared: owned by the callback
-  CLI::App* cmd = app.add_subcommand("info", "what a recorded LCM log or a raw CSV/LVM file holds");
-  cmd->add_option("input", opts->input, "an LCM log (rocklab's or lcm-logger's), or a raw .csv / .lvm")
+  CLI::App* cmd = app.add_subcommand("info", "what a recorded LCM log, a raw CSV/LVM file, a ground-motion record or sweep results hold");
+  cmd->add_option("input", opts->input,
+                  "an LCM log (rocklab's or lcm-logger's), a raw .csv / .lvm, a ground-motion record: " +
+                      FormatsHelp(DataKind::kGroundMotion) +
+                      ", or sweep results: " + FormatsHelp(DataKind::kSweepResults))
       ->required();
   cmd->add_flag("--json", opts->json, "JSON instead of text (keys: docs/export.md)");
   cmd->add_option("--rig", opts->rig_path, "raw files: rig configuration (TOML) naming the channels' units");

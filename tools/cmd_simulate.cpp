@@ -11,6 +11,7 @@
 #include "pipeline/scenario.h"
 #include "pipeline/scenario_flags.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
 
 namespace rocklab::tools {
 namespace {
@@ -101,12 +102,17 @@ int RunSimulate(const SimulateOptions& o) {
 void RegisterSimulate(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SimulateOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("simulate", "simulate a rocking block (housner or complex)");
-  pipeline::AddScenarioOptions(*cmd, opts->scenario);
+  pipeline::AddScenarioOptions(*cmd, opts->scenario, FormatsHelp(DataKind::kGroundMotion));
   cmd->add_option("--out", opts->out_csv, "output CSV: time,theta,theta_dot (s, rad, rad/s)")
       ->required();
   cmd->add_option("--events", opts->events_csv, "events CSV: time,kind (s, name)");
   cmd->add_flag("--json", opts->json, "print the run summary as JSON");
-  cmd->callback([opts, &run] { run = [opts] { return RunSimulate(*opts); }; });
+  cmd->callback([opts, cmd, &run] {
+    run = [opts, cmd] {
+      pipeline::ResolveDuration(*cmd, opts->scenario);
+      return RunSimulate(*opts);
+    };
+  });
 }
 
 }  // namespace rocklab::tools

@@ -12,9 +12,13 @@
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
+#include "pipeline/scenario_flags.h"
 
 namespace rocklab::tools {
 namespace {
+
+static_assert(sweep::Plan::kDefaultTail_s == pipeline::kDefaultTail_s, "simulate --accel and sweep: the same default tail");
 
 struct SweepCommandOptions {
   sweep::PlanOptions plan;
@@ -76,6 +80,14 @@ int RunSweepCommand(SweepCommandOptions& o) {
   return 0;
 }
 
+// An interval's end in g, or "unbounded" where the likelihood leaves it open.
+std::string Bound(double g, bool open) {
+  if (open) return "unbounded";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g g", g);
+  return buf;
+}
+
 struct PlotCommandOptions {
   std::string results;
   sweep::PlotOptions plot;
@@ -96,13 +108,17 @@ int RunSweepPlot(PlotCommandOptions& o) {
   }
   if (rows.empty()) throw UsageError(o.results + ": no rows");
   const std::vector<sweep::BlockFragility> fits = sweep::FitFragilities(rows);
-  std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood):\n");
+  std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood; "
+              "PGAs tried per block in fragility.csv):\n");
   for (const sweep::BlockFragility& f : fits) {
     std::printf("  %s alpha %s rad, p %s rad/s, mu %s: %zu rows, %zu overturned: ", f.model.c_str(), f.alpha.c_str(),
                 f.p.c_str(), f.mu.c_str(), f.rows, f.overturned);
     switch (f.fit.status) {
       case sweep::FragilityFit::Status::kFitted:
-        std::printf("median %.4g g, dispersion %.4g\n", f.fit.median, f.fit.beta);
+        std::printf("median %.4g g, dispersion %.4g; median 95 %% interval (profile likelihood) %s to %s\n",
+                    f.fit.median, f.fit.beta, Bound(f.band.median_low, f.band.median_low_open).c_str(),
+                    Bound(f.band.median_high, f.band.median_high_open).c_str());
+        if (!f.caveat.empty()) std::printf("    caveat: %s\n", f.caveat.c_str());
         break;
       case sweep::FragilityFit::Status::kSeparated:
         std::printf("no finite fit (outcomes separated): median between %.4g and %.4g g, dispersion -> 0\n",
@@ -129,7 +145,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SweepCommandOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("sweep", "overturning and peak rocking over records x blocks x scales");
   sweep::PlanOptions& p = opts->plan;
-  cmd->add_option("--records", p.records, "ground-motion records: time,accel CSV (s, m/s^2)")->required()->expected(1, -1);
+  cmd->add_option("--records", p.records, "ground-motion records: " + FormatsHelp(DataKind::kGroundMotion))->required()->expected(1, -1);
   cmd->add_option("--scale", p.scale, "A:B:N, N values from A to B: factors on each record (default 1:1:1)");
   cmd->add_flag("--pga-g", p.pga_g, "the --scale values are the target PGA in g");
   cmd->add_option("--alpha", p.alpha, "blocks: alpha values, rad")->expected(1, -1);
@@ -143,16 +159,16 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
   cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-10)");
   cmd->add_option("--rtol", p.rtol, "CVODE relative tolerance, in (0, 1e-3] (default 1e-10)");
-  cmd->add_option("--out", opts->out, "results CSV (.h5: not built yet)")->required();
+  cmd->add_option("--out", opts->out, "results: " + FormatsHelp(DataKind::kSweepResults) + " by the extension (--resume: CSV only)")->required();
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
   cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
-  cmd->add_option("--merge", opts->merge, "shard files to interleave into --out (same sweep options)")->expected(1, -1);
+  cmd->add_option("--merge", opts->merge, "shard CSV files to interleave into --out, a CSV (same sweep options)")->expected(1, -1);
   cmd->callback([opts, &run] { run = [opts] { return RunSweepCommand(*opts); }; });
 
   auto plot = std::make_shared<PlotCommandOptions>();
   CLI::App* pc = app.add_subcommand("sweep-plot", "rocking spectra, overturning maps and fragility of a sweep");
-  pc->add_option("results", plot->results, "results CSV of rocklab sweep")->required();
+  pc->add_option("results", plot->results, "results of rocklab sweep: " + FormatsHelp(DataKind::kSweepResults))->required();
   pc->add_option("--out-dir", plot->plot.out_dir, "folder for the figures and fragility.csv (default .)");
   pc->add_option("--format", plot->format, "svg (default) or png");
   pc->add_option("--gnuplot", plot->plot.gnuplot, "gnuplot program (default gnuplot)");

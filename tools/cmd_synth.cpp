@@ -15,6 +15,7 @@
 #include "pipeline/scenario.h"
 #include "pipeline/scenario_flags.h"
 #include "tools/cli.h"
+#include "tools/formats.h"
 
 namespace rocklab::tools {
 namespace {
@@ -122,7 +123,7 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SynthOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("synth", "rig simulator: a model run written as a raw channel file");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)")->required();
-  pipeline::AddScenarioOptions(*cmd, opts->scenario);
+  pipeline::AddScenarioOptions(*cmd, opts->scenario, FormatsHelp(DataKind::kGroundMotion));
   cmd->add_option("--noise-scale", opts->noise_scale,
                   "multiplies the typical sensor noise (0.2 mm LEDs, 0.1 mm mirror spot, ...)")
       ->capture_default_str();
@@ -138,7 +139,12 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
                   "truth CSV: time,theta,theta_dot,table_displacement,table_acceleration,slip,"
                   "twist,dropped (s, rad, rad/s, m, m/s^2, m, rad, 0/1)")
       ->required();
-  cmd->callback([opts, &run] { run = [opts] { return RunSynth(*opts); }; });
+  cmd->callback([opts, cmd, &run] {
+    run = [opts, cmd] {
+      pipeline::ResolveDuration(*cmd, opts->scenario);
+      return RunSynth(*opts);
+    };
+  });
 }
 
 }  // namespace rocklab::tools

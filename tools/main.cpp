@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <spdlog/cfg/env.h>
 
@@ -70,16 +71,46 @@ int main(int argc, char** argv) {
   rocklab::video::RegisterSources();  // --input video:FILE, v4l2:/dev/videoN
 #endif
 
-  std::string known;
-  bool is_known = false;
-  for (const CLI::App* sub : app.get_subcommands({})) {
-    known += (known.empty() ? "" : ", ") + sub->get_name();
-    is_known = is_known || (argc > 1 && sub->get_name() == argv[1]);
-  }
-  if (argc > 1 && argv[1][0] != '-' && !is_known) {
-    std::fprintf(stderr, "rocklab: unknown subcommand '%s' (expected one of %s)\n", argv[1],
-                 known.c_str());
+  // Before CLI11 parses: bare `rocklab` and `rocklab help [COMMAND]`, an
+  // unknown command or option named as such with the nearest known one
+  // (CLI11 would report a misspelt required option as missing).
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+  auto find = [&app](const std::string& name) -> const CLI::App* {
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      if (sub->get_name() == name) return sub;
+    }
+    return nullptr;
+  };
+  auto unknown_command = [&names](const std::string& word) {
+    const std::string near = DidYouMean(word, names);
+    std::fprintf(stderr, "rocklab: unknown command '%s'%s; `rocklab help` lists the commands\n", word.c_str(),
+                 near.empty() ? "" : (" (did you mean " + near + "?)").c_str());
     return kUsageExit;
+  };
+  if (argc == 1) {
+    std::fputs(CommandList(app).c_str(), stderr);
+    return kUsageExit;
+  }
+  const std::string first = argv[1];
+  if (first == "help") {
+    if (argc == 2) {
+      std::fputs(CommandList(app).c_str(), stdout);
+      return 0;
+    }
+    const CLI::App* sub = find(argv[2]);
+    if (argc > 3 || sub == nullptr) return unknown_command(argv[2]);
+    std::fputs(sub->help("rocklab").c_str(), stdout);
+    return 0;
+  }
+  if (first[0] != '-') {
+    const CLI::App* sub = find(first);
+    if (sub == nullptr) return unknown_command(first);
+    const std::string unknown = UnknownOption(*sub, std::vector<std::string>(argv + 2, argv + argc));
+    if (!unknown.empty()) {
+      std::fprintf(stderr, "rocklab: %s\n", unknown.c_str());
+      return kUsageExit;
+    }
   }
 
   try {

@@ -1,4 +1,4 @@
-// Issue 23 point 15: every rocklab channel's type carries `seq`, so a
+// Every rocklab channel's type carries `seq`, so a
 // message lost anywhere on the bus is counted by whoever receives it: the
 // recorder, `rocklab info`, the monitor and the report (and, through
 // info/export, the Python module), and the seq is exported as a column.

@@ -221,8 +221,10 @@ TEST(CliSweep, SweepPlotDrawsAndFits) {
   ASSERT_EQ(Shell(bin + " sweep " + args + " --out " + dir + "/results.csv > /dev/null"), 0);
   const CliResult r = RunCli({"sweep-plot", dir + "/results.csv", "--out-dir", dir + "/figs"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* f : {"fragility.csv", "fragility_1.svg", "spectrum_pga_1.svg", "spectrum_p_1.svg",
-                        "overturn_map_housner.svg"}) {
+  // Named by what they show; two p make no spectrum against p.
+  for (const char* f : {"fragility.csv", "fragility_housner_alpha0.2_p2.5.svg",
+                        "spectrum_vs_pga_housner_alpha0.2_p2.5.svg", "overturn_map_housner_alpha0.2.svg",
+                        "overturn_map_housner_alpha0.25.svg"}) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/figs/" + f)) << f << "\n" << r.out;
   }
   EXPECT_NE(r.out.find("housner alpha 0.2 rad, p 2.5 rad/s"), std::string::npos) << r.out;

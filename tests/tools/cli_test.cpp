@@ -200,5 +200,73 @@ TEST(CliSimulate, BadAccelRecordNamesFileAndLine) {
   }
 }
 
+// Bare `rocklab` and `rocklab help`: the command list, one line each.
+// Oracle: every command's name starts a line, with its description.
+TEST(CliHelp, CommandListOnBareRocklabAndHelp) {
+  const CliResult bare = RunCli({});
+  EXPECT_EQ(bare.exit_code, 2);
+  const CliResult help = RunCli({"help"});
+  ASSERT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_EQ(bare.err, help.out);
+  for (const char* line : {"\n  simulate ", "\n  sweep-plot ", "\n  info ", "\n  export ", "\n  params "}) {
+    EXPECT_NE(help.out.find(line), std::string::npos) << line << " missing in\n" << help.out;
+  }
+  EXPECT_NE(help.out.find("rocklab help COMMAND"), std::string::npos);
+}
+
+TEST(CliHelp, HelpCommandIsTheCommandsHelp) {
+  const CliResult help = RunCli({"help", "simulate"});
+  ASSERT_EQ(help.exit_code, 0) << help.err;
+  const CliResult dash = RunCli({"simulate", "--help"});
+  ASSERT_EQ(dash.exit_code, 0) << dash.err;
+  EXPECT_NE(help.out.find("rocklab simulate"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--duration"), std::string::npos) << help.out;
+  for (const char* word : {"--alpha", "--accel", "--out"}) {
+    EXPECT_NE(dash.out.find(word), std::string::npos) << word;
+  }
+}
+
+// Typos: the message names what was typed as unknown and the nearest
+// known name; one line, exit 2.
+TEST(CliHelp, DidYouMean) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  for (const Case& c : {Case{{"simulat"}, "unknown command 'simulat' (did you mean simulate?)"},
+                        Case{{"sweepplot", "x.csv"}, "(did you mean sweep-plot?)"},
+                        Case{{"help", "simulat"}, "(did you mean simulate?)"},
+                        Case{Sim({"--duraton", "5"}), "unknown option --duraton (did you mean --duration?)"},
+                        Case{Sim({"--alpah", "0.2"}), "unknown option --alpah (did you mean --alpha?)"},
+                        Case{Sim({"--rate=100", "", "--ratee=5"}), "unknown option --ratee (did you mean --rate?)"},
+                        Case{{"sweep-plot", "r.csv", "--outdir", "x"}, "(did you mean --out-dir?)"},
+                        Case{Sim({"--frobnicate", "1"}), "unknown option --frobnicate; "}}) {
+    const CliResult r = RunCli(c.args);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+  }
+  // A misspelt required option is reported as unknown, not as missing.
+  std::vector<std::string> args = Sim({});
+  for (auto& a : args) a = a == "--duration" ? "--duraton" : a;
+  const CliResult r = RunCli(args);
+  EXPECT_EQ(r.err.find("is required"), std::string::npos) << r.err;
+}
+
+// simulate --accel: without --duration, the record's end + 10 s (as sweep).
+// Oracle: a record ending at 0.5 s at --rate 100 gives (0.5 + 10) * 100 + 1 rows.
+TEST(CliSimulate, AccelRecordSetsTheDefaultDuration) {
+  const std::string dir = ScratchDir("simulate_accel_duration");
+  WriteFile(dir + "/accel.csv", "time,accel\n0,0\n0.25,0.01\n0.5,0\n");
+  const CliResult r = RunCli({"simulate", "--alpha", "0.235", "--p", "3.884", "--mu", "0.937", "--accel",
+                              dir + "/accel.csv", "--rate", "100", "--out", dir + "/theta.csv", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).at("samples").get<int>(), 1051);
+  const CliResult none = RunCli({"simulate", "--alpha", "0.235", "--p", "3.884", "--mu", "0.937", "--rate", "100",
+                                 "--out", dir + "/theta.csv"});
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("--duration"), std::string::npos) << none.err;
+}
+
 }  // namespace
 }  // namespace rocklab::test

@@ -1,7 +1,7 @@
 // A consumer of the installed rocklab: block parameters (model), an LCM
 // message (the generated types), the comparator (compare), a rig file
-// (daq) and a record (model/record.h, model/fit.h), through the exported
-// targets only. Exits 0 when every check holds, 1 with a message otherwise.
+// (daq), a record (model/record.h, model/fit.h), a fragility fit (sweep)
+// and the log sniffer (export), through the exported targets only. Exits 0 when every check holds, 1 with a message otherwise.
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -10,10 +10,12 @@
 
 #include "compare/comparator.h"
 #include "daq/rig_config.h"
+#include "export/export.h"
 #include "model/block.h"
 #include "model/fit.h"
 #include "model/record.h"
 #include "rocklab/block_state_t.hpp"
+#include "sweep/fragility.h"
 
 namespace {
 
@@ -77,6 +79,18 @@ int main(int argc, char** argv) {
   }
   const rocklab::model::GapCount gaps = rocklab::model::CountGaps(record.time_s, record.line);
   Check(gaps.missing_samples == 0 && gaps.gaps == 0, "no gaps in a regular record");
+
+  // sweep: a lognormal fragility fit. Oracle: outcomes symmetric in ln x
+  // about x = 1 (2/10 at 0.5, 5/10 at 1, 8/10 at 2) put the likelihood's
+  // maximum at median 1 exactly (a = 0 by symmetry); 1e-9 relative covers
+  // the Newton iteration's stopping test (1e-13 on the step).
+  const rocklab::sweep::FragilityFit fit =
+      rocklab::sweep::FitLognormalFragility({{0.5, 10, 2}, {1.0, 10, 5}, {2.0, 10, 8}});
+  Check(fit.status == rocklab::sweep::FragilityFit::Status::kFitted && std::fabs(fit.median - 1.0) < 1e-9,
+        "fragility median of symmetric outcomes is 1");
+
+  // export: a TOML file is not an LCM log.
+  if (argc > 1) Check(!rocklab::exporter::IsLcmLog(argv[1]), "a rig file is not an LCM log");
 
   if (failures == 0) std::printf("consumer: every check holds\n");
   return failures == 0 ? 0 : 1;
