@@ -64,15 +64,20 @@ std::string Drain(int fd) {
 TEST(Progress, DrawsOnATerminalAndClearsAtTheEnd) {
   int master = -1, slave = -1;
   ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+  double between_s = 0;  // between the two updates, measured: a loaded machine may take longer than 100 ms
   {
     Progress p("fit", 1000, false, slave);
     EXPECT_TRUE(p.active());
+    const auto first = std::chrono::steady_clock::now();
     p.Update(500);  // the first update draws
     p.Update(600);  // within 100 ms of it: no redraw
+    between_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - first).count();
   }
   const std::string out = Drain(master);
   EXPECT_NE(out.find("fit      [##########----------]  50%"), std::string::npos) << out;
-  EXPECT_EQ(out.find("60%"), std::string::npos) << "redrawn within 100 ms: " << out;
+  if (between_s < 0.1) {
+    EXPECT_EQ(out.find("60%"), std::string::npos) << "redrawn within 100 ms: " << out;
+  }
   EXPECT_NE(out.rfind("\r\033[K"), std::string::npos) << "the line is not cleared at the end";
   close(slave);
   close(master);
