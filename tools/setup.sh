@@ -24,11 +24,12 @@ packages=(
 # machine that already has a Node.js with npm (nodesource, say) keeps it.
 command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 # The browser tests drive Debian's headless Chromium, the lcm-spy test runs
-# under Xvfb, and the sanitizer and fuzz pass (tools/test.sh, build-asan/)
-# needs clang with its sanitizer and libFuzzer runtimes, and the package test
-# runs lintian on the .debs; only tools/test.sh asks.
+# under Xvfb, the export read-back test reads with h5py (and scipy, above),
+# the sanitizer and fuzz pass (tools/test.sh, build-asan/) needs clang with
+# its sanitizer and libFuzzer runtimes, and the package test runs lintian on
+# the .debs; only tools/test.sh asks.
 if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
-  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb lintian)
+  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb python3-h5py lintian)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -29,6 +30,8 @@
 #include "daq/source.h"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/skip.h"
+#include "tests/tools/log_count.h"
 #include "tests/tools/udpm_netns.h"
 
 namespace rocklab::daq {
@@ -95,8 +98,15 @@ int Child(Kind kind) {
   const pid_t recorder = rocklab::test::StartRecorder(log, "RL_RAW|RL_THETA|RL_HEALTH");
   if (recorder < 0) return 1;
 
+  // The daq is stopped by SIGINT once the recorder holds an RL_RAW for
+  // every frame written (a condition; RL_THETA lags by the derivative's
+  // half window, 5 frames, until the stop flushes them). Its idle timeout
+  // is only a backstop for a test gone wrong, never the expected end (a
+  // writer descheduled on a loaded machine for longer than a short
+  // timeout would end the stream).
+  const size_t frames_written = FramesOf(want_path, rig).size();
   std::vector<std::string> args = {"daq", "--rig", test::LabRigPath(), "--lcm-url", rocklab::test::kUdpmUrl,
-                                   "--idle-timeout", "2"};
+                                   "--idle-timeout", "60"};
   std::thread writer;
   int listener = -1;
   if (kind == Kind::kFollow) {
@@ -161,7 +171,12 @@ int Child(Kind kind) {
     }
   }
   if (writer.joinable()) writer.join();
-  const int daq_exit = rocklab::test::StopProcess(daq, 0, 30.0);  // ends on its idle timeout
+  if (!rocklab::test::WaitUntil(
+          [&] { return rocklab::test::CountLogEvents(log, "RL_RAW") >= static_cast<int64_t>(frames_written); })) {
+    std::cerr << "the recorder's log has " << rocklab::test::CountLogEvents(log, "RL_RAW") << " RL_RAW after 60 s for "
+              << frames_written << " frames written\n";
+  }
+  const int daq_exit = rocklab::test::StopProcess(daq, SIGINT, 30.0);
   if (listener >= 0) ::close(listener);
   if (rocklab::test::StopRecorder(recorder, log) != 0) return 1;
   if (daq_exit != 0) {
@@ -201,7 +216,7 @@ void RunInChild(Kind kind) {
   int status = 0;
   waitpid(child, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
-  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "no private network namespace (needs root): udpm test skipped";
+  if (WEXITSTATUS(status) == 77) ROCKLAB_SKIP("no private network namespace (needs root): udpm test skipped");
   EXPECT_EQ(WEXITSTATUS(status), 0) << "see the child's messages above";
 }
 

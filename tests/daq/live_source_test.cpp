@@ -52,13 +52,20 @@ struct Got {
   ReadStatus last{};
 };
 
-// Reads until the source ends (its idle timeout once the writer is done).
-Got ReadUntilEnd(Source& source) {
+// Reads until the source ends. With `stop`, sets it once a frame's first
+// value is `last` (the writer's last row): the source then ends at once, so
+// the end of a paced writer's stream is a condition, not an idle timeout
+// that a writer descheduled on a loaded machine could hit mid-stream (the
+// idle timeout is then only a backstop, kBackstopIdleS).
+Got ReadUntilEnd(Source& source, std::atomic<bool>* stop = nullptr, double last = 0) {
   Got g;
   Frame f;
   while (true) {
     const ReadStatus s = source.Next(f);
-    if (s == ReadStatus::kFrame) g.frames.push_back(f);
+    if (s == ReadStatus::kFrame) {
+      g.frames.push_back(f);
+      if (stop != nullptr && !f.values.empty() && f.values[0] == last) stop->store(true);
+    }
     if (s == ReadStatus::kEnd || s == ReadStatus::kError) {
       g.last = s;
       break;
@@ -68,10 +75,15 @@ Got ReadUntilEnd(Source& source) {
   return g;
 }
 
-SourceOptions LiveOptions(Got* sink, double idle_s) {
+// The idle timeout of the tests whose writer is paced: a deadline for a
+// test gone wrong (the last row never comes), never the expected end.
+constexpr double kBackstopIdleS = 30.0;
+
+SourceOptions LiveOptions(Got* sink, double idle_s, const std::atomic<bool>* stop = nullptr) {
   SourceOptions opt;
   opt.sample_rate_hz = kRateHz;
   opt.idle_timeout_s = idle_s;
+  opt.stop = stop;
   opt.on_problem = [sink](const Problem& p) { sink->problems.push_back(ToString(p)); };
   return opt;
 }
@@ -84,7 +96,8 @@ TEST(LiveSources, FollowedCsvGrowsIsReplacedAndLosesNothing) {
   std::ofstream(path) << "time,a,b\n" << Row(0);
   constexpr int kFirst = 120, kTotal = 240;
   Got problems;
-  SourceOptions opt = LiveOptions(&problems, 0.5);
+  std::atomic<bool> stop{false};
+  SourceOptions opt = LiveOptions(&problems, kBackstopIdleS, &stop);
   opt.follow = true;
   auto source = OpenCsvSource(path, opt);
   ASSERT_TRUE(source->live());
@@ -111,7 +124,7 @@ TEST(LiveSources, FollowedCsvGrowsIsReplacedAndLosesNothing) {
       out << Row(k) << std::flush;
     }
   });
-  const Got got = ReadUntilEnd(*source);
+  const Got got = ReadUntilEnd(*source, &stop, kTotal - 1);
   writer.join();
   EXPECT_EQ(got.last, ReadStatus::kEnd);
   ASSERT_EQ(got.frames.size(), static_cast<size_t>(kTotal)) << (problems.problems.empty() ? "" : problems.problems[0]);
@@ -143,6 +156,7 @@ TEST(LiveSources, AReaderLateByMoreThanTheIdleTimeoutStillReadsWhatWasWritten) {
     std::ofstream out(path, std::ios::app);
     for (int k = 1; k < kRows; ++k) out << Row(k);
   }
+  // lint: sleep-ok: a lower bound of host time (the reader late by 3 timeouts; load only lengthens it)
   std::this_thread::sleep_for(std::chrono::duration<double>(3 * kIdleS));
   const Got got = ReadUntilEnd(*source);
   EXPECT_EQ(got.last, ReadStatus::kEnd);
@@ -166,7 +180,8 @@ TEST(LiveSources, FollowedLvmTakesNewSegmentsAndAReplacedFile) {
   // Segments of 200 rows (1 s each, X0 = 0, 1, 2 s); 3 segments, the third in a replaced file.
   std::ofstream(path) << file_header << segment(0, 200);
   Got problems;
-  SourceOptions opt = LiveOptions(&problems, 0.5);
+  std::atomic<bool> stop{false};
+  SourceOptions opt = LiveOptions(&problems, kBackstopIdleS, &stop);
   opt.follow = true;
   auto source = OpenLvmSource(path, opt);
   std::thread writer([&] {
@@ -187,7 +202,7 @@ TEST(LiveSources, FollowedLvmTakesNewSegmentsAndAReplacedFile) {
       more << "\t" << k << ",5\n" << std::flush;
     }
   });
-  const Got got = ReadUntilEnd(*source);
+  const Got got = ReadUntilEnd(*source, &stop, 499.5);
   writer.join();
   ASSERT_EQ(got.frames.size(), 500u) << (problems.problems.empty() ? "" : problems.problems[0]);
   for (int k = 0; k < 500; ++k) {
@@ -208,7 +223,8 @@ TEST(LiveSources, TcpReconnectsAndCountsTheSamplesLostMeanwhile) {
   const int listener = Listen(port);
   ASSERT_GE(listener, 0);
   Got problems;
-  SourceOptions opt = LiveOptions(&problems, 0.6);
+  std::atomic<bool> stop{false};
+  SourceOptions opt = LiveOptions(&problems, kBackstopIdleS, &stop);
   std::thread server([&] {
     const auto start = std::chrono::steady_clock::now();
     for (int connection = 0; connection < 2; ++connection) {
@@ -225,7 +241,7 @@ TEST(LiveSources, TcpReconnectsAndCountsTheSamplesLostMeanwhile) {
     ::close(listener);
   });
   auto source = OpenTcpSource("127.0.0.1:" + std::to_string(port), opt);
-  const Got got = ReadUntilEnd(*source);
+  const Got got = ReadUntilEnd(*source, &stop, 199);
   server.join();
   ASSERT_EQ(got.frames.size(), 170u) << (problems.problems.empty() ? "" : problems.problems[0]);
   EXPECT_EQ(got.frames[99].seq, 99);
@@ -244,7 +260,8 @@ TEST(LiveSources, TcpListenTakesTheAcquisitionPcsConnections) {
   ASSERT_GE(probe, 0);
   ::close(probe);
   Got problems;
-  SourceOptions opt = LiveOptions(&problems, 0.6);
+  std::atomic<bool> stop{false};
+  SourceOptions opt = LiveOptions(&problems, kBackstopIdleS, &stop);
   std::thread client([port] {
     const auto start = std::chrono::steady_clock::now();
     for (int connection = 0; connection < 2; ++connection) {
@@ -272,7 +289,7 @@ TEST(LiveSources, TcpListenTakesTheAcquisitionPcsConnections) {
     }
   });
   auto source = OpenTcpSource("127.0.0.1:" + std::to_string(port), opt, true);
-  const Got got = ReadUntilEnd(*source);
+  const Got got = ReadUntilEnd(*source, &stop, 99);
   client.join();
   ASSERT_EQ(got.frames.size(), 80u) << (problems.problems.empty() ? "" : problems.problems[0]);
   EXPECT_EQ(got.frames[40].seq, 60);

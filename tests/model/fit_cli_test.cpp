@@ -1,7 +1,8 @@
 // `rocklab fit` as a user runs it: documented JSON and text outputs, the
 // PARAMS.json the model node reads, LCM-log input, and every bad-input case
 // (one-line message, exit code 2). Records are synthesised by the Housner
-// model (tests/model/fit_synthetic.h), the oracle of the fitted values.
+// model integrated by the tests' RK4 reference (tests/model/fit_synthetic.h),
+// the oracle of the fitted values.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -32,17 +33,20 @@ std::string FreeCsv(const std::string& dir, double duration_s = 8.0) {
 
 int CountLines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
 
-// Oracle: the synthetic truth (1 % / 0.005 as the library test) and the
-// JSON names of docs/commands.md (`rocklab fit`).
+// Oracle: the synthetic truth (a record of the RK4 reference, seed 1) and
+// the JSON names of docs/commands.md (`rocklab fit`). Measured (printed): alpha -0.099 %,
+// p +0.071 %, mu -3.3e-5; tolerances 3x: 0.25 %, 0.2 %, 1e-4.
 TEST(CliFit, ImpactsJsonAndParamsFile) {
   const std::string dir = ScratchDir("fit_json");
   const CliResult r = RunCli({"fit", "--input", FreeCsv(dir), "--width", "0.247", "--height", "1.0",
                               "--json", "--out", dir + "/params.json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_NEAR(j.at("alpha").get<double>() / kBlock1.alpha, 1.0, 0.01);
-  EXPECT_NEAR(j.at("p").get<double>() / kBlock1.p, 1.0, 0.01);
-  EXPECT_NEAR(j.at("mu").get<double>(), kBlock1.mu, 0.005);
+  std::printf("impacts: alpha %+.4f %%, p %+.4f %%, mu %+.6f\n", 100 * (j.at("alpha").get<double>() / kBlock1.alpha - 1),
+              100 * (j.at("p").get<double>() / kBlock1.p - 1), j.at("mu").get<double>() - kBlock1.mu);
+  EXPECT_NEAR(j.at("alpha").get<double>() / kBlock1.alpha, 1.0, 0.0025);
+  EXPECT_NEAR(j.at("p").get<double>() / kBlock1.p, 1.0, 0.002);
+  EXPECT_NEAR(j.at("mu").get<double>(), kBlock1.mu, 1e-4);
   for (const char* key : {"mu_spread", "alpha_stderr", "p_stderr", "alpha_p_correlation", "method",
                           "quarter_time", "units", "impacts", "theory", "alpha_band"}) {
     EXPECT_TRUE(j.contains(key)) << key;
@@ -168,8 +172,9 @@ TEST(CliFit, TrajectoryWithAccelOnAReconstructedForcedRecord) {
 
 // A record with missing samples (20 in a row and 0.1 % at random,
 // as the rig simulator drops them) is fitted, and the output says what the
-// fit knows. Oracle: the samples removed here, the synthetic truth (1 % /
-// 0.005 as the library test) and the documented keys.
+// fit knows. Oracle: the samples removed here, the synthetic truth (the
+// RK4 reference's record; measured, printed: alpha -0.104 %, mu -3.1e-5;
+// tolerances 3x: 0.3 %, 9e-5) and the documented keys.
 TEST(CliFit, GappedRecordIsFittedAndTheOutputSaysWhatItKnows) {
   const std::string dir = ScratchDir("fit_gaps");
   auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, 1);
@@ -181,8 +186,10 @@ TEST(CliFit, GappedRecordIsFittedAndTheOutputSaysWhatItKnows) {
   EXPECT_EQ(j.at("missing_samples").get<long>(), removed);
   EXPECT_GE(j.at("gaps").get<long>(), 2);
   EXPECT_NEAR(j.at("longest_gap").get<double>(), 21 * 0.002, 1e-9);
-  EXPECT_NEAR(j.at("alpha").get<double>() / kBlock1.alpha, 1.0, 0.01);
-  EXPECT_NEAR(j.at("mu").get<double>(), kBlock1.mu, 0.005);
+  std::printf("gapped: alpha %+.4f %%, mu %+.6f\n", 100 * (j.at("alpha").get<double>() / kBlock1.alpha - 1),
+              j.at("mu").get<double>() - kBlock1.mu);
+  EXPECT_NEAR(j.at("alpha").get<double>() / kBlock1.alpha, 1.0, 0.003);
+  EXPECT_NEAR(j.at("mu").get<double>(), kBlock1.mu, 9e-5);
   EXPECT_TRUE(j.at("converged").get<bool>());
   EXPECT_GT(j.at("residual_to_noise").get<double>(), 0.5);
   EXPECT_LT(j.at("residual_to_noise").get<double>(), 1.5);

@@ -1,15 +1,19 @@
 #pragma once
-// Synthetic records for the fit tests: the Housner model (the oracle) sampled
-// like a test, with seeded Gaussian noise.
+// Synthetic records for the fit tests: Housner's equation integrated by the
+// tests' own RK4 reference (rk4_reference.h: not the model code the fits
+// use), sampled like a test, with seeded Gaussian noise.
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include "model/excitation.h"
 #include "model/test_record.h"
 #include "model/rocking_model.h"
+#include "tests/model/rk4_reference.h"
 
 namespace rocklab::test {
 
@@ -17,30 +21,35 @@ inline constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 /// Free rocking: the block is held at theta0 for hold_s, then released; the
 /// record runs to hold_s + duration_s at rate_hz with N(0, noise_deg) noise.
+/// theta from the tests' RK4 reference (rk4_reference.h, h = 1e-5 s: ~1e-12
+/// rad), not rocklab's Housner model, which the fits use themselves.
+/// hold_s * rate_hz must be whole (the release on a sample). A block that
+/// overturns stays at +-pi/2 (as rocklab's model stops there).
 inline model::RockingRecord SyntheticFree(const model::BlockParams& truth, double theta0,
                                           double hold_s, double duration_s, double rate_hz,
                                           double noise_deg, std::uint32_t seed,
                                           const std::string& name = "synthetic-free") {
-  model::ModelOptions mo;
-  mo.rtol = 1e-10;
-  auto m = model::RockingModel::Create(model::ModelKind::kHousner, truth, mo);
-  const model::NoTableMotion zero;
+  const long hold_n = std::lround(hold_s * rate_hz);
+  if (std::abs(static_cast<double>(hold_n) - hold_s * rate_hz) > 1e-9) {
+    throw std::logic_error("SyntheticFree: hold_s * rate_hz must be whole");
+  }
+  rk4::RefOptions o;
+  o.theta0 = theta0;
+  o.sample_rate_hz = rate_hz;
+  const rk4::RefResult ref = rk4::Reference(truth, [](double, bool) { return 0.0; }, o).Run(duration_s);
+  if (ref.sample_theta.empty()) throw std::logic_error("SyntheticFree: no sample");
+  const double fallen = std::copysign(rk4::kPi / 2, theta0);
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_deg * kDeg);
   model::RockingRecord r;
   r.source = name;
   const auto n = static_cast<long>(std::floor((hold_s + duration_s) * rate_hz));
-  bool released = false;
   for (long k = 0; k <= n; ++k) {
     const double t = static_cast<double>(k) / rate_hz;
     double theta = theta0;
-    if (t >= hold_s) {
-      if (!released) {
-        m->Reset(hold_s, theta0, 0.0);
-        released = true;
-      }
-      m->AdvanceTo(t, zero);
-      theta = m->state().theta;
+    if (k >= hold_n) {
+      const auto j = static_cast<std::size_t>(k - hold_n);
+      theta = j < ref.sample_theta.size() ? ref.sample_theta[j] : fallen;
     }
     r.time_s.push_back(t);
     r.theta.push_back(theta + noise(rng));
@@ -49,28 +58,37 @@ inline model::RockingRecord SyntheticFree(const model::BlockParams& truth, doubl
   return r;
 }
 
-/// Forced rocking from rest: the model driven by `excitation` (exact), the
-/// record holding theta at rate_hz with noise and the table acceleration
-/// sampled at table_rate_hz (exact values, as an accelerometer without noise).
+/// Forced rocking from rest: the RK4 reference driven by `excitation` (its
+/// acceleration, exact; steps land on its discontinuities and take each
+/// side's value there), the record holding theta at rate_hz with noise and
+/// the table acceleration sampled at table_rate_hz (exact values, as an
+/// accelerometer without noise).
 inline model::RockingRecord SyntheticForced(const model::BlockParams& truth,
                                             const model::Excitation& excitation,
                                             double duration_s, double rate_hz,
                                             double table_rate_hz, double noise_deg,
                                             std::uint32_t seed) {
-  model::ModelOptions mo;
-  mo.rtol = 1e-10;
-  auto m = model::RockingModel::Create(model::ModelKind::kHousner, truth, mo);
+  rk4::RefOptions o;
+  o.sample_rate_hz = rate_hz;
+  for (double b = excitation.NextDiscontinuity(0.0); b <= duration_s; b = excitation.NextDiscontinuity(b)) {
+    o.breaks_s.push_back(b);
+  }
+  const auto accel = [&excitation](double t, bool left) {
+    const double side = left ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+    return excitation.TableAcceleration(std::nextafter(t, side));
+  };
+  const rk4::RefResult ref = rk4::Reference(truth, accel, o).Run(duration_s);
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_deg * kDeg);
   model::RockingRecord r;
   r.source = "synthetic-forced";
-  m->Reset(0.0, 0.0, 0.0);
   const auto n = static_cast<long>(std::floor(duration_s * rate_hz));
+  if (ref.sample_theta.size() < static_cast<std::size_t>(n + 1)) {
+    throw std::logic_error("SyntheticForced: the block overturned");
+  }
   for (long k = 0; k <= n; ++k) {
-    const double t = static_cast<double>(k) / rate_hz;
-    m->AdvanceTo(t, excitation);
-    r.time_s.push_back(t);
-    r.theta.push_back(m->state().theta + noise(rng));
+    r.time_s.push_back(static_cast<double>(k) / rate_hz);
+    r.theta.push_back(ref.sample_theta[static_cast<std::size_t>(k)] + noise(rng));
     r.line.push_back(k + 2);
   }
   const auto nt = static_cast<long>(std::floor(duration_s * table_rate_hz));

@@ -1,7 +1,8 @@
 // Parameter identification (model/fit.h) and record reading (model/test_record.h).
-// Oracle throughout: records synthesised by the Housner model on CVODE
-// (rtol 1e-10) with known (alpha, p, mu), sampled like a test, with seeded
-// Gaussian noise of 0.02 degrees (a lab's figure).
+// Oracle throughout: records synthesised with known (alpha, p, mu) by the
+// tests' RK4 reference integrator of Housner's equation (fit_synthetic.h,
+// rk4_reference.h: not rocklab's model code, which the fits use), sampled
+// like a test, with seeded Gaussian noise of 0.02 degrees (a lab's figure).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -61,20 +62,25 @@ TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
   EXPECT_NEAR(*f.r0_rad, 0.6 * kBlock1.alpha, 1e-6);
 }
 
-// The acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise;
-// alpha and p within 1 %, mu within 0.005, for three seeds (measured worst:
-// alpha -0.31 %, p +0.17 %, mu 0.9370 +- 1e-4). The release time is only
-// known to ~4 ms at this noise, so the release pair is not used (a warning
-// says so) and the fit rests on 20 inter-impact half intervals.
+// The acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise,
+// three seeds, records from the RK4 reference (fit_synthetic.h). Measured
+// (the printed lines): alpha -0.099, -0.311, -0.001 %; p +0.071,
+// +0.172, -0.053 %; mu -3.3e-5, +5.1e-5, -4.2e-5. Tolerances 3x the worst:
+// alpha 0.9 %, p 0.5 %, mu 1.5e-4 (the earlier 1 % and 0.005 were 3x
+// and 100x). The release time is only known to ~4 ms at this noise, so the
+// release pair is not used (a warning says so) and the fit rests on 20
+// inter-impact half intervals.
 TEST(FitImpacts, RecoversBlock1FromNoisyFreeRocking) {
   for (std::uint32_t seed : {1u, 2u, 3u}) {
     const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, seed);
     FitOptions o;
     o.geometry = kBlock1Geometry;
     const auto r = model::FitImpacts(rec, o);
-    EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.01) << "seed " << seed;
-    EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.01) << "seed " << seed;
-    EXPECT_NEAR(r.params.mu, kBlock1.mu, 0.005) << "seed " << seed;
+    std::printf("seed %u: alpha %+.4f %%, p %+.4f %%, mu %+.6f\n", seed, 100 * (r.params.alpha / kBlock1.alpha - 1),
+                100 * (r.params.p / kBlock1.p - 1), r.params.mu - kBlock1.mu);
+    EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.009) << "seed " << seed;
+    EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.005) << "seed " << seed;
+    EXPECT_NEAR(r.params.mu, kBlock1.mu, 1.5e-4) << "seed " << seed;
     EXPECT_GE(r.impacts.size(), 15u);
     // The standard errors must cover the actual error (3 sigma).
     EXPECT_LT(std::abs(r.params.alpha - kBlock1.alpha), 3 * r.alpha_stderr) << "seed " << seed;
@@ -112,7 +118,8 @@ TEST(FitImpacts, SlenderQuarterTimeBiasesAStockyBlock) {
 // Hanning sine (10 mm, 3.3 Hz, 4 s from 0.5 s), 7 s of theta at 250 Hz with
 // 0.02 deg noise, table acceleration at 500 Hz. Start from the geometry of
 // Table 1 row 1 (alpha 0.242, p 3.780, mu 0.914: 3 %, 3 %, 2.5 % off).
-// Within 1 % on all three (measured: -0.017 %, +0.004 %, -0.004 %).
+// Measured (printed; record from the RK4 reference): alpha -0.0175 %,
+// p +0.0042 %, mu -0.0038 %. Tolerances 3x: 0.05 %, 0.012 %, 0.011 %.
 TEST(FitTrajectory, RecoversBlock1FromAForcedTest) {
   const auto ex = model::ParseExcitation("hanning:amp=0.010,freq=3.3,duration=4,start=0.5");
   const auto rec = SyntheticForced(kBlock1, *ex, 7.0, 250, 500, 0.02, 7);
@@ -121,10 +128,13 @@ TEST(FitTrajectory, RecoversBlock1FromAForcedTest) {
   int progress_lines = 0;
   o.on_progress = [&](const model::FitProgress&) { ++progress_lines; };
   const auto r = model::FitTrajectory(rec, o);
+  std::printf("trajectory: alpha %+.4f %%, p %+.4f %%, mu %+.4f %%, rms %.4e rad\n",
+              100 * (r.params.alpha / kBlock1.alpha - 1), 100 * (r.params.p / kBlock1.p - 1),
+              100 * (r.params.mu / kBlock1.mu - 1), r.rms_residual);
   EXPECT_TRUE(r.forced);
-  EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 0.01);
-  EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 0.01);
-  EXPECT_NEAR(r.params.mu / kBlock1.mu, 1.0, 0.01);
+  EXPECT_NEAR(r.params.alpha / kBlock1.alpha, 1.0, 5e-4);
+  EXPECT_NEAR(r.params.p / kBlock1.p, 1.0, 1.2e-4);
+  EXPECT_NEAR(r.params.mu / kBlock1.mu, 1.0, 1.1e-4);
   // The residual is the noise (0.02 deg = 3.49e-4 rad) when the model fits.
   EXPECT_NEAR(r.rms_residual, 0.02 * kDeg, 0.1 * 0.02 * kDeg);
   EXPECT_NEAR(r.residual_to_noise, 1.0, 0.1);

@@ -136,13 +136,14 @@ int Impacts(const Trajectory& t) {
 // must give them (TOLERANCE 5e-6 rad: the 1 kHz sampling of the peak,
 // theta'' h^2 / 8 < 4e-7 rad, and the printed digits). The complex model at
 // its defaults (eq. (10) throughout, l = 1e-10) must meet Housner's limit
-// closely: peak within 1 %, impact count within 3 %, the same uplift time
+// peak within 3x the measured (0.25 % for figure 7,
+// 0.024 % for figure 8), the same impact count, the same uplift time
 // (the same rest-regime root finding: 1e-9 s), eq. (10) for all of the
 // rocking time. Measured: figure 7 -0.09 %, 92 against 92 impacts; figure 8
 // -0.01 %, 199 against 199 (docs/models.md, for other l). Figure 7 is
 // the sensitive one: Housner's own peak moves by 3 % for perturbations of
 // 1e-4 in alpha; at l = 1e-9 the complex model misses it by 1.2 %.
-void CheckComplexAgainstHousner(const Scenario& s, double oracle_peak, int oracle_impacts) {
+void CheckComplexAgainstHousner(const Scenario& s, double oracle_peak, int oracle_impacts, double peak_tol) {
   auto housner = RockingModel::Create(ModelKind::kHousner, s.params);
   auto complex = RockingModel::Create(ModelKind::kComplex, s.params);
   const auto excitation = ParseExcitation(s.excitation);
@@ -152,19 +153,19 @@ void CheckComplexAgainstHousner(const Scenario& s, double oracle_peak, int oracl
   std::printf("%s: peak |theta| housner %.6f complex %.6f (%+.3f %%), impacts %d / %d, eq. (10) %.3f\n", s.name, ph,
               pc, 100 * (pc / ph - 1), Impacts(h), Impacts(c), complex->solver_stats().eq10_fraction);
   EXPECT_NEAR(ph, oracle_peak, 5e-6);
-  if (oracle_impacts > 0) {
-    EXPECT_EQ(Impacts(h), oracle_impacts);
-  }
+  EXPECT_EQ(Impacts(h), oracle_impacts);
   ASSERT_NE(FirstUplift(h), nullptr);
   ASSERT_NE(FirstUplift(c), nullptr);
   EXPECT_NEAR(FirstUplift(c)->time_s, FirstUplift(h)->time_s, 1e-9);
-  EXPECT_NEAR(pc / ph, 1.0, 0.01);
-  EXPECT_NEAR(static_cast<double>(Impacts(c)) / Impacts(h), 1.0, 0.03);
+  EXPECT_NEAR(pc / ph, 1.0, peak_tol);
+  EXPECT_EQ(Impacts(c), Impacts(h));
   EXPECT_EQ(complex->solver_stats().eq10_fraction, 1.0);
 }
 
-TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) { CheckComplexAgainstHousner(kFig8, 0.024721, 199); }
-TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7) { CheckComplexAgainstHousner(kFig7, 0.038490, 0); }
+// Figure 7's 92 impacts: the RK4 reference's count (oracle_test.cpp,
+// ReferenceReproducesTheQuotedFigures; the paper prints none).
+TEST(ScenarioTest, ComplexAgreesWithHousnerFigure8) { CheckComplexAgainstHousner(kFig8, 0.024721, 199, 2.4e-4); }
+TEST(ScenarioTest, ComplexAgreesWithHousnerFigure7) { CheckComplexAgainstHousner(kFig7, 0.038490, 92, 2.5e-3); }
 
 }  // namespace
 }  // namespace rocklab::model

@@ -19,6 +19,7 @@
 #include "rocklab/health2_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
+#include "rocklab/table_state_t.hpp"
 #include "tests/tools/lcm_messages.h"
 
 namespace rocklab::monitor {
@@ -167,6 +168,28 @@ TEST(LiveState, ThetaAndModelsInDegreesAgainstTimeFromTheFirstSample) {
   EXPECT_DOUBLE_EQ(v.at("theta").at("t")[0].get<double>(), 0.02);
   EXPECT_DOUBLE_EQ(v.at("theta").at("theta_deg")[0].get<double>(), 0.3 * kDeg);
   EXPECT_TRUE(v.at("latest").is_null());  // no RL_COMPARE yet
+}
+
+// Oracle: live_state.h's definition, the table's peaks are max |u_g''| and
+// max |u_g| over the window: samples whose largest magnitudes are negative
+// (-3.5 m/s^2, -0.007 m against +2 m/s^2, +0.004 m) give 3.5 and 0.007,
+// exactly (a peak without the absolute value survived the
+// mutation check).
+TEST(LiveState, TablePeaksAreOfTheMagnitude) {
+  LiveState s;
+  const double accel[] = {2.0, -3.5, 1.0}, disp[] = {0.004, -0.007, 0.001};
+  for (int i = 0; i < 3; ++i) {
+    rocklab::table_state_t m{};
+    m.utime = kT0 + 1'000 * i;
+    m.seq = i;
+    m.acceleration = accel[i];
+    m.displacement = disp[i];
+    EXPECT_TRUE(Feed(s, "RL_TABLE", m));
+  }
+  const json table = s.Snapshot().at("table");
+  EXPECT_EQ(table.at("samples").get<int>(), 3);
+  EXPECT_EQ(table.at("peak_accel_mps2").get<double>(), 3.5);
+  EXPECT_EQ(table.at("peak_disp_m").get<double>(), 0.007);
 }
 
 // The table's numbers must be the comparator's to the last bit.

@@ -60,14 +60,14 @@ bool Complete(const std::string& response) {
 // One request as written, one response as read (to its Content-Length, or
 // until the server closes).
 // Returns the status code of the response's first line, 0 if none.
-int RawRequest(int port, const std::string& request, std::string* response = nullptr) {
+int RawRequest(int port, const std::string& request, std::string* response = nullptr, long timeout_s = 10) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return 0;
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<std::uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  timeval timeout{10, 0};  // a bound against a hung test, not a measurement
+  timeval timeout{timeout_s, 0};  // a bound against a hung test, not a measurement
   setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
   std::string text;
   if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
@@ -426,8 +426,9 @@ std::size_t ResidentBytes() {
 // unanswered after 90 s and one client streaming header lines grew the
 // process by 1.8 GB. Here 300 idle connections and a header flood are open
 // while the page and the snapshot are asked for. Oracles: "answered" is a
-// 200 within 5 s (the goal is well under a second; starved was minutes, so
-// the deadline separates the two without timing anything finely); the
+// 200 within 30 s (the goal is well under a second, printed; starved was
+// more than 90 s, so the deadline separates the two without timing
+// anything finely, with room for a machine loaded by a CPU hog); the
 // flooding client is cut off (431, then closed) after at most
 // max_header_bytes plus what the socket buffers hold, and the process grows
 // by less than 64 MB (the flood is bounded at 8 KiB per connection; 300
@@ -474,10 +475,10 @@ TEST_F(MonitorServerTest, HoldsUnderIdleConnectionsAndAHeaderFlood) {
   for (const char* path : {"/", "/api/snapshot"}) {
     std::string response;
     const auto start = std::chrono::steady_clock::now();
-    const int status = RawRequest(port(), Get(path), &response);
+    const int status = RawRequest(port(), Get(path), &response, 60);
     const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_EQ(status, 200) << path << "\n" << response.substr(0, 200);
-    EXPECT_LT(took, 5.0) << path << ": answered, but after " << took << " s";
+    EXPECT_LT(took, 30.0) << path << ": answered, but after " << took << " s";
     std::printf("under load: GET %s answered in %.3f s\n", path, took);
   }
   flood.join();

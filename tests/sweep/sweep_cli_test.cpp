@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/units.h"
+#include "tests/sweep/oracle/oracle.h"
 #include "tests/sweep/sweep_test_util.h"
 #include "tests/tools/run_cli.h"
 
@@ -231,6 +233,46 @@ TEST(CliSweep, SweepPlotDrawsAndFits) {
   const CliResult bad = RunCli({"sweep-plot", dir + "/pulse.csv"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("pulse.csv:1:"), std::string::npos) << bad.err;
+}
+
+// Oracle: scipy's maximum-likelihood fit of the committed outcomes
+// (tests/sweep/oracle/, FragilityOracle.MatchesScipysMaximumLikelihoodFit
+// for the tolerance: 1e-6 relative, scipy is within 2e-8 of the maximiser).
+// The outcomes are written as a sweep's results (one row per case), so
+// what `sweep-plot` reads, groups, fits and writes to fragility.csv (%.9g)
+// and prints (%.4g) is checked against numbers made outside rocklab.
+TEST(CliSweep, SweepPlotFitMatchesScipy) {
+  const test::FragilityOracle o = test::ReadFragilityOracle();
+  const std::string dir = ScratchDir("sweep_plot_oracle");
+  {
+    std::ofstream f(dir + "/results.csv");
+    f << "record,scale,pga_g,alpha,p,mu,model,peak_theta_over_alpha,overturned\n";
+    int k = 0;
+    for (const auto& pt : o.points) {
+      for (int i = 0; i < static_cast<int>(pt.trials); ++i) {
+        f << "r" << ++k << ",1," << pt.x << ",0.2,2.5,0.9,housner," << (i < pt.overturned ? "1" : "0.5") << ","
+          << (i < pt.overturned ? 1 : 0) << "\n";
+      }
+    }
+  }
+  const CliResult r = RunCli({"sweep-plot", dir + "/results.csv", "--out-dir", dir + "/figs"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream table(dir + "/figs/fragility.csv");
+  std::string header, row;
+  ASSERT_TRUE(std::getline(table, header) && std::getline(table, row));
+  EXPECT_EQ(header, "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g");
+  std::vector<std::string> cells;
+  std::stringstream ss(row);
+  for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+  ASSERT_GE(cells.size(), 9u) << row;
+  EXPECT_EQ(cells[4], "80") << row;   // cases: the sum of the data set's trials
+  EXPECT_EQ(cells[5], "43") << row;   // overturned
+  EXPECT_EQ(cells[6], "fitted") << row;
+  EXPECT_NEAR(std::stod(cells[7]), o.median_g, 1e-6 * o.median_g) << row;
+  EXPECT_NEAR(std::stod(cells[8]), o.beta, 1e-6 * o.beta) << row;
+  char printed[80];
+  std::snprintf(printed, sizeof printed, "median %.4g g, dispersion %.4g", o.median_g, o.beta);
+  EXPECT_NE(r.out.find(printed), std::string::npos) << printed << "\n" << r.out;
 }
 
 }  // namespace

@@ -42,7 +42,7 @@ std::string HandResults(const std::vector<std::pair<double, double>>& blocks) {
   return text;
 }
 
-// Oracle: the list of what a 2-alpha x 4-p sweep should give: a
+// Oracle: the list of what a 2-alpha x 4-p sweep should give: a
 // spectrum against PGA and a fragility per block, a spectrum against p and
 // an overturning map per alpha, fragility.csv; nothing numbered.
 TEST(SweepFigures, NamedByWhatTheyShowOnePerGroup) {
@@ -98,7 +98,7 @@ TEST(SweepFigures, NamedByWhatTheyShowOnePerGroup) {
   EXPECT_GE(lines, static_cast<int>(expected.size()) - 1);  // at least one title line per figure
 }
 
-// The case: 3 overturned of 76 where 1.0 g was the highest PGA
+// The case that showed it: 3 overturned of 76 where 1.0 g was the highest PGA
 // tried, the median beyond it. The fit is reported with its caveats on
 // stdout, in fragility.csv (added columns) and in the figure's title.
 TEST(SweepFigures, FragilitySaysWhenItIsWeak) {
