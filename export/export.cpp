@@ -14,6 +14,8 @@
 #include "export/fields.h"
 #include "export/h5_writer.h"
 #include "export/mat_writer.h"
+#include "common/versions.h"
+#include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 
@@ -79,7 +81,7 @@ std::string ColumnName(const std::string& name, const std::vector<Column>& colum
 // raw_frame_t's columns named after the rig's channels (`config`): one per
 // values_k that the config names, appended after the fields; values_k get
 // a description saying which channel they are.
-void NameRawColumns(const rocklab::daq_config_t& config, bool calibrated, std::vector<Column>& columns,
+void NameRawColumns(const rocklab::daq_config2_t& config, bool calibrated, std::vector<Column>& columns,
                     ChannelTable& t) {
   t.named.clear();
   t.calibrated = calibrated;
@@ -169,11 +171,13 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
   std::vector<Column> columns;
   bool have_origin = false;
   std::int64_t origin_us = 0;
-  // The first daq_config_t on any channel (selected or not): what RL_RAW's
-  // columns are named after.
-  const std::int64_t config_fingerprint = rocklab::daq_config_t::getHash();
+  // The first daq_config2_t (or an older log's daq_config_t) on any channel
+  // (selected or not): what RL_RAW's columns are named after.
+  const std::int64_t config_fingerprint = rocklab::daq_config2_t::getHash();
+  const std::int64_t config_v1_fingerprint = rocklab::daq_config_t::getHash();
+  common::DaqConfigDecoder decode_config;
   const std::int64_t raw_fingerprint = rocklab::raw_frame_t::getHash();
-  rocklab::daq_config_t config;
+  rocklab::daq_config2_t config;
   bool have_config = false;
 
   common::LogEvent ev;
@@ -181,8 +185,8 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
     const int size = static_cast<int>(ev.data.size());
     const std::int64_t fingerprint = common::WireFingerprint(ev.data.data(), size);
     const MessageType* type = FindMessageType(fingerprint);
-    if (!have_config && fingerprint == config_fingerprint) {
-      have_config = common::GuardedDecode(ev.data.data(), size, config) == nullptr;
+    if (!have_config && (fingerprint == config_fingerprint || fingerprint == config_v1_fingerprint)) {
+      have_config = decode_config(ev.data.data(), size, config) == nullptr;
     }
     // The record's first sample: the first message of a rocklab type whose
     // lengths are sound, whatever the channel filter (so windows agree

@@ -55,6 +55,10 @@ for text in cmake_text.values():
         for t in group.split():
             folder = t[len("rocklab_"):] if t.startswith("rocklab_") else None
             targets.add(folder if folder in renamed else t)
+# The old names rocklabConfig keeps as aliases (foreach(rocklab_old_name ...)).
+for text in cmake_text.values():
+    for group in re.findall(r"foreach\(rocklab_old_name ([\w ]+)\)", text):
+        targets.update("rocklab_" + n for n in group.split())
 
 # C++ namespaces and LCM types under rocklab:: are not targets.
 namespaces = set()
@@ -68,6 +72,9 @@ for p in files_under((".cpp",)):
     if os.sep + "tests" + os.sep in p:
         continue
     commands.update(re.findall(r'add_subcommand\(\s*"([\w-]+)"', read(p)))
+# `rocklab help [CMD]`, handled before the subcommands are parsed.
+if re.search(r'first == "help"', read(os.path.join(root, "tools", "main.cpp"))):
+    commands.add("help")
 
 # Tests: GoogleTest cases and ctest names.
 gtests = set()

@@ -97,6 +97,26 @@ def fail(msg):
     print("FAIL: " + msg)
 
 
+# Code fields and the prefix of their constants in the .lcm (kind: the
+# constants without a prefix); each column says what its codes mean.
+CODE_PREFIX = {"flags": "FLAG_", "accel_source": "ACCEL_", "regime": "REGIME_", "equations": "EQUATIONS_",
+               "kind": ""}
+CONST = re.compile(r"^\s*const\s+\w+\s+(\w+)\s*=\s*(-?\d+)\s*;")
+
+
+def code_attrs(path, field):
+    """The legend a code column carries, from the .lcm's constants."""
+    consts = [(m.group(1), int(m.group(2))) for m in map(CONST.match, open(path)) if m]
+    prefix = CODE_PREFIX[field]
+    if prefix:
+        picked = [(n[len(prefix):], v) for n, v in consts if n.startswith(prefix)]
+    else:
+        picked = [(n, v) for n, v in consts if not any(n.startswith(q) for q in CODE_PREFIX.values() if q)]
+    picked.sort(key=lambda nv: nv[1])
+    return {"code_kind": "bitmask" if field == "flags" else "enum", "code_names": [n for n, _ in picked],
+            "code_values": [str(v) for _, v in picked]}
+
+
 # ---- the .lcm files: field names, types, array lengths ---------------------
 FIELD = re.compile(r"^\s*(int8_t|int16_t|int32_t|int64_t|double|float|string|boolean)\s+(\w+)\s*(\[\s*(\w+)\s*\])?\s*;")
 
@@ -152,12 +172,16 @@ def main():
             continue
         cls = getattr(importlib.import_module(f"rocklab.{type_name}"), type_name)
         columns = {"time": ("double", [], TIME_ATTRS)}
+        lcm_path = os.path.join(src, "lcm_types", type_name + ".lcm")
         for name, kind, dim in fields:
+            attrs = dict(ATTRS[type_name][name])
+            if name in CODE_PREFIX:
+                attrs.update(code_attrs(lcm_path, name))
             if dim:
                 for k in range(ARRAY_LEN):
-                    columns[f"{name}_{k}"] = (kind, [], ATTRS[type_name][name])
+                    columns[f"{name}_{k}"] = (kind, [], dict(attrs))
             else:
-                columns[name] = (kind, [], ATTRS[type_name][name])
+                columns[name] = (kind, [], attrs)
         for i in range(ROWS):
             msg = cls()
             for j, (name, kind, dim) in enumerate(fields):
@@ -179,7 +203,26 @@ def main():
                     columns[name][1].append(int(v) if kind == "boolean" else v)
             columns["time"][1].append(msg.utime / 1e6)
             events.append((msg.utime, channel, msg.encode()))
+            if type_name == "daq_config_t" and i == 0:
+                config = msg  # the first RL_DAQ_CONFIG: what RL_RAW's columns are named after
         expected[channel] = columns
+    # Events say their kind by name beside the code (the code itself where the
+    # .lcm has no such constant).
+    ev = expected["RL_EVENT"]
+    legend = ev["kind"][2]
+    names = dict(zip(legend["code_values"], legend["code_names"]))
+    ev["kind_name"] = ("string", [names.get(str(v), str(v)) for v in ev["kind"][1]],
+                       {"description": "the name of kind's code"})
+    # RL_RAW: values_k say which rig channel they are, and a column per channel
+    # (named after it) holds the same raw values.
+    raw = expected["RL_RAW"]
+    for k in range(ARRAY_LEN):
+        desc = (f"channel {config.channel_names[k]} (sensor {config.channel_sensors[k]}), raw; physical = "
+                f"gain * raw + offset in {config.channel_units[k]}, gain {config.gain[k]!r}, offset "
+                f"{config.offset[k]!r} (RL_DAQ_CONFIG, rig {config.rig_name}, calibration {config.calibration_id})")
+        raw[f"values_{k}"] = (raw[f"values_{k}"][0], raw[f"values_{k}"][1], {"description": desc})
+    for k in range(ARRAY_LEN):
+        raw[config.channel_names[k]] = raw[f"values_{k}"]
 
     # The log, framed as LCM's log format: sync word, event number, stamp,
     # channel and data lengths, channel, data; in utime order.
@@ -210,6 +253,8 @@ def same(kind, got, want):
 
 
 def text(v):
+    if isinstance(v, np.ndarray):
+        return [text(x) for x in v.tolist()]
     return v.decode("utf-8") if isinstance(v, bytes) else str(v)
 
 
@@ -266,9 +311,31 @@ def check_h5(path, expected):
                     fail(f"{where}: attributes {got_attrs}, want {attrs}")
 
 
+def mat_name(name):
+    """A column's name as a MATLAB field: what is not a letter, digit or _ becomes _."""
+    return re.sub(r"[^A-Za-z0-9_]", "_", name)
+
+
+def check_mat_legend(path, legend, expected):
+    """rocklab_columns: one row per column of every table, with its unit."""
+    if not isinstance(legend, dict) or not {"table", "column", "unit"} <= set(legend):
+        fail(f"{path}: rocklab_columns is {type(legend).__name__}, want a struct of table, column, unit, ...")
+        return
+    rows = {(t.rstrip(), c.rstrip()): u.rstrip()
+            for t, c, u in zip(legend["table"], legend["column"], legend["unit"])}
+    for channel, columns in expected.items():
+        for name, (_kind, _want, attrs) in columns.items():
+            unit = rows.get((channel, mat_name(name)), rows.get((channel, name)))
+            if unit is None:
+                fail(f"{path}: rocklab_columns has no row for {channel}.{name}")
+            elif unit != attrs.get("units", ""):
+                fail(f"{path}: rocklab_columns says {channel}.{name} is in {unit!r}, want {attrs.get('units', '')!r}")
+
+
 def check_mat(path, expected):
     m = scipy.io.loadmat(path, simplify_cells=True)
-    names = {k for k in m if not k.startswith("__")}
+    names = {k for k in m if not k.startswith("__") and k != "rocklab_columns"}
+    check_mat_legend(path, m.get("rocklab_columns"), expected)
     if names != set(expected):
         fail(f"{path}: variables {sorted(names)}, want {sorted(expected)}")
     for channel, columns in expected.items():
@@ -278,12 +345,12 @@ def check_mat(path, expected):
         if not isinstance(s, dict):
             fail(f"{path}: {channel} is a {type(s).__name__}, want a 1x1 struct")
             continue
-        if list(s) != list(columns):
-            fail(f"{path}: {channel}'s fields {list(s)}, want {list(columns)}")
+        if list(s) != [mat_name(c) for c in columns]:
+            fail(f"{path}: {channel}'s fields {list(s)}, want {[mat_name(c) for c in columns]}")
         for name, (kind, want, _attrs) in columns.items():
-            if name not in s:
+            if mat_name(name) not in s:
                 continue
-            v = np.atleast_1d(s[name])
+            v = np.atleast_1d(s[mat_name(name)])
             where = f"{path}: {channel}.{name}"
             if kind == "string":
                 if v.dtype.kind != "U":

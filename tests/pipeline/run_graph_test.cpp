@@ -16,7 +16,7 @@
 
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
-#include "rocklab/health_t.hpp"
+#include "rocklab/health2_t.hpp"
 #include "tests/scratch.h"
 
 namespace rocklab::pipeline {
@@ -76,7 +76,7 @@ TEST(RunGraph, RunsTheInputThroughEveryStageAndStopsInOrder) {
     ++index;
     if (ev->channel == "RL_RAW") ++raw;
     if (ev->channel != "RL_HEALTH") continue;
-    rocklab::health_t h;
+    rocklab::health2_t h;
     ASSERT_GE(h.decode(ev->data, 0, ev->datalen), 0);
     last_health[h.node] = index;
     last_state[h.node] = h.state;

@@ -260,7 +260,8 @@ TEST(CliSweep, SweepPlotFitMatchesScipy) {
   std::ifstream table(dir + "/figs/fragility.csv");
   std::string header, row;
   ASSERT_TRUE(std::getline(table, header) && std::getline(table, row));
-  EXPECT_EQ(header, "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g");
+  EXPECT_EQ(header, "model,alpha,p,mu,rows,overturned,status,median_pga_g,beta,safe_below_g,overturned_above_g,"
+                    "pga_min_g,pga_max_g,median_low_g,median_high_g,caveat");
   std::vector<std::string> cells;
   std::stringstream ss(row);
   for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
