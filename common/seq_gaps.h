@@ -4,6 +4,7 @@
 /// node that counts gaps (node support, beside node_support.h).
 
 #include <cstdint>
+#include <limits>
 
 namespace rocklab::common {
 
@@ -19,18 +20,29 @@ struct SeqGaps {
   bool any{};              ///< a number has been seen
   std::int64_t first{};    ///< the first number seen
   std::int64_t last{};     ///< the last number seen
+  /// Any int64 is accepted (numbers come off the wire): the jump is taken
+  /// in unsigned arithmetic and `missing` saturates at INT64_MAX.
   void Add(std::int64_t seq) {
     if (!any) {
       any = true;
       first = seq;
-    } else if (seq > last + 1) {
-      ++gaps;
-      missing += seq - last - 1;
-    } else if (seq <= last) {
+    } else if (seq > last) {
+      const std::uint64_t jump =
+          static_cast<std::uint64_t>(seq) - static_cast<std::uint64_t>(last);
+      if (jump > 1) {
+        ++gaps;
+        const std::uint64_t skipped = jump - 1;
+        const auto room = static_cast<std::uint64_t>(kMax - missing);
+        missing = skipped >= room ? kMax : missing + static_cast<std::int64_t>(skipped);
+      }
+    } else {
       ++back;
     }
     last = seq;
   }
+
+ private:
+  static constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
 };
 
 }  // namespace rocklab::common

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace rocklab::common {
 namespace {
 
@@ -38,6 +40,24 @@ TEST(SeqGaps, RepeatsAndStepsBackAreCountedApartAndTheCountGoesOnFromThem) {
   EXPECT_EQ(g.gaps, 1);
   EXPECT_EQ(g.missing, 2);
   EXPECT_EQ(g.last, 6);
+}
+
+TEST(SeqGaps, NumbersAtTheEndsOfTheRangeNeitherOverflowNorWrap) {
+  // Numbers come off the wire: the fuzzer sent INT64_MIN then INT64_MAX.
+  // The jump is 2^64 - 1, so 2^64 - 2 numbers were skipped: more than an
+  // int64 holds, so `missing` saturates at INT64_MAX; then a step back.
+  constexpr std::int64_t kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
+  SeqGaps g = Count({kMin, kMax, kMin});
+  EXPECT_EQ(g.gaps, 1);
+  EXPECT_EQ(g.missing, kMax);
+  EXPECT_EQ(g.back, 1);
+  g.Add(kMin + 3);  // skips two more: still saturated, one more gap
+  EXPECT_EQ(g.gaps, 2);
+  EXPECT_EQ(g.missing, kMax);
+  // -2 -> 2 crosses zero: skips -1, 0, 1.
+  const SeqGaps z = Count({-2, 2});
+  EXPECT_EQ(z.missing, 3);
 }
 
 TEST(SeqGaps, NothingSeenIsNotAGap) {
