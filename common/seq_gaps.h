@@ -20,20 +20,15 @@ struct SeqGaps {
   bool any{};              ///< a number has been seen
   std::int64_t first{};    ///< the first number seen
   std::int64_t last{};     ///< the last number seen
-  /// Any int64 is accepted (numbers come off the wire): the jump is taken
-  /// in unsigned arithmetic and `missing` saturates at INT64_MAX.
+  /// Any int64 is accepted (numbers come off the wire); see Skipped.
   void Add(std::int64_t seq) {
     if (!any) {
       any = true;
       first = seq;
     } else if (seq > last) {
-      const std::uint64_t jump =
-          static_cast<std::uint64_t>(seq) - static_cast<std::uint64_t>(last);
-      if (jump > 1) {
+      if (seq - 1 != last) {
         ++gaps;
-        const std::uint64_t skipped = jump - 1;
-        const auto room = static_cast<std::uint64_t>(kMax - missing);
-        missing = skipped >= room ? kMax : missing + static_cast<std::int64_t>(skipped);
+        missing = SaturatingAdd(missing, Skipped(last, seq));
       }
     } else {
       ++back;
@@ -41,8 +36,20 @@ struct SeqGaps {
     last = seq;
   }
 
+  /// The numbers strictly between `last` and a later `seq` (seq > last),
+  /// taken in unsigned arithmetic and capped at INT64_MAX.
+  static std::int64_t Skipped(std::int64_t last, std::int64_t seq) {
+    const std::uint64_t jump = static_cast<std::uint64_t>(seq) - static_cast<std::uint64_t>(last);
+    return jump - 1 >= kMaxU ? kMax : static_cast<std::int64_t>(jump - 1);
+  }
+  /// a + b for non-negative counts, capped at INT64_MAX.
+  static std::int64_t SaturatingAdd(std::int64_t a, std::int64_t b) {
+    return b >= kMax - a ? kMax : a + b;
+  }
+
  private:
   static constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
+  static constexpr auto kMaxU = static_cast<std::uint64_t>(kMax);
 };
 
 }  // namespace rocklab::common

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "common/lcm_log.h"
+#include "common/seq_gaps.h"
 #include "common/text.h"
 #include "common/versions.h"
 #include "common/wire.h"
@@ -173,19 +174,18 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
   info.rate_hz = source->sample_rate_hz();
   daq::Frame frame;
   daq::ReadStatus status;
-  std::int64_t last_seq = 0;
+  common::SeqGaps seq;
   while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) {
     if (info.rows++ == 0) {
       info.first_time = info.last_time = frame.time_s;
       info.has_time = true;
-    } else if (frame.seq > last_seq + 1) {
-      ++info.seq_gaps;
-      info.seq_missing += frame.seq - last_seq - 1;
     }
-    last_seq = frame.seq;
+    seq.Add(frame.seq);
     info.first_time = std::min(info.first_time, frame.time_s);
     info.last_time = std::max(info.last_time, frame.time_s);
   }
+  info.seq_gaps = seq.gaps;
+  info.seq_missing = seq.missing;
   if (status == daq::ReadStatus::kError) info.read_error = source->error();
   const daq::SourceStats& s = source->stats();
   info.bad_rows = s.bad_rows;

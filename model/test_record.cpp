@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "common/lcm_log.h"
+#include "common/seq_gaps.h"
 #include "common/text.h"
 #include "common/wire.h"
 #include "model/excitation.h"
@@ -55,7 +56,7 @@ void CheckSeries(const std::string& source, const char* what, const std::vector<
 // t_before and t_after (s), to `g`.
 void AddGap(GapCount& g, int64_t missing, double t_before, double t_after, int64_t line) {
   if (missing <= 0) return;
-  g.missing_samples += missing;
+  g.missing_samples = common::SeqGaps::SaturatingAdd(g.missing_samples, missing);
   ++g.gaps;
   if (std::isfinite(t_before) && std::isfinite(t_after)) g.longest_s = std::max(g.longest_s, t_after - t_before);
   if (g.first_line == 0) g.first_line = line;
@@ -73,11 +74,11 @@ struct SeqCounter {
     if (any && seq <= last_seq) {
       return "sequence goes back from " + std::to_string(last_seq) + " to " + std::to_string(seq);
     }
-    if (any) pending += seq - last_seq - 1;
+    if (any) pending = common::SeqGaps::SaturatingAdd(pending, common::SeqGaps::Skipped(last_seq, seq));
     any = true;
     last_seq = seq;
     if (!present) {
-      ++pending;
+      pending = common::SeqGaps::SaturatingAdd(pending, 1);
       return {};
     }
     AddGap(gaps, pending, last_time, t, line);
