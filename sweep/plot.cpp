@@ -280,13 +280,67 @@ std::vector<BlockFragility> FitFragilities(const std::vector<ResultRow>& rows) {
   return out;
 }
 
-PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<BlockFragility>& fragilities,
-                       const PlotOptions& o) {
-  std::error_code ec;
-  std::filesystem::create_directories(o.out_dir, ec);
-  if (ec) throw std::runtime_error("cannot make '" + o.out_dir + "': " + ec.message());
-  PlotReport report;
+namespace {
 
+// Figure names: a figure is named after what it shows (spectrum_vs_pga_
+// housner_alpha0.2_p3_mu0.9.svg); the same name twice gets _2, _3, ...
+class FigureNames {
+ public:
+  explicit FigureNames(const std::vector<ResultRow>& rows) {
+    for (const ResultRow& r : rows) mus_of_[r.model + "," + r.alpha_text][r.mu_text] = 1;
+  }
+  std::string Unique(const std::string& name) {
+    const int n = ++names_used_[name];
+    return n == 1 ? name : name + "_" + std::to_string(n);
+  }
+  // mu is in a name only where one (model, alpha) has several.
+  std::string MuPart(const ResultRow& r) {
+    return mus_of_[r.model + "," + r.alpha_text].size() > 1 ? "_mu" + Slug(r.mu_text) : std::string();
+  }
+  // A block by its label when it has one (rectangle WxH, polygon file),
+  // else by alpha, p (and mu).
+  std::string BlockPart(const ResultRow& r) {
+    return r.block != "-" && !r.block.empty() ? "_block" + Slug(r.block)
+                                              : "_alpha" + Slug(r.alpha_text) + "_p" + Slug(r.p_text) + MuPart(r);
+  }
+
+ private:
+  std::map<std::string, int> names_used_;
+  std::map<std::string, std::map<std::string, int>> mus_of_;
+};
+
+// Rows of one block by record, records in first-appearance order, each in
+// file order.
+std::pair<std::vector<std::string>, std::map<std::string, std::vector<const ResultRow*>>> RecordsOf(
+    const std::vector<const ResultRow*>& v) {
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<const ResultRow*>> by;
+  for (const ResultRow* r : v) {
+    if (by[r->record].empty()) names.push_back(r->record);
+    by[r->record].push_back(r);
+  }
+  return std::make_pair(names, by);
+}
+
+// Rows by (model, alpha, mu), keys in first-appearance order.
+struct Families {
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const ResultRow*>> rows;
+};
+
+Families FamiliesOf(const std::vector<ResultRow>& rows) {
+  Families out;
+  for (const ResultRow& r : rows) {
+    const std::string key = r.model + "," + r.alpha_text + "," + r.mu_text;
+    auto& f = out.rows[key];
+    if (f.empty()) out.order.push_back(key);
+    f.push_back(&r);
+  }
+  return out;
+}
+
+void DrawSpectraVsPga(const std::vector<ResultRow>& rows, const PlotOptions& o, FigureNames& names,
+                      PlotReport& report) {
   // Rows by block, then by record in first-appearance order, each in file order.
   std::vector<std::string> block_order;
   std::map<std::string, std::vector<const ResultRow*>> by_block;
@@ -295,42 +349,12 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     if (v.empty()) block_order.push_back(BlockKey(r));
     v.push_back(&r);
   }
-  auto records_of = [](const std::vector<const ResultRow*>& v) {
-    std::vector<std::string> names;
-    std::map<std::string, std::vector<const ResultRow*>> by;
-    for (const ResultRow* r : v) {
-      if (by[r->record].empty()) names.push_back(r->record);
-      by[r->record].push_back(r);
-    }
-    return std::make_pair(names, by);
-  };
-
-  // Names: a figure is named after what it shows (spectrum_vs_pga_housner_
-  // alpha0.2_p3_mu0.9.svg); the same name twice gets _2, _3, ...
-  std::map<std::string, int> names_used;
-  auto unique = [&names_used](const std::string& name) {
-    const int n = ++names_used[name];
-    return n == 1 ? name : name + "_" + std::to_string(n);
-  };
-  // mu is in a name only where one (model, alpha) has several.
-  std::map<std::string, std::map<std::string, int>> mus_of;
-  for (const ResultRow& r : rows) mus_of[r.model + "," + r.alpha_text][r.mu_text] = 1;
-  auto mu_part = [&mus_of](const ResultRow& r) {
-    return mus_of[r.model + "," + r.alpha_text].size() > 1 ? "_mu" + Slug(r.mu_text) : std::string();
-  };
-  // A block by its label when it has one (rectangle WxH, polygon file),
-  // else by alpha, p (and mu).
-  auto block_part = [&mu_part](const ResultRow& r) {
-    return r.block != "-" && !r.block.empty() ? "_block" + Slug(r.block)
-                                              : "_alpha" + Slug(r.alpha_text) + "_p" + Slug(r.p_text) + mu_part(r);
-  };
-
   // Spectra against PGA / (g tan alpha), one figure per block with 2+ scales.
   std::size_t drawn = 0;
   for (std::size_t b = 0; b < block_order.size(); ++b) {
     const auto& v = by_block[block_order[b]];
-    const auto [names, by] = records_of(v);
-    const std::size_t scales = by.at(names.front()).size();
+    const auto [records, by] = RecordsOf(v);
+    const std::size_t scales = by.at(records.front()).size();
     if (scales < 2) continue;
     if (drawn++ >= o.max_figures_per_kind) {
       ++report.skipped;
@@ -338,9 +362,9 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     }
     std::vector<Series> series;
     std::vector<std::vector<double>> xs(scales), ys(scales);
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      Series s{names[k], {}, RecordStyle(k)};
-      const auto& rr = by.at(names[k]);
+    for (std::size_t k = 0; k < records.size(); ++k) {
+      Series s{records[k], {}, RecordStyle(k)};
+      const auto& rr = by.at(records[k]);
       for (std::size_t j = 0; j < rr.size(); ++j) {
         const double x = rr[j]->pga_g / std::tan(rr[j]->alpha);
         s.xy.emplace_back(x, Ordinate(*rr[j]));
@@ -352,12 +376,12 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
       std::sort(s.xy.begin(), s.xy.end());
       series.push_back(std::move(s));
     }
-    Series median{"median of " + std::to_string(names.size()) + " records", {}, kMedianStyle};
+    Series median{"median of " + std::to_string(records.size()) + " records", {}, kMedianStyle};
     for (std::size_t j = 0; j < scales; ++j) median.xy.emplace_back(Median(xs[j]), Median(ys[j]));
     std::sort(median.xy.begin(), median.xy.end());
     series.push_back(std::move(median));
     const ResultRow& r0 = *v.front();
-    Draw(o, unique("spectrum_vs_pga_" + Slug(r0.model) + block_part(r0)),
+    Draw(o, names.Unique("spectrum_vs_pga_" + Slug(r0.model) + names.BlockPart(r0)),
          "set title " + TitleLiteral(("rocking spectrum against PGA, " + r0.model + ", alpha " + r0.alpha_text +
                                                " rad, p " + r0.p_text + " rad/s, mu " + r0.mu_text +
                                                " (overturned at 1)")) +
@@ -365,21 +389,15 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
              "set key outside right top\n",
          series, report);
   }
+}
 
+void DrawSpectraVsP(const Families& families, const PlotOptions& o, FigureNames& names, PlotReport& report) {
   // Spectra against p: one figure per (model, alpha, mu) with 3 or more p
   // (2 points make no spectrum), the median over the records against p,
   // one curve per scale step (at most kMaxCurves, evenly chosen).
-  drawn = 0;
-  std::map<std::string, std::vector<const ResultRow*>> by_family;  // model, alpha, mu
-  std::vector<std::string> family_order;
-  for (const ResultRow& r : rows) {
-    const std::string key = r.model + "," + r.alpha_text + "," + r.mu_text;
-    auto& f = by_family[key];
-    if (f.empty()) family_order.push_back(key);
-    f.push_back(&r);
-  }
-  for (const std::string& key : family_order) {
-    const auto& v = by_family[key];
+  std::size_t drawn = 0;
+  for (const std::string& key : families.order) {
+    const auto& v = families.rows.at(key);
     std::map<std::string, int> ps;
     for (const ResultRow* r : v) ps[r->p_text] = 1;
     if (ps.size() < 3) continue;
@@ -415,7 +433,7 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
       series.push_back(std::move(s));
     }
     const ResultRow& r0 = *v.front();
-    Draw(o, unique("spectrum_vs_p_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + mu_part(r0)),
+    Draw(o, names.Unique("spectrum_vs_p_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + names.MuPart(r0)),
          "set title " + TitleLiteral(("rocking spectrum against p, " + r0.model + ", alpha " + r0.alpha_text +
                                                " rad, mu " + r0.mu_text + ": median of " + std::to_string(records.size()) +
                                                " records" + (steps > kMaxCurves ? ", " + std::to_string(kMaxCurves) +
@@ -425,7 +443,10 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
              "set key outside right top\n",
          series, report);
   }
+}
 
+void DrawOverturnMaps(const std::vector<ResultRow>& rows, const std::vector<std::string>& family_order,
+                      const PlotOptions& o, FigureNames& names, PlotReport& report) {
   // Overturning maps: p against PGA / (g tan alpha), coloured by the share
   // of records that overturned, one per (model, alpha, mu) with 2 or more
   // p. Blocks that are alone at their alpha (rectangles, polygons) share
@@ -446,7 +467,7 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
       "set cblabel 'share of records overturned'\nset cbrange [0:1]\n"
       "set palette defined (0 '#2c7bb6', 0.5 '#ffffbf', 1 '#d7191c')\n";
   std::map<std::string, std::vector<std::string>> lone_blocks;  // model -> family keys with one p
-  drawn = 0;
+  std::size_t drawn = 0;
   for (const std::string& key : family_order) {
     const auto& cells = family_cells[key];
     std::set<double> ps;
@@ -462,7 +483,7 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     }
     std::string data = "$m << EOD\n";
     for (const auto& [xy, c] : cells) data += Num(xy.first) + " " + Num(xy.second) + " " + Num(c.overturned / c.rows) + "\n";
-    DrawRaw(o, unique("overturn_map_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + mu_part(r0)),
+    DrawRaw(o, names.Unique("overturn_map_" + Slug(r0.model) + "_alpha" + Slug(r0.alpha_text) + names.MuPart(r0)),
             "set grid\nset title " +
                 TitleLiteral(("overturning map, " + r0.model + ", alpha " + r0.alpha_text + " rad, mu " +
                                         r0.mu_text)) +
@@ -483,18 +504,21 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
         data += std::to_string(i + 1) + " " + Num(xy.second) + " " + Num(c.overturned / c.rows) + "\n";
       }
     }
-    DrawRaw(o, unique("overturn_map_" + Slug(model) + "_by_block"),
+    DrawRaw(o, names.Unique("overturn_map_" + Slug(model) + "_by_block"),
             "set grid\nset title " + TitleLiteral(("overturning map, " + model + ", a column per block")) +
                 " noenhanced\nset bmargin 6\nset xlabel 'block (alpha rad, p rad/s)' offset 0,-1\nset ylabel 'PGA / (g tan alpha)'\n"
                 "set xrange [0.5:" + std::to_string(keys.size()) + ".5]\nset xtics (" + tics + ") noenhanced\n" +
                 map_setup + data + "EOD\nplot $m using 1:2:3 with points pt 5 ps 1.5 lc palette notitle\n",
             report);
   }
+}
 
+void DrawFragilityCurves(const std::vector<ResultRow>& rows, const std::vector<BlockFragility>& fragilities,
+                         const PlotOptions& o, FigureNames& names, PlotReport& report) {
   // Fragility curves per block: the fraction overturned at each PGA, the
   // fitted lognormal and its 95 % profile-likelihood band; the caveats in
   // the title.
-  drawn = 0;
+  std::size_t drawn = 0;
   for (std::size_t b = 0; b < fragilities.size(); ++b) {
     const BlockFragility& f = fragilities[b];
     if (drawn++ >= o.max_figures_per_kind) {
@@ -537,12 +561,14 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
     }
     series.push_back(std::move(points));
     const double x_max = 1.1 * f.pga_max_g;
-    Draw(o, unique("fragility_" + Slug(f.model) + (first ? block_part(*first) : "")),
+    Draw(o, names.Unique("fragility_" + Slug(f.model) + (first ? names.BlockPart(*first) : "")),
          "set title " + TitleLiteral((title)) + " noenhanced\nset xlabel 'PGA (g)'\nset ylabel 'P(overturn)'\n"
          "set yrange [-0.02:1.02]\nset xrange [0:" + Num(x_max) + "]\nset samples 400\nset key left top Left reverse\n",
          series, report, curve);
   }
+}
 
+void WriteFragilityTable(const std::vector<BlockFragility>& fragilities, const PlotOptions& o, PlotReport& report) {
   // The fits as a table.
   const std::string table = (std::filesystem::path(o.out_dir) / "fragility.csv").string();
   std::ostringstream out;
@@ -563,6 +589,23 @@ PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<Blo
   }
   common::WriteFileAtomically(table, out.str());
   report.files.push_back(table);
+}
+
+}  // namespace
+
+PlotReport MakeFigures(const std::vector<ResultRow>& rows, const std::vector<BlockFragility>& fragilities,
+                       const PlotOptions& o) {
+  std::error_code ec;
+  std::filesystem::create_directories(o.out_dir, ec);
+  if (ec) throw std::runtime_error("cannot make '" + o.out_dir + "': " + ec.message());
+  PlotReport report;
+  FigureNames names(rows);  // one set of names across the kinds: the order of the calls is the names' order
+  const Families families = FamiliesOf(rows);
+  DrawSpectraVsPga(rows, o, names, report);
+  DrawSpectraVsP(families, o, names, report);
+  DrawOverturnMaps(rows, families.order, o, names, report);
+  DrawFragilityCurves(rows, fragilities, o, names, report);
+  WriteFragilityTable(fragilities, o, report);
   return report;
 }
 

@@ -134,7 +134,7 @@ MUTANTS = [
     ("fit_mu_mean", "fit", "model/fit_impacts.cpp",
      "/ static_cast<double>(mus.size());", "/ static_cast<double>(mus.size() + 1);",
      "fit: the mean of the mu_n divided by one too many"),
-    ("live_restart_lost", "live", "daq/text_sources.cpp",
+    ("live_restart_lost", "live", "daq/text_source.h",
      "std::llround((t - *last_time_) * rate_hz_) - 1;", "std::llround((t - *last_time_) * rate_hz_);",
      "live sources: samples lost across a restart off by one"),
     ("record_seq_field", "record", "record/recorder.cpp",
