@@ -394,7 +394,7 @@ class TypedDecoder final : public MessageDecoder {
     }
   }
   bool Fill(Row& row) override {
-    row.real[0] = static_cast<double>(msg_.utime) * 1e-6;
+    row.real[0] = static_cast<double>(msg_.utime) / 1e6;  // correctly rounded (x * 1e-6 can be 1 ulp off)
     RowVisitor v{&row, &array_sizes_};
     Visit(msg_, v);
     for (const Named& n : named_) CodeName(n.column, row.integer[n.code], row.text[n.name]);

@@ -85,7 +85,7 @@ LogInfo ReadLogInfo(const std::string& path) {
       ++c.undecodable;
       continue;
     }
-    const double t = static_cast<double>(decoder->utime()) * 1e-6;
+    const double t = static_cast<double>(decoder->utime()) / 1e6;  // as export's time column
     if (ch.decoded++ == 0) {
       c.first_time = c.last_time = t;
       c.has_time = true;

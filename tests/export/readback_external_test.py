@@ -77,11 +77,29 @@ ATTRS = {
     "table_state_t": {"utime": U("us"), "seq": N, "displacement": U("m"), "velocity": U("m/s"),
                       "acceleration": U("m/s^2"), "accel_source": N},
 }
+# The successors (their .lcm: the older type's fields with `seq` after utime,
+# event2_t and health2_t also `sender`; the same comments, so the same units;
+# seq and sender have none).
+ATTRS["comparison2_t"] = dict(ATTRS["comparison_t"], seq=N)
+ATTRS["daq_config2_t"] = dict(ATTRS["daq_config_t"], seq=N)
+ATTRS["event2_t"] = dict(ATTRS["event_t"], seq=N, sender=N)
+ATTRS["health2_t"] = dict(ATTRS["health_t"], seq=N, sender=N)
+ATTRS["model_state3_t"] = dict(MODEL_STATE, seq=N, equations=N)
 TIME_ATTRS = U("s")  # the `time` column every table starts with
 CHANNEL = {"block_state_t": "RL_THETA", "comparison_t": "RL_COMPARE_x", "daq_config_t": "RL_DAQ_CONFIG",
            "event_t": "RL_EVENT", "health_t": "RL_HEALTH", "model_state_t": "RL_MODEL_old",
-           "model_state2_t": "RL_MODEL_x", "raw_frame_t": "RL_RAW", "table_state_t": "RL_TABLE"}
-TYPE_OF = {channel: type_name for type_name, channel in CHANNEL.items()}
+           "model_state2_t": "RL_MODEL_x", "raw_frame_t": "RL_RAW", "table_state_t": "RL_TABLE",
+           "comparison2_t": "RL_COMPARE_y", "model_state3_t": "RL_MODEL_y",
+           "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH"}
+# The successors come after every older message (a log of nodes upgraded
+# mid-run). On RL_DAQ_CONFIG, RL_EVENT and RL_HEALTH the channel changes
+# type: docs/export.md, "a channel that changes type ... gets a second table
+# CHANNEL_<type>"; the first type keeps the channel's name.
+SUCCESSORS = {"comparison2_t", "daq_config2_t", "event2_t", "health2_t", "model_state3_t"}
+TABLE = {t: c + "_" + t if t in SUCCESSORS and list(CHANNEL.values()).count(c) > 1 else c
+         for t, c in CHANNEL.items()}
+TYPE_OF = {table: type_name for type_name, table in TABLE.items()}
+CHANNEL_OF = {table: CHANNEL[type_name] for type_name, table in TABLE.items()}
 # Each table's group attributes besides `columns` (checked on its own):
 # `channel` and `lcm_type` ("rocklab." + the type) are filled in per table.
 GROUP_ATTRS = {}
@@ -160,9 +178,15 @@ def main():
                                  if f.endswith(".lcm")))
     sys.path.insert(0, gen)
 
+    # Every type rocklab publishes is exported, so every .lcm is in the log.
+    lcm_types = {f[:-4] for f in os.listdir(os.path.join(src, "lcm_types")) if f.endswith(".lcm")}
+    if lcm_types != set(CHANNEL):
+        fail(f"types in lcm_types/ {sorted(lcm_types)} are not the types this test writes {sorted(CHANNEL)}")
+
     # Messages and the expected table of each channel: column -> (kind, values).
     events = []
     expected = {}
+    configs = []  # (utime, message) of every daq_config_t and daq_config2_t
     for type_name, channel in CHANNEL.items():
         fields = lcm_fields(os.path.join(src, "lcm_types", type_name + ".lcm"))
         listed = set(ATTRS[type_name])
@@ -186,7 +210,7 @@ def main():
             msg = cls()
             for j, (name, kind, dim) in enumerate(fields):
                 if name == "utime":
-                    v = 10_000_000 + 1000 * i + 17
+                    v = 10_000_000 + 1000 * (i + (ROWS if type_name in SUCCESSORS else 0)) + 17
                 elif dim is None and any(f[2] == name for f in fields):
                     v = ARRAY_LEN  # a length field
                 elif dim:
@@ -203,16 +227,17 @@ def main():
                     columns[name][1].append(int(v) if kind == "boolean" else v)
             columns["time"][1].append(msg.utime / 1e6)
             events.append((msg.utime, channel, msg.encode()))
-            if type_name == "daq_config_t" and i == 0:
-                config = msg  # the first RL_DAQ_CONFIG: what RL_RAW's columns are named after
-        expected[channel] = columns
+            if type_name.startswith("daq_config"):
+                configs.append((msg.utime, msg))
+        expected[TABLE[type_name]] = columns
+    config = min(configs, key=lambda c: c[0])[1]  # the first in the log: what RL_RAW's columns are named after
     # Events say their kind by name beside the code (the code itself where the
     # .lcm has no such constant).
-    ev = expected["RL_EVENT"]
-    legend = ev["kind"][2]
-    names = dict(zip(legend["code_values"], legend["code_names"]))
-    ev["kind_name"] = ("string", [names.get(str(v), str(v)) for v in ev["kind"][1]],
-                       {"description": "the name of kind's code"})
+    for ev in (expected[TABLE["event_t"]], expected[TABLE["event2_t"]]):
+        legend = ev["kind"][2]
+        names = dict(zip(legend["code_values"], legend["code_names"]))
+        ev["kind_name"] = ("string", [names.get(str(v), str(v)) for v in ev["kind"][1]],
+                           {"description": "the name of kind's code"})
     # RL_RAW: values_k say which rig channel they are, and a column per channel
     # (named after it) holds the same raw values.
     raw = expected["RL_RAW"]
@@ -281,7 +306,7 @@ def check_h5(path, expected):
             order = [text(c) for c in g.attrs.get("columns", [])]
             if order != list(columns):
                 fail(f"{path}:/{channel}: `columns` attribute {order}, want {list(columns)}")
-            want_group = dict(GROUP_ATTRS, channel=channel, lcm_type="rocklab." + TYPE_OF[channel])
+            want_group = dict(GROUP_ATTRS, channel=CHANNEL_OF[channel], lcm_type="rocklab." + TYPE_OF[channel])
             got_group = {k: text(v) for k, v in g.attrs.items() if k != "columns"}
             if got_group != want_group:
                 fail(f"{path}:/{channel}: group attributes {got_group}, want {want_group}")

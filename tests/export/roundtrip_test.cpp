@@ -142,7 +142,7 @@ std::vector<std::uint8_t> Encode(const LcmStruct& s, std::int64_t fingerprint, i
     }
   }
   for (const Expected& x : columns) {
-    if (x.name == "utime") columns[0].real = static_cast<double>(x.integer) * 1e-6;
+    if (x.name == "utime") columns[0].real = static_cast<double>(x.integer) / 1e6;
   }
   return out;
 }
