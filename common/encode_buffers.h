@@ -25,9 +25,11 @@ class EncodeBuffers {
     if (buf.size() < static_cast<std::size_t>(size)) buf.resize(size);
     if (msg.encode(buf.data(), 0, size) != size) return false;
     ++depth_;
-    const bool ok = then(static_cast<const void*>(buf.data()), size);
-    --depth_;
-    return ok;
+    struct Leave {  // also when `then` throws
+      std::size_t& depth;
+      ~Leave() { --depth; }
+    } leave{depth_};
+    return then(static_cast<const void*>(buf.data()), size);
   }
 
  private:

@@ -29,6 +29,27 @@ const char* DecodeModelState(const void* data, int size, rocklab::model_state2_t
     ToModelState2(scratch, out);
     return nullptr;
   }
+  if (WireFingerprint(data, size) == static_cast<std::int64_t>(rocklab::model_state3_t::getHash())) {
+    // What the model node publishes now: read without its seq.
+    thread_local rocklab::model_state3_t s3;
+    if (const char* why = GuardedDecode(data, size, s3)) return why;
+    out.utime = s3.utime;
+    out.name = s3.name;
+    out.model = s3.model;
+    out.theta = s3.theta;
+    out.theta_dot = s3.theta_dot;
+    out.chi = s3.chi;
+    out.psi = s3.psi;
+    out.energy = s3.energy;
+    out.impact_count = s3.impact_count;
+    out.regime = s3.regime;
+    out.alpha = s3.alpha;
+    out.p = s3.p;
+    out.mu = s3.mu;
+    out.l = s3.l;
+    out.equations = s3.equations;
+    return nullptr;
+  }
   return GuardedDecode(data, size, out);
 }
 

@@ -138,6 +138,7 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
 }
 
 void ChannelSeqGaps::Add(std::string_view sender, std::int64_t seq) {
+  sender = sender.substr(0, kMaxSenderBytes);  // bounded memory whatever arrives
   SeqGaps* s = nullptr;
   for (auto& [name, gaps_of] : senders) {
     if (name == sender) s = &gaps_of;
@@ -153,9 +154,10 @@ void ChannelSeqGaps::Add(std::string_view sender, std::int64_t seq) {
   const SeqGaps before = *s;
   s->Add(seq);
   any = true;
-  gaps += s->gaps - before.gaps;
-  missing += s->missing - before.missing;
-  back += s->back - before.back;
+  // Each sender's counts saturate (SeqGaps); so do their sums.
+  gaps = SeqGaps::SaturatingAdd(gaps, s->gaps - before.gaps);
+  missing = SeqGaps::SaturatingAdd(missing, s->missing - before.missing);
+  back = SeqGaps::SaturatingAdd(back, s->back - before.back);
 }
 
 }  // namespace rocklab::common

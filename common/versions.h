@@ -121,6 +121,8 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
 /// only for a sender's first message.
 struct ChannelSeqGaps {
   static constexpr std::size_t kMaxSenders = 64;
+  /// Senders are told apart by their first kMaxSenderBytes bytes.
+  static constexpr std::size_t kMaxSenderBytes = 256;
   // Sums over the senders (SeqGaps's meaning).
   std::int64_t gaps{}, missing{}, back{};
   bool any{};

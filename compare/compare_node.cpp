@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "common/atomic_file.h"
-#include "common/model_state.h"
 #include "common/node_support.h"
 #include "common/units.h"
 #include "common/versions.h"
@@ -20,6 +20,11 @@
 
 namespace rocklab::compare {
 namespace {
+
+// A non-negative count computed in double, capped at INT64_MAX.
+std::int64_t CountOf(double n) {
+  return n >= 9.2e18 ? std::numeric_limits<std::int64_t>::max() : n <= 0 ? 0 : static_cast<std::int64_t>(n);
+}
 
 using common::HostNowS;
 
@@ -114,7 +119,8 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   // Gaps: a forward jump of the DAQ's seq (a repeat or a step back is a
   // restart or a duplicate, counted below as out of order when its time is).
   theta_seq_.Add(msg.seq);
-  if (last_theta_utime_ != INT64_MIN && msg.utime > last_theta_utime_) {
+  if (last_theta_utime_ != INT64_MIN && msg.utime > last_theta_utime_ &&
+      static_cast<double>(msg.utime) - static_cast<double>(last_theta_utime_) < 9e18) {
     const std::int64_t step = msg.utime - last_theta_utime_;  // the sample period: the smallest step
     if (period_us_ == 0 || step < period_us_) period_us_ = step;
   }
@@ -154,10 +160,12 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   if (msg.seq != common::kNoSeq) {
     const std::int64_t before = v.model_seq.missing;
     v.model_seq.Add(msg.seq);
-    model_gaps_ += v.model_seq.missing - before;
-  } else if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime &&
-             2 * (msg.utime - v.last_utime) > 3 * period_us_) {
-    model_gaps_ += (msg.utime - v.last_utime + period_us_ / 2) / period_us_ - 1;
+    model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, v.model_seq.missing - before);
+  } else if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime) {
+    // In double: utimes come off the wire, their difference may not fit.
+    const double periods = (static_cast<double>(msg.utime) - static_cast<double>(v.last_utime)) /
+                           static_cast<double>(period_us_);
+    if (periods > 1.5) model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, CountOf(std::floor(periods + 0.5) - 1));
   }
   v.last_utime = std::max(v.last_utime, msg.utime);
   newest_utime_ = std::max(newest_utime_, msg.utime);
@@ -191,7 +199,7 @@ void CompareNode::Pair(Variant& v, std::int64_t utime, double measured, bool val
   v.dirty = true;
   const double period_us = 1e6 / config_.publish_rate_hz;
   if (v.last_pub_utime == INT64_MIN ||
-      static_cast<double>(utime - v.last_pub_utime) >= period_us - 0.5) {
+      static_cast<double>(utime) - static_cast<double>(v.last_pub_utime) >= period_us - 0.5) {
     PublishCompare(v);
   }
 }
@@ -245,7 +253,7 @@ void CompareNode::PublishHealth(const char* state) {
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
-  h.gaps = theta_seq_.missing + model_gaps_;
+  h.gaps = common::SeqGaps::SaturatingAdd(theta_seq_.missing, model_gaps_);
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }

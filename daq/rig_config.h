@@ -34,6 +34,12 @@ struct ChannelConfig {
   double raw_min{-std::numeric_limits<double>::infinity()};  ///< raw unit
   double raw_max{std::numeric_limits<double>::infinity()};   ///< raw unit
   int line{};          ///< line of the channel's table in the rig file
+  /// The unit of the raw values as far as the rig says: raw_unit, else
+  /// `unit` when the calibration is the identity, else "" (not known).
+  std::string RawValuesUnit() const {
+    if (!raw_unit.empty()) return raw_unit;
+    return gain == 1.0 && offset == 0.0 ? unit : std::string();
+  }
 };
 
 /// An LED on the block's face, in the block frame: origin at the centre of the
@@ -139,10 +145,6 @@ struct RigConfig {
   int LagSamples(const DifferentiatorConfig& d) const;
 };
 
-/// Parses a rig file.
-/// @throws std::runtime_error "PATH:LINE: key 'a.b' ..." on a TOML syntax
-///         error, a missing or mistyped key, an unknown key, an unknown sensor
-///         role, a duplicated channel or sensor, or a value out of range.
 /// The units a raw file states for its channels (Source::channel_units(),
 /// in `names` order; empty: it states none) against the rig's channels.
 /// A channel whose `raw_unit` is set and whose file unit differs: throws
@@ -154,6 +156,10 @@ struct RigConfig {
 std::vector<std::string> CheckFileUnits(const RigConfig& rig, const std::vector<std::string>& names,
                                         const std::vector<std::string>& units, const std::string& source_path);
 
+/// Parses a rig file.
+/// @throws std::runtime_error "PATH:LINE: key 'a.b' ..." on a TOML syntax
+///         error, a missing or mistyped key, an unknown key, an unknown sensor
+///         role, a duplicated channel or sensor, or a value out of range.
 RigConfig LoadRigConfig(const std::string& path);
 /// Same, from text; `path` only names the source in messages.
 RigConfig ParseRigConfig(const std::string& text, const std::string& path);

@@ -8,6 +8,7 @@
 
 #include "common/lcm_log.h"
 #include "common/text.h"
+#include "common/bus.h"
 #include "common/wire.h"
 #include "daq/source.h"
 #include "export/csv_writer.h"
@@ -177,7 +178,7 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
   const std::int64_t config_v1_fingerprint = rocklab::daq_config_t::getHash();
   common::DaqConfigDecoder decode_config;
   const std::int64_t raw_fingerprint = rocklab::raw_frame_t::getHash();
-  rocklab::daq_config2_t config;
+  rocklab::daq_config2_t config, last, later;  // the first, the last seen, the one read
   bool have_config = false;
 
   common::LogEvent ev;
@@ -185,16 +186,28 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
     const int size = static_cast<int>(ev.data.size());
     const std::int64_t fingerprint = common::WireFingerprint(ev.data.data(), size);
     const MessageType* type = FindMessageType(fingerprint);
-    if (!have_config && (fingerprint == config_fingerprint || fingerprint == config_v1_fingerprint)) {
-      have_config = decode_config(ev.data.data(), size, config) == nullptr;
+    if (fingerprint == config_fingerprint || fingerprint == config_v1_fingerprint) {
+      if (!have_config) {
+        have_config = decode_config(ev.data.data(), size, config) == nullptr;
+        last = config;
+      } else if (decode_config(ev.data.data(), size, later) == nullptr) {
+        if (on_problem && (later.channel_names != last.channel_names || later.channel_units != last.channel_units ||
+                           later.gain != last.gain || later.offset != last.offset)) {
+          // A recalibration or another rig mid-log: said, since RL_RAW's
+          // named columns keep the first config (info counts these changes).
+          on_problem(path + ": event " + std::to_string(ev.number) + " on " + ev.channel +
+                     ": RL_DAQ_CONFIG changed its channels or calibration; RL_RAW's channel-named columns keep "
+                     "the first config's names" + std::string(options.calibrated ? " and calibration" : "") +
+                     " (values_0.. are as sent)");
+        }
+        std::swap(last, later);
+      }
     }
     // The record's first sample: the first message of a rocklab type whose
     // lengths are sound, whatever the channel filter (so windows agree
     // between exports of different channels).
     if (!have_origin && type && !common::WireCheck(*type->layout, ev.data.data(), size)) {
-      std::int64_t utime = 0;
-      for (int k = 8; k < 16; ++k) utime = (utime << 8) | ev.data[static_cast<std::size_t>(k)];
-      origin_us = utime;
+      origin_us = common::PayloadUtime(ev.data.data(), size, 0);  // unsigned shifts: any bytes
       have_origin = true;
     }
     auto [it, inserted] = channels.try_emplace(ev.channel);
@@ -226,7 +239,7 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
       t->warned = true;
       continue;
     }
-    if (!InWindow(static_cast<double>(t->decoder->utime() - origin_us) * 1e-6, options)) {
+    if (!InWindow((static_cast<double>(t->decoder->utime()) - static_cast<double>(origin_us)) * 1e-6, options)) {
       ++summary.outside_window;
       continue;
     }
@@ -295,7 +308,8 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
       c.description = "raw values, unit from the file (LVM Y_Unit_Label)";
       if (!rig_unit.empty() && rig_unit != c.unit) c.description += "; the rig calibrates them to " + rig_unit;
     } else if (!rig_unit.empty()) {
-      c.description = "raw values; unit: the rig's for the channel (--rig; the file states none)";
+      c.description = "raw values; unit: the rig's raw unit for the channel (--rig: raw_unit, or unit when "
+                      "gain 1 and offset 0; the file states none)";
     }
     columns.push_back(c);
   }
@@ -315,6 +329,7 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
   daq::ReadStatus status;
   bool have_origin = false;
   double origin_s = 0;
+  std::int64_t comments_lost = 0;
   while ((status = source->Next(frame)) == daq::ReadStatus::kFrame) {
     if (!have_origin) {
       origin_s = frame.time_s;
@@ -328,7 +343,12 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
     for (std::size_t i = 0; i < names.size(); ++i) {
       row.real[i + 1] = i < frame.values.size() ? frame.values[i] : std::nan("");
     }
-    if (comment > 0) row.text[comment] = frame.comment;
+    if (comment > 0) {
+      row.text[comment] = frame.comment;
+      if (!frame.comment.empty()) ++summary.comments;
+    } else if (!frame.comment.empty()) {
+      ++comments_lost;
+    }
     sink.Append(table, row);
     ++summary.rows;
   }
@@ -337,7 +357,11 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
   summary.bad_rows = source->stats().bad_rows;
   summary.bad_values = source->stats().bad_values;
   summary.empty_values = source->stats().empty_values;
-  summary.comments = source->stats().comments;
+  if (comments_lost > 0 && on_problem) {
+    // The table's columns are fixed by the first segment's header.
+    on_problem(path + ": " + std::to_string(comments_lost) +
+               " comments of a later segment not kept: the file's first segment has no Comment column");
+  }
   return summary;
 }
 

@@ -69,7 +69,7 @@ struct ExportSummary {
   std::int64_t damaged_regions{}, damaged_bytes{}, damaged_events{};  ///< logs (common::LogReader)
   std::int64_t bad_rows{}, bad_values{};  ///< raw files (daq::SourceStats)
   std::int64_t empty_values{};            ///< raw files: empty fields, written as NaN
-  std::int64_t comments{};                ///< raw files: rows with LVM Comment text (kept)
+  std::int64_t comments{};                ///< raw files: rows written with their LVM Comment text
   std::string read_error;  ///< raw files: why the read stopped early; empty when it ended
 };
 

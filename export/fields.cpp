@@ -212,7 +212,7 @@ void Visit(const rocklab::table_state_t& m, V& v) {
 // By field name, not by type: a later type (model_state3_t, ...) with a
 // field of the same name and meaning gets its legend without an entry here.
 // The values are the generated constants, so they cannot drift from the
-// .lcm files; tests/export/codes_test.cpp fails when an .lcm file has a
+// .lcm files; tests/export/metadata_test.cpp (LogMetadata.EveryLcmConstantIsNamedInALegend) fails when an .lcm file has a
 // constant group no legend names.
 
 // name_column: the field also gets a text column FIELD_name. Only event

@@ -317,7 +317,8 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
   }
   // Model time counts from the start: with epoch utimes (~1.7e9 s) a double
   // resolves only ~2e-7 s, and CVODE's root location would degrade with it.
-  const double t_s = static_cast<double>(msg.utime - start_utime_) * 1e-6;
+  // (Subtracted in double: exact below 2^53 us, and no overflow on any utime.)
+  const double t_s = (static_cast<double>(msg.utime) - static_cast<double>(start_utime_)) * 1e-6;
   if (config_.lookahead_samples == 0) {
     StepAll({t_s, accel, msg.utime, std::nan("")});
     return;
@@ -332,7 +333,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
 void ModelNode::StepOldestHeld() {
   const std::int64_t utime = held_utime_.front();
   held_utime_.pop_front();
-  StepAll({static_cast<double>(utime - start_utime_) * 1e-6, 0.0, utime, window_.horizon_s()});
+  StepAll({(static_cast<double>(utime) - static_cast<double>(start_utime_)) * 1e-6, 0.0, utime, window_.horizon_s()});
 }
 
 void ModelNode::FlushHeld() {
@@ -415,7 +416,8 @@ void ModelNode::PublishHealth(const char* state) {
   // Dropped: table samples before the start and messages that did not decode.
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
-  h.gaps = table_seq_.missing + theta_seq_.missing;
+  // Messages missing on both streams (a frame lost on both counts twice).
+  h.gaps = common::SeqGaps::SaturatingAdd(table_seq_.missing, theta_seq_.missing);
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

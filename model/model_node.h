@@ -93,7 +93,8 @@ class ModelNode {
   void HandleTable(const rocklab::table_state_t& msg);
   void HandleTheta(const rocklab::block_state_t& msg);
 
-  /// The latest state of variant i (in configuration order).
+  /// The latest state of variant i (in configuration order); its seq is
+  /// the number the variant's next message will carry.
   const rocklab::model_state3_t& latest(std::size_t i) const;
   std::size_t variant_count() const;
   std::int64_t table_count() const { return table_count_; }

@@ -11,8 +11,9 @@ namespace rocklab::model {
 /// Analytic excitations give the displacement exactly
 /// (Forcing::ExactDisplacement); a sampled acceleration record (or a sum
 /// holding one) is integrated twice by the trapezoidal rule from rest at
-/// the first time asked, so its displacement is exact for an acceleration
-/// linear between the times asked. Keeps `forcing` by reference.
+/// the first time asked: exact for a constant acceleration, with an error
+/// of O(dt^2) for one linear between the times asked. Keeps `forcing` by
+/// reference.
 class TableMotion {
  public:
   explicit TableMotion(const Forcing& forcing) : forcing_(forcing) {}

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string_view>
 #include <vector>
@@ -105,7 +106,9 @@ GapCount CountGaps(const std::vector<double>& t, const std::vector<int64_t>& lin
   for (std::size_t k = 1; k < t.size(); ++k) {
     const double step = steps[k - 1];
     if (step > max_step_ratio * median) {
-      const auto missing = std::max<int64_t>(1, std::llround(step / median) - 1);
+      // In double, capped: a wild time (1e20 s after 1 ms steps) must not overflow.
+      const double q = std::floor(step / median + 0.5) - 1.0;
+      const int64_t missing = q >= 9.2e18 ? std::numeric_limits<int64_t>::max() : std::max<int64_t>(1, static_cast<int64_t>(q));
       AddGap(g, missing, t[k - 1], t[k], k < line.size() ? line[k] : 0);
     }
   }
@@ -178,7 +181,7 @@ RockingRecord ReadThetaCsv(const std::string& path) {
   r.theta_gaps = CountGaps(r.time_s, r.line);
   const int64_t at_ends = lost_before_first + (r.time_s.empty() ? 0 : lost_pending);
   if (at_ends > 0) {
-    r.theta_gaps.missing_samples += at_ends;
+    r.theta_gaps.missing_samples = common::SeqGaps::SaturatingAdd(r.theta_gaps.missing_samples, at_ends);
     r.theta_gaps.gaps += (lost_before_first > 0 ? 1 : 0) + (lost_pending > 0 && !r.time_s.empty() ? 1 : 0);
     if (r.theta_gaps.first_line == 0 || lost_before_first > 0) r.theta_gaps.first_line = first_lost_line;
   }

@@ -19,8 +19,10 @@ bool LiveState::Impl::Ingest(std::string_view channel, const void* data, int siz
   if (known && !ok && count) ++count->decode_errors;
   std::int64_t message_seq = 0;
   std::string_view sender;
-  // Every current rocklab type numbers its messages (also on channels not shown, e.g. RL_RAW).
-  if ((ok || !known) && count && common::WireSeq(data, size, message_seq, sender)) {
+  // Every current rocklab type numbers its messages (also on channels not
+  // shown, e.g. RL_RAW). A message refused after it decoded (an unusable
+  // time) still arrived: its number counts, so the next is not a gap.
+  if (count && common::WireSeq(data, size, message_seq, sender)) {
     count->seq.Add(sender, message_seq);
   }
   if (hold_current) {

@@ -194,7 +194,7 @@ json LiveState::Impl::UnitsJson() {
               {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
               {"lag_s", "s"}, {"start", "s"}, {"end", "s"}, {"accel_mps2", "m/s^2"},
               {"peak_accel_mps2", "m/s^2"}, {"peak_disp_m", "m"}, {"from_s", "s"}, {"to_s", "s"},
-              {"value", "per event kind, see lcm_types/event.lcm"}};
+              {"value", "per event kind, see lcm_types/event2_t.lcm"}};
 }
 
 }  // namespace rocklab::monitor

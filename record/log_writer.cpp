@@ -148,7 +148,7 @@ bool RotatingLogWriter::Write(int64_t utime, std::string_view channel, const uin
     const bool by_size = options_.rotate_bytes > 0 &&
                          file_->bytes() + LogFileWriter::EventBytes(channel.size(), size) > options_.rotate_bytes;
     const bool by_time = options_.rotate_seconds > 0 &&
-                         static_cast<double>(utime - file_first_utime_) >= options_.rotate_seconds * 1e6;
+                         static_cast<double>(utime) - static_cast<double>(file_first_utime_) >= options_.rotate_seconds * 1e6;
     if ((by_size || by_time) && !Open(static_cast<int>(files_.size()))) return false;
   }
   if (!file_) {

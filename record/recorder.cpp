@@ -209,8 +209,8 @@ std::string SummaryJson(const RecorderStats& s) {
                         {"seq_gaps", c.seq.gaps},
                         {"seq_missing", c.seq.missing},
                         {"seq_back", c.seq.back}});
-    gaps += c.seq.gaps;
-    missing += c.seq.missing;
+    gaps = common::SeqGaps::SaturatingAdd(gaps, c.seq.gaps);
+    missing = common::SeqGaps::SaturatingAdd(missing, c.seq.missing);
   }
   j["seq_gaps"] = gaps;
   j["seq_missing"] = missing;

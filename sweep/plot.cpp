@@ -185,7 +185,6 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
                                 "overturned"};
   std::vector<std::size_t> at;
   std::optional<std::size_t> block_at;
-  std::string r_block;
   std::vector<ResultRow> rows;
   while (std::getline(in, line)) {
     ++line_no;
@@ -203,7 +202,6 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
       continue;
     }
     const std::size_t last = *std::max_element(at.begin(), at.end());
-    if (block_at && *block_at < fields.size()) r_block = std::string(common::Trim(fields[*block_at]));
     if (fields.size() <= last) throw std::runtime_error(where + "a short row " + common::Quote(line));
     ResultRow r;
     r.record = std::string(fields[at[0]]);
@@ -222,7 +220,10 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
     const std::string_view over = common::Trim(fields[at[8]]);
     if (over != "0" && over != "1") throw std::runtime_error(where + "overturned " + common::Quote(over) + " is not 0 or 1");
     r.overturned = over == "1";
-    if (!r_block.empty()) r.block = r_block;
+    // The row's own block label (a row cut before it has none).
+    if (block_at && *block_at < fields.size() && !common::Trim(fields[*block_at]).empty()) {
+      r.block = std::string(common::Trim(fields[*block_at]));
+    }
     if (!(r.pga_g > 0) || !(r.alpha > 0)) throw std::runtime_error(where + "pga_g and alpha must be > 0");
     rows.push_back(std::move(r));
   }

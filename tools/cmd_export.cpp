@@ -44,8 +44,14 @@ int RunExport(ExportCliOptions& o) {
     throw UsageError("INPUT: cannot open '" + o.input + "': " + std::strerror(errno));
   }
   const bool log = exporter::IsLcmLog(o.input);
+  if (!log && o.options.calibrated) {
+    throw UsageError("--calibrated: logs only (RL_RAW's channel columns, calibrated by RL_DAQ_CONFIG); '" +
+                     o.input + "' is a raw file, exported as it holds its values");
+  }
   if (!o.rig_path.empty()) {
-    for (const auto& c : pipeline::LoadRig(o.rig_path).channels) o.options.units.emplace_back(c.name, c.unit);
+    for (const auto& c : pipeline::LoadRig(o.rig_path).channels) {
+      o.options.units.emplace_back(c.name, c.RawValuesUnit());  // raw values: not the calibrated unit
+    }
   }
   std::unique_ptr<exporter::TableSink> sink;
   try {

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -22,15 +24,36 @@
 namespace rocklab::tools {
 namespace {
 
-// The first line that is not blank or a '#' comment, trimmed.
+// The first line that is not blank or a '#' comment, trimmed, from the
+// file's first 64 KiB (a binary or newline-free file is not read whole).
 std::string FirstLine(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    const std::string_view t = common::Trim(line);
+  constexpr std::size_t kMaxBytes = 64 * 1024;
+  std::ifstream in(path, std::ios::binary);
+  std::string head(kMaxBytes, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  std::size_t from = 0;
+  while (from < head.size()) {
+    const std::size_t end = std::min(head.find('\n', from), head.size());
+    const std::string_view t = common::Trim(std::string_view(head).substr(from, end - from));
     if (!t.empty() && t.front() != '#') return std::string(t);
+    from = end + 1;
   }
   return "";
+}
+
+// A header holding every column sweep-plot needs, in any order (as
+// sweep::ReadResults accepts it).
+bool IsSweepHeader(const std::string& header) {
+  std::set<std::string> names;
+  std::vector<std::string_view> fields;
+  common::Split(header, ',', fields);
+  for (std::string_view f : fields) names.emplace(common::Trim(f));
+  for (const char* name : {"record", "scale", "pga_g", "alpha", "p", "mu", "model", "peak_theta_over_alpha",
+                           "overturned"}) {
+    if (names.count(name) == 0) return false;
+  }
+  return true;
 }
 
 std::string Fixed(const char* format, double v) {
@@ -131,7 +154,7 @@ bool InfoOfOtherFormats(const std::string& path, bool json, std::string& text) {
     text = GroundMotion(path, "time,accel CSV", json);
     return true;
   }
-  if (header.rfind(sweep::Header(), 0) == 0 || header.rfind("record,scale,pga_g,", 0) == 0) {
+  if (IsSweepHeader(header)) {
     text = SweepResults(path, "CSV", json);
     return true;
   }

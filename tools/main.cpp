@@ -99,7 +99,11 @@ int main(int argc, char** argv) {
       return 0;
     }
     const CLI::App* sub = find(argv[2]);
-    if (argc > 3 || sub == nullptr) return unknown_command(argv[2]);
+    if (sub == nullptr) return unknown_command(argv[2]);
+    if (argc > 3) {
+      std::fprintf(stderr, "rocklab help: takes one command (rocklab help %s)\n", argv[2]);
+      return kUsageExit;
+    }
     std::fputs(sub->help("rocklab").c_str(), stdout);
     return 0;
   }

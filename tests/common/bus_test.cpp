@@ -188,6 +188,31 @@ TEST(Subscription, LastsAsLongAsItsHandle) {
   EXPECT_FALSE(outlives.active());
 }
 
+// Oracle: as on the DirectBus above, through liblcm's dispatch (memq://):
+// a handler ending its own subscription sees no later message and frees
+// nothing it is still running on (the ASan build checks).
+TEST(Subscription, EndsFromItsOwnHandlerOnLcm) {
+  LcmBus bus("memq://");
+  Subscription self;
+  int c = 0;
+  self = bus.SubscribeRaw("Y", [&](const std::string& channel, const void*, int) {
+    self.Reset();
+    ++c;
+    EXPECT_EQ(channel, "Y");  // the handler's own state is still alive
+  });
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(bus.Publish("Y", "1", 1));
+  while (bus.HandleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(c, 1);
+  EXPECT_FALSE(self.active());
+  int d = 0;
+  const Subscription again = bus.SubscribeRaw("Y", [&](const std::string&, const void*, int) { ++d; });
+  ASSERT_TRUE(bus.Publish("Y", "2", 1));
+  while (bus.HandleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(d, 1);
+}
+
 // Oracle: a decorator's subscriptions are its inner bus's, so they end with
 // their handles too, and the counters are the inner bus's.
 TEST(Subscription, ThroughADecoratorEndsOnTheInnerBus) {

@@ -93,8 +93,8 @@ CHANNEL = {"block_state_t": "RL_THETA", "comparison_t": "RL_COMPARE_x", "daq_con
            "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH"}
 # The successors come after every older message (a log of nodes upgraded
 # mid-run). On RL_DAQ_CONFIG, RL_EVENT and RL_HEALTH the channel changes
-# type: docs/export.md, "a channel that changes type ... gets a second table
-# CHANNEL_<type>"; the first type keeps the channel's name.
+# type, so its second type gets a table of its own, CHANNEL_<type>, and the
+# first keeps the channel's name (docs/export.md).
 SUCCESSORS = {"comparison2_t", "daq_config2_t", "event2_t", "health2_t", "model_state3_t"}
 TABLE = {t: c + "_" + t if t in SUCCESSORS and list(CHANNEL.values()).count(c) > 1 else c
          for t, c in CHANNEL.items()}

@@ -17,6 +17,7 @@
 #include "rocklab/health_t.hpp"
 #include "common/model_state.h"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -176,7 +177,7 @@ std::vector<std::uint8_t> Bytes(const Msg& m) {
   return b;
 }
 
-// Oracle: LCM's fingerprints. RL_MODEL_* carries either type: both are read
+// Oracle: LCM's fingerprints. RL_MODEL_* carries any of three types: all are read
 // by common::DecodeModelState into the same fields (model_state_t's values
 // copied, equations unknown); a new type is a new fingerprint, so the two
 // can never be mistaken for each other.
@@ -216,6 +217,43 @@ TEST(LcmTypes, RlModelCarriesEitherModelStateTypeByFingerprint) {
   EXPECT_EQ(out.utime, 43);
   EXPECT_EQ(out.name, "c");
   EXPECT_EQ(out.equations, +rocklab::model_state2_t::EQUATIONS_LIMIT);
+
+  // What the model node publishes now: every field but seq.
+  rocklab::model_state3_t v3{};
+  v3.utime = 44;
+  v3.seq = 7;
+  v3.name = "c3";
+  v3.model = "complex";
+  v3.theta = -0.01;
+  v3.theta_dot = 0.3;
+  v3.chi = 0.25;
+  v3.psi = 1.5;
+  v3.energy = 0.125;
+  v3.impact_count = 5;
+  v3.regime = rocklab::model_state3_t::REGIME_ROCKING;
+  v3.alpha = 0.25;
+  v3.p = 2.5;
+  v3.mu = 0.5;
+  v3.l = 0.75;
+  v3.equations = rocklab::model_state3_t::EQUATIONS_EQ10;
+  const auto b_v3 = Bytes(v3);
+  ASSERT_EQ(common::DecodeModelState(b_v3.data(), static_cast<int>(b_v3.size()), out, scratch),
+            nullptr);
+  EXPECT_EQ(out.utime, 44);
+  EXPECT_EQ(out.name, "c3");
+  EXPECT_EQ(out.model, "complex");
+  EXPECT_EQ(out.theta, -0.01);
+  EXPECT_EQ(out.theta_dot, 0.3);
+  EXPECT_EQ(out.chi, 0.25);
+  EXPECT_EQ(out.psi, 1.5);
+  EXPECT_EQ(out.energy, 0.125);
+  EXPECT_EQ(out.impact_count, 5);
+  EXPECT_EQ(out.regime, +rocklab::model_state2_t::REGIME_ROCKING);
+  EXPECT_EQ(out.alpha, 0.25);
+  EXPECT_EQ(out.p, 2.5);
+  EXPECT_EQ(out.mu, 0.5);
+  EXPECT_EQ(out.l, 0.75);
+  EXPECT_EQ(out.equations, +rocklab::model_state2_t::EQUATIONS_EQ10);
 
   // Another type on the channel is refused, with the reason.
   rocklab::event_t ev{};

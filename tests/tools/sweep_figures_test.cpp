@@ -164,10 +164,34 @@ TEST(SweepFigures, LikelihoodBandIsSymmetricForSymmetricData) {
   }
   const double wald_half = 1.959964 / std::sqrt(info_a) / b;
   EXPECT_NEAR(hi, wald_half, 0.1 * wald_half);
-  // The band holds the fitted curve at each x.
+  // Oracle 3: at each x the band is the profile interval of eta(x) = a +
+  // b ln x, so close to its Wald interval eta +- 1.96 se(eta), se from the
+  // inverse of the expected information (computed here with erfc, not the
+  // library's NormalCdf): the band's ends, taken back to eta, within 10 %
+  // of the Wald half-width, as the median above.
+  const double a = -std::log(fit.median) * b;
+  double iaa = 0, iab = 0, ibb = 0;
+  const auto cdf = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+  for (const auto& p : points) {
+    const double u = std::log(p.x), eta = a + b * u;
+    const double phi = std::exp(-0.5 * eta * eta) / std::sqrt(2 * M_PI), c = cdf(eta);
+    const double w = p.trials * phi * phi / (c * (1 - c));
+    iaa += w;
+    iab += w * u;
+    ibb += w * u * u;
+  }
+  const double det = iaa * ibb - iab * iab;
+  const auto eta_of = [&cdf](double prob) {  // cdf's inverse by bisection
+    double below = -10, above = 10;
+    for (int i = 0; i < 200; ++i) (cdf(0.5 * (below + above)) < prob ? below : above) = 0.5 * (below + above);
+    return 0.5 * (below + above);
+  };
   for (std::size_t k = 0; k < band.x.size(); ++k) {
-    EXPECT_LE(band.p_low[k], fit.Probability(band.x[k]));
-    EXPECT_GE(band.p_high[k], fit.Probability(band.x[k]));
+    const double u = std::log(band.x[k]), eta = a + b * u;
+    const double se = std::sqrt((ibb - 2 * u * iab + u * u * iaa) / det);
+    const double half = 1.959964 * se;
+    EXPECT_NEAR(eta_of(band.p_low[k]), eta - half, 0.1 * half) << "x " << band.x[k];
+    EXPECT_NEAR(eta_of(band.p_high[k]), eta + half, 0.1 * half) << "x " << band.x[k];
   }
 }
 
