@@ -43,15 +43,16 @@ namespace {
 using exporter::ColumnType;
 using pipeline::OptionError;
 
-constexpr std::size_t kColumns = 17;  // ResultColumns().size(), checked in MergeShards
+// ResultColumns(): 17 columns, 12 of them doubles, 2 integers, 3 text (checked in MakeLayout).
+constexpr std::size_t kColumns = 17, kReals = 12, kIntegers = 2, kTexts = 3;
 constexpr std::size_t kKeyColumns = 7;  // record..model: KeyPrefix
 
-// One row's cells as the HDF5 table holds them; a cell of column c is in
-// the array of its type, at slot[c].
+// One row's cells as the HDF5 table holds them (about 200 bytes a case);
+// a cell of column c is in the array of its type, at slot[c].
 struct Cells {
-  std::array<double, kColumns> real{};
-  std::array<std::int64_t, kColumns> integer{};
-  std::array<std::string, 3> text;
+  std::array<double, kReals> real{};
+  std::array<std::int64_t, kIntegers> integer{};
+  std::array<std::string, kTexts> text;
 };
 
 struct Layout {
@@ -70,13 +71,15 @@ Layout MakeLayout() {
   const std::vector<exporter::Column>& columns = ResultColumns();
   if (columns.size() != kColumns) throw std::logic_error("sweep::ResultColumns() is not 17 columns");
   Layout l;
-  std::size_t texts = 0;
+  std::array<std::size_t, 3> count{};  // by ColumnType
   for (std::size_t c = 0; c < kColumns; ++c) {
     l.names.push_back(columns[c].name);
     l.type[c] = columns[c].type;
-    l.slot[c] = columns[c].type == ColumnType::kString ? texts++ : c;
+    l.slot[c] = count[static_cast<std::size_t>(columns[c].type)]++;
   }
-  if (texts != 3 || Join(l.names) != Header()) {
+  if (count[static_cast<std::size_t>(ColumnType::kDouble)] != kReals ||
+      count[static_cast<std::size_t>(ColumnType::kInt)] != kIntegers ||
+      count[static_cast<std::size_t>(ColumnType::kString)] != kTexts || Join(l.names) != Header()) {
     throw std::logic_error("sweep::ResultColumns() does not match sweep::Header()");
   }
   return l;
@@ -260,7 +263,7 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
     std::string line = FormatCells(l, cells, kColumns);
     if (!slots.h5) {
       // A CSV field cannot hold , " or a control character (the CSV writer never writes one).
-      for (std::size_t k = 0; k < 3; ++k) {
+      for (std::size_t k = 0; k < kTexts; ++k) {
         const std::string& t = cells.text[k];
         if (t.find_first_of(",\"") != std::string::npos ||
             std::any_of(t.begin(), t.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20; })) {
