@@ -72,6 +72,11 @@ Dataset ReadColumn(const std::string& path, hid_t group, const char* name, bool 
   return out;
 }
 
+herr_t CollectName(hid_t, const char* name, const H5L_info_t*, void* names) {
+  static_cast<std::vector<std::string>*>(names)->emplace_back(name);
+  return 0;
+}
+
 }  // namespace
 
 bool IsHdf5File(const std::string& path) {
@@ -128,6 +133,56 @@ std::vector<ResultRow> ReadResultsH5(const std::string& path) {
     r.mu_text = buf;
   }
   return rows;
+}
+
+std::vector<H5ResultsColumn> ReadResultsColumnsH5(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions here, not stderr
+  Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.ok()) throw std::runtime_error(path + ": cannot open as HDF5");
+  if (H5Lexists(file.get(), "results", H5P_DEFAULT) <= 0) {
+    throw std::runtime_error(path + ": no table /results (written by rocklab sweep --out FILE.h5?)");
+  }
+  Handle group(H5Gopen2(file.get(), "results", H5P_DEFAULT), H5Gclose);
+  if (!group.ok()) throw std::runtime_error(path + ": /results is not a group");
+  std::vector<std::string> names;
+  hsize_t at = 0;
+  if (H5Literate(group.get(), H5_INDEX_NAME, H5_ITER_INC, &at, CollectName, &names) < 0) {
+    throw std::runtime_error(path + ": cannot list /results");
+  }
+  std::vector<H5ResultsColumn> out;
+  for (const std::string& name : names) {
+    H5ResultsColumn c;
+    c.name = name;
+    c.kind = '?';
+    {
+      Handle d(H5Dopen2(group.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
+      if (!d.ok()) throw std::runtime_error(path + ": /results/" + name + ": not a dataset");
+      Handle type(H5Dget_type(d.get()), H5Tclose);
+      const H5T_class_t cls = H5Tget_class(type.get());
+      if (cls == H5T_FLOAT) c.kind = 'd';
+      if (cls == H5T_INTEGER) c.kind = 'i';
+      if (cls == H5T_STRING && H5Tis_variable_str(type.get()) > 0) c.kind = 's';
+    }
+    if (c.kind == 's') {
+      c.text = ReadColumn(path, group.get(), name.c_str(), true).text;
+    } else if (c.kind == 'd') {
+      c.real = ReadColumn(path, group.get(), name.c_str(), false).real;
+    } else if (c.kind == 'i') {
+      // As int64, not through double: every value as the file holds it.
+      const std::string where = path + ": /results/" + name + ": ";
+      Handle d(H5Dopen2(group.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
+      Handle space(H5Dget_space(d.get()), H5Sclose);
+      if (H5Sget_simple_extent_ndims(space.get()) != 1) throw std::runtime_error(where + "not a 1-D dataset");
+      hsize_t n = 0;
+      H5Sget_simple_extent_dims(space.get(), &n, nullptr);
+      c.integer.resize(n);
+      if (n > 0 && H5Dread(d.get(), H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, c.integer.data()) < 0) {
+        throw std::runtime_error(where + "read failed");
+      }
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
 }
 
 }  // namespace rocklab::sweep

@@ -127,33 +127,13 @@ class CsvRowWriter final : public RowWriter {
   std::size_t rows_done_{0};
 };
 
-// The same rows as the CSV, one table "results" in an HDF5 file through
-// export's H5Writer: a dataset per column with its unit; an empty CSV field
-// (no overturn, no uplift, a symmetric block) is NaN.
+// The same rows as the CSV, one table "results" in an HDF5 file
+// (H5Results): an empty CSV field (no overturn, no uplift, a symmetric
+// block) is NaN.
 class H5RowWriter final : public RowWriter {
  public:
-  H5RowWriter(const std::string& path, const Plan& plan) : path_(path), plan_(plan) {
-    using exporter::Column;
-    using exporter::ColumnType;
-    const std::vector<Column> columns = {
-        {"record", ColumnType::kString, ""},          {"scale", ColumnType::kDouble, "1"},
-        {"pga_g", ColumnType::kDouble, "g"},          {"alpha", ColumnType::kDouble, "rad"},
-        {"p", ColumnType::kDouble, "rad/s"},          {"mu", ColumnType::kDouble, "1"},
-        {"model", ColumnType::kString, ""},           {"peak_theta_over_alpha", ColumnType::kDouble, "1"},
-        {"overturned", ColumnType::kInt, ""},         {"overturn_time", ColumnType::kDouble, "s"},
-        {"impacts", ColumnType::kInt, ""},            {"uplift_time", ColumnType::kDouble, "s"},
-        {"peak_time", ColumnType::kDouble, "s"},      {"block", ColumnType::kString, ""},
-        {"alpha_minus", ColumnType::kDouble, "rad"},  {"p_minus", ColumnType::kDouble, "rad/s"},
-        {"mu_minus", ColumnType::kDouble, "1"},
-    };
-    try {
-      writer_ = std::make_unique<exporter::H5Writer>(path);
-      table_ = writer_->AddTable("results", columns);
-      writer_->DescribeFile("columns_as_csv", Header());
-    } catch (const std::exception& e) {
-      throw OptionError("--out: " + std::string(e.what()));
-    }
-    row_.Resize(columns.size());
+  H5RowWriter(const std::string& path, const Plan& plan) : file_(path), plan_(plan) {
+    row_.Resize(ResultColumns().size());
   }
 
   std::size_t rows_done() const override { return 0; }
@@ -181,22 +161,53 @@ class H5RowWriter final : public RowWriter {
     row_.real[14] = b.minus ? b.minus->alpha : kNone;
     row_.real[15] = b.minus ? b.minus->p : kNone;
     row_.real[16] = b.minus ? b.minus->mu : kNone;
-    writer_->Append(table_, row_);
+    file_.Append(row_);
   }
 
-  void Close() override {
-    if (writer_) writer_->Close();
-  }
+  void Close() override { file_.Close(); }
 
  private:
-  std::string path_;
+  H5Results file_;
   const Plan& plan_;
-  std::unique_ptr<exporter::H5Writer> writer_;
-  int table_{};
   exporter::Row row_;
 };
 
 }  // namespace
+
+const std::vector<exporter::Column>& ResultColumns() {
+  using exporter::Column;
+  using exporter::ColumnType;
+  static const std::vector<Column> columns = {
+      {"record", ColumnType::kString, ""},          {"scale", ColumnType::kDouble, "1"},
+      {"pga_g", ColumnType::kDouble, "g"},          {"alpha", ColumnType::kDouble, "rad"},
+      {"p", ColumnType::kDouble, "rad/s"},          {"mu", ColumnType::kDouble, "1"},
+      {"model", ColumnType::kString, ""},           {"peak_theta_over_alpha", ColumnType::kDouble, "1"},
+      {"overturned", ColumnType::kInt, ""},         {"overturn_time", ColumnType::kDouble, "s"},
+      {"impacts", ColumnType::kInt, ""},            {"uplift_time", ColumnType::kDouble, "s"},
+      {"peak_time", ColumnType::kDouble, "s"},      {"block", ColumnType::kString, ""},
+      {"alpha_minus", ColumnType::kDouble, "rad"},  {"p_minus", ColumnType::kDouble, "rad/s"},
+      {"mu_minus", ColumnType::kDouble, "1"},
+  };
+  return columns;
+}
+
+H5Results::H5Results(const std::string& path) {
+  try {
+    writer_ = std::make_unique<exporter::H5Writer>(path);
+    table_ = writer_->AddTable("results", ResultColumns());
+    writer_->DescribeFile("columns_as_csv", Header());
+  } catch (const std::exception& e) {
+    throw OptionError("--out: " + std::string(e.what()));
+  }
+}
+
+H5Results::~H5Results() = default;
+
+void H5Results::Append(const exporter::Row& row) { writer_->Append(table_, row); }
+
+void H5Results::Close() {
+  if (writer_) writer_->Close();
+}
 
 std::string PartialPath(const std::string& out) { return out + ".partial"; }
 

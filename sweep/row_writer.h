@@ -9,7 +9,12 @@
 #include <memory>
 #include <string>
 
+#include "export/table.h"
 #include "sweep/sweep.h"
+
+namespace rocklab::exporter {
+class H5Writer;
+}
 
 namespace rocklab::sweep {
 
@@ -39,6 +44,32 @@ class RowWriter {
   virtual void Write(std::size_t index, const Outcome& outcome) = 0;
   /// Flushes and closes. @throws std::runtime_error naming the file.
   virtual void Close() = 0;
+};
+
+/// The columns of Header() as the HDF5 table holds them, in order: each
+/// with its type (the numbers kDouble, overturned and impacts kInt, record,
+/// model and block kString) and unit.
+const std::vector<exporter::Column>& ResultColumns();
+
+/// The HDF5 file of a sweep (what OpenRowWriter writes for an .h5): table
+/// "results" of ResultColumns() and the root attribute columns_as_csv,
+/// written beside `path` and renamed at Close() (export's H5Writer). The
+/// one HDF5 table writer of the sweep: RowWriter and --merge append here.
+class H5Results {
+ public:
+  /// @throws pipeline::OptionError "--out: ..." when the file cannot be made.
+  explicit H5Results(const std::string& path);
+  ~H5Results();
+  H5Results(const H5Results&) = delete;
+  H5Results& operator=(const H5Results&) = delete;
+  /// Appends a row: its cells by ResultColumns()' index and type (an empty
+  /// CSV field, a value that is not there, is NaN in a kDouble column).
+  void Append(const exporter::Row& row);
+  void Close();
+
+ private:
+  std::unique_ptr<exporter::H5Writer> writer_;
+  int table_{};
 };
 
 /// Where a CSV sweep writes its rows until Close() renames the file to

@@ -8,13 +8,10 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <map>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
-#include <unordered_map>
 #include <vector>
 
 #ifdef ROCKLAB_MPI
@@ -25,10 +22,7 @@
 #include <mpi.h>
 #endif
 
-#include "common/atomic_file.h"
-#include "common/text.h"
 #include "pipeline/option_error.h"
-#include "sweep/results_h5.h"
 
 namespace rocklab::sweep {
 namespace {
@@ -364,75 +358,6 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
   writer->Close();
   report.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
-}
-
-void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
-  // CSV only, in and out (rows are copied as written); say so rather than
-  // misread an HDF5 shard or write CSV under an .h5 name.
-  const auto is_h5_name = [](const std::string& path) {
-    const std::string ext = std::filesystem::path(path).extension().string();
-    return ext == ".h5" || ext == ".hdf5";
-  };
-  if (is_h5_name(out_path)) {
-    throw OptionError("--merge writes CSV: give --out FILE.csv ('" + out_path + "' names an HDF5 file)");
-  }
-  for (const std::string& part : parts) {
-    if (IsHdf5File(part)) {
-      throw OptionError("--merge: " + part + " is HDF5: merge takes the shards' CSVs (--out FILE.csv for each "
-                        "shard); sweep-plot and info read an .h5 sweep as it is");
-    }
-  }
-  const std::size_t n = plan.size();
-  std::unordered_map<std::string, std::size_t> index_of;
-  index_of.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) index_of.emplace(KeyPrefix(plan, i), i);
-  std::vector<std::string> rows(n);
-  std::vector<bool> have(n, false);
-  for (const std::string& part : parts) {
-    std::ifstream in(part, std::ios::binary);
-    if (!in) throw OptionError("--merge: cannot read '" + part + "'");
-    std::string line;
-    std::size_t line_no = 0;
-    while (std::getline(in, line)) {
-      ++line_no;
-      const std::string where = "--merge: " + part + ":" + std::to_string(line_no) + ": ";
-      if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
-      if (line_no == 1) {
-        if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
-        continue;
-      }
-      std::size_t cut = std::string::npos, from = 0;  // the 7th comma ends the case's key
-      for (int commas = 0; commas < 7; ++commas) {
-        cut = line.find(',', from);
-        if (cut == std::string::npos) break;
-        from = cut + 1;
-      }
-      const auto it = cut == std::string::npos ? index_of.end() : index_of.find(line.substr(0, cut + 1));
-      if (it == index_of.end()) {
-        throw OptionError(where + "row " + common::Quote(line) + " is not a case of this sweep (other options?)");
-      }
-      if (have[it->second]) throw OptionError(where + "case " + common::Quote(it->first) + " is there twice");
-      have[it->second] = true;
-      rows[it->second] = line;
-    }
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!have[i]) {
-      throw OptionError("--merge: no file holds case " + std::to_string(i) + " (" + common::Quote(KeyPrefix(plan, i)) +
-                        "): a shard is missing or unfinished");
-    }
-  }
-  std::unique_ptr<common::AtomicFile> out;
-  try {
-    out = std::make_unique<common::AtomicFile>(out_path);
-  } catch (const std::runtime_error& e) {
-    throw OptionError(std::string("--out: ") + e.what());
-  }
-  std::FILE* f = out->stream();
-  bool ok = std::fprintf(f, "%s\n", Header().c_str()) > 0;
-  for (const std::string& row : rows) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
-  if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
-  out->Commit();
 }
 
 }  // namespace rocklab::sweep

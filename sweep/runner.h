@@ -81,11 +81,19 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
                    const MpiSession& mpi);
 
 /// Interleaves shard files of `plan` (each written by `--shard I/N` with the
-/// same options and complete) into `out_path`: rows are copied as they are,
-/// in case order, so the result is the unsharded file byte for byte.
-/// @throws pipeline::OptionError naming the file and line of a row that does
-///   not belong to the plan or is there twice, a header that is not a
-///   sweep's, or the first case that no file holds.
+/// same options and complete; CSV or HDF5, told by content, mixed as they
+/// come) into `out_path`, in case order: CSV, or HDF5 for a name ending .h5
+/// or .hdf5 (OpenRowWriter's choice). Every cell is kept: CSV lines into a
+/// CSV are copied as written, HDF5 values into an HDF5 as their datasets
+/// hold them, HDF5 into CSV printed as the CSV writer prints them (exact),
+/// CSV into HDF5 the double nearest each field (an empty field NaN), so
+/// the result is the unsharded file (merge.cpp says which trips are exact).
+/// The output appears whole or not at all; on an error `out_path` keeps
+/// what it held.
+/// @throws pipeline::OptionError naming the file and line (HDF5: row, from
+///   1) of a row that does not belong to the plan or is there twice, a
+///   header (HDF5: /results columns) that is not a sweep's, a torn last
+///   line, or the first case that no file holds.
 void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path);
 
 }  // namespace rocklab::sweep

@@ -163,7 +163,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
   cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
-  cmd->add_option("--merge", opts->merge, "shard CSV files to interleave into --out, a CSV (same sweep options)")->expected(1, -1);
+  cmd->add_option("--merge", opts->merge, "shard files to interleave into --out (same sweep options): " + FormatsHelp(DataKind::kSweepResults) + ", mixed as they come; --out CSV or HDF5 by its extension")->expected(1, -1);
   cmd->callback([opts, &run] { run = [opts] { return RunSweepCommand(*opts); }; });
 
   auto plot = std::make_shared<PlotCommandOptions>();

@@ -47,6 +47,7 @@ inline constexpr DataReader kReaders[] = {
     {"sweep", "--records", DataKind::kGroundMotion},
     {"info", "input", DataKind::kGroundMotion},
     {"sweep-plot", "results", DataKind::kSweepResults},
+    {"sweep", "--merge", DataKind::kSweepResults},
     {"info", "input", DataKind::kSweepResults},
 };
 

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -13,6 +15,8 @@
 #include "common/units.h"
 #include "pipeline/option_error.h"
 #include "pipeline/scenario.h"
+#include "export/h5_writer.h"
+#include "sweep/results_h5.h"
 #include "sweep/row_writer.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
@@ -335,6 +339,207 @@ TEST(SweepPlan, BlocksFromGeometryAndBadInput) {
   PlanOptions twice = SmallPlan(dir);
   twice.records = {dir + "/pulse.csv", dir + "/./pulse.csv"};
   EXPECT_THROW(MakePlan(twice), pipeline::OptionError);
+}
+
+// --- sweep --merge across formats. Oracle: the unsharded sweep, written
+// once as .csv and once as .h5 (SweepRun.Hdf5HoldsTheCsvRows ties the two).
+
+// The message of the OptionError `f` throws ("" when it throws none).
+template <typename F>
+std::string MergeError(F f) {
+  try {
+    f();
+  } catch (const pipeline::OptionError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+struct MergeFixture {
+  std::string dir;
+  Plan plan;
+  std::vector<test::ReadColumn> whole_csv, whole_h5;
+  std::string whole_csv_bytes;
+};
+
+// The whole sweep as .csv and .h5, and shards 0/3..2/3 as partI.csv and partI.h5.
+MergeFixture MakeShards(const std::string& name) {
+  MergeFixture f;
+  f.dir = Dir(name);
+  f.plan = MakePlan(SmallPlan(f.dir));
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 2;
+  o.slice = {0, 1, f.plan.size()};
+  RunSweep(f.plan, f.dir + "/whole.csv", o, mpi);
+  RunSweep(f.plan, f.dir + "/whole.h5", o, mpi);
+  for (std::size_t i = 0; i < 3; ++i) {
+    o.slice = {i, 3, f.plan.size()};
+    for (const char* ext : {".csv", ".h5"}) RunSweep(f.plan, f.dir + "/part" + std::to_string(i) + ext, o, mpi);
+  }
+  f.whole_csv = test::ReadCsvTable(f.dir + "/whole.csv");
+  f.whole_h5 = test::ReadH5Table(f.dir + "/whole.h5", "results");
+  f.whole_csv_bytes = Slurp(f.dir + "/whole.csv");
+  return f;
+}
+
+// Compares a merged .h5 with the unsharded one, cell by cell: names, types,
+// units equal; a case that came from an HDF5 shard (from_h5(case)) holds
+// the unsharded .h5's values bit for bit (NaN where it has NaN); one from a
+// CSV shard the double strtod gives for the unsharded CSV's field (empty:
+// NaN), which prints (%.12g) as that field.
+template <typename FromH5>
+void ExpectH5MatchesWhole(const MergeFixture& f, const std::string& merged, FromH5 from_h5) {
+  const std::vector<test::ReadColumn> m = test::ReadH5Table(merged, "results");
+  ASSERT_EQ(m.size(), f.whole_h5.size());
+  ASSERT_EQ(m.size(), 17u);
+  std::size_t bitwise = 0, from_text = 0;
+  for (std::size_t c = 0; c < m.size(); ++c) {
+    const test::ReadColumn &got = m[c], &want = f.whole_h5[c], &text = f.whole_csv[c];
+    SCOPED_TRACE(want.name);
+    EXPECT_EQ(got.name, want.name);
+    EXPECT_EQ(got.kind, want.kind);
+    EXPECT_EQ(got.unit, want.unit);
+    EXPECT_EQ(got.description, want.description);
+    ASSERT_EQ(got.size(), f.plan.size());
+    for (std::size_t r = 0; r < f.plan.size(); ++r) {
+      if (want.kind == 'i') {
+        EXPECT_EQ(got.integer[r], want.integer[r]) << "row " << r;
+      } else if (want.kind == 's') {
+        EXPECT_EQ(got.text[r], want.text[r]) << "row " << r;
+      } else if (from_h5(r)) {
+        EXPECT_TRUE(std::isnan(want.real[r]) ? std::isnan(got.real[r])
+                                             : std::memcmp(&got.real[r], &want.real[r], sizeof(double)) == 0)
+            << "row " << r << ": " << got.real[r] << " != " << want.real[r];
+        ++bitwise;
+      } else {
+        const std::string& field = text.text[r];
+        if (field.empty()) {
+          EXPECT_TRUE(std::isnan(got.real[r])) << "row " << r;
+        } else {
+          EXPECT_EQ(got.real[r], std::strtod(field.c_str(), nullptr)) << "row " << r;
+          char buf[40];
+          std::snprintf(buf, sizeof buf, "%.12g", got.real[r]);
+          EXPECT_EQ(buf, field) << "row " << r;
+        }
+        ++from_text;
+      }
+    }
+  }
+  EXPECT_EQ(bitwise + from_text, 12 * f.plan.size());  // 12 double columns
+}
+
+TEST(SweepMerge, CsvShardsIntoHdf5AreTheWholeH5ToTheCsvsDigits) {
+  const MergeFixture f = MakeShards("merge_csv_h5");
+  MergeShards(f.plan, {f.dir + "/part1.csv", f.dir + "/part2.csv", f.dir + "/part0.csv"}, f.dir + "/merged.h5");
+  ExpectH5MatchesWhole(f, f.dir + "/merged.h5", [](std::size_t) { return false; });
+  // Back to CSV: the unsharded CSV byte for byte (CSV -> HDF5 -> CSV is exact).
+  MergeShards(f.plan, {f.dir + "/merged.h5"}, f.dir + "/again.csv");
+  EXPECT_EQ(Slurp(f.dir + "/again.csv"), f.whole_csv_bytes);
+  // What sweep-plot reads is the same from either.
+  const std::vector<ResultRow> a = ReadResultsH5(f.dir + "/merged.h5"), b = ReadResultsH5(f.dir + "/whole.h5");
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].record, b[i].record);
+    EXPECT_EQ(a[i].alpha_text, b[i].alpha_text);
+    EXPECT_EQ(a[i].overturned, b[i].overturned);
+  }
+}
+
+TEST(SweepMerge, Hdf5ShardsIntoCsvAreTheWholeCsvByteForByte) {
+  const MergeFixture f = MakeShards("merge_h5_csv");
+  MergeShards(f.plan, {f.dir + "/part2.h5", f.dir + "/part0.h5", f.dir + "/part1.h5"}, f.dir + "/merged.csv");
+  EXPECT_EQ(Slurp(f.dir + "/merged.csv"), f.whole_csv_bytes);
+  MergeShards(f.plan, {f.dir + "/part2.h5", f.dir + "/part0.h5", f.dir + "/part1.h5"}, f.dir + "/merged.h5");
+  ExpectH5MatchesWhole(f, f.dir + "/merged.h5", [](std::size_t) { return true; });
+}
+
+TEST(SweepMerge, MixedShardsIntoEitherAreTheWhole) {
+  const MergeFixture f = MakeShards("merge_mixed");
+  // Case i is in shard i mod 3: shards 0 and 2 from HDF5, shard 1 from CSV.
+  const std::vector<std::string> parts = {f.dir + "/part0.h5", f.dir + "/part1.csv", f.dir + "/part2.h5"};
+  MergeShards(f.plan, parts, f.dir + "/merged.csv");
+  EXPECT_EQ(Slurp(f.dir + "/merged.csv"), f.whole_csv_bytes);
+  MergeShards(f.plan, parts, f.dir + "/merged.hdf5");
+  ExpectH5MatchesWhole(f, f.dir + "/merged.hdf5", [](std::size_t i) { return i % 3 != 1; });
+  // CSV shards into CSV: the lines as written (the merge of before).
+  MergeShards(f.plan, {f.dir + "/part0.csv", f.dir + "/part1.csv", f.dir + "/part2.csv"}, f.dir + "/all.csv");
+  EXPECT_EQ(Slurp(f.dir + "/all.csv"), f.whole_csv_bytes);
+}
+
+// Oracle: the message names the file and the row of /results (from 1), and
+// an existing --out keeps its bytes, with no temporary left beside it.
+TEST(SweepMerge, Hdf5ShardErrorsNameTheFileAndRow) {
+  const MergeFixture f = MakeShards("merge_errors");
+  const std::string d = f.dir;
+  for (const char* ext : {".csv", ".h5"}) {
+    const std::string out = d + "/out" + ext;
+    { std::ofstream(out, std::ios::binary) << "previous"; }
+    SCOPED_TRACE(out);
+    // A case twice: the second holder is named, at its row 1.
+    std::string e = MergeError(
+        [&] { MergeShards(f.plan, {d + "/part0.csv", d + "/part0.h5", d + "/part1.h5", d + "/part2.h5"}, out); });
+    EXPECT_NE(e.find("part0.h5: /results row 1: case"), std::string::npos) << e;
+    EXPECT_NE(e.find("is there twice"), std::string::npos) << e;
+    // A case missing.
+    e = MergeError([&] { MergeShards(f.plan, {d + "/part0.h5", d + "/part1.h5"}, out); });
+    EXPECT_NE(e.find("no file holds case 2 "), std::string::npos) << e;
+    EXPECT_EQ(Slurp(out), "previous");
+  }
+  // A shard of another sweep (other scales): its row 1 is not a case here.
+  PlanOptions other = SmallPlan(d);
+  other.scale = "0.5:1.5:5";
+  const Plan other_plan = MakePlan(other);
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 1;
+  o.slice = {0, 3, other_plan.size()};
+  RunSweep(other_plan, d + "/other.h5", o, mpi);
+  std::string e = MergeError([&] { MergeShards(f.plan, {d + "/other.h5"}, d + "/x.csv"); });
+  EXPECT_NE(e.find("other.h5: /results row 1: row 'pulse.csv,0.5,"), std::string::npos) << e;
+  EXPECT_NE(e.find("is not a case of this sweep"), std::string::npos) << e;
+
+  // Wrong columns: one missing, and one of another type.
+  std::vector<exporter::Column> columns = ResultColumns();
+  const auto write_table = [&](const std::string& path, const std::vector<exporter::Column>& cols) {
+    exporter::H5Writer w(path);
+    const int t = w.AddTable("results", cols);
+    exporter::Row row;
+    row.Resize(cols.size());
+    w.Append(t, row);
+    w.Close();
+  };
+  std::vector<exporter::Column> missing(columns.begin(), columns.end() - 1);  // no mu_minus
+  write_table(d + "/missing.h5", missing);
+  e = MergeError([&] { MergeShards(f.plan, {d + "/missing.h5"}, d + "/x.h5"); });
+  EXPECT_NE(e.find("missing.h5: /results columns '"), std::string::npos) << e;
+  EXPECT_NE(e.find("are not a sweep's (record,scale,"), std::string::npos) << e;
+  std::vector<exporter::Column> retyped = columns;
+  retyped[10].type = exporter::ColumnType::kDouble;  // impacts
+  write_table(d + "/retyped.h5", retyped);
+  e = MergeError([&] { MergeShards(f.plan, {d + "/retyped.h5"}, d + "/x.h5"); });
+  EXPECT_NE(e.find("retyped.h5: /results/impacts holds floats, a sweep's integers"), std::string::npos) << e;
+  // No table at all.
+  {
+    exporter::H5Writer w(d + "/empty.h5");
+    w.AddTable("data", {{"t", exporter::ColumnType::kDouble, "s"}});
+    w.Close();
+  }
+  e = MergeError([&] { MergeShards(f.plan, {d + "/empty.h5"}, d + "/x.csv"); });
+  EXPECT_NE(e.find("empty.h5: no table /results"), std::string::npos) << e;
+  // A CSV row of the right case with a column too few.
+  const std::string csv = Slurp(d + "/part0.csv");
+  const std::size_t second_line = csv.find('\n') + 1, end = csv.find('\n', second_line);
+  const std::string row = csv.substr(second_line, end - second_line);
+  { std::ofstream(d + "/short.csv", std::ios::binary) << Header() << "\n" << row.substr(0, row.rfind(',')) << "\n"; }
+  e = MergeError([&] { MergeShards(f.plan, {d + "/short.csv"}, d + "/x.h5"); });
+  EXPECT_NE(e.find("short.csv:2: row '"), std::string::npos) << e;
+  EXPECT_NE(e.find("has 16 columns, the header 17"), std::string::npos) << e;
+  for (const auto& entry : std::filesystem::directory_iterator(d)) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+    EXPECT_NE(entry.path().filename().string(), "x.h5");
+    EXPECT_NE(entry.path().filename().string(), "x.csv");
+  }
 }
 
 }  // namespace

@@ -112,6 +112,11 @@ std::vector<std::string> CommandLine(const DataReader& reader, const std::string
   }
   if (command == "info" && option == "input") return {"info", file};
   if (command == "sweep-plot" && option == "results") return {"sweep-plot", file, "--out-dir", dir + "/figures"};
+  if (command == "sweep" && option == "--merge") {
+    // The sample is the whole sweep: one shard of itself (SweepResults' options).
+    return {"sweep", "--records", dir + "/record.csv", "--alpha", "0.2", "--p", "2", "3", "--model", "housner",
+            "--scale", "0.1:1:4", "--pga-g", "--duration", "3", "--merge", file, "--out", dir + "/merged.h5"};
+  }
   return {};
 }
 
@@ -141,8 +146,8 @@ TEST(Formats, EveryReaderReadsEveryFormatOfItsKind) {
       ++pairs;
     }
   }
-  // 5 ground-motion readers x 2 formats + 2 results readers x 2 formats.
-  EXPECT_GE(pairs, 14);
+  // 5 ground-motion readers x 2 formats + 3 results readers x 2 formats.
+  EXPECT_GE(pairs, 16);
 }
 
 TEST(Formats, EveryReadersHelpNamesEveryFormat) {
@@ -193,23 +198,32 @@ TEST(Formats, SweepPlotGivesTheSameFitsFromCsvAndHdf5) {
   EXPECT_EQ(ReadFile(dir + "/from_csv/fragility.csv"), ReadFile(dir + "/from_h5/fragility.csv"));
 }
 
-// sweep --merge copies CSV rows as written: an HDF5 shard or an .h5 --out
-// is refused in one line that says so (not misread as a bad header).
-TEST(Formats, MergeSaysItTakesCsv) {
+// sweep --merge takes a shard in either format and writes either: the
+// HDF5 results merged into a CSV are the CSV of the same sweep byte for
+// byte (HDF5 -> CSV is exact), and the CSV merged into an .h5 is read by
+// info and sweep-plot as `sweep --out x.h5`'s is (oracle: the same
+// fragility.csv as from the CSV).
+TEST(Formats, MergeTakesAndWritesEitherFormat) {
   const std::string dir = ScratchDir("formats_merge");
-  const std::string h5 = SweepResults(dir, ".h5");
+  const std::string csv = SweepResults(dir, ".csv"), h5 = SweepResults(dir, ".h5");
   const std::vector<std::string> sweep = {"sweep", "--records", dir + "/record.csv", "--alpha", "0.2", "--p", "2", "3",
                                           "--model", "housner", "--scale", "0.1:1:4", "--pga-g", "--duration", "3"};
   std::vector<std::string> args = sweep;
-  args.insert(args.end(), {"--merge", h5, "--out", dir + "/all.csv"});
+  args.insert(args.end(), {"--merge", h5, "--out", dir + "/from_h5.csv"});
   CliResult r = RunCli(args);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("is HDF5: merge takes the shards' CSVs"), std::string::npos) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadFile(dir + "/from_h5.csv"), ReadFile(csv));
   args = sweep;
-  args.insert(args.end(), {"--merge", dir + "/x.csv", "--out", dir + "/all.h5"});
+  args.insert(args.end(), {"--merge", csv, "--out", dir + "/from_csv.h5"});
   r = RunCli(args);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("--merge writes CSV"), std::string::npos) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli({"info", dir + "/from_csv.h5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("sweep results (HDF5)"), std::string::npos) << r.out;
+  ASSERT_EQ(RunCli({"sweep-plot", csv, "--out-dir", dir + "/plot_csv"}).exit_code, 0);
+  r = RunCli({"sweep-plot", dir + "/from_csv.h5", "--out-dir", dir + "/plot_h5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadFile(dir + "/plot_h5/fragility.csv"), ReadFile(dir + "/plot_csv/fragility.csv"));
 }
 
 }  // namespace

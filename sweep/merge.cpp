@@ -1,0 +1,341 @@
+// sweep --merge (MergeShards, runner.h): shards in either format, the
+// result in the format --out's extension names.
+//
+// Every shard's rows are read into the plan's case slots in the form the
+// output takes: the CSV line (a CSV shard's as written; an HDF5 shard's
+// formatted as FormatRow formats it) for a CSV --out, the typed cells (an
+// HDF5 shard's as its datasets hold them; a CSV shard's parsed) for an
+// HDF5 --out, which goes through H5Results, the table `sweep --out x.h5`
+// writes. Round trips (docs/sweep.md, "Shards"):
+// - HDF5 -> CSV is exact: a double is printed with the CSV writer's own
+//   %.12g, NaN (no value) as an empty field, integers in decimal, so an
+//   HDF5 shard gives the bytes its CSV twin holds.
+// - CSV -> HDF5 holds the double nearest each 12-digit field (strtod), an
+//   empty field as NaN; printed again with %.12g it is the same text (12 <
+//   DBL_DIG = 15 digits survive the trip), so CSV -> HDF5 -> CSV is exact,
+//   while HDF5 -> CSV -> HDF5 keeps 12 significant digits of each double.
+// - Same format in and out: CSV lines copied as written, HDF5 values copied.
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "common/atomic_file.h"
+#include "common/text.h"
+#include "pipeline/option_error.h"
+#include "sweep/results_h5.h"
+#include "sweep/row_writer.h"
+#include "sweep/runner.h"
+
+namespace rocklab::sweep {
+namespace {
+
+using exporter::ColumnType;
+using pipeline::OptionError;
+
+// ResultColumns(): 17 columns, 12 of them doubles, 2 integers, 3 text (checked in MakeLayout).
+constexpr std::size_t kColumns = 17, kReals = 12, kIntegers = 2, kTexts = 3;
+constexpr std::size_t kKeyColumns = 7;  // record..model: KeyPrefix
+
+// One row's cells as the HDF5 table holds them (about 200 bytes a case);
+// a cell of column c is in the array of its type, at slot[c].
+struct Cells {
+  std::array<double, kReals> real{};
+  std::array<std::int64_t, kIntegers> integer{};
+  std::array<std::string, kTexts> text;
+};
+
+struct Layout {
+  std::vector<std::string> names;  // Header()'s
+  std::array<ColumnType, kColumns> type{};
+  std::array<std::size_t, kColumns> slot{};  // index into Cells' array of type[c]
+};
+
+std::string Join(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const std::string& p : parts) out += (out.empty() ? "" : ",") + p;
+  return out;
+}
+
+Layout MakeLayout() {
+  const std::vector<exporter::Column>& columns = ResultColumns();
+  if (columns.size() != kColumns) throw std::logic_error("sweep::ResultColumns() is not 17 columns");
+  Layout l;
+  std::array<std::size_t, 3> count{};  // by ColumnType
+  for (std::size_t c = 0; c < kColumns; ++c) {
+    l.names.push_back(columns[c].name);
+    l.type[c] = columns[c].type;
+    l.slot[c] = count[static_cast<std::size_t>(columns[c].type)]++;
+  }
+  if (count[static_cast<std::size_t>(ColumnType::kDouble)] != kReals ||
+      count[static_cast<std::size_t>(ColumnType::kInt)] != kIntegers ||
+      count[static_cast<std::size_t>(ColumnType::kString)] != kTexts || Join(l.names) != Header()) {
+    throw std::logic_error("sweep::ResultColumns() does not match sweep::Header()");
+  }
+  return l;
+}
+
+// Appends cell c as the CSV writer prints it (FormatRow): %.12g, NaN empty.
+void AppendCell(const Layout& l, const Cells& cells, std::size_t c, std::string& out) {
+  switch (l.type[c]) {
+    case ColumnType::kDouble: {
+      const double v = cells.real[l.slot[c]];
+      if (std::isnan(v)) return;
+      char buf[40];
+      std::snprintf(buf, sizeof buf, "%.12g", v);
+      out += buf;
+      return;
+    }
+    case ColumnType::kInt:
+      out += std::to_string(cells.integer[l.slot[c]]);
+      return;
+    case ColumnType::kString:
+      out += cells.text[l.slot[c]];
+      return;
+  }
+}
+
+// The first `count` cells as a CSV row (count = kKeyColumns: the case's key, with its comma).
+std::string FormatCells(const Layout& l, const Cells& cells, std::size_t count) {
+  std::string out;
+  out.reserve(200);
+  for (std::size_t c = 0; c < count; ++c) {
+    AppendCell(l, cells, c, out);
+    if (c + 1 < kColumns) out += ',';
+  }
+  return out;
+}
+
+// Parses a CSV row's fields into `cells`; returns "" or what is wrong.
+std::string ParseFields(const Layout& l, const std::string& line, Cells& cells) {
+  std::size_t from = 0;
+  for (std::size_t c = 0; c < kColumns; ++c) {
+    std::size_t end = line.find(',', from);
+    if (end == std::string::npos) end = line.size();
+    if (c + 1 < kColumns && end == line.size()) {
+      return "has " + std::to_string(c + 1) + " columns, the header " + std::to_string(kColumns);
+    }
+    const std::string field = line.substr(from, end - from);
+    from = end + 1;
+    if (l.type[c] == ColumnType::kString) {
+      cells.text[l.slot[c]] = field;
+      continue;
+    }
+    errno = 0;
+    char* stop = nullptr;
+    if (l.type[c] == ColumnType::kDouble) {
+      // An empty field is a value that is not there: NaN, as the HDF5 writer stores it.
+      cells.real[l.slot[c]] = field.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                            : std::strtod(field.c_str(), &stop);
+    } else {
+      cells.integer[l.slot[c]] = std::strtoll(field.c_str(), &stop, 10);
+    }
+    if (field.empty() ? l.type[c] == ColumnType::kInt : (stop != field.c_str() + field.size() || errno == ERANGE)) {
+      return "column " + l.names[c] + ": " + common::Quote(field) + " is not " +
+             (l.type[c] == ColumnType::kInt ? "an integer" : "a number");
+    }
+  }
+  if (from <= line.size()) return "has more columns than the header's " + std::to_string(kColumns);
+  return "";
+}
+
+// Where rows go until they are written, in the form --out takes.
+struct Slots {
+  Slots(std::size_t n, bool h5_out) : h5(h5_out), have(n, false) {
+    if (h5_out) {
+      cells.resize(n);
+    } else {
+      lines.resize(n);
+    }
+  }
+  bool h5;
+  std::vector<bool> have;
+  std::vector<std::string> lines;  // CSV --out
+  std::vector<Cells> cells;        // HDF5 --out
+};
+
+// Puts a row of case `key` into its slot. `where` names the file and row.
+void Place(const std::unordered_map<std::string, std::size_t>& index_of, const std::string& key,
+           const std::string& where, const std::string& row_text, Slots& slots, std::string line, Cells& cells) {
+  const auto it = index_of.find(key);
+  if (it == index_of.end()) {
+    throw OptionError(where + "row " + common::Quote(row_text) + " is not a case of this sweep (other options?)");
+  }
+  if (slots.have[it->second]) throw OptionError(where + "case " + common::Quote(it->first) + " is there twice");
+  slots.have[it->second] = true;
+  if (slots.h5) {
+    std::swap(slots.cells[it->second], cells);
+  } else {
+    slots.lines[it->second] = std::move(line);
+  }
+}
+
+void ReadCsvShard(const Layout& l, const std::unordered_map<std::string, std::size_t>& index_of,
+                  const std::string& part, Slots& slots) {
+  std::ifstream in(part, std::ios::binary);
+  if (!in) throw OptionError("--merge: cannot read '" + part + "'");
+  std::string line;
+  std::size_t line_no = 0;
+  Cells cells;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const std::string where = "--merge: " + part + ":" + std::to_string(line_no) + ": ";
+    if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
+    if (line_no == 1) {
+      if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
+      continue;
+    }
+    std::size_t cut = std::string::npos, from = 0;  // the 7th comma ends the case's key
+    for (std::size_t commas = 0; commas < kKeyColumns; ++commas) {
+      cut = line.find(',', from);
+      if (cut == std::string::npos) break;
+      from = cut + 1;
+    }
+    const std::string key = cut == std::string::npos ? std::string() : line.substr(0, cut + 1);
+    if (!key.empty() && index_of.count(key) != 0) {
+      const std::string wrong = ParseFields(l, line, cells);
+      if (!wrong.empty()) throw OptionError(where + "row " + common::Quote(line) + " " + wrong);
+    }
+    const std::string text = line;
+    Place(index_of, key, where, text, slots, std::move(line), cells);
+  }
+}
+
+const char* KindName(char kind) {
+  return kind == 'd' ? "floats" : kind == 'i' ? "integers" : kind == 's' ? "strings" : "of another type";
+}
+
+void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::size_t>& index_of,
+                 const std::string& part, Slots& slots) {
+  std::vector<H5ResultsColumn> read;
+  try {
+    read = ReadResultsColumnsH5(part);
+  } catch (const std::runtime_error& e) {
+    throw OptionError("--merge: " + std::string(e.what()));
+  }
+  // The datasets must be Header()'s columns, each of the type the HDF5 writer gives it.
+  std::vector<std::string> names;
+  for (const H5ResultsColumn& c : read) names.push_back(c.name);
+  std::array<const H5ResultsColumn*, kColumns> column{};
+  for (std::size_t c = 0; c < kColumns; ++c) {
+    for (const H5ResultsColumn& r : read) {
+      if (r.name == l.names[c]) column[c] = &r;
+    }
+  }
+  const bool all = std::all_of(column.begin(), column.end(), [](const H5ResultsColumn* c) { return c != nullptr; });
+  if (!all || read.size() != kColumns) {
+    throw OptionError("--merge: " + part + ": /results columns " + common::Quote(Join(names), 400) +
+                      " are not a sweep's (" + Header() + ")");
+  }
+  const std::size_t n = column[0]->size();
+  for (std::size_t c = 0; c < kColumns; ++c) {
+    const char want = l.type[c] == ColumnType::kDouble ? 'd' : l.type[c] == ColumnType::kInt ? 'i' : 's';
+    if (column[c]->kind != want) {
+      throw OptionError("--merge: " + part + ": /results/" + l.names[c] + " holds " + KindName(column[c]->kind) +
+                        ", a sweep's " + KindName(want));
+    }
+    if (column[c]->size() != n) {
+      throw OptionError("--merge: " + part + ": /results/" + l.names[c] + " has " +
+                        std::to_string(column[c]->size()) + " rows, /results/" + l.names[0] + " " +
+                        std::to_string(n));
+    }
+  }
+  Cells cells;
+  for (std::size_t r = 0; r < n; ++r) {
+    const std::string where = "--merge: " + part + ": /results row " + std::to_string(r + 1) + ": ";
+    for (std::size_t c = 0; c < kColumns; ++c) {
+      switch (l.type[c]) {
+        case ColumnType::kDouble: cells.real[l.slot[c]] = column[c]->real[r]; break;
+        case ColumnType::kInt: cells.integer[l.slot[c]] = column[c]->integer[r]; break;
+        case ColumnType::kString: cells.text[l.slot[c]] = column[c]->text[r]; break;
+      }
+    }
+    std::string line = FormatCells(l, cells, kColumns);
+    if (!slots.h5) {
+      // A CSV field cannot hold , " or a control character (the CSV writer never writes one).
+      for (std::size_t k = 0; k < kTexts; ++k) {
+        const std::string& t = cells.text[k];
+        if (t.find_first_of(",\"") != std::string::npos ||
+            std::any_of(t.begin(), t.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20; })) {
+          throw OptionError(where + "text " + common::Quote(t) + " cannot be a CSV field (, \" or a control character)");
+        }
+      }
+    }
+    const std::string key = FormatCells(l, cells, kKeyColumns);
+    const std::string text = line;
+    Place(index_of, key, where, text, slots, std::move(line), cells);
+  }
+}
+
+void WriteCsv(const Slots& slots, const std::string& out_path) {
+  std::unique_ptr<common::AtomicFile> out;
+  try {
+    out = std::make_unique<common::AtomicFile>(out_path);
+  } catch (const std::runtime_error& e) {
+    throw OptionError(std::string("--out: ") + e.what());
+  }
+  std::FILE* f = out->stream();
+  bool ok = std::fprintf(f, "%s\n", Header().c_str()) > 0;
+  for (const std::string& row : slots.lines) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
+  if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
+  out->Commit();
+}
+
+void WriteH5(const Layout& l, const Slots& slots, const std::string& out_path) {
+  H5Results out(out_path);  // destroyed without Close() (an error), out_path keeps what it held
+  exporter::Row row;
+  row.Resize(kColumns);
+  for (const Cells& cells : slots.cells) {
+    for (std::size_t c = 0; c < kColumns; ++c) {
+      switch (l.type[c]) {
+        case ColumnType::kDouble: row.real[c] = cells.real[l.slot[c]]; break;
+        case ColumnType::kInt: row.integer[c] = cells.integer[l.slot[c]]; break;
+        case ColumnType::kString: row.text[c] = cells.text[l.slot[c]]; break;
+      }
+    }
+    out.Append(row);
+  }
+  out.Close();
+}
+
+}  // namespace
+
+void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+  const Layout layout = MakeLayout();
+  const bool h5_out = common::HasExtension(out_path, ".h5") || common::HasExtension(out_path, ".hdf5");
+  const std::size_t n = plan.size();
+  std::unordered_map<std::string, std::size_t> index_of;
+  index_of.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) index_of.emplace(KeyPrefix(plan, i), i);
+  Slots slots(n, h5_out);
+  for (const std::string& part : parts) {
+    if (IsHdf5File(part)) {
+      ReadH5Shard(layout, index_of, part, slots);
+    } else {
+      ReadCsvShard(layout, index_of, part, slots);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!slots.have[i]) {
+      throw OptionError("--merge: no file holds case " + std::to_string(i) + " (" + common::Quote(KeyPrefix(plan, i)) +
+                        "): a shard is missing or unfinished");
+    }
+  }
+  if (h5_out) {
+    WriteH5(layout, slots, out_path);
+  } else {
+    WriteCsv(slots, out_path);
+  }
+}
+
+}  // namespace rocklab::sweep
