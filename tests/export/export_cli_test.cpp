@@ -213,6 +213,11 @@ TEST_F(InfoExport, ExportCalibratedNamesTheRawChannelsInTheirUnits) {
   EXPECT_EQ(raw[6].unit, "m");
   EXPECT_EQ(raw[6].real, raw[4].real);
   EXPECT_EQ(test::RunCli({"export", log_, "--out", out, "--raw", "--calibrated"}).exit_code, 2);
+  // A raw file holds no RL_DAQ_CONFIG: --calibrated there is refused, not ignored.
+  const auto on_raw = test::RunCli({"export", ROCKLAB_SOURCE_DIR "/data/samples/slip.lvm", "--out", dir_ + "/raw.h5",
+                                    "--calibrated"});
+  EXPECT_EQ(on_raw.exit_code, 2) << on_raw.err;
+  EXPECT_NE(on_raw.err.find("--calibrated: logs only"), std::string::npos) << on_raw.err;
   const auto help = test::RunCli({"export", "--help"});
   EXPECT_NE(help.out.find("--calibrated"), std::string::npos) << help.out;
   EXPECT_NE(help.out.find("--raw"), std::string::npos) << help.out;

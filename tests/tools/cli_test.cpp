@@ -246,6 +246,11 @@ TEST(CliHelp, DidYouMean) {
     EXPECT_EQ(CountLines(r.err), 1) << r.err;
     EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
   }
+  // help takes one command: more is said as such, not as an unknown command.
+  const CliResult extra = RunCli({"help", "simulate", "x"});
+  EXPECT_EQ(extra.exit_code, 2);
+  EXPECT_NE(extra.err.find("takes one command"), std::string::npos) << extra.err;
+  EXPECT_EQ(extra.err.find("unknown command"), std::string::npos) << extra.err;
   // A misspelt required option is reported as unknown, not as missing.
   std::vector<std::string> args = Sim({});
   for (auto& a : args) a = a == "--duration" ? "--duraton" : a;

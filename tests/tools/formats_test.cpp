@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "sweep/plot.h"
 #include "tests/tools/run_cli.h"
 #include "tools/formats.h"
 
@@ -180,6 +181,20 @@ TEST(Formats, InfoNamesTheKindAndFormat) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.out.find(c.says), std::string::npos) << r.out;
   }
+  // Results with their columns in another order (sweep-plot reads them) and
+  // a block label on one row only: info and sweep-plot know them; the
+  // label stays on its row (oracle: one fragility row per block, 2 here).
+  WriteFile(dir + "/reordered.csv",
+            "model,record,scale,pga_g,alpha,p,mu,peak_theta_over_alpha,overturned,block\n"
+            "housner,r1,1,0.5,0.2,2,0.9,0.1,0,0.4x2\n"
+            "housner,r1,2,1.0,0.2,2,0.9,1,1,\n");
+  const CliResult reordered = RunCli({"info", dir + "/reordered.csv"});
+  ASSERT_EQ(reordered.exit_code, 0) << reordered.err;
+  EXPECT_NE(reordered.out.find("sweep results (CSV)"), std::string::npos) << reordered.out;
+  const std::vector<sweep::ResultRow> rows = sweep::ReadResults(dir + "/reordered.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].block, "0.4x2");
+  EXPECT_EQ(rows[1].block, "-");  // not the row above's
   // Oracle: the AT2 holds kSamples values in g at 0.01 s; its PGA is the
   // largest |value| * 9.81, printed to 6 significant digits.
   const CliResult r = RunCli({"info", "--json", dir + "/record.AT2"});
