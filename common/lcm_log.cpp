@@ -1,4 +1,5 @@
 #include "common/lcm_log.h"
+#include "common/seq_gaps.h"
 
 #include <algorithm>
 #include <fcntl.h>
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <regex>
 #include <stdexcept>
 #include <unordered_map>
@@ -191,7 +193,10 @@ struct LogReader::Impl {
     const std::int64_t most = p.bytes / static_cast<std::int64_t>(kHeaderBytes) + 1;
     std::int64_t lost = 1;
     if (next_number >= 0) {
-      const std::int64_t gap = have_last_good ? next_number - last_good_number - 1 : next_number;
+      // Numbers come from the file: the difference is taken without overflow.
+      const std::int64_t gap = !have_last_good                  ? next_number
+                               : next_number > last_good_number ? SeqGaps::Skipped(last_good_number, next_number)
+                                                                : 0;
       if (gap >= 1 && gap <= most) lost = gap;
     }
     p.events = lost;
@@ -302,10 +307,15 @@ LogReader::LogReader(const std::string& path, LogReaderOptions options)
                              std::to_string(m.file_size) + " bytes)");
   }
   m.t0 = first.timestamp_us;
-  if (m.o.start_s > 0) m.window_start = m.t0 + std::llround(m.o.start_s * 1e6);
+  // Stamps come from the file: a window past INT64_MAX ends there.
+  const auto plus = [](std::int64_t t_us, double d_s) {
+    std::int64_t sum = 0;
+    return __builtin_add_overflow(t_us, std::llround(d_s * 1e6), &sum) ? std::numeric_limits<std::int64_t>::max() : sum;
+  };
+  if (m.o.start_s > 0) m.window_start = plus(m.t0, m.o.start_s);
   if (m.o.end_s >= 0) {
-    m.window_end = m.t0 + std::llround(m.o.end_s * 1e6);
-    m.stop_after = m.window_end + std::llround(m.o.end_slack_s * 1e6);
+    m.window_end = plus(m.t0, m.o.end_s);
+    m.stop_after = plus(m.window_end, m.o.end_slack_s);
   }
   m.counts.events = 0;  // read again by Next
   m.Seek(0);
