@@ -434,7 +434,16 @@ TEST_F(MultiProcess, KilledModelGoesStaleAndARestartedOneRecovers) {
   // cos(psi): theta comes back through that conversion, within 1e-12 rad
   // of the start value. Any other start sample would be off by |theta_dot|
   // x 1 ms, over 1e-5 rad while the block rocks.
-  EXPECT_NEAR(first.theta, !std::isfinite(theta) || std::abs(theta) < 2e-3 ? 0.0 : theta, 1e-12);
+  // A restart at rest (|theta| < 2e-3 rad) starts from theta 0, and the
+  // block may lift within its first 1 ms step when the table is past
+  // uplift: |theta| <= p^2 |a_g|/g dt^2 / 2 = 7.5e-6 |a_g|/g rad (p 3.884
+  // rad/s), under 1e-5 rad for |a_g| < 1.3 g (seen: 2.35e-6 rad, 1 run
+  // in 20 beside a CPU hog, when the restart fell on an uplift).
+  if (!std::isfinite(theta) || std::abs(theta) < 2e-3) {
+    EXPECT_LE(std::abs(first.theta), 1e-5);
+  } else {
+    EXPECT_NEAR(first.theta, theta, 1e-12);
+  }
   EXPECT_GT(last_compare_utime, first.utime);
 }
 
