@@ -1,24 +1,12 @@
 #include "common/model_state.h"
 
+#include "common/versions.h"
 #include "common/wire.h"
 
 namespace rocklab::common {
 
 void ToModelState2(const rocklab::model_state_t& in, rocklab::model_state2_t& out) {
-  out.utime = in.utime;
-  out.name = in.name;
-  out.model = in.model;
-  out.theta = in.theta;
-  out.theta_dot = in.theta_dot;
-  out.chi = in.chi;
-  out.psi = in.psi;
-  out.energy = in.energy;
-  out.impact_count = in.impact_count;
-  out.regime = in.regime;
-  out.alpha = in.alpha;
-  out.p = in.p;
-  out.mu = in.mu;
-  out.l = in.l;
+  CopyModelStateFields(in, out);
   out.equations = rocklab::model_state2_t::EQUATIONS_UNKNOWN;
 }
 
@@ -33,20 +21,7 @@ const char* DecodeModelState(const void* data, int size, rocklab::model_state2_t
     // What the model node publishes now: read without its seq.
     thread_local rocklab::model_state3_t s3;
     if (const char* why = GuardedDecode(data, size, s3)) return why;
-    out.utime = s3.utime;
-    out.name = s3.name;
-    out.model = s3.model;
-    out.theta = s3.theta;
-    out.theta_dot = s3.theta_dot;
-    out.chi = s3.chi;
-    out.psi = s3.psi;
-    out.energy = s3.energy;
-    out.impact_count = s3.impact_count;
-    out.regime = s3.regime;
-    out.alpha = s3.alpha;
-    out.p = s3.p;
-    out.mu = s3.mu;
-    out.l = s3.l;
+    CopyModelStateFields(s3, out);
     out.equations = s3.equations;
     return nullptr;
   }

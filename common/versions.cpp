@@ -68,21 +68,8 @@ void Upgrade(const rocklab::health_t& in, rocklab::health2_t& out) {
 namespace {
 template <class M>
 void UpgradeModel(const M& in, rocklab::model_state3_t& out) {
-  out.utime = in.utime;
+  CopyModelStateFields(in, out);
   out.seq = kNoSeq;
-  out.name = in.name;
-  out.model = in.model;
-  out.theta = in.theta;
-  out.theta_dot = in.theta_dot;
-  out.chi = in.chi;
-  out.psi = in.psi;
-  out.energy = in.energy;
-  out.impact_count = in.impact_count;
-  out.regime = in.regime;
-  out.alpha = in.alpha;
-  out.p = in.p;
-  out.mu = in.mu;
-  out.l = in.l;
 }
 
 std::int64_t Be64(const std::uint8_t* p) {

@@ -84,6 +84,26 @@ class VersionedDecoder {
   std::tuple<Old...> scratch_;
 };
 
+/// The fields every model_state type has (all but seq and equations),
+/// copied between any two of them.
+template <class In, class Out>
+void CopyModelStateFields(const In& in, Out& out) {
+  out.utime = in.utime;
+  out.name = in.name;
+  out.model = in.model;
+  out.theta = in.theta;
+  out.theta_dot = in.theta_dot;
+  out.chi = in.chi;
+  out.psi = in.psi;
+  out.energy = in.energy;
+  out.impact_count = in.impact_count;
+  out.regime = in.regime;
+  out.alpha = in.alpha;
+  out.p = in.p;
+  out.mu = in.mu;
+  out.l = in.l;
+}
+
 using ComparisonDecoder = VersionedDecoder<rocklab::comparison2_t, rocklab::comparison_t>;
 using DaqConfigDecoder = VersionedDecoder<rocklab::daq_config2_t, rocklab::daq_config_t>;
 using EventDecoder = VersionedDecoder<rocklab::event2_t, rocklab::event_t>;
