@@ -1,4 +1,5 @@
 #include "common/lcm_log.h"
+#include "common/channel_pattern.h"
 #include "common/seq_gaps.h"
 
 #include <algorithm>
@@ -43,11 +44,7 @@ std::string ToString(const LogProblem& p) {
 }
 
 void LogReaderOptions::Validate() const {
-  try {
-    std::regex re(channels);
-  } catch (const std::regex_error& e) {
-    throw std::invalid_argument("channels: bad regular expression '" + channels + "': " + e.what());
-  }
+  ChannelPattern(channels, "channels");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("start must be >= 0 s");
   if (std::isnan(end_s) || (end_s >= 0 && end_s <= start_s)) {
     throw std::invalid_argument("end must be after start");
@@ -290,7 +287,7 @@ LogReader::LogReader(const std::string& path, LogReaderOptions options)
   Impl& m = *impl_;
   m.path = path;
   m.o = std::move(options);
-  m.filter = std::regex(m.o.channels);
+  m.filter = ChannelPattern(m.o.channels, "channels");
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
     throw std::runtime_error("cannot read LCM log '" + path + "': it is a folder");

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "common/channel_pattern.h"
 #include "common/lcm_log.h"
 #include "common/text.h"
 #include "common/bus.h"
@@ -130,11 +131,7 @@ struct ChannelState {
 }  // namespace
 
 void ExportOptions::Validate() const {
-  try {
-    std::regex r(channels);
-  } catch (const std::regex_error& e) {
-    throw std::invalid_argument("--channels: not a regular expression: " + channels);
-  }
+  common::ChannelPattern(channels, "--channels");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("--start must be >= 0 s");
   if (!std::isfinite(end_s)) throw std::invalid_argument("--end must be finite");
   if (end_s >= 0 && end_s < start_s) throw std::invalid_argument("--end must not be before --start");
@@ -167,7 +164,7 @@ ExportSummary ExportLog(const std::string& path, const ExportOptions& options, T
     throw InputError(e.what());
   }
   common::LogReader& log = *opened;
-  const std::regex select(options.channels);
+  const std::regex select = common::ChannelPattern(options.channels, "--channels");
   std::unordered_map<std::string, ChannelState> channels;
   std::vector<Column> columns;
   bool have_origin = false;

@@ -4,6 +4,7 @@
 #include <regex>
 #include <stdexcept>
 
+#include "common/channel_pattern.h"
 #include "common/lcm_log.h"
 #include "daq/pacer.h"
 
@@ -13,11 +14,7 @@ void ReplayOptions::Validate() const {
   if (!(speed > 0) || !std::isfinite(speed)) throw std::invalid_argument("--speed must be > 0");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("--start must be >= 0 s");
   if (end_s >= 0 && end_s <= start_s) throw std::invalid_argument("--end must be after --start");
-  try {
-    std::regex re(channels);
-  } catch (const std::regex_error& e) {
-    throw std::invalid_argument("--channels: bad regular expression '" + channels + "': " + e.what());
-  }
+  common::ChannelPattern(channels, "--channels");
 }
 
 ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, common::Bus& bus,

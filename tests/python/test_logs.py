@@ -138,6 +138,15 @@ def test_read_raw_equals_export(cli, source_dir, tmp_path):
     assert units["time"] == "s" and units["table_acc"] != ""
 
 
+def test_a_deeply_nested_channel_pattern_is_an_error_not_a_crash(cli, log_path, tmp_path):
+    # Issue 34: 20 000 nested groups crashed the interpreter inside std::regex.
+    deep = "(" * 20000 + "RL_THETA" + ")" * 20000
+    with pytest.raises(ValueError) as e:
+        rocklab.read_log(log_path, channels=deep)
+    assert "longer than 1024 bytes" in str(e.value)
+    assert str(e.value) == cli.error("export", log_path, "--out", tmp_path / "x.csv", "--channels", deep)
+
+
 def test_errors_are_the_clis(cli, log_path, tmp_path, source_dir):
     with pytest.raises(ValueError) as e:
         rocklab.read_log(log_path, "(")
