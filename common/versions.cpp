@@ -138,13 +138,11 @@ void ChannelSeqGaps::Add(std::string_view sender, std::int64_t seq) {
     senders.emplace_back(std::string(sender), SeqGaps{});
     s = &senders.back().second;
   }
-  const SeqGaps before = *s;
+  const SeqGaps::Counts before = s->counts();
   s->Add(seq);
   any = true;
   // Each sender's counts saturate (SeqGaps); so do their sums.
-  gaps = SeqGaps::SaturatingAdd(gaps, s->gaps - before.gaps);
-  missing = SeqGaps::SaturatingAdd(missing, s->missing - before.missing);
-  back = SeqGaps::SaturatingAdd(back, s->back - before.back);
+  SeqGaps::AddChange(*this, before, s->counts());
 }
 
 }  // namespace rocklab::common

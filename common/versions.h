@@ -139,12 +139,11 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
 /// per node) and summed. At most kMaxSenders senders are told apart; the
 /// messages of any beyond are counted in `unkeyed` (not checked). Allocates
 /// only for a sender's first message.
-struct ChannelSeqGaps {
+/// The counts (gaps, missing, back, late, ...) are the sums over the senders.
+struct ChannelSeqGaps : SeqGaps::Counts {
   static constexpr std::size_t kMaxSenders = 64;
   /// Senders are told apart by their first kMaxSenderBytes bytes.
   static constexpr std::size_t kMaxSenderBytes = 256;
-  // Sums over the senders (SeqGaps's meaning).
-  std::int64_t gaps{}, missing{}, back{};
   bool any{};
   std::int64_t unkeyed{};
   std::vector<std::pair<std::string, SeqGaps>> senders;

@@ -158,9 +158,9 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   // gap is then a step of the sample clock over 1.5 sample periods (one
   // message per table sample).
   if (msg.seq != common::kNoSeq) {
-    const std::int64_t before = v.model_seq.missing;
+    const std::int64_t before = v.model_seq.missing();
     v.model_seq.Add(msg.seq);
-    model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, v.model_seq.missing - before);
+    model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, v.model_seq.missing() - before);
   } else if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime) {
     // In double: utimes come off the wire, their difference may not fit.
     const double periods = (static_cast<double>(msg.utime) - static_cast<double>(v.last_utime)) /
@@ -253,7 +253,7 @@ void CompareNode::PublishHealth(const char* state) {
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
-  h.gaps = common::SeqGaps::SaturatingAdd(theta_seq_.missing, model_gaps_);
+  h.gaps = common::SeqGaps::SaturatingAdd(theta_seq_.missing(), model_gaps_);
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }

@@ -97,7 +97,7 @@ class CompareNode {
   void CheckStale();
   /// Messages missing by their sequence numbers: RL_THETA (seq), RL_MODEL_*
   /// (seq; the sample clock for older types, which have none).
-  std::int64_t theta_gaps() const { return theta_seq_.missing; }
+  std::int64_t theta_gaps() const { return theta_seq_.missing(); }
   std::int64_t model_gaps() const { return model_gaps_; }
   /// Publishes the final RL_COMPARE of every variant and RL_HEALTH "stopped".
   void Finish();

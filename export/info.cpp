@@ -107,6 +107,10 @@ LogInfo ReadLogInfo(const std::string& path) {
       c.seq_gaps = ch.seq.gaps;
       c.seq_missing = ch.seq.missing;
       c.seq_back = ch.seq.back;
+      c.seq_late = ch.seq.late;
+      c.seq_duplicates = ch.seq.duplicates;
+      c.seq_restarts = ch.seq.restarts;
+      c.seq_wild = ch.seq.wild;
     }
     if ((fingerprint == config_hash || fingerprint == config_v1_hash) &&
         !decode_config(ev.data.data(), size, config)) {
@@ -184,8 +188,8 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
     info.first_time = std::min(info.first_time, frame.time_s);
     info.last_time = std::max(info.last_time, frame.time_s);
   }
-  info.seq_gaps = seq.gaps;
-  info.seq_missing = seq.missing;
+  info.seq_gaps = seq.gaps();
+  info.seq_missing = seq.missing();
   if (status == daq::ReadStatus::kError) info.read_error = source->error();
   const daq::SourceStats& s = source->stats();
   info.bad_rows = s.bad_rows;
@@ -319,6 +323,10 @@ nlohmann::json ToJson(const LogInfo& info) {
     o["seq_gaps"] = c.has_seq ? nlohmann::json(c.seq_gaps) : nlohmann::json(nullptr);
     o["seq_missing"] = c.has_seq ? nlohmann::json(c.seq_missing) : nlohmann::json(nullptr);
     o["seq_back"] = c.has_seq ? nlohmann::json(c.seq_back) : nlohmann::json(nullptr);
+    o["seq_late"] = c.has_seq ? nlohmann::json(c.seq_late) : nlohmann::json(nullptr);
+    o["seq_duplicates"] = c.has_seq ? nlohmann::json(c.seq_duplicates) : nlohmann::json(nullptr);
+    o["seq_restarts"] = c.has_seq ? nlohmann::json(c.seq_restarts) : nlohmann::json(nullptr);
+    o["seq_wild"] = c.has_seq ? nlohmann::json(c.seq_wild) : nlohmann::json(nullptr);
     o["undecodable"] = c.undecodable;
     j["channels"].push_back(o);
   }

@@ -26,6 +26,10 @@ struct ChannelInfo {
   std::int64_t seq_gaps{};      ///< jumps forward by more than 1
   std::int64_t seq_missing{};   ///< sequence numbers missing in them
   std::int64_t seq_back{};      ///< steps back or repeats
+  std::int64_t seq_late{};        ///< arrived after a higher number (not lost; common::SeqGaps)
+  std::int64_t seq_duplicates{};  ///< arrived again
+  std::int64_t seq_restarts{};    ///< a sender began again lower
+  std::int64_t seq_wild{};        ///< lone numbers far from the stream's
 };
 
 struct LogInfo {

@@ -417,7 +417,7 @@ void ModelNode::PublishHealth(const char* state) {
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
   // Messages missing on both streams (a frame lost on both counts twice).
-  h.gaps = common::SeqGaps::SaturatingAdd(table_seq_.missing, theta_seq_.missing);
+  h.gaps = common::SeqGaps::SaturatingAdd(table_seq_.missing(), theta_seq_.missing());
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

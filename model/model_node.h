@@ -104,9 +104,9 @@ class ModelNode {
   /// Table samples whose acceleration was not finite (the last finite value was held).
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
   /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
-  std::int64_t table_gaps() const { return table_seq_.missing; }
+  std::int64_t table_gaps() const { return table_seq_.missing(); }
   /// RL_THETA samples missing by their seq, also in RL_HEALTH gaps.
-  std::int64_t theta_gaps() const { return theta_seq_.missing; }
+  std::int64_t theta_gaps() const { return theta_seq_.missing(); }
 
  private:
   struct Variant;

@@ -160,19 +160,24 @@ json LiveState::Impl::HealthJson() const {
 
 json LiveState::Impl::CountersJson() const {
   json messages = json::object(), decode_errors = json::object(), seq_gaps = json::object(),
-       seq_missing = json::object();
+       seq_missing = json::object(), seq_disorder = json::object();
   for (const auto& [channel, c] : channels) {
     messages[channel] = c.messages;
     decode_errors[channel] = c.decode_errors;
     if (c.seq.any) {  // the channel's type carries a sequence number
       seq_gaps[channel] = c.seq.gaps;
       seq_missing[channel] = c.seq.missing;
+      seq_disorder[channel] = {{"late", c.seq.late},
+                               {"duplicates", c.seq.duplicates},
+                               {"restarts", c.seq.restarts},
+                               {"wild", c.seq.wild}};
     }
   }
   return json{{"messages", std::move(messages)},
               {"decode_errors", std::move(decode_errors)},
               {"seq_gaps", std::move(seq_gaps)},
               {"seq_missing", std::move(seq_missing)},
+              {"seq_disorder", std::move(seq_disorder)},
               {"dropped",
                {{"out_of_order", dropped_out_of_order},
                 {"events", dropped_events},

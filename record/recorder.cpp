@@ -208,7 +208,11 @@ std::string SummaryJson(const RecorderStats& s) {
                         {"has_seq", c.seq.any},
                         {"seq_gaps", c.seq.gaps},
                         {"seq_missing", c.seq.missing},
-                        {"seq_back", c.seq.back}});
+                        {"seq_back", c.seq.back},
+                        {"seq_late", c.seq.late},
+                        {"seq_duplicates", c.seq.duplicates},
+                        {"seq_restarts", c.seq.restarts},
+                        {"seq_wild", c.seq.wild}});
     gaps = common::SeqGaps::SaturatingAdd(gaps, c.seq.gaps);
     missing = common::SeqGaps::SaturatingAdd(missing, c.seq.missing);
   }

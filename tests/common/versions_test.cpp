@@ -180,11 +180,19 @@ TEST(Versions, ChannelSeqGapsCountsEachSenderApart) {
   EXPECT_EQ(g.missing, 1);
   EXPECT_EQ(g.back, 0);
   EXPECT_EQ(g.senders.size(), 2u);
-  // A restarted sender steps back: counted apart, the count goes on.
+  // Numbers that step back inside the window (SeqGaps::kWindow) are repeats
+  // of that sender's, counted apart, and lose nothing (issue 34: the old
+  // rule took them as a restart and counted the next jump as a gap).
   g.Add("daq", 0);
   g.Add("daq", 2);
-  EXPECT_EQ(g.back, 1);
-  EXPECT_EQ(g.missing, 2);
+  EXPECT_EQ(g.back, 2);
+  EXPECT_EQ(g.duplicates, 2);
+  EXPECT_EQ(g.missing, 1);
+  // A late number of the other sender fills its gap in the sums too.
+  g.Add("model", 1);
+  EXPECT_EQ(g.late, 1);
+  EXPECT_EQ(g.missing, 0);
+  EXPECT_EQ(g.gaps, 0);
   // Beyond kMaxSenders: counted, not told apart.
   for (std::size_t i = 0; i < ChannelSeqGaps::kMaxSenders; ++i) g.Add("n" + std::to_string(i), 0);
   EXPECT_EQ(g.senders.size(), ChannelSeqGaps::kMaxSenders);

@@ -288,6 +288,37 @@ TEST(CompareNode, CountsSequenceGapsOfWhatItReadsInHealth) {
   EXPECT_EQ(health.last.gaps, 9);
 }
 
+// Oracle: RL_THETA 0..99 with 30 and 31 lost, 10 sent after 60, 50 sent
+// twice and one extra message numbered a million ahead: 2 missing (the
+// rule of docs/channels.md "Loss and disorder"; the old count was 1 000 002
+// and more).
+TEST(CompareNode, HealthCountsLossNotDisorder) {
+  common::LcmBus bus("memq://");
+  HealthTap health;
+  health.Listen(bus);
+  CompareNode node(CompareNodeConfig{}, bus);
+  std::vector<std::int64_t> order;
+  for (std::int64_t k = 0; k < 100; ++k) {
+    if (k == 30 || k == 31 || k == 10) continue;
+    order.push_back(k);
+    if (k == 50) order.push_back(50);
+    if (k == 60) order.push_back(10);
+    if (k == 70) order.push_back(70 + 1'000'000);
+  }
+  for (std::int64_t k : order) {
+    rocklab::block_state_t theta = test::Theta(1000 * (k % 1000), 0.01);
+    theta.seq = k;
+    bus.Publish("RL_THETA", theta);
+    while (bus.HandleTimeout(0) > 0) {
+    }
+  }
+  node.Finish();
+  while (bus.HandleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(node.theta_gaps(), 2);
+  EXPECT_EQ(health.last.gaps, 2);
+}
+
 // Publishes 1 kHz RL_THETA and RL_MODEL_m from `from` to `to` ms of sample
 // clock on `bus` (a DirectBus: the node's handlers run as `rocklab run` runs them).
 void FeedMs(common::Bus& bus, int from, int to) {

@@ -338,6 +338,86 @@ TEST_P(SeqLoss, ExportWritesTheSeqColumn) {
   }
 }
 
+// Loss told from disorder, the same in every reader (docs/channels.md "Loss
+// and disorder"). Oracle: RL_THETA numbered 0..299 with 5 lost (20, 40, 41,
+// 60, 61 gone), 10 and 11 swapped, 100 sent after 200, 70 sent twice and
+// one extra message numbered a million ahead: 5 missing in 3 runs, 2 late,
+// 1 duplicate, 1 wild. The old rule counted 106 to 1 000 005 missing here.
+std::vector<Sent> DisorderedTheta() {
+  std::vector<std::int64_t> order;
+  for (std::int64_t k = 0; k < 300; ++k) {
+    if (k == 20 || k == 40 || k == 41 || k == 60 || k == 61 || k == 100) continue;
+    order.push_back(k);
+    if (k == 70) order.push_back(70);
+    if (k == 150) order.push_back(150 + 1'000'000);
+    if (k == 200) order.push_back(100);
+  }
+  std::swap(order[10], order[11]);
+  std::vector<Sent> out;
+  for (std::int64_t k : order) {
+    rocklab::block_state_t t{};
+    t.utime = 1'000'000 + 1000 * (k % 1'000'000);
+    t.seq = k;
+    t.theta = 0.001;
+    Add(out, "RL_THETA", t);
+  }
+  return out;
+}
+
+template <class Counts>
+void ExpectDisorderCounts(const Counts& c, const char* who) {
+  EXPECT_EQ(c.missing, 5) << who;
+  EXPECT_EQ(c.gaps, 3) << who;
+  EXPECT_EQ(c.late, 2) << who;
+  EXPECT_EQ(c.duplicates, 1) << who;
+  EXPECT_EQ(c.wild, 1) << who;
+  EXPECT_EQ(c.restarts, 0) << who;
+}
+
+TEST(SeqLoss, DisorderIsNotLossInEveryReader) {
+  const std::vector<Sent> sent = DisorderedTheta();
+  {  // the recorder
+    lcm::LCM lcm("memq://");
+    ASSERT_TRUE(lcm.good());
+    record::RecorderOptions o;
+    o.out_path = test::ScratchDir("seq_loss") + "/disorder_rec.lcm";
+    record::Recorder rec(lcm, o);
+    for (const Sent& s : sent) {
+      lcm.publish(s.channel, s.bytes.data(), static_cast<unsigned>(s.bytes.size()));
+      while (lcm.handleTimeout(0) > 0) {
+      }
+    }
+    rec.Stop();
+    const record::RecorderStats stats = rec.Stats();
+    ASSERT_EQ(stats.channels.size(), 1u);
+    ExpectDisorderCounts(stats.channels[0].seq, "record");
+    const nlohmann::json j = nlohmann::json::parse(record::SummaryJson(stats));
+    EXPECT_EQ(j.at("seq_missing"), 5);
+    EXPECT_EQ(j.at("channels")[0].at("seq_late"), 2);
+    EXPECT_EQ(j.at("channels")[0].at("seq_wild"), 1);
+  }
+  {  // info
+    const exporter::LogInfo info = exporter::ReadLogInfo(WriteLog("disorder.lcm", sent));
+    ASSERT_EQ(info.channels.size(), 1u);
+    const exporter::ChannelInfo& c = info.channels[0];
+    EXPECT_EQ(c.seq_missing, 5);
+    EXPECT_EQ(c.seq_gaps, 3);
+    EXPECT_EQ(c.seq_late, 2);
+    EXPECT_EQ(c.seq_duplicates, 1);
+    EXPECT_EQ(c.seq_wild, 1);
+    EXPECT_EQ(exporter::ToJson(info).at("channels")[0].at("seq_duplicates"), 1);
+  }
+  {  // the monitor
+    monitor::LiveState live;
+    for (const Sent& s : sent) live.Ingest(s.channel, s.bytes.data(), static_cast<int>(s.bytes.size()));
+    const nlohmann::json counters = live.Snapshot().at("counters");
+    EXPECT_EQ(counters.at("seq_missing").at("RL_THETA"), 5);
+    EXPECT_EQ(counters.at("seq_gaps").at("RL_THETA"), 3);
+    EXPECT_EQ(counters.at("seq_disorder").at("RL_THETA").at("late"), 2);
+    EXPECT_EQ(counters.at("seq_disorder").at("RL_THETA").at("wild"), 1);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(CurrentAndOlderTypes, SeqLoss, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "OlderTypes" : "CurrentTypes"; });
 
