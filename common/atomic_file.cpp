@@ -1,7 +1,9 @@
 // Write beside, rename when complete (atomic_file.h).
 #include "common/atomic_file.h"
 
+#include <dirent.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -9,8 +11,10 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 namespace rocklab::common {
 namespace {
@@ -42,6 +46,30 @@ std::string Suffix() {
   return s;
 }
 
+// Removes `TARGET.tmp-PID-*` files of `target` whose process is gone (a
+// killed writer's): only AtomicFile makes such names. A PID that is alive,
+// or that kill() may not probe, keeps its file; a reused PID keeps it too.
+void RemoveLeftovers(const std::string& target) {
+  const std::size_t slash = target.find_last_of('/');
+  const std::string prefix = (slash == std::string::npos ? target : target.substr(slash + 1)) + ".tmp-";
+  DIR* dir = ::opendir(Folder(target).c_str());
+  if (dir == nullptr) return;
+  std::vector<std::string> stale;
+  while (const dirent* e = ::readdir(dir)) {
+    const std::string name = e->d_name;
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const char* digits = name.c_str() + prefix.size();
+    char* end = nullptr;
+    errno = 0;
+    const long pid = std::strtol(digits, &end, 10);
+    if (end == digits || *end != '-' || errno != 0 || pid <= 0 || pid == ::getpid()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) stale.push_back(name);
+  }
+  ::closedir(dir);
+  const std::string folder = slash == std::string::npos ? "" : target.substr(0, slash + 1);
+  for (const std::string& name : stale) ::unlink((folder + name).c_str());
+}
+
 void SyncFolder(const std::string& target) {
   // Makes the rename itself durable; a folder that cannot be opened for it
   // (no read permission) still has the rename, only later on disk.
@@ -57,8 +85,9 @@ AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
   if (target_.empty() || target_.back() == '/') {
     throw std::runtime_error("cannot write '" + target_ + "': not a file name");
   }
+  RemoveLeftovers(target_);
   for (int attempt = 0; attempt < 100; ++attempt) {
-    temp_ = target_ + ".tmp-" + Suffix();
+    temp_ = target_ + ".tmp-" + std::to_string(::getpid()) + "-" + Suffix();
     fd_ = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd_ >= 0) return;
     if (errno != EEXIST) break;

@@ -7,8 +7,10 @@
 /// systems), and Commit() syncs it to disk and renames it over the target.
 /// Destroyed without Commit() (an exception, a failed input, an early
 /// return), it removes its temporary and the target keeps whatever it held
-/// before. A killed process leaves at most a `*.tmp-*` file beside the
-/// target, never a torn file under the target's name.
+/// before. A killed process leaves at most a `TARGET.tmp-PID-XXXXXX` file
+/// beside the target, never a torn file under the target's name; the next
+/// AtomicFile of the same target removes such leftovers of processes that
+/// no longer run (the PID in the name says whose it is).
 ///
 /// The temporary is created empty at construction (mode 0666 less the
 /// umask, as fopen would); write it through stream() or have a library

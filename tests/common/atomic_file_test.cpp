@@ -5,6 +5,8 @@
 #include "common/atomic_file.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -37,6 +39,28 @@ TEST(AtomicFile, CommitGivesTheWholeFileAndLeavesNoTemporary) {
   EXPECT_TRUE(f.committed());
   EXPECT_EQ(Slurp(target), "new,content\n");
   EXPECT_EQ(Listing(dir), (std::set<std::string>{"out.csv"}));
+}
+
+// Issue 34: a killed writer's temporary stayed forever. The next AtomicFile
+// of the same target removes those of processes that are gone, and only
+// those. Oracle: a child that has exited (its PID is gone), this test's
+// parent (alive), another target's leftover, a name without a PID.
+TEST(AtomicFile, TheNextWriterRemovesADeadWritersTemporary) {
+  const std::string dir = test::ScratchDir("atomic_leftovers");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) _exit(0);
+  ASSERT_EQ(waitpid(child, nullptr, 0), child);
+  const std::string dead = std::to_string(child), alive = std::to_string(getppid());
+  for (const std::string& name : {"out.h5.tmp-" + dead + "-abc123", "out.h5.tmp-" + alive + "-abc123",
+                                  "other.h5.tmp-" + dead + "-abc123", std::string("out.h5.tmp-abc123")}) {
+    std::ofstream(dir + "/" + name) << "torn";
+  }
+  AtomicFile f(dir + "/out.h5");
+  std::fputs("whole", f.stream());
+  f.Commit();
+  EXPECT_EQ(Listing(dir), (std::set<std::string>{"out.h5", "out.h5.tmp-" + alive + "-abc123",
+                                                 "other.h5.tmp-" + dead + "-abc123", "out.h5.tmp-abc123"}));
 }
 
 TEST(AtomicFile, DestroyedBeforeCommitLeavesThePreviousFileAndNoTemporary) {
