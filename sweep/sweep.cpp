@@ -228,8 +228,10 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
   const double alpha_plus = block.params.Side(+1).alpha, alpha_minus = block.params.Side(-1).alpha;
   Outcome out;
   pipeline::RunSummary summary;
+  double last_theta = 0.0;  // rad; after an overturn, the side it fell to
   try {
-    summary = pipeline::RunScenario(scenario, so, [&out, alpha_plus, alpha_minus](double t, double theta, double) {
+    summary = pipeline::RunScenario(scenario, so, [&out, &last_theta, alpha_plus, alpha_minus](double t, double theta, double) {
+      last_theta = theta;
       const double ratio = theta >= 0 ? theta / alpha_plus : -theta / alpha_minus;
       if (ratio > out.peak_theta_over_alpha) {
         out.peak_theta_over_alpha = ratio;
@@ -240,6 +242,10 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
     throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
   }
   out.overturned = summary.overturned;
+  // docs/sweep.md: (pi/2) / alpha once overturned. The complex model's state
+  // frozen at its overturn has theta = r cos(psi), short of pi/2 by the
+  // psi that finite l leaves (4.5620 against 4.5652 for alpha 0.344).
+  if (out.overturned) out.peak_theta_over_alpha = (common::kPi / 2) / (last_theta >= 0 ? alpha_plus : alpha_minus);
   out.beyond_pi_over_2 = !summary.overturned && summary.peak_abs_theta > common::kPi / 2;
   out.overturn_time_s = summary.overturn_time_s.value_or(0.0);
   out.impacts = summary.impacts;
