@@ -144,6 +144,16 @@ void SineSpec::Validate() const {
   if (!std::isfinite(frequency_hz) || frequency_hz <= 0.0) bad("freq", "finite and > 0 Hz", frequency_hz);
   if (!std::isfinite(duration_s) || duration_s <= 0.0) bad("duration", "finite and > 0 s", duration_s);
   if (!std::isfinite(start_s) || start_s < 0.0) bad("start", "finite and >= 0 s", start_s);
+  // The table acceleration must be a number: |u''| <= U (w + pi/a)^2 for the
+  // Hanning window of half-length a (|A'| <= pi/2a, |A''| <= pi^2/2a^2), a
+  // bound on the plain sine too. 1e308 m gave inf, then "never uplifts".
+  const double w = 2.0 * kPi * frequency_hz, a = 0.5 * duration_s;
+  const double peak = amplitude_m * (w + kPi / a) * (w + kPi / a);
+  if (!std::isfinite(peak) || peak > kMaxTableAccel) {
+    throw std::invalid_argument("excitation amp " + ExactText(amplitude_m) + " m at freq " + ExactText(frequency_hz) +
+                                " Hz: the table acceleration would reach " + ExactText(peak) +
+                                " m/s^2, beyond the " + ExactText(kMaxTableAccel) + " m/s^2 a model can take");
+  }
 }
 
 std::unique_ptr<Excitation> MakeSine(const SineSpec& spec) {

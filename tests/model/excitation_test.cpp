@@ -107,6 +107,15 @@ TEST(ExcitationTest, ParseGoodAndBad) {
   EXPECT_NE(ParseError("sine:amp=1,freq=2,duration=1,start=-1").find("start"), std::string::npos);
   EXPECT_NE(ParseError("sine:amp=nan,freq=2,duration=1").find("amp"), std::string::npos);
   EXPECT_NE(ParseError("sine").find("KIND"), std::string::npos);
+  // Issue 34: 1e308 m made the acceleration inf and the block "never
+  // uplifts". Oracle: U (2 pi f + pi/a)^2, a = duration/2, against 1e6 m/s^2:
+  // 1e308 m overflows; 900 m at 5 Hz (20 s) is 9.06e5 m/s^2 (taken) and
+  // 2 km 2.01e6 m/s^2 (refused).
+  EXPECT_NE(ParseError("sine:amp=1e308,freq=5,duration=20").find("beyond the 1000000 m/s^2"), std::string::npos)
+      << ParseError("sine:amp=1e308,freq=5,duration=20");
+  EXPECT_NE(ParseError("hanning:amp=2000,freq=5,duration=20").find("excitation amp 2000 m at freq 5 Hz"),
+            std::string::npos);
+  EXPECT_NO_THROW(ParseExcitation("sine:amp=900,freq=5,duration=20"));
 }
 
 // ORACLE: linear interpolation by hand; zero outside.
