@@ -113,6 +113,12 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
     Check(ERKStepSetUserData(h_->mem, h_.get()), "ERKStepSetUserData");
     Check(ERKStepSVtolerances(h_->mem, rtol, h_->atol), "ERKStepSVtolerances");
     Check(ERKStepSetOrder(h_->mem, kRungeKuttaOrder), "ERKStepSetOrder");
+    // A cubic Hermite interpolant: ARKODE's default (degree 5) takes two
+    // more right-hand sides per step wherever it is evaluated, and it is
+    // evaluated at every stop time (the model node stops at every sample,
+    // where the cubic equals the step's end exactly); between stops it
+    // places the roots (docs/performance.md, "Per-sample cost").
+    Check(ERKStepSetInterpolantDegree(h_->mem, kRungeKuttaInterpolantDegree), "ERKStepSetInterpolantDegree");
     Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
     Check(ERKStepSetMaxNumSteps(h_->mem, 1000000), "ERKStepSetMaxNumSteps");
     Check(ERKStepRootInit(h_->mem, kRoots, RootThunk), "ERKStepRootInit");
