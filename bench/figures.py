@@ -79,40 +79,72 @@ def bench_run(b, work, t, seconds, repeats):
     rec = os.path.join(work, "run%d.csv" % seconds)
     synth(b, rec, seconds)
     env = dict(os.environ, SPDLOG_LEVEL="warn")
-    best = None
-    for _ in range(repeats):
-        la = load()
-        r = measure([b, "run", "--rig", RIG, "--input", rec, "--max"] + VARIANTS, env=env)
-        if best is None or r[1] < best[0][1]:
-            best = (r, la)
-    (cpu, wall, rss, _), la = best
-    t.add("run --max, %d s at 1 kHz, 4 variants" % seconds, "%.0f" % (seconds / wall), "x real time",
-          ">= 120", seconds / wall / 120, "wall %.2f s, CPU %.2f s (%.0fx on CPU), load %.1f" %
-          (wall, cpu, seconds / cpu, la))
+    for threads in ("1", "0"):  # the default (the handler's thread), and one per variant up to the cores
+        best = None
+        for _ in range(repeats):
+            la = load()
+            r = measure([b, "run", "--rig", RIG, "--input", rec, "--max", "--threads", threads] + VARIANTS, env=env)
+            if best is None or r[1] < best[0][1]:
+                best = (r, la)
+        (cpu, wall, rss, _), la = best
+        t.add("run --max, %d s at 1 kHz, 4 variants, --threads %s" % (seconds, threads), "%.0f" % (seconds / wall),
+              "x real time", ">= 250", seconds / wall / 250, "wall %.2f s, CPU %.2f s (%.0fx on CPU), load %.1f" %
+              (wall, cpu, seconds / cpu, la))
     t.add("run --max peak RSS", "%.1f" % rss, "MB", "<= 32", 32 / rss, "same run")
     return rec
 
 
-def bench_simulate(b, t, repeats):
+def bench_simulate(b, work, t, repeats, durations):
+    """`rocklab simulate` against the scipy peer as whole processes (each
+    starting, integrating figure 8 and writing its CSV), beside the CPU of
+    rocklab's process start (`rocklab --version`) subtracted."""
     peer = os.path.join(ROOT, "bench/scipy_peer.py")
-    for model in ("housner", "complex"):
-        cmd = [b, "simulate", "--model", model, "--alpha", "0.168", "--p", "3.767", "--mu", "0.942",
-               "--excitation", "sine:amp=0.006,freq=5,duration=20,start=0", "--duration", "20",
-               "--rate", "200", "--json", "--out", os.devnull]
-        ours = min(measure(cmd, stdout=subprocess.PIPE) for _ in range(repeats))
-        summary = json.loads(ours[3])
-        la = load()
-        peer_out = subprocess.run([PY, peer, "--model", model], check=True, capture_output=True,
-                                  text=True).stdout
-        theirs = json.loads(peer_out)
-        solve = summary["cpu_time"]
-        ratio = theirs["cpu_solve_s"] / solve
-        t.add("simulate fig 8 %s: scipy CPU / rocklab CPU" % model, "%.0f" % ratio, "x", ">= 100", ratio / 100,
-              "solves: rocklab %.4f s (%d steps), scipy %.2f s (%s); with rocklab's process start %.0fx; "
-              "impacts %d vs %d, peak %.6g vs %.6g rad; load %.1f" %
-              (solve, summary["steps"], theirs["cpu_solve_s"], theirs["method"],
-               theirs["cpu_solve_s"] / ours[0], summary["impacts"], theirs["impacts"],
-               summary["peak_abs_theta"], theirs["peak_abs_theta"], la))
+    start = min(measure([b, "--version"])[0] for _ in range(max(repeats, 5)))
+    t.add("rocklab --version CPU (process start)", "%.1f" % (start * 1e3), "ms", "(subtracted below)", 1.0,
+          "best of %d" % max(repeats, 5))
+    for duration in durations:
+        for model in ("housner", "complex"):
+            out = os.path.join(work, "simulate_%s_%d.csv" % (model, duration))
+            cmd = [b, "simulate", "--model", model, "--alpha", "0.168", "--p", "3.767", "--mu", "0.942",
+                   "--excitation", "sine:amp=0.006,freq=5,duration=%d,start=0" % duration,
+                   "--duration", str(duration), "--rate", "200", "--json", "--out", out]
+            ours = min(measure(cmd, stdout=subprocess.PIPE) for _ in range(max(repeats, 3)))
+            summary = json.loads(ours[3])
+            la = load()
+            theirs_cpu, _, _, peer_out = measure([PY, peer, "--model", model, "--duration", str(duration),
+                                                  "--out", out + ".scipy.csv"], stdout=subprocess.PIPE)
+            theirs = json.loads(peer_out)
+            whole = theirs_cpu / ours[0]
+            own = max(ours[0] - start, 1e-6)
+            t.add("simulate fig 8 %s %d s: scipy / rocklab, process CPU" % (model, duration), "%.0f" % whole, "x",
+                  ">= 100", whole / 100,
+                  "rocklab %.4f s (solve and CSV %.4f s, %d steps), scipy %.2f s (solve %.2f s, %s); "
+                  "without rocklab's start %.0fx, with a 5 ms start %.0fx; impacts %d vs %d, peak %.7g vs %.7g rad; "
+                  "load %.1f" %
+                  (ours[0], summary["cpu_time"], summary["steps"], theirs_cpu, theirs["cpu_solve_s"], theirs["method"],
+                   theirs_cpu / own, theirs_cpu / (own + 0.005), summary["impacts"], theirs["impacts"],
+                   summary["peak_abs_theta"], theirs["peak_abs_theta"], la))
+
+
+def bench_node_sample(build, b, work, t):
+    """The model node's CPU per table sample beside one RK4 step per sample
+    (rocklab_bench_node_sample on the 60 s record's exact acceleration plus
+    an accelerometer's noise)."""
+    rec = os.path.join(work, "run60.csv")
+    synth(b, rec, 60)
+    la = load()
+    out = subprocess.run([os.path.join(build, "bench/rocklab_bench_node_sample"), rec + ".truth.csv"], check=True,
+                         capture_output=True, text=True, env=dict(os.environ, SPDLOG_LEVEL="warn")).stdout
+    print(out, end="")
+    ns = {}
+    for line in out.splitlines():
+        m = re.search(r"^(floor|model alone, (\w+)|model node).*?([0-9.]+) ns/sample", line)
+        if m:
+            ns[m.group(2) or m.group(1)] = float(m.group(3))
+    floor = ns["floor"]
+    t.add("model node per sample, 4 variants", "%.0f" % ns["model node"], "ns", "(floor %.0f ns)" % floor,
+          1.0, "per variant %.0f ns = %.0fx one RK4 step; Housner alone %.0f ns, complex alone %.0f ns; load %.1f" %
+          (ns["model node"] / 4, ns["model node"] / 4 / floor, ns["housner"], ns["complex"], la))
 
 
 def bench_reconstruct(b, work, t, rec, repeats):
@@ -234,7 +266,8 @@ def main():
     ap.add_argument("--run-seconds", type=int, default=600)
     ap.add_argument("--live-seconds", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=1)
-    ap.add_argument("--only", default="run,simulate,reconstruct,replay,live")
+    ap.add_argument("--simulate-seconds", default="20,200", help="figure 8's durations for simulate, s")
+    ap.add_argument("--only", default="run,simulate,node,reconstruct,replay,live")
     a = ap.parse_args()
     b = os.path.join(a.build, "tools/rocklab")
     reader = os.path.join(a.build, "bench/rocklab_bench_log_read")
@@ -248,7 +281,9 @@ def main():
     if "run" in only:
         rec = bench_run(b, work, t, a.run_seconds, a.repeats)
     if "simulate" in only:
-        bench_simulate(b, t, a.repeats)
+        bench_simulate(b, work, t, a.repeats, [int(d) for d in a.simulate_seconds.split(",")])
+    if "node" in only:
+        bench_node_sample(a.build, b, work, t)
     if "reconstruct" in only:
         if rec is None:
             rec = os.path.join(work, "run%d.csv" % a.run_seconds)

@@ -3,12 +3,12 @@
 # run (2-core machine: about 10 minutes, most of it the live test at real
 # time and the scipy peer):
 #
-#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,simulate,reconstruct,replay,live]
-#                     [--run-seconds 600] [--live-seconds 20] [--build build]
+#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,simulate,node,reconstruct,replay,live]
+#                     [--run-seconds 600] [--simulate-seconds 20,200] [--live-seconds 20] [--build build]
 #
 # Installs the bench-only dependency python3-scipy (the peer of `simulate`,
 # bench/scipy_peer.py) the way tools/setup.sh installs packages, builds the
-# two targets it runs (rocklab, rocklab_bench_log_read) in the configured
+# targets it runs (rocklab, rocklab_bench_log_read, rocklab_bench_node_sample) in the configured
 # build folder, then runs bench/figures.py. The live figure needs root for
 # a private network namespace (unshare -n; DESIGN.md: loopback, ttl=0);
 # without one it says so and the other figures stand.
@@ -28,5 +28,5 @@ if [ ! -f "$build/build.ninja" ]; then
   echo "bench: no configured build in $build: run tools/setup.sh first" >&2
   exit 2
 fi
-cmake --build "$build" -j "$(nproc)" --target rocklab rocklab_bench_log_read
+cmake --build "$build" -j "$(nproc)" --target rocklab rocklab_bench_log_read rocklab_bench_node_sample
 exec /usr/bin/python3 "$here/bench/figures.py" "$@"

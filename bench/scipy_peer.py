@@ -5,11 +5,14 @@ its event location, so the CPU of the two can be compared on the same motion.
 
   scipy_peer.py --model housner|complex [--alpha A --p P --mu M --l L]
                 [--amp U --freq F --duration T --rate R] [--method DOP853]
-                [--events FILE.csv]
+                [--events FILE.csv] [--out FILE.csv]
 
 Prints one JSON line: cpu_solve_s (process CPU of the integration alone),
 impacts, first/last impact time, peak |theta| at the outputs. --events writes
-time,kind,value rows like `rocklab simulate --events`.
+time,kind,value rows like `rocklab simulate --events`; --out the outputs as
+`rocklab simulate --out` does (time,theta,theta_dot; s, rad, rad/s; each
+number the shortest text that reads back as the same double, Python's repr),
+so that the two can be compared as whole processes (bench/figures.py).
 
 The physics follows model/housner.cpp and model/complex.cpp (docs/errata.md items
 3-6): Housner's piecewise equation in physical time; the complex
@@ -48,6 +51,7 @@ def main():
     ap.add_argument("--atol", type=float, default=1e-12)
     ap.add_argument("--method", default="DOP853")
     ap.add_argument("--events")
+    ap.add_argument("--out")
     a = ap.parse_args()
 
     alpha, p, mu, l = a.alpha, a.p, a.mu, a.l
@@ -79,6 +83,7 @@ def main():
     n_out = int(math.floor(T * a.rate + 1e-9)) + 1
     t_out = np.arange(n_out) / a.rate
     theta_out = np.zeros(n_out)
+    theta_dot_out = np.zeros(n_out)
     events = []
 
     # --- the regime machine ---------------------------------------------------
@@ -192,6 +197,7 @@ def main():
         keep = sol.t <= t_stop
         idx = np.searchsorted(t_out, sol.t[keep])
         theta_out[idx] = sol.y[0][keep] * (1.0 if a.model == "housner" else alpha)
+        theta_dot_out[idx] = sol.y[1 if a.model == "housner" else 2][keep] * (1.0 if a.model == "housner" else alpha)
         if cut is not None:
             if rest:
                 events.append((cut, "rest", 0.0))
@@ -210,6 +216,11 @@ def main():
            "first_impact_s": imp[0] if imp else None, "last_impact_s": imp[-1] if imp else None,
            "peak_abs_theta": float(np.max(np.abs(theta_out)))}
     print(json.dumps(out))
+    if a.out:
+        with open(a.out, "w") as f:
+            f.write("time,theta,theta_dot\n")
+            f.write("".join("%r,%r,%r\n" % row for row in
+                            zip(t_out.tolist(), theta_out.tolist(), theta_dot_out.tolist())))
     if a.events:
         with open(a.events, "w") as f:
             f.write("time,kind,value\n")

@@ -1,5 +1,7 @@
 #include "model/cvode.h"
 
+#include "model/small_vector.h"
+
 #include <arkode/arkode_erkstep.h>
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
@@ -92,12 +94,14 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
   h_->y = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
   h_->atol = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
-  // Fused vector operations: CVODE's Nordsieck updates and Adams corrections
-  // become one N_VLinearCombination / N_VScaleAddMulti call over all the
-  // history vectors instead of one N_VLinearSum per vector. On a 2-3 element
-  // state the per-call overhead is the cost (docs/performance.md). CVODE
-  // clones its vectors from y, which carries the setting.
-  Check(N_VEnableFusedOps_Serial(h_->y, SUNTRUE), "N_VEnableFusedOps_Serial");
+  // Fixed-length vector operations (model/small_vector.h), fused ones
+  // included: CVODE's Nordsieck updates and Adams corrections are one
+  // N_VLinearCombination / N_VScaleAddMulti call over all the history
+  // vectors instead of one N_VLinearSum per vector. On a 2-4 element state
+  // the per-call overhead is the cost (docs/performance.md). The
+  // integrators clone their vectors from y, which carries the operations.
+  if (!UseSmallVectorOps(h_->y)) throw std::logic_error("Cvode: no fixed-length vector operations for n");
+  UseSmallVectorOps(h_->atol);
   double* y = N_VGetArrayPointer(h_->y);
   double* a = N_VGetArrayPointer(h_->atol);
   for (int i = 0; i < n; ++i) {
@@ -109,6 +113,12 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
     Check(ERKStepSetUserData(h_->mem, h_.get()), "ERKStepSetUserData");
     Check(ERKStepSVtolerances(h_->mem, rtol, h_->atol), "ERKStepSVtolerances");
     Check(ERKStepSetOrder(h_->mem, kRungeKuttaOrder), "ERKStepSetOrder");
+    // A cubic Hermite interpolant: ARKODE's default (degree 5) takes two
+    // more right-hand sides per step wherever it is evaluated, and it is
+    // evaluated at every stop time (the model node stops at every sample,
+    // where the cubic equals the step's end exactly); between stops it
+    // places the roots (docs/performance.md, "Per-sample cost").
+    Check(ERKStepSetInterpolantDegree(h_->mem, kRungeKuttaInterpolantDegree), "ERKStepSetInterpolantDegree");
     Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
     Check(ERKStepSetMaxNumSteps(h_->mem, 1000000), "ERKStepSetMaxNumSteps");
     Check(ERKStepRootInit(h_->mem, kRoots, RootThunk), "ERKStepRootInit");

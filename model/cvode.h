@@ -36,6 +36,8 @@ class Cvode {
   enum class Method { kAdams, kRungeKutta };
   /// Order of the Runge-Kutta method.
   static constexpr int kRungeKuttaOrder = 5;
+  /// Degree of its dense output (ERKStepSetInterpolantDegree).
+  static constexpr int kRungeKuttaInterpolantDegree = 3;
   /// @param n number of equations, 1 .. kMaxEquations
   /// @param atol absolute tolerances, one per equation
   Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s,

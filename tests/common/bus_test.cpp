@@ -64,6 +64,47 @@ TEST(DirectBus, DeliversTypedMessagesSynchronouslyInSubscriptionOrder) {
   EXPECT_EQ(bus.decode_error_count(), 0);
 }
 
+// Oracle: the dispatch rules written in direct_bus.cpp, which hold however
+// the bus caches its channel routes: a subscription made by a handler gets
+// the next message (and messages published inside the dispatch after it),
+// not the one being dispatched; one ended by a handler gets nothing more,
+// even of the message being dispatched; every channel's route follows.
+TEST(DirectBus, SubscriptionsChangedInsideADispatchTakeEffectInOrder) {
+  DirectBus bus;
+  std::vector<std::string> seen;
+  common::Subscription late, victim;
+  victim = bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string& c, const rocklab::block_state_t& m) {
+    seen.push_back("victim " + c + " " + std::to_string(m.utime));
+  });
+  const common::Subscription first = bus.Subscribe<rocklab::block_state_t>(
+      "RL_.*", [&](const std::string& c, const rocklab::block_state_t& m) {
+        seen.push_back("first " + c + " " + std::to_string(m.utime));
+        if (m.utime == 2) {
+          late = bus.Subscribe<rocklab::block_state_t>("RL_THETA.*", [&](const std::string& c2, const rocklab::block_state_t& m2) {
+            seen.push_back("late " + c2 + " " + std::to_string(m2.utime));
+          });
+          bus.Publish("RL_THETA_ECHO", Theta(20, 0.0));  // nested, after the subscription
+        }
+        if (m.utime == 3) victim = common::Subscription();  // ends it
+      });
+  const common::Subscription after = bus.Subscribe<rocklab::block_state_t>("RL_THETA", [&](const std::string& c, const rocklab::block_state_t& m) {
+    seen.push_back("after " + c + " " + std::to_string(m.utime));
+  });
+  for (int i = 0; i < 3; ++i) bus.Publish("RL_THETA", Theta(1, 0.0));  // routes cached before the changes
+  seen.clear();
+  bus.Publish("RL_THETA", Theta(2, 0.0));
+  bus.Publish("RL_THETA", Theta(3, 0.0));
+  bus.Publish("RL_THETA", Theta(4, 0.0));
+  bus.Publish("RL_OTHER", Theta(5, 0.0));
+  const std::vector<std::string> expected = {
+      "victim RL_THETA 2", "first RL_THETA 2", "first RL_THETA_ECHO 20", "late RL_THETA_ECHO 20",
+      "after RL_THETA 2",
+      "victim RL_THETA 3", "first RL_THETA 3", "after RL_THETA 3", "late RL_THETA 3",
+      "first RL_THETA 4", "after RL_THETA 4", "late RL_THETA 4",
+      "first RL_OTHER 5"};
+  EXPECT_EQ(seen, expected);
+}
+
 // Oracle: the guard's contract: a short payload (decode < 0), another
 // type's payload (fingerprint mismatch) and a hostile length (length_error)
 // are each counted on their channel and dropped; a throwing handler is
