@@ -59,6 +59,11 @@ struct PosteriorOptions {
   /// integrator (docs/performance.md: what a looser one costs).
   double rtol{1e-6};
   Integrator integrator{Integrator::kAdams};
+  /// Trajectory likelihood, Housner's model: the model is output at every
+  /// this many samples and theta between comes from cubic Hermite
+  /// interpolation split at its events (docs/identification.md); 1: every
+  /// sample. The complex model is output at every sample.
+  int output_stride{10};
   EnsembleOptions sampler;
   /// Steps dropped before the diagnostics and the draws; -1: half the steps.
   int burn_in{-1};
