@@ -137,6 +137,15 @@ int main(int argc, char** argv) {
     const double lp_ref = reference.LogPosterior(x);
     std::printf("one likelihood run: %.2f ms; log posterior %.6f against %.6f at rtol 1e-10 (difference %.3g)\n",
                 run * 1e3, lp, lp_ref, lp - lp_ref);
+    Eigen::VectorXd truth = x;
+    truth(0) = 0.235;
+    truth(1) = 3.884;
+    truth(2) = 0.937;
+    if (o.model == ModelKind::kComplex) truth(3) = std::log10(kDefaultL);
+    truth(truth.size() - 2) = 0.02 * 3.14159265358979 / 180.0;
+    truth(truth.size() - 1) = 0.0;
+    std::printf("log posterior at the start %.6f (%s), at the truth %.6f\n", lp,
+                problem.start_from_scan() ? "prior scan" : "point fit", problem.LogPosterior(truth));
   }
   const PosteriorResult r = SamplePosterior(problem, o);
   std::printf("case %s, model %s, rtol %g, integrator %s, output stride %d: %d walkers x %d steps, %d threads\n",
@@ -148,6 +157,8 @@ int main(int argc, char** argv) {
     std::printf("  %-9s median %.6g  68 %% [%.6g, %.6g]  sd %.3g  R-hat %.4f  ESS %.0f  tau %.1f\n", s.name.c_str(),
                 s.median, s.ci68_lo, s.ci68_hi, s.sd, s.rhat, s.ess, s.tau);
   }
+  std::printf("correlation alpha-p %.4f, alpha-mu %.4f, p-mu %.4f\n", r.correlation(0, 1), r.correlation(0, 2),
+              r.correlation(1, 2));
   std::printf("acceptance %.3f; %s\n", r.diagnostics.acceptance, r.converged() ? "converged" : "NOT converged");
   for (const std::string& p : r.problems) std::printf("  %s\n", p.c_str());
   return 0;

@@ -11,6 +11,7 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -163,6 +164,10 @@ struct PosteriorProblem::Impl {
   FitResult point;
   bool point_fitted{};
   std::string point_error;
+  // Where the walkers start: the best of the point fit and a scan of the
+  // prior (Search).
+  Eigen::VectorXd start;
+  bool start_from_scan{};
 
   double LogPrior(const Eigen::VectorXd& x) const {
     for (Eigen::Index i = 0; i < x.size(); ++i) {
@@ -178,11 +183,14 @@ struct PosteriorProblem::Impl {
     const double k = x(i_sigma) / noise;  // every feature's error is linear in the noise
     const double off = x(i_offset);
     const std::size_t n = f.impact_time_s.size();
-    double r = *f.r0_rad;
+    // The chain starts from r_0 before the first impact, or (a record that
+    // starts at a peak, without r_0) from the peak after the first impact.
+    const std::size_t i0 = f.r0_rad ? 0 : 1;
+    double r = f.r0_rad ? *f.r0_rad : f.peak_rad[0];
     if (!(r < alpha)) return -kInf;
-    double t = release ? *f.release_time_s + off + QuarterTimeExact(alpha, p, r) : f.impact_time_s[0] + off;
+    double t = release ? *f.release_time_s + off + QuarterTimeExact(alpha, p, r) : f.impact_time_s[i0] + off;
     double chi2 = 0.0, log_det = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = i0; i < n; ++i) {
       const double st = k * f.impact_time_stderr_s[i];
       const double zt = (f.impact_time_s[i] - t) / st;
       chi2 += zt * zt;
@@ -241,6 +249,69 @@ struct PosteriorProblem::Impl {
   }
 };
 
+namespace {
+
+// The walkers' start: the point fit (or the geometry) against kScan points
+// drawn uniformly from the prior of alpha, p, mu (and log10 l), sigma at the
+// estimated noise and no offset; the highest log posterior wins. It catches
+// a point fit that failed or stopped far from the mode when the prior holds
+// a better point at random; on a forced test in a chaotic regime the mode's
+// basin is far narrower than the scan's spacing (docs/identification.md),
+// and the start is the point fit's.
+void SearchStart(PosteriorProblem::Impl& s) {
+  constexpr int kScan = 256;
+  const int dim = static_cast<int>(s.names.size());
+  const BlockParams b = s.point_fitted ? s.point.params : s.theory;
+  Eigen::VectorXd x0(dim);
+  x0(0) = b.alpha;
+  x0(1) = b.p;
+  x0(2) = b.mu;
+  if (s.complex) x0(3) = std::log10(kDefaultL);
+  x0(s.i_sigma) = s.noise;
+  x0(s.i_offset) = 0.0;
+  if (s.point_fitted && s.options.method == FitMethod::kTrajectory && s.point.release_time_s && s.f.release_time_s) {
+    x0(s.i_offset) = *s.point.release_time_s - *s.f.release_time_s;
+  }
+  // Inside the support, a hundredth of its width from an end.
+  for (Eigen::Index i = 0; i < dim; ++i) {
+    const double margin = 0.01 * (s.hi(i) - s.lo(i));
+    x0(i) = std::clamp(x0(i), s.lo(i) + margin, s.hi(i) - margin);
+  }
+  // Evaluates the points in parallel (each thread its share), returns the
+  // best index.
+  const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  auto best_of = [&](const std::vector<Eigen::VectorXd>& pts, double& best_lp) {
+    std::vector<double> lp(pts.size());
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::size_t k = static_cast<std::size_t>(t); k < pts.size(); k += static_cast<std::size_t>(threads)) {
+          lp[k] = s.LogPosterior(pts[k]);
+        }
+      });
+    }
+    for (std::thread& th : pool) th.join();
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < pts.size(); ++k) {
+      if (lp[k] > lp[best]) best = k;
+    }
+    best_lp = lp[best];
+    return best;
+  };
+  std::vector<Eigen::VectorXd> trial(kScan + 1, x0);
+  RandomStream rng(0x5CA9, 0);
+  const int sampled = s.complex ? 4 : 3;
+  for (int k = 1; k <= kScan; ++k) {
+    for (int i = 0; i < sampled; ++i) trial[static_cast<std::size_t>(k)](i) = s.lo(i) + (s.hi(i) - s.lo(i)) * rng.Uniform();
+  }
+  double lp_start = -kInf;
+  const std::size_t first = best_of(trial, lp_start);
+  s.start = trial[first];
+  s.start_from_scan = first != 0;
+}
+
+}  // namespace
+
 PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorOptions& options,
                                    const FitResult* point) {
   options.Validate();
@@ -295,12 +366,13 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
       throw FitError(record.source + ": not free rocking (table acceleration up to " +
                      Num(MaxAbs(record.table_accel_mps2), 3) + " m/s^2): use the trajectory method");
     }
-    if (static_cast<int>(s.f.impact_time_s.size()) < options.fit.min_impacts || !s.f.r0_rad) {
+    const std::size_t usable = s.f.impact_time_s.size() - (s.f.r0_rad ? 0 : 1);
+    if (s.f.impact_time_s.empty() || static_cast<int>(usable) < options.fit.min_impacts || s.f.peak_rad.empty()) {
       throw FitError(record.source + ": only " + std::to_string(s.f.impact_time_s.size()) +
                      " usable impacts (the impacts likelihood needs " + std::to_string(options.fit.min_impacts) +
-                     " and the amplitude before the first)");
+                     " after the amplitude it starts from)");
     }
-    s.release = s.f.release_time_s.has_value();
+    s.release = s.f.release_time_s.has_value() && s.f.r0_rad.has_value();
   } else {
     const std::size_t head = std::min<std::size_t>(record.size(), 20);
     bool at_rest = true;
@@ -340,6 +412,7 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   hi.push_back(pr.t_offset_s);
   s.lo = Eigen::Map<Eigen::VectorXd>(lo.data(), static_cast<Eigen::Index>(lo.size()));
   s.hi = Eigen::Map<Eigen::VectorXd>(hi.data(), static_cast<Eigen::Index>(hi.size()));
+  SearchStart(s);
   impl_ = std::move(impl);
 }
 
@@ -356,7 +429,9 @@ bool PosteriorProblem::forced() const { return impl_->forced; }
 
 int PosteriorProblem::data_points() const {
   const Impl& s = *impl_;
-  if (s.options.method == FitMethod::kImpacts) return static_cast<int>(2 * s.f.impact_time_s.size() - 1);
+  if (s.options.method == FitMethod::kImpacts) {
+    return static_cast<int>(2 * (s.f.impact_time_s.size() - (s.f.r0_rad ? 0 : 1)) - 1);
+  }
   return static_cast<int>(s.record.size() - s.first);
 }
 
@@ -366,26 +441,9 @@ Eigen::VectorXd PosteriorProblem::ToReported(const Eigen::VectorXd& x) const {
   return y;
 }
 
-Eigen::VectorXd PosteriorProblem::Start() const {
-  const Impl& s = *impl_;
-  const BlockParams b = s.point_fitted ? s.point.params : s.theory;
-  Eigen::VectorXd x(dimension());
-  x(0) = b.alpha;
-  x(1) = b.p;
-  x(2) = b.mu;
-  if (s.complex) x(3) = std::log10(kDefaultL);
-  x(s.i_sigma) = s.noise;
-  x(s.i_offset) = 0.0;
-  if (s.point_fitted && s.options.method == FitMethod::kTrajectory && s.point.release_time_s && s.f.release_time_s) {
-    x(s.i_offset) = *s.point.release_time_s - *s.f.release_time_s;
-  }
-  // Inside the support, a hundredth of its width from an end.
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double margin = 0.01 * (s.hi(i) - s.lo(i));
-    x(i) = std::clamp(x(i), s.lo(i) + margin, s.hi(i) - margin);
-  }
-  return x;
-}
+Eigen::VectorXd PosteriorProblem::Start() const { return impl_->start; }
+
+bool PosteriorProblem::start_from_scan() const { return impl_->start_from_scan; }
 
 Eigen::VectorXd PosteriorProblem::StartScale() const {
   // About the posterior's own spread where the point fit gives it (its
@@ -393,13 +451,14 @@ Eigen::VectorXd PosteriorProblem::StartScale() const {
   // spread instead of expanding from a point (fewer steps of burn-in).
   const Impl& s = *impl_;
   Eigen::VectorXd scale = 1e-3 * (s.hi - s.lo);
-  if (s.point_fitted) {
+  if (s.point_fitted && !s.start_from_scan) {
     const double se[3] = {s.point.alpha_stderr, s.point.p_stderr, s.point.mu_stderr};
     for (int i = 0; i < 3; ++i) {
       if (std::isfinite(se[i]) && se[i] > 0.0) scale(i) = std::min(se[i], 0.1 * (s.hi(i) - s.lo(i)));
     }
   }
   // sigma from n data: relative standard error 1 / sqrt(2 n).
+  if (s.start_from_scan) scale.head(3) = 1e-3 * (s.hi.head(3) - s.lo.head(3));
   scale(s.i_sigma) = s.noise / std::sqrt(2.0 * std::max(1, data_points()));
   if (s.options.method == FitMethod::kImpacts && !s.f.impact_time_stderr_s.empty()) {
     scale(s.i_offset) = s.f.impact_time_stderr_s[0];
@@ -464,7 +523,7 @@ PosteriorResult SamplePosterior(const PosteriorProblem& problem, const Posterior
   r.seed = options.sampler.seed;
   r.threads = run.threads;
   r.point_fitted = problem.point_fitted();
-  r.start_from = problem.point_fitted() ? "point fit" : "geometry";
+  r.start_from = problem.start_from_scan() ? "prior scan" : problem.point_fitted() ? "point fit" : "geometry";
   if (!problem.point_fitted()) r.warnings.push_back("point fit failed, walkers start at the geometry: " + problem.point_error());
   r.diagnostics = Diagnose(run, burn);
   r.problems = ConvergenceProblems(r.diagnostics, options.rule, r.names);

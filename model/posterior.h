@@ -9,7 +9,8 @@
 ///   model from the release amplitude r_0 (quarter times, eq. 12 corrected,
 ///   and the peak after each impact by energy); Gaussian errors whose
 ///   standard deviations are the features' own standard errors scaled by
-///   sigma / (the noise they were computed with).
+///   sigma / (the noise they were computed with). A record that starts at
+///   a peak (no r_0) starts the chain from the peak after the first impact.
 /// - trajectory: every theta sample against a model run (Housner or the
 ///   complex formulation, free from the held release or forced by the
 ///   record's table acceleration), white Gaussian noise of standard
@@ -94,9 +95,13 @@ class PosteriorProblem {
   double LogPrior(const Eigen::VectorXd& x) const;
   /// The sampled coordinates in the reported units (l = 10^x(3)).
   Eigen::VectorXd ToReported(const Eigen::VectorXd& x) const;
-  /// A start point inside the support: the point fit when it succeeds, else
-  /// the geometry's parameters, with the estimated noise and no offset.
+  /// A start point inside the support: the highest log posterior of the
+  /// point fit (else the geometry's parameters) and 256 points drawn from
+  /// the prior of alpha, p, mu (, log10 l), with sigma the estimated noise
+  /// and no offset (the point fit's release offset).
   Eigen::VectorXd Start() const;
+  /// The start came from the prior scan, not the point fit.
+  bool start_from_scan() const;
   /// Per coordinate, a scale for the walkers' initial ball.
   Eigen::VectorXd StartScale() const;
   /// Lower and upper ends of the prior's support per coordinate.
@@ -147,7 +152,7 @@ struct PosteriorResult {
   std::vector<std::string> problems;
   bool converged() const { return problems.empty(); }
   bool point_fitted{};
-  std::string start_from;          ///< "point fit" / "geometry"
+  std::string start_from;          ///< "point fit" / "prior scan" / "geometry"
   std::vector<std::string> warnings;
 };
 
