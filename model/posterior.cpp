@@ -131,6 +131,7 @@ void PosteriorOptions::Validate() const {
                                 "come from it");
   }
   if (!(rtol > 0.0 && rtol < 1e-3)) throw std::invalid_argument("posterior rtol must be in (0, 1e-3), got " + Num(rtol));
+  if (start_scan < 0) throw std::invalid_argument("start scan must be >= 0 points, got " + std::to_string(start_scan));
   if (output_stride < 1 || output_stride > 1000) {
     throw std::invalid_argument("output stride must be in [1, 1000] samples, got " + std::to_string(output_stride));
   }
@@ -251,7 +252,7 @@ struct PosteriorProblem::Impl {
 
 namespace {
 
-// The walkers' start: the point fit (or the geometry) against kScan points
+// The walkers' start: the point fit (or the geometry) against start_scan points
 // drawn uniformly from the prior of alpha, p, mu (and log10 l), sigma at the
 // estimated noise and no offset; the highest log posterior wins. It catches
 // a point fit that failed or stopped far from the mode when the prior holds
@@ -259,7 +260,7 @@ namespace {
 // basin is far narrower than the scan's spacing (docs/identification.md),
 // and the start is the point fit's.
 void SearchStart(PosteriorProblem::Impl& s) {
-  constexpr int kScan = 256;
+  const int scan = s.options.start_scan;
   const int dim = static_cast<int>(s.names.size());
   const BlockParams b = s.point_fitted ? s.point.params : s.theory;
   Eigen::VectorXd x0(dim);
@@ -298,10 +299,10 @@ void SearchStart(PosteriorProblem::Impl& s) {
     best_lp = lp[best];
     return best;
   };
-  std::vector<Eigen::VectorXd> trial(kScan + 1, x0);
+  std::vector<Eigen::VectorXd> trial(scan + 1, x0);
   RandomStream rng(0x5CA9, 0);
   const int sampled = s.complex ? 4 : 3;
-  for (int k = 1; k <= kScan; ++k) {
+  for (int k = 1; k <= scan; ++k) {
     for (int i = 0; i < sampled; ++i) trial[static_cast<std::size_t>(k)](i) = s.lo(i) + (s.hi(i) - s.lo(i)) * rng.Uniform();
   }
   double lp_start = -kInf;

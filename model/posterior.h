@@ -65,6 +65,8 @@ struct PosteriorOptions {
   /// interpolation split at its events (docs/identification.md); 1: every
   /// sample. The complex model is output at every sample.
   int output_stride{10};
+  /// Points drawn from the prior for the walkers' start (0: the point fit's).
+  int start_scan{256};
   EnsembleOptions sampler;
   /// Steps dropped before the diagnostics and the draws; -1: half the steps.
   int burn_in{-1};
@@ -96,7 +98,7 @@ class PosteriorProblem {
   /// The sampled coordinates in the reported units (l = 10^x(3)).
   Eigen::VectorXd ToReported(const Eigen::VectorXd& x) const;
   /// A start point inside the support: the highest log posterior of the
-  /// point fit (else the geometry's parameters) and 256 points drawn from
+  /// point fit (else the geometry's parameters) and start_scan points drawn from
   /// the prior of alpha, p, mu (, log10 l), with sigma the estimated noise
   /// and no offset (the point fit's release offset).
   Eigen::VectorXd Start() const;
