@@ -94,7 +94,7 @@ void WritePosteriorSamples(const std::string& path, const model::PosteriorResult
 void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, const std::string& title) {
   const int d = static_cast<int>(r.draws.cols());
   const double panel = 150.0, gap = 12.0, left = 70.0, top = 40.0, bins = 30;
-  const double size_w = left + d * (panel + gap) + 20.0;
+  const double size_w = left + d * (panel + gap) + 140.0;  // room for the last title
   const double size_h = top + d * (panel + gap) + 50.0;
   // Each parameter's axis: its 0.5 to 99.5 percentiles, so that a stray walker
   // does not squash the rest.
@@ -143,8 +143,8 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
           svg += "<line x1=\"" + F(x) + "\" x2=\"" + F(x) + "\" y1=\"0\" y2=\"" + F(panel) +
                  "\" stroke=\"#d62728\" stroke-dasharray=\"" + (v == s.median ? "none" : "4,3") + "\"/>\n";
         }
-        svg += "<text x=\"2\" y=\"-3\">" + Xml(s.name) + " = " + F(s.median, "%.5g") + " [" + F(s.ci68_lo, "%.4g") +
-               ", " + F(s.ci68_hi, "%.4g") + "]</text>\n";
+        svg += "<text x=\"2\" y=\"-3\">" + Xml(s.name) + " = " + F(s.median, "%.6g") + " [" + F(s.ci68_lo, "%.6g") +
+               ", " + F(s.ci68_hi, "%.6g") + "]</text>\n";
       } else {
         std::vector<double> h(static_cast<std::size_t>(bins * bins), 0.0);
         for (Eigen::Index i = 0; i < r.draws.rows(); ++i) {
@@ -167,17 +167,17 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
       // Axis ends under the bottom row and beside the first column.
       if (row == d - 1) {
         const auto k = static_cast<std::size_t>(col);
-        svg += "<text x=\"" + F(x0) + "\" y=\"" + F(y0 + panel + 14) + "\">" + F(lo[k], "%.4g") + "</text>\n";
+        svg += "<text x=\"" + F(x0) + "\" y=\"" + F(y0 + panel + 14) + "\">" + F(lo[k], "%.6g") + "</text>\n";
         svg += "<text x=\"" + F(x0 + panel) + "\" y=\"" + F(y0 + panel + 14) + "\" text-anchor=\"end\">" +
-               F(hi[k], "%.4g") + "</text>\n";
+               F(hi[k], "%.6g") + "</text>\n";
         svg += "<text x=\"" + F(x0 + panel / 2) + "\" y=\"" + F(y0 + panel + 30) + "\" text-anchor=\"middle\">" +
                Xml(r.names[k]) + " (" + Xml(UnitOf(r.names[k])) + ")</text>\n";
       }
       if (col == 0 && row > 0) {
         const auto k = static_cast<std::size_t>(row);
-        svg += "<text x=\"" + F(x0 - 4) + "\" y=\"" + F(y0 + panel) + "\" text-anchor=\"end\">" + F(lo[k], "%.4g") +
+        svg += "<text x=\"" + F(x0 - 4) + "\" y=\"" + F(y0 + panel) + "\" text-anchor=\"end\">" + F(lo[k], "%.6g") +
                "</text>\n";
-        svg += "<text x=\"" + F(x0 - 4) + "\" y=\"" + F(y0 + 10) + "\" text-anchor=\"end\">" + F(hi[k], "%.4g") +
+        svg += "<text x=\"" + F(x0 - 4) + "\" y=\"" + F(y0 + 10) + "\" text-anchor=\"end\">" + F(hi[k], "%.6g") +
                "</text>\n";
       }
     }
