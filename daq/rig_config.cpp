@@ -342,6 +342,32 @@ void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<s
   }
 }
 
+// [posterior]: the priors of `rocklab fit --posterior`.
+void ParsePosterior(Reader& r, const toml::table& root, PosteriorPriorConfig& c) {
+  const toml::table* t = r.Table(root, "", "posterior", false);
+  if (t == nullptr) return;
+  c.line = Reader::LineOf(*t);
+  c.alpha_band_m = r.OptionalDouble(*t, "posterior", "alpha_band_m");
+  r.Check(!c.alpha_band_m || (*c.alpha_band_m > 0 && *c.alpha_band_m <= kMaxLengthM), *t, "posterior", "alpha_band_m",
+          "must be in (0, 100] m");
+  c.p_range = r.OptionalDouble(*t, "posterior", "p_range");
+  r.Check(!c.p_range || (*c.p_range > 0 && *c.p_range < 1), *t, "posterior", "p_range", "must be in (0, 1)");
+  c.mu_min = r.OptionalDouble(*t, "posterior", "mu_min");
+  c.mu_max = r.OptionalDouble(*t, "posterior", "mu_max");
+  const double mu_lo = c.mu_min.value_or(0.0), mu_hi = c.mu_max.value_or(1.0);
+  r.Check(mu_lo >= 0 && mu_lo < 1, *t, "posterior", "mu_min", "must be in [0, 1)");
+  r.Check(mu_hi > mu_lo && mu_hi <= 1, *t, "posterior", "mu_max", "must be in (mu_min, 1]");
+  c.log10_l_min = r.OptionalDouble(*t, "posterior", "log10_l_min");
+  c.log10_l_max = r.OptionalDouble(*t, "posterior", "log10_l_max");
+  const double l_lo = c.log10_l_min.value_or(-14.0), l_hi = c.log10_l_max.value_or(-8.0);
+  r.Check(l_lo >= -20 && l_lo < -2, *t, "posterior", "log10_l_min", "must be in [-20, -2)");
+  r.Check(l_hi > l_lo && l_hi <= -2, *t, "posterior", "log10_l_max", "must be in (log10_l_min, -2]");
+  c.t_offset_s = r.OptionalDouble(*t, "posterior", "t_offset_s");
+  r.Check(!c.t_offset_s || (*c.t_offset_s > 0 && *c.t_offset_s <= 1), *t, "posterior", "t_offset_s",
+          "must be in (0, 1] s");
+  r.RejectUnknown(*t, "posterior");
+}
+
 // [checks]: the DAQ's tolerances.
 void ParseChecks(Reader& r, const toml::table& root, CheckTolerances& c) {
   if (const toml::table* t = r.Table(root, "", "checks", false)) {
@@ -436,6 +462,7 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   std::set<std::string> roles = {"table.displacement", "table.acceleration"};
   ParseSensors(r, root, rig, roles);
   ParseChecks(r, root, rig.checks);
+  ParsePosterior(r, root, rig.posterior);
   ParseDifferentiator(r, root, "theta_dot", rig.theta_dot, rig.sample_rate_hz, false);
   ParseDifferentiator(r, root, "table", rig.table, rig.sample_rate_hz, true);
   ParseChannels(r, root, roles, rig);

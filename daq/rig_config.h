@@ -121,6 +121,20 @@ struct BlockConfig {
   double pivot_half_width_m() const { return 0.5 * width_m - chamfer_m; }
 };
 
+/// Priors of `rocklab fit --posterior` (docs/identification.md), each
+/// absent unless the rig file's [posterior] section sets it (the fit's
+/// defaults then hold).
+struct PosteriorPriorConfig {
+  std::optional<double> alpha_band_m;  ///< alpha uniform on the band of b -+ this, m; > 0
+  std::optional<double> p_range;       ///< p uniform on geometric p x [1 -+ p_range], 1; in (0, 1)
+  std::optional<double> mu_min;        ///< mu uniform on (mu_min, mu_max], 1; 0 <= min < max <= 1
+  std::optional<double> mu_max;
+  std::optional<double> log10_l_min;   ///< complex model: log10 l uniform on [min, max]; -20 <= min < max <= -2
+  std::optional<double> log10_l_max;
+  std::optional<double> t_offset_s;    ///< time offset uniform on [-t, t], s; in (0, 1]
+  int line{};                          ///< line of the [posterior] table (0: none)
+};
+
 struct RigConfig {
   std::string path;  ///< file it was loaded from
   std::string name;
@@ -131,6 +145,7 @@ struct RigConfig {
   std::vector<CameraConfig> cameras;
   OutOfPlaneConfig out_of_plane;
   BlockConfig block;
+  PosteriorPriorConfig posterior;
   CheckTolerances checks;
   /// theta_dot from theta (default: 10 ms span, order 2).
   DifferentiatorConfig theta_dot{0.010, 2, std::nullopt};

@@ -18,6 +18,7 @@
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "model/fit.h"
+#include "model/posterior.h"
 #include "model/test_record.h"
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
@@ -232,23 +233,14 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   return j;
 }
 
-py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::optional<DoubleArray> theta,
-             std::optional<DoubleArray> table_t, std::optional<DoubleArray> table_a, const std::string& accel_path,
-             std::optional<double> width_m, std::optional<double> height_m, double chamfer_m,
-             const std::string& method_name, const std::string& quarter_time, double alpha_band_m, int min_impacts,
-             const py::object& progress) {
-  // The checks of `rocklab fit`, in its order and words.
+// The options `rocklab fit` checks, in its order and words.
+model::FitOptions FitOptionsOf(std::optional<double> width_m, std::optional<double> height_m, double chamfer_m,
+                               const std::string& quarter_time, double alpha_band_m, int min_impacts) {
   model::FitOptions fo;
   try {
     fo.quarter_time = model::ParseQuarterTime(quarter_time);
   } catch (const std::invalid_argument&) {
     throw pipeline::OptionError("--quarter-time must be exact or slender, got '" + quarter_time + "'");
-  }
-  model::FitMethod method{};
-  try {
-    method = model::ParseFitMethod(method_name);
-  } catch (const std::invalid_argument&) {
-    throw pipeline::OptionError("--method must be impacts or trajectory, got '" + method_name + "'");
   }
   pipeline::Require(alpha_band_m >= 0.0, "--alpha-band-m", ">= 0 m", alpha_band_m);
   pipeline::Require(min_impacts >= 3, "--min-impacts", ">= 3", min_impacts);
@@ -266,23 +258,79 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
       throw pipeline::OptionError(std::string("geometry: ") + e.what());
     }
   }
+  return fo;
+}
+
+model::FitMethod FitMethodOf(const std::string& method_name) {
+  try {
+    return model::ParseFitMethod(method_name);
+  } catch (const std::invalid_argument&) {
+    throw pipeline::OptionError("--method must be impacts or trajectory, got '" + method_name + "'");
+  }
+}
+
+// The record of arrays t, theta (and the table's), read with the GIL held;
+// empty (source "") when t is None.
+model::RockingRecord RecordOfArrays(const std::optional<DoubleArray>& t, const std::optional<DoubleArray>& theta,
+                                    const std::optional<DoubleArray>& table_t,
+                                    const std::optional<DoubleArray>& table_a) {
   model::RockingRecord record;
-  if (t) {
-    record.source = "<arrays>";
-    record.time_s = ToVector(*t, "t");
-    record.theta = ToVector(*theta, "theta");
-    if (record.time_s.size() != record.theta.size()) {
-      throw std::invalid_argument("t and theta must have the same length");
-    }
-    for (std::size_t i = 0; i < record.time_s.size(); ++i) record.line.push_back(static_cast<int64_t>(i) + 1);
-    if (table_t) {
-      record.table_time_s = ToVector(*table_t, "table t");
-      record.table_accel_mps2 = ToVector(*table_a, "table a");
-      if (record.table_time_s.size() != record.table_accel_mps2.size()) {
-        throw std::invalid_argument("table: t and a must have the same length");
-      }
+  if (!t) return record;
+  record.source = "<arrays>";
+  record.time_s = ToVector(*t, "t");
+  record.theta = ToVector(*theta, "theta");
+  if (record.time_s.size() != record.theta.size()) {
+    throw std::invalid_argument("t and theta must have the same length");
+  }
+  for (std::size_t i = 0; i < record.time_s.size(); ++i) record.line.push_back(static_cast<int64_t>(i) + 1);
+  if (table_t) {
+    record.table_time_s = ToVector(*table_t, "table t");
+    record.table_accel_mps2 = ToVector(*table_a, "table a");
+    if (record.table_time_s.size() != record.table_accel_mps2.size()) {
+      throw std::invalid_argument("table: t and a must have the same length");
     }
   }
+  return record;
+}
+
+// Reads `input` (no arrays) or checks the arrays' record, then adds the
+// table of `accel_path`. Without the GIL. @throws model::RecordError.
+void CompleteRecord(model::RockingRecord& record, bool from_arrays, const std::string& input,
+                    const std::string& accel_path) {
+  if (!from_arrays) {
+    try {
+      record = model::ReadRecord(input);
+    } catch (const model::RecordError& e) {
+      ThrowIfUnreadable(input, e.what());
+      throw;
+    }
+  } else {
+    model::CheckRecord(record);
+    record.theta_gaps = model::CountGaps(record.time_s, record.line);
+    if (record.has_table()) {
+      std::vector<int64_t> lines;
+      for (std::size_t i = 0; i < record.table_time_s.size(); ++i) lines.push_back(static_cast<int64_t>(i) + 1);
+      record.table_gaps = model::CountGaps(record.table_time_s, lines);
+    }
+  }
+  if (!accel_path.empty()) {
+    try {
+      model::AddTableCsv(accel_path, record);
+    } catch (const model::RecordError& e) {
+      ThrowIfUnreadable(accel_path, e.what());
+      throw;
+    }
+  }
+}
+
+py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::optional<DoubleArray> theta,
+             std::optional<DoubleArray> table_t, std::optional<DoubleArray> table_a, const std::string& accel_path,
+             std::optional<double> width_m, std::optional<double> height_m, double chamfer_m,
+             const std::string& method_name, const std::string& quarter_time, double alpha_band_m, int min_impacts,
+             const py::object& progress) {
+  model::FitOptions fo = FitOptionsOf(width_m, height_m, chamfer_m, quarter_time, alpha_band_m, min_impacts);
+  const model::FitMethod method = FitMethodOf(method_name);
+  model::RockingRecord record = RecordOfArrays(t, theta, table_t, table_a);
   ProgressHook hook(progress, static_cast<double>(fo.max_evaluations));
   // The fit's progress comes on the fitting thread and must not throw: a
   // Python exception is kept and raised after the fit.
@@ -299,30 +347,7 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
   {
     py::gil_scoped_release release;
     try {
-      if (!t) {
-        try {
-          record = model::ReadRecord(input);
-        } catch (const model::RecordError& e) {
-          ThrowIfUnreadable(input, e.what());
-          throw;
-        }
-      } else {
-        model::CheckRecord(record);
-        record.theta_gaps = model::CountGaps(record.time_s, record.line);
-        if (record.has_table()) {
-          std::vector<int64_t> lines;
-          for (std::size_t i = 0; i < record.table_time_s.size(); ++i) lines.push_back(static_cast<int64_t>(i) + 1);
-          record.table_gaps = model::CountGaps(record.table_time_s, lines);
-        }
-      }
-      if (!accel_path.empty()) {
-        try {
-          model::AddTableCsv(accel_path, record);
-        } catch (const model::RecordError& e) {
-          ThrowIfUnreadable(accel_path, e.what());
-          throw;
-        }
-      }
+      CompleteRecord(record, t.has_value(), input, accel_path);
       result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
                                                     : model::FitTrajectory(record, fo);
     } catch (const model::RecordError& e) {
@@ -333,6 +358,148 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
   }
   if (stopped) std::rethrow_exception(stopped);
   return FitDict(t ? std::string("<arrays>") : input, result);
+}
+
+// ---- posterior ------------------------------------------------------------
+
+// The options of `rocklab fit --posterior` from the Python arguments.
+model::PosteriorOptions PosteriorOptionsOf(model::FitOptions fo, model::FitMethod method, const std::string& model_name,
+                                           std::uint64_t seed, int walkers, int steps, int burn_in, int threads,
+                                           double rtol, const std::string& integrator, const py::dict& priors) {
+  model::PosteriorOptions po;
+  if (!fo.geometry) throw pipeline::OptionError("--posterior needs the block geometry (width and height)");
+  try {
+    po.model = model::ParseModelKind(model_name);
+  } catch (const std::invalid_argument&) {
+    throw pipeline::OptionError("--model must be housner or complex, got '" + model_name + "'");
+  }
+  if (integrator != "adams" && integrator != "rk") {
+    throw pipeline::OptionError("--integrator must be adams or rk, got '" + integrator + "'");
+  }
+  if (po.model == model::ModelKind::kComplex && method != model::FitMethod::kTrajectory) {
+    throw pipeline::OptionError("--model complex needs --method trajectory");
+  }
+  po.method = method;
+  po.fit = fo;
+  po.rtol = rtol;
+  po.integrator = integrator == "rk" ? model::Integrator::kRungeKutta : model::Integrator::kAdams;
+  po.sampler.seed = seed;
+  po.sampler.walkers = walkers;
+  po.sampler.steps = steps;
+  po.sampler.threads = threads;
+  po.burn_in = burn_in;
+  po.priors.alpha_band_m = fo.alpha_band_m > 0.0 ? fo.alpha_band_m : po.priors.alpha_band_m;
+  for (const auto& [key, value] : priors) {
+    const std::string k = py::str(key);
+    const double v = value.cast<double>();
+    model::PosteriorPriors& pr = po.priors;
+    if (k == "alpha_band_m") {
+      pr.alpha_band_m = v;
+    } else if (k == "p_range") {
+      pr.p_range = v;
+    } else if (k == "mu_min") {
+      pr.mu_min = v;
+    } else if (k == "mu_max") {
+      pr.mu_max = v;
+    } else if (k == "log10_l_min") {
+      pr.log10_l_min = v;
+    } else if (k == "log10_l_max") {
+      pr.log10_l_max = v;
+    } else if (k == "t_offset_s") {
+      pr.t_offset_s = v;
+    } else {
+      throw pipeline::OptionError("priors: unknown key '" + k + "' (the rig file's [posterior] keys)");
+    }
+  }
+  try {
+    po.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw pipeline::OptionError(e.what());
+  }
+  return po;
+}
+
+// A posterior problem of one record: its log posterior for other samplers
+// (the emcee test), thread-safe, the GIL released while it runs the model.
+class PyPosteriorProblem {
+ public:
+  PyPosteriorProblem(const model::RockingRecord& record, const model::PosteriorOptions& options)
+      : options_(options), problem_(record, options) {}
+  double LogPosterior(const DoubleArray& x) const {
+    const std::vector<double> v = ToVector(x, "x");
+    if (static_cast<int>(v.size()) != problem_.dimension()) {
+      throw std::invalid_argument("x must have " + std::to_string(problem_.dimension()) + " entries (" +
+                                  Join(problem_.names()) + ")");
+    }
+    const Eigen::VectorXd e = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+    py::gil_scoped_release release;
+    return problem_.LogPosterior(e);
+  }
+  const model::PosteriorProblem& problem() const { return problem_; }
+  const model::PosteriorOptions& options() const { return options_; }
+  static std::string Join(const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+  }
+
+ private:
+  model::PosteriorOptions options_;
+  model::PosteriorProblem problem_;
+};
+
+std::vector<double> ToStd(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+PyPosteriorProblem MakeProblem(const std::string& input, std::optional<DoubleArray> t, std::optional<DoubleArray> theta,
+                               std::optional<DoubleArray> table_t, std::optional<DoubleArray> table_a,
+                               const std::string& accel_path, std::optional<double> width_m,
+                               std::optional<double> height_m, double chamfer_m, const std::string& method_name,
+                               const std::string& quarter_time, double alpha_band_m, int min_impacts,
+                               const std::string& model_name, std::uint64_t seed, int walkers, int steps, int burn_in,
+                               int threads, double rtol, const std::string& integrator, const py::dict& priors) {
+  const model::FitOptions fo = FitOptionsOf(width_m, height_m, chamfer_m, quarter_time, alpha_band_m, min_impacts);
+  const model::FitMethod method = FitMethodOf(method_name);
+  const model::PosteriorOptions po =
+      PosteriorOptionsOf(fo, method, model_name, seed, walkers, steps, burn_in, threads, rtol, integrator, priors);
+  model::RockingRecord record = RecordOfArrays(t, theta, table_t, table_a);
+  py::gil_scoped_release release;
+  try {
+    CompleteRecord(record, t.has_value(), input, accel_path);
+    return PyPosteriorProblem(record, po);
+  } catch (const model::RecordError& e) {
+    throw pipeline::OptionError(e.what());
+  } catch (const model::FitError& e) {
+    throw pipeline::OptionError(e.what());
+  }
+}
+
+// The draws as columns and the summary as the JSON text of `fit --json`'s
+// `posterior` (the Python side makes the structured array and the dict).
+py::tuple SampleProblem(const PyPosteriorProblem& p, const py::object& progress) {
+  model::PosteriorOptions po = p.options();
+  ProgressHook hook(progress, static_cast<double>(po.sampler.steps));
+  std::exception_ptr stopped;
+  po.sampler.on_step = [&hook, &stopped](int step, int) {
+    if (stopped) return;
+    try {
+      hook.Update(step);
+    } catch (...) {
+      stopped = std::current_exception();
+    }
+  };
+  model::PosteriorResult r;
+  {
+    py::gil_scoped_release release;
+    try {
+      r = model::SamplePosterior(p.problem(), po);
+    } catch (const model::FitError& e) {
+      throw pipeline::OptionError(e.what());
+    }
+  }
+  if (stopped) std::rethrow_exception(stopped);
+  py::list columns;
+  for (Eigen::Index c = 0; c < r.draws.cols(); ++c) columns.append(OwnedArray(ToStd(r.draws.col(c))));
+  return py::make_tuple(r.names, columns, OwnedArray(ToStd(r.log_posterior)), model::PosteriorJson(r));
 }
 
 // ---- sweep ----------------------------------------------------------------
@@ -440,6 +607,26 @@ py::list SweepFragilities(const std::vector<std::string>& model, const std::vect
 
 void RegisterAnalysis(py::module_& m) {
   m.def("_reconstruct", &Reconstruct, py::arg("input"), py::arg("rig"), py::arg("progress"));
+  py::class_<PyPosteriorProblem>(m, "_PosteriorProblem")
+      .def("log_posterior", &PyPosteriorProblem::LogPosterior, py::arg("x"))
+      .def_property_readonly("names", [](const PyPosteriorProblem& p) { return p.problem().names(); })
+      .def_property_readonly("lower", [](const PyPosteriorProblem& p) { return ToStd(p.problem().lower()); })
+      .def_property_readonly("upper", [](const PyPosteriorProblem& p) { return ToStd(p.problem().upper()); })
+      .def("start", [](const PyPosteriorProblem& p) { return ToStd(p.problem().Start()); })
+      .def("start_scale", [](const PyPosteriorProblem& p) { return ToStd(p.problem().StartScale()); })
+      .def("to_reported",
+           [](const PyPosteriorProblem& p, const DoubleArray& x) {
+             const std::vector<double> v = ToVector(x, "x");
+             return ToStd(p.problem().ToReported(
+                 Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()))));
+           },
+           py::arg("x"));
+  m.def("_posterior_problem", &MakeProblem, py::arg("input"), py::arg("t"), py::arg("theta"), py::arg("table_t"),
+        py::arg("table_a"), py::arg("accel"), py::arg("width"), py::arg("height"), py::arg("chamfer"),
+        py::arg("method"), py::arg("quarter_time"), py::arg("alpha_band"), py::arg("min_impacts"), py::arg("model"),
+        py::arg("seed"), py::arg("walkers"), py::arg("steps"), py::arg("burn_in"), py::arg("threads"),
+        py::arg("rtol"), py::arg("integrator"), py::arg("priors"));
+  m.def("_sample_posterior", &SampleProblem, py::arg("problem"), py::arg("progress"));
   m.def("_fit", &Fit, py::arg("input"), py::arg("t"), py::arg("theta"), py::arg("table_t"), py::arg("table_a"),
         py::arg("accel"), py::arg("width"), py::arg("height"), py::arg("chamfer"), py::arg("method"),
         py::arg("quarter_time"), py::arg("alpha_band"), py::arg("min_impacts"), py::arg("progress"));

@@ -2,6 +2,7 @@
 // paper's impacts method (free rocking) or a least-squares fit of the whole
 // trajectory (free or forced).
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -13,9 +14,11 @@
 #include "common/progress.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
+#include "model/posterior.h"
 #include "model/test_record.h"
 #include "tools/cli.h"
 #include "tools/formats.h"
+#include "tools/posterior_output.h"
 
 namespace rocklab::tools {
 namespace {
@@ -35,7 +38,50 @@ struct FitCliOptions {
   bool json{};
   bool quiet{};
   std::string out_json;
+  // --posterior (docs/identification.md)
+  bool posterior{};
+  std::uint64_t seed{1};
+  int walkers{32};
+  int steps{5000};
+  int burn_in{-1};
+  int threads{0};
+  std::string model{"housner"};
+  double posterior_rtol{model::PosteriorOptions{}.rtol};
+  std::string integrator{"adams"};
+  std::string samples;
+  std::string plot;
+  bool allow_unconverged{};
 };
+
+// Exit code of a posterior run that fails its convergence rule (without
+// --allow-unconverged): its outputs are written, the verdict is not.
+constexpr int kUnconvergedExit = 3;
+
+void PrintPosterior(const model::PosteriorResult& p) {
+  std::printf("\nposterior (%s, %s model): %d walkers x %d steps, burn-in %d, %lld draws, seed %llu, %d threads, %.1f s\n",
+              p.method.c_str(), p.model.c_str(), p.walkers, p.steps, p.diagnostics.burn_in,
+              static_cast<long long>(p.draws.rows()), static_cast<unsigned long long>(p.seed), p.threads, p.runtime_s);
+  std::printf("%-9s %12s %25s %25s %11s %7s %7s %7s\n", "", "median", "68 % interval", "95 % interval", "sd", "R-hat",
+              "ESS", "tau");
+  for (const model::ParameterSummary& s : p.summary) {
+    std::printf("%-9s %12.6g [%11.6g, %11.6g] [%11.6g, %11.6g] %11.4g %7.4f %7.0f %7.1f\n", s.name.c_str(), s.median,
+                s.ci68_lo, s.ci68_hi, s.ci95_lo, s.ci95_hi, s.sd, s.rhat, s.ess, s.tau);
+  }
+  std::printf("correlation (%s):\n", [&p] {
+    std::string order;
+    for (const std::string& n : p.names) order += (order.empty() ? "" : ", ") + n;
+    return order;
+  }().c_str());
+  for (Eigen::Index i = 0; i < p.correlation.rows(); ++i) {
+    std::printf("  %-9s", p.names[static_cast<std::size_t>(i)].c_str());
+    for (Eigen::Index j = 0; j < p.correlation.cols(); ++j) std::printf(" %+6.3f", p.correlation(i, j));
+    std::printf("\n");
+  }
+  std::printf("acceptance fraction %.3f; %s\n", p.diagnostics.acceptance,
+              p.converged() ? "converged (split R-hat, ESS, steps per tau, acceptance)" : "NOT converged:");
+  for (const std::string& problem : p.problems) std::printf("  %s\n", problem.c_str());
+  for (const std::string& w : p.warnings) std::printf("note: %s\n", w.c_str());
+}
 
 nlohmann::json Optional(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 nlohmann::json Optional(const std::optional<double>& v) {
@@ -227,7 +273,50 @@ int RunFit(const FitCliOptions& o) {
     }
   }
 
+  model::PosteriorOptions po;
+  if (o.posterior) {
+    if (!fo.geometry) throw UsageError("--posterior needs the block geometry (--rig or --width/--height): the priors come from it");
+    Require(o.walkers >= 2, "--walkers", ">= 2", o.walkers);
+    Require(o.steps >= 8, "--steps", ">= 8", o.steps);
+    Require(o.threads >= 0, "--threads", ">= 0", o.threads);
+    Require(o.posterior_rtol > 0.0 && o.posterior_rtol < 1e-3, "--posterior-rtol", "in (0, 1e-3)", o.posterior_rtol);
+    Require(o.burn_in >= -1 && o.burn_in < o.steps - 3, "--burn-in", "in [0, steps - 4] (or -1: half the steps)",
+            o.burn_in);
+    try {
+      po.model = model::ParseModelKind(o.model);
+    } catch (const std::invalid_argument&) {
+      throw UsageError("--model must be housner or complex, got '" + o.model + "'");
+    }
+    if (o.integrator != "adams" && o.integrator != "rk") {
+      throw UsageError("--integrator must be adams or rk, got '" + o.integrator + "'");
+    }
+    po.integrator = o.integrator == "rk" ? model::Integrator::kRungeKutta : model::Integrator::kAdams;
+    if (po.model == model::ModelKind::kComplex && method != model::FitMethod::kTrajectory) {
+      throw UsageError("--model complex needs --method trajectory (the impacts likelihood is Housner's closed form)");
+    }
+    po.method = method;
+    po.rtol = o.posterior_rtol;
+    po.sampler.seed = o.seed;
+    po.sampler.walkers = o.walkers;
+    po.sampler.steps = o.steps;
+    po.sampler.threads = o.threads;
+    po.burn_in = o.burn_in;
+    po.priors.alpha_band_m = fo.alpha_band_m > 0.0 ? fo.alpha_band_m : po.priors.alpha_band_m;
+    if (!o.rig.empty()) {
+      const daq::PosteriorPriorConfig c = daq::LoadRigConfig(o.rig).posterior;
+      model::PosteriorPriors& pr = po.priors;
+      pr.alpha_band_m = c.alpha_band_m.value_or(pr.alpha_band_m);
+      pr.p_range = c.p_range.value_or(pr.p_range);
+      pr.mu_min = c.mu_min.value_or(pr.mu_min);
+      pr.mu_max = c.mu_max.value_or(pr.mu_max);
+      pr.log10_l_min = c.log10_l_min.value_or(pr.log10_l_min);
+      pr.log10_l_max = c.log10_l_max.value_or(pr.log10_l_max);
+      pr.t_offset_s = c.t_offset_s.value_or(pr.t_offset_s);
+    }
+  }
+
   model::FitResult result;
+  std::optional<model::PosteriorResult> posterior;
   try {
     model::RockingRecord record;
     {
@@ -243,6 +332,17 @@ int RunFit(const FitCliOptions& o) {
     }
     result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
                                                   : model::FitTrajectory(record, fo);
+    if (o.posterior) {
+      po.fit = fo;
+      po.fit.on_progress = nullptr;
+      if (!o.quiet) {
+        po.sampler.on_step = [](int step, int steps) {
+          if (step % 100 == 0 || step == steps) std::fprintf(stderr, "posterior: step %d of %d\n", step, steps);
+        };
+      }
+      const model::PosteriorProblem problem(record, po, &result);
+      posterior = model::SamplePosterior(problem, po);
+    }
   } catch (const model::RecordError& e) {
     throw UsageError(e.what());
   } catch (const model::FitError& e) {
@@ -251,7 +351,12 @@ int RunFit(const FitCliOptions& o) {
     throw UsageError(e.what());
   }
 
-  const nlohmann::json j = ResultJson(o, result);
+  nlohmann::json j = ResultJson(o, result);
+  if (posterior) {
+    j["posterior"] = nlohmann::json::parse(model::PosteriorJson(*posterior));
+    if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior);
+    if (!o.plot.empty()) WriteCornerSvg(o.plot, *posterior, "rocklab fit --posterior: " + o.input);
+  }
   if (!o.out_json.empty()) {
     common::WriteFileAtomically(o.out_json, j.dump(2) + "\n");
   }
@@ -259,6 +364,17 @@ int RunFit(const FitCliOptions& o) {
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     PrintText(o, result);
+    if (posterior) PrintPosterior(*posterior);
+  }
+  if (posterior && !posterior->converged()) {
+    std::string why;
+    for (const std::string& p : posterior->problems) why += (why.empty() ? "" : "; ") + p;
+    if (!o.allow_unconverged) {
+      std::fprintf(stderr, "rocklab fit: the posterior has not converged: %s (more --steps, or --allow-unconverged)\n",
+                   why.c_str());
+      return kUnconvergedExit;
+    }
+    std::fprintf(stderr, "rocklab fit: warning: the posterior has not converged: %s\n", why.c_str());
   }
   return 0;
 }
@@ -285,6 +401,21 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_flag("--json", opts->json, "print the result as JSON");
   cmd->add_flag("--quiet", opts->quiet, "no progress lines on stderr");
   cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");
+  cmd->add_flag("--posterior", opts->posterior,
+                "also sample the posterior of alpha, p, mu (, l), sigma, t_offset (docs/identification.md)");
+  cmd->add_option("--seed", opts->seed, "posterior: random seed (default 1)");
+  cmd->add_option("--walkers", opts->walkers, "posterior: ensemble walkers, even, >= 2 x parameters (default 32)");
+  cmd->add_option("--steps", opts->steps, "posterior: steps per walker (default 5000)");
+  cmd->add_option("--burn-in", opts->burn_in, "posterior: steps dropped first (default -1: half the steps)");
+  cmd->add_option("--threads", opts->threads, "posterior: threads (default 0: all cores)");
+  cmd->add_option("--model", opts->model, "posterior, trajectory method: housner | complex (samples l too)");
+  cmd->add_option("--posterior-rtol", opts->posterior_rtol,
+                  "posterior, trajectory method: the model's relative tolerance (default 1e-6)");
+  cmd->add_option("--integrator", opts->integrator, "posterior, trajectory method: adams | rk (default adams)");
+  cmd->add_option("--samples", opts->samples, "posterior: write the draws, FILE.csv or FILE.h5");
+  cmd->add_option("--plot", opts->plot, "posterior: write the corner plot, FILE.svg");
+  cmd->add_flag("--allow-unconverged", opts->allow_unconverged,
+                "posterior: exit 0 even when the convergence rule fails (else exit code 3)");
   cmd->callback([opts, &run] { run = [opts] { return RunFit(*opts); }; });
 }
 

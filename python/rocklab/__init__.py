@@ -10,6 +10,9 @@ The same C++ core as the ``rocklab`` command line (docs/python.md):
 - ``reconstruct``: theta and the checks from a raw file (``rocklab
   reconstruct``);
 - ``fit``: alpha, p and mu from a record (``rocklab fit``);
+- ``posterior``, ``posterior_problem``: their posterior by an ensemble
+  sampler (``rocklab fit --posterior``), and its log density for other
+  samplers;
 - ``sweep``, ``fragility``: campaigns over records x blocks x scales and
   their lognormal fragility (``rocklab sweep``, ``rocklab sweep-plot``);
 - the LCM message types of the lab (``rocklab.raw_frame_t`` etc., generated
@@ -42,6 +45,9 @@ __all__ = [
     "Reconstruction",
     "fit",
     "FitResult",
+    "posterior",
+    "posterior_problem",
+    "PosteriorProblem",
     "sweep",
     "fragility",
     "SWEEP_DTYPE",
@@ -482,6 +488,17 @@ def fit(
             (the CLI's message: never rocks, too few impacts, ...).
         OSError: a file that cannot be read.
     """
+    path, ts, th, table_t, table_a, accel = _record_args(t, theta, table)
+    r = _rocklab._fit(
+        path, ts, th, table_t, table_a, accel,
+        None if width is None else float(width), None if height is None else float(height), float(chamfer),
+        str(method), str(quarter_time), float(alpha_band), int(min_impacts), progress,
+    )
+    return FitResult(r)
+
+
+def _record_args(t, theta, table):
+    """(path, t, theta, table_t, table_a, accel) of fit's record arguments."""
     path, ts, th, table_t, table_a, accel = "", None, None, None, None, ""
     if isinstance(t, (str, _os.PathLike)):
         if theta is not None:
@@ -496,12 +513,121 @@ def fit(
         accel = _os.fspath(table)
     elif table is not None:
         table_t, table_a = (_np.asarray(x, dtype=float) for x in table)
-    r = _rocklab._fit(
-        path, ts, th, table_t, table_a, accel,
-        None if width is None else float(width), None if height is None else float(height), float(chamfer),
-        str(method), str(quarter_time), float(alpha_band), int(min_impacts), progress,
+    return path, ts, th, table_t, table_a, accel
+
+
+class PosteriorProblem:
+    """The log posterior of one record (``posterior_problem``), for any sampler.
+
+    Attributes:
+        names: the sampled coordinates in order: alpha, p, mu[, l], sigma,
+            t_offset (rad, rad/s, 1[, log10 l], rad, s).
+        lower, upper: the prior's support per coordinate.
+    Methods:
+        log_posterior(x): log prior + log likelihood at x (-inf outside the
+            support); thread-safe, releases the GIL.
+        start(), start_scale(): the point rocklab's walkers start about, and
+            the scale of their initial ball.
+        to_reported(x): x with l = 10**x[3] (complex model).
+    """
+
+    __slots__ = ("_p",)
+
+    def __init__(self, p):
+        self._p = p
+
+    names = property(lambda self: list(self._p.names))
+    lower = property(lambda self: _np.array(self._p.lower))
+    upper = property(lambda self: _np.array(self._p.upper))
+
+    def log_posterior(self, x):
+        return self._p.log_posterior(_np.asarray(x, dtype=float))
+
+    def __call__(self, x):
+        return self.log_posterior(x)
+
+    def start(self):
+        return _np.array(self._p.start())
+
+    def start_scale(self):
+        return _np.array(self._p.start_scale())
+
+    def to_reported(self, x):
+        return _np.array(self._p.to_reported(_np.asarray(x, dtype=float)))
+
+
+def _problem(t, theta, width, height, chamfer, method, table, model, seed, walkers, steps, burn_in, threads,
+             rtol, integrator, priors, alpha_band, min_impacts):
+    path, ts, th, table_t, table_a, accel = _record_args(t, theta, table)
+    if width is None or height is None:
+        raise ValueError("--posterior needs the block geometry: width and height")
+    return _rocklab._posterior_problem(
+        path, ts, th, table_t, table_a, accel, float(width), float(height), float(chamfer),
+        str(method), "exact", float(alpha_band), int(min_impacts), str(model), int(seed), int(walkers),
+        int(steps), int(burn_in), int(threads), float(rtol), str(integrator), dict(priors or {}),
     )
-    return FitResult(r)
+
+
+def posterior_problem(
+    t, theta=None, width=None, height=None, *, chamfer=0.0, method="impacts", table=None, model="housner",
+    rtol=1e-6, integrator="adams", priors=None, alpha_band=0.01, min_impacts=4,
+):
+    """The log posterior of a record, as ``rocklab fit --posterior`` samples it.
+
+    Arguments as ``posterior``. Returns a PosteriorProblem, whose
+    ``log_posterior(x)`` another sampler (emcee) can use.
+    """
+    return PosteriorProblem(_problem(t, theta, width, height, chamfer, method, table, model, 1, 32, 2000, -1, 0,
+                                     rtol, integrator, priors, alpha_band, min_impacts))
+
+
+def posterior(
+    t, theta=None, width=None, height=None, *, chamfer=0.0, method="impacts", table=None, model="housner",
+    seed=1, walkers=32, steps=5000, burn_in=-1, threads=0, rtol=1e-6, integrator="adams", priors=None,
+    alpha_band=0.01, min_impacts=4, progress=None,
+):
+    """Samples the posterior of alpha, p, mu (, l), sigma and t_offset, as ``rocklab fit --posterior``.
+
+    Args:
+        t, theta, width, height, chamfer, method, table: as ``fit``; the
+            geometry is required (the priors come from it).
+        model: trajectory method: "housner" or "complex" (samples l too).
+        seed, walkers, steps, burn_in (-1: half the steps), threads (0: all
+            cores): the ensemble sampler's.
+        rtol, integrator: trajectory method: the model run's relative
+            tolerance and integrator ("adams" or "rk").
+        priors: dict of the rig file's [posterior] keys (alpha_band_m,
+            p_range, mu_min, mu_max, log10_l_min, log10_l_max, t_offset_s).
+        progress: None or callable(step, steps).
+
+    Returns:
+        (draws, summary): draws, a numpy structured array with one field per
+        parameter (alpha, p, mu[, l], sigma, t_offset) and log_posterior;
+        summary, the dict of ``rocklab fit --json``'s ``posterior`` object
+        (per parameter median, ci68, ci95, sd; correlation; rhat, ess, tau;
+        acceptance, walkers, steps, seed, converged, problems).
+        A run that fails the convergence rule warns (RuntimeWarning) and
+        says so in summary["converged"] and summary["problems"].
+    """
+    import json as _json
+
+    p = _problem(t, theta, width, height, chamfer, method, table, model, seed, walkers, steps, burn_in, threads,
+                 rtol, integrator, priors, alpha_band, min_impacts)
+    names, columns, log_posterior, summary_json = _rocklab._sample_posterior(p, progress)
+    summary = _json.loads(summary_json)
+    units = summary["units"]
+    dtype = _np.dtype(
+        [(n, _np.dtype("f8", metadata={"unit": units.get(n, "1")})) for n in names] + [("log_posterior", "f8")]
+    )
+    draws = _np.empty(len(log_posterior), dtype=dtype)
+    for n, c in zip(names, columns):
+        draws[n] = c
+    draws["log_posterior"] = log_posterior
+    if not summary["converged"]:
+        _warnings.warn(
+            "rocklab.posterior: not converged: " + "; ".join(summary["problems"]), RuntimeWarning, stacklevel=2
+        )
+    return draws, summary
 
 
 #: dtype of sweep's results: the columns of ``rocklab sweep``'s CSV.

@@ -1,7 +1,7 @@
 # Type stub of the package rocklab (python/rocklab/__init__.py) for editors
 # and type checkers. SI units: m, s, rad, m/s^2.
 import os
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -110,6 +110,56 @@ def fit(
     min_impacts: int = ...,
     progress: Progress = ...,
 ) -> FitResult: ...
+
+class PosteriorProblem:
+    names: List[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    def log_posterior(self, x: ArrayLike) -> float: ...
+    def __call__(self, x: ArrayLike) -> float: ...
+    def start(self) -> np.ndarray: ...
+    def start_scale(self) -> np.ndarray: ...
+    def to_reported(self, x: ArrayLike) -> np.ndarray: ...
+
+def posterior_problem(
+    t: Union[PathLike, ArrayLike],
+    theta: Optional[ArrayLike] = ...,
+    width: Optional[float] = ...,
+    height: Optional[float] = ...,
+    *,
+    chamfer: float = ...,
+    method: str = ...,
+    table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
+    model: str = ...,
+    rtol: float = ...,
+    integrator: str = ...,
+    priors: Optional[Dict[str, float]] = ...,
+    alpha_band: float = ...,
+    min_impacts: int = ...,
+) -> PosteriorProblem: ...
+
+def posterior(
+    t: Union[PathLike, ArrayLike],
+    theta: Optional[ArrayLike] = ...,
+    width: Optional[float] = ...,
+    height: Optional[float] = ...,
+    *,
+    chamfer: float = ...,
+    method: str = ...,
+    table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
+    model: str = ...,
+    seed: int = ...,
+    walkers: int = ...,
+    steps: int = ...,
+    burn_in: int = ...,
+    threads: int = ...,
+    rtol: float = ...,
+    integrator: str = ...,
+    priors: Optional[Dict[str, float]] = ...,
+    alpha_band: float = ...,
+    min_impacts: int = ...,
+    progress: Progress = ...,
+) -> Tuple[np.ndarray, Dict[str, Any]]: ...
 
 SWEEP_DTYPE: np.dtype
 

@@ -1,0 +1,614 @@
+// The posterior of a record's block parameters: priors, the impacts and
+// trajectory likelihoods, the sampler run and its summary
+// (model/posterior.h; docs/identification.md).
+#include "model/posterior.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "model/excitation.h"
+#include "model/free_rocking.h"
+
+namespace rocklab::model {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Num(double v, int digits = 4) {
+  std::ostringstream o;
+  o.precision(digits);
+  o << v;
+  return o.str();
+}
+
+// The record's table acceleration, delayed by `offset_s` against theta:
+// u_g''(t - offset).
+class ShiftedForcing final : public Forcing {
+ public:
+  ShiftedForcing(const SampledAcceleration& inner, double offset_s) : inner_(inner), offset_(offset_s) {}
+  double TableAcceleration(double t_s) const override { return inner_.TableAcceleration(t_s - offset_); }
+  double NextDiscontinuity(double t_s) const override { return inner_.NextDiscontinuity(t_s - offset_) + offset_; }
+
+ private:
+  const SampledAcceleration& inner_;
+  double offset_;
+};
+
+// A point of the model's theta(t): theta and theta_dot on either side (they
+// differ at an impact).
+struct Knot {
+  double t, theta, left, right;
+};
+
+// Sum of (model theta - th[i])^2 over the samples i in [k, t.size()): the
+// model is advanced to every `stride`-th sample only, and theta between
+// comes from cubic Hermite interpolation of (theta, theta_dot) between its
+// outputs, split at its events (an impact, uplift or rest: theta = 0 there,
+// theta_dot jumps). Between knots theta is smooth, so the interpolation
+// error is h^4/384 max|d4 theta/dt4| (h the knots' spacing): ~1e-9 rad at
+// h = 10 ms for block 1 (docs/identification.md). +infinity when the model
+// overturns.
+double ResidualSquares(RockingModel& m, const Forcing& forcing, const std::vector<double>& t,
+                       const std::vector<double>& th, std::size_t k, int stride) {
+  const ModelState& s = m.state();
+  Knot a{s.time_s, s.theta, s.theta_dot, s.theta_dot};
+  std::size_t seen = m.events().size();
+  double ss = 0.0;
+  std::vector<Knot> knots;
+  while (k < t.size()) {
+    const std::size_t last = std::min(k + static_cast<std::size_t>(stride), t.size()) - 1;
+    m.AdvanceAhead(t[last], forcing, kInf);
+    knots.assign(1, a);
+    for (; seen < m.events().size(); ++seen) {
+      const ModelEvent& e = m.events()[seen];
+      if (e.kind == EventKind::kOverturn) return kInf;
+      const bool impact = e.kind == EventKind::kImpact;
+      const double before = impact ? e.value : 0.0;
+      const double after = !impact ? 0.0 : std::isfinite(e.value_after) ? e.value_after : before;
+      knots.push_back({e.time_s, 0.0, before, after});
+    }
+    a = {s.time_s, s.theta, s.theta_dot, s.theta_dot};
+    knots.push_back(a);
+    std::size_t j = 0;
+    for (; k < last; ++k) {
+      while (j + 2 < knots.size() && t[k] > knots[j + 1].t) ++j;
+      const Knot& p = knots[j];
+      const Knot& q = knots[j + 1];
+      const double h = q.t - p.t;
+      double v = q.theta;
+      if (h > 0.0) {
+        const double u = std::clamp((t[k] - p.t) / h, 0.0, 1.0);
+        const double u2 = u * u, u3 = u2 * u;
+        v = (2 * u3 - 3 * u2 + 1) * p.theta + (u3 - 2 * u2 + u) * h * p.right + (-2 * u3 + 3 * u2) * q.theta +
+            (u3 - u2) * h * q.left;
+      }
+      ss += (v - th[k]) * (v - th[k]);
+    }
+    ss += (s.theta - th[last]) * (s.theta - th[last]);
+    k = last + 1;
+  }
+  return ss;
+}
+
+double MaxAbs(const std::vector<double>& v) {
+  double m = 0.0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+}  // namespace
+
+void PosteriorPriors::Validate() const {
+  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!(alpha_band_m > 0.0)) bad("posterior.alpha_band_m must be > 0 m, got " + Num(alpha_band_m));
+  if (!(p_range > 0.0 && p_range < 1.0)) bad("posterior.p_range must be in (0, 1), got " + Num(p_range));
+  if (!(mu_min >= 0.0 && mu_min < mu_max && mu_max <= 1.0)) {
+    bad("posterior.mu_min and mu_max must satisfy 0 <= mu_min < mu_max <= 1, got " + Num(mu_min) + " and " +
+        Num(mu_max));
+  }
+  if (!(log10_l_min < log10_l_max && log10_l_min >= -20.0 && log10_l_max <= -2.0)) {
+    bad("posterior.log10_l_min and log10_l_max must satisfy -20 <= min < max <= -2, got " + Num(log10_l_min) +
+        " and " + Num(log10_l_max));
+  }
+  if (!(t_offset_s > 0.0 && t_offset_s <= 1.0)) bad("posterior.t_offset_s must be in (0, 1] s, got " + Num(t_offset_s));
+}
+
+void PosteriorOptions::Validate() const {
+  fit.Validate();
+  priors.Validate();
+  if (!fit.geometry) {
+    throw std::invalid_argument("the posterior needs the block geometry (--rig or --width/--height): its priors "
+                                "come from it");
+  }
+  if (!(rtol > 0.0 && rtol < 1e-3)) throw std::invalid_argument("posterior rtol must be in (0, 1e-3), got " + Num(rtol));
+  if (start_scan < 0) throw std::invalid_argument("start scan must be >= 0 points, got " + std::to_string(start_scan));
+  if (output_stride < 1 || output_stride > 1000) {
+    throw std::invalid_argument("output stride must be in [1, 1000] samples, got " + std::to_string(output_stride));
+  }
+  if (burn_in >= sampler.steps - 3) {
+    throw std::invalid_argument("burn-in " + std::to_string(burn_in) + " leaves fewer than 4 of " +
+                                std::to_string(sampler.steps) + " steps");
+  }
+}
+
+// ---- the problem -------------------------------------------------------------
+
+struct PosteriorProblem::Impl {
+  RockingRecord record;
+  PosteriorOptions options;
+  FreeRockingFeatures f;
+  AlphaBand band;
+  BlockParams theory;
+  bool forced{};
+  bool complex{};
+  std::vector<std::string> names;
+  Eigen::VectorXd lo, hi;
+  int i_sigma{}, i_offset{};
+  double noise{};
+  // Impacts: the release is known (the first pair starts from it).
+  bool release{};
+  // Trajectory: free from a held release, the first sample, the held level.
+  bool from_hold{};
+  std::size_t first{};
+  double theta0{};
+  std::unique_ptr<SampledAcceleration> table;
+  FitResult point;
+  bool point_fitted{};
+  std::string point_error;
+  // Where the walkers start: the best of the point fit and a scan of the
+  // prior (Search).
+  Eigen::VectorXd start;
+  bool start_from_scan{};
+
+  double LogPrior(const Eigen::VectorXd& x) const {
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      if (!(x(i) > lo(i) && x(i) <= hi(i))) return -kInf;
+    }
+    return -std::log(x(i_sigma));  // sigma log-uniform; the others uniform
+  }
+
+  BlockParams Params(const Eigen::VectorXd& x) const { return {x(0), x(1), x(2)}; }
+
+  double ImpactsLogLikelihood(const Eigen::VectorXd& x) const {
+    const double alpha = x(0), p = x(1), mu = x(2);
+    const double k = x(i_sigma) / noise;  // every feature's error is linear in the noise
+    const double off = x(i_offset);
+    const std::size_t n = f.impact_time_s.size();
+    // The chain starts from r_0 before the first impact, or (a record that
+    // starts at a peak, without r_0) from the peak after the first impact.
+    const std::size_t i0 = f.r0_rad ? 0 : 1;
+    double r = f.r0_rad ? *f.r0_rad : f.peak_rad[0];
+    if (!(r < alpha)) return -kInf;
+    double t = release ? *f.release_time_s + off + QuarterTimeExact(alpha, p, r) : f.impact_time_s[i0] + off;
+    double chi2 = 0.0, log_det = 0.0;
+    for (std::size_t i = i0; i < n; ++i) {
+      const double st = k * f.impact_time_stderr_s[i];
+      const double zt = (f.impact_time_s[i] - t) / st;
+      chi2 += zt * zt;
+      log_det += std::log(st);
+      if (i + 1 == n) break;
+      r = NextPeak(alpha, mu, r);
+      const double sr = k * f.peak_stderr_rad[i];
+      const double zr = (f.peak_rad[i] - r) / sr;
+      chi2 += zr * zr;
+      log_det += std::log(sr);
+      t += 2.0 * QuarterTimeExact(alpha, p, r);
+    }
+    return -0.5 * chi2 - log_det;
+  }
+
+  double TrajectoryLogLikelihood(const Eigen::VectorXd& x) const {
+    ModelOptions mo;
+    mo.rtol = options.rtol;
+    mo.atol = 1e-10;
+    mo.integrator = options.integrator;
+    if (complex) mo.l = std::pow(10.0, x(3));
+    auto model = RockingModel::Create(complex ? ModelKind::kComplex : ModelKind::kHousner, Params(x), mo);
+    const std::vector<double>& t = record.time_s;
+    const std::vector<double>& th = record.theta;
+    const double sigma = x(i_sigma);
+    const double off = x(i_offset);
+    double ss = 0.0;
+    std::size_t k = first;
+    const NoTableMotion none;
+    std::unique_ptr<ShiftedForcing> shifted;
+    if (table) shifted = std::make_unique<ShiftedForcing>(*table, off);
+    const Forcing& forcing = shifted ? static_cast<const Forcing&>(*shifted) : none;
+    if (from_hold) {
+      const double tr = *f.release_time_s + off;
+      for (; k < t.size() && t[k] <= tr; ++k) ss += (theta0 - th[k]) * (theta0 - th[k]);
+      model->Reset(tr, theta0, 0.0);
+    } else {
+      model->Reset(t[first], 0.0, 0.0);
+    }
+    // The complex model's crossings are integrated through (no jump to
+    // split at): it is output at every sample.
+    ss += ResidualSquares(*model, forcing, t, th, k, complex ? 1 : options.output_stride);
+    const double m = static_cast<double>(t.size() - first);
+    return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
+  }
+
+  double LogPosterior(const Eigen::VectorXd& x) const {
+    const double prior = LogPrior(x);
+    if (!std::isfinite(prior)) return -kInf;
+    try {
+      const double ll = options.method == FitMethod::kImpacts ? ImpactsLogLikelihood(x) : TrajectoryLogLikelihood(x);
+      return std::isfinite(ll) ? prior + ll : -kInf;
+    } catch (const std::exception&) {
+      return -kInf;  // a model that cannot run there (e.g. a peak beyond alpha)
+    }
+  }
+};
+
+namespace {
+
+// The walkers' start: the point fit (or the geometry) against start_scan points
+// drawn uniformly from the prior of alpha, p, mu (and log10 l), sigma at the
+// estimated noise and no offset; the highest log posterior wins. It catches
+// a point fit that failed or stopped far from the mode when the prior holds
+// a better point at random; on a forced test in a chaotic regime the mode's
+// basin is far narrower than the scan's spacing (docs/identification.md),
+// and the start is the point fit's.
+void SearchStart(PosteriorProblem::Impl& s) {
+  const int scan = s.options.start_scan;
+  const int dim = static_cast<int>(s.names.size());
+  const BlockParams b = s.point_fitted ? s.point.params : s.theory;
+  Eigen::VectorXd x0(dim);
+  x0(0) = b.alpha;
+  x0(1) = b.p;
+  x0(2) = b.mu;
+  if (s.complex) x0(3) = std::log10(kDefaultL);
+  x0(s.i_sigma) = s.noise;
+  x0(s.i_offset) = 0.0;
+  if (s.point_fitted && s.options.method == FitMethod::kTrajectory && s.point.release_time_s && s.f.release_time_s) {
+    x0(s.i_offset) = *s.point.release_time_s - *s.f.release_time_s;
+  }
+  // Inside the support, a hundredth of its width from an end.
+  for (Eigen::Index i = 0; i < dim; ++i) {
+    const double margin = 0.01 * (s.hi(i) - s.lo(i));
+    x0(i) = std::clamp(x0(i), s.lo(i) + margin, s.hi(i) - margin);
+  }
+  // Evaluates the points in parallel (each thread its share), returns the
+  // best index.
+  const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  auto best_of = [&](const std::vector<Eigen::VectorXd>& pts, double& best_lp) {
+    std::vector<double> lp(pts.size());
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::size_t k = static_cast<std::size_t>(t); k < pts.size(); k += static_cast<std::size_t>(threads)) {
+          lp[k] = s.LogPosterior(pts[k]);
+        }
+      });
+    }
+    for (std::thread& th : pool) th.join();
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < pts.size(); ++k) {
+      if (lp[k] > lp[best]) best = k;
+    }
+    best_lp = lp[best];
+    return best;
+  };
+  std::vector<Eigen::VectorXd> trial(scan + 1, x0);
+  RandomStream rng(0x5CA9, 0);
+  const int sampled = s.complex ? 4 : 3;
+  for (int k = 1; k <= scan; ++k) {
+    for (int i = 0; i < sampled; ++i) trial[static_cast<std::size_t>(k)](i) = s.lo(i) + (s.hi(i) - s.lo(i)) * rng.Uniform();
+  }
+  double lp_start = -kInf;
+  const std::size_t first = best_of(trial, lp_start);
+  s.start = trial[first];
+  s.start_from_scan = first != 0;
+}
+
+}  // namespace
+
+PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorOptions& options,
+                                   const FitResult* point) {
+  options.Validate();
+  auto impl = std::make_shared<Impl>();
+  Impl& s = *impl;
+  s.record = record;
+  s.options = options;
+  const FitGeometry& g = *options.fit.geometry;
+  s.band = AdmissibleAlphaBand(g, options.priors.alpha_band_m);
+  if (!g.polygon_m.empty()) {
+    const BlockGeometry geometry = PolygonBlock(g.polygon_m);
+    s.theory = {geometry.alpha, geometry.p, geometry.mu_general};
+  } else {
+    s.theory = RectangleBlock(g.width_m, g.height_m, g.chamfer_m).params();
+  }
+  s.f = ExtractFreeRocking(record, options.fit.features);
+  s.noise = s.f.noise_rad;
+  if (!(s.noise > 0.0)) {
+    throw FitError(record.source + ": the record has no measurable noise (estimated 0 rad): the likelihood's noise "
+                   "prior is set from it");
+  }
+  s.forced = record.has_table() && MaxAbs(record.table_accel_mps2) > kForcedTableAccel;
+  s.complex = options.method == FitMethod::kTrajectory && options.model == ModelKind::kComplex;
+
+  if (s.f.max_abs_theta >= s.band.hi) {
+    throw FitError(record.source + ": the block overturns (|theta| reaches " + Num(s.f.max_abs_theta) +
+                   " rad, beyond the admissible alpha " + Num(s.band.hi) + " rad): there is no rocking to sample");
+  }
+  if (s.f.impact_time_s.empty() || s.f.max_abs_theta < s.f.min_peak_rad) {
+    throw FitError(record.source + ": the block never rocks (max |theta| " + Num(s.f.max_abs_theta, 3) +
+                   " rad, estimated noise " + Num(s.noise, 3) + " rad)");
+  }
+  // The point fit gives the walkers their start; when it fails (a minimum
+  // outside the band, no convergence) they start at the geometry.
+  FitOptions fo = options.fit;
+  fo.alpha_band_m = options.priors.alpha_band_m;
+  fo.on_progress = nullptr;
+  if (point != nullptr) {
+    s.point = *point;
+    s.point_fitted = true;
+  } else {
+    try {
+      s.point = options.method == FitMethod::kImpacts ? FitImpacts(record, fo) : FitTrajectory(record, fo);
+      s.point_fitted = true;
+    } catch (const FitError& e) {
+      s.point_error = e.what();
+    }
+  }
+
+  if (options.method == FitMethod::kImpacts) {
+    if (s.forced) {
+      throw FitError(record.source + ": not free rocking (table acceleration up to " +
+                     Num(MaxAbs(record.table_accel_mps2), 3) + " m/s^2): use the trajectory method");
+    }
+    const std::size_t usable = s.f.impact_time_s.size() - (s.f.r0_rad ? 0 : 1);
+    if (s.f.impact_time_s.empty() || static_cast<int>(usable) < options.fit.min_impacts || s.f.peak_rad.empty()) {
+      throw FitError(record.source + ": only " + std::to_string(s.f.impact_time_s.size()) +
+                     " usable impacts (the impacts likelihood needs " + std::to_string(options.fit.min_impacts) +
+                     " after the amplitude it starts from)");
+    }
+    s.release = s.f.release_time_s.has_value() && s.f.r0_rad.has_value();
+  } else {
+    const std::size_t head = std::min<std::size_t>(record.size(), 20);
+    bool at_rest = true;
+    for (std::size_t k = 0; k < head; ++k) at_rest = at_rest && std::abs(record.theta[k]) < s.f.hysteresis_rad;
+    s.from_hold = !at_rest && s.f.release_time_s.has_value() && s.f.r0_rad.has_value();
+    if (!at_rest && !s.from_hold) {
+      throw FitError(record.source + ": the trajectory likelihood needs a record that starts at rest (forced) "
+                     "or holds the block before releasing it (free)");
+    }
+    if (at_rest && !s.forced) {
+      throw FitError(record.source + ": the record starts at rest and has no table motion to start the rocking");
+    }
+    s.first = s.from_hold ? s.f.hold_start_index : 0;
+    s.theta0 = s.from_hold ? s.f.first_sign * *s.f.r0_rad : 0.0;
+    if (s.forced) {
+      s.table = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2);
+    }
+  }
+
+  // Coordinates and their prior support.
+  const PosteriorPriors& pr = options.priors;
+  s.names = {"alpha", "p", "mu"};
+  std::vector<double> lo = {s.band.lo, s.theory.p * (1.0 - pr.p_range), pr.mu_min};
+  std::vector<double> hi = {s.band.hi, s.theory.p * (1.0 + pr.p_range), pr.mu_max};
+  if (s.complex) {
+    s.names.push_back("l");
+    lo.push_back(pr.log10_l_min);
+    hi.push_back(pr.log10_l_max);
+  }
+  s.i_sigma = static_cast<int>(s.names.size());
+  s.names.push_back("sigma");
+  lo.push_back(s.noise / 10.0);
+  hi.push_back(s.noise * 10.0);
+  s.i_offset = static_cast<int>(s.names.size());
+  s.names.push_back("t_offset");
+  lo.push_back(-pr.t_offset_s);
+  hi.push_back(pr.t_offset_s);
+  s.lo = Eigen::Map<Eigen::VectorXd>(lo.data(), static_cast<Eigen::Index>(lo.size()));
+  s.hi = Eigen::Map<Eigen::VectorXd>(hi.data(), static_cast<Eigen::Index>(hi.size()));
+  SearchStart(s);
+  impl_ = std::move(impl);
+}
+
+const std::vector<std::string>& PosteriorProblem::names() const { return impl_->names; }
+int PosteriorProblem::dimension() const { return static_cast<int>(impl_->names.size()); }
+double PosteriorProblem::LogPosterior(const Eigen::VectorXd& x) const { return impl_->LogPosterior(x); }
+double PosteriorProblem::LogPrior(const Eigen::VectorXd& x) const { return impl_->LogPrior(x); }
+const Eigen::VectorXd& PosteriorProblem::lower() const { return impl_->lo; }
+const Eigen::VectorXd& PosteriorProblem::upper() const { return impl_->hi; }
+const FitResult& PosteriorProblem::point() const { return impl_->point; }
+bool PosteriorProblem::point_fitted() const { return impl_->point_fitted; }
+std::string PosteriorProblem::point_error() const { return impl_->point_error; }
+bool PosteriorProblem::forced() const { return impl_->forced; }
+
+int PosteriorProblem::data_points() const {
+  const Impl& s = *impl_;
+  if (s.options.method == FitMethod::kImpacts) {
+    return static_cast<int>(2 * (s.f.impact_time_s.size() - (s.f.r0_rad ? 0 : 1)) - 1);
+  }
+  return static_cast<int>(s.record.size() - s.first);
+}
+
+Eigen::VectorXd PosteriorProblem::ToReported(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd y = x;
+  if (impl_->complex) y(3) = std::pow(10.0, x(3));
+  return y;
+}
+
+Eigen::VectorXd PosteriorProblem::Start() const { return impl_->start; }
+
+bool PosteriorProblem::start_from_scan() const { return impl_->start_from_scan; }
+
+Eigen::VectorXd PosteriorProblem::StartScale() const {
+  // About the posterior's own spread where the point fit gives it (its
+  // standard errors), so that the ensemble starts near its stationary
+  // spread instead of expanding from a point (fewer steps of burn-in).
+  const Impl& s = *impl_;
+  Eigen::VectorXd scale = 1e-3 * (s.hi - s.lo);
+  if (s.point_fitted && !s.start_from_scan) {
+    const double se[3] = {s.point.alpha_stderr, s.point.p_stderr, s.point.mu_stderr};
+    for (int i = 0; i < 3; ++i) {
+      if (std::isfinite(se[i]) && se[i] > 0.0) scale(i) = std::min(se[i], 0.1 * (s.hi(i) - s.lo(i)));
+    }
+  }
+  // sigma from n data: relative standard error 1 / sqrt(2 n).
+  if (s.start_from_scan) scale.head(3) = 1e-3 * (s.hi.head(3) - s.lo.head(3));
+  scale(s.i_sigma) = s.noise / std::sqrt(2.0 * std::max(1, data_points()));
+  if (s.options.method == FitMethod::kImpacts && !s.f.impact_time_stderr_s.empty()) {
+    scale(s.i_offset) = s.f.impact_time_stderr_s[0];
+  }
+  return scale;
+}
+
+// ---- the run -------------------------------------------------------------------
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const double h = q * static_cast<double>(v.size() - 1);
+  const auto i = static_cast<std::size_t>(std::floor(h));
+  if (i + 1 >= v.size()) return v.back();
+  return v[i] + (h - static_cast<double>(i)) * (v[i + 1] - v[i]);
+}
+
+PosteriorResult SamplePosterior(const RockingRecord& record, const PosteriorOptions& options) {
+  return SamplePosterior(PosteriorProblem(record, options), options);
+}
+
+PosteriorResult SamplePosterior(const PosteriorProblem& problem, const PosteriorOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int dim = problem.dimension();
+  options.sampler.Validate(dim);
+  const int w = options.sampler.walkers;
+  // Walkers in a ball about the start: each coordinate start + scale N(0, 1),
+  // redrawn (up to 1000 times, the ball halved every 100) until the log
+  // posterior is finite. The ball's streams follow the sampler's (past its
+  // walkers' indices), so the start depends on the seed alone.
+  const Eigen::VectorXd x0 = problem.Start();
+  const Eigen::VectorXd scale = problem.StartScale();
+  if (!std::isfinite(problem.LogPosterior(x0))) {
+    throw FitError("the posterior is zero at the start point (alpha " + Num(x0(0)) + ", p " + Num(x0(1)) + ", mu " +
+                   Num(x0(2)) + "): the model cannot follow the record inside the priors");
+  }
+  Eigen::MatrixXd start(w, dim);
+  for (int k = 0; k < w; ++k) {
+    RandomStream rng(options.sampler.seed, static_cast<std::uint64_t>(w + k));
+    Eigen::VectorXd x = x0;
+    double shrink = 1.0;
+    for (int attempt = 0; attempt < 1000; ++attempt) {
+      if (attempt > 0 && attempt % 100 == 0) shrink /= 2.0;
+      for (int i = 0; i < dim; ++i) x(i) = x0(i) + shrink * scale(i) * rng.Normal();
+      if (std::isfinite(problem.LogPosterior(x))) break;
+      x = x0;
+    }
+    start.row(k) = x.transpose();
+  }
+
+  const EnsembleRun run = RunEnsemble([&problem](const Eigen::VectorXd& x) { return problem.LogPosterior(x); },
+                                      start, options.sampler);
+  const int burn = options.burn_in >= 0 ? options.burn_in : options.sampler.steps / 2;
+
+  PosteriorResult r;
+  r.names = problem.names();
+  r.method = ToString(options.method);
+  r.model = options.method == FitMethod::kImpacts ? "housner" : ToString(options.model);
+  r.walkers = w;
+  r.steps = options.sampler.steps;
+  r.seed = options.sampler.seed;
+  r.threads = run.threads;
+  r.point_fitted = problem.point_fitted();
+  r.start_from = problem.start_from_scan() ? "prior scan" : problem.point_fitted() ? "point fit" : "geometry";
+  if (!problem.point_fitted()) r.warnings.push_back("point fit failed, walkers start at the geometry: " + problem.point_error());
+  r.diagnostics = Diagnose(run, burn);
+  r.problems = ConvergenceProblems(r.diagnostics, options.rule, r.names);
+
+  const int kept = run.steps - burn;
+  r.draws.resize(static_cast<Eigen::Index>(kept) * w, dim);
+  r.log_posterior.resize(static_cast<Eigen::Index>(kept) * w);
+  for (Eigen::Index i = 0; i < r.draws.rows(); ++i) {
+    const Eigen::Index row = static_cast<Eigen::Index>(burn) * w + i;
+    r.draws.row(i) = problem.ToReported(run.chain.row(row).transpose()).transpose();
+    r.log_posterior(i) = run.log_density(row);
+  }
+  const Eigen::RowVectorXd mean = r.draws.colwise().mean();
+  const Eigen::MatrixXd centred = r.draws.rowwise() - mean;
+  const Eigen::MatrixXd cov = centred.transpose() * centred / static_cast<double>(r.draws.rows() - 1);
+  r.correlation.resize(dim, dim);
+  for (int i = 0; i < dim; ++i) {
+    for (int j = 0; j < dim; ++j) r.correlation(i, j) = cov(i, j) / std::sqrt(cov(i, i) * cov(j, j));
+  }
+  for (int i = 0; i < dim; ++i) {
+    std::vector<double> col(r.draws.col(i).data(), r.draws.col(i).data() + r.draws.rows());
+    ParameterSummary ps;
+    ps.name = r.names[static_cast<std::size_t>(i)];
+    ps.median = Quantile(col, 0.5);
+    ps.ci68_lo = Quantile(col, 0.15865525393145707);
+    ps.ci68_hi = Quantile(col, 0.8413447460685429);
+    ps.ci95_lo = Quantile(col, 0.025);
+    ps.ci95_hi = Quantile(col, 0.975);
+    ps.mean = mean(i);
+    ps.sd = std::sqrt(cov(i, i));
+    ps.rhat = r.diagnostics.rhat[static_cast<std::size_t>(i)];
+    ps.ess = r.diagnostics.ess[static_cast<std::size_t>(i)];
+    ps.tau = r.diagnostics.tau[static_cast<std::size_t>(i)];
+    r.summary.push_back(ps);
+  }
+  r.runtime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+std::string PosteriorJson(const PosteriorResult& r) {
+  using nlohmann::json;
+  auto finite = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json j;
+  json rhat = json::object(), ess = json::object(), tau = json::object(), units = json::object();
+  const std::map<std::string, std::string> unit_of = {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"},
+                                                      {"l", "1"},       {"sigma", "rad"}, {"t_offset", "s"}};
+  for (const ParameterSummary& s : r.summary) {
+    j[s.name] = {{"median", s.median}, {"ci68", {s.ci68_lo, s.ci68_hi}}, {"ci95", {s.ci95_lo, s.ci95_hi}},
+                 {"sd", s.sd},         {"mean", s.mean}};
+    rhat[s.name] = finite(s.rhat);
+    ess[s.name] = finite(s.ess);
+    tau[s.name] = finite(s.tau);
+    const auto u = unit_of.find(s.name);
+    units[s.name] = u != unit_of.end() ? u->second : "1";
+  }
+  json matrix = json::array();
+  for (Eigen::Index i = 0; i < r.correlation.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < r.correlation.cols(); ++k) row.push_back(finite(r.correlation(i, k)));
+    matrix.push_back(row);
+  }
+  j["parameters"] = r.names;
+  j["correlation"] = {{"order", r.names}, {"matrix", matrix}};
+  j["rhat"] = rhat;
+  j["ess"] = ess;
+  j["tau"] = tau;
+  j["acceptance"] = r.diagnostics.acceptance;
+  j["walkers"] = r.walkers;
+  j["steps"] = r.steps;
+  j["burn_in"] = r.diagnostics.burn_in;
+  j["draws"] = r.draws.rows();
+  j["seed"] = r.seed;
+  j["threads"] = r.threads;
+  j["method"] = r.method;
+  j["model"] = r.model;
+  j["converged"] = r.converged();
+  j["problems"] = r.problems;
+  j["start"] = r.start_from;
+  j["warnings"] = r.warnings;
+  j["runtime"] = r.runtime_s;
+  units["tau"] = "steps";
+  units["runtime"] = "s";
+  j["units"] = units;
+  return j.dump();
+}
+
+}  // namespace rocklab::model
