@@ -6,7 +6,10 @@
 //   node report_page.js REPORT.html OUT.json SCREENSHOT.png
 //
 // OUT.json: the page's mode, the uPlot data lengths, the comparison table
-// cells (data-variant, data-field -> text), every table header, the CSV the
+// cells (data-variant, data-field -> text), the bands' names and cells
+// (data-band, data-field -> text), `bandPixels` (pixels of the theta
+// chart's plot area in a band's light blue fill: r, g > 190, r and g within
+// 4, b at least 10 above r; no curve, grid line or flag colour is such), every table header, the CSV the
 // "series as CSV" button downloads (clicked: a Blob built in the page), the
 // requests made other than for the file itself, and console errors.
 'use strict';
@@ -49,8 +52,23 @@ async function main() {
         (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
       }
       const headers = Array.from(document.querySelectorAll('th')).map((th) => th.textContent);
+      const bandCells = {};
+      for (const td of document.querySelectorAll('td[data-band][data-field]')) {
+        const b = td.getAttribute('data-band');
+        (bandCells[b] = bandCells[b] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      const u = window.rocklabMonitor.plots.theta;
+      const box = u.bbox;
+      const img = u.ctx.getImageData(Math.round(box.left), Math.round(box.top), Math.round(box.width),
+        Math.round(box.height)).data;
+      let bandPixels = 0;
+      for (let i = 0; i < img.length; i += 4) {
+        const r = img[i], g = img[i + 1], b = img[i + 2];
+        if (r > 190 && g > 190 && Math.abs(r - g) <= 4 && b - r >= 10) bandPixels++;
+      }
       return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
-        cells, headers, title: document.title};
+        cells, headers, title: document.title, bandNames: window.rocklabMonitor.bandNames(),
+        bandCells, bandPixels};
     });
     const [download] = await Promise.all([
       page.waitForEvent('download', {timeout: STEP_TIMEOUT_MS}),
