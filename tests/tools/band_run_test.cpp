@@ -35,7 +35,7 @@ struct BandRun {
 };
 
 // One run per test process: 8 draws of the complex model beside one variant.
-const BandRun& Run() {
+const BandRun& TheRun() {
   static const BandRun run = [] {
     BandRun r;
     r.dir = test::ScratchDir("band_run");
@@ -52,7 +52,7 @@ const BandRun& Run() {
 }
 
 TEST(BandRun, CoverageInTheSummaryIsRecountedFromTheLog) {
-  const BandRun& r = Run();
+  const BandRun& r = TheRun();
   ASSERT_EQ(r.result.exit_code, 0) << r.result.err;
   EXPECT_NE(r.result.err.find("ensemble posterior: complex, 8 draws of"), std::string::npos) << r.result.err;
   EXPECT_NE(r.result.out.find("cover95%"), std::string::npos) << r.result.out;
@@ -112,7 +112,7 @@ TEST(BandRun, CoverageInTheSummaryIsRecountedFromTheLog) {
 }
 
 TEST(BandRun, ReportDrawsTheBandFromTheLog) {
-  const BandRun& r = Run();
+  const BandRun& r = TheRun();
   ASSERT_EQ(r.result.exit_code, 0) << r.result.err;
   const std::string html = r.dir + "/report.html", svg_path = r.dir + "/report.svg";
   const test::CliResult rep = test::RunCli({"report", r.log, "--out", html, "--svg", svg_path});

@@ -8,8 +8,10 @@
 // OUT.json: the page's mode, the uPlot data lengths, the comparison table
 // cells (data-variant, data-field -> text), the bands' names and cells
 // (data-band, data-field -> text), `bandPixels` (pixels of the theta
-// chart's plot area in a band's light blue fill: r, g > 190, r and g within
-// 4, b at least 10 above r; no curve, grid line or flag colour is such), every table header, the CSV the
+// chart's plot area in the first band's colour, rgb(90, 90, 200) within 6,
+// translucent (alpha 1 .. 160 of 255: the canvas is transparent under its
+// fills, so a fill reads as its own colour with its alpha); no curve, grid
+// line or flag is such a colour), every table header, the CSV the
 // "series as CSV" button downloads (clicked: a Blob built in the page), the
 // requests made other than for the file itself, and console errors.
 'use strict';
@@ -64,7 +66,10 @@ async function main() {
       let bandPixels = 0;
       for (let i = 0; i < img.length; i += 4) {
         const r = img[i], g = img[i + 1], b = img[i + 2];
-        if (r > 190 && g > 190 && Math.abs(r - g) <= 4 && b - r >= 10) bandPixels++;
+        const a = img[i + 3];
+        if (a > 0 && a <= 160 && Math.abs(r - 90) <= 6 && Math.abs(g - 90) <= 6 && Math.abs(b - 200) <= 6) {
+          bandPixels++;
+        }
       }
       return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
         cells, headers, title: document.title, bandNames: window.rocklabMonitor.bandNames(),
