@@ -94,6 +94,27 @@ def bench_run(b, work, t, seconds, repeats):
     return rec
 
 
+def bench_band(b, t, repeats, draws=32):
+    """run --max on the bundled 7 s test (tools/demo.sh's input) with one
+    point variant and an ensemble of `draws` complex-model posterior draws
+    (data/samples/fig7_block1.posterior.csv), one thread and all cores."""
+    env = dict(os.environ, SPDLOG_LEVEL="warn")
+    base = [b, "run", "--rig", RIG, "--input", os.path.join(ROOT, "data/samples/fig7_block1.csv"), "--max",
+            "--quiet", "--variant", "fitted_complex:complex:" + F, "--posterior-samples",
+            os.path.join(ROOT, "data/samples/fig7_block1.posterior.csv"), "--ensemble", str(draws),
+            "--ensemble-model", "complex"]
+    for threads in (1, 0):
+        best = None
+        for _ in range(repeats):
+            la = load()
+            r = measure(base + ["--threads", str(threads)], env=env)
+            if best is None or r[1] < best[0][1]:
+                best = (r, la)
+        (cpu, wall, rss, _), la = best
+        t.add("run --max, fig7 7 s, %d complex draws, --threads %d" % (draws, threads), "%.2f" % wall, "s wall",
+              "< 5", 5 / wall, "CPU %.2f s, %.1f MB, load %.1f" % (cpu, rss, la))
+
+
 def bench_simulate(b, work, t, repeats, durations):
     """`rocklab simulate` against the scipy peer as whole processes (each
     starting, integrating figure 8 and writing its CSV), beside the CPU of
@@ -267,7 +288,7 @@ def main():
     ap.add_argument("--live-seconds", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--simulate-seconds", default="20,200", help="figure 8's durations for simulate, s")
-    ap.add_argument("--only", default="run,simulate,node,reconstruct,replay,live")
+    ap.add_argument("--only", default="run,band,simulate,node,reconstruct,replay,live")
     a = ap.parse_args()
     b = os.path.join(a.build, "tools/rocklab")
     reader = os.path.join(a.build, "bench/rocklab_bench_log_read")
@@ -280,6 +301,8 @@ def main():
     rec = None
     if "run" in only:
         rec = bench_run(b, work, t, a.run_seconds, a.repeats)
+    if "band" in only:
+        bench_band(b, t, a.repeats)
     if "simulate" in only:
         bench_simulate(b, work, t, a.repeats, [int(d) for d in a.simulate_seconds.split(",")])
     if "node" in only:

@@ -3,7 +3,7 @@
 # run (2-core machine: about 10 minutes, most of it the live test at real
 # time and the scipy peer):
 #
-#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,simulate,node,reconstruct,replay,live]
+#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,band,simulate,node,reconstruct,replay,live]
 #                     [--run-seconds 600] [--simulate-seconds 20,200] [--live-seconds 20] [--build build]
 #
 # Installs the bench-only dependency python3-scipy (the peer of `simulate`,

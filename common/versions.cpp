@@ -1,6 +1,8 @@
 #include "common/versions.h"
 
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
@@ -98,7 +100,9 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
       static_cast<std::int64_t>(rocklab::table_state_t::getHash()),
       static_cast<std::int64_t>(rocklab::comparison2_t::getHash()),
       static_cast<std::int64_t>(rocklab::daq_config2_t::getHash()),
-      static_cast<std::int64_t>(rocklab::model_state3_t::getHash())};
+      static_cast<std::int64_t>(rocklab::model_state3_t::getHash()),
+      static_cast<std::int64_t>(rocklab::model_band_t::getHash()),
+      static_cast<std::int64_t>(rocklab::band_comparison_t::getHash())};
   static const std::int64_t kSenders[] = {static_cast<std::int64_t>(rocklab::event2_t::getHash()),
                                           static_cast<std::int64_t>(rocklab::health2_t::getHash())};
   const auto* b = static_cast<const std::uint8_t*>(data);

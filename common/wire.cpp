@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
@@ -13,6 +14,7 @@
 #include "rocklab/event_t.hpp"
 #include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
@@ -49,6 +51,13 @@ WireLayout Make(const char* type, const WireField (&fields)[K]) {
   return WireLayout{type, static_cast<std::int64_t>(Msg::getHash()), fields, static_cast<int>(K)};
 }
 
+const WireField kBandComparison[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "name"}, {F, 8, 0, "window_s"},
+    {F, 8, 0, "coverage95_window"}, {F, 8, 0, "coverage95_total"}, {F, 8, 0, "coverage68_window"},
+    {F, 8, 0, "coverage68_total"}, {F, 8, 0, "median_error"}, {F, 8, 0, "width95"},
+    {F, 8, 0, "impact_timing_z"}, {F, 8, 0, "impact_time_sd"}, {F, 8, 0, "impact_timing_z_rms"},
+    {F, 8, 0, "matched_crossings"}, {F, 8, 0, "unmatched_crossings"}, {F, 1, 0, "valid"},
+    {F, 8, 0, "samples"}, {F, 8, 0, "valid_samples"}};
 const WireField kBlockState[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},
     {F, 8, 0, "theta_mirror"}, {F, 8, 0, "theta_camera"}, {F, 8, 0, "sliding"}, {F, 8, 0, "jump"},
@@ -94,6 +103,13 @@ const WireField kModelState2[] = {{F, 8, 0, "utime"}, ROCKLAB_MODEL_STATE_FIELDS
 const WireField kModelState3[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_MODEL_STATE_FIELDS,
                                   {F, 1, 0, "equations"}};
 #undef ROCKLAB_MODEL_STATE_FIELDS
+const WireField kModelBand[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "name"}, {S, 0, 0, "model"},
+    {F, 4, 0, "draws"}, {F, 4, 0, "members"}, {F, 8, 0, "noise_sigma"}, {F, 8, 0, "theta_median"}, {F, 8, 0, "theta_lo95"},
+    {F, 8, 0, "theta_lo68"}, {F, 8, 0, "theta_hi68"}, {F, 8, 0, "theta_hi95"},
+    {F, 4, 0, "impacts_up"}, {F, 8, 0, "impact_up_offset_sum"}, {F, 8, 0, "impact_up_offset_sq_sum"},
+    {F, 4, 0, "impacts_down"}, {F, 8, 0, "impact_down_offset_sum"},
+    {F, 8, 0, "impact_down_offset_sq_sum"}};
 const WireField kRawFrame[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {N, 4, 0, "num_channels"}, {A, 8, 2, "values"}};
 const WireField kTableState[] = {
@@ -200,6 +216,7 @@ int WireLengthOffsets(const WireLayout& layout, const void* data, int size, int*
     static const WireLayout layout = Make<rocklab::T>(#T, table); \
     return layout;                                            \
   }
+ROCKLAB_WIRE_LAYOUT(band_comparison_t, kBandComparison)
 ROCKLAB_WIRE_LAYOUT(block_state_t, kBlockState)
 ROCKLAB_WIRE_LAYOUT(comparison_t, kComparison)
 ROCKLAB_WIRE_LAYOUT(comparison2_t, kComparison2)
@@ -209,6 +226,7 @@ ROCKLAB_WIRE_LAYOUT(event_t, kEvent)
 ROCKLAB_WIRE_LAYOUT(event2_t, kEvent2)
 ROCKLAB_WIRE_LAYOUT(health_t, kHealth)
 ROCKLAB_WIRE_LAYOUT(health2_t, kHealth2)
+ROCKLAB_WIRE_LAYOUT(model_band_t, kModelBand)
 ROCKLAB_WIRE_LAYOUT(model_state_t, kModelState)
 ROCKLAB_WIRE_LAYOUT(model_state2_t, kModelState2)
 ROCKLAB_WIRE_LAYOUT(model_state3_t, kModelState3)

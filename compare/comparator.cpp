@@ -39,29 +39,6 @@ void Comparator::CrossingRing::Push(const Crossing& c) {
   size = std::min(size + 1, kCrossingRing);
 }
 
-bool Comparator::Track(CrossingTracker& tr, double t_s, double v, double hysteresis,
-                       Crossing& out) {
-  bool completed = false;
-  if (tr.has_last && ((tr.last_v <= 0 && v > 0) || (tr.last_v >= 0 && v < 0))) {
-    // Latest sign change, linearly interpolated between the two samples.
-    tr.cross_t = tr.last_t + (0 - tr.last_v) * (t_s - tr.last_t) / (v - tr.last_v);
-  }
-  const int beyond = v > hysteresis ? 1 : (v < -hysteresis ? -1 : 0);
-  if (beyond != 0 && beyond != tr.side) {
-    if (tr.side != 0) {
-      out = Crossing{tr.cross_t, beyond, tr.peak, false};
-      completed = true;
-    }
-    tr.side = beyond;
-    tr.peak = 0;
-  }
-  if (tr.side != 0) tr.peak = std::max(tr.peak, tr.side * v);
-  tr.last_t = t_s;
-  tr.last_v = v;
-  tr.has_last = true;
-  return completed;
-}
-
 void Comparator::Match(CrossingRing& mine, CrossingRing& other, const Crossing& c,
                        bool is_model) {
   Crossing* best = nullptr;
@@ -118,8 +95,8 @@ const ComparisonMetrics& Comparator::Add(std::int64_t utime, double theta_measur
   if (!valid || !std::isfinite(m_.error)) {
     m_.valid = false;
     // The trackers do not interpolate across the invalid stretch.
-    measured_tracker_.has_last = false;
-    model_tracker_.has_last = false;
+    measured_tracker_.Break();
+    model_tracker_.Break();
     return m_;
   }
   const double t_s = static_cast<double>(utime) * 1e-6;
@@ -166,10 +143,10 @@ const ComparisonMetrics& Comparator::Add(std::int64_t utime, double theta_measur
   // Zero crossings (impacts) and half-cycle peaks.
   Crossing c;
   const double h = options_.crossing_hysteresis_rad;
-  if (Track(measured_tracker_, t_s, theta_measured, h, c)) {
+  if (measured_tracker_.Add(t_s, theta_measured, h, c)) {
     Match(measured_crossings_, model_crossings_, c, false);
   }
-  if (Track(model_tracker_, t_s, theta_model, h, c)) {
+  if (model_tracker_.Add(t_s, theta_model, h, c)) {
     Match(model_crossings_, measured_crossings_, c, true);
   }
   ExpireCrossings(measured_crossings_, t_s);

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "compare/crossings.h"
+
 namespace rocklab::compare {
 
 /// Knobs of a Comparator.
@@ -62,21 +64,6 @@ class Comparator {
   const ComparisonMetrics& metrics() const { return m_; }
 
  private:
-  // Zero crossings of one signal, with hysteresis, and the peak of the half
-  // cycle that each crossing ends.
-  struct Crossing {
-    double time_s{};
-    int direction{};  // +1: - to +, -1: + to -
-    double peak{};    // |theta| peak of the half cycle before, rad
-    bool matched{};
-  };
-  struct CrossingTracker {
-    int side{};            // sign of the last excursion beyond the hysteresis
-    double peak{};         // |theta| peak since then, rad
-    double last_t{}, last_v{};  // previous sample
-    double cross_t{};      // interpolated time of the latest sign change, s
-    bool has_last{};
-  };
   static constexpr int kCrossingRing = 16;
   struct CrossingRing {
     Crossing items[kCrossingRing];
@@ -85,8 +72,6 @@ class Comparator {
     void Push(const Crossing& c);
   };
 
-  // Returns true and fills `out` when `v` at `t` completes a crossing.
-  bool Track(CrossingTracker& tr, double t_s, double v, double hysteresis, Crossing& out);
   void Match(CrossingRing& mine, CrossingRing& other, const Crossing& c, bool is_model);
   void ExpireCrossings(CrossingRing& ring, double now_s);
 

@@ -13,6 +13,7 @@
 #include "common/node_support.h"
 #include "common/units.h"
 #include "common/versions.h"
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
@@ -75,6 +76,46 @@ struct CompareNode::Variant {
   std::int64_t compare_seq{};     // seq of the next RL_COMPARE_<name>
 };
 
+struct CompareNode::Band {
+  Band(const CompareNodeConfig& c, const rocklab::model_band_t& first)
+      : name(first.name), model(first.model), channel(c.channel_prefix + "COVERAGE_" + first.name),
+        draws(first.draws), comparator(c.comparator), pending(c.align_capacity) {}
+  std::string name, model, channel;
+  std::int32_t draws{}, members{};
+  BandComparator comparator;
+  struct Pending {
+    std::int64_t utime{};
+    BandSample band;
+  };
+  common::Ring<Pending> pending;  // band samples newer than every measured one
+  std::int64_t pairs{};
+  std::int64_t unmatched_model{};
+  std::int64_t last_pub_utime{INT64_MIN};
+  bool dirty{};
+  common::SeqGaps seq;         // RL_BAND_<name>'s seq
+  std::int64_t coverage_seq{}; // seq of the next RL_COVERAGE_<name>
+};
+
+namespace {
+
+BandSample ToBandSample(const rocklab::model_band_t& m) {
+  BandSample b;
+  b.lo95 = m.theta_lo95;
+  b.lo68 = m.theta_lo68;
+  b.median = m.theta_median;
+  b.hi68 = m.theta_hi68;
+  b.hi95 = m.theta_hi95;
+  b.impacts_up = m.impacts_up;
+  b.up_offset_sum = m.impact_up_offset_sum;
+  b.up_offset_sq_sum = m.impact_up_offset_sq_sum;
+  b.impacts_down = m.impacts_down;
+  b.down_offset_sum = m.impact_down_offset_sum;
+  b.down_offset_sq_sum = m.impact_down_offset_sq_sum;
+  return b;
+}
+
+}  // namespace
+
 CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
     : config_(config), bus_(bus), measured_(config.align_capacity) {
   config_.Validate();
@@ -90,6 +131,10 @@ CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
   subscriptions_.push_back(common::SubscribeVersioned<common::ModelStateDecoder>(
       bus_, config_.channel_prefix + "MODEL_.*",
       [this](const std::string&, const rocklab::model_state3_t& m) { HandleModel(m); },
+      config_.subscriber_queue));
+  subscriptions_.push_back(bus_.Subscribe<rocklab::model_band_t>(
+      config_.channel_prefix + "BAND_.*",
+      [this](const std::string&, const rocklab::model_band_t& m) { HandleBand(m); },
       config_.subscriber_queue));
 }
 
@@ -133,17 +178,116 @@ void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
   newest_utime_ = std::max(newest_utime_, msg.utime);
   const bool valid = (msg.flags & config_.invalid_flags) == 0 && std::isfinite(msg.theta);
   measured_.push_back({msg.utime, msg.theta, valid});
-  for (Variant* v : order_) {
-    while (!v->pending.empty() && v->pending.front().utime <= msg.utime) {
-      const Variant::Pending pm = v->pending.front();
-      v->pending.pop_front();
-      if (pm.utime == msg.utime) {
-        Pair(*v, msg.utime, msg.theta, valid, pm.theta);
+  // The model-side samples waiting for this one: paired, or (older, their
+  // measured sample never came) counted.
+  auto drain = [&](auto& stream, auto pair) {
+    while (!stream.pending.empty() && stream.pending.front().utime <= msg.utime) {
+      const auto waiting = stream.pending.front();
+      stream.pending.pop_front();
+      if (waiting.utime == msg.utime) {
+        pair(waiting);
       } else {
-        ++v->unmatched_model;  // its measured sample never came
+        ++stream.unmatched_model;
       }
     }
+  };
+  for (Variant* v : order_) {
+    drain(*v, [&](const Variant::Pending& pm) { Pair(*v, msg.utime, msg.theta, valid, pm.theta); });
   }
+  for (Band* b : band_order_) {
+    drain(*b, [&](const Band::Pending& pb) { PairBand(*b, msg.utime, msg.theta, valid, pb.band); });
+  }
+}
+
+bool CompareNode::PublishDue(std::int64_t utime, std::int64_t last_pub_utime) const {
+  const double period_us = 1e6 / config_.publish_rate_hz;
+  return last_pub_utime == INT64_MIN ||
+         static_cast<double>(utime) - static_cast<double>(last_pub_utime) >= period_us - 0.5;
+}
+
+std::size_t CompareNode::FindMeasured(std::int64_t utime) const {
+  // Binary search in the ring (utime increasing).
+  std::size_t lo = 0, hi = measured_.size();
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (measured_[mid].utime < utime) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo < measured_.size() && measured_[lo].utime == utime ? lo : measured_.size();
+}
+
+void CompareNode::CountSeq(common::SeqGaps& gaps, std::int64_t seq) {
+  const std::int64_t before = gaps.missing();
+  gaps.Add(seq);
+  model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, gaps.missing() - before);
+}
+
+CompareNode::Band& CompareNode::BandFor(const rocklab::model_band_t& msg) {
+  auto it = bands_.find(msg.name);
+  if (it != bands_.end()) return *it->second;
+  auto b = std::make_unique<Band>(config_, msg);
+  Band& ref = *b;
+  band_order_.push_back(&ref);
+  bands_.emplace(msg.name, std::move(b));
+  Log()->info("comparing band '{}' ({}, {} draws)", msg.name, msg.model, msg.draws);
+  return ref;
+}
+
+void CompareNode::HandleBand(const rocklab::model_band_t& msg) {
+  ++model_count_;
+  Band& b = BandFor(msg);
+  CountSeq(b.seq, msg.seq);
+  b.members = msg.members;
+  newest_utime_ = std::max(newest_utime_, msg.utime);
+  const BandSample band = ToBandSample(msg);
+  if (measured_.empty() || msg.utime > measured_.back().utime) {
+    if (!b.pending.push_back({msg.utime, band})) ++b.unmatched_model;
+    return;
+  }
+  const std::size_t i = FindMeasured(msg.utime);
+  if (i < measured_.size()) {
+    PairBand(b, measured_[i].utime, measured_[i].theta, measured_[i].valid, band);
+  } else {
+    ++b.unmatched_model;
+  }
+}
+
+void CompareNode::PairBand(Band& b, std::int64_t utime, double measured, bool valid,
+                           const BandSample& band) {
+  ++b.pairs;
+  b.comparator.Add(utime, measured, valid, band);
+  b.dirty = true;
+  if (PublishDue(utime, b.last_pub_utime)) PublishCoverage(b);
+}
+
+void CompareNode::PublishCoverage(Band& b) {
+  const BandMetrics& m = b.comparator.metrics();
+  b.last_pub_utime = m.utime;
+  b.dirty = false;
+  rocklab::band_comparison_t out;
+  out.utime = m.utime;
+  out.seq = b.coverage_seq++;
+  out.name = b.name;
+  out.window_s = config_.comparator.window_s;
+  out.coverage95_window = m.coverage95_window;
+  out.coverage95_total = m.coverage95_total;
+  out.coverage68_window = m.coverage68_window;
+  out.coverage68_total = m.coverage68_total;
+  out.median_error = m.median_error;
+  out.width95 = m.width95;
+  out.impact_timing_z = m.impact_timing_z;
+  out.impact_time_sd = m.impact_time_sd;
+  out.impact_timing_z_rms = m.impact_timing_z_rms;
+  out.matched_crossings = m.matched_crossings;
+  out.unmatched_crossings = m.unmatched_crossings;
+  out.valid = m.valid;
+  out.samples = m.samples;
+  out.valid_samples = m.valid_samples;
+  bus_.Publish(b.channel, out);
+  ++published_;
 }
 
 void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
@@ -158,9 +302,7 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   // gap is then a step of the sample clock over 1.5 sample periods (one
   // message per table sample).
   if (msg.seq != common::kNoSeq) {
-    const std::int64_t before = v.model_seq.missing();
-    v.model_seq.Add(msg.seq);
-    model_gaps_ = common::SeqGaps::SaturatingAdd(model_gaps_, v.model_seq.missing() - before);
+    CountSeq(v.model_seq, msg.seq);
   } else if (v.last_utime != INT64_MIN && period_us_ > 0 && msg.utime > v.last_utime) {
     // In double: utimes come off the wire, their difference may not fit.
     const double periods = (static_cast<double>(msg.utime) - static_cast<double>(v.last_utime)) /
@@ -174,17 +316,8 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
     if (!v.pending.push_back({msg.utime, msg.theta})) ++v.unmatched_model;
     return;
   }
-  // Binary search in the ring (utime increasing).
-  std::size_t lo = 0, hi = measured_.size();
-  while (lo < hi) {
-    const std::size_t mid = (lo + hi) / 2;
-    if (measured_[mid].utime < msg.utime) {
-      lo = mid + 1;
-    } else {
-      hi = mid;
-    }
-  }
-  if (lo < measured_.size() && measured_[lo].utime == msg.utime) {
+  const std::size_t lo = FindMeasured(msg.utime);
+  if (lo < measured_.size()) {
     const Measured& m = measured_[lo];
     Pair(v, m.utime, m.theta, m.valid, msg.theta);
   } else {
@@ -197,11 +330,7 @@ void CompareNode::Pair(Variant& v, std::int64_t utime, double measured, bool val
   ++v.pairs;
   v.comparator.Add(utime, measured, modelled, valid);
   v.dirty = true;
-  const double period_us = 1e6 / config_.publish_rate_hz;
-  if (v.last_pub_utime == INT64_MIN ||
-      static_cast<double>(utime) - static_cast<double>(v.last_pub_utime) >= period_us - 0.5) {
-    PublishCompare(v);
-  }
+  if (PublishDue(utime, v.last_pub_utime)) PublishCompare(v);
 }
 
 void CompareNode::PublishCompare(Variant& v) {
@@ -252,6 +381,7 @@ void CompareNode::PublishHealth(const char* state) {
   h.count_out = published_;
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
+  for (const Band* b : band_order_) dropped += b->unmatched_model;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
   h.gaps = common::SeqGaps::SaturatingAdd(theta_seq_.missing(), model_gaps_);
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
@@ -300,6 +430,14 @@ void CompareNode::Finish() {
   for (Variant* v : order_) {
     if (v->dirty) PublishCompare(*v);
   }
+  for (Band* b : band_order_) {
+    // The crossings still waiting for later member impacts: none will come.
+    const std::int64_t resolved = b->comparator.metrics().matched_crossings +
+                                  b->comparator.metrics().unmatched_crossings;
+    b->comparator.Finish();
+    const BandMetrics& m = b->comparator.metrics();
+    if (b->dirty || m.matched_crossings + m.unmatched_crossings != resolved) PublishCoverage(*b);
+  }
   PublishHealth("stopped");
 }
 
@@ -318,6 +456,42 @@ std::vector<VariantSummary> CompareNode::Summary() const {
     out.push_back(s);
   }
   return out;
+}
+
+std::vector<BandSummary> CompareNode::BandSummaries() const {
+  std::vector<BandSummary> out;
+  for (const Band* b : band_order_) {
+    BandSummary s;
+    s.name = b->name;
+    s.model = b->model;
+    s.draws = b->draws;
+    s.members = b->members;
+    s.metrics = b->comparator.metrics();
+    s.unmatched_measured = theta_count_ - b->pairs;
+    s.unmatched_model = b->unmatched_model + static_cast<std::int64_t>(b->pending.size());
+    out.push_back(s);
+  }
+  return out;
+}
+
+void CompareNode::PrintBandSummary(const std::vector<BandSummary>& bands, std::FILE* out) {
+  if (bands.empty()) return;
+  std::fprintf(out, "%-20s %-8s %7s %9s %9s %9s %9s %9s\n", "band", "model", "members", "cover95%",
+               "cover68%", "width_deg", "z_rms", "crossings");
+  auto cell = [](double v, double scale) {
+    if (std::isnan(v)) return std::string("-");
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3f", v * scale);
+    return std::string(buf);
+  };
+  for (const BandSummary& s : bands) {
+    const BandMetrics& m = s.metrics;
+    std::fprintf(out, "%-20s %-8s %3d/%-3d %9s %9s %9s %9s %4lld/%-4lld\n", s.name.c_str(), s.model.c_str(),
+                 s.members, s.draws, cell(m.coverage95_total, 100).c_str(),
+                 cell(m.coverage68_total, 100).c_str(), cell(m.width95, common::kDegPerRad).c_str(),
+                 cell(m.impact_timing_z_rms, 1).c_str(), static_cast<long long>(m.matched_crossings),
+                 static_cast<long long>(m.matched_crossings + m.unmatched_crossings));
+  }
 }
 
 void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::FILE* out) {
@@ -352,6 +526,11 @@ void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::
 
 void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
                                    const std::string& path) {
+  WriteSummaryJson(summary, {}, path);
+}
+
+void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
+                                   const std::vector<BandSummary>& bands, const std::string& path) {
   nlohmann::json variants = nlohmann::json::array();
   for (const VariantSummary& s : summary) {
     const ComparisonMetrics& m = s.metrics;
@@ -374,12 +553,33 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
                         {"unmatched_measured", s.unmatched_measured},
                         {"unmatched_model", s.unmatched_model}});
   }
+  nlohmann::json band_list = nlohmann::json::array();
+  for (const BandSummary& s : bands) {
+    const BandMetrics& m = s.metrics;
+    band_list.push_back({{"name", s.name},
+                         {"model", s.model},
+                         {"draws", s.draws},
+                         {"members", s.members},
+                         {"samples", m.samples},
+                         {"valid_samples", m.valid_samples},
+                         {"band_coverage_95", OrNull(m.coverage95_total)},
+                         {"band_coverage_68", OrNull(m.coverage68_total)},
+                         {"impact_timing_z_rms", OrNull(m.impact_timing_z_rms)},
+                         {"impact_timing_z_max_abs", OrNull(m.impact_timing_z_max_abs)},
+                         {"matched_crossings", m.matched_crossings},
+                         {"unmatched_crossings", m.unmatched_crossings},
+                         {"unmatched_measured", s.unmatched_measured},
+                         {"unmatched_model", s.unmatched_model}});
+  }
   const nlohmann::json doc = {
       {"variants", variants},
+      {"bands", band_list},
       {"units",
        {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"rms", "rad"}, {"nrms", "1"},
         {"max_abs_error", "rad"}, {"peak_measured", "rad"}, {"correlation", "1"},
-        {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"}}}};
+        {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"},
+        {"band_coverage_95", "1"}, {"band_coverage_68", "1"}, {"impact_timing_z_rms", "1"},
+        {"impact_timing_z_max_abs", "1"}}}};
   try {
     common::WriteFileAtomically(path, doc.dump(2) + "\n");
   } catch (const std::runtime_error& e) {

@@ -16,6 +16,11 @@
 /// Alignment: a model sample is paired with the measured sample of the same
 /// utime. The rings below hold what one side has that the other has not yet
 /// sent: over udpm the model process runs behind the DAQ by its queue.
+///
+/// Bands: RL_BAND_<name> (an ensemble's posterior predictive band,
+/// model_band_t) is paired with the measurement the same way and compared
+/// by a BandComparator; RL_COVERAGE_<name> (band_comparison_t) goes out at
+/// the RL_COMPARE_* rate.
 
 #include <atomic>
 #include <cstdint>
@@ -27,8 +32,10 @@
 #include "common/bus.h"
 #include "common/seq_gaps.h"
 #include "common/ring.h"
+#include "compare/band_comparator.h"
 #include "compare/comparator.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 
 namespace rocklab::compare {
@@ -74,6 +81,17 @@ struct VariantSummary {
   std::int64_t unmatched_model{};     ///< model samples never paired
 };
 
+/// End-of-run figures of one ensemble's band.
+struct BandSummary {
+  std::string name;
+  std::string model;
+  std::int32_t draws{};    ///< members the ensemble started with
+  std::int32_t members{};  ///< members in its last band
+  BandMetrics metrics;     ///< at the end of the run (pending crossings resolved)
+  std::int64_t unmatched_measured{};  ///< measured samples never paired with a band sample
+  std::int64_t unmatched_model{};     ///< band samples never paired
+};
+
 class CompareNode {
  public:
   /// Subscribes RL_THETA and RL_MODEL_* on `bus`, which RL_COMPARE_*,
@@ -89,6 +107,8 @@ class CompareNode {
   /// RL_MODEL_* carries model_state3_t or (older logs) model_state2_t,
   /// model_state_t, read as model_state3_t with seq = common::kNoSeq.
   void HandleModel(const rocklab::model_state3_t& msg);
+  /// RL_BAND_* (model_band_t).
+  void HandleBand(const rocklab::model_band_t& msg);
 
   /// Loops on the bus until `stop` (stale checks and health while idle), then Finish.
   void Run(const std::atomic<bool>& stop);
@@ -103,20 +123,37 @@ class CompareNode {
   void Finish();
 
   std::vector<VariantSummary> Summary() const;
+  /// The bands' figures (after Finish: every measured crossing resolved).
+  std::vector<BandSummary> BandSummaries() const;
   /// The summary as a table (stdout) and as JSON (file); throws naming the
-  /// file when it cannot be written.
+  /// file when it cannot be written. The JSON's "bands" holds `bands`
+  /// (docs/commands.md, `run --summary`).
   static void PrintSummary(const std::vector<VariantSummary>& summary, std::FILE* out);
+  static void PrintBandSummary(const std::vector<BandSummary>& bands, std::FILE* out);
   static void WriteSummaryJson(const std::vector<VariantSummary>& summary,
                                const std::string& path);
+  static void WriteSummaryJson(const std::vector<VariantSummary>& summary,
+                               const std::vector<BandSummary>& bands, const std::string& path);
 
   std::int64_t theta_count() const { return theta_count_; }
   std::int64_t model_count() const { return model_count_; }
 
  private:
   struct Variant;
+  struct Band;
   Variant& VariantFor(const rocklab::model_state3_t& msg);
+  Band& BandFor(const rocklab::model_band_t& msg);
+  // Whether a stream last published at `last_pub_utime` publishes at `utime`
+  // (publish_rate_hz of the sample clock; the first pair always).
+  bool PublishDue(std::int64_t utime, std::int64_t last_pub_utime) const;
+  // Index of the measured sample of `utime` in measured_, or its size when none.
+  std::size_t FindMeasured(std::int64_t utime) const;
+  // Counts a forward jump of a model-side channel's seq into model_gaps_.
+  void CountSeq(common::SeqGaps& gaps, std::int64_t seq);
   void Pair(Variant& v, std::int64_t utime, double measured, bool valid, double modelled);
+  void PairBand(Band& b, std::int64_t utime, double measured, bool valid, const BandSample& band);
   void PublishCompare(Variant& v);
+  void PublishCoverage(Band& b);
   void PublishEvent(std::int8_t kind, const std::string& source, double value,
                     const std::string& detail);
   void PublishHealth(const char* state);
@@ -126,6 +163,8 @@ class CompareNode {
   std::vector<common::Subscription> subscriptions_;
   std::map<std::string, std::unique_ptr<Variant>> variants_;
   std::vector<Variant*> order_;  // variants in order of appearance
+  std::map<std::string, std::unique_ptr<Band>> bands_;
+  std::vector<Band*> band_order_;  // bands in order of appearance
 
   // Measured samples waiting for the models, oldest first, utime increasing.
   struct Measured {

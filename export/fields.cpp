@@ -9,6 +9,7 @@
 
 #include "common/wire.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
@@ -18,6 +19,7 @@
 #include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
@@ -188,6 +190,50 @@ template <class V>
 void Visit(const rocklab::model_state3_t& m, V& v) {
   VisitModelState(m, v);
   v.Int("equations", m.equations, "");
+}
+
+template <class V>
+void Visit(const rocklab::model_band_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Int("seq", m.seq, "");
+  v.Text("name", m.name);
+  v.Text("model", m.model);
+  v.Int("draws", m.draws, "");
+  v.Int("members", m.members, "");
+  v.Real("noise_sigma", m.noise_sigma, "rad");
+  v.Real("theta_median", m.theta_median, "rad");
+  v.Real("theta_lo95", m.theta_lo95, "rad");
+  v.Real("theta_lo68", m.theta_lo68, "rad");
+  v.Real("theta_hi68", m.theta_hi68, "rad");
+  v.Real("theta_hi95", m.theta_hi95, "rad");
+  v.Int("impacts_up", m.impacts_up, "");
+  v.Real("impact_up_offset_sum", m.impact_up_offset_sum, "s");
+  v.Real("impact_up_offset_sq_sum", m.impact_up_offset_sq_sum, "s^2");
+  v.Int("impacts_down", m.impacts_down, "");
+  v.Real("impact_down_offset_sum", m.impact_down_offset_sum, "s");
+  v.Real("impact_down_offset_sq_sum", m.impact_down_offset_sq_sum, "s^2");
+}
+
+template <class V>
+void Visit(const rocklab::band_comparison_t& m, V& v) {
+  v.Int("utime", m.utime, "us");
+  v.Int("seq", m.seq, "");
+  v.Text("name", m.name);
+  v.Real("window_s", m.window_s, "s");
+  v.Real("coverage95_window", m.coverage95_window, "1");
+  v.Real("coverage95_total", m.coverage95_total, "1");
+  v.Real("coverage68_window", m.coverage68_window, "1");
+  v.Real("coverage68_total", m.coverage68_total, "1");
+  v.Real("median_error", m.median_error, "rad");
+  v.Real("width95", m.width95, "rad");
+  v.Real("impact_timing_z", m.impact_timing_z, "1");
+  v.Real("impact_time_sd", m.impact_time_sd, "s");
+  v.Real("impact_timing_z_rms", m.impact_timing_z_rms, "1");
+  v.Int("matched_crossings", m.matched_crossings, "");
+  v.Int("unmatched_crossings", m.unmatched_crossings, "");
+  v.Int("valid", m.valid, "");
+  v.Int("samples", m.samples, "");
+  v.Int("valid_samples", m.valid_samples, "");
 }
 
 template <class V>
@@ -440,6 +486,7 @@ MessageType Entry(const char* name) {
 
 const std::vector<MessageType>& MessageTypes() {
   static const std::vector<MessageType> types = {
+      Entry<rocklab::band_comparison_t>("band_comparison_t"),
       Entry<rocklab::block_state_t>("block_state_t"),
       Entry<rocklab::comparison2_t>("comparison2_t"),
       Entry<rocklab::comparison_t>("comparison_t"),
@@ -449,6 +496,7 @@ const std::vector<MessageType>& MessageTypes() {
       Entry<rocklab::event_t>("event_t"),
       Entry<rocklab::health2_t>("health2_t"),
       Entry<rocklab::health_t>("health_t"),
+      Entry<rocklab::model_band_t>("model_band_t"),
       Entry<rocklab::model_state3_t>("model_state3_t"),
       Entry<rocklab::model_state2_t>("model_state2_t"),
       Entry<rocklab::model_state_t>("model_state_t"),

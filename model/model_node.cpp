@@ -71,7 +71,17 @@ const ModelNodeConfig& Validated(const ModelNodeConfig& config) {
 }  // namespace
 
 void ModelNodeConfig::Validate() const {
-  if (variants.empty()) throw std::invalid_argument("model node: no variant configured");
+  if (variants.empty() && ensembles.empty()) {
+    throw std::invalid_argument("model node: no variant or ensemble configured");
+  }
+  for (std::size_t i = 0; i < ensembles.size(); ++i) {
+    ensembles[i].Validate();
+    for (std::size_t j = 0; j < i; ++j) {
+      if (ensembles[i].name == ensembles[j].name) {
+        throw std::invalid_argument("model node: ensemble name '" + ensembles[i].name + "' used twice");
+      }
+    }
+  }
   for (std::size_t i = 0; i < variants.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
       if (variants[i].name == variants[j].name) {
@@ -93,14 +103,30 @@ void ModelNodeConfig::Validate() const {
   }
 }
 
-struct ModelNode::Variant {
-  VariantSpec spec;
+// One model stepped on the samples: a variant's, or an ensemble member.
+struct ModelNode::Runner {
+  std::string label;  // for the log: "variant 'x'", "ensemble 'e' draw 3 (line 5)"
   std::unique_ptr<RockingModel> model;
-  std::string channel;
-  rocklab::model_state3_t msg{};  // its seq: the next message's number on `channel`
   bool failed{};
   bool failed_now{};   // failed at the sample being stepped (logged by the handler)
   std::string error;   // its message
+};
+
+struct ModelNode::Variant {
+  VariantSpec spec;
+  Runner run;
+  std::string channel;
+  rocklab::model_state3_t msg{};  // its seq: the next message's number on `channel`
+};
+
+struct ModelNode::Ensemble {
+  EnsembleSpec spec;
+  std::vector<Runner> members;
+  std::string channel;
+  rocklab::model_band_t msg{};  // its seq: the next message's number on `channel`
+  std::vector<double> thetas;   // the members' theta at the sample (capacity: K)
+  std::vector<double> sigmas;   // their draws' noise sigma, rad (all 0: none in the file)
+  bool noisy{};                 // the draws have a noise sigma: the band is of a measurement
 };
 
 // Worker threads 1 .. n-1 of the variant stepping (thread 0 is the
@@ -149,9 +175,9 @@ class ModelNode::Workers {
   static constexpr int kSpins = 4000;
 
   void Share(int w) {
-    for (std::size_t i = static_cast<std::size_t>(w); i < node_.variants_.size();
+    for (std::size_t i = static_cast<std::size_t>(w); i < node_.runners_.size();
          i += static_cast<std::size_t>(threads_)) {
-      node_.StepVariant(i, target_);
+      node_.StepRunner(i, target_);
     }
   }
   void Loop(int w) {
@@ -196,7 +222,8 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
     v->spec = spec;
     ModelOptions options = spec.options;
     options.integrator = config_.integrator;
-    v->model = RockingModel::Create(spec.kind, spec.params, options);
+    v->run.label = "variant '" + spec.name + "'";
+    v->run.model = RockingModel::Create(spec.kind, spec.params, options);
     v->channel = config_.channel_prefix + "MODEL_" + spec.name;
     v->msg.name = spec.name;
     v->msg.model = ToString(spec.kind);
@@ -206,10 +233,36 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
     v->msg.l = spec.kind == ModelKind::kComplex ? spec.options.l : 0.0;
     variants_.push_back(std::move(v));
   }
+  for (const EnsembleSpec& spec : config_.ensembles) {
+    auto e = std::make_unique<Ensemble>();
+    e->spec = spec;
+    e->channel = config_.channel_prefix + "BAND_" + spec.name;
+    e->members.resize(spec.draws.size());
+    for (std::size_t k = 0; k < spec.draws.size(); ++k) {
+      const PosteriorDraw& d = spec.draws[k];
+      ModelOptions options = spec.options;
+      options.integrator = config_.integrator;
+      if (std::isfinite(d.l)) options.l = d.l;  // the draw's own l (complex formulation)
+      e->members[k].label = "ensemble '" + spec.name + "' draw " + std::to_string(k) + " (" + spec.source +
+                            ":" + std::to_string(d.line) + ")";
+      e->members[k].model = RockingModel::Create(spec.kind, d.params, options);
+    }
+    e->thetas.reserve(spec.draws.size());
+    e->sigmas.reserve(spec.draws.size());
+    e->noisy = spec.draws.front().sigma > 0;  // the file has the column for every row or none
+    e->msg.name = spec.name;
+    e->msg.model = ToString(spec.kind);
+    e->msg.draws = static_cast<std::int32_t>(spec.draws.size());
+    ensembles_.push_back(std::move(e));
+  }
+  for (auto& v : variants_) runners_.push_back(&v->run);
+  for (auto& e : ensembles_) {
+    for (Runner& m : e->members) runners_.push_back(&m);
+  }
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int threads = std::min(static_cast<int>(variants_.size()), config_.threads > 0 ? config_.threads : cores);
+  const int threads = std::min(static_cast<int>(runners_.size()), config_.threads > 0 ? config_.threads : cores);
   if (threads > 1) workers_ = std::make_unique<Workers>(*this, threads);
-  sender_ = "model:" + variants_.front()->spec.name;
+  sender_ = "model:" + (variants_.empty() ? ensembles_.front()->spec.name : variants_.front()->spec.name);
   event_channel_ = config_.channel_prefix + "EVENT";
   health_channel_ = config_.channel_prefix + "HEALTH";
   last_health_host_s_ = HostNowS();
@@ -232,19 +285,21 @@ std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
 const rocklab::model_state3_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
+const rocklab::model_band_t& ModelNode::band(std::size_t i) const { return ensembles_.at(i)->msg; }
+
 void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
   const bool at_rest = !std::isfinite(theta.theta) || std::abs(theta.theta) < config_.rest_threshold_rad;
   const double theta0 = at_rest ? 0.0 : theta.theta;
   const double theta_dot0 = at_rest || !std::isfinite(theta.theta_dot) ? 0.0 : theta.theta_dot;
-  for (auto& v : variants_) {
+  for (Runner* r : runners_) {
     try {
-      v->model->Reset(0.0, theta0, theta_dot0);
-      v->model->ClearEvents();
-      v->failed = false;
+      r->model->Reset(0.0, theta0, theta_dot0);
+      r->model->ClearEvents();
+      r->failed = false;
     } catch (const std::exception& e) {
-      v->failed = true;
+      r->failed = true;
       ++failures_;
-      Log()->error("variant '{}': reset failed: {}", v->spec.name, e.what());
+      Log()->error("{}: reset failed: {}", r->label, e.what());
     }
   }
   started_ = true;
@@ -348,21 +403,33 @@ void ModelNode::StepAll(const Target& target) {
   if (workers_) {
     workers_->Run(target);
   } else {
-    for (std::size_t i = 0; i < variants_.size(); ++i) StepVariant(i, target);
+    for (std::size_t i = 0; i < runners_.size(); ++i) StepRunner(i, target);
   }
   // Published from this thread, in configuration order, whoever stepped them.
-  for (auto& v : variants_) {
-    if (v->failed_now) {
-      v->failed_now = false;
+  for (auto& vp : variants_) {
+    Variant* v = vp.get();
+    Runner& r = v->run;
+    if (r.failed_now) {
+      r.failed_now = false;
       ++failures_;
-      Log()->error("variant '{}' stopped at utime {}: {}", v->spec.name, target.utime, v->error);
+      Log()->error("{} stopped at utime {}: {}", r.label, target.utime, r.error);
       continue;
     }
-    if (v->failed) continue;
+    if (r.failed) continue;
+    const ModelState& st = r.model->state();
+    v->msg.utime = target.utime;
+    v->msg.theta = st.theta;
+    v->msg.theta_dot = st.theta_dot;
+    v->msg.chi = st.chi;
+    v->msg.psi = st.psi;
+    v->msg.energy = st.energy;
+    v->msg.impact_count = st.impacts;
+    v->msg.regime = RegimeCode(st.regime);
+    v->msg.equations = EquationsCode(st.equations);
     bus_.Publish(v->channel, v->msg);
     ++v->msg.seq;
     ++published_;
-    for (const ModelEvent& e : v->model->events()) {
+    for (const ModelEvent& e : r.model->events()) {
       rocklab::event2_t ev;
       ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
       ev.seq = event_seq_++;
@@ -373,35 +440,75 @@ void ModelNode::StepAll(const Target& target) {
       ev.detail = ToString(e.kind);
       bus_.Publish(event_channel_, ev);
     }
-    v->model->ClearEvents();
+    r.model->ClearEvents();
   }
+  for (auto& e : ensembles_) PublishBand(*e, target);
 }
 
-void ModelNode::StepVariant(std::size_t i, const Target& target) {
-  Variant& v = *variants_[i];
-  if (v.failed) return;
+void ModelNode::PublishBand(Ensemble& e, const Target& target) {
+  rocklab::model_band_t& b = e.msg;
+  b.utime = target.utime;
+  b.impacts_up = b.impacts_down = 0;
+  b.impact_up_offset_sum = b.impact_up_offset_sq_sum = 0;
+  b.impact_down_offset_sum = b.impact_down_offset_sq_sum = 0;
+  e.thetas.clear();
+  e.sigmas.clear();
+  double sigma_sum = 0;
+  for (std::size_t k = 0; k < e.members.size(); ++k) {
+    Runner& m = e.members[k];
+    if (m.failed_now) {
+      m.failed_now = false;
+      ++member_failures_;
+      Log()->warn("{} stopped at utime {} and left the band: {}", m.label, target.utime, m.error);
+      continue;
+    }
+    if (m.failed) continue;
+    e.thetas.push_back(m.model->state().theta);
+    e.sigmas.push_back(e.spec.draws[k].sigma);
+    sigma_sum += e.spec.draws[k].sigma;
+    // Impacts: theta crossing zero, the direction from theta_dot before it.
+    for (const ModelEvent& ev : m.model->events()) {
+      if (ev.kind != EventKind::kImpact || !(ev.value != 0)) continue;
+      const double offset_s = ev.time_s - target.t_s;
+      if (ev.value > 0) {
+        ++b.impacts_up;
+        b.impact_up_offset_sum += offset_s;
+        b.impact_up_offset_sq_sum += offset_s * offset_s;
+      } else {
+        ++b.impacts_down;
+        b.impact_down_offset_sum += offset_s;
+        b.impact_down_offset_sq_sum += offset_s * offset_s;
+      }
+    }
+    m.model->ClearEvents();
+  }
+  b.members = static_cast<std::int32_t>(e.thetas.size());
+  b.noise_sigma = e.thetas.empty() ? 0.0 : sigma_sum / static_cast<double>(e.thetas.size());
+  const BandQuantiles q = e.noisy ? ComputeNoisyBand(e.thetas, e.sigmas) : ComputeBand(e.thetas);
+  b.theta_lo95 = q.lo95;
+  b.theta_lo68 = q.lo68;
+  b.theta_median = q.median;
+  b.theta_hi68 = q.hi68;
+  b.theta_hi95 = q.hi95;
+  bus_.Publish(e.channel, b);
+  ++b.seq;
+  ++published_;
+}
+
+void ModelNode::StepRunner(std::size_t i, const Target& target) {
+  Runner& r = *runners_[i];
+  if (r.failed) return;
   try {
     if (std::isnan(target.horizon_s)) {
-      v.model->Step(target.t_s, target.accel);
+      r.model->Step(target.t_s, target.accel);
     } else {
-      v.model->AdvanceAhead(target.t_s, window_, target.horizon_s);
+      r.model->AdvanceAhead(target.t_s, window_, target.horizon_s);
     }
   } catch (const std::exception& e) {
-    v.failed = true;
-    v.failed_now = true;
-    v.error = e.what();
-    return;
+    r.failed = true;
+    r.failed_now = true;
+    r.error = e.what();
   }
-  const ModelState& st = v.model->state();
-  v.msg.utime = target.utime;
-  v.msg.theta = st.theta;
-  v.msg.theta_dot = st.theta_dot;
-  v.msg.chi = st.chi;
-  v.msg.psi = st.psi;
-  v.msg.energy = st.energy;
-  v.msg.impact_count = st.impacts;
-  v.msg.regime = RegimeCode(st.regime);
-  v.msg.equations = EquationsCode(st.equations);
 }
 
 void ModelNode::PublishHealth(const char* state) {

@@ -24,6 +24,14 @@
 /// docs/models.md ("The model node"): the variants start at the first table
 /// sample from the newest RL_THETA, and a table utime that goes back resets
 /// them all.
+///
+/// Ensembles (docs/models.md, "Posterior predictive band"): each is K
+/// members (posterior draws) stepped with the variants, on the same threads
+/// and the same samples; per table sample it publishes one RL_BAND_<name>
+/// (model_band_t: theta's quantiles over the members and their impacts since
+/// the previous sample) after the variants' messages, never a message per
+/// member. A member whose integration fails leaves the band (counted,
+/// logged once).
 
 #include <atomic>
 #include <cstdint>
@@ -35,10 +43,12 @@
 #include "common/ring.h"
 #include "common/seq_gaps.h"
 #include "model/block.h"
+#include "model/ensemble.h"
 #include "model/excitation.h"
 #include "model/rocking_model.h"
 #include "model/variant.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
@@ -46,7 +56,11 @@ namespace rocklab::model {
 
 struct ModelNodeConfig {
   std::string channel_prefix{"RL_"};
-  std::vector<VariantSpec> variants;  ///< at least one
+  std::vector<VariantSpec> variants;  ///< at least one variant or ensemble
+  /// Ensembles of posterior draws, each published as RL_BAND_<name>; their
+  /// names must differ from each other (a variant may share one: the
+  /// channels differ).
+  std::vector<EnsembleSpec> ensembles;
   double rest_threshold_rad{2e-3};    ///< |theta| at start below this: at rest, rad
   double health_period_s{1.0};        ///< RL_HEALTH period, host time, s
   /// Messages each subscription may hold before a queued bus (LcmBus) drops.
@@ -54,8 +68,8 @@ struct ModelNodeConfig {
   /// hiccup of a loaded machine. 4096 is ~4 s at 1 kHz, a few hundred kB at
   /// most. >= 1.
   int subscriber_queue{4096};
-  /// Threads stepping the variants (the handler's included): 0 = one per
-  /// variant up to the hardware's cores, 1 = the handler's thread alone
+  /// Threads stepping the variants and ensemble members (the handler's
+  /// included): 0 = one per model up to the hardware's cores, 1 = the handler's thread alone
   /// (the default: a variant's sample costs ~1 us with the Runge-Kutta
   /// stepping, less than handing it to another thread; docs/performance.md).
   /// >= 0.
@@ -97,6 +111,11 @@ class ModelNode {
   /// the number the variant's next message will carry.
   const rocklab::model_state3_t& latest(std::size_t i) const;
   std::size_t variant_count() const;
+  /// The latest band of ensemble i (in configuration order).
+  const rocklab::model_band_t& band(std::size_t i) const;
+  std::size_t ensemble_count() const { return ensembles_.size(); }
+  /// Ensemble members whose integration failed (they left their band).
+  std::int64_t member_failures() const { return member_failures_; }
   std::int64_t table_count() const { return table_count_; }
   std::int64_t skipped_before_start() const { return skipped_before_start_; }
   std::int64_t resets() const { return resets_; }
@@ -109,7 +128,9 @@ class ModelNode {
   std::int64_t theta_gaps() const { return theta_seq_.missing(); }
 
  private:
+  struct Runner;
   struct Variant;
+  struct Ensemble;
   class Workers;
   // What a variant is stepped to: Step(t_s, accel) when horizon_s is NaN,
   // else AdvanceAhead(t_s, window_, horizon_s).
@@ -119,8 +140,11 @@ class ModelNode {
     std::int64_t utime{};
     double horizon_s{};
   };
-  // Steps variant i (on any thread): its model, its failure, its message.
-  void StepVariant(std::size_t i, const Target& target);
+  // Steps runner i (a variant's model or an ensemble member, on any
+  // thread): its model and its failure.
+  void StepRunner(std::size_t i, const Target& target);
+  // An ensemble's band of the sample just stepped, published.
+  void PublishBand(Ensemble& e, const Target& target);
   // Steps every variant to `target` and publishes their messages and events.
   void StepAll(const Target& target);
   // Steps the oldest held sample (N > 0).
@@ -135,6 +159,8 @@ class ModelNode {
   common::Bus& bus_;  // not owned
   std::vector<common::Subscription> subscriptions_;
   std::vector<std::unique_ptr<Variant>> variants_;
+  std::vector<std::unique_ptr<Ensemble>> ensembles_;
+  std::vector<Runner*> runners_;  // every model stepped: the variants', then the members
   std::unique_ptr<Workers> workers_;  // null when single-threaded
   std::string event_channel_, health_channel_;
   bool started_{};
@@ -147,6 +173,7 @@ class ModelNode {
   std::int64_t bad_in_stretch_{};
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
+  std::int64_t member_failures_{};
   // Lookahead (N > 0): the window's samples and the utimes of those not yet
   // stepped (oldest first, at most N + 1).
   SampleWindow window_;

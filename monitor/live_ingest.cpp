@@ -74,6 +74,10 @@ bool LiveState::Impl::Dispatch(std::string_view kind, const void* data, int size
       ok = IngestModel(kind.substr(6), data, size);
     } else if (StartsWith(kind, "COMPARE_") && kind.size() > 8) {
       ok = IngestCompare(kind.substr(8), data, size);
+    } else if (StartsWith(kind, "BAND_") && kind.size() > 5) {
+      ok = IngestBand(kind.substr(5), data, size);
+    } else if (StartsWith(kind, "COVERAGE_") && kind.size() > 9) {
+      ok = IngestCoverage(kind.substr(9), data, size);
     } else if (kind == "EVENT") {
       ok = IngestEvent(data, size);
     } else if (kind == "HEALTH") {
@@ -144,6 +148,34 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
   if (T(m.utime) <= options.to_s) {  // the newest comparison inside the window
     v->has_latest = true;
     v->latest = m;
+  }
+  return true;
+}
+
+bool LiveState::Impl::IngestBand(std::string_view name, const void* data, int size) {
+  if (!DecodeSample(band_msg, data, size)) return false;
+  if (!SeeSampleClock(band_msg.utime)) return true;  // held
+  Band* b = BandFor(name);
+  if (!b) return true;  // counted in dropped.variants
+  const rocklab::model_band_t& m = band_msg;
+  b->has_params = true;
+  AssignText(b->model, m.model);
+  b->draws = m.draws;
+  b->members = m.members;
+  AddPoint(b->median, m.utime, m.theta_median * kDegPerRad, 0.0);
+  AddPoint(b->band68, m.utime, m.theta_lo68 * kDegPerRad, m.theta_hi68 * kDegPerRad);
+  AddPoint(b->band95, m.utime, m.theta_lo95 * kDegPerRad, m.theta_hi95 * kDegPerRad);
+  return true;
+}
+
+bool LiveState::Impl::IngestCoverage(std::string_view name, const void* data, int size) {
+  if (!DecodeSample(coverage_msg, data, size)) return false;
+  if (!SeeSampleClock(coverage_msg.utime)) return true;  // held
+  Band* b = BandFor(name);
+  if (!b) return true;
+  if (T(coverage_msg.utime) <= options.to_s) {  // the newest inside the window
+    b->has_latest = true;
+    b->latest = coverage_msg;
   }
   return true;
 }

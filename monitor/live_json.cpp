@@ -39,6 +39,7 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
   table_doc["peak_disp_m"] = table_peak_disp;
   doc["table"] = std::move(table_doc);
   doc["variants"] = VariantsJson(w);
+  doc["bands"] = BandsJson(w);
   doc["flags"] = FlagsJson(w);
   doc["events"] = EventsJson(w);
   doc["health"] = HealthJson();
@@ -107,6 +108,61 @@ json LiveState::Impl::VariantsJson(const UpdateWindow& w) const {
     variant_list.push_back(std::move(j));
   }
   return variant_list;
+}
+
+// Each band as {name, model, draws, members, band: {t, median_deg, lo68_deg,
+// hi68_deg, lo95_deg, hi95_deg}, latest: RL_COVERAGE's newest or null}.
+json LiveState::Impl::BandsJson(const UpdateWindow& w) const {
+  json band_list = json::array();
+  for (const auto& b : bands) {
+    json j = {{"name", b->name}};
+    if (b->has_params) {
+      j["model"] = b->model;
+      j["draws"] = b->draws;
+      j["members"] = b->members;
+    } else {
+      for (const char* k : {"model", "draws", "members"}) j[k] = nullptr;
+    }
+    json t = json::array(), median = json::array(), lo68 = json::array(), hi68 = json::array(),
+         lo95 = json::array(), hi95 = json::array();
+    const std::size_t n = std::min({b->median.size(), b->band68.size(), b->band95.size()});
+    const std::size_t first = w.full ? b->median.FirstFrom(w.from_utime) : b->median.FirstAfter(w.cursor);
+    for (std::size_t i = first; i < n; ++i) {
+      t.push_back(T(b->median[i].utime));
+      median.push_back(Number(b->median[i].a));
+      lo68.push_back(Number(b->band68[i].a));
+      hi68.push_back(Number(b->band68[i].b));
+      lo95.push_back(Number(b->band95[i].a));
+      hi95.push_back(Number(b->band95[i].b));
+    }
+    j["band"] = {{"t", std::move(t)},           {"median_deg", std::move(median)},
+                 {"lo68_deg", std::move(lo68)}, {"hi68_deg", std::move(hi68)},
+                 {"lo95_deg", std::move(lo95)}, {"hi95_deg", std::move(hi95)}};
+    if (b->has_latest) {
+      const rocklab::band_comparison_t& m = b->latest;
+      j["latest"] = {{"utime", m.utime},
+                     {"t", T(m.utime)},
+                     {"window_s", Number(m.window_s)},
+                     {"coverage95_window", Number(m.coverage95_window)},
+                     {"coverage95_total", Number(m.coverage95_total)},
+                     {"coverage68_window", Number(m.coverage68_window)},
+                     {"coverage68_total", Number(m.coverage68_total)},
+                     {"median_error", Number(m.median_error)},
+                     {"width95", Number(m.width95)},
+                     {"impact_timing_z", Number(m.impact_timing_z)},
+                     {"impact_time_sd", Number(m.impact_time_sd)},
+                     {"impact_timing_z_rms", Number(m.impact_timing_z_rms)},
+                     {"matched_crossings", m.matched_crossings},
+                     {"unmatched_crossings", m.unmatched_crossings},
+                     {"valid", m.valid != 0},
+                     {"samples", m.samples},
+                     {"valid_samples", m.valid_samples}};
+    } else {
+      j["latest"] = nullptr;
+    }
+    band_list.push_back(std::move(j));
+  }
+  return band_list;
 }
 
 // The flag intervals, cut to the time window (from_s..to_s); an interval
@@ -199,6 +255,11 @@ json LiveState::Impl::UnitsJson() {
               {"sample_rate_hz", "Hz"}, {"rate_in_hz", "Hz"}, {"rate_out_hz", "Hz"},
               {"lag_s", "s"}, {"start", "s"}, {"end", "s"}, {"accel_mps2", "m/s^2"},
               {"peak_accel_mps2", "m/s^2"}, {"peak_disp_m", "m"}, {"from_s", "s"}, {"to_s", "s"},
+              {"median_deg", "deg"}, {"lo68_deg", "deg"}, {"hi68_deg", "deg"}, {"lo95_deg", "deg"},
+              {"hi95_deg", "deg"}, {"coverage95_window", "1"}, {"coverage95_total", "1"},
+              {"coverage68_window", "1"}, {"coverage68_total", "1"}, {"median_error", "rad"},
+              {"width95", "rad"}, {"impact_timing_z", "1"}, {"impact_time_sd", "s"},
+              {"impact_timing_z_rms", "1"},
               {"value", "per event kind, see lcm_types/event2_t.lcm"}};
 }
 

@@ -21,8 +21,10 @@
 #include "common/text.h"
 #include "common/units.h"
 #include "common/wire.h"
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "common/versions.h"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::monitor {
@@ -252,6 +254,24 @@ struct LiveState::Impl {
     rocklab::comparison2_t latest;
   };
 
+  // An ensemble's posterior predictive band (RL_BAND_<name>) and its
+  // comparison with the measurement (RL_COVERAGE_<name>). The three series
+  // take the same samples, so their points line up index by index.
+  struct Band {
+    Band(std::string_view n, std::size_t capacity, bool grows, std::size_t max_points)
+        : name(n), median(capacity, grows, max_points), band68(capacity, grows, max_points),
+          band95(capacity, grows, max_points) {}
+    std::string name;
+    bool has_params{};
+    std::string model;
+    std::int32_t draws{}, members{};
+    Series median;  // a: median theta, deg
+    Series band68;  // a: 16 %, b: 84 % quantile of theta, deg
+    Series band95;  // a: 2.5 %, b: 97.5 %, deg
+    bool has_latest{};
+    rocklab::band_comparison_t latest;
+  };
+
   explicit Impl(const LiveOptions& o)
       : options(o),
         grows(!std::isfinite(o.window_s)),
@@ -275,6 +295,8 @@ struct LiveState::Impl {
   bool IngestTable(const void* data, int size);
   bool IngestModel(std::string_view name, const void* data, int size);
   bool IngestCompare(std::string_view name, const void* data, int size);
+  bool IngestBand(std::string_view name, const void* data, int size);
+  bool IngestCoverage(std::string_view name, const void* data, int size);
   bool IngestEvent(const void* data, int size);
   bool IngestHealth(const void* data, int size);
   bool IngestConfig(const void* data, int size);
@@ -299,6 +321,18 @@ struct LiveState::Impl {
     variants.push_back(std::make_unique<Variant>(name, capacity, grows, options.max_points));
     by_name.emplace(std::string(name), variants.back().get());
     return variants.back().get();
+  }
+
+  Band* BandFor(std::string_view name) {
+    auto it = band_by_name.find(name);
+    if (it != band_by_name.end()) return it->second;
+    if (bands.size() >= options.max_variants) {  // bands count against the variants' bound
+      ++dropped_variants;
+      return nullptr;
+    }
+    bands.push_back(std::make_unique<Band>(name, capacity, grows, options.max_points));
+    band_by_name.emplace(std::string(name), bands.back().get());
+    return bands.back().get();
   }
 
   // A time from the wire may become the origin: beyond +-2^53 us (285 years)
@@ -369,6 +403,8 @@ struct LiveState::Impl {
     table_peak_accel = table_peak_disp = 0.0;
     variants.clear();
     by_name.clear();
+    bands.clear();
+    band_by_name.clear();
     while (!intervals.empty()) intervals.pop_front();
     while (!events.empty()) events.pop_front();
     open_flags.fill(0);
@@ -427,6 +463,7 @@ struct LiveState::Impl {
   };
   json SeriesJson(const Series& s, const char* a_name, const char* b_name, const UpdateWindow& w) const;
   json VariantsJson(const UpdateWindow& w) const;
+  json BandsJson(const UpdateWindow& w) const;
   json FlagsJson(const UpdateWindow& w) const;
   json EventsJson(const UpdateWindow& w) const;
   json HealthJson() const;
@@ -466,6 +503,8 @@ struct LiveState::Impl {
   std::int64_t outside_window{};  // points and events left out by from_s..to_s
   std::vector<std::unique_ptr<Variant>> variants;  // in order of appearance
   std::map<std::string, Variant*, std::less<>> by_name;
+  std::vector<std::unique_ptr<Band>> bands;  // in order of appearance
+  std::map<std::string, Band*, std::less<>> band_by_name;
 
   Ring<Interval> intervals;
   Interval interval_scratch;
@@ -491,6 +530,8 @@ struct LiveState::Impl {
   // The older types (logs written before) are read as the current ones.
   rocklab::model_state3_t model_msg;
   common::ModelStateDecoder model_decoder;
+  rocklab::model_band_t band_msg;
+  rocklab::band_comparison_t coverage_msg;
   rocklab::comparison2_t compare_msg;
   common::ComparisonDecoder compare_decoder;
   rocklab::event2_t event_msg;

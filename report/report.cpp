@@ -175,6 +175,22 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
     lines.push_back(line);
   }
 
+  for (const json& b : s.value("bands", json::array())) {
+    std::string line = Text(b, "name") + ": posterior predictive band, " + ModelName(Text(b, "model"));
+    const json draws = b.value("draws", json());
+    if (draws.is_number()) line += Format(", %lld draws", static_cast<long long>(draws.get<std::int64_t>()));
+    const json latest = b.value("latest", json());
+    const double c95 = Number(latest, "coverage95_total");
+    if (std::isfinite(c95)) {
+      line += Format("; measurement inside 95 %%: %.1f %%, inside 68 %%: %.1f %%", 100 * c95,
+                     100 * Number(latest, "coverage68_total"));
+      const double z = Number(latest, "impact_timing_z_rms");
+      line += std::isfinite(z) ? Format("; impact timing z rms %.2g", z) : std::string("; no impact timing z");
+    } else {
+      line += "; not compared";
+    }
+    lines.push_back(line);
+  }
   const json config = s.value("config", json());
   const std::string rig = Text(config, "rig_name");
   std::string scenario = "rig " + (rig.empty() ? std::string("unknown (no RL_DAQ_CONFIG)") : rig);
@@ -201,11 +217,33 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
   return lines;
 }
 
+// The snapshot's {"t", "median_deg", ...} of a band as a figure band (null -> NaN).
+ThetaBand Band(const json& band, std::string title) {
+  ThetaBand b;
+  b.title = std::move(title);
+  if (!band.is_object() || !band.contains("t")) return b;
+  const json& t = band.at("t");
+  const std::pair<const char*, std::vector<double>*> quantiles[] = {
+      {"lo95_deg", &b.lo95_deg}, {"lo68_deg", &b.lo68_deg}, {"median_deg", &b.median_deg},
+      {"hi68_deg", &b.hi68_deg}, {"hi95_deg", &b.hi95_deg}};
+  std::size_t n = t.size();
+  for (const auto& [key, out] : quantiles) n = std::min(n, band.contains(key) ? band.at(key).size() : 0);
+  auto value = [](const json& x) { return x.is_number() ? x.get<double>() : kNaN; };
+  for (std::size_t i = 0; i < n; ++i) {
+    b.time_s.push_back(value(t[i]));
+    for (const auto& [key, out] : quantiles) out->push_back(value(band.at(key)[i]));
+  }
+  return b;
+}
+
 ThetaFigure ReportFigure(const RecordReport& record) {
   const json& s = record.snapshot;
   ThetaFigure figure;
   figure.set_title("rocking angle theta: experiment and models (" +
                    std::filesystem::path(record.log_path).filename().string() + ")");
+  for (const json& b : s.value("bands", json::array())) {
+    figure.AddBand(Band(b.value("band", json()), Text(b, "name") + " (" + ModelName(Text(b, "model")) + ")"));
+  }
   figure.AddCurve(Curve(s.at("measured"), "theta_deg", "experiment", true));
   for (const json& v : s.at("variants")) {
     figure.AddCurve(Curve(v.value("theta", json()), "theta_deg",

@@ -167,6 +167,17 @@ void ThetaFigure::AddCurve(ThetaCurve curve) {
   curves_.push_back(std::move(curve));
 }
 
+void ThetaFigure::AddBand(ThetaBand band) {
+  const std::size_t n = band.time_s.size();
+  for (const auto* q : {&band.lo95_deg, &band.lo68_deg, &band.median_deg, &band.hi68_deg, &band.hi95_deg}) {
+    if (q->size() != n) {
+      throw std::invalid_argument("band '" + band.title + "': " + std::to_string(n) + " times but " +
+                                  std::to_string(q->size()) + " values of a quantile");
+    }
+  }
+  bands_.push_back(std::move(band));
+}
+
 void ThetaFigure::SetTableAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2) {
   if (time_s.size() != accel_mps2.size()) {
     throw std::invalid_argument("table acceleration: " + std::to_string(time_s.size()) +
@@ -222,7 +233,7 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
   }
   // The key sits inside the top of the plot, over a band the y range keeps
   // free for it: 3 entries a row.
-  const std::size_t key_rows = (curves_.size() + 2) / 3;
+  const std::size_t key_rows = (curves_.size() + 3 * bands_.size() + 2) / 3;
   std::snprintf(buf, sizeof buf,
                 "set grid\nset autoscale xfix\n"
                 "set key inside top center horizontal maxcols 3\n"
@@ -247,6 +258,33 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
   static const char* const kColours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e",
                                          "#9467bd", "#8c564b", "#e377c2", "#17becf"};
   std::string plot = "plot ";
+  // The bands first, so that every curve is drawn over them.
+  static const char* const kBandColours[] = {"#5a5ac8", "#c86e28", "#289678", "#a03ca0"};
+  for (std::size_t i = 0; i < bands_.size(); ++i) {
+    const ThetaBand& b = bands_[i];
+    const std::string block = "$b" + std::to_string(i);
+    s += block + " << EOD\n";
+    for (std::size_t k = 0; k < b.time_s.size(); ++k) {
+      for (double v : {b.time_s[k], b.lo95_deg[k], b.lo68_deg[k], b.median_deg[k], b.hi68_deg[k], b.hi95_deg[k]}) {
+        AppendNumber(s, v);
+        s += ' ';
+      }
+      s += '\n';
+    }
+    if (b.time_s.empty()) s += "NaN NaN NaN NaN NaN NaN\n";
+    s += "EOD\n";
+    const char* colour = kBandColours[i % 4];
+    std::snprintf(buf, sizeof buf,
+                  "%s using 1:2:6 with filledcurves fc rgb '%s' fs transparent solid 0.18 noborder title ",
+                  block.c_str(), colour);
+    plot += buf + Quoted(b.title + " 95 %") + " noenhanced, ";
+    std::snprintf(buf, sizeof buf,
+                  "%s using 1:3:5 with filledcurves fc rgb '%s' fs transparent solid 0.32 noborder title ",
+                  block.c_str(), colour);
+    plot += buf + Quoted(b.title + " 68 %") + " noenhanced, ";
+    std::snprintf(buf, sizeof buf, "%s using 1:4 with lines lw 1.2 lc rgb '%s' dt 2 title ", block.c_str(), colour);
+    plot += buf + Quoted(b.title + " median") + " noenhanced, ";
+  }
   std::size_t model_index = 0;
   for (std::size_t i = 0; i < curves_.size(); ++i) {
     const ThetaCurve& c = curves_[i];

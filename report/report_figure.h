@@ -2,7 +2,7 @@
 /// @file
 /// The static figure of a recorded test, like the paper's figures 6 to 8:
 /// theta in degrees against time in seconds, the experiment and each model
-/// variant overlaid, the table acceleration in a panel below when it is
+/// variant overlaid (over each ensemble's posterior predictive band, shaded), the table acceleration in a panel below when it is
 /// given (same time axis), with caption lines below the plots. gnuplot draws it: the
 /// script and the curves (as inline data blocks) go to gnuplot's standard
 /// input through a pipe; nothing is plotted by hand.
@@ -48,11 +48,21 @@ struct ThetaCurve {
   bool reference{};               ///< the experiment: drawn first style, black
 };
 
+/// A posterior predictive band of theta (an ensemble's quantiles), drawn
+/// under the curves: the 95 % and 68 % ranges shaded, the median dashed.
+struct ThetaBand {
+  std::string title;              ///< legend stem (printed as is)
+  std::vector<double> time_s;     ///< s since the record's start
+  std::vector<double> lo95_deg, lo68_deg, median_deg, hi68_deg, hi95_deg;  ///< degrees, one per time_s
+};
+
 /// Collects curves and caption lines and draws them with gnuplot.
 class ThetaFigure {
  public:
   /// @throws std::invalid_argument when time_s and theta_deg differ in length.
   void AddCurve(ThetaCurve curve);
+  /// @throws std::invalid_argument when a quantile's length differs from time_s's.
+  void AddBand(ThetaBand band);
   void AddCaptionLine(std::string line) { caption_.push_back(std::move(line)); }
   /// The table acceleration panel under the theta panel: u_g'' (m/s^2) at
   /// times (s, the curves' clock); NaN leaves a gap. Empty: no panel.
@@ -63,6 +73,7 @@ class ThetaFigure {
   void set_gnuplot(std::string program) { gnuplot_ = std::move(program); }
 
   const std::vector<ThetaCurve>& curves() const { return curves_; }
+  const std::vector<ThetaBand>& bands() const { return bands_; }
   const std::vector<std::string>& caption() const { return caption_; }
   bool has_table_panel() const { return !table_time_s_.empty(); }
 
@@ -82,6 +93,7 @@ class ThetaFigure {
 
  private:
   std::vector<ThetaCurve> curves_;
+  std::vector<ThetaBand> bands_;
   std::vector<std::string> caption_;
   std::vector<double> table_time_s_, table_accel_mps2_;
   std::string title_;

@@ -26,8 +26,10 @@ int RunCompare(CompareCommand& c) {
   compare::CompareNode node(c.config, *bus);
   node.Run(stop);
   const auto summary = node.Summary();
+  const auto bands = node.BandSummaries();
   compare::CompareNode::PrintSummary(summary, stdout);
-  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, c.summary_json);
+  compare::CompareNode::PrintBandSummary(bands, stdout);
+  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, bands, c.summary_json);
   return 0;
 }
 

@@ -6,6 +6,7 @@
 
 #include "common/lcm_bus.h"
 #include "model/model_node.h"
+#include "pipeline/ensemble_flags.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"
 
@@ -19,12 +20,14 @@ struct ModelCommand {
   int lookahead{0};
   int threads{1};
   double rtol{model::ModelOptions{}.rtol};
+  pipeline::EnsembleFlags ensemble;
 };
 
 int RunModel(const ModelCommand& c) {
   const daq::RigConfig rig = pipeline::LoadRig(c.rig_path);
   model::ModelNodeConfig cfg;
   cfg.variants = pipeline::BuildVariants(c.variants, rig, c.rtol);
+  cfg.ensembles = pipeline::BuildEnsembles(c.ensemble, c.rtol);
   cfg.lookahead_samples = c.lookahead;
   cfg.threads = c.threads;
   const std::atomic<bool>& stop = InstallStopSignals();
@@ -36,6 +39,7 @@ int RunModel(const ModelCommand& c) {
                  v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
                  v.params_source.c_str());
   }
+  pipeline::PrintEnsembles(cfg.ensembles, c.ensemble.size, stderr);
   node.Run(stop);
   std::fprintf(stderr, "model: %lld table samples, %lld before the start, %lld resets, %lld failures\n",
                static_cast<long long>(node.table_count()),
@@ -62,6 +66,7 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
   cmd->add_option("--threads", c->threads,
                   "threads stepping the variants (default 1; 0: one per variant up to the cores)")
       ->check(CLI::NonNegativeNumber);
+  pipeline::AddEnsembleOptions(*cmd, c->ensemble);
   cmd->callback([c, &run] { run = [c] { return RunModel(*c); }; });
 }
 

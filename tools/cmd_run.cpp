@@ -21,6 +21,7 @@
 #include "compare/compare_flags.h"
 #include "compare/compare_node.h"
 #include "model/model_node.h"
+#include "pipeline/ensemble_flags.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/run_graph.h"
 #include "tools/cli.h"
@@ -42,6 +43,7 @@ struct RunCommand {
   double rtol{model::ModelOptions{}.rtol};
   bool quiet{};
   compare::CompareNodeConfig compare;
+  pipeline::EnsembleFlags ensemble;
 };
 
 int RunAll(RunCommand& c) {
@@ -59,6 +61,7 @@ int RunAll(RunCommand& c) {
   g.log_path = c.log_path;
   g.compare = c.compare;
   g.model.variants = pipeline::BuildVariants(c.variants, rig, c.rtol);
+  g.model.ensembles = pipeline::BuildEnsembles(c.ensemble, c.rtol);
   // Default 0 also with --max: on accelerometer data (and on the
   // differentiated displacement) 32 took more CPU, not less
   // (docs/performance.md, "Stepping across samples in the model node").
@@ -72,6 +75,7 @@ int RunAll(RunCommand& c) {
                  v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
                  v.params_source.c_str());
   }
+  pipeline::PrintEnsembles(g.model.ensembles, c.ensemble.size, stderr);
   {
     common::FileProgress progress("run", c.input, c.quiet || c.speed != 0);  // --max only
     graph.Run(stop);
@@ -104,9 +108,15 @@ int RunAll(RunCommand& c) {
                  static_cast<long long>(bus.decode_error_count()),
                  static_cast<long long>(bus.handler_error_count()));
   }
+  if (model.member_failures() > 0) {
+    std::fprintf(stderr, "run: %lld ensemble members failed and left their band\n",
+                 static_cast<long long>(model.member_failures()));
+  }
   const auto summary = graph.compare().Summary();
+  const auto bands = graph.compare().BandSummaries();
   compare::CompareNode::PrintSummary(summary, stdout);
-  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, c.summary_json);
+  compare::CompareNode::PrintBandSummary(bands, stdout);
+  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, bands, c.summary_json);
   const int damaged = pipeline::ReportDamage(s, c.input, "run");
   return log_errors > 0 ? kFailureExit : damaged;
 }
@@ -137,6 +147,7 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
   compare::AddCompareOptions(*cmd, c->compare);
+  pipeline::AddEnsembleOptions(*cmd, c->ensemble);
   cmd->callback([c, &run] { run = [c] { return RunAll(*c); }; });
 }
 

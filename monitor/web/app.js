@@ -1,6 +1,8 @@
 // rocklab monitor page: theta measured and modelled, the error and its
 // windowed RMS (uPlot charts), flags as shaded bands and events as markers
-// (uPlot hooks), the latest comparison numbers, node health, counters.
+// (uPlot hooks), the latest comparison numbers, node health, counters, and
+// each ensemble's posterior predictive band (median, 68 % and 95 %) shaded
+// around the model curves with its coverage numbers.
 //
 // Two modes:
 //  - live (`rocklab monitor`): an EventSource on api/events receives a full
@@ -14,8 +16,9 @@
 // The JSON schema is documented in monitor/live_state.h.
 //
 // For tests and scripts, `window.rocklabMonitor` exposes the uPlot instances
-// (`plots.theta`, `plots.error`), `updates` (messages applied), `mode` and
-// `dataLengths()` (points per chart series).
+// (`plots.theta`, `plots.error`), `updates` (messages applied), `mode`,
+// `dataLengths()` (points per chart series) and `bandNames()` (the bands
+// drawn on the theta chart).
 (function () {
   'use strict';
 
@@ -52,6 +55,11 @@
     const [unit, factor] = EVENT_UNIT[e.kind] || ['', 1];
     return [typeof e.value === 'number' ? e.value * factor : e.value, unit];
   }
+  const BAND_FIELDS = ['coverage95_window', 'coverage95_total', 'coverage68_window',
+    'coverage68_total', 'median_error', 'width95', 'impact_timing_z', 'impact_time_sd',
+    'impact_timing_z_rms', 'matched_crossings', 'unmatched_crossings'];
+  const BAND_ANGLE_FIELDS = new Set(['median_error', 'width95']);
+  const BAND_RGB = ['90, 90, 200', '200, 110, 40', '40, 150, 120', '160, 60, 160'];
   const HEALTH_FIELDS = ['rate_in_hz', 'rate_out_hz', 'count_in', 'count_out', 'dropped', 'gaps',
     'bad_samples', 'lag_s'];
 
@@ -63,6 +71,7 @@
     measured: {t: [], theta: []},
     table: {t: [], accel: []},  // RL_TABLE u_g'', m/s^2
     variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest}
+    bands: new Map(),      // name -> {meta, rgb, band: {t, median, lo68, hi68, lo95, hi95}, latest}
     flags: new Map(),      // interval id -> {flag, source, start, end}
     events: [],
     health: [],
@@ -112,10 +121,21 @@
     return v;
   }
 
+  function bandFor(name) {
+    let b = held.bands.get(name);
+    if (!b) {
+      b = {meta: {name: name}, rgb: BAND_RGB[held.bands.size % BAND_RGB.length],
+        band: {t: [], median: [], lo68: [], hi68: [], lo95: [], hi95: []}, latest: null};
+      held.bands.set(name, b);
+    }
+    return b;
+  }
+
   function reset() {
     held.measured = {t: [], theta: []};
     held.table = {t: [], accel: []};
     held.variants = new Map();
+    held.bands = new Map();
     held.flags = new Map();
     held.events = [];
   }
@@ -133,6 +153,13 @@
       v.latest = mv.latest;
       append(v.theta, mv.theta, [['t', 't'], ['theta', 'theta_deg']]);
       append(v.cmp, mv.comparison, [['t', 't'], ['err', 'error_deg'], ['rms', 'rms_window_deg']]);
+    }
+    for (const mb of msg.bands || []) {
+      const b = bandFor(mb.name);
+      b.meta = mb;
+      b.latest = mb.latest;
+      append(b.band, mb.band, [['t', 't'], ['median', 'median_deg'], ['lo68', 'lo68_deg'],
+        ['hi68', 'hi68_deg'], ['lo95', 'lo95_deg'], ['hi95', 'hi95_deg']]);
     }
     for (const f of msg.flags) held.flags.set(f.id, f);
     for (const e of msg.events) held.events.push(e);
@@ -170,6 +197,7 @@
       trimSeries(v.theta, cutoff);
       trimSeries(v.cmp, cutoff);
     }
+    for (const b of held.bands.values()) trimSeries(b.band, cutoff);
     for (const [id, f] of held.flags) {
       if (f.end !== null && f.end < cutoff) held.flags.delete(id);
     }
@@ -239,7 +267,7 @@
     return Math.max(300, el.clientWidth || 900);
   }
 
-  function makePlot(el, yLabel, series) {
+  function makePlot(el, yLabel, series, bands) {
     el.textContent = '';
     const options = {
       width: chartWidth(el),
@@ -250,12 +278,13 @@
       cursor: {drag: {x: true, y: false}},
       legend: {live: true},
       plugins: [flagsAndEvents()],
+      bands: bands || [],
     };
     return new uPlot(options, [[]].concat(series.map(() => [])), el);
   }
 
   function buildPlots() {
-    const names = Array.from(held.variants.keys());
+    const names = Array.from(held.variants.keys()).concat(Array.from(held.bands.keys(), (n) => 'band:' + n));
     const key = names.join('\n');
     if (plots.theta && key === plottedVariants) return;
     plottedVariants = key;
@@ -268,7 +297,21 @@
       errorSeries.push({label: name + ' error', stroke: v.color, width: 1.2, spanGaps: true});
       errorSeries.push({label: name + ' rms', stroke: v.color, width: 1.6, dash: [6, 4], spanGaps: true});
     }
-    plots.theta = makePlot(document.getElementById('theta-chart'), 'θ (deg)', thetaSeries);
+    // Each band: its median (dashed) and four quantile curves, the 95 % and
+    // 68 % ranges filled between them (uPlot bands: [upper, lower] series).
+    const fills = [];
+    for (const [name, b] of held.bands) {
+      const first = thetaSeries.length + 1;  // uPlot's index of the median (0 is x)
+      const edge = 'rgba(' + b.rgb + ', 0.35)';
+      thetaSeries.push({label: name + ' median', stroke: 'rgb(' + b.rgb + ')', width: 1.4, dash: [8, 4], spanGaps: true});
+      thetaSeries.push({label: name + ' 2.5 %', stroke: edge, width: 0.5, spanGaps: true});
+      thetaSeries.push({label: name + ' 16 %', stroke: edge, width: 0.5, spanGaps: true});
+      thetaSeries.push({label: name + ' 84 %', stroke: edge, width: 0.5, spanGaps: true});
+      thetaSeries.push({label: name + ' 97.5 %', stroke: edge, width: 0.5, spanGaps: true});
+      fills.push({series: [first + 4, first + 1], fill: 'rgba(' + b.rgb + ', 0.14)'});  // 97.5 %, 2.5 %
+      fills.push({series: [first + 3, first + 2], fill: 'rgba(' + b.rgb + ', 0.22)'});  // 84 %, 16 %
+    }
+    plots.theta = makePlot(document.getElementById('theta-chart'), 'θ (deg)', thetaSeries, fills);
     plots.error = makePlot(document.getElementById('error-chart'), 'error (deg)', errorSeries);
   }
 
@@ -279,6 +322,10 @@
     for (const v of held.variants.values()) {
       thetaTables.push([v.theta.t, v.theta.theta]);
       errorTables.push([v.cmp.t, v.cmp.err, v.cmp.rms]);
+    }
+    for (const b of held.bands.values()) {
+      const s = b.band;
+      thetaTables.push([s.t, s.median, s.lo95, s.lo68, s.hi68, s.hi95]);
     }
     // uPlot.join aligns the series on one x array (they share the sample
     // clock's decimation grid, so it mostly merges equal times).
@@ -297,18 +344,25 @@
     return td;
   }
 
+  // A table row for `name` (attribute `attr` on it and its cells) opening
+  // with a cell of a colour swatch and the name.
+  function nameRow(attr, name, colour) {
+    const row = document.createElement('tr');
+    row.setAttribute(attr, name);
+    const first = cell(row, '', {[attr]: name, 'data-field': 'name'});
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = colour;
+    first.appendChild(swatch);
+    first.appendChild(document.createTextNode(name));
+    return row;
+  }
+
   function renderComparison() {
     const body = document.querySelector('#comparison tbody');
     body.textContent = '';
     for (const [name, v] of held.variants) {
-      const row = document.createElement('tr');
-      row.setAttribute('data-variant', name);
-      const first = cell(row, '', {'data-variant': name, 'data-field': 'name'});
-      const swatch = document.createElement('span');
-      swatch.className = 'swatch';
-      swatch.style.background = v.color;
-      first.appendChild(swatch);
-      first.appendChild(document.createTextNode(name));
+      const row = nameRow('data-variant', name, v.color);
       const m = v.meta;
       cell(row, m.model || '—', {'data-variant': name, 'data-field': 'model'}, 'text');
       for (const f of ['alpha', 'p', 'mu']) {
@@ -319,6 +373,26 @@
       cell(row, fmtG(l.valid), {'data-variant': name, 'data-field': 'valid'}, l.valid === false ? 'invalid' : '');
       for (const f of COMPARISON_FIELDS) {
         cell(row, fmtG(ANGLE_FIELDS.has(f) ? degrees(l[f]) : l[f]), {'data-variant': name, 'data-field': f});
+      }
+      body.appendChild(row);
+    }
+  }
+
+  function renderBands() {
+    const section = document.getElementById('bands-section');
+    if (section) section.hidden = held.bands.size === 0;
+    const body = document.querySelector('#bands tbody');
+    if (!body) return;
+    body.textContent = '';
+    for (const [name, b] of held.bands) {
+      const row = nameRow('data-band', name, 'rgba(' + b.rgb + ', 0.5)');
+      const m = b.meta;
+      cell(row, m.model || '—', {'data-band': name, 'data-field': 'model'}, 'text');
+      cell(row, m.members === null || m.members === undefined ? '—' : m.members + '/' + m.draws,
+        {'data-band': name, 'data-field': 'members'});
+      const l = b.latest || {};
+      for (const f of BAND_FIELDS) {
+        cell(row, fmtG(BAND_ANGLE_FIELDS.has(f) ? degrees(l[f]) : l[f]), {'data-band': name, 'data-field': f});
       }
       body.appendChild(row);
     }
@@ -393,6 +467,7 @@
     renderPending = false;
     renderCharts();
     renderComparison();
+    renderBands();
     renderHealth();
     renderEvents();
     renderCounters();
@@ -437,6 +512,11 @@
       columns.push(['theta_' + name + '_deg', v.theta.t, v.theta.theta]);
       columns.push(['error_' + name + '_deg', v.cmp.t, v.cmp.err]);
       columns.push(['rms_window_' + name + '_deg', v.cmp.t, v.cmp.rms]);
+    }
+    for (const [name, b] of held.bands) {
+      for (const q of ['median', 'lo95', 'lo68', 'hi68', 'hi95']) {
+        columns.push(['band_' + name + '_' + q + '_deg', b.band.t, b.band[q]]);
+      }
     }
     const times = new Set();
     for (const [, t] of columns) for (const x of t) times.add(x);
@@ -490,6 +570,7 @@
       theta: plots.theta ? plots.theta.data.map((a) => a.length) : [],
       error: plots.error ? plots.error.data.map((a) => a.length) : [],
     }),
+    bandNames: () => Array.from(held.bands.keys()),
     fmtG: fmtG,
     seriesCsv: seriesCsv,
     eventsCsv: eventsCsv,

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
@@ -26,6 +27,7 @@
 #include "rocklab/health2_t.hpp"
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
@@ -161,6 +163,18 @@ std::map<std::string, Sample> Samples() {
   m3.model = "complex";
   m3.equations = rocklab::model_state3_t::EQUATIONS_LIMIT;
   all["model_state3_t"] = Make(m3);
+  rocklab::model_band_t band{};
+  band.seq = 3;
+  band.name = "post";
+  band.model = "complex";
+  band.draws = 32;
+  band.impacts_up = 2;
+  all["model_band_t"] = Make(band);
+  rocklab::band_comparison_t cover{};
+  cover.seq = 6;
+  cover.name = "post";
+  cover.valid = true;
+  all["band_comparison_t"] = Make(cover);
   rocklab::raw_frame_t raw{};
   raw.seq = 7;
   raw.num_channels = 3;

@@ -85,12 +85,27 @@ ATTRS["daq_config2_t"] = dict(ATTRS["daq_config_t"], seq=N)
 ATTRS["event2_t"] = dict(ATTRS["event_t"], seq=N, sender=N)
 ATTRS["health2_t"] = dict(ATTRS["health_t"], seq=N, sender=N)
 ATTRS["model_state3_t"] = dict(MODEL_STATE, seq=N, equations=N)
+# The posterior band's types (new types, no older one).
+ATTRS["model_band_t"] = {"utime": U("us"), "seq": N, "name": N, "model": N, "draws": N, "members": N,
+                         "noise_sigma": U("rad"), "theta_median": U("rad"), "theta_lo95": U("rad"),
+                         "theta_lo68": U("rad"), "theta_hi68": U("rad"), "theta_hi95": U("rad"),
+                         "impacts_up": N, "impact_up_offset_sum": U("s"), "impact_up_offset_sq_sum": U("s^2"),
+                         "impacts_down": N, "impact_down_offset_sum": U("s"),
+                         "impact_down_offset_sq_sum": U("s^2")}
+ATTRS["band_comparison_t"] = {"utime": U("us"), "seq": N, "name": N, "window_s": U("s"),
+                              "coverage95_window": U("1"), "coverage95_total": U("1"),
+                              "coverage68_window": U("1"), "coverage68_total": U("1"),
+                              "median_error": U("rad"), "width95": U("rad"), "impact_timing_z": U("1"),
+                              "impact_time_sd": U("s"), "impact_timing_z_rms": U("1"),
+                              "matched_crossings": N, "unmatched_crossings": N, "valid": N, "samples": N,
+                              "valid_samples": N}
 TIME_ATTRS = U("s")  # the `time` column every table starts with
 CHANNEL = {"block_state_t": "RL_THETA", "comparison_t": "RL_COMPARE_x", "daq_config_t": "RL_DAQ_CONFIG",
            "event_t": "RL_EVENT", "health_t": "RL_HEALTH", "model_state_t": "RL_MODEL_old",
            "model_state2_t": "RL_MODEL_x", "raw_frame_t": "RL_RAW", "table_state_t": "RL_TABLE",
            "comparison2_t": "RL_COMPARE_y", "model_state3_t": "RL_MODEL_y",
-           "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH"}
+           "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH",
+           "model_band_t": "RL_BAND_x", "band_comparison_t": "RL_COVERAGE_x"}
 # The successors come after every older message (a log of nodes upgraded
 # mid-run). On RL_DAQ_CONFIG, RL_EVENT and RL_HEALTH the channel changes
 # type, so its second type gets a table of its own, CHANNEL_<type>, and the

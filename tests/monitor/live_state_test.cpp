@@ -12,11 +12,13 @@
 #include <thread>
 #include <vector>
 
+#include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/health2_t.hpp"
+#include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -640,6 +642,90 @@ TEST(LiveState, OptionsAreValidated) {
   bad([](LiveOptions& o) { o.series_rate_hz = -1; });
   bad([](LiveOptions& o) { o.max_events = 0; });
   bad([](LiveOptions& o) { o.new_record_after_s = 0; });
+}
+
+// Oracle: the messages fed. RL_BAND_<name> becomes "bands": its quantiles
+// in degrees (180/pi per rad) at the sample times, decimated like every
+// series (100 Hz: one point per 10 samples of 1 kHz), the five quantile
+// arrays as long as "t"; RL_COVERAGE_<name> is its "latest", exactly as
+// received; an update after a cursor carries only the newer points.
+TEST(LiveState, BandsCarryTheQuantilesAndTheLatestCoverage) {
+  LiveState s;
+  auto band = [](std::int64_t utime, double centre) {
+    rocklab::model_band_t b{};
+    b.utime = utime;
+    b.name = "post";
+    b.model = "complex";
+    b.draws = 32;
+    b.members = 31;
+    b.theta_median = centre;
+    b.theta_lo95 = centre - 0.02;
+    b.theta_lo68 = centre - 0.01;
+    b.theta_hi68 = centre + 0.01;
+    b.theta_hi95 = centre + 0.02;
+    return b;
+  };
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 1000 * k, 0.0)));
+    ASSERT_TRUE(Feed(s, "RL_BAND_post", band(kT0 + 1000 * k, 1e-3 * k)));
+  }
+  rocklab::band_comparison_t c{};
+  c.utime = kT0 + 99'000;
+  c.name = "post";
+  c.window_s = 2.0;
+  c.coverage95_window = 0.875;
+  c.coverage95_total = 0.9375;
+  c.coverage68_window = 0.5;
+  c.coverage68_total = 0.625;
+  c.median_error = 1e-3;
+  c.width95 = 0.04;
+  c.impact_timing_z = -0.75;
+  c.impact_time_sd = 0.0125;
+  c.impact_timing_z_rms = 1.25;
+  c.matched_crossings = 7;
+  c.unmatched_crossings = 2;
+  c.valid = true;
+  c.samples = 100;
+  c.valid_samples = 99;
+  ASSERT_TRUE(Feed(s, "RL_COVERAGE_post", c));
+  const json snap = s.Snapshot();
+  ASSERT_EQ(snap.at("bands").size(), 1u);
+  const json& b = snap.at("bands")[0];
+  EXPECT_EQ(b.at("name"), "post");
+  EXPECT_EQ(b.at("model"), "complex");
+  EXPECT_EQ(b.at("draws"), 32);
+  EXPECT_EQ(b.at("members"), 31);
+  const json& q = b.at("band");
+  ASSERT_EQ(q.at("t").size(), 10u);
+  for (const char* key : {"median_deg", "lo68_deg", "hi68_deg", "lo95_deg", "hi95_deg"}) {
+    ASSERT_EQ(q.at(key).size(), 10u) << key;
+  }
+  EXPECT_DOUBLE_EQ(q.at("t")[3].get<double>(), 0.030);
+  EXPECT_DOUBLE_EQ(q.at("median_deg")[3].get<double>(), 0.030 * kDeg);
+  EXPECT_DOUBLE_EQ(q.at("lo95_deg")[3].get<double>(), (0.030 - 0.02) * kDeg);
+  EXPECT_DOUBLE_EQ(q.at("lo68_deg")[3].get<double>(), (0.030 - 0.01) * kDeg);
+  EXPECT_DOUBLE_EQ(q.at("hi68_deg")[3].get<double>(), (0.030 + 0.01) * kDeg);
+  EXPECT_DOUBLE_EQ(q.at("hi95_deg")[3].get<double>(), (0.030 + 0.02) * kDeg);
+  const json& l = b.at("latest");
+  EXPECT_EQ(l.at("coverage95_window").get<double>(), 0.875);
+  EXPECT_EQ(l.at("coverage95_total").get<double>(), 0.9375);
+  EXPECT_EQ(l.at("coverage68_window").get<double>(), 0.5);
+  EXPECT_EQ(l.at("coverage68_total").get<double>(), 0.625);
+  EXPECT_EQ(l.at("median_error").get<double>(), 1e-3);
+  EXPECT_EQ(l.at("width95").get<double>(), 0.04);
+  EXPECT_EQ(l.at("impact_timing_z").get<double>(), -0.75);
+  EXPECT_EQ(l.at("impact_time_sd").get<double>(), 0.0125);
+  EXPECT_EQ(l.at("impact_timing_z_rms").get<double>(), 1.25);
+  EXPECT_EQ(l.at("matched_crossings"), 7);
+  EXPECT_EQ(l.at("unmatched_crossings"), 2);
+  EXPECT_EQ(l.at("valid_samples"), 99);
+  EXPECT_EQ(snap.at("units").at("median_deg"), "deg");
+  EXPECT_EQ(snap.at("counters").at("seq_missing").count("RL_BAND_post"), 1u);  // the type carries seq
+
+  const std::uint64_t cursor = snap.at("cursor").get<std::uint64_t>();
+  for (int k = 100; k < 120; ++k) ASSERT_TRUE(Feed(s, "RL_BAND_post", band(kT0 + 1000 * k, 0.0)));
+  const json update = s.UpdateSince(cursor);
+  EXPECT_EQ(update.at("bands")[0].at("band").at("t").size(), 2u);  // samples 100 and 110
 }
 
 }  // namespace

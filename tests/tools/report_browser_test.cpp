@@ -59,6 +59,10 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
   EXPECT_TRUE(shown.at("requests").empty()) << shown.at("requests").dump(2);
   EXPECT_TRUE(shown.at("consoleErrors").empty()) << shown.at("consoleErrors").dump(2);
   EXPECT_EQ(shown.at("title"), "rocklab report: fig7.lcm");
+  // No band in this log: the page draws none, and nothing else on the theta
+  // chart has the band's colour (the oracle of the band test below).
+  EXPECT_TRUE(shown.at("bandNames").empty());
+  EXPECT_EQ(shown.at("bandPixels"), 0);
 
   // The theta chart holds the time axis, the measured series and one per
   // variant, over the snapshot's points (the model and measured samples
@@ -127,6 +131,47 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
   EXPECT_GE(rows, times.size());  // the theta times and the comparison's
   EXPECT_EQ(measured_rows, measured.size());
   EXPECT_TRUE(std::filesystem::exists(screenshot));
+}
+
+// The posterior band on the report page: a log of `rocklab run --max` with
+// 8 posterior draws of the complex model. Oracles: the snapshot inlined in
+// the page (its band's points), the log's last RL_COVERAGE (as the summary
+// JSON states it), and the pixels: the band's fill covers part of the theta
+// chart, where the page without a band (test above) has none.
+TEST(ReportBrowser, PageDrawsThePosteriorBand) {
+  if (access(kChromium, X_OK) != 0) {
+    ROCKLAB_SKIP(std::string("no ") + kChromium +
+                 " (Debian package chromium; tools/test.sh installs it): browser test skipped");
+  }
+  const std::string dir = test::ScratchDir("report_browser_band");
+  const std::string log = dir + "/band.lcm";
+  const test::CliResult run = test::RunCli(
+      {"run", "--rig", kSource + "/data/rigs/block1_rig.toml", "--input",
+       kSource + "/data/samples/fig7_block1.csv", "--max", "--quiet", "--variant",
+       "fitted:complex:alpha=0.235,p=3.884,mu=0.937", "--posterior-samples",
+       kSource + "/data/samples/fig7_block1.posterior.csv", "--ensemble", "8", "--log", log,
+       "--summary", dir + "/summary.json"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string html = dir + "/report.html";
+  ASSERT_EQ(test::RunCli({"report", log, "--out", html}).exit_code, 0);
+  const std::string command = "NODE_PATH='" ROCKLAB_BROWSER_DIR "/node_modules' '" ROCKLAB_NODE
+                              "' '" + kSource + "/tests/tools/report_page.js' '" + html + "' '" +
+                              dir + "/shown.json' '" + dir + "/band.png' >'" + dir +
+                              "/node.out' 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << test::ReadFile(dir + "/node.out");
+  const json shown = json::parse(test::ReadFile(dir + "/shown.json"));
+  EXPECT_TRUE(shown.at("consoleErrors").empty()) << shown.at("consoleErrors").dump(2);
+  ASSERT_EQ(shown.at("bandNames"), json::array({"posterior"}));
+  // x, measured, the variant, the band's median and four quantiles.
+  EXPECT_EQ(shown.at("dataLengths").at("theta").size(), 8u) << shown.at("dataLengths").dump();
+  EXPECT_GT(shown.at("bandPixels").get<int>(), 1000);
+  const json summary = json::parse(test::ReadFile(dir + "/summary.json"));
+  const json& cells = shown.at("bandCells").at("posterior");
+  EXPECT_EQ(cells.at("members").get<std::string>(), "8/8");
+  EXPECT_EQ(cells.at("model").get<std::string>(), "complex");
+  // The page prints %.6g of the last RL_COVERAGE, which holds the summary's value.
+  const double coverage = summary.at("bands").at(0).at("band_coverage_95").get<double>();
+  EXPECT_NEAR(std::stod(cells.at("coverage95_total").get<std::string>()), coverage, 1e-6);
 }
 
 }  // namespace

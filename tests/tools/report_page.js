@@ -6,7 +6,12 @@
 //   node report_page.js REPORT.html OUT.json SCREENSHOT.png
 //
 // OUT.json: the page's mode, the uPlot data lengths, the comparison table
-// cells (data-variant, data-field -> text), every table header, the CSV the
+// cells (data-variant, data-field -> text), the bands' names and cells
+// (data-band, data-field -> text), `bandPixels` (pixels of the theta
+// chart's plot area in the first band's colour, rgb(90, 90, 200) within 6,
+// translucent (alpha 1 .. 160 of 255: the canvas is transparent under its
+// fills, so a fill reads as its own colour with its alpha); no curve, grid
+// line or flag is such a colour), every table header, the CSV the
 // "series as CSV" button downloads (clicked: a Blob built in the page), the
 // requests made other than for the file itself, and console errors.
 'use strict';
@@ -49,8 +54,26 @@ async function main() {
         (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
       }
       const headers = Array.from(document.querySelectorAll('th')).map((th) => th.textContent);
+      const bandCells = {};
+      for (const td of document.querySelectorAll('td[data-band][data-field]')) {
+        const b = td.getAttribute('data-band');
+        (bandCells[b] = bandCells[b] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      const u = window.rocklabMonitor.plots.theta;
+      const box = u.bbox;
+      const img = u.ctx.getImageData(Math.round(box.left), Math.round(box.top), Math.round(box.width),
+        Math.round(box.height)).data;
+      let bandPixels = 0;
+      for (let i = 0; i < img.length; i += 4) {
+        const r = img[i], g = img[i + 1], b = img[i + 2];
+        const a = img[i + 3];
+        if (a > 0 && a <= 160 && Math.abs(r - 90) <= 6 && Math.abs(g - 90) <= 6 && Math.abs(b - 200) <= 6) {
+          bandPixels++;
+        }
+      }
       return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
-        cells, headers, title: document.title};
+        cells, headers, title: document.title, bandNames: window.rocklabMonitor.bandNames(),
+        bandCells, bandPixels};
     });
     const [download] = await Promise.all([
       page.waitForEvent('download', {timeout: STEP_TIMEOUT_MS}),
