@@ -173,6 +173,7 @@ FitMethod ParseFitMethod(const std::string& name) {
 double FUpperTail(double x, double d1, double d2) {
   if (!(d1 >= 1.0) || !(d2 > 0.0) || std::isnan(x)) return kNaN;
   if (!(x > 0.0)) return 1.0;
+  if (std::isinf(x)) return 0.0;
   const double a = 2.0 / (9.0 * d1);
   const double b = std::isinf(d2) ? 0.0 : 2.0 / (9.0 * d2);
   const double c = std::cbrt(x);

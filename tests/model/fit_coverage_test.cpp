@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 
 #include "model/excitation.h"
@@ -42,6 +43,7 @@ TEST(FitStatistics, UpperTailMatchesPrintedTables) {
   }
   EXPECT_TRUE(std::isnan(model::FUpperTail(1.0, 0.0, 10)));
   EXPECT_EQ(model::FUpperTail(0.0, 5, 10), 1.0);
+  EXPECT_EQ(model::FUpperTail(std::numeric_limits<double>::infinity(), 5, 10), 0.0);
 }
 
 // Oracle: Monte Carlo. The noise estimate of 200 white-noise records
