@@ -206,6 +206,7 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   j["p_value"] = Optional(r.p_value);
   j["significance"] = r.significance;
   j["noise_dof"] = Optional(r.noise_dof);
+  j["noise_stated"] = std::isinf(r.noise_dof);
   j["starts"] = r.starts;
   j["starts_refined"] = r.starts_refined;
   j["noise_residual"] = Optional(r.noise_residual);

@@ -84,7 +84,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"p_value", Optional(r.p_value)},
       {"significance", r.significance},
       {"noise_dof", Optional(r.noise_dof)},
-      {"noise_stated", o.noise_rad > 0.0},
+      {"noise_stated", std::isinf(r.noise_dof)},
       {"starts", r.starts},
       {"starts_refined", r.starts_refined},
       {"noise_residual", Optional(r.noise_residual)},
