@@ -43,8 +43,12 @@ def main():
     ok = np.isfinite(s["table_acceleration"])
     table = (s["time"][ok].astype(float), s["table_acceleration"][ok].astype(float))  # plain arrays (no unit metadata)
     block = dict(alpha=0.235, p=3.884, mu=0.937)  # Table 2's fitted parameters of block 1
+    # The bundled record was synthesised at l = 1e-10 (data/samples/README.md);
+    # this near-threshold test is sensitive to it: at the default 1e-14 the
+    # complex model's rms is 7 % of the peak instead of 0.9 %.
+    extra = {"housner": {}, "complex": dict(l=1e-10)}
     models = {
-        m: rocklab.simulate(m, **block, accel=table, duration=float(s["time"][-1]), rate=1000)
+        m: rocklab.simulate(m, **block, **extra[m], accel=table, duration=float(s["time"][-1]), rate=1000)
         for m in ("housner", "complex")
     }
 

@@ -64,6 +64,7 @@ FitResult StartFit(FitMethod method, const RockingRecord& record, const FitOptio
   FitResult out;
   out.method = method;
   out.quarter_time = options.quarter_time;
+  out.significance = options.significance;
   SetGeometry(options, out);
   out.features = ExtractFreeRocking(record, options.features);
   out.theta_gaps = record.theta_gaps;
@@ -72,23 +73,10 @@ FitResult StartFit(FitMethod method, const RockingRecord& record, const FitOptio
   return out;
 }
 
-// The verdict on the residual: standard errors withheld below
-// kMinDofForStderr degrees of freedom; the residual the noise alone leaves
-// (the rms of sigma, each residual's standard deviation from the noise);
-// residual_to_noise = sqrt(sum (r_i / sigma_i)^2 / dof), the root of the
-// reduced chi-square (about 1 with a right model); converged.
-void SetNoiseVerdict(const Eigen::VectorXd& residuals, const std::vector<double>& sigma, bool lm_converged,
-                     FitResult& out) {
-  out.stderr_withheld = out.dof < kMinDofForStderr;
-  if (out.stderr_withheld) {
-    out.alpha_stderr = kNaN;
-    out.p_stderr = kNaN;
-    out.mu_stderr = kNaN;
-    out.alpha_p_correlation = kNaN;
-  }
+double DiagonalChi2(const Eigen::VectorXd& residuals, const std::vector<double>& sigma, double* noise_residual) {
   double chi2 = 0.0;
   double sum_var = 0.0;
-  bool ok = out.dof >= 1 && static_cast<Eigen::Index>(sigma.size()) == residuals.size();
+  bool ok = !sigma.empty() && static_cast<Eigen::Index>(sigma.size()) == residuals.size();
   for (std::size_t i = 0; ok && i < sigma.size(); ++i) {
     ok = sigma[i] > 0.0 && std::isfinite(sigma[i]);
     if (!ok) break;
@@ -96,9 +84,26 @@ void SetNoiseVerdict(const Eigen::VectorXd& residuals, const std::vector<double>
     chi2 += z * z;
     sum_var += sigma[i] * sigma[i];
   }
-  out.noise_residual = ok ? std::sqrt(sum_var / static_cast<double>(sigma.size())) : kNaN;
-  out.residual_to_noise = ok ? std::sqrt(chi2 / out.dof) : kNaN;
-  out.converged = lm_converged && !(out.residual_to_noise > kMaxResidualToNoise);
+  *noise_residual = ok ? std::sqrt(sum_var / static_cast<double>(sigma.size())) : kNaN;
+  return ok ? chi2 : kNaN;
+}
+
+void SetNoiseVerdict(double chi2, double noise_residual, bool lm_converged, FitResult& out) {
+  out.stderr_withheld = out.dof < kMinDofForStderr;
+  if (out.stderr_withheld) {
+    out.alpha_stderr = kNaN;
+    out.p_stderr = kNaN;
+    out.mu_stderr = kNaN;
+    out.alpha_p_correlation = kNaN;
+  }
+  const bool ok = out.dof >= 1 && std::isfinite(chi2) && std::isfinite(noise_residual);
+  out.noise_residual = ok ? noise_residual : kNaN;
+  out.chi2 = ok ? chi2 : kNaN;
+  out.chi2_per_dof = ok ? chi2 / out.dof : kNaN;
+  out.residual_to_noise = ok ? std::sqrt(out.chi2_per_dof) : kNaN;
+  out.noise_dof = out.features.noise_dof;
+  out.p_value = ok ? FUpperTail(out.chi2_per_dof, out.dof, out.noise_dof) : kNaN;
+  out.converged = lm_converged && !(out.p_value < out.significance);
 }
 
 // Notes on what the fit knows: missing samples, withheld standard errors, a
@@ -125,12 +130,15 @@ void AddVerdictWarnings(FitResult& out, const std::string& handled) {
   const bool impacts = out.method == FitMethod::kImpacts;
   const double scale = impacts ? 1e3 : 1.0;
   const char* unit = impacts ? " ms" : " rad";
-  if (out.residual_to_noise > kMaxResidualToNoise) {
+  if (out.p_value < out.significance) {
     out.warnings.push_back("not converged to the noise: residual / noise " + Num(out.residual_to_noise, 3) +
-                           " (above " + Num(kMaxResidualToNoise, 2) + "; rms residual " +
+                           " (chi-square " + Num(out.chi2, 5) + " on " + std::to_string(out.dof) +
+                           " degrees of freedom, p = " + Num(out.p_value, 2) + " below the significance " +
+                           Num(out.significance, 2) + "; rms residual " +
                            Num(out.rms_residual * scale, 3) + unit + ", the noise alone gives " +
                            Num(out.noise_residual * scale, 3) + unit +
-                           "): the model does not follow the record, and the standard errors understate the error");
+                           "): the model does not follow the record, or the fit stopped in a local minimum, "
+                           "and the standard errors understate the error");
   } else if (!std::isfinite(out.noise_residual) && out.dof >= 1) {
     out.warnings.push_back("the record has no measurable noise: the residual (rms " +
                            Num(out.rms_residual * scale, 3) + unit + ") cannot be compared with it");
@@ -157,6 +165,20 @@ FitMethod ParseFitMethod(const std::string& name) {
   if (name == "impacts") return FitMethod::kImpacts;
   if (name == "trajectory") return FitMethod::kTrajectory;
   throw std::invalid_argument("method must be impacts or trajectory, got '" + name + "'");
+}
+
+// Paulson's approximation: with a = 2 / (9 d1), b = 2 / (9 d2), the cube
+// root of F is nearly normal, z = ((1 - b) F^(1/3) - (1 - a)) /
+// sqrt(b F^(2/3) + a) (Abramowitz and Stegun 26.6.15).
+double FUpperTail(double x, double d1, double d2) {
+  if (!(d1 >= 1.0) || !(d2 > 0.0) || std::isnan(x)) return kNaN;
+  if (!(x > 0.0)) return 1.0;
+  if (std::isinf(x)) return 0.0;
+  const double a = 2.0 / (9.0 * d1);
+  const double b = std::isinf(d2) ? 0.0 : 2.0 / (9.0 * d2);
+  const double c = std::cbrt(x);
+  const double z = ((1.0 - b) * c - (1.0 - a)) / std::sqrt(b * c * c + a);
+  return 0.5 * std::erfc(z / std::sqrt(2.0));
 }
 
 double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r) {
@@ -210,6 +232,9 @@ void FitOptions::Validate() const {
   if (!(features.min_peak_rad >= 0.0)) bad("min peak must be >= 0 rad");
   if (!(features.min_hold_s >= 0.0)) bad("min hold must be >= 0 s");
   if (!(features.overturn_rad > 0.0)) bad("overturn angle must be > 0 rad");
+  if (!(features.noise_rad >= 0.0) || !std::isfinite(features.noise_rad)) bad("noise must be >= 0 rad (0: estimated)");
+  if (!(significance > 0.0 && significance < 0.5)) bad("significance must be in (0, 0.5), got " + Num(significance));
+  if (starts < -1 || starts > 10000) bad("starts must be -1 (default) .. 10000, got " + std::to_string(starts));
   if (start) start->Validate();
 }
 

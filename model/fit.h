@@ -14,10 +14,13 @@
 /// with central finite differences.
 ///
 /// Every fit says what it knows: the noise of theta is estimated from the
-/// record alone (EstimateThetaNoise), propagated to the residuals the fit
-/// should reach with a right model, and compared with the residual it
-/// reached (FitResult::residual_to_noise, converged). Missing samples are
-/// bridged (impacts) or skipped (trajectory) and counted.
+/// record alone (EstimateThetaNoise) or stated (FeatureOptions::noise_rad),
+/// propagated to the residuals the fit should reach with a right model, and
+/// the whitened residuals are tested against chi-square with the fit's
+/// degrees of freedom (FitResult::chi2, p_value, converged). Every fit starts
+/// from several points (FitResult::starts) so that it does not stop in a
+/// local minimum. Missing samples are bridged (impacts) or skipped
+/// (trajectory) and counted.
 
 #include <functional>
 #include <limits>
@@ -65,9 +68,35 @@ double QuarterTimeOf(QuarterTime kind, double alpha, double p, double r);
 /// than 5 such triples.
 double EstimateThetaNoise(const RockingRecord& record);
 
-/// Above this ratio of the residual to what the noise alone leaves, a fit is
-/// not converged: the model does not follow the record to its noise.
+/// White-noise estimate of theta with its own uncertainty.
+struct ThetaNoiseEstimate {
+  double sigma_rad{};       ///< as EstimateThetaNoise, rad
+  int differences{};        ///< second differences used
+  /// Relative standard error of sigma_rad: 1.42 / sqrt(differences) (the
+  /// scaled median of |d2| of white noise, measured by Monte Carlo over 600
+  /// records of 500 .. 6000 samples: 1.38 .. 1.49 / sqrt(n); docs/fit_coverage.md).
+  double relative_stderr{};
+  /// The chi-square degrees of freedom with the same relative spread of
+  /// sigma^2: 1 / (2 relative_stderr^2), about differences / 4.
+  double dof{};
+};
+/// EstimateThetaNoise with the number of differences and its spread.
+ThetaNoiseEstimate EstimateThetaNoiseDetail(const RockingRecord& record);
+
+/// The former fixed acceptance threshold on residual_to_noise. The verdict
+/// is now the chi-square test (FitOptions::significance); kept so that code
+/// naming it still builds. A reduced chi-square of 1.5^2 is far outside the
+/// noise for more than a few dozen degrees of freedom.
 inline constexpr double kMaxResidualToNoise = 1.5;
+
+/// Default significance of the goodness-of-fit test (FitOptions::significance).
+inline constexpr double kDefaultSignificance = 0.01;
+
+/// Upper tail P(X >= x) of Snedecor's F(d1, d2) by Paulson's normal
+/// approximation (the Wilson-Hilferty cube root of both chi-squares; d2 =
+/// infinity gives chi2(d1) / d1). Within 3e-3 of the printed tables for
+/// d1 >= 3. NaN for d1 < 1 or d2 <= 0.
+double FUpperTail(double x, double d1, double d2);
 
 /// Standard errors need this many degrees of freedom (residuals minus
 /// parameters): with fewer, s^2 = RSS / dof is itself too uncertain (with 1,
@@ -117,11 +146,18 @@ struct FeatureOptions {
   double min_hold_s{0.05};
   /// |theta| beyond this is an overturn when no geometry is known, rad.
   double overturn_rad{1.0};
+  /// White-noise standard deviation of theta stated by the user, rad (then
+  /// taken as exact in the goodness-of-fit test); 0: estimated from the
+  /// record (EstimateThetaNoise).
+  double noise_rad{0.0};
 };
 
 /// Impacts and peaks of a free-rocking record.
 struct FreeRockingFeatures {
-  double noise_rad{};       ///< estimated white-noise standard deviation of theta, rad
+  double noise_rad{};       ///< white-noise standard deviation of theta (estimated or stated), rad
+  /// Degrees of freedom of noise_rad^2 (ThetaNoiseEstimate::dof); infinity
+  /// when stated.
+  double noise_dof{std::numeric_limits<double>::infinity()};
   double hysteresis_rad{};  ///< used, rad
   double min_peak_rad{};    ///< used, rad
   /// Impact times t_1..t_N (zero crossings, sub-sample), s.
@@ -201,6 +237,14 @@ struct FitOptions {
   int max_evaluations{600};
   /// Called after every LM iteration (may be empty). Must not throw.
   std::function<void(const FitProgress&)> on_progress;
+  /// Goodness of fit: a fit is converged when the chi-square of its
+  /// whitened residuals has an upper-tail probability of at least this under
+  /// the hypothesis "the residuals are the noise", in (0, 0.5).
+  double significance{kDefaultSignificance};
+  /// Trajectory method: starts from the prior box screened (a Halton set;
+  /// 0: none, only the impacts/geometry/given start). Impacts method: local
+  /// minima of the alpha profile refined (>= 1).
+  int starts{-1};  ///< -1: the method's default (trajectory 24, impacts 3)
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -213,12 +257,12 @@ struct FitResult {
   /// rad. Trajectory: s^2 (J^T J)^-1. Impacts: the unweighted fit's
   /// sandwich covariance (J^T J)^-1 J^T S J (J^T J)^-1 with S the
   /// half intervals' covariance from the noise (neighbours share an impact),
-  /// times max(1, residual_to_noise^2). NaN when withheld.
+  /// times chi2_per_dof when the chi-square test rejects the fit. NaN when withheld.
   double alpha_stderr{};
   double p_stderr{};             ///< rad/s
-  /// 1. Trajectory: from s^2 (J^T J)^-1. Impacts: the noise of the peaks
-  /// (their fits) and the variance of alpha propagated through eq. (14)
-  /// to the mean of the mu_n (linearised).
+  /// 1. Trajectory: from s^2 (J^T J)^-1. Impacts: every impact time, the
+  /// release time, r_0 and the peaks carried jointly (linearised) to the
+  /// mean of the mu_n, directly by eq. (14) and through the fitted alpha.
   double mu_stderr{};
   double alpha_p_correlation{};  ///< from s^2 (J^T J)^-1 at the solution, in [-1, 1]
   /// Standard errors withheld (NaN) because dof < kMinDofForStderr.
@@ -234,10 +278,28 @@ struct FitResult {
   /// chi-square: about 1 (within ~1/sqrt(2 dof)) when the model follows the
   /// record to its noise; NaN when noise_residual is.
   double residual_to_noise{};
-  /// The least-squares iteration met its convergence test and the residual
-  /// reached the noise (residual_to_noise <= kMaxResidualToNoise, or not
+  /// Sum of the whitened residuals' squares: trajectory sum (r_i / sigma)^2;
+  /// impacts r^T C^+ r with C = (I - H) S (I - H)^T the covariance the
+  /// noise gives the unweighted fit's residuals (H its hat matrix, S the
+  /// half intervals' covariance), chi2(dof) for a right model. NaN when
+  /// not computable (no noise, dof < 1).
+  double chi2{std::numeric_limits<double>::quiet_NaN()};
+  double chi2_per_dof{std::numeric_limits<double>::quiet_NaN()};  ///< chi2 / dof
+  /// P(F(dof, noise_dof) >= chi2_per_dof): the probability that the noise
+  /// alone leaves a chi-square this large, the noise estimate's own spread
+  /// included (noise_dof; chi2(dof) when the noise is stated).
+  double p_value{std::numeric_limits<double>::quiet_NaN()};
+  double significance{kDefaultSignificance};  ///< the test's level used
+  double noise_dof{std::numeric_limits<double>::infinity()};  ///< of the noise estimate
+  /// The least-squares iteration met its convergence test and the residuals
+  /// are consistent with the noise (p_value >= significance, or not
   /// computable).
   bool converged{};
+  /// Starting points tried: screened (trajectory: the Halton set and the
+  /// method's own start; impacts: local minima of the alpha profile) and
+  /// refined by Levenberg-Marquardt.
+  int starts{};
+  int starts_refined{};
   GapCount theta_gaps;  ///< missing theta samples of the record (bridged or skipped)
   GapCount table_gaps;  ///< missing table samples (linear between the present ones)
   Eigen::MatrixXd covariance;    ///< of the fitted parameters, in their order

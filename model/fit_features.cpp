@@ -55,7 +55,8 @@ struct Crossing {
 // crossing would be biased towards the slower side. The samples need not be
 // equally spaced (a missing sample is bridged). Standard error of tc:
 // sigma^2 (J^T J)^-1 of the five parameters (s_-, c_-, s_+, c_+, tc) at the
-// solution, sigma the record's noise.
+// solution, sigma the record's noise (or the fit's own residual where that
+// is significantly larger: LocalNoiseScale).
 Crossing FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, double w_before,
                      double w_after, double noise) {
   // Plain variables, not a structured binding: the lambda captures them, and
@@ -105,7 +106,8 @@ Crossing FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, doubl
     jtj += row * row.transpose();
   }
   Eigen::FullPivLU<Eigen::Matrix<double, 5, 5>> lu(jtj);
-  out.stderr_s = ok && lu.isInvertible() ? noise * std::sqrt(std::max(0.0, lu.inverse()(4, 4))) : kNaN;
+  const double scale = LocalNoiseScale(before.Rss() + after.Rss(), static_cast<int>(hi - lo) - 5, noise);
+  out.stderr_s = ok && lu.isInvertible() ? scale * std::sqrt(std::max(0.0, lu.inverse()(4, 4))) : kNaN;
   return out;
 }
 
@@ -137,6 +139,7 @@ double PolyValue(const Eigen::VectorXd& c, double u) {
 struct Peak {
   double value_rad{};
   double stderr_rad{};  // from the noise, rad
+  bool fitted{};        // false: too few samples or a wild fit, the sample maximum
 };
 
 // Peak of s * theta on [t_a, t_b]: a quartic least-squares fit over the
@@ -146,14 +149,16 @@ struct Peak {
 // alpha - (alpha - r) cosh(p t), whose t^4 term biases a parabola's apex by
 // about 1e-4 rad over such a window. Standard error: the fitted polynomial's
 // at the apex, noise * sqrt(v^T (A^T A)^-1 v) with v = (1, u, .., u^4) (the
-// apex's own shift does not change the value to first order).
+// apex's own shift does not change the value to first order), the noise
+// replaced by the fit's own residual where that is significantly larger
+// (the quartic's model error on a quiet record: LocalNoiseScale).
 Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double noise) {
   const double centre = (t_a + t_b) / 2;
   const double half = (t_b - t_a) / 4;
   const auto [lo, hi] = Range(r.time_s, centre - half, centre + half);
   double sample_max = -std::numeric_limits<double>::infinity();
   for (std::size_t k = lo; k < hi; ++k) sample_max = std::max(sample_max, s * r.theta[k]);
-  if (hi - lo < 9) return {sample_max, noise};
+  if (hi - lo < 9) return {sample_max, noise, false};
   const Eigen::VectorXd c = PolyFit(r, lo, hi, centre, half, s, 4);
   double u = 0.0;
   for (int it = 0; it < 30; ++it) {
@@ -167,7 +172,7 @@ Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double no
   const double v = PolyValue(c, u);
   // A fit that disagrees wildly with the samples (too few, outliers) is
   // not trusted.
-  if (!(std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max))) return {sample_max, noise};
+  if (!(std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max))) return {sample_max, noise, false};
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(5, 5);
   for (std::size_t k = lo; k < hi; ++k) {
     const double uk = (r.time_s[k] - centre) / half;
@@ -178,7 +183,13 @@ Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double no
   Eigen::VectorXd at(5);
   at << 1.0, u, u * u, u * u * u, u * u * u * u;
   const double var = at.dot(ata.ldlt().solve(at));
-  return {v, noise * std::sqrt(std::max(0.0, var))};
+  double rss = 0.0;
+  for (std::size_t k = lo; k < hi; ++k) {
+    const double e = s * r.theta[k] - PolyValue(c, (r.time_s[k] - centre) / half);
+    rss += e * e;
+  }
+  const double scale = LocalNoiseScale(rss, static_cast<int>(hi - lo) - 5, noise);
+  return {v, scale * std::sqrt(std::max(0.0, var)), true};
 }
 
 // Release after a hold: s * theta = c before t_r and c - a (t - t_r)^2
@@ -191,6 +202,8 @@ struct Onset {
   double t_r_stderr{};
   double level{};         // c, rad (magnitude)
   double level_var_1{};   // var(c) / sigma^2 at t_r, 1
+  double rss{};           // residual sum of squares at t_r, rad^2
+  int dof{};              // samples - 3
 };
 Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr_lo, double tr_hi,
                double s) {
@@ -221,6 +234,8 @@ Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr
   o.t_r = GridThenGolden(rss, tr_lo, tr_hi, dt, 2);
   const double rss0 = solve(o.t_r, &o.level, &o.level_var_1);
   const double s2 = rss0 / static_cast<double>(hi - lo - 3);
+  o.rss = rss0;
+  o.dof = static_cast<int>(hi - lo) - 3;
   const double d = dt;
   const double curvature = (rss(o.t_r + d) - 2.0 * rss0 + rss(o.t_r - d)) / (d * d);
   o.t_r_stderr = curvature > 0.0 ? std::sqrt(2.0 * s2 / curvature) : kNaN;
@@ -229,10 +244,11 @@ Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr
 
 }  // namespace
 
-double EstimateThetaNoise(const RockingRecord& record) {
+ThetaNoiseEstimate EstimateThetaNoiseDetail(const RockingRecord& record) {
   const std::vector<double>& t = record.time_s;
   const std::vector<double>& th = record.theta;
-  if (t.size() < 7) return 0.0;
+  ThetaNoiseEstimate e;
+  if (t.size() < 7) return e;
   std::vector<double> d2;
   d2.reserve(t.size());
   for (std::size_t k = 1; k + 1 < t.size(); ++k) {
@@ -241,15 +257,28 @@ double EstimateThetaNoise(const RockingRecord& record) {
     if (!(std::abs(h1 - h0) <= 1e-3 * std::max(h0, h1))) continue;  // a gap: not equally spaced
     d2.push_back(std::abs(th[k + 1] - 2.0 * th[k] + th[k - 1]));
   }
-  if (d2.size() < 5) return 0.0;
-  return 1.4826 * Median(std::move(d2)) / std::sqrt(6.0);
+  if (d2.size() < 5) return e;
+  e.differences = static_cast<int>(d2.size());
+  e.sigma_rad = 1.4826 * Median(std::move(d2)) / std::sqrt(6.0);
+  e.relative_stderr = 1.42 / std::sqrt(static_cast<double>(e.differences));
+  e.dof = 1.0 / (2.0 * e.relative_stderr * e.relative_stderr);
+  return e;
 }
+
+double EstimateThetaNoise(const RockingRecord& record) { return EstimateThetaNoiseDetail(record).sigma_rad; }
 
 FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOptions& options) {
   FreeRockingFeatures f;
   const std::size_t n = r.size();
   if (n < 5) return f;
-  f.noise_rad = EstimateThetaNoise(r);
+  if (options.noise_rad > 0.0) {
+    f.noise_rad = options.noise_rad;
+    f.noise_dof = std::numeric_limits<double>::infinity();
+  } else {
+    const ThetaNoiseEstimate e = EstimateThetaNoiseDetail(r);
+    f.noise_rad = e.sigma_rad;
+    f.noise_dof = e.dof;
+  }
   f.hysteresis_rad = options.hysteresis_rad > 0 ? options.hysteresis_rad : std::max(1e-7, 5.0 * f.noise_rad);
   f.min_peak_rad = options.min_peak_rad > 0 ? options.min_peak_rad
                                             : std::max(4.0 * f.hysteresis_rad, 20.0 * f.noise_rad);
@@ -295,13 +324,16 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   }
 
   // Peaks between consecutive crossings; the usable decay ends at the first
-  // peak below min_peak (the block settling, where timing is lost in noise).
+  // peak below min_peak (the block settling, where timing is lost in noise)
+  // or the first the quartic cannot be fitted to (fewer than 9 samples in
+  // the middle half of its interval: on a noise-free record, where min_peak
+  // is no limit, the last impacts come a few samples apart).
   f.impact_time_s.push_back(crossings[0]);
   f.impact_time_stderr_s.push_back(crossing_se[0]);
   int sign = -f.first_sign;  // side after the first impact
   for (std::size_t c = 0; c + 1 < crossings.size(); ++c) {
     const Peak peak = FitPeak(r, crossings[c], crossings[c + 1], sign, f.noise_rad);
-    if (!(peak.value_rad >= f.min_peak_rad)) break;
+    if (!(peak.value_rad >= f.min_peak_rad) || !peak.fitted) break;
     f.peak_rad.push_back(peak.value_rad);
     f.peak_stderr_rad.push_back(peak.stderr_rad);
     f.impact_time_s.push_back(crossings[c + 1]);
@@ -335,7 +367,7 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
       f.release_time_s = o.t_r;
       f.release_time_stderr_s = o.t_r_stderr;
       f.r0_rad = o.level;
-      f.r0_stderr_rad = f.noise_rad * std::sqrt(std::max(0.0, o.level_var_1));
+      f.r0_stderr_rad = LocalNoiseScale(o.rss, o.dof, f.noise_rad) * std::sqrt(std::max(0.0, o.level_var_1));
       f.hold_start_index = hold_lo;
       return f;
     }

@@ -41,6 +41,14 @@ double Median(std::vector<double> v);
 // Sample standard deviation (NaN below two values).
 double StdDev(const std::vector<double>& v);
 
+// The noise scale of a local least-squares fit (a crossing, a peak, an
+// onset): `noise` unless the fit's own residual, rss / dof, exceeds it beyond
+// what the noise allows (its chi-square above the 1 % upper quantile of
+// chi2(dof)); then sqrt(rss / dof). On a quiet record this is the local
+// polynomial's own model error, so a noise-free record never claims a
+// precision its features do not have.
+double LocalNoiseScale(double rss, int dof, double noise);
+
 // Index range [lo, hi) of the samples with time in [t0, t1].
 std::pair<std::size_t, std::size_t> Range(const std::vector<double>& t, double t0, double t1);
 
@@ -159,13 +167,15 @@ double MaxAbsTable(const RockingRecord& r);
 // does not rock or overturns.
 FitResult StartFit(FitMethod method, const RockingRecord& record, const FitOptions& options);
 
+// sum (r_i / sigma_i)^2 (NaN when a sigma is not positive); sets
+// *noise_residual to the rms of sigma (what the noise alone leaves).
+double DiagonalChi2(const Eigen::VectorXd& residuals, const std::vector<double>& sigma, double* noise_residual);
+
 // The verdict on the residual: standard errors withheld below
-// kMinDofForStderr degrees of freedom; the residual the noise alone leaves
-// (the rms of sigma, each residual's standard deviation from the noise);
-// residual_to_noise = sqrt(sum (r_i / sigma_i)^2 / dof), the root of the
-// reduced chi-square (about 1 with a right model); converged.
-void SetNoiseVerdict(const Eigen::VectorXd& residuals, const std::vector<double>& sigma, bool lm_converged,
-                     FitResult& out);
+// kMinDofForStderr degrees of freedom; chi2, chi2 / dof, residual_to_noise
+// (its root), the p-value of F(dof, noise dof) and converged (the LM's test
+// and p_value >= significance). Needs out.dof and out.features.noise_dof.
+void SetNoiseVerdict(double chi2, double noise_residual, bool lm_converged, FitResult& out);
 
 // Notes on what the fit knows: missing samples, withheld standard errors, a
 // residual above the noise. `handled`: what the method did with the gaps.

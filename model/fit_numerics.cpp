@@ -23,6 +23,14 @@ double Median(std::vector<double> v) {
   return *mid;
 }
 
+double LocalNoiseScale(double rss, int dof, double noise) {
+  if (dof < 1 || !(rss >= 0.0)) return noise;
+  // 1 % upper quantile of chi2(dof) by the Wilson-Hilferty cube root.
+  const double k = dof;
+  const double q = k * std::pow(1.0 - 2.0 / (9.0 * k) + 2.3263 * std::sqrt(2.0 / (9.0 * k)), 3);
+  return rss > q * noise * noise ? std::sqrt(rss / k) : noise;
+}
+
 // Index range [lo, hi) of the samples with time in [t0, t1].
 std::pair<std::size_t, std::size_t> Range(const std::vector<double>& t, double t0, double t1) {
   const auto lo = std::lower_bound(t.begin(), t.end(), t0) - t.begin();

@@ -17,15 +17,16 @@ namespace rocklab::model {
 using namespace fit_detail;
 namespace {
 
-// Residuals theta_model(t_k) - theta_k over the samples [first, n) for
+// Residuals theta_model(t_k) - theta_k over the samples [first, last) for
 // x = (alpha, p, mu[, release time]). Before a fitted release the model
 // holds at the release level.
 struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
-  TrajectoryFunctor(const RockingRecord& record, std::size_t first, const Forcing& forcing,
+  TrajectoryFunctor(const RockingRecord& record, std::size_t first, std::size_t last, const Forcing& forcing,
                     bool from_hold, double theta0, double rtol)
-      : Eigen::DenseFunctor<double>(from_hold ? 4 : 3, static_cast<int>(record.size() - first)),
+      : Eigen::DenseFunctor<double>(from_hold ? 4 : 3, static_cast<int>(last - first)),
         record_(&record),
         first_(first),
+        last_(last),
         forcing_(&forcing),
         from_hold_(from_hold),
         theta0_(theta0) {
@@ -47,12 +48,12 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
       std::size_t k = first_;
       if (from_hold_) {
         const double tr = x(3);
-        for (; k < t.size() && t[k] <= tr; ++k) f(static_cast<Eigen::Index>(k - first_)) = theta0_ - th[k];
+        for (; k < last_ && t[k] <= tr; ++k) f(static_cast<Eigen::Index>(k - first_)) = theta0_ - th[k];
         model->Reset(tr, theta0_, 0.0);
       } else {
         model->Reset(t[first_], 0.0, 0.0);
       }
-      for (; k < t.size(); ++k) {
+      for (; k < last_; ++k) {
         model->AdvanceTo(t[k], *forcing_);
         f(static_cast<Eigen::Index>(k - first_)) = model->state().theta - th[k] + penalty;
       }
@@ -65,6 +66,7 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
 
   const RockingRecord* record_;  // non-owning; outlives the fit
   std::size_t first_;
+  std::size_t last_;  // residuals at the samples [first_, last_)
   const Forcing* forcing_;  // non-owning; outlives the fit
   bool from_hold_;
   double theta0_;
@@ -102,6 +104,150 @@ class CubicRecord final : public Forcing {
   const std::vector<double>& t_;  // non-owning: the record's
   const std::vector<double>& a_;
 };
+
+// The default number of screened starts of the trajectory method besides
+// the method's own: 24 Halton points fill the 3-D prior box with about 3
+// per axis and 24 distinct values along each (the cost is rugged mainly in
+// alpha); screening them costs 24 model runs over a short window, less than
+// one Levenberg-Marquardt iteration on the whole record.
+constexpr int kDefaultTrajectoryStarts = 24;
+// Starts refined on the first window, and those carried to the whole record.
+constexpr int kRefinedOnWindow = 4;
+constexpr int kCarriedToWhole = 2;
+// The first window: this long after the motion starts, s; each next one
+// twice as long, up to the whole record.
+constexpr double kFirstWindowS = 1.0;
+
+// The prior box of the starts: alpha in the admissible band (geometry) or
+// +-10 % of the start, p +-20 % about the geometry's (or the start's), mu in
+// [0.5, 1] (below 0.5 an impact would keep a quarter of the energy; Housner's
+// bound 1 - 1.5 sin^2 alpha is above 0.6 for alpha < 0.5 rad).
+struct Box {
+  Eigen::Vector3d lo, hi;
+};
+Box PriorBox(const FitResult& out, const BlockParams& start) {
+  Box b;
+  const double alpha_lo = out.band ? out.band->lo : 0.9 * start.alpha;
+  const double alpha_hi = out.band ? out.band->hi : std::min(1.1 * start.alpha, kPi / 2 - 1e-3);
+  const double p = out.theory ? out.theory->p : start.p;
+  b.lo << alpha_lo, 0.8 * p, 0.5;
+  b.hi << alpha_hi, 1.2 * p, 1.0;
+  return b;
+}
+
+// Radical inverse of i in base `base` (the Halton sequence's coordinate).
+double RadicalInverse(int i, int base) {
+  double f = 1.0, r = 0.0;
+  for (; i > 0; i /= base) {
+    f /= base;
+    r += f * (i % base);
+  }
+  return r;
+}
+
+// First sample time where |theta| leaves the noise band (hysteresis).
+double FirstMotion(const RockingRecord& r, double band) {
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    if (std::abs(r.theta[k]) > band) return r.time_s[k];
+  }
+  return r.time_s.back();
+}
+
+struct MultiStart {
+  int count{};
+  Box box;
+  double motion_start_s{};
+};
+struct MultiStartResult {
+  LmOutcome lm;
+  int screened{};
+  int refined{};
+};
+
+// The global start: the method's start x0 and `count` Halton points of the
+// box (release time from x0) are screened by the cost over a short first
+// window after the motion starts (where the response still depends smoothly
+// on the parameters); the best kRefinedOnWindow are refined by LM on it, and
+// the best kCarriedToWhole followed through windows twice as long each, LM
+// from the previous solution, to the whole record; x0 is also LM'd on the
+// whole record directly. The lowest whole-record cost among the converged
+// wins. A rocking response is sensitive to the
+// parameters over long records, so a start far from the answer finds the
+// whole record's cost rugged; over the first window it is not.
+MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t first, const Forcing& forcing,
+                                   bool from_hold, double theta0, const Eigen::VectorXd& x0, const MultiStart& ms,
+                                   const FitOptions& options, std::chrono::steady_clock::time_point t_start) {
+  const std::vector<double>& t = record.time_s;
+  std::vector<std::size_t> ends;
+  for (double w = kFirstWindowS; ; w *= 2) {
+    const std::size_t end = Range(t, t[0], ms.motion_start_s + w).second;
+    if (end >= t.size() || static_cast<double>(end - first) > 0.8 * static_cast<double>(t.size() - first)) break;
+    if (end > first + 20 && (ends.empty() || end > ends.back())) ends.push_back(end);
+  }
+  ends.push_back(t.size());
+  auto functor_to = [&](std::size_t end) {
+    return TrajectoryFunctor(record, first, end, forcing, from_hold, theta0, options.rtol);
+  };
+  std::vector<Eigen::VectorXd> starts{x0};
+  for (int i = 1; i <= ms.count; ++i) {
+    Eigen::VectorXd x = x0;
+    const int bases[3] = {2, 3, 5};
+    for (int d = 0; d < 3; ++d) x(d) = ms.box.lo(d) + (ms.box.hi(d) - ms.box.lo(d)) * RadicalInverse(i, bases[d]);
+    starts.push_back(x);
+  }
+  MultiStartResult res;
+  res.screened = static_cast<int>(starts.size());
+  int evaluations = 0;
+  // Screen on the first window.
+  const TrajectoryFunctor screen = functor_to(ends.front());
+  std::vector<std::pair<double, std::size_t>> cost;
+  Eigen::VectorXd fv(screen.values());
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    screen(starts[i], fv);
+    cost.emplace_back(fv.squaredNorm(), i);
+  }
+  evaluations += *screen.count_;
+  std::sort(cost.begin(), cost.end());
+  // Refine the best on the first window (when it is not already the whole record).
+  std::vector<std::pair<double, Eigen::VectorXd>> window;
+  const std::size_t n_refine = std::min<std::size_t>(kRefinedOnWindow, cost.size());
+  for (std::size_t k = 0; k < n_refine; ++k) {
+    const Eigen::VectorXd& x = starts[cost[k].second];
+    if (ends.size() == 1) {
+      window.emplace_back(cost[k].first, x);
+      continue;
+    }
+    const TrajectoryFunctor fw = functor_to(ends.front());
+    const LmOutcome o = RunLm(fw, x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, t_start);
+    evaluations += *fw.count_;
+    window.emplace_back(o.residuals.squaredNorm(), o.x);
+  }
+  std::sort(window.begin(), window.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  // Follow the best through the growing windows to the whole record; and
+  // the method's own start LM'd on the whole record directly (the fit before
+  // the multi-start), so that the global start never ends above it.
+  bool have = false;
+  const std::size_t n_carry = std::min<std::size_t>(kCarriedToWhole, window.size());
+  for (std::size_t k = 0; k <= n_carry; ++k) {
+    const bool direct = k == n_carry;
+    Eigen::VectorXd x = direct ? x0 : window[k].second;
+    LmOutcome o;
+    for (std::size_t w = direct ? ends.size() - 1 : (ends.size() == 1 ? 0 : 1); w < ends.size(); ++w) {
+      const TrajectoryFunctor fw = functor_to(ends[w]);
+      o = RunLm(fw, x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, t_start);
+      evaluations += *fw.count_;
+      x = o.x;
+    }
+    const bool better = !have || (LmConverged(o.status) && !LmConverged(res.lm.status)) ||
+                        (LmConverged(o.status) == LmConverged(res.lm.status) &&
+                         o.residuals.squaredNorm() < res.lm.residuals.squaredNorm());
+    if (better) res.lm = std::move(o);
+    have = true;
+  }
+  res.refined = static_cast<int>(n_refine) + 1;  // and x0 on the whole record
+  res.lm.evaluations = evaluations;
+  return res;
+}
 
 }  // namespace
 
@@ -160,55 +306,19 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   }
   const std::size_t first = from_hold ? f.hold_start_index : 0;
   const double theta0 = from_hold ? f.first_sign * *f.r0_rad : 0.0;
-  TrajectoryFunctor functor(record, first, *forcing, from_hold, theta0, options.rtol);
   Eigen::VectorXd x(from_hold ? 4 : 3);
   x(0) = start_params.alpha;
   x(1) = start_params.p;
   x(2) = start_params.mu;
   if (from_hold) x(3) = *f.release_time_s;
-  // Whether and when a forced block uplifts hinges on alpha (|u_g''| >
-  // g tan(alpha)), so the cost is rugged in alpha and LM can stop in a local
-  // minimum. When the first fit does not get down to the noise (1.5 x the
-  // estimated noise), it restarts from the best points of a coarse alpha scan
-  // (+-15 % in 2.5 % steps, p and mu held) and keeps the lowest cost.
-  std::vector<Eigen::VectorXd> starts{x};
-  if (out.forced && !options.start) {
-    std::vector<std::pair<double, double>> scan;  // (cost, alpha)
-    Eigen::VectorXd trial = x;
-    Eigen::VectorXd fv(functor.values());
-    for (int i = -6; i <= 6; ++i) {
-      if (i == 0) continue;
-      trial(0) = x(0) * (1.0 + 0.025 * i);
-      functor(trial, fv);
-      scan.emplace_back(fv.squaredNorm(), trial(0));
-    }
-    std::sort(scan.begin(), scan.end());
-    for (std::size_t i = 0; i < 3 && i < scan.size(); ++i) {
-      trial(0) = scan[i].second;
-      starts.push_back(trial);
-    }
-  }
-  LmOutcome lm;
-  bool have = false;
-  int restarts = 0;
-  int evaluations = 0;
-  for (const Eigen::VectorXd& x_start : starts) {
-    LmOutcome trial = RunLm(functor, x_start, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
-    evaluations = *functor.count_;
-    if (!have || (LmConverged(trial.status) && trial.residuals.squaredNorm() < lm.residuals.squaredNorm()) ||
-        !LmConverged(lm.status)) {
-      lm = std::move(trial);
-      have = true;
-    }
-    const double rms = std::sqrt(lm.residuals.squaredNorm() / static_cast<double>(lm.residuals.size()));
-    if (LmConverged(lm.status) && rms <= 1.5 * f.noise_rad) break;
-    ++restarts;
-  }
-  lm.evaluations = evaluations;
-  if (restarts > 0) {
-    out.warnings.push_back("restarted " + std::to_string(std::min<int>(restarts, static_cast<int>(starts.size()) - 1)) +
-                           " time(s) from an alpha scan (first fit above the noise level)");
-  }
+  MultiStart ms;
+  ms.count = options.starts < 0 ? kDefaultTrajectoryStarts : options.starts;
+  ms.box = PriorBox(out, start_params);
+  ms.motion_start_s = from_hold ? *f.release_time_s : FirstMotion(record, f.hysteresis_rad);
+  const MultiStartResult found = FitFromManyStarts(record, first, *forcing, from_hold, theta0, x, ms, options, start);
+  LmOutcome lm = found.lm;
+  out.starts = found.screened;
+  out.starts_refined = found.refined;
   if (!LmConverged(lm.status)) {
     throw FitError(record.source + ": the trajectory fit did not converge in " +
                    std::to_string(lm.evaluations) + " model runs (status " +
@@ -230,7 +340,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     // The table record's sampling: the same run on the cubic through the
     // samples; the difference d is about the chord's error.
     const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
-    const TrajectoryFunctor on_cubic(record, first, cubic, from_hold, theta0, options.rtol);
+    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, theta0, options.rtol);
     Eigen::VectorXd fc(lm.residuals.size());
     on_cubic(lm.x, fc);
     const Eigen::VectorXd d = fc - lm.residuals;
@@ -259,9 +369,12 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.rms_residual = std::sqrt(lm.residuals.squaredNorm() / out.residuals);
   out.iterations = lm.iterations;
   out.evaluations = lm.evaluations;
-  SetNoiseVerdict(lm.residuals, std::vector<double>(static_cast<std::size_t>(lm.residuals.size()), f.noise_rad),
-                  LmConverged(lm.status), out);
-  out.warnings.push_back("start values from the " + start_from);
+  double noise_residual = kNaN;
+  const double chi2 = DiagonalChi2(
+      lm.residuals, std::vector<double>(static_cast<std::size_t>(lm.residuals.size()), f.noise_rad), &noise_residual);
+  SetNoiseVerdict(chi2, noise_residual, LmConverged(lm.status), out);
+  out.warnings.push_back("start values from the " + start_from + " and " + std::to_string(out.starts - 1) +
+                         " more from the prior box (" + std::to_string(out.starts_refined) + " refined)");
   AddVerdictWarnings(out, "skipped (the residuals are at the samples present)");
   if (out.band && (out.params.alpha < out.band->lo || out.params.alpha > out.band->hi)) {
     throw FitError(record.source + ": fitted alpha " + Num(out.params.alpha, 4) +

@@ -202,6 +202,14 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   j["dof"] = r.dof;
   j["converged"] = r.converged;
   j["residual_to_noise"] = Optional(r.residual_to_noise);
+  j["chi2"] = Optional(r.chi2);
+  j["chi2_per_dof"] = Optional(r.chi2_per_dof);
+  j["p_value"] = Optional(r.p_value);
+  j["significance"] = r.significance;
+  j["noise_dof"] = Optional(r.noise_dof);
+  j["noise_stated"] = std::isinf(r.noise_dof);
+  j["starts"] = r.starts;
+  j["starts_refined"] = r.starts_refined;
   j["noise_residual"] = Optional(r.noise_residual);
   j["stderr_withheld"] = r.stderr_withheld;
   j["missing_samples"] = r.theta_gaps.missing_samples;

@@ -35,6 +35,9 @@ struct FitCliOptions {
   double alpha_band_m{0.01};
   int min_impacts{4};
   double rtol{model::FitOptions{}.rtol};
+  double noise_rad{0.0};
+  double significance{model::kDefaultSignificance};
+  int starts{-1};
   bool json{};
   bool quiet{};
   std::string out_json;
@@ -122,6 +125,14 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"dof", r.dof},
       {"converged", r.converged},
       {"residual_to_noise", Optional(r.residual_to_noise)},
+      {"chi2", Optional(r.chi2)},
+      {"chi2_per_dof", Optional(r.chi2_per_dof)},
+      {"p_value", Optional(r.p_value)},
+      {"significance", r.significance},
+      {"noise_dof", Optional(r.noise_dof)},
+      {"noise_stated", std::isinf(r.noise_dof)},
+      {"starts", r.starts},
+      {"starts_refined", r.starts_refined},
       {"noise_residual", Optional(r.noise_residual)},
       {"stderr_withheld", r.stderr_withheld},
       {"missing_samples", r.theta_gaps.missing_samples},
@@ -138,7 +149,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
         {"p_stderr", "rad/s"}, {"mu_stderr", "1"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"},
         {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
         {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
-        {"residual_to_noise", "1"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
+        {"residual_to_noise", "1"}, {"chi2", "1"}, {"chi2_per_dof", "1"}, {"p_value", "1"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {
@@ -188,6 +199,12 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
     std::printf("residual / noise %.2f (the noise alone gives %.3g %s per residual): %s\n", r.residual_to_noise,
                 in_ms ? r.noise_residual * 1e3 : r.noise_residual, in_ms ? "ms" : "rad",
                 r.converged ? "converged" : "NOT converged");
+    std::printf("chi-square %.1f on %d degrees of freedom (%.3f per dof; noise %s), p = %.3g against "
+                "significance %.3g; %d starts, %d refined\n",
+                r.chi2, r.dof, r.chi2_per_dof,
+                std::isinf(r.noise_dof) ? "stated" : ("estimated, " + std::to_string(static_cast<long>(r.noise_dof)) +
+                                                      " dof").c_str(),
+                r.p_value, r.significance, r.starts, r.starts_refined);
   } else {
     std::printf("residual / noise not computable (%d degrees of freedom%s): %s\n", r.dof,
                 r.features.noise_rad > 0.0 ? "" : ", no measurable noise",
@@ -234,6 +251,12 @@ int RunFit(const FitCliOptions& o) {
   Require(o.min_impacts >= 3, "--min-impacts", ">= 3", o.min_impacts);
   Require(o.rtol > 0.0 && o.rtol < 1e-3, "--rtol", "in (0, 1e-3)", o.rtol);
   fo.rtol = o.rtol;
+  Require(o.noise_rad >= 0.0, "--noise-rad", ">= 0 rad", o.noise_rad);
+  Require(o.significance > 0.0 && o.significance < 0.5, "--significance", "in (0, 0.5)", o.significance);
+  Require(o.starts >= -1, "--starts", ">= 0", o.starts);
+  fo.features.noise_rad = o.noise_rad;
+  fo.significance = o.significance;
+  fo.starts = o.starts;
   fo.alpha_band_m = o.alpha_band_m;
   fo.min_impacts = o.min_impacts;
 
@@ -398,6 +421,12 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--alpha-band-m", opts->alpha_band_m, "admissible error on b, m (default 0.01)");
   cmd->add_option("--min-impacts", opts->min_impacts, "fewest impacts accepted (default 4)");
   cmd->add_option("--rtol", opts->rtol, "trajectory method: the model's relative tolerance, in (0, 1e-3) (default 1e-8)");
+  cmd->add_option("--noise-rad", opts->noise_rad,
+                  "white-noise standard deviation of theta, rad, taken as exact (default: estimated from the record)");
+  cmd->add_option("--significance", opts->significance,
+                  "level of the chi-square goodness-of-fit test behind 'converged', in (0, 0.5) (default 0.01)");
+  cmd->add_option("--starts", opts->starts,
+                  "trajectory: prior-box starts screened (default 24); impacts: alpha-profile minima refined (default 3)");
   cmd->add_flag("--json", opts->json, "print the result as JSON");
   cmd->add_flag("--quiet", opts->quiet, "no progress lines on stderr");
   cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");

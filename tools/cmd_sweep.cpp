@@ -157,7 +157,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--model", p.model, "housner | complex")->required();
   cmd->add_option("--duration", opts->duration_s, "simulated time per case, s (default: record end + 10 s)");
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
-  cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-10)");
+  cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-14)");
   cmd->add_option("--rtol", p.rtol, "CVODE relative tolerance, in (0, 1e-3] (default 1e-10)");
   cmd->add_option("--out", opts->out, "results: " + FormatsHelp(DataKind::kSweepResults) + " by the extension (--resume: CSV only)")->required();
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");

@@ -198,6 +198,31 @@ TEST(CliFit, GappedRecordIsFittedAndTheOutputSaysWhatItKnows) {
   EXPECT_EQ(j.at("dof").get<int>(), j.at("residuals").get<int>() - 2);
   EXPECT_FALSE(j.at("stderr_withheld").get<bool>());
   EXPECT_EQ(j.at("units").at("residual_to_noise"), "1");
+  // The chi-square verdict: chi2 / dof is residual_to_noise squared, the
+  // p-value passes the 1 % significance when converged, and the impacts
+  // method refined its alpha-profile starts.
+  EXPECT_NEAR(j.at("chi2_per_dof").get<double>(), std::pow(j.at("residual_to_noise").get<double>(), 2), 1e-9);
+  EXPECT_NEAR(j.at("chi2").get<double>(), j.at("chi2_per_dof").get<double>() * j.at("dof").get<int>(), 1e-6);
+  EXPECT_GE(j.at("p_value").get<double>(), j.at("significance").get<double>());
+  EXPECT_EQ(j.at("significance").get<double>(), 0.01);
+  EXPECT_GT(j.at("noise_dof").get<double>(), 100.0);
+  EXPECT_FALSE(j.at("noise_stated").get<bool>());
+  EXPECT_GE(j.at("starts").get<int>(), 1);
+  // The record's true noise stated (0.02 deg = 3.4907e-4 rad): taken as
+  // exact (no noise dof) and the fit converged. Half of it: reported as
+  // the noise, but each crossing and peak fit then sees a scatter beyond
+  // it and takes its own (LocalNoiseScale), so the verdict stands.
+  const CliResult stated = RunCli({"fit", "--input", dir + "/gaps.csv", "--noise-rad", "3.4907e-4", "--json"});
+  ASSERT_EQ(stated.exit_code, 0) << stated.err;
+  const auto js = nlohmann::json::parse(stated.out);
+  EXPECT_TRUE(js.at("noise_stated").get<bool>());
+  EXPECT_TRUE(js.at("noise_dof").is_null());
+  EXPECT_TRUE(js.at("converged").get<bool>());
+  const CliResult half = RunCli({"fit", "--input", dir + "/gaps.csv", "--noise-rad", "1.745e-4", "--json"});
+  ASSERT_EQ(half.exit_code, 0) << half.err;
+  const auto jh = nlohmann::json::parse(half.out);
+  EXPECT_EQ(jh.at("noise").get<double>(), 1.745e-4);
+  EXPECT_TRUE(jh.at("converged").get<bool>());
   const CliResult text = RunCli({"fit", "--input", dir + "/gaps.csv"});
   ASSERT_EQ(text.exit_code, 0) << text.err;
   for (const char* word : {"residual / noise", "converged", "missing samples"}) {

@@ -143,7 +143,7 @@ TEST(RockingModelTest, UpliftTimeByRootFinding) {
 // against mu^2. TOLERANCE: the error must fall monotonically with l and be
 // below 1e-4 s at l = 3e-4 (docs/errata.md item 4 quotes 3e-5 s there, 8e-4 s at 1e-2).
 // complex_resolved_energy = 0 (the default) keeps eq. (10) for every l;
-// the default l (1e-10) is tested in complex_test.cpp.
+// the default l (1e-14) is tested in complex_test.cpp.
 TEST(ComplexTest, ConvergesToHousnerAsLFalls) {
   const double a = kBlock1.alpha, p = kBlock1.p, mu = kBlock1.mu;
   const double t1 = QuarterTimeExact(a, p, a / 2);

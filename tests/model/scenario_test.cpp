@@ -135,7 +135,7 @@ int Impacts(const Trajectory& t) {
 // 0.024721 rad and 199 impacts; rocklab's Housner model sampled at 1 kHz
 // must give them (TOLERANCE 5e-6 rad: the 1 kHz sampling of the peak,
 // theta'' h^2 / 8 < 4e-7 rad, and the printed digits). The complex model at
-// its defaults (eq. (10) throughout, l = 1e-10) must meet Housner's limit
+// its defaults (eq. (10) throughout, l = 1e-14) must meet Housner's limit
 // peak within 3x the measured (0.25 % for figure 7,
 // 0.024 % for figure 8), the same impact count, the same uplift time
 // (the same rest-regime root finding: 1e-9 s), eq. (10) for all of the

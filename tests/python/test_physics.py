@@ -135,7 +135,7 @@ def test_housner_figure8_matches_scipy_reference():
 
 def test_complex_converges_to_the_reference():
     # docs/errata.md item 4: eq. (10) tends to Housner's as l -> 0; at the default
-    # l (1e-10) the first six impacts agree with the reference to 9.3e-6 s
+    # l (1e-10 then; 1e-14 since issue 32, docs/models.md "Choosing l") the first six impacts agree with the reference to 9.3e-6 s
     # (measured 24 Nov 2026 with the matched crossings; 2.2e-5 s before
     # them; docs/errata.md item 4: 3e-5 s for the first at l = 3e-4); bound 1e-4 s.
     tu, side, segments, impacts = forced_case()
