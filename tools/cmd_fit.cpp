@@ -57,8 +57,9 @@ struct FitCliOptions {
 };
 
 // Exit code of a posterior run that fails its convergence rule (without
-// --allow-unconverged): its outputs are written, the verdict is not.
-constexpr int kUnconvergedExit = 3;
+// --allow-unconverged): its outputs are written, the verdict is not. The
+// work failed, so 1, as every command's failure (docs/commands.md).
+constexpr int kUnconvergedExit = 1;
 
 void PrintPosterior(const model::PosteriorResult& p) {
   std::printf("\nposterior (%s, %s model): %d walkers x %d steps, burn-in %d, %lld draws, seed %llu, %d threads, %.1f s\n",
@@ -444,7 +445,7 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--samples", opts->samples, "posterior: write the draws, FILE.csv or FILE.h5");
   cmd->add_option("--plot", opts->plot, "posterior: write the corner plot, FILE.svg");
   cmd->add_flag("--allow-unconverged", opts->allow_unconverged,
-                "posterior: exit 0 even when the convergence rule fails (else exit code 3)");
+                "posterior: exit 0 even when the convergence rule fails (else exit code 1)");
   cmd->callback([opts, &run] { run = [opts] { return RunFit(*opts); }; });
 }
 
