@@ -92,7 +92,7 @@ endforeach()
 # rocklab-dev (the component dev: every install() without a COMPONENT, see
 # CMakeLists.txt) with the static libraries, headers and CMake package, and
 # rocklab-video (the component video) with the video plugin
-# lib/rocklab/rocklab-video.so, OpenCV's part, so that rocklab itself
+# lib/rocklab/plugins/rocklab-video.so, OpenCV's part, so that rocklab itself
 # neither needs nor maps OpenCV. packaging/strip.cmake
 # strips what they hold. docs/packaging.md: contents, sizes, lintian.
 set(ROCKLAB_PACKAGE_MAINTAINER "rocklab developers <dev@rocklab.invalid>" CACHE STRING

@@ -55,7 +55,7 @@ endfunction()
 
 # rocklab_add_plugin(target file COMPONENT component SOURCES ... LIBS ...):
 # a plugin of the rocklab command (common/plugin.h), the shared object
-# lib/rocklab/<file>.so in the build tree as installed, opened only by the
+# lib/rocklab/plugins/<file>.so in the build tree as installed, opened only by the
 # commands that need it. The static libraries it links are copied into it
 # and hidden (--exclude-libs): the plugin and the command each call their
 # own copy; only the entry function (extern "C", default visibility) is
@@ -65,7 +65,7 @@ function(rocklab_add_plugin target file)
   cmake_parse_arguments(PLUGIN "" "COMPONENT" "SOURCES;LIBS" ${ARGN})
   add_library(${target} MODULE ${PLUGIN_SOURCES})
   set_target_properties(${target} PROPERTIES OUTPUT_NAME ${file} PREFIX "" SUFFIX ".so"
-    LIBRARY_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/lib/rocklab
+    LIBRARY_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/lib/rocklab/plugins
     CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON)
   target_include_directories(${target} PRIVATE ${PROJECT_SOURCE_DIR})
   target_link_libraries(${target} PRIVATE ${PLUGIN_LIBS})
@@ -74,15 +74,16 @@ function(rocklab_add_plugin target file)
       rocklab_position_independent(${lib})
     endif()
   endforeach()
-  # --as-needed: of the libraries the static ones bring, only those the
-  # plugin calls become its dependencies.
-  target_link_options(${target} PRIVATE LINKER:--exclude-libs,ALL LINKER:--as-needed)
+  target_link_options(${target} PRIVATE LINKER:--exclude-libs,ALL)
   if(NOT ROCKLAB_SANITIZE AND NOT ROCKLAB_FUZZ)
     # Every symbol resolved at link time (the sanitizers' runtime is the
     # executable's, so their plugins keep those undefined).
     target_link_options(${target} PRIVATE LINKER:--no-undefined)
   endif()
   rocklab_configure_target(${target})
-  install(TARGETS ${target} LIBRARY DESTINATION lib/rocklab COMPONENT ${PLUGIN_COMPONENT})
+  # (A folder below lib/rocklab: CPack's .deb adds ldconfig calls to the
+  # maintainer scripts for any shared object directly in a folder of
+  # /usr/lib, which lintian rejects for plugins.)
+  install(TARGETS ${target} LIBRARY DESTINATION lib/rocklab/plugins COMPONENT ${PLUGIN_COMPONENT})
   set_property(GLOBAL APPEND PROPERTY ROCKLAB_PLUGINS ${target})
 endfunction()

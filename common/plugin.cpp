@@ -24,11 +24,11 @@ std::string ProgramFolder() {
 }  // namespace
 
 std::string PluginDirectory() {
-  // bin/rocklab -> lib/rocklab (and build/tools/rocklab -> build/lib/rocklab).
+  // bin/rocklab -> lib/rocklab/plugins (build/tools/rocklab -> build/lib/rocklab/plugins).
   const std::string folder = ProgramFolder();
   const std::size_t slash = folder.rfind('/');
-  if (slash == std::string::npos) return folder + "/../lib/rocklab";
-  return folder.substr(0, slash) + "/lib/rocklab";
+  if (slash == std::string::npos) return folder + "/../lib/rocklab/plugins";
+  return folder.substr(0, slash) + "/lib/rocklab/plugins";
 }
 
 std::string PluginPath(const std::string& file) { return PluginDirectory() + "/" + file; }

@@ -3,9 +3,10 @@
 /// rocklab's plugins: shared objects that the `rocklab` command opens
 /// (dlopen) only when a command needs them, so that every other command
 /// starts without their libraries (docs/architecture.md, "Plugins";
-/// docs/performance.md, "Start-up"). They live in lib/rocklab/ beside the
-/// program's bin/ folder: /usr/lib/rocklab/ for /usr/bin/rocklab, and
-/// build/lib/rocklab/ for build/tools/rocklab in the build tree.
+/// docs/performance.md, "Start-up"). They live in lib/rocklab/plugins/
+/// beside the program's bin/ folder: /usr/lib/rocklab/plugins/ for
+/// /usr/bin/rocklab, and build/lib/rocklab/plugins/ for build/tools/rocklab
+/// in the build tree.
 ///
 /// A plugin exports one C function, its entry, returning a table of
 /// function pointers whose first member is the interface's version; it is
@@ -16,7 +17,7 @@
 
 namespace rocklab::common {
 
-/// Where plugins are looked for: lib/rocklab in the parent of the running
+/// Where plugins are looked for: lib/rocklab/plugins in the parent of the running
 /// program's folder (/proc/self/exe, links resolved).
 std::string PluginDirectory();
 

@@ -1,10 +1,12 @@
-// lib/rocklab/rocklab-mpi.so: sweep's MPI calls (sweep/mpi_plugin.h), the
+// lib/rocklab/plugins/rocklab-mpi.so: sweep's MPI calls (sweep/mpi_plugin.h), the
 // only place rocklab includes mpi.h and links OpenMPI.
 // The C interface only: OpenMPI's deprecated C++ bindings do not compile
 // cleanly under -Wextra.
 #define OMPI_SKIP_MPICXX 1
 #define MPICH_SKIP_MPICXX 1
 #include <mpi.h>
+
+#include <cstdio>
 
 #include "sweep/mpi_plugin.h"
 
@@ -20,7 +22,12 @@ void Init(int* rank, int* size) {
 
 void Finalize() { MPI_Finalize(); }
 
-void Abort() { MPI_Abort(MPI_COMM_WORLD, 1); }
+// Every stdio stream flushed first: what this rank printed is not lost
+// when MPI_Abort ends it.
+void Abort() {
+  std::fflush(nullptr);
+  MPI_Abort(MPI_COMM_WORLD, 1);
+}
 
 void Broadcast(unsigned long long* values, int count) {
   MPI_Bcast(values, count, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);

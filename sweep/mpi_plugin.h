@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The MPI calls of `rocklab sweep` under mpirun, as a table of functions
-/// that the plugin lib/rocklab/rocklab-mpi.so fills (sweep/mpi_plugin.cpp,
+/// that the plugin lib/rocklab/plugins/rocklab-mpi.so fills (sweep/mpi_plugin.cpp,
 /// the one file that includes mpi.h). runner.cpp opens the plugin only when
 /// the process was started by mpirun, so no other command (and no sweep
 /// without mpirun) maps OpenMPI's libraries (docs/sweep.md, MPI).

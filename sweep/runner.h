@@ -31,7 +31,7 @@ namespace rocklab::sweep {
 /// MPI for the life of a command: initialised when the process was started
 /// by mpirun (OpenMPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_RANK, in
 /// the environment), finalised by the destructor. The MPI calls are in the
-/// plugin lib/rocklab/rocklab-mpi.so (mpi_plugin.h), opened only then.
+/// plugin lib/rocklab/plugins/rocklab-mpi.so (mpi_plugin.h), opened only then.
 /// Without the plugin (a build without ROCKLAB_MPI, or the file missing) a
 /// process started by mpirun with more than one rank throws, so ranks never
 /// write one file side by side.

@@ -1,5 +1,5 @@
 #pragma once
-// The HDF5 and MAT file plugin (lib/rocklab/rocklab-hdf5.so, in the rocklab
+// The HDF5 and MAT file plugin (lib/rocklab/plugins/rocklab-hdf5.so, in the rocklab
 // package): export's H5Writer and MatWriter and sweep's HDF5 readers, with
 // the HDF5 C library and libmatio, which Debian's builds link to libcurl,
 // the TLS and Kerberos libraries (25 shared objects, ~5 ms of CPU and

@@ -1,4 +1,4 @@
-// lib/rocklab/rocklab-hdf5.so: export's HDF5 and MAT writers and sweep's
+// lib/rocklab/plugins/rocklab-hdf5.so: export's HDF5 and MAT writers and sweep's
 // HDF5 readers behind tools/hdf5_plugin.h's table, so that the rocklab
 // command maps HDF5, libmatio and their libraries only when a file of
 // theirs is read or written.

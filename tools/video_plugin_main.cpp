@@ -1,4 +1,4 @@
-// lib/rocklab/rocklab-video.so (package rocklab-video): video/ and OpenCV
+// lib/rocklab/plugins/rocklab-video.so (package rocklab-video): video/ and OpenCV
 // behind video/plugin.h's calls, opened by the rocklab command only for a
 // `video:` / `v4l2:` input, `track` or `camera-calibrate`
 // (tools/video_plugin.h). The two commands' runs live here; their options

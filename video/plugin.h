@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The video plugin's interface (lib/rocklab/rocklab-video.so, package
+/// The video plugin's interface (lib/rocklab/plugins/rocklab-video.so, package
 /// rocklab-video): what the `rocklab` command calls for `video:` and
 /// `v4l2:` inputs, `track` and `camera-calibrate`. No OpenCV here: the
 /// command includes this header and opens the plugin (tools/video_plugin.h)

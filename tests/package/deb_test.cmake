@@ -74,7 +74,7 @@ endfunction()
 require_paths(rocklab "${main_files}" ./usr/bin/rocklab ./usr/share/man/man1/rocklab.1.gz
   ./usr/share/doc/rocklab/copyright ./usr/share/doc/rocklab/changelog.Debian.gz ./usr/share/doc/rocklab/README.md
   ./usr/share/rocklab/rigs/lab_rig.toml ./usr/share/rocklab/lcm_types/block_state_t.lcm
-  ./usr/lib/systemd/system/rocklab-daq.service ./usr/lib/rocklab/rocklab-hdf5.so)
+  ./usr/lib/systemd/system/rocklab-daq.service ./usr/lib/rocklab/plugins/rocklab-hdf5.so)
 require_paths(rocklab-dev "${dev_files}" ./usr/include/rocklab/model/block.h
   ./usr/include/rocklab/block_state_t.hpp ./usr/lib/librocklab_model.a ./usr/lib/librocklab_sweep.a
   ./usr/lib/cmake/rocklab/rocklabConfig.cmake ./usr/share/doc/rocklab-dev/copyright
@@ -114,7 +114,7 @@ foreach(dep libhdf5 libmatio libopenmpi liblcm1 libsundials-cvode gnuplot-nox)
   endif()
 endforeach()
 if(MPI)
-  require_paths(rocklab "${main_files}" ./usr/lib/rocklab/rocklab-mpi.so)
+  require_paths(rocklab "${main_files}" ./usr/lib/rocklab/plugins/rocklab-mpi.so)
 endif()
 if(main_control MATCHES "libopencv" OR main_files MATCHES "rocklab-video")
   message(FATAL_ERROR "deb test: rocklab holds or depends on the video part (rocklab-video's):\n${main_control}")
@@ -124,7 +124,7 @@ if(VIDEO)
   set(video_files "${last_output}")
   run("dpkg-deb -f rocklab-video" dpkg-deb -f ${video_deb} Depends)
   set(video_control "${last_output}")
-  require_paths(rocklab-video "${video_files}" ./usr/lib/rocklab/rocklab-video.so
+  require_paths(rocklab-video "${video_files}" ./usr/lib/rocklab/plugins/rocklab-video.so
     ./usr/share/doc/rocklab-video/copyright)
   if(video_files MATCHES "/usr/bin/|/usr/include/")
     message(FATAL_ERROR "deb test: rocklab-video holds the command or headers")

@@ -97,7 +97,7 @@ TEST(Startup, VersionSaysBuildTypeAndParts) {
 
 #ifdef ROCKLAB_HAVE_VIDEO
 // A rocklab installed without rocklab-video: the binary alone in a bin/
-// folder with no lib/rocklab beside it.
+// folder with no lib/rocklab/plugins beside it.
 TEST(Startup, WithoutTheVideoPluginNamesThePackage) {
   const std::string dir = ScratchDir("no_video");
   std::filesystem::create_directories(dir + "/bin");
@@ -121,7 +121,7 @@ TEST(Startup, WithoutTheVideoPluginNamesThePackage) {
     EXPECT_NE(text.find("package rocklab-video, which is not installed (apt-get install rocklab-video"),
               std::string::npos)
         << c << ": " << text;
-    EXPECT_NE(text.find(dir + "/lib/rocklab/rocklab-video.so"), std::string::npos) << c << ": " << text;
+    EXPECT_NE(text.find(dir + "/lib/rocklab/plugins/rocklab-video.so"), std::string::npos) << c << ": " << text;
   }
   // Everything else runs.
   const int status = std::system(("'" + bin + "' simulate --model housner --alpha 0.235 --p 3.884 --mu 0.937 " +
