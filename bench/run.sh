@@ -3,7 +3,7 @@
 # run (2-core machine: about 10 minutes, most of it the live test at real
 # time and the scipy peer):
 #
-#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,band,simulate,node,reconstruct,replay,live]
+#   bash bench/run.sh [--work DIR] [--repeats N] [--only run,band,simulate,node,reconstruct,replay,live,startup]
 #                     [--run-seconds 600] [--simulate-seconds 20,200] [--live-seconds 20] [--build build]
 #
 # Installs the bench-only dependency python3-scipy (the peer of `simulate`,
@@ -29,4 +29,6 @@ if [ ! -f "$build/build.ninja" ]; then
   exit 2
 fi
 cmake --build "$build" -j "$(nproc)" --target rocklab rocklab_bench_log_read rocklab_bench_node_sample
-exec /usr/bin/python3 "$here/bench/figures.py" "$@"
+/usr/bin/python3 "$here/bench/figures.py" "$@"
+# Start-up and peak RSS of the command and the daemons (--only startup).
+exec /usr/bin/python3 "$here/bench/startup.py" "$@"

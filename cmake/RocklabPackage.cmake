@@ -20,8 +20,6 @@ foreach(folder lcm common lcmtypes model daq compare monitor report pipeline rec
 endforeach()
 
 install(EXPORT rocklabTargets NAMESPACE rocklab:: DESTINATION ${ROCKLAB_INSTALL_CMAKEDIR})
-# What the config file must find again for the static libraries' links.
-set(ROCKLAB_PACKAGE_MPI ${ROCKLAB_MPI})
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/rocklabConfig.cmake.in
   ${PROJECT_BINARY_DIR}/rocklabConfig.cmake
   INSTALL_DESTINATION ${ROCKLAB_INSTALL_CMAKEDIR}
@@ -74,7 +72,11 @@ install(FILES ${PROJECT_SOURCE_DIR}/README.md ${rocklab_guides} DESTINATION ${CM
   COMPONENT runtime)
 # Lintian overrides: what lintian says that does not apply to a package
 # that is not for the Debian archive (packaging/debian/*.lintian-overrides).
-foreach(component_and_package runtime:rocklab dev:rocklab-dev)
+set(rocklab_doc_packages runtime:rocklab dev:rocklab-dev)
+if(ROCKLAB_VIDEO)
+  list(APPEND rocklab_doc_packages video:rocklab-video)
+endif()
+foreach(component_and_package ${rocklab_doc_packages})
   string(REPLACE ":" ";" pair ${component_and_package})
   list(GET pair 0 component)
   list(GET pair 1 package)
@@ -84,11 +86,14 @@ foreach(component_and_package runtime:rocklab dev:rocklab-dev)
     DESTINATION ${CMAKE_INSTALL_DATADIR}/lintian/overrides RENAME ${package} COMPONENT ${component})
 endforeach()
 
-# CPack: `cd build && cpack -G DEB` makes two packages, as Debian splits a
+# CPack: `cd build && cpack -G DEB` makes the packages, as Debian splits a
 # library's: rocklab (the group "main": components runtime and python) with
-# the command, units, data, docs and Python module, and rocklab-dev (the
-# component dev: every install() without a COMPONENT, see CMakeLists.txt)
-# with the static libraries, headers and CMake package. packaging/strip.cmake
+# the command, its MPI plugin, units, data, docs and Python module,
+# rocklab-dev (the component dev: every install() without a COMPONENT, see
+# CMakeLists.txt) with the static libraries, headers and CMake package, and
+# rocklab-video (the component video) with the video plugin
+# lib/rocklab/plugins/rocklab-video.so, OpenCV's part, so that rocklab itself
+# neither needs nor maps OpenCV. packaging/strip.cmake
 # strips what they hold. docs/packaging.md: contents, sizes, lintian.
 set(ROCKLAB_PACKAGE_MAINTAINER "rocklab developers <dev@rocklab.invalid>" CACHE STRING
   "Maintainer of the .deb packages (a real address before the package leaves the lab)")
@@ -106,17 +111,23 @@ set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_PRE_BUILD_SCRIPTS ${PROJECT_SOURCE_DIR}/packaging/strip.cmake)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_COMPONENTS_GROUPING ONE_PER_GROUP)
-set(CPACK_COMPONENTS_ALL runtime python dev)
-if(NOT ROCKLAB_PYTHON)
-  set(CPACK_COMPONENTS_ALL runtime dev)
+set(CPACK_COMPONENTS_ALL runtime dev)
+if(ROCKLAB_PYTHON)
+  list(APPEND CPACK_COMPONENTS_ALL python)
+endif()
+if(ROCKLAB_VIDEO)
+  list(APPEND CPACK_COMPONENTS_ALL video)
 endif()
 set(CPACK_COMPONENT_RUNTIME_GROUP main)
 set(CPACK_COMPONENT_PYTHON_GROUP main)
 set(CPACK_COMPONENT_DEV_GROUP dev)
+set(CPACK_COMPONENT_VIDEO_GROUP video)
 set(CPACK_DEBIAN_MAIN_PACKAGE_NAME rocklab)
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME rocklab-dev)
+set(CPACK_DEBIAN_VIDEO_PACKAGE_NAME rocklab-video)
 set(CPACK_DEBIAN_MAIN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
+set(CPACK_DEBIAN_VIDEO_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_MAIN_DESCRIPTION
  "shake-table rocking-block lab: acquisition, models, reports
 rocklab runs a shake-table laboratory's rocking-block tests: it acquires
@@ -127,15 +138,29 @@ records for overturning spectra and fragility, and writes reports and
 exports (CSV, MAT, HDF5). This package holds the rocklab command, its
 systemd units (installed, not enabled), the LCM types, sample tests and
 the Python module.")
+set(CPACK_DEBIAN_VIDEO_DESCRIPTION
+ "shake-table rocking-block lab: video inputs and LED tracking
+The plugin of the rocklab command that reads a camera's video (OpenCV,
+FFmpeg): the video: and v4l2: inputs of rocklab daq, run and reconstruct,
+and the commands rocklab track and rocklab camera-calibrate. Without it
+rocklab runs everything else and names this package when a video input
+is asked for.")
 set(CPACK_DEBIAN_DEV_DESCRIPTION
  "shake-table rocking-block lab: static libraries and headers
 The static libraries, headers and CMake package of rocklab, for programs
 that use its models, acquisition or sweeps: find_package(rocklab) and
 link rocklab::model, rocklab::daq, rocklab::sweep and the others.")
-# dpkg-shlibdeps finds the shared libraries the binary needs (liblcm,
-# SUNDIALS, spdlog, HDF5, matio, OpenMPI, OpenCV, ...); the rest: gnuplot
-# for figures, the LCM tools and Java for `rocklab spy`.
+# dpkg-shlibdeps finds the shared libraries the binary and the MPI plugin
+# need (liblcm, SUNDIALS, spdlog, HDF5, matio, OpenMPI, ...); the rest:
+# gnuplot for figures, the LCM tools and Java for `rocklab spy`.
+# rocklab-video: OpenCV's libraries (dpkg-shlibdeps on its plugin) and the
+# rocklab of its version, whose command opens it.
 set(CPACK_DEBIAN_MAIN_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_VIDEO_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_VIDEO_PACKAGE_DEPENDS "rocklab (= ${PROJECT_VERSION}-1)")
+if(ROCKLAB_VIDEO)
+  set(CPACK_DEBIAN_MAIN_PACKAGE_SUGGESTS "rocklab-video")
+endif()
 set(CPACK_DEBIAN_MAIN_PACKAGE_DEPENDS "gnuplot-nox, liblcm-bin, liblcm-java, libjchart2d-java, default-jre-headless")
 # The Python module (python/, under /usr/lib/python3/dist-packages): built
 # for this Python minor version, with numpy.
@@ -147,7 +172,4 @@ endif()
 # the data directory of rocklab itself.
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
   "rocklab (= ${PROJECT_VERSION}-1), liblcm-dev, libsundials-dev, libeigen3-dev, libspdlog-dev, libcli11-dev, libtomlplusplus-dev, nlohmann-json3-dev, libmicrohttpd-dev, libhdf5-dev, libmatio-dev, pkg-config")
-if(ROCKLAB_MPI)
-  string(APPEND CPACK_DEBIAN_DEV_PACKAGE_DEPENDS ", libopenmpi-dev")
-endif()
 include(CPack)

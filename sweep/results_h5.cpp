@@ -79,12 +79,6 @@ herr_t CollectName(hid_t, const char* name, const H5L_info_t*, void* names) {
 
 }  // namespace
 
-bool IsHdf5File(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char head[8] = {};
-  return in.read(head, sizeof head) && std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0;
-}
-
 std::vector<ResultRow> ReadResultsH5(const std::string& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions here, not stderr
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);

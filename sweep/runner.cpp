@@ -14,15 +14,9 @@
 #include <thread>
 #include <vector>
 
-#ifdef ROCKLAB_MPI
-// The C interface only: OpenMPI's deprecated C++ bindings do not compile
-// cleanly under -Wextra.
-#define OMPI_SKIP_MPICXX 1
-#define MPICH_SKIP_MPICXX 1
-#include <mpi.h>
-#endif
-
+#include "common/plugin.h"
 #include "pipeline/option_error.h"
+#include "sweep/mpi_plugin.h"
 
 namespace rocklab::sweep {
 namespace {
@@ -41,7 +35,7 @@ bool StartedByMpirun() {
   return false;
 }
 
-[[maybe_unused]] int WorldSizeFromEnvironment() {
+int WorldSizeFromEnvironment() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
     if (const char* v = std::getenv(name)) return std::atoi(v);
   }
@@ -198,12 +192,10 @@ class Workers {
   std::vector<std::thread> threads_;
 };
 
-[[noreturn]] void AbortJob(const std::string& message) {
+[[noreturn]] void AbortJob(const MpiSession& mpi, const std::string& message) {
   std::fprintf(stderr, "rocklab: %s\n", message.c_str());
   std::fflush(stderr);
-#ifdef ROCKLAB_MPI
-  MPI_Abort(MPI_COMM_WORLD, 1);
-#endif
+  if (mpi.calls() != nullptr) mpi.calls()->abort();
   std::exit(1);
 }
 
@@ -211,26 +203,24 @@ class Workers {
 
 MpiSession::MpiSession() {
   if (!StartedByMpirun()) return;
-#ifdef ROCKLAB_MPI
-  int provided = 0;
-  // Only the calling (writer) thread makes MPI calls.
-  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-  initialised_ = true;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
-#else
-  if (WorldSizeFromEnvironment() > 1) {
-    throw OptionError("started by mpirun with " + std::to_string(WorldSizeFromEnvironment()) +
-                      " ranks, but this rocklab was built without MPI (configure with -DROCKLAB_MPI=ON "
-                      "and libopenmpi-dev installed); every rank would write the same file");
+  const int world = WorldSizeFromEnvironment();
+  std::string why = "this rocklab was built without MPI (configure with -DROCKLAB_MPI=ON and libopenmpi-dev "
+                    "installed)";
+  const MpiCalls* calls =
+      Built() ? common::OpenPlugin<MpiCalls>(kMpiPluginFile, kMpiPluginEntry, kMpiPluginVersion, why, /*global=*/true)
+              : nullptr;
+  if (calls == nullptr) {
+    if (world <= 1) return;  // one rank: the threaded run, no MPI needed
+    if (Built()) why = "its MPI plugin does not load: " + why + " (apt-get install --reinstall rocklab)";
+    throw OptionError("started by mpirun with " + std::to_string(world) + " ranks, but " + why +
+                      "; every rank would write the same file");
   }
-#endif
+  calls->init(&rank_, &size_);  // only the calling (writer) thread makes MPI calls
+  calls_ = calls;
 }
 
 MpiSession::~MpiSession() {
-#ifdef ROCKLAB_MPI
-  if (initialised_) MPI_Finalize();
-#endif
+  if (calls_ != nullptr) calls_->finalize();
 }
 
 bool MpiSession::Built() {
@@ -261,10 +251,9 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
       open_error = e.what();
     }
   }
-#ifdef ROCKLAB_MPI
   if (size > 1) {
     unsigned long long shared[2] = {report.resumed, open_error.empty() ? 0ull : 1ull};
-    MPI_Bcast(shared, 2, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    mpi.calls()->broadcast(shared, 2);
     report.resumed = static_cast<std::size_t>(shared[0]);
     if (shared[1] != 0) {
       if (rank == 0) throw OptionError(open_error);
@@ -272,7 +261,6 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
       return report;
     }
   }
-#endif
 
   // Places in the slice this process runs: resumed, resumed + 1, ... dealt round-robin.
   std::vector<std::size_t> places;
@@ -287,15 +275,13 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
   Workers workers(plan, options.slice, places, threads);
 
   if (rank != 0) {
-#ifdef ROCKLAB_MPI
     double wire[kWireDoubles];
     for (std::size_t position = 0; position < places.size(); ++position) {
       Outcome o;
-      if (!workers.Take(position, o)) AbortJob(workers.error());
+      if (!workers.Take(position, o)) AbortJob(mpi, workers.error());
       Pack(places[position], o, wire);
-      MPI_Send(wire, kWireDoubles, MPI_DOUBLE, 0, 0, MPI_COMM_WORLD);
+      mpi.calls()->send_to_root(wire, kWireDoubles);
     }
-#endif
     workers.Stop();
     report.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
     return report;
@@ -311,11 +297,10 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
       if (!workers.Take(own, o)) throw std::runtime_error(workers.error());
       ++own;
     } else {
-#ifdef ROCKLAB_MPI
       for (;;) {
         if (own < places.size() && places[own] == k) {
           const Workers::Poll poll = workers.TryTake(own, o);
-          if (poll == Workers::Poll::kFailed) AbortJob(workers.error());
+          if (poll == Workers::Poll::kFailed) AbortJob(mpi, workers.error());
           if (poll == Workers::Poll::kReady) {
             ++own;
             break;
@@ -325,12 +310,8 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
           received.erase(it);
           break;
         }
-        int flag = 0;
-        MPI_Status status;
-        MPI_Iprobe(MPI_ANY_SOURCE, 0, MPI_COMM_WORLD, &flag, &status);
-        if (flag) {
-          double wire[kWireDoubles];
-          MPI_Recv(wire, kWireDoubles, MPI_DOUBLE, status.MPI_SOURCE, 0, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        double wire[kWireDoubles];
+        if (mpi.calls()->try_receive(wire, kWireDoubles) != 0) {
           Outcome r;
           const std::size_t place = Unpack(wire, r);
           received[place] = r;
@@ -338,12 +319,11 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
           std::this_thread::sleep_for(std::chrono::microseconds(500));
         }
       }
-#endif
     }
     try {
       writer->Write(options.slice.index(k), o);
     } catch (const std::exception& e) {
-      if (size > 1) AbortJob(e.what());
+      if (size > 1) AbortJob(mpi, e.what());
       throw;
     }
     ++report.run;

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// Runs a sweep's cases on all cores (threads) and, when rocklab is built
-/// with ROCKLAB_MPI and started by mpirun, over MPI ranks, writing the rows
+/// with ROCKLAB_MPI (the MPI plugin) and started by mpirun, over MPI ranks,
+/// writing the rows
 /// in case order.
 ///
 /// Threading model: worker threads take the next case of this process from
@@ -29,25 +30,32 @@ namespace rocklab::sweep {
 
 /// MPI for the life of a command: initialised when the process was started
 /// by mpirun (OpenMPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_RANK, in
-/// the environment), finalised by the destructor. Without ROCKLAB_MPI a
+/// the environment), finalised by the destructor. The MPI calls are in the
+/// plugin lib/rocklab/plugins/rocklab-mpi.so (mpi_plugin.h), opened only then.
+/// Without the plugin (a build without ROCKLAB_MPI, or the file missing) a
 /// process started by mpirun with more than one rank throws, so ranks never
 /// write one file side by side.
+struct MpiCalls;
 class MpiSession {
  public:
-  /// @throws pipeline::OptionError when started by mpirun in a build without MPI.
+  /// @throws pipeline::OptionError when started by mpirun with more than one
+  ///   rank and the MPI plugin is missing or does not load (naming the file
+  ///   and why).
   MpiSession();
   ~MpiSession();
   MpiSession(const MpiSession&) = delete;
   MpiSession& operator=(const MpiSession&) = delete;
   int rank() const { return rank_; }
   int size() const { return size_; }
-  /// Whether this build has MPI (ROCKLAB_MPI).
+  /// Whether this build has MPI (ROCKLAB_MPI): the plugin was built.
   static bool Built();
+  /// MPI's calls while initialised; nullptr for a single process.
+  const MpiCalls* calls() const { return calls_; }
 
  private:
   int rank_{0};
   int size_{1};
-  bool initialised_{false};
+  const MpiCalls* calls_{nullptr};
 };
 
 struct RunOptions {

@@ -4,9 +4,12 @@
 # the bundled figure-7 test of block 1, printing the comparison summary.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=${ROCKLAB_BUILD_DIR:-$here/build}
+# A user's build: Release, without the tests, in its own folder
+# (tools/test.sh's build/ stays RelWithDebInfo; docs/layout.md).
+build=${ROCKLAB_BUILD_DIR:-$here/build-release}
 out=${ROCKLAB_DEMO_DIR:-$build/demo}
-bash "$here/tools/setup.sh" >/dev/null
+ROCKLAB_BUILD_DIR="$build" ROCKLAB_BUILD_TYPE=${ROCKLAB_BUILD_TYPE:-Release} \
+  ROCKLAB_CMAKE_ARGS="-DROCKLAB_BUILD_TESTS=OFF ${ROCKLAB_CMAKE_ARGS:-}" bash "$here/tools/setup.sh" >/dev/null
 mkdir -p "$out"
 # Table 2's fitted parameters of block 1 with both models, and Table 1's
 # theoretical ones (from the rig's 0.247 x 1.0 m block).

@@ -7,8 +7,9 @@
 #include <spdlog/cfg/env.h>
 
 #include "tools/cli.h"
+#include "tools/version.h"
 #ifdef ROCKLAB_HAVE_VIDEO
-#include "video/video_source.h"
+#include "tools/video_plugin.h"
 #endif
 
 namespace rocklab::tools {
@@ -39,10 +40,18 @@ void RegisterCameraCalibrate(CLI::App& app, CommandRun& run);
 int main(int argc, char** argv) {
   using namespace rocklab::tools;
   spdlog::cfg::load_env_levels();  // SPDLOG_LEVEL=debug etc.
+  // `rocklab --version [--load]`: the version, build type and optional
+  // parts, before any command is registered (tools/version.h).
+  if (argc >= 2 && std::string(argv[1]) == "--version" &&
+      (argc == 2 || (argc == 3 && std::string(argv[2]) == "--load"))) {
+    std::fputs(VersionText(argc == 3).c_str(), stdout);
+    return 0;
+  }
 
   CLI::App app{"rocklab: shake-table rocking-block laboratory"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "rocklab 0.1.0");
+  app.set_version_flag("--version", [] { return VersionText(false, /*final_newline=*/false); },
+                       "the version, build type and optional parts; --version --load also opens the plugins");
   CommandRun run;
   const CommandRegistrar commands[] = {
       &RegisterParams,
@@ -68,7 +77,7 @@ int main(int argc, char** argv) {
 #ifdef ROCKLAB_HAVE_VIDEO
   RegisterTrack(app, run);
   RegisterCameraCalibrate(app, run);
-  rocklab::video::RegisterSources();  // --input video:FILE, v4l2:/dev/videoN
+  RegisterVideoSources();  // --input video:FILE, v4l2:/dev/videoN: the plugin, opened then
 #endif
 
   // Before CLI11 parses: bare `rocklab` and `rocklab help [COMMAND]`, an

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what rocklab needs from Debian's packages (only what is missing),
-# then configures and builds into build/. Used by tools/demo.sh and
+# then configures and builds into build/ (ROCKLAB_BUILD_DIR), RelWithDebInfo
+# (ROCKLAB_BUILD_TYPE). Used by tools/demo.sh (Release, build-release/) and
 # tools/test.sh; safe to run again.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -46,6 +47,6 @@ fi
 
 werror=OFF
 [ "${CI:-}" = "true" ] && werror=ON
-cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE="${ROCKLAB_BUILD_TYPE:-RelWithDebInfo}" \
   -DROCKLAB_WERROR=$werror ${ROCKLAB_CMAKE_ARGS:-}
 cmake --build "$build" -j "$(nproc)"

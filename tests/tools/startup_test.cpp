@@ -1,0 +1,139 @@
+// The command's start-up (issue 33, docs/performance.md "Start-up"): what
+// `rocklab --version` and `rocklab simulate --help` load, counted (a
+// number, not a time), and the plugins: video and MPI are not loaded by
+// them, `--version` says which parts are there, and a rocklab without its
+// video plugin names the package to install.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <regex>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tests/scratch.h"
+#include "tests/tools/run_cli.h"
+
+namespace rocklab::test {
+namespace {
+
+// The shared objects the dynamic linker loaded while `binary args` ran
+// (LD_DEBUG=files: one "file=NAME [0];  generating link map" per object,
+// also for dlopen()), by name.
+std::set<std::string> LoadedObjects(const std::string& binary, const std::string& args) {
+  const std::string dir = ScratchDir("startup");
+  const std::string log = dir + "/ld_debug";
+  const std::string command = "LD_DEBUG=files LD_DEBUG_OUTPUT='" + log + "' '" + binary + "' " + args +
+                              " > /dev/null 2>&1";
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
+  std::set<std::string> names;
+  // LD_DEBUG_OUTPUT appends the process id to the file name.
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.path().filename().string().rfind("ld_debug", 0) != 0) continue;
+    const std::regex loaded(R"(file=(\S+) \[\d+\];\s+generating link map)");
+    std::smatch m;
+    const std::string text = Slurp(e.path().string());
+    for (auto it = text.cbegin(); std::regex_search(it, text.cend(), m, loaded); it = m.suffix().first) {
+      names.insert(m[1].str());
+    }
+    std::filesystem::remove(e.path());
+  }
+  return names;
+}
+
+std::string Join(const std::set<std::string>& names) {
+  std::string s;
+  for (const std::string& n : names) s += n + "\n";
+  return s;
+}
+
+// The bound: the shared objects `rocklab --version` and `rocklab simulate
+// --help` load as measured at this commit on Debian bookworm, 22 (the
+// command's 11 DT_NEEDED, and libmicrohttpd's gnutls with its 8, glib and
+// pcre2 for liblcm; docs/performance.md, Start-up), with room for two that
+// a Debian update may add to a dependency's closure. Before the plugins it
+// was 259 (OpenCV's videoio 242 of them, HDF5 and matio 25, OpenMPI 6).
+constexpr std::size_t kMaxCoreObjects = 24;
+// Names that only the plugins may bring: OpenCV and what its videoio
+// needs (FFmpeg, GStreamer, GDAL, poppler), OpenMPI, HDF5 and matio (and
+// libcurl, which Debian's HDF5 brings).
+const std::regex kPluginOnly(R"(opencv|avcodec|avformat|gst|gdal|poppler|libmpi|open-pal|open-rte|hdf5|matio|curl)");
+
+TEST(Startup, VersionMapsTheCoreLibrariesOnly) {
+  for (const std::string args : {"--version", "simulate --help"}) {
+    const std::set<std::string> names = LoadedObjects(ROCKLAB_BINARY, args);
+    ASSERT_FALSE(names.empty()) << "LD_DEBUG=files printed nothing for rocklab " << args;
+    EXPECT_LE(names.size(), kMaxCoreObjects) << "rocklab " << args << " loads:\n" << Join(names);
+    for (const std::string& n : names) {
+      EXPECT_FALSE(std::regex_search(n, kPluginOnly)) << "rocklab " << args << " loads " << n;
+      EXPECT_EQ(n.find("rocklab-"), std::string::npos) << "rocklab " << args << " opens the plugin " << n;
+    }
+  }
+}
+
+TEST(Startup, VersionSaysBuildTypeAndParts) {
+  const CliResult r = RunCli({"--version"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("rocklab 0.1.0\n", 0), 0u) << r.out;  // the first line as before
+  EXPECT_NE(r.out.find("\nbuild: "), std::string::npos) << r.out;
+  for (const char* part : {"\nvideo ", "\nMPI ", "\nHDF5 ", "\nMATLAB ", "\nPython "}) {
+    EXPECT_NE(r.out.find(part), std::string::npos) << part << " missing from\n" << r.out;
+  }
+#ifdef ROCKLAB_HAVE_VIDEO
+  EXPECT_NE(r.out.find("camera-calibrate): installed ("), std::string::npos) << r.out;
+  const CliResult load = RunCli({"--version", "--load"});
+  ASSERT_EQ(load.exit_code, 0) << load.err;
+  EXPECT_NE(load.out.find("camera-calibrate): loads ("), std::string::npos) << load.out;
+#endif
+#ifdef ROCKLAB_HAVE_MPI
+  EXPECT_NE(r.out.find("sweep): installed ("), std::string::npos) << r.out;
+  const CliResult mpi = RunCli({"--version", "--load"});
+  EXPECT_NE(mpi.out.find("sweep): loads ("), std::string::npos) << mpi.out;
+#endif
+}
+
+#ifdef ROCKLAB_HAVE_VIDEO
+// A rocklab installed without rocklab-video: the binary alone in a bin/
+// folder with no lib/rocklab/plugins beside it.
+TEST(Startup, WithoutTheVideoPluginNamesThePackage) {
+  const std::string dir = ScratchDir("no_video");
+  std::filesystem::create_directories(dir + "/bin");
+  const std::string bin = dir + "/bin/rocklab";
+  std::filesystem::copy_file(ROCKLAB_BINARY, bin, std::filesystem::copy_options::overwrite_existing);
+  const std::string rig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
+  // The two video commands fail as a command that cannot run (1); an
+  // input that cannot be opened is reconstruct's usage error (2), as a
+  // missing file is.
+  const std::vector<std::pair<std::string, int>> commands = {
+      {"'" + bin + "' track video.mp4 --rig '" + rig + "' --out '" + dir + "/t.csv'", 1},
+      {"'" + bin + "' camera-calibrate board.mp4 --out '" + dir + "/cam.toml'", 1},
+      {"'" + bin + "' reconstruct --rig '" + rig + "' --input video:video.mp4 --out '" + dir + "/r.csv'", 2},
+  };
+  for (const auto& [c, code] : commands) {
+    const std::string err = dir + "/err";
+    const int status = std::system((c + " > /dev/null 2> '" + err + "'").c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << c;
+    EXPECT_EQ(WEXITSTATUS(status), code) << c;
+    const std::string text = Slurp(err);
+    EXPECT_NE(text.find("package rocklab-video, which is not installed (apt-get install rocklab-video"),
+              std::string::npos)
+        << c << ": " << text;
+    EXPECT_NE(text.find(dir + "/lib/rocklab/plugins/rocklab-video.so"), std::string::npos) << c << ": " << text;
+  }
+  // Everything else runs.
+  const int status = std::system(("'" + bin + "' simulate --model housner --alpha 0.235 --p 3.884 --mu 0.937 " +
+                                  "--theta0 0.1175 --duration 1 --rate 100 --out '" + dir + "/theta.csv' > /dev/null 2> '" +
+                                  dir + "/sim.err'")
+                                     .c_str());
+  EXPECT_EQ(status, 0) << Slurp(dir + "/sim.err");
+  EXPECT_EQ(std::system(("'" + bin + "' --version > '" + dir + "/v.out'").c_str()), 0);
+  const std::string version = Slurp(dir + "/v.out");
+  EXPECT_NE(version.find("not installed (apt-get install rocklab-video)"), std::string::npos) << version;
+}
+#endif
+
+}  // namespace
+}  // namespace rocklab::test

@@ -1,0 +1,57 @@
+#pragma once
+/// @file
+/// The video plugin's interface (lib/rocklab/plugins/rocklab-video.so, package
+/// rocklab-video): what the `rocklab` command calls for `video:` and
+/// `v4l2:` inputs, `track` and `camera-calibrate`. No OpenCV here: the
+/// command includes this header and opens the plugin (tools/video_plugin.h)
+/// only when one of those is asked for; the plugin
+/// (tools/video_plugin_main.cpp) holds video/ and OpenCV.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "daq/source.h"
+#include "video/camera_calibration.h"  // ChessboardOptions; no OpenCV
+
+namespace rocklab::video {
+
+/// The plugin's entry: `extern "C" const PluginCalls* rocklab_video_plugin()`.
+inline constexpr const char* kPluginEntry = "rocklab_video_plugin";
+inline constexpr const char* kPluginFile = "rocklab-video.so";
+/// The Debian package that installs it (cmake/RocklabPackage.cmake).
+inline constexpr const char* kPluginPackage = "rocklab-video";
+/// PluginCalls::version of this build; a plugin with another is refused.
+inline constexpr int kPluginVersion = 1;
+
+/// `rocklab track`'s options (tools/cmd_track.cpp).
+struct TrackRequest {
+  std::string video;     ///< file, image pattern, v4l2:/dev/videoN; a leading video: accepted
+  std::string rig_path;
+  std::string out_csv;
+  std::int64_t max_frames{0};  ///< 0: all
+  const std::atomic<bool>* stop{};  ///< Ctrl-C (tools::InstallStopSignals)
+};
+
+/// `rocklab camera-calibrate`'s options (tools/cmd_camera_calibrate.cpp).
+struct CalibrateRequest {
+  std::string video;
+  std::string board{"9x6"};  ///< inner corners COLSxROWS
+  std::string out;
+  ChessboardOptions chessboard;  ///< cols and rows from `board` by the plugin
+};
+
+/// The plugin's functions. Errors are exceptions, as the commands' own:
+/// pipeline::OptionError for bad options or input (exit 2), others (exit 1).
+struct PluginCalls {
+  int version;
+  /// video_source.h's OpenVideoSource.
+  std::unique_ptr<daq::Source> (*open_source)(const std::string& spec, bool device,
+                                              const daq::SourceOptions& options);
+  /// The commands' runs; the exit code.
+  int (*track)(const TrackRequest& request);
+  int (*camera_calibrate)(const CalibrateRequest& request);
+};
+
+}  // namespace rocklab::video
