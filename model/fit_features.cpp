@@ -140,6 +140,7 @@ struct Peak {
   double value_rad{};
   double stderr_rad{};  // from the noise, rad
   bool fitted{};        // false: too few samples or a wild fit, the sample maximum
+  bool too_few{};       // fewer than 9 samples in the middle half of the interval
 };
 
 // Peak of s * theta on [t_a, t_b]: a quartic least-squares fit over the
@@ -158,7 +159,7 @@ Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double no
   const auto [lo, hi] = Range(r.time_s, centre - half, centre + half);
   double sample_max = -std::numeric_limits<double>::infinity();
   for (std::size_t k = lo; k < hi; ++k) sample_max = std::max(sample_max, s * r.theta[k]);
-  if (hi - lo < 9) return {sample_max, noise, false};
+  if (hi - lo < 9) return {sample_max, noise, false, true};
   const Eigen::VectorXd c = PolyFit(r, lo, hi, centre, half, s, 4);
   double u = 0.0;
   for (int it = 0; it < 30; ++it) {
@@ -172,7 +173,7 @@ Peak FitPeak(const RockingRecord& r, double t_a, double t_b, double s, double no
   const double v = PolyValue(c, u);
   // A fit that disagrees wildly with the samples (too few, outliers) is
   // not trusted.
-  if (!(std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max))) return {sample_max, noise, false};
+  if (!(std::isfinite(v) && std::abs(v - sample_max) < 0.2 * std::abs(sample_max))) return {sample_max, noise, false, false};
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(5, 5);
   for (std::size_t k = lo; k < hi; ++k) {
     const double uk = (r.time_s[k] - centre) / half;
@@ -325,15 +326,17 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
 
   // Peaks between consecutive crossings; the usable decay ends at the first
   // peak below min_peak (the block settling, where timing is lost in noise)
-  // or the first the quartic cannot be fitted to (fewer than 9 samples in
-  // the middle half of its interval: on a noise-free record, where min_peak
-  // is no limit, the last impacts come a few samples apart).
+  // or the first interval too short for the quartic (fewer than 9 samples
+  // in its middle half: on a noise-free record, where min_peak is no limit,
+  // the last impacts come a few samples apart). A peak whose shape the
+  // quartic does not follow (a forced record's) keeps its sample maximum,
+  // so the half intervals can still say the record is not free rocking.
   f.impact_time_s.push_back(crossings[0]);
   f.impact_time_stderr_s.push_back(crossing_se[0]);
   int sign = -f.first_sign;  // side after the first impact
   for (std::size_t c = 0; c + 1 < crossings.size(); ++c) {
     const Peak peak = FitPeak(r, crossings[c], crossings[c + 1], sign, f.noise_rad);
-    if (!(peak.value_rad >= f.min_peak_rad) || !peak.fitted) break;
+    if (!(peak.value_rad >= f.min_peak_rad) || peak.too_few) break;
     f.peak_rad.push_back(peak.value_rad);
     f.peak_stderr_rad.push_back(peak.stderr_rad);
     f.impact_time_s.push_back(crossings[c + 1]);
