@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include "common/units.h"
 
 namespace rocklab::compare {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 // Samples with member impacts kept (a ring): 8192 is ~250 measured
 // crossings' worth of 32 members each.
 constexpr std::size_t kImpactRing = 8192;

@@ -7,10 +7,11 @@
 #include <stdexcept>
 
 #include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 }  // namespace
 
 Rigid2d FitRigid2d(const double* model, const double* world, int n) {

@@ -6,10 +6,11 @@
 #include <stdexcept>
 
 #include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 }  // namespace
 
 SimulatorNoise SimulatorNoise::Scaled(double factor) const {

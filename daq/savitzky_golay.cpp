@@ -4,11 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 
 // In index order, as the estimate was always summed (same digits).
 double Dot(const double* w, const double* y, int n) {

@@ -21,6 +21,7 @@
 #include "daq/line_input.h"
 #include "daq/source.h"
 #include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace text_detail {
@@ -30,7 +31,7 @@ using common::Quote;
 using common::Split;
 using common::Trim;
 
-inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 // A line longer than this is skipped (a row) or refused (a header): a
 // corrupt file with no line ends must not take the memory of the host.
 inline constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;

@@ -38,7 +38,7 @@ void Rate(ChannelInfo& c, std::int64_t decoded) {
 
 using common::Format;
 
-nlohmann::json Number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+nlohmann::json JsonNumber(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
 
 }  // namespace
 
@@ -286,8 +286,8 @@ nlohmann::json ToJson(const LogInfo& info) {
   j["file_bytes"] = info.file_bytes;
   j["events"] = info.events;
   j["duration"] = info.duration;
-  j["first_time"] = info.has_time ? Number(info.first_time) : nlohmann::json(nullptr);
-  j["last_time"] = info.has_time ? Number(info.last_time) : nlohmann::json(nullptr);
+  j["first_time"] = info.has_time ? JsonNumber(info.first_time) : nlohmann::json(nullptr);
+  j["last_time"] = info.has_time ? JsonNumber(info.last_time) : nlohmann::json(nullptr);
   j["log_duration"] = info.log_duration;
   j["damaged_regions"] = info.damaged_regions;
   j["damaged_bytes"] = info.damaged_bytes;
@@ -296,13 +296,13 @@ nlohmann::json ToJson(const LogInfo& info) {
     nlohmann::json rig;
     rig["rig"] = info.rig;
     rig["calibration"] = info.calibration;
-    rig["sample_rate_hz"] = Number(info.config_rate_hz);
+    rig["sample_rate_hz"] = JsonNumber(info.config_rate_hz);
     rig["channels"] = info.config_channels;
     rig["units"] = info.config_units;
     rig["sensors"] = info.config_sensors;
-    rig["alpha"] = Number(info.alpha);
-    rig["p"] = Number(info.p);
-    rig["mu"] = Number(info.mu);
+    rig["alpha"] = JsonNumber(info.alpha);
+    rig["p"] = JsonNumber(info.p);
+    rig["mu"] = JsonNumber(info.mu);
     rig["messages"] = info.config_messages;
     rig["changes"] = info.config_changes;
     j["config"] = rig;
@@ -317,9 +317,9 @@ nlohmann::json ToJson(const LogInfo& info) {
     o["fingerprint"] = Format("0x%016" PRIx64, static_cast<std::uint64_t>(c.fingerprint));
     o["count"] = c.count;
     o["bytes"] = c.bytes;
-    o["first_time"] = c.has_time ? Number(c.first_time) : nlohmann::json(nullptr);
-    o["last_time"] = c.has_time ? Number(c.last_time) : nlohmann::json(nullptr);
-    o["rate_hz"] = Number(c.rate_hz);
+    o["first_time"] = c.has_time ? JsonNumber(c.first_time) : nlohmann::json(nullptr);
+    o["last_time"] = c.has_time ? JsonNumber(c.last_time) : nlohmann::json(nullptr);
+    o["rate_hz"] = JsonNumber(c.rate_hz);
     o["seq_gaps"] = c.has_seq ? nlohmann::json(c.seq_gaps) : nlohmann::json(nullptr);
     o["seq_missing"] = c.has_seq ? nlohmann::json(c.seq_missing) : nlohmann::json(nullptr);
     o["seq_back"] = c.has_seq ? nlohmann::json(c.seq_back) : nlohmann::json(nullptr);
@@ -345,11 +345,11 @@ nlohmann::json ToJson(const RawInfo& info) {
   j["comments"] = info.comments;
   j["warnings"] = info.warnings;
   j["segments"] = info.segments;
-  j["rate_hz"] = Number(info.rate_hz);
-  j["measured_rate_hz"] = Number(info.measured_rate_hz);
-  j["first_time"] = info.has_time ? Number(info.first_time) : nlohmann::json(nullptr);
-  j["last_time"] = info.has_time ? Number(info.last_time) : nlohmann::json(nullptr);
-  j["duration"] = Number(info.span);
+  j["rate_hz"] = JsonNumber(info.rate_hz);
+  j["measured_rate_hz"] = JsonNumber(info.measured_rate_hz);
+  j["first_time"] = info.has_time ? JsonNumber(info.first_time) : nlohmann::json(nullptr);
+  j["last_time"] = info.has_time ? JsonNumber(info.last_time) : nlohmann::json(nullptr);
+  j["duration"] = JsonNumber(info.span);
   j["seq_gaps"] = info.seq_gaps;
   j["seq_missing"] = info.seq_missing;
   j["read_error"] = info.read_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(info.read_error);

@@ -9,11 +9,12 @@
 #include <string_view>
 
 #include "common/text.h"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 
 std::string Where(const std::string& path, int line) { return path + ":" + std::to_string(line); }
 

@@ -8,11 +8,12 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 constexpr double kTwoPi = 6.283185307179586476925286766559;
 
 std::uint64_t SplitMix64(std::uint64_t& x) {

@@ -28,7 +28,7 @@
 namespace rocklab::model::fit_detail {
 
 using detail::kPi;
-inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 
 // --- numerics (fit_numerics.cpp) ---------------------------------------------
 

@@ -16,20 +16,15 @@
 #include <nlohmann/json.hpp>
 
 #include "model/excitation.h"
+#include "model/fit_impl.h"
 #include "model/free_rocking.h"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string Num(double v, int digits = 4) {
-  std::ostringstream o;
-  o.precision(digits);
-  o << v;
-  return o.str();
-}
+using common::kNaN;
 
 // The record's table acceleration, delayed by `offset_s` against theta:
 // u_g''(t - offset).
@@ -110,17 +105,17 @@ double MaxAbs(const std::vector<double>& v) {
 
 void PosteriorPriors::Validate() const {
   auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
-  if (!(alpha_band_m > 0.0)) bad("posterior.alpha_band_m must be > 0 m, got " + Num(alpha_band_m));
-  if (!(p_range > 0.0 && p_range < 1.0)) bad("posterior.p_range must be in (0, 1), got " + Num(p_range));
+  if (!(alpha_band_m > 0.0)) bad("posterior.alpha_band_m must be > 0 m, got " + fit_detail::Num(alpha_band_m, 4));
+  if (!(p_range > 0.0 && p_range < 1.0)) bad("posterior.p_range must be in (0, 1), got " + fit_detail::Num(p_range, 4));
   if (!(mu_min >= 0.0 && mu_min < mu_max && mu_max <= 1.0)) {
-    bad("posterior.mu_min and mu_max must satisfy 0 <= mu_min < mu_max <= 1, got " + Num(mu_min) + " and " +
-        Num(mu_max));
+    bad("posterior.mu_min and mu_max must satisfy 0 <= mu_min < mu_max <= 1, got " + fit_detail::Num(mu_min, 4) + " and " +
+        fit_detail::Num(mu_max, 4));
   }
   if (!(log10_l_min < log10_l_max && log10_l_min >= -20.0 && log10_l_max <= -2.0)) {
-    bad("posterior.log10_l_min and log10_l_max must satisfy -20 <= min < max <= -2, got " + Num(log10_l_min) +
-        " and " + Num(log10_l_max));
+    bad("posterior.log10_l_min and log10_l_max must satisfy -20 <= min < max <= -2, got " + fit_detail::Num(log10_l_min, 4) +
+        " and " + fit_detail::Num(log10_l_max, 4));
   }
-  if (!(t_offset_s > 0.0 && t_offset_s <= 1.0)) bad("posterior.t_offset_s must be in (0, 1] s, got " + Num(t_offset_s));
+  if (!(t_offset_s > 0.0 && t_offset_s <= 1.0)) bad("posterior.t_offset_s must be in (0, 1] s, got " + fit_detail::Num(t_offset_s, 4));
 }
 
 void PosteriorOptions::Validate() const {
@@ -130,7 +125,7 @@ void PosteriorOptions::Validate() const {
     throw std::invalid_argument("the posterior needs the block geometry (--rig or --width/--height): its priors "
                                 "come from it");
   }
-  if (!(rtol > 0.0 && rtol < 1e-3)) throw std::invalid_argument("posterior rtol must be in (0, 1e-3), got " + Num(rtol));
+  if (!(rtol > 0.0 && rtol < 1e-3)) throw std::invalid_argument("posterior rtol must be in (0, 1e-3), got " + fit_detail::Num(rtol, 4));
   if (start_scan < 0) throw std::invalid_argument("start scan must be >= 0 points, got " + std::to_string(start_scan));
   if (output_stride < 1 || output_stride > 1000) {
     throw std::invalid_argument("output stride must be in [1, 1000] samples, got " + std::to_string(output_stride));
@@ -338,12 +333,12 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   s.complex = options.method == FitMethod::kTrajectory && options.model == ModelKind::kComplex;
 
   if (s.f.max_abs_theta >= s.band.hi) {
-    throw FitError(record.source + ": the block overturns (|theta| reaches " + Num(s.f.max_abs_theta) +
-                   " rad, beyond the admissible alpha " + Num(s.band.hi) + " rad): there is no rocking to sample");
+    throw FitError(record.source + ": the block overturns (|theta| reaches " + fit_detail::Num(s.f.max_abs_theta, 4) +
+                   " rad, beyond the admissible alpha " + fit_detail::Num(s.band.hi, 4) + " rad): there is no rocking to sample");
   }
   if (s.f.impact_time_s.empty() || s.f.max_abs_theta < s.f.min_peak_rad) {
-    throw FitError(record.source + ": the block never rocks (max |theta| " + Num(s.f.max_abs_theta, 3) +
-                   " rad, estimated noise " + Num(s.noise, 3) + " rad)");
+    throw FitError(record.source + ": the block never rocks (max |theta| " + fit_detail::Num(s.f.max_abs_theta, 3) +
+                   " rad, estimated noise " + fit_detail::Num(s.noise, 3) + " rad)");
   }
   // The point fit gives the walkers their start; when it fails (a minimum
   // outside the band, no convergence) they start at the geometry.
@@ -365,7 +360,7 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   if (options.method == FitMethod::kImpacts) {
     if (s.forced) {
       throw FitError(record.source + ": not free rocking (table acceleration up to " +
-                     Num(MaxAbs(record.table_accel_mps2), 3) + " m/s^2): use the trajectory method");
+                     fit_detail::Num(MaxAbs(record.table_accel_mps2), 3) + " m/s^2): use the trajectory method");
     }
     const std::size_t usable = s.f.impact_time_s.size() - (s.f.r0_rad ? 0 : 1);
     if (s.f.impact_time_s.empty() || static_cast<int>(usable) < options.fit.min_impacts || s.f.peak_rad.empty()) {
@@ -494,8 +489,8 @@ PosteriorResult SamplePosterior(const PosteriorProblem& problem, const Posterior
   const Eigen::VectorXd x0 = problem.Start();
   const Eigen::VectorXd scale = problem.StartScale();
   if (!std::isfinite(problem.LogPosterior(x0))) {
-    throw FitError("the posterior is zero at the start point (alpha " + Num(x0(0)) + ", p " + Num(x0(1)) + ", mu " +
-                   Num(x0(2)) + "): the model cannot follow the record inside the priors");
+    throw FitError("the posterior is zero at the start point (alpha " + fit_detail::Num(x0(0), 4) + ", p " + fit_detail::Num(x0(1), 4) + ", mu " +
+                   fit_detail::Num(x0(2), 4) + "): the model cannot follow the record inside the priors");
   }
   Eigen::MatrixXd start(w, dim);
   for (int k = 0; k < w; ++k) {

@@ -17,13 +17,14 @@
 
 #include "monitor/live_state.h"
 #include "rocklab/table_state_t.hpp"
+#include "common/units.h"
 
 namespace rocklab::report {
 namespace {
 
 using nlohmann::json;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 constexpr std::size_t kMaxEvents = 20000;  // events and flag intervals listed, each (newest kept)
 constexpr double kReadMargin_s = 5.0;       // read past the window's end, s (see ReadRecordLog)
 

@@ -24,6 +24,8 @@ using pipeline::Require;
 
 inline constexpr int kUsageExit = 2;    ///< bad option, value or input file
 inline constexpr int kFailureExit = 1;  ///< the command ran and failed
+/// Input problems printed one by one before the rest are only counted.
+inline constexpr int kShownProblems = 20;
 
 /// What a subcommand runs once its options are parsed; returns the exit code.
 using CommandRun = std::function<int()>;

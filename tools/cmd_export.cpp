@@ -26,9 +26,6 @@ struct ExportCliOptions {
   bool raw{false};  // the default; named so that a script can say it
 };
 
-// Problems printed one per line up to this many, then only counted.
-constexpr int kShownProblems = 20;
-
 int RunExport(ExportCliOptions& o) {
   try {
     o.options.Validate();

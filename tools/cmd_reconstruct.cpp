@@ -25,9 +25,6 @@ struct ReconstructOptions {
   std::string out_csv;
 };
 
-// Problems printed one per line up to this many, then only counted.
-constexpr int kShownProblems = 20;
-
 // Rows are formatted into a buffer written in blocks: the same text as
 // printf's %.9f / %.12g / %d, without the format parsing and the stdio
 // locking per field that were half of reconstruct's time. The numbers come

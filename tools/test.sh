@@ -7,7 +7,7 @@
 # UndefinedBehaviorSanitizer (cmake/RocklabTargets.cmake: which checks) and
 # libFuzzer's instrumentation; the whole suite once more, any sanitizer
 # report failing its test; then every fuzz target of tests/fuzz for
-# ROCKLAB_FUZZ_SECONDS (default 20) s on its corpus. A crash fails the run
+# ROCKLAB_FUZZ_SECONDS (default 12) s on its corpus. A crash fails the run
 # and leaves the input in build-asan/fuzz-artifacts/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -55,7 +55,7 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_strin
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 run_ctest "$asan" "$@"
 
-seconds=${ROCKLAB_FUZZ_SECONDS:-20}
+seconds=${ROCKLAB_FUZZ_SECONDS:-12}
 mkdir -p "$asan/fuzz-artifacts"
 run_fuzzer() {  # target max_len seed dirs...
   local target=$1 max_len=$2

@@ -9,11 +9,12 @@
 #include "daq/rig_config.h"
 #include "video/plane_map.h"
 #include "video/video_config.h"
+#include "common/units.h"
 
 namespace rocklab::video {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using common::kNaN;
 // Drop events reported one by one up to this many, then only counted.
 constexpr int64_t kShownDrops = 20;
 // A device's frames are waited for this long before Next() says kIdle, s.

@@ -33,13 +33,14 @@
 #include "tests/daq/daq_test_util.h"
 #include "tests/skip.h"
 #include "tests/tools/udpm_netns.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using common::kPi;
 
-TrueMotion Motion(double t) {
+TrueMotion NodeMotion(double t) {
   TrueMotion m;
   m.theta = 0.04 * std::sin(2 * kPi * 1.5 * t);
   m.table_displacement = 0.006 * std::sin(2 * kPi * 5 * t);
@@ -55,7 +56,7 @@ std::string MakeRawCsv(const RigConfig& rig, const std::string& name, double dur
   std::vector<double> raw;
   for (int k = 0; k <= duration_s * rig.sample_rate_hz; ++k) {
     const double t = k / rig.sample_rate_hz;
-    if (sim.Raw(Motion(t), raw)) out.Write(t, raw);
+    if (sim.Raw(NodeMotion(t), raw)) out.Write(t, raw);
   }
   out.Close();
   return path;

@@ -39,15 +39,15 @@ namespace {
 using test::Listen;
 using test::SendAll;
 
-constexpr double kRateHz = 200.0;
+constexpr double kFaultsRateHz = 200.0;
 
-std::string Row(int k, int a) {
+std::string FaultRow(int k, int a) {
   char buf[96];
-  std::snprintf(buf, sizeof buf, "%.3f,%d,%.2f\n", k / kRateHz, a, 0.25 * k + 0.5);
+  std::snprintf(buf, sizeof buf, "%.3f,%d,%.2f\n", k / kFaultsRateHz, a, 0.25 * k + 0.5);
   return buf;
 }
 
-struct Got {
+struct FaultsGot {
   std::vector<Frame> frames;
   std::vector<std::string> problems;
   SourceStats stats;
@@ -56,14 +56,14 @@ struct Got {
 
 SourceOptions Options(std::vector<std::string>* problems, double idle_s) {
   SourceOptions opt;
-  opt.sample_rate_hz = kRateHz;
+  opt.sample_rate_hz = kFaultsRateHz;
   opt.idle_timeout_s = idle_s;
   opt.on_problem = [problems](const Problem& p) { problems->push_back(ToString(p)); };
   return opt;
 }
 
 // Reads until the source ends, or until it has `until_frames` frames.
-void Read(Source& source, Got& g, std::size_t until_frames = SIZE_MAX) {
+void Read(Source& source, FaultsGot& g, std::size_t until_frames = SIZE_MAX) {
   Frame f;
   while (g.frames.size() < until_frames) {
     const ReadStatus s = source.Next(f);
@@ -97,11 +97,11 @@ TEST(LiveFaults, TcpRowCutByADroppedConnectionIsCountedNotPublished) {
       if (fd < 0) return;
       std::string text = "time,a,b\n";
       if (connection == 0) {
-        for (int k = 0; k < 50; ++k) text += Row(k, k);
-        const std::string cut = Row(50, 50);
+        for (int k = 0; k < 50; ++k) text += FaultRow(k, k);
+        const std::string cut = FaultRow(50, 50);
         text += cut.substr(0, cut.size() - 4);  // "0.250,50,13" of "0.250,50,13.00\n"
       } else {
-        for (int k = 51; k < 100; ++k) text += Row(k, k);
+        for (int k = 51; k < 100; ++k) text += FaultRow(k, k);
       }
       SendAll(fd, text);
       ::close(fd);
@@ -110,7 +110,7 @@ TEST(LiveFaults, TcpRowCutByADroppedConnectionIsCountedNotPublished) {
   });
   std::vector<std::string> problems;
   auto source = OpenTcpSource("127.0.0.1:" + std::to_string(port), Options(&problems, 0.6));
-  Got got;
+  FaultsGot got;
   Read(*source, got);
   server.join();
   ASSERT_EQ(got.frames.size(), 99u);
@@ -131,14 +131,14 @@ TEST(LiveFaults, FollowedLastLineUnfinishedAtTheIdleTimeoutIsCounted) {
   {
     std::ofstream out(path);
     out << "time,a,b\n";
-    for (int k = 0; k < 10; ++k) out << Row(k, k);
-    out << Row(10, 10).substr(0, 9);  // "0.050,10," : the row's last field never came
+    for (int k = 0; k < 10; ++k) out << FaultRow(k, k);
+    out << FaultRow(10, 10).substr(0, 9);  // "0.050,10," : the row's last field never came
   }
   std::vector<std::string> problems;
   SourceOptions opt = Options(&problems, 0.3);
   opt.follow = true;
   auto source = OpenCsvSource(path, opt);
-  Got got;
+  FaultsGot got;
   Read(*source, got);
   EXPECT_EQ(got.last, ReadStatus::kEnd);
   ASSERT_EQ(got.frames.size(), 10u);
@@ -158,17 +158,17 @@ void RewriteInOneWrite(bool truncate) {
   {
     std::ofstream out(path);
     out << "time,a,b\n";
-    for (int k = 0; k < 50; ++k) out << Row(k, k);
+    for (int k = 0; k < 50; ++k) out << FaultRow(k, k);
   }
   std::vector<std::string> problems;
   SourceOptions opt = Options(&problems, 0.5);
   opt.follow = true;
   auto source = OpenCsvSource(path, opt);
-  Got got;
+  FaultsGot got;
   Read(*source, got, 50);  // the reader is at the old file's end
   ASSERT_EQ(got.frames.size(), 50u);
   std::string second = "time,a,b\n";
-  for (int k = 0; k < 150; ++k) second += Row(k, 1000 + k);
+  for (int k = 0; k < 150; ++k) second += FaultRow(k, 1000 + k);
   const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | (truncate ? O_TRUNC : 0));
   ASSERT_GE(fd, 0);
   ASSERT_EQ(::pwrite(fd, second.data(), second.size(), 0), static_cast<ssize_t>(second.size()));

@@ -16,11 +16,12 @@
 #include "rocklab/event2_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using common::kPi;
 
 // Rocking-like test motion: theta crosses zero (both pivots are used), the
 // table moves 6 mm at 5 Hz (docs/errata.md item 11's figure 8 amplitude).

@@ -35,13 +35,13 @@
 namespace rocklab::exporter {
 namespace {
 
-std::string Dir() { return test::ScratchDir("metadata"); }
+std::string MetadataDir() { return test::ScratchDir("metadata"); }
 
 // As LabVIEW's Write To Measurement File writes a file (Date/Time lines,
 // Y_Unit_Label among the segment keys, a trailing tab on header lines, a
 // Comment column), with two empty fields and two comments, one with a comma
 // and a non-ASCII character.
-const char* kLvm =
+const char* kLabviewLvm =
     "LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
     "Multi_Headings\tNo\nX_Columns\tOne\nTime_Pref\tRelative\nOperator\tlab\nDate\t2026/11/02\n"
     "Time\t14:03:21.5\n***End_of_Header***\t\n\n"
@@ -143,15 +143,15 @@ std::string Export(const std::string& in, const std::string& out, const ExportOp
 // ---- point 1: LabVIEW units, comments, empty fields ---------------------------
 
 TEST(LvmMetadata, UnitsCommentsAndEmptyValuesReachEveryFormat) {
-  const std::string lvm = Dir() + "/labview.lvm";
-  std::ofstream(lvm, std::ios::binary) << kLvm;
+  const std::string lvm = MetadataDir() + "/labview.lvm";
+  std::ofstream(lvm, std::ios::binary) << kLabviewLvm;
   const double nan = std::nan("");
   const std::vector<std::vector<double>> want = {{1.5, 1.75, nan, 2}, {2.25, nan, 2.5, 2.75}, {-0.5, 0.25, 0.125, 0}};
   const std::vector<std::string> comments = {"drop started", "", "", "see log, \xc2\xb5m"};
   for (const std::string& ext : kExts) {
     SCOPED_TRACE(ext);
     ExportSummary s;
-    const std::string out = Export(lvm, Dir() + "/labview" + ext, ExportOptions{}, false, &s);
+    const std::string out = Export(lvm, MetadataDir() + "/labview" + ext, ExportOptions{}, false, &s);
     EXPECT_EQ(s.rows, 4);
     EXPECT_EQ(s.empty_values, 2);
     EXPECT_EQ(s.bad_values, 0);
@@ -181,19 +181,19 @@ TEST(LvmMetadata, UnitsCommentsAndEmptyValuesReachEveryFormat) {
 
 // The rig's unit fills in where the file states none; the file's wins.
 TEST(LvmMetadata, TheFilesUnitWinsOverTheRigs) {
-  const std::string lvm = Dir() + "/labview_rig.lvm";
-  std::ofstream(lvm, std::ios::binary) << kLvm;
+  const std::string lvm = MetadataDir() + "/labview_rig.lvm";
+  std::ofstream(lvm, std::ios::binary) << kLabviewLvm;
   ExportOptions o;
   o.units = {{"table_disp", "m"}};
-  const std::string out = Export(lvm, Dir() + "/labview_rig.h5", o, false);
+  const std::string out = Export(lvm, MetadataDir() + "/labview_rig.h5", o, false);
   const Meta m = MetaOf(out, "data", "table_disp");
   EXPECT_EQ(m.unit, "mm");
   EXPECT_NE(m.description.find("the rig calibrates them to m"), std::string::npos) << m.description;
 }
 
 TEST(LvmMetadata, InfoShowsTheFilesUnitsAndCounts) {
-  const std::string lvm = Dir() + "/labview_info.lvm";
-  std::ofstream(lvm, std::ios::binary) << kLvm;
+  const std::string lvm = MetadataDir() + "/labview_info.lvm";
+  std::ofstream(lvm, std::ios::binary) << kLabviewLvm;
   const RawInfo info = ReadRawInfo(lvm, 0, {{"table_disp", "m"}});
   EXPECT_EQ(info.file_units, (std::vector<std::string>{"mm", "Volts", "m/s^2"}));
   EXPECT_EQ(info.units, (std::vector<std::string>{"mm", "Volts", "m/s^2"}));
@@ -245,7 +245,7 @@ const std::vector<std::vector<double>> kRaw = {{100, 3, 7}, {250.5, -0.125, 8}};
 
 // RL_DAQ_CONFIG, two RL_RAW frames, and one message of each type with codes.
 std::string WriteLog(const std::string& name, bool config_first) {
-  const std::string path = Dir() + "/" + name;
+  const std::string path = MetadataDir() + "/" + name;
   common::LogWriter w(path);
   if (config_first) Put(w, "RL_DAQ_CONFIG", Config());
   for (std::size_t k = 0; k < kRaw.size(); ++k) {
@@ -293,7 +293,7 @@ TEST(LogMetadata, CodesHaveTheirNamesInEveryFormat) {
   const std::string log = WriteLog("codes.lcm", true);
   for (const std::string& ext : kExts) {
     SCOPED_TRACE(ext);
-    const std::string out = Export(log, Dir() + "/codes" + ext, ExportOptions{}, true);
+    const std::string out = Export(log, MetadataDir() + "/codes" + ext, ExportOptions{}, true);
     const auto event = ReadTable(out, "RL_EVENT", false);
     const test::ReadColumn* kind = Find(event, "kind");
     const test::ReadColumn* kind_name = Find(event, "kind_name");
@@ -370,7 +370,7 @@ TEST(LogMetadata, RawColumnsAreNamedAfterTheRigsChannelsRawByDefault) {
       ExportOptions o;
       o.calibrated = calibrated;
       const std::string out =
-          Export(log, Dir() + "/raw" + std::string(calibrated ? "_cal" : "") + ext, o, true);
+          Export(log, MetadataDir() + "/raw" + std::string(calibrated ? "_cal" : "") + ext, o, true);
       const auto raw = ReadTable(out, "RL_RAW", false);
       // values_0.. as before (the old names stay), then the channels.
       const std::vector<std::string> names = {"time", "utime", "seq", "num_channels", "values_0", "values_1",
@@ -408,7 +408,7 @@ TEST(LogMetadata, Hdf5RawChannelColumnsAreLinksNotCopies) {
   for (const bool calibrated : {false, true}) {
     ExportOptions o;
     o.calibrated = calibrated;
-    const std::string out = Export(log, Dir() + (calibrated ? "/links_cal.h5" : "/links.h5"), o, true);
+    const std::string out = Export(log, MetadataDir() + (calibrated ? "/links_cal.h5" : "/links.h5"), o, true);
     hid_t f = H5Fopen(out.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     ASSERT_GE(f, 0);
     H5O_info_t a{}, b{};
@@ -423,7 +423,7 @@ TEST(LogMetadata, Hdf5RawChannelColumnsAreLinksNotCopies) {
 // Channel names that cannot be column names as they are: '/' (an HDF5
 // path) becomes '_'; a name a field already has gets `channel_`.
 TEST(LogMetadata, RawChannelNamesAreMadeSafeColumnNames) {
-  const std::string path = Dir() + "/odd_names.lcm";
+  const std::string path = MetadataDir() + "/odd_names.lcm";
   {
     common::LogWriter w(path);
     rocklab::daq_config_t c = Config();
@@ -441,7 +441,7 @@ TEST(LogMetadata, RawChannelNamesAreMadeSafeColumnNames) {
     ASSERT_TRUE(w.Close());
   }
   for (const std::string& ext : kExts) {
-    const std::string out = Export(path, Dir() + "/odd_names" + ext, ExportOptions{}, true);
+    const std::string out = Export(path, MetadataDir() + "/odd_names" + ext, ExportOptions{}, true);
     const auto raw = ReadTable(out, "RL_RAW", false);
     ASSERT_EQ(raw.size(), 8u) << ext;
     EXPECT_EQ(raw[6].name, "a_b") << ext;
@@ -455,7 +455,7 @@ TEST(LogMetadata, RawChannelNamesAreMadeSafeColumnNames) {
 TEST(LogMetadata, RawBeforeAnyConfigStaysUnnamedAndSaysSo) {
   const std::string log = WriteLog("raw_late_config.lcm", false);
   std::vector<std::string> problems;
-  const std::string out = Export(log, Dir() + "/raw_late.h5", ExportOptions{}, true, nullptr, &problems);
+  const std::string out = Export(log, MetadataDir() + "/raw_late.h5", ExportOptions{}, true, nullptr, &problems);
   const auto raw = ReadTable(out, "RL_RAW", false);
   ASSERT_EQ(raw.size(), 7u);
   EXPECT_EQ(raw.back().name, "values_2");
