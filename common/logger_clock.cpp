@@ -2,15 +2,42 @@
 
 #include <chrono>
 
+#include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "common/text.h"
+
 namespace rocklab::common {
+namespace {
+
+// spdlog's default pattern around the message made Printable: a channel
+// name, a file's header or a peer's text quoted in a warning cannot drive
+// the terminal or split the log line.
+class PrintableFormatter final : public spdlog::formatter {
+ public:
+  void format(const spdlog::details::log_msg& msg, spdlog::memory_buf_t& dest) override {
+    spdlog::details::log_msg safe = msg;
+    const std::string text = Printable(std::string_view(msg.payload.data(), msg.payload.size()));
+    safe.payload = spdlog::string_view_t(text.data(), text.size());
+    pattern_.format(safe, dest);
+  }
+  std::unique_ptr<spdlog::formatter> clone() const override { return std::make_unique<PrintableFormatter>(); }
+
+ private:
+  spdlog::pattern_formatter pattern_;
+};
+
+}  // namespace
+
+std::unique_ptr<spdlog::formatter> PrintableLogFormatter() { return std::make_unique<PrintableFormatter>(); }
 
 std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name) {
   if (auto existing = spdlog::get(name)) return existing;
   try {
-    return spdlog::stderr_color_mt(name);
+    auto logger = spdlog::stderr_color_mt(name);
+    logger->set_formatter(PrintableLogFormatter());
+    return logger;
   } catch (const spdlog::spdlog_ex&) {  // another thread registered it first
     return spdlog::get(name);
   }

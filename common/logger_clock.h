@@ -8,14 +8,20 @@
 #include <memory>
 #include <string>
 
+#include <spdlog/formatter.h>
 #include <spdlog/logger.h>
 
 namespace rocklab::common {
 
 /// The logger named `name` from spdlog's registry, created on stderr (stdout
-/// carries the commands' own output) the first time it is asked for. Safe
-/// when two threads ask for a new name at once.
+/// carries the commands' own output) the first time it is asked for, its
+/// messages made Printable (common/text.h). Safe when two threads ask for a
+/// new name at once.
 std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
+
+/// spdlog's default pattern with the message made Printable (escaped, cut
+/// at kMaxLineBytes): the formatter of every NamedLogger.
+std::unique_ptr<spdlog::formatter> PrintableLogFormatter();
 
 /// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
 double HostNowS();

@@ -1,5 +1,6 @@
 #include "common/text.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdarg>
 #include <cstdio>
@@ -50,42 +51,53 @@ bool ParseNumber(std::string_view field, bool decimal_comma, double& out) {
   return ec == std::errc() && ptr == last;
 }
 
+namespace {
+
+// Length of the well-formed UTF-8 sequence at text[i] (1 for ASCII) with its
+// code point in `cp`; 0 when the bytes there are not one (RFC 3629).
+std::size_t Utf8SequenceAt(std::string_view text, std::size_t i, uint32_t& cp) {
+  const auto c = static_cast<unsigned char>(text[i]);
+  if (c < 0x80) {
+    cp = c;
+    return 1;
+  }
+  std::size_t more = 0;
+  if (c >= 0xC2 && c <= 0xDF) {
+    more = 1;
+    cp = c & 0x1F;
+  } else if (c >= 0xE0 && c <= 0xEF) {
+    more = 2;
+    cp = c & 0x0F;
+  } else if (c >= 0xF0 && c <= 0xF4) {
+    more = 3;
+    cp = c & 0x07;
+  } else {
+    return 0;
+  }
+  if (i + more >= text.size()) return 0;
+  for (std::size_t k = 1; k <= more; ++k) {
+    const auto d = static_cast<unsigned char>(text[i + k]);
+    if ((d & 0xC0) != 0x80) return 0;
+    cp = (cp << 6) | (d & 0x3F);
+  }
+  if ((more == 2 && cp < 0x800) || (more == 3 && (cp < 0x10000 || cp > 0x10FFFF)) ||
+      (cp >= 0xD800 && cp <= 0xDFFF)) {
+    return 0;
+  }
+  return more + 1;
+}
+
+}  // namespace
+
 std::size_t Utf8ValidPrefix(std::string_view text) {
   std::size_t i = 0;
-  const std::size_t n = text.size();
-  while (i < n) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c < 0x80) {
-      ++i;
-      continue;
-    }
-    int more = 0;
-    uint32_t cp = 0;
-    if (c >= 0xC2 && c <= 0xDF) {
-      more = 1;
-      cp = c & 0x1F;
-    } else if (c >= 0xE0 && c <= 0xEF) {
-      more = 2;
-      cp = c & 0x0F;
-    } else if (c >= 0xF0 && c <= 0xF4) {
-      more = 3;
-      cp = c & 0x07;
-    } else {
-      return i;
-    }
-    if (i + static_cast<std::size_t>(more) >= n) return i;
-    for (int k = 1; k <= more; ++k) {
-      const auto d = static_cast<unsigned char>(text[i + k]);
-      if ((d & 0xC0) != 0x80) return i;
-      cp = (cp << 6) | (d & 0x3F);
-    }
-    if ((more == 2 && cp < 0x800) || (more == 3 && (cp < 0x10000 || cp > 0x10FFFF)) ||
-        (cp >= 0xD800 && cp <= 0xDFFF)) {
-      return i;
-    }
-    i += static_cast<std::size_t>(more) + 1;
+  uint32_t cp = 0;
+  while (i < text.size()) {
+    const std::size_t len = Utf8SequenceAt(text, i, cp);
+    if (len == 0) return i;
+    i += len;
   }
-  return n;
+  return i;
 }
 
 bool IsUtf8(std::string_view text) { return Utf8ValidPrefix(text) == text.size(); }
@@ -152,40 +164,74 @@ bool HasExtension(std::string_view path, std::string_view extension) {
 
 namespace {
 
-// Appends `text` to `out`: printable ASCII as is, backslash (and with
-// `quote` the single quote) escaped, every other byte as \xNN.
-void AppendEscaped(std::string& out, std::string_view text, bool quote) {
+// Appends `text` to `out` escaped, taking at most `max_bytes` of it (never a
+// split character) and then " ... [N bytes more]". Printable ASCII is kept;
+// with `utf8`, well-formed UTF-8 characters from U+00A0 up too, except the
+// bidirectional overrides. Without `utf8` (Quote, Escape) backslash is
+// escaped as "\\", with `quote` the single quote too. Every other byte
+// becomes \xNN. Printable leaves backslash alone so that its own escapes
+// pass a second Printable unchanged.
+void AppendEscaped(std::string& out, std::string_view text, std::size_t max_bytes, bool utf8, bool quote) {
   static const char kHex[] = "0123456789abcdef";
-  for (const char ch : text) {
-    const auto c = static_cast<unsigned char>(ch);
-    if (c == '\\' || (quote && c == '\'')) {
+  const auto hex = [&out](unsigned char c) {
+    out += "\\x";
+    out += kHex[c >> 4];
+    out += kHex[c & 0xf];
+  };
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    uint32_t cp = 0;
+    const std::size_t len = c < 0x80 ? 1 : (utf8 ? Utf8SequenceAt(text, i, cp) : 0);
+    if (i + std::max<std::size_t>(len, 1) > max_bytes) break;
+    if ((!utf8 && c == '\\') || (quote && c == '\'')) {
       out += '\\';
       out += static_cast<char>(c);
     } else if (c >= 0x20 && c < 0x7f) {
       out += static_cast<char>(c);
+    } else if (len > 1 && cp >= 0xA0 && !(cp >= 0x202A && cp <= 0x202E) && !(cp >= 0x2066 && cp <= 0x2069)) {
+      out.append(text.substr(i, len));
     } else {
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 0xf];
+      for (std::size_t k = 0; k < std::max<std::size_t>(len, 1); ++k) hex(static_cast<unsigned char>(text[i + k]));
     }
+    i += std::max<std::size_t>(len, 1);
   }
+  if (i < text.size()) out += " ... [" + std::to_string(text.size() - i) + " bytes more]";
 }
 
 }  // namespace
 
 std::string Quote(std::string_view text, std::size_t max_bytes) {
   std::string out = "'";
-  const std::size_t n = text.size() < max_bytes ? text.size() : max_bytes;
-  AppendEscaped(out, text.substr(0, n), true);
+  const std::size_t n = std::min(text.size(), max_bytes);
+  AppendEscaped(out, text.substr(0, n), n, false, true);
   out += '\'';
-  if (n < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
+  if (n < text.size()) out += " ... [" + std::to_string(text.size() - n) + " bytes more]";
   return out;
 }
 
 std::string Escape(std::string_view text) {
   std::string out;
-  AppendEscaped(out, text, false);
+  AppendEscaped(out, text, text.size(), false, false);
   return out;
+}
+
+std::string Printable(std::string_view text, std::size_t max_bytes) {
+  std::string out;
+  out.reserve(std::min(text.size(), max_bytes) + 32);
+  AppendEscaped(out, text, max_bytes, true, false);
+  return out;
+}
+
+std::string PrintableLines(std::string_view text, std::size_t max_line_bytes) {
+  std::string out;
+  while (true) {
+    const std::size_t nl = text.find('\n');
+    out += Printable(text.substr(0, nl), max_line_bytes);
+    if (nl == std::string_view::npos) return out;
+    out += '\n';
+    text.remove_prefix(nl + 1);
+  }
 }
 
 bool StripByteOrderMark(std::string& line) {

@@ -48,13 +48,37 @@ inline constexpr std::size_t kMaxQuotedBytes = 48;
 
 /// `text` in single quotes for a message: printable ASCII as is, backslash
 /// and quote escaped, every other byte (NUL, control, non-ASCII) as \xNN;
-/// at most `max_bytes` bytes of it, then "..." and the full size in bytes.
-/// A message built with it is one line of plain ASCII whatever the input.
+/// at most `max_bytes` bytes of it, then " ... [N bytes more]" (as
+/// Printable). A message built with it is one line of plain ASCII whatever
+/// the input.
 std::string Quote(std::string_view text, std::size_t max_bytes = kMaxQuotedBytes);
 
 /// `text` escaped as Quote does, without the quotes and the bound: for a
 /// message a library wrote about input (it may echo the input's bytes).
 std::string Escape(std::string_view text);
+
+/// Bytes of one line that Printable keeps by default: a line of a message
+/// or log that carries text from a file or the network holds at most this
+/// many bytes of it (plus escapes and the cut notice); docs/reliability.md.
+inline constexpr std::size_t kMaxLineBytes = 4096;
+
+/// `text` made safe for a terminal or a log, the one rule for every line
+/// that carries text from a file or the network: printable ASCII and
+/// well-formed UTF-8 characters from U+00A0 up are kept; every other byte
+/// becomes "\xNN": NUL, the C0 controls (ESC, TAB, CR, LF, ...), DEL, the
+/// C1 controls U+0080..U+009F (a terminal may obey them), the bidirectional
+/// overrides U+202A..U+202E and U+2066..U+2069, and bytes that are not
+/// well-formed UTF-8. The result is one line of well-formed UTF-8 whose
+/// escapes are not escaped again by a second Printable.
+/// When `text` is longer than `max_bytes`, its first `max_bytes` bytes (a
+/// character is never split) are kept and " ... [N bytes more]" names the
+/// bytes left out.
+std::string Printable(std::string_view text, std::size_t max_bytes = kMaxLineBytes);
+
+/// Printable applied to each '\n'-separated line of a message, the line
+/// breaks kept: for a whole message a command prints or Python raises,
+/// whose own words may span lines but whose input must not.
+std::string PrintableLines(std::string_view text, std::size_t max_line_bytes = kMaxLineBytes);
 
 /// Whether `text` is well-formed UTF-8 (no overlong forms, no surrogates).
 bool IsUtf8(std::string_view text);

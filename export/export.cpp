@@ -27,7 +27,7 @@ namespace {
 bool InWindow(double t_s, const ExportOptions& o) {
   // --start 0 (the default) leaves nothing out, not even a message a few
   // samples out of order before the first one.
-  return (o.start_s <= 0 || t_s >= o.start_s) && (o.end_s < 0 || t_s <= o.end_s);
+  return (o.start_s <= 0 || t_s >= o.start_s) && t_s <= o.end_s;
 }
 
 // A raw_frame_t column named after a rig channel: values_k (raw) copied,
@@ -133,8 +133,11 @@ struct ChannelState {
 void ExportOptions::Validate() const {
   common::ChannelPattern(channels, "--channels");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("--start must be >= 0 s");
-  if (!std::isfinite(end_s)) throw std::invalid_argument("--end must be finite");
-  if (end_s >= 0 && end_s < start_s) throw std::invalid_argument("--end must not be before --start");
+  if (!(end_s >= 0)) {
+    throw std::invalid_argument("--end must be >= 0 s (leave it out to read to the end), got " +
+                                common::Format("%g", end_s));
+  }
+  if (end_s < start_s) throw std::invalid_argument("--end must not be before --start");
   if (!(sample_rate_hz >= 0) || !std::isfinite(sample_rate_hz)) throw std::invalid_argument("--rate must be >= 0 Hz");
 }
 

@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -40,7 +41,9 @@ class InputError : public std::runtime_error {
 struct ExportOptions {
   std::string channels{".*"};  ///< ECMAScript regex over whole channel names (logs)
   double start_s{0.0};         ///< s from the first sample; >= 0
-  double end_s{-1.0};          ///< s from the first sample; < 0: to the end
+  /// s from the first sample, >= start_s; infinity (the default): to the
+  /// end. A negative end is refused, not read as "to the end".
+  double end_s{std::numeric_limits<double>::infinity()};
   double sample_rate_hz{};     ///< raw files without a time column or time base, Hz
   /// Raw files: units of the channels by name (from a rig file); others "".
   /// A unit the file states itself (LVM Y_Unit_Label) is the one used.

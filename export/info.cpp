@@ -38,6 +38,10 @@ void Rate(ChannelInfo& c, std::int64_t decoded) {
 
 using common::Format;
 
+// A name, unit or path from the file in the text report: escaped, and cut
+// well inside Format's 511 bytes so that the line's numbers stay.
+std::string Field(const std::string& text) { return common::Printable(text, 160); }
+
 nlohmann::json JsonNumber(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
 
 }  // namespace
@@ -205,7 +209,7 @@ RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
 
 std::string ToText(const LogInfo& info) {
   std::string out;
-  out += Format("log:       %s (%" PRId64 " bytes, %" PRId64 " events)\n", info.path.c_str(), info.file_bytes,
+  out += Format("log:       %s (%" PRId64 " bytes, %" PRId64 " events)\n", Field(info.path).c_str(), info.file_bytes,
              info.events);
   if (info.has_time) {
     out += Format("duration:  %.6f s on the sample clock (%.6f s .. %.6f s); log stamps span %.6f s\n",
@@ -215,11 +219,14 @@ std::string ToText(const LogInfo& info) {
   }
   if (info.has_config) {
     out += Format("rig:       %s, calibration %s, %.9g Hz, alpha %.9g rad, p %.9g rad/s, mu %.9g\n",
-               info.rig.c_str(), info.calibration.c_str(), info.config_rate_hz, info.alpha, info.p, info.mu);
+               Field(info.rig).c_str(), Field(info.calibration).c_str(), info.config_rate_hz, info.alpha, info.p,
+               info.mu);
     std::string list;
     for (std::size_t i = 0; i < info.config_channels.size(); ++i) {
-      list += (i ? ", " : "") + info.config_channels[i];
-      if (i < info.config_units.size() && !info.config_units[i].empty()) list += " [" + info.config_units[i] + "]";
+      list += (i ? ", " : "") + Field(info.config_channels[i]);
+      if (i < info.config_units.size() && !info.config_units[i].empty()) {
+        list += " [" + Field(info.config_units[i]) + "]";
+      }
     }
     out += Format("           %zu channels: ", info.config_channels.size()) + list + "\n";
     out += Format("           %" PRId64 " RL_DAQ_CONFIG messages, %" PRId64 " differ from the first\n",
@@ -232,15 +239,16 @@ std::string ToText(const LogInfo& info) {
   out += Format("%-22s %-16s %9s %14s %14s %11s %16s %11s\n", "channel", "type", "count", "first_time_s",
              "last_time_s", "rate_hz", "seq_gaps", "undecodable");
   for (const ChannelInfo& c : info.channels) {
+    const std::string name = Field(c.name);
     std::string type = c.type;
     if (type == "unknown") type = Format("unknown (fingerprint 0x%016" PRIx64 ")", static_cast<std::uint64_t>(c.fingerprint));
     const std::string gaps =
         c.has_seq ? Format("%" PRId64 " (%" PRId64 " missing)", c.seq_gaps, c.seq_missing) : std::string("-");
     if (c.has_time) {
-      out += Format("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", c.name.c_str(),
+      out += Format("%-22s %-16s %9" PRId64 " %14.6f %14.6f %11.3f %16s %11" PRId64 "\n", name.c_str(),
                  type.c_str(), c.count, c.first_time, c.last_time, c.rate_hz, gaps.c_str(), c.undecodable);
     } else {
-      out += Format("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", c.name.c_str(), type.c_str(),
+      out += Format("%-22s %-16s %9" PRId64 " %14s %14s %11s %16s %11" PRId64 "\n", name.c_str(), type.c_str(),
                  c.count, "-", "-", "-", gaps.c_str(), c.undecodable);
     }
   }
@@ -249,7 +257,8 @@ std::string ToText(const LogInfo& info) {
 
 std::string ToText(const RawInfo& info) {
   std::string out;
-  out += Format("file:      %s (%s, %" PRId64 " bytes)\n", info.path.c_str(), info.format.c_str(), info.file_bytes);
+  out += Format("file:      %s (%s, %" PRId64 " bytes)\n", Field(info.path).c_str(), info.format.c_str(),
+                info.file_bytes);
   out += Format("rows:      %" PRId64 " (%" PRId64 " bad rows skipped, %" PRId64 " bad values and %" PRId64
              " empty values read as NaN, %" PRId64 " warnings)\n",
              info.rows, info.bad_rows, info.bad_values, info.empty_values, info.warnings);
@@ -262,8 +271,8 @@ std::string ToText(const RawInfo& info) {
   out += Format("gaps:      %" PRId64 " (%" PRId64 " samples missing)\n", info.seq_gaps, info.seq_missing);
   out += Format("channels:  %zu\n", info.channels.size());
   for (std::size_t i = 0; i < info.channels.size(); ++i) {
-    const std::string& file = i < info.file_units.size() ? info.file_units[i] : std::string();
-    const std::string& rig = i < info.rig_units.size() ? info.rig_units[i] : std::string();
+    const std::string file = i < info.file_units.size() ? Field(info.file_units[i]) : std::string();
+    const std::string rig = i < info.rig_units.size() ? Field(info.rig_units[i]) : std::string();
     std::string unit;
     if (!file.empty()) {
       unit = file + ", from the file";
@@ -273,10 +282,14 @@ std::string ToText(const RawInfo& info) {
     } else {
       unit = "raw, unit not in the file";
     }
-    out += "  " + info.channels[i] + "  [" + unit + "]\n";
+    out += "  " + Field(info.channels[i]) + "  [" + unit + "]\n";
   }
-  if (!info.read_error.empty()) out += "read stopped: " + info.read_error + "\n";
+  if (!info.read_error.empty()) out += "read stopped: " + common::Printable(info.read_error) + "\n";
   return out;
+}
+
+std::string JsonText(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 nlohmann::json ToJson(const LogInfo& info) {

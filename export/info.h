@@ -83,4 +83,9 @@ std::string ToText(const RawInfo& info);
 nlohmann::json ToJson(const LogInfo& info);
 nlohmann::json ToJson(const RawInfo& info);
 
+/// `j` as JSON text (`indent` < 0: one line): control bytes escaped as JSON
+/// does, bytes that are not well-formed UTF-8 (a log's strings may hold
+/// any) replaced by U+FFFD instead of throwing.
+std::string JsonText(const nlohmann::json& j, int indent = -1);
+
 }  // namespace rocklab::exporter

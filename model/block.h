@@ -115,11 +115,14 @@ BlockGeometry RectangleBlock(double width_m, double height_m, double chamfer_m =
 ///         one vertex, or a centroid not above the base between the pivots.
 BlockGeometry PolygonBlock(const std::vector<Eigen::Vector2d>& vertices_m, double g = kGravity);
 
-/// The first pair of edges (i, j), edge k running from vertex k to vertex
-/// k + 1 (mod n), that are not neighbours and touch or cross; nullopt for a
-/// simple polygon.
+/// A pair of edges (i, j), i < j, edge k running from vertex k to vertex
+/// k + 1 (mod n), that are not neighbours and touch or cross, or two
+/// neighbours that overlap (the outline turning back: a spike); nullopt for
+/// a simple polygon. O(n log n) time (a sweep, model/block.cpp).
+/// @param pair_tests when not null, set to the number of edge pairs tested
+///        (at most 3n).
 std::optional<std::pair<std::size_t, std::size_t>> FindCrossingEdges(
-    const std::vector<Eigen::Vector2d>& vertices_m);
+    const std::vector<Eigen::Vector2d>& vertices_m, std::size_t* pair_tests = nullptr);
 
 /// A polygon read from a CSV file: header `x,z` (m), one vertex a line, in
 /// order; blank lines and lines starting with '#' skipped.

@@ -12,6 +12,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdlib>
+#include <cstdio>
 #include <exception>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,26 @@ void Check(int flag, const char* function) {
     std::free(name);  // both allocate the name
     throw std::runtime_error(std::string(function) + " failed with flag " + std::to_string(flag) + " (" + text +
                              ")");
+  }
+}
+
+// Check of the integrator's step call, its message naming where it stopped:
+// the time reached, the time asked for and the state there.
+void CheckEvolve(int flag, bool rk, double t_reached_s, double tout_s, const N_Vector y, int n) {
+  if (flag >= 0) return;
+  try {
+    Check(flag, rk ? "ERKStepEvolve" : "CVode");
+  } catch (const std::runtime_error& e) {
+    char text[96];
+    std::string msg = e.what();
+    std::snprintf(text, sizeof text, " at t = %.17g s (asked for %.17g s), state [", t_reached_s, tout_s);
+    msg += text;
+    const double* v = N_VGetArrayPointer(y);
+    for (int i = 0; i < n; ++i) {
+      std::snprintf(text, sizeof text, "%s%.17g", i ? ", " : "", v[i]);
+      msg += text;
+    }
+    throw IntegratorError(msg + "]");
   }
 }
 
@@ -219,7 +240,7 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
       }
       double t_restart = t_done;
       if (t_done == last_failure_t_) {
-        if (nudged_) Check(flag, rk ? "ERKStepEvolve" : "CVode");
+        if (nudged_) CheckEvolve(flag, rk, t_done, tout_s, h_->y, n_);
         for (int k = 0; k < 16; ++k) t_restart = std::nextafter(t_restart, tstop);
         nudged_ = true;
       } else {
@@ -233,7 +254,7 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
       ReInit(t_restart, y0.data());
       continue;
     }
-    Check(flag, rk ? "ERKStepEvolve" : "CVode");
+    CheckEvolve(flag, rk, t, tout_s, h_->y, n_);
     t_ = t;
     return flag == (rk ? ARK_ROOT_RETURN : CV_ROOT_RETURN) ? Result::kRoot : Result::kReached;
   }

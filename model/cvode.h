@@ -6,10 +6,18 @@
 
 #include <array>
 #include <memory>
+#include <stdexcept>
 
 struct _generic_N_Vector;
 
 namespace rocklab::model::detail {
+
+/// A failed integrator step (CVode, ERKStepEvolve): the message names the
+/// flag, the time reached, the time asked for and the state.
+class IntegratorError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 /// A small ODE y' = f(t, y) with three root functions g(t, y).
 class OdeSystem {

@@ -145,6 +145,7 @@ EnsembleRun RunEnsemble(const LogDensity& log_density, const Eigen::MatrixXd& st
     run.chain.middleRows(static_cast<Eigen::Index>(s) * w, w) = pos;
     run.log_density.segment(static_cast<Eigen::Index>(s) * w, w) = lp;
     if (options.on_step) options.on_step(s + 1, options.steps);
+    ThrowIfCancelled(options.cancelled);
   }
   return run;
 }

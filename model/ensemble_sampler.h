@@ -17,6 +17,8 @@
 
 #include <Eigen/Core>
 
+#include "model/cancel.h"
+
 namespace rocklab::model {
 
 /// Log of an unnormalised density; -infinity outside its support. Called
@@ -48,6 +50,9 @@ struct EnsembleOptions {
   /// Called after every step with (step, steps) on the calling thread (may
   /// be empty). Must not throw.
   std::function<void(int, int)> on_step;
+  /// Polled after every step (model/cancel.h): true stops the sampling
+  /// with Cancelled.
+  CancelHook cancelled;
   /// @throws std::invalid_argument naming the option.
   void Validate(int dimension) const;
 };

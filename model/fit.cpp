@@ -66,7 +66,7 @@ FitResult StartFit(FitMethod method, const RockingRecord& record, const FitOptio
   out.quarter_time = options.quarter_time;
   out.significance = options.significance;
   SetGeometry(options, out);
-  out.features = ExtractFreeRocking(record, options.features);
+  out.features = ExtractFreeRocking(record, options.features, options.cancelled);
   out.theta_gaps = record.theta_gaps;
   out.table_gaps = record.table_gaps;
   CheckRocks(record, out.features, out, options);

@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 
 #include "model/block.h"
+#include "model/cancel.h"
 #include "model/test_record.h"
 
 namespace rocklab::model {
@@ -189,7 +190,10 @@ struct FreeRockingFeatures {
 /// local quadratic least-squares fit with a common root), the peaks (local
 /// quartic fit) and the release (onset fit after a hold).
 /// Does not judge the result (FitImpacts does).
-FreeRockingFeatures ExtractFreeRocking(const RockingRecord& record, const FeatureOptions& options);
+/// @param cancelled polled as FitOptions::cancelled (may be empty).
+/// @throws Cancelled when it returns true.
+FreeRockingFeatures ExtractFreeRocking(const RockingRecord& record, const FeatureOptions& options,
+                                       const CancelHook& cancelled = {});
 
 /// One line of the per-impact table.
 struct ImpactRow {
@@ -237,6 +241,11 @@ struct FitOptions {
   int max_evaluations{600};
   /// Called after every LM iteration (may be empty). Must not throw.
   std::function<void(const FitProgress&)> on_progress;
+  /// Polled by the fit's long work: every LM iteration and residual
+  /// evaluation, and every 16 384 samples of the feature scan and of a
+  /// model run (model/cancel.h). Returning true stops the fit with
+  /// Cancelled.
+  CancelHook cancelled;
   /// Goodness of fit: a fit is converged when the chi-square of its
   /// whitened residuals has an upper-tail probability of at least this under
   /// the hypothesis "the residuals are the noise", in (0, 0.5).

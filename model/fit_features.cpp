@@ -58,7 +58,7 @@ struct Crossing {
 // solution, sigma the record's noise (or the fit's own residual where that
 // is significantly larger: LocalNoiseScale).
 Crossing FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, double w_before,
-                     double w_after, double noise) {
+                     double w_after, double noise, const CancelHook& cancelled) {
   // Plain variables, not a structured binding: the lambda captures them, and
   // clang before 16 cannot capture a binding (the sanitizer build uses clang).
   const std::pair<std::size_t, std::size_t> range =
@@ -88,7 +88,12 @@ Crossing FitCrossing(const RockingRecord& r, std::size_t i, std::size_t j, doubl
     return out;
   }
   const double dt = span / static_cast<double>(j - i);
-  out.time_s = GridThenGolden(rss, r.time_s[i], r.time_s[j], dt, 8);
+  int calls = 0;  // the cancel hook is polled every 16 passes over the window
+  const auto polled = [&](double tc) {
+    if (++calls % 16 == 0) ThrowIfCancelled(cancelled);
+    return rss(tc);
+  };
+  out.time_s = GridThenGolden(polled, r.time_s[i], r.time_s[j], dt, 8, kMaxCrossingGridPoints);
   SideFit before;
   SideFit after;
   sides(out.time_s, before, after);
@@ -207,7 +212,7 @@ struct Onset {
   int dof{};              // samples - 3
 };
 Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr_lo, double tr_hi,
-               double s) {
+               double s, const CancelHook& cancelled) {
   auto solve = [&](double tr, double* level, double* level_var_1 = nullptr) {
     double s00 = 0, s01 = 0, s11 = 0, sy0 = 0, sy1 = 0, syy = 0;
     for (std::size_t k = lo; k < hi; ++k) {
@@ -231,8 +236,12 @@ Onset FitOnset(const RockingRecord& r, std::size_t lo, std::size_t hi, double tr
   };
   const double dt = (r.time_s[hi - 1] - r.time_s[lo]) / static_cast<double>(hi - lo - 1);
   Onset o;
-  auto rss = [&](double tr) { return solve(tr, nullptr); };
-  o.t_r = GridThenGolden(rss, tr_lo, tr_hi, dt, 2);
+  int calls = 0;  // the cancel hook is polled every 16 passes over the window
+  auto rss = [&](double tr) {
+    if (++calls % 16 == 0) ThrowIfCancelled(cancelled);
+    return solve(tr, nullptr);
+  };
+  o.t_r = GridThenGolden(rss, tr_lo, tr_hi, dt, 2, kMaxOnsetGridPoints);
   const double rss0 = solve(o.t_r, &o.level, &o.level_var_1);
   const double s2 = rss0 / static_cast<double>(hi - lo - 3);
   o.rss = rss0;
@@ -268,7 +277,8 @@ ThetaNoiseEstimate EstimateThetaNoiseDetail(const RockingRecord& record) {
 
 double EstimateThetaNoise(const RockingRecord& record) { return EstimateThetaNoiseDetail(record).sigma_rad; }
 
-FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOptions& options) {
+FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOptions& options,
+                                       const CancelHook& cancelled) {
   FreeRockingFeatures f;
   const std::size_t n = r.size();
   if (n < 5) return f;
@@ -315,11 +325,12 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   std::vector<double> crossings(brackets.size());
   std::vector<double> crossing_se(brackets.size());
   for (std::size_t c = 0; c < brackets.size(); ++c) {
+    ThrowIfCancelled(cancelled);
     const double before = c > 0 ? 0.25 * (mid[c] - mid[c - 1]) : options.crossing_window_s;
     const double after = c + 1 < brackets.size() ? 0.25 * (mid[c + 1] - mid[c]) : options.crossing_window_s;
     const Crossing x = FitCrossing(r, brackets[c].first, brackets[c].second,
                                    std::min(options.crossing_window_s, before),
-                                   std::min(options.crossing_window_s, after), f.noise_rad);
+                                   std::min(options.crossing_window_s, after), f.noise_rad, cancelled);
     crossings[c] = x.time_s;
     crossing_se[c] = x.stderr_s;
   }
@@ -335,6 +346,7 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   f.impact_time_stderr_s.push_back(crossing_se[0]);
   int sign = -f.first_sign;  // side after the first impact
   for (std::size_t c = 0; c + 1 < crossings.size(); ++c) {
+    ThrowIfCancelled(cancelled);
     const Peak peak = FitPeak(r, crossings[c], crossings[c + 1], sign, f.noise_rad);
     if (!(peak.value_rad >= f.min_peak_rad) || peak.too_few) break;
     f.peak_rad.push_back(peak.value_rad);
@@ -363,9 +375,10 @@ FreeRockingFeatures ExtractFreeRocking(const RockingRecord& r, const FeatureOpti
   while (fall_end < i1 && s0 * r.theta[fall_end] > 0.97 * top) ++fall_end;
   const double t_moving = r.time_s[moving];
   const std::size_t lo = std::max(hold_lo, Range(r.time_s, t_moving - 0.5, t_moving).first);
+  ThrowIfCancelled(cancelled);
   if (top > f.min_peak_rad && fall_end > lo + 8) {
     const double tr_lo = std::max(r.time_s[lo], t_moving - 0.3);
-    const Onset o = FitOnset(r, lo, fall_end + 1, tr_lo, t_moving, s0);
+    const Onset o = FitOnset(r, lo, fall_end + 1, tr_lo, t_moving, s0, cancelled);
     if (o.t_r - r.time_s[hold_lo] >= options.min_hold_s) {
       f.release_time_s = o.t_r;
       f.release_time_stderr_s = o.t_r_stderr;

@@ -78,11 +78,24 @@ double GoldenMin(const F& f, double a, double b, int iterations = 60) {
   return (a + b) / 2;
 }
 
+// Grid points of GridThenGolden at most, for a crossing's bracket and for a
+// release's window. Their f costs O(samples in a window), and their grids
+// had a point per fraction of a sample: O(rate^2) per crossing or release,
+// a fit growing as N^1.8 (docs/commands.md, the impacts method's "Cost").
+// Capped, a search costs at most (max_points + ~60) f's. A grid under the
+// cap is as before: a bracket of up to 32 samples (8 points a sample; at
+// 1 kHz a crossing's bracket is a few samples), a 0.3 s release window at
+// up to 1.7 kHz (2 a sample).
+inline constexpr int kMaxCrossingGridPoints = 257;
+inline constexpr int kMaxOnsetGridPoints = 1025;
+
 // Minimises a piecewise-smooth 1-D function: a grid of `per_step` points per
-// `step` over [a, b], then golden section around the best grid point.
+// `step` over [a, b] (at most max_points, evenly spread), then golden
+// section around the best grid point.
 template <typename F>
-double GridThenGolden(const F& f, double a, double b, double step, int per_step) {
-  const int n = std::max(2, static_cast<int>(std::ceil((b - a) / step * per_step)) + 1);
+double GridThenGolden(const F& f, double a, double b, double step, int per_step, int max_points) {
+  const double wanted = std::ceil((b - a) / step * per_step) + 1;
+  const int n = std::max(2, static_cast<int>(std::min(wanted, static_cast<double>(max_points))));
   double best_x = a;
   double best_f = std::numeric_limits<double>::infinity();
   for (int i = 0; i < n; ++i) {
@@ -127,6 +140,7 @@ LmOutcome RunLm(const Functor& functor, Eigen::VectorXd x, double epsfcn, double
   int iteration = 0;
   if (out.status != Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
     do {
+      ThrowIfCancelled(options.cancelled);
       out.status = lm.minimizeOneStep(x);
       ++iteration;
       if (options.on_progress) {

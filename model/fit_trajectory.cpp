@@ -22,18 +22,20 @@ namespace {
 // holds at the release level.
 struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
   TrajectoryFunctor(const RockingRecord& record, std::size_t first, std::size_t last, const Forcing& forcing,
-                    bool from_hold, double theta0, double rtol)
+                    bool from_hold, double theta0, const FitOptions& options)
       : Eigen::DenseFunctor<double>(from_hold ? 4 : 3, static_cast<int>(last - first)),
         record_(&record),
         first_(first),
         last_(last),
         forcing_(&forcing),
         from_hold_(from_hold),
-        theta0_(theta0) {
-    model_options_.rtol = rtol;
+        theta0_(theta0),
+        cancelled_(&options.cancelled) {
+    model_options_.rtol = options.rtol;
     model_options_.atol = 1e-10;
   }
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+    ThrowIfCancelled(*cancelled_);
     ++*count_;
     BlockParams bp;
     bp.alpha = std::clamp(x(0), 1e-4, kPi / 2 - 1e-3);
@@ -54,9 +56,12 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
         model->Reset(t[first_], 0.0, 0.0);
       }
       for (; k < last_; ++k) {
+        if ((k - first_) % kCancelPollSamples == kCancelPollSamples - 1) ThrowIfCancelled(*cancelled_);
         model->AdvanceTo(t[k], *forcing_);
         f(static_cast<Eigen::Index>(k - first_)) = model->state().theta - th[k] + penalty;
       }
+    } catch (const Cancelled&) {
+      throw;
     } catch (const std::exception&) {
       f.setConstant(1.0);  // a failed run: a step LM must reject
     }
@@ -71,6 +76,7 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
   bool from_hold_;
   double theta0_;
   ModelOptions model_options_;
+  const CancelHook* cancelled_;  // non-owning: the fit's options, which outlive it
   std::shared_ptr<int> count_ = std::make_shared<int>(0);  // shared: NumericalDiff copies the functor
 };
 
@@ -186,7 +192,7 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
   }
   ends.push_back(t.size());
   auto functor_to = [&](std::size_t end) {
-    return TrajectoryFunctor(record, first, end, forcing, from_hold, theta0, options.rtol);
+    return TrajectoryFunctor(record, first, end, forcing, from_hold, theta0, options);
   };
   std::vector<Eigen::VectorXd> starts{x0};
   for (int i = 1; i <= ms.count; ++i) {
@@ -340,7 +346,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     // The table record's sampling: the same run on the cubic through the
     // samples; the difference d is about the chord's error.
     const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
-    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, theta0, options.rtol);
+    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, theta0, options);
     Eigen::VectorXd fc(lm.residuals.size());
     on_cubic(lm.x, fc);
     const Eigen::VectorXd d = fc - lm.residuals;

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
@@ -250,7 +251,15 @@ Cvode::Result CvodeRockingModel::Integrate(double tout_s, double tstop_s) {
     cvode_->SetMaxStep(max_step_s);
     max_step_set_s_ = max_step_s;
   }
-  return cvode_->Advance(tout_s, tstop_s);
+  try {
+    return cvode_->Advance(tout_s, tstop_s);
+  } catch (const detail::IntegratorError& e) {
+    // The integrator names its flag, time and state; the model adds itself.
+    char model[160];
+    std::snprintf(model, sizeof model, "%s model (alpha %.9g rad, p %.9g rad/s, mu %.9g, %s): ", ToString(kind()),
+                  params_.alpha, params_.p, params_.mu, ToString(state_.regime));
+    throw detail::IntegratorError(model + std::string(e.what()));
+  }
 }
 
 void CvodeRockingModel::SetSegment(double t_from_s, double t_to_s) {

@@ -148,7 +148,7 @@ RockingRecord ReadThetaCsv(const std::string& path) {
       }
       if (time_col < 0 || theta_col < 0) {
         Fail(Where(path, line_no, false),
-             "the header must name the columns time (s) and theta (rad), got '" + trimmed + "'");
+             "the header must name the columns time (s) and theta (rad), got " + common::Quote(trimmed));
       }
       n_fields = fields.size();
       continue;
@@ -161,7 +161,7 @@ RockingRecord ReadThetaCsv(const std::string& path) {
     double t = 0.0;
     double theta = 0.0;
     if (!common::ParseDouble(fields[time_col], t)) {
-      Fail(Where(path, line_no, false), "time is not a number: '" + std::string(fields[time_col]) + "'");
+      Fail(Where(path, line_no, false), "time is not a number: " + common::Quote(fields[time_col]));
     }
     if (!common::ParseDouble(fields[theta_col], theta) || !std::isfinite(theta)) {
       // A lost sample: left out and counted (the time step shows it inside

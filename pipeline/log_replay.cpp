@@ -6,6 +6,7 @@
 
 #include "common/channel_pattern.h"
 #include "common/lcm_log.h"
+#include "common/text.h"
 #include "daq/pacer.h"
 
 namespace rocklab::pipeline {
@@ -13,7 +14,11 @@ namespace rocklab::pipeline {
 void ReplayOptions::Validate() const {
   if (!(speed > 0) || !std::isfinite(speed)) throw std::invalid_argument("--speed must be > 0");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("--start must be >= 0 s");
-  if (end_s >= 0 && end_s <= start_s) throw std::invalid_argument("--end must be after --start");
+  if (!(end_s >= 0)) {
+    throw std::invalid_argument("--end must be >= 0 s (leave it out to replay to the end), got " +
+                                common::Format("%g", end_s));
+  }
+  if (end_s <= start_s) throw std::invalid_argument("--end must be after --start");
   common::ChannelPattern(channels, "--channels");
 }
 
@@ -24,7 +29,7 @@ ReplayCounts ReplayLog(const std::string& log_path, const ReplayOptions& o, comm
   common::LogReaderOptions read;
   read.channels = o.channels;
   read.start_s = o.start_s;
-  read.end_s = o.end_s;
+  read.end_s = std::isinf(o.end_s) ? -1.0 : o.end_s;  // the reader's "no end"
   if (on_problem) read.on_problem = [&on_problem](const common::LogProblem& p) { on_problem(ToString(p)); };
   common::LogReader log(log_path, read);  // throws naming the file
   const std::int64_t window_start =

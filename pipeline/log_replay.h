@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -25,7 +26,9 @@ struct ReplayOptions {
   std::string channels{".*"}; ///< ECMAScript regex, matched against the whole channel name
   bool loop{false};           ///< start again at the end (until stopped)
   double start_s{0.0};        ///< window start, s after the log's first event; >= 0
-  double end_s{-1.0};         ///< window end, s after the first event; < 0: to the end
+  /// window end, s after the first event, > start_s; infinity (the
+  /// default): to the end. A negative end is refused.
+  double end_s{std::numeric_limits<double>::infinity()};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -9,6 +9,7 @@
 #include "common/bus_urls.h"
 #include "common/lcm_bus.h"
 #include "common/routing_bus.h"
+#include "common/sd_notify.h"
 #include "common/text.h"
 #include "daq/source.h"
 #include "model/block.h"
@@ -142,11 +143,20 @@ class RotatingLogBus final : public common::Bus {
     const int64_t utime = common::PayloadUtime(data, size, last_utime_);
     if (WaitingHeartbeat(channel, data, size, utime)) {
       // Sent while the input waits for its header: no sample time (utime
-      // 0). It goes out live but does not open the log at 0 before an
-      // epoch-based sample clock (a 1x replay would wait for it).
+      // 0). It goes out live now, and into the log just before the first
+      // message with a time, stamped with that time (a log opening at 0
+      // before an epoch-based sample clock would make a 1x replay wait for
+      // decades), or at the stop when none came (FlushWaiting).
+      if (waiting_.size() < kMaxWaiting) {
+        waiting_.push_back({channel, std::vector<uint8_t>(static_cast<const uint8_t*>(data),
+                                                          static_cast<const uint8_t*>(data) + size)});
+      } else {
+        ++waiting_dropped_;
+      }
       return inner_.Publish(channel, data, size);
     }
     if (size >= 0) {
+      FlushWaiting(utime);
       logged = log_.Write(utime, channel, static_cast<const uint8_t*>(data), static_cast<uint32_t>(size));
       last_utime_ = utime;
     }
@@ -158,8 +168,28 @@ class RotatingLogBus final : public common::Bus {
   }
   int HandleTimeout(int timeout_ms) override { return inner_.HandleTimeout(timeout_ms); }
   int64_t log_errors() const { return log_errors_; }
+  /// Heartbeats sent while waiting for the header and not logged: over
+  /// kMaxWaiting before the first message with a time.
+  int64_t waiting_dropped() const { return waiting_dropped_; }
+
+  /// Writes the kept "waiting for header" heartbeats stamped `utime`
+  /// (the first time in the log, or at the stop the last one, else 0).
+  void FlushWaiting(int64_t utime) {
+    for (const Waiting& w : waiting_) {
+      if (!log_.Write(utime, w.channel, w.data.data(), static_cast<uint32_t>(w.data.size()))) ++log_errors_;
+    }
+    waiting_.clear();
+  }
+  void FlushWaiting() { FlushWaiting(last_utime_); }
 
  private:
+  // One heartbeat a health period (1 s by default): 4096 is over an hour of
+  // waiting, ~0.5 MB.
+  static constexpr std::size_t kMaxWaiting = 4096;
+  struct Waiting {
+    std::string channel;
+    std::vector<uint8_t> data;
+  };
   // The DAQ node's RL_HEALTH while its input waits for a header.
   static bool WaitingHeartbeat(const std::string& channel, const void* data, int size, int64_t utime) {
     static const std::string kHealth = "HEALTH";
@@ -175,6 +205,8 @@ class RotatingLogBus final : public common::Bus {
   record::RotatingLogWriter& log_;  // not owned
   int64_t last_utime_{0};
   int64_t log_errors_{0};
+  std::vector<Waiting> waiting_;  // not yet logged, oldest first
+  int64_t waiting_dropped_{0};
 };
 
 }  // namespace
@@ -206,13 +238,34 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
     log_bus = std::make_unique<RotatingLogBus>(*bus, *log);  // every channel, RL_RAW too
     bus = log_bus.get();
   }
+  // The log's summary and closing, also when stopped before the header.
+  const auto close_log = [&]() {
+    if (!log) return 0;
+    log_bus->FlushWaiting();
+    const bool closed = log->Close();
+    std::fprintf(stderr, "%s: --log: %lld events in %zu file%s%s\n", what, static_cast<long long>(log->events()),
+                 log->files().size(), log->files().size() == 1 ? "" : "s",
+                 log_bus->log_errors() > 0 || !closed ? " (write errors: see above)" : "");
+    if (log_bus->waiting_dropped() > 0) {
+      std::fprintf(stderr, "%s: --log: %lld \"waiting for header\" heartbeats not logged (over the first 4096)\n",
+                   what, static_cast<long long>(log_bus->waiting_dropped()));
+    }
+    if (log_bus->log_errors() > 0 || !closed) {
+      std::fprintf(stderr, "%s: --log: %lld events could not be written: %s\n", what,
+                   static_cast<long long>(log_bus->log_errors()), log->error().c_str());
+      return 1;
+    }
+    return 0;
+  };
   std::unique_ptr<daq::DaqNode> node;
   try {
     node = std::make_unique<daq::DaqNode>(config, *bus);
   } catch (const std::exception& e) {
     if (stop.load()) {  // SIGINT/SIGTERM while a live input's header was awaited: a stop, not an error
-      std::fprintf(stderr, "%s: stopped by signal before %s sent its header\n", what, o.input.c_str());
-      return 0;
+      common::NotifySystemd("STOPPING=1");  // as a node that ran says at its stop
+      std::fprintf(stderr, "%s: stopped by signal before %s sent its header\n", what,
+                   common::Printable(o.input).c_str());
+      return close_log();
     }
     throw OptionError(e.what());  // names the input file (and line) or the LCM URL
   }
@@ -231,17 +284,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
                  static_cast<long long>(s.comments));
   }
   int code = ReportDamage(s, o.input, what);
-  if (log) {
-    const bool closed = log->Close();
-    std::fprintf(stderr, "%s: --log: %lld events in %zu file%s%s\n", what, static_cast<long long>(log->events()),
-                 log->files().size(), log->files().size() == 1 ? "" : "s",
-                 log_bus->log_errors() > 0 || !closed ? " (write errors: see above)" : "");
-    if (log_bus->log_errors() > 0 || !closed) {
-      std::fprintf(stderr, "%s: --log: %lld events could not be written: %s\n", what,
-                   static_cast<long long>(log_bus->log_errors()), log->error().c_str());
-      code = 1;
-    }
-  }
+  if (close_log() != 0) code = 1;
   return code;
 }
 

@@ -49,14 +49,8 @@ class ColumnSink final : public daq::ProcessorSink {
     for (std::size_t i = 0; i < kReal.size(); ++i) real[i].push_back(s.*kReal[i].field);
     flags.push_back(s.flags);
     leds_used.push_back(s.leds_used);
-    if (stopped) return;
-    try {
-      hook_.Update(s.time_s);
-    } catch (...) {
-      stopped = std::current_exception();
-    }
+    (void)hook_.Poll(s.time_s);
   }
-  std::exception_ptr stopped;  // the hook's exception (KeyboardInterrupt, the callback's)
   void OnEvent(const daq::DaqEvent& e) override { events.push_back(e); }
   void OnProblem(const daq::Problem& p) override { problems.push_back(daq::ToString(p)); }
 
@@ -120,8 +114,8 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
     }
     daq::Frame frame;
     daq::ReadStatus status{};
-    while (!sink.stopped && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
-    if (sink.stopped) std::rethrow_exception(sink.stopped);
+    while (!hook.stopped() && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
+    hook.RethrowIfStopped();
     processor->Finish();
     if (status == daq::ReadStatus::kError) read_error = source->error();
     src = source->stats();
@@ -340,17 +334,11 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
   const model::FitMethod method = FitMethodOf(method_name);
   model::RockingRecord record = RecordOfArrays(t, theta, table_t, table_a);
   ProgressHook hook(progress, static_cast<double>(fo.max_evaluations));
-  // The fit's progress comes on the fitting thread and must not throw: a
-  // Python exception is kept and raised after the fit.
-  std::exception_ptr stopped;
-  fo.on_progress = [&hook, &stopped](const model::FitProgress& p) {
-    if (stopped) return;
-    try {
-      hook.Update(p.evaluations);
-    } catch (...) {
-      stopped = std::current_exception();
-    }
-  };
+  // The fit polls the hook on this thread (the GIL released), between its
+  // iterations and model runs and along its scans (model/cancel.h): Ctrl-C
+  // or the callback's exception stops it within about 0.1 s.
+  fo.on_progress = [&hook](const model::FitProgress& p) { (void)hook.Poll(p.evaluations); };
+  fo.cancelled = hook.Cancel();
   model::FitResult result;
   {
     py::gil_scoped_release release;
@@ -358,13 +346,16 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
       CompleteRecord(record, t.has_value(), input, accel_path);
       result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
                                                     : model::FitTrajectory(record, fo);
+    } catch (const model::Cancelled&) {
+      hook.RethrowIfStopped();
+      throw;
     } catch (const model::RecordError& e) {
       throw pipeline::OptionError(e.what());
     } catch (const model::FitError& e) {
       throw pipeline::OptionError(e.what());
     }
   }
-  if (stopped) std::rethrow_exception(stopped);
+  hook.RethrowIfStopped();
   return FitDict(t ? std::string("<arrays>") : input, result);
 }
 
@@ -486,25 +477,21 @@ PyPosteriorProblem MakeProblem(const std::string& input, std::optional<DoubleArr
 py::tuple SampleProblem(const PyPosteriorProblem& p, const py::object& progress) {
   model::PosteriorOptions po = p.options();
   ProgressHook hook(progress, static_cast<double>(po.sampler.steps));
-  std::exception_ptr stopped;
-  po.sampler.on_step = [&hook, &stopped](int step, int) {
-    if (stopped) return;
-    try {
-      hook.Update(step);
-    } catch (...) {
-      stopped = std::current_exception();
-    }
-  };
+  po.sampler.on_step = [&hook](int step, int) { (void)hook.Poll(step); };
+  po.sampler.cancelled = hook.Cancel();  // after every step
   model::PosteriorResult r;
   {
     py::gil_scoped_release release;
     try {
       r = model::SamplePosterior(p.problem(), po);
+    } catch (const model::Cancelled&) {
+      hook.RethrowIfStopped();
+      throw;
     } catch (const model::FitError& e) {
       throw pipeline::OptionError(e.what());
     }
   }
-  if (stopped) std::rethrow_exception(stopped);
+  hook.RethrowIfStopped();
   py::list columns;
   for (Eigen::Index c = 0; c < r.draws.cols(); ++c) columns.append(OwnedArray(ToStd(r.draws.col(c))));
   return py::make_tuple(r.names, columns, OwnedArray(ToStd(r.log_posterior)), model::PosteriorJson(r));

@@ -128,8 +128,8 @@ std::string InfoJson(const std::string& path, const std::string& rig_path, doubl
   pipeline::Require(rate_hz >= 0, "--rate", ">= 0 Hz", rate_hz);
   py::gil_scoped_release release;
   try {
-    if (exporter::IsLcmLog(path)) return exporter::ToJson(exporter::ReadLogInfo(path)).dump();
-    return exporter::ToJson(exporter::ReadRawInfo(path, rate_hz, RigUnits(rig_path))).dump();
+    if (exporter::IsLcmLog(path)) return exporter::JsonText(exporter::ToJson(exporter::ReadLogInfo(path)));
+    return exporter::JsonText(exporter::ToJson(exporter::ReadRawInfo(path, rate_hz, RigUnits(rig_path))));
   } catch (const pipeline::OptionError&) {
     throw;
   } catch (const FileError&) {

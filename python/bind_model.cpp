@@ -69,25 +69,34 @@ py::dict RectangleParams(double width_m, double height_m, double chamfer_m) {
                       chamfer_m, std::nullopt, std::nullopt);
 }
 
+// The section of `file` (read by the caller) as `rocklab params --polygon
+// --json` gives it; the O(n log n) checks and the moments run without the GIL.
 py::dict PolygonParams(const model::PolygonFile& file, const std::optional<std::string>& path) {
-  const model::BlockGeometry g = model::PolygonBlock(file);
+  model::BlockGeometry g;
   double x0 = HUGE_VAL, x1 = -HUGE_VAL, z0 = HUGE_VAL, z1 = -HUGE_VAL;
-  for (const auto& v : file.vertices_m) {
-    x0 = std::min(x0, v.x());
-    x1 = std::max(x1, v.x());
-    z0 = std::min(z0, v.y());
-    z1 = std::max(z1, v.y());
+  {
+    py::gil_scoped_release release;
+    g = model::PolygonBlock(file);
+    for (const auto& v : file.vertices_m) {
+      x0 = std::min(x0, v.x());
+      x1 = std::max(x1, v.x());
+      z0 = std::min(z0, v.y());
+      z1 = std::max(z1, v.y());
+    }
   }
   return GeometryDict(g, x1 - x0, z1 - z0, std::nullopt, path, file.vertices_m.size());
 }
 
 py::dict PolygonFileParams(const std::string& path) {
+  model::PolygonFile file;
   try {
-    return PolygonParams(model::ReadPolygonCsv(path), path);
+    py::gil_scoped_release release;
+    file = model::ReadPolygonCsv(path);
   } catch (const std::invalid_argument& e) {
     ThrowIfUnreadable(path, e.what());
     throw;
   }
+  return PolygonParams(file, path);
 }
 
 py::dict PolygonArrayParams(const py::array_t<double, py::array::c_style | py::array::forcecast>& xz) {
@@ -95,8 +104,10 @@ py::dict PolygonArrayParams(const py::array_t<double, py::array::c_style | py::a
     throw std::invalid_argument("polygon must be an (N, 2) array of x, z vertices, m");
   }
   model::PolygonFile file;
-  for (py::ssize_t i = 0; i < xz.shape(0); ++i) {
-    file.vertices_m.emplace_back(xz.at(i, 0), xz.at(i, 1));
+  const auto a = xz.unchecked<2>();
+  file.vertices_m.reserve(static_cast<std::size_t>(a.shape(0)));
+  for (py::ssize_t i = 0; i < a.shape(0); ++i) {
+    file.vertices_m.emplace_back(a(i, 0), a(i, 1));
     file.line.push_back(static_cast<int>(i) + 1);
   }
   return PolygonParams(file, std::nullopt);

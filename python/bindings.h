@@ -5,12 +5,15 @@
 
 #include <chrono>
 #include <cstdint>
+#include <exception>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+
+#include "model/cancel.h"
 
 namespace rocklab::python {
 
@@ -43,9 +46,10 @@ void ThrowIfUnreadable(const std::string& path, const std::string& message);
 /// The progress callback of a long call and the interrupt check. Called
 /// with the GIL released; at most every 100 ms it takes the GIL, checks
 /// for signals (Ctrl-C raises KeyboardInterrupt through the call) and calls
-/// `callback(done, total)` when one was given (total None when unknown). A
-/// Python exception propagates as py::error_already_set, which the
-/// library's loops let through.
+/// `callback(done, total)` when one was given (total None when unknown).
+/// Update lets a Python exception through as py::error_already_set; Poll
+/// keeps it (for the library's loops, which must not see it), and the
+/// call raises it once the loop has stopped (RethrowIfStopped).
 class ProgressHook {
  public:
   /// `callback`: None or a callable (done, total); total <= 0: None.
@@ -58,6 +62,19 @@ class ProgressHook {
     const auto now = std::chrono::steady_clock::now();
     if (now >= next_) Call(done, now);
   }
+  /// Update that keeps the exception instead of throwing it; then and
+  /// afterwards returns true (the caller stops). Never throws.
+  bool Poll(double done) noexcept;
+  /// Poll with the last `done` given, as the model's cancel hook
+  /// (model/cancel.h) of work on this thread; the hook outlives neither.
+  model::CancelHook Cancel() {
+    return [this] { return Poll(done_); };
+  }
+  /// Raises the exception Poll kept, if any.
+  void RethrowIfStopped() const {
+    if (stopped_) std::rethrow_exception(stopped_);
+  }
+  bool stopped() const { return stopped_ != nullptr; }
   /// Reports `done` once more, whatever the time (with the GIL released).
   void Done(double done);
   /// The total passed to the callback (<= 0: None).
@@ -68,6 +85,8 @@ class ProgressHook {
   py::object Total() const;
   py::object callback_;
   double total_;
+  double done_{};
+  std::exception_ptr stopped_;  // the callback's or the signal's exception
   std::chrono::steady_clock::time_point next_;
 };
 

@@ -4,24 +4,64 @@
 #include <cerrno>
 #include <cstring>
 
+#include "common/text.h"
 #include "export/export.h"
 #include "pipeline/option_error.h"
 #include "python/bindings.h"
 
 namespace rocklab::python {
 
+namespace {
+
+// Raises `type` with `what` made printable (common::PrintableLines): a
+// message always well-formed UTF-8, so never lost (PyErr_SetString of bytes
+// that are not UTF-8 raises the exception with no message at all), and
+// never a terminal control sequence or a megabyte line from a hostile file.
+void Raise(PyObject* type, const char* what) {
+  const std::string text = common::PrintableLines(what);
+  PyErr_SetString(type, text.empty() ? "(no message)" : text.c_str());
+}
+
+}  // namespace
+
 void RegisterErrors(py::module_& /*m*/) {
+  // The standard exceptions as pybind11 maps them, their messages made
+  // printable; pybind11's own exceptions and Python's pass through.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const py::error_already_set&) {
+      throw;
+    } catch (const py::builtin_exception&) {
+      throw;
+    } catch (const std::bad_alloc&) {
+      PyErr_SetString(PyExc_MemoryError, "out of memory");
+    } catch (const std::out_of_range& e) {
+      Raise(PyExc_IndexError, e.what());
+    } catch (const std::overflow_error& e) {
+      Raise(PyExc_OverflowError, e.what());
+    } catch (const std::logic_error& e) {  // invalid_argument, domain_error, length_error
+      Raise(PyExc_ValueError, e.what());
+    } catch (const std::range_error& e) {
+      Raise(PyExc_ValueError, e.what());
+    } catch (const std::exception& e) {
+      Raise(PyExc_RuntimeError, e.what());
+    }
+  });
+  // Registered last, tried first: the library's own errors.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const FileError& e) {
+      const std::string message = common::PrintableLines(e.what());
       py::object error = py::reinterpret_steal<py::object>(PyObject_CallFunction(
-          PyExc_OSError, "isz", e.error_number(), e.what(), e.path().c_str()));
+          PyExc_OSError, "isN", e.error_number(), message.c_str(),
+          PyUnicode_DecodeFSDefaultAndSize(e.path().data(), static_cast<Py_ssize_t>(e.path().size()))));
       if (error) PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(error.ptr())), error.ptr());
     } catch (const pipeline::OptionError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());  // the CLI's exit-2 message
+      Raise(PyExc_ValueError, e.what());  // the CLI's exit-2 message
     } catch (const exporter::InputError& e) {
-      PyErr_SetString(PyExc_OSError, e.what());
+      Raise(PyExc_OSError, e.what());
     }
   });
 }
@@ -46,6 +86,17 @@ void ProgressHook::Call(double done, std::chrono::steady_clock::time_point now) 
   py::gil_scoped_acquire gil;
   if (PyErr_CheckSignals() != 0) throw py::error_already_set();
   if (!callback_.is_none()) callback_(done, Total());
+}
+
+bool ProgressHook::Poll(double done) noexcept {
+  done_ = done;
+  if (stopped_) return true;
+  try {
+    Update(done);
+  } catch (...) {
+    stopped_ = std::current_exception();
+  }
+  return stopped_ != nullptr;
 }
 
 void ProgressHook::Done(double done) {

@@ -40,10 +40,10 @@ int RunInfo(const InfoOptions& o) {
       // a ground-motion record or a sweep's results (cmd_info_formats.cpp)
     } else if (exporter::IsLcmLog(o.input)) {
       const exporter::LogInfo info = exporter::ReadLogInfo(o.input);
-      text = o.json ? exporter::ToJson(info).dump(2) + "\n" : exporter::ToText(info);
+      text = o.json ? exporter::JsonText(exporter::ToJson(info), 2) + "\n" : exporter::ToText(info);
     } else {
       const exporter::RawInfo info = exporter::ReadRawInfo(o.input, o.rate_hz, RigUnits(o.rig_path));
-      text = o.json ? exporter::ToJson(info).dump(2) + "\n" : exporter::ToText(info);
+      text = o.json ? exporter::JsonText(exporter::ToJson(info), 2) + "\n" : exporter::ToText(info);
     }
   } catch (const UsageError&) {
     throw;

@@ -14,6 +14,7 @@
 
 #include "common/text.h"
 #include "common/units.h"
+#include "export/info.h"
 #include "model/excitation.h"
 #include "sweep/plot.h"
 #include "sweep/results_h5.h"
@@ -84,7 +85,7 @@ std::string GroundMotion(const std::string& path, const char* format, bool json)
                               {"pga_time", rows.time_s[at]},
                               {"units", {{"start", "s"}, {"end", "s"}, {"mean_dt", "s"}, {"pga", "m/s^2"},
                                          {"pga_g", "g"}, {"pga_time", "s"}}}};
-    return j.dump(2) + "\n";
+    return exporter::JsonText(j, 2) + "\n";
   }
   return path + ": ground-motion record (" + format + ")\n  " + std::to_string(n) + " samples from " +
          Fixed("%.6g", rows.time_s.front()) + " to " + Fixed("%.6g", rows.time_s.back()) + " s, mean step " +
@@ -120,7 +121,7 @@ std::string SweepResults(const std::string& path, const char* format, bool json)
                               {"pga_g_min", any ? nlohmann::json(pga_min) : nlohmann::json(nullptr)},
                               {"pga_g_max", any ? nlohmann::json(pga_max) : nlohmann::json(nullptr)},
                               {"units", {{"pga_g_min", "g"}, {"pga_g_max", "g"}}}};
-    return j.dump(2) + "\n";
+    return exporter::JsonText(j, 2) + "\n";
   }
   std::string model_list;
   for (const std::string& m : models) model_list += (model_list.empty() ? "" : ", ") + m;

@@ -6,6 +6,7 @@
 
 #include <spdlog/cfg/env.h>
 
+#include "common/text.h"
 #include "tools/cli.h"
 #include "tools/version.h"
 #ifdef ROCKLAB_HAVE_VIDEO
@@ -93,7 +94,8 @@ int main(int argc, char** argv) {
   };
   auto unknown_command = [&names](const std::string& word) {
     const std::string near = DidYouMean(word, names);
-    std::fprintf(stderr, "rocklab: unknown command '%s'%s; `rocklab help` lists the commands\n", word.c_str(),
+    std::fprintf(stderr, "rocklab: unknown command %s%s; `rocklab help` lists the commands\n",
+                 rocklab::common::Quote(word).c_str(),
                  near.empty() ? "" : (" (did you mean " + near + "?)").c_str());
     return kUsageExit;
   };
@@ -110,7 +112,8 @@ int main(int argc, char** argv) {
     const CLI::App* sub = find(argv[2]);
     if (sub == nullptr) return unknown_command(argv[2]);
     if (argc > 3) {
-      std::fprintf(stderr, "rocklab help: takes one command (rocklab help %s)\n", argv[2]);
+      std::fprintf(stderr, "rocklab help: takes one command (rocklab help %s)\n",
+                   rocklab::common::Printable(argv[2]).c_str());
       return kUsageExit;
     }
     std::fputs(sub->help("rocklab").c_str(), stdout);
@@ -121,7 +124,7 @@ int main(int argc, char** argv) {
     if (sub == nullptr) return unknown_command(first);
     const std::string unknown = UnknownOption(*sub, std::vector<std::string>(argv + 2, argv + argc));
     if (!unknown.empty()) {
-      std::fprintf(stderr, "rocklab: %s\n", unknown.c_str());
+      std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(unknown).c_str());
       return kUsageExit;
     }
   }
@@ -135,20 +138,20 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
     return kUsageExit;
   } catch (const UsageError& e) {
-    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
     return kUsageExit;
   }
 
   try {
     return run ? run() : kUsageExit;
   } catch (const UsageError& e) {
-    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
     return kUsageExit;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
     return kFailureExit;
   }
 }

@@ -82,3 +82,8 @@ run_fuzzer lcm_log 16384
 run_fuzzer lcm_types 4096
 run_fuzzer at2 8192
 run_fuzzer daq_config 4096
+run_fuzzer polygon_csv 8192
+run_fuzzer theta_csv 16384 "$here/data/samples"
+if [ -x "$asan/tests/fuzz/fuzz_rig_video" ]; then  # built with the video inputs (OpenCV)
+  run_fuzzer rig_video 8192 "$here/data/rigs"
+fi

@@ -25,6 +25,8 @@ command line's message (naming the option, e.g. ``--alpha``), files that
 cannot be read raise OSError.
 """
 
+import functools as _functools
+import operator as _operator
 import os as _os
 import warnings as _warnings
 
@@ -58,6 +60,76 @@ __all__ = [
 from . import _lcm_types  # noqa: E402
 
 __all__ += sorted(n for n in vars(_lcm_types) if n.endswith("_t"))
+
+def _path(p, what):
+    """p (str, bytes or os.PathLike) as the library opens it; a NUL byte,
+    which no file name holds and at which C would cut the name, refused."""
+    s = _os.fspath(p)
+    if ("\0" if isinstance(s, str) else b"\0") in s:
+        raise ValueError(f"{what}: the path {s!r} holds a NUL byte, which no file name can")
+    return s
+
+
+_INF = float("inf")
+
+
+def _short(v):
+    """repr of v for a message, at most 60 characters."""
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _float(v, name):
+    """v as a float; a wrong type or text raises naming the argument."""
+    try:
+        return float(v)
+    except TypeError:
+        raise TypeError(f"{name} must be a number, got {type(v).__name__} {_short(v)}") from None
+    except ValueError:
+        raise ValueError(f"{name} must be a number, got {_short(v)}") from None
+
+
+def _int(v, name):
+    """v as an int (a whole number); otherwise raises naming the argument."""
+    try:
+        i = _operator.index(v) if not isinstance(v, float) else int(v)
+    except TypeError:
+        try:
+            i = int(v)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a whole number, got {type(v).__name__} {_short(v)}") from None
+    if i != v:
+        raise ValueError(f"{name} must be a whole number, got {_short(v)}")
+    return i
+
+
+def _floats(v, name):
+    """v as a float64 array; a wrong type raises naming the argument."""
+    try:
+        return _np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be an array of numbers, got {type(v).__name__} {_short(v)}") from None
+
+
+def _named_type_errors(f):
+    """The library's functions raise TypeError naming the argument (the
+    helpers above); a type they do not check must still not show the
+    binding's signature dump."""
+
+    @_functools.wraps(f)
+    def checked(*args, **kwargs):
+        try:
+            return f(*args, **kwargs)
+        except TypeError as e:
+            if "incompatible function arguments" not in str(e):
+                raise
+            raise TypeError(
+                f"rocklab.{f.__name__}: an argument has a type it cannot take; help(rocklab.{f.__name__}) "
+                "lists the arguments and their types"
+            ) from None
+
+    return checked
+
 
 #: Default l of the complex formulation (normalised momentum of psi), 1.
 DEFAULT_L = _rocklab.DEFAULT_L
@@ -95,13 +167,13 @@ def block_params(width=None, height=None, chamfer=0.0, *, polygon=None):
         if width is not None or height is not None or chamfer != 0.0:
             raise ValueError("give either --polygon or --width/--height/--chamfer, not both")
         if isinstance(polygon, (str, _os.PathLike)):
-            return _rocklab._polygon_file_params(_os.fspath(polygon))
-        return _rocklab._polygon_array_params(_np.asarray(polygon, dtype=float))
+            return _rocklab._polygon_file_params(_path(polygon, "polygon"))
+        return _rocklab._polygon_array_params(_floats(polygon, "polygon"))
     if width is None and height is None:
         raise ValueError("--width and --height are required (or --polygon FILE.csv)")
     if width is None or height is None:
         raise ValueError("--width and --height are both required")
-    return _rocklab._rectangle_params(float(width), float(height), float(chamfer))
+    return _rocklab._rectangle_params(_float(width, "width"), _float(height, "height"), _float(chamfer, "chamfer"))
 
 
 class SimulationResult:
@@ -212,18 +284,19 @@ def simulate(
         excitations = list(excitation)
     accel_path, accel_t, accel_a = "", None, None
     if isinstance(accel, (str, _os.PathLike)):
-        accel_path = _os.fspath(accel)
+        accel_path = _path(accel, "accel")
     elif accel is not None:
         try:
             accel_t, accel_a = accel
         except (TypeError, ValueError):
             raise ValueError("accel must be a path or a pair (t, a) of 1-D arrays (s, m/s^2)") from None
-        accel_t = _np.asarray(accel_t, dtype=float)
-        accel_a = _np.asarray(accel_a, dtype=float)
+        accel_t = _floats(accel_t, "accel_t")
+        accel_a = _floats(accel_a, "accel_a")
     r = _rocklab._simulate(
-        str(model), float(alpha), float(p), float(mu), excitations, accel_path, accel_t, accel_a,
-        float(theta0), float(duration), float(rate), float(l), float(complex_handoff),
-        None if rtol is None else float(rtol), progress,
+        str(model), _float(alpha, "alpha"), _float(p, "p"), _float(mu, "mu"), excitations, accel_path,
+        accel_t, accel_a, _float(theta0, "theta0"), _float(duration, "duration"), _float(rate, "rate"),
+        _float(l, "l"), _float(complex_handoff, "complex_handoff"),
+        None if rtol is None else _float(rtol, "rtol"), progress,
     )
     ev = r["events"]
     events = _np.empty(len(ev["time"]), dtype=EVENT_DTYPE)
@@ -296,9 +369,9 @@ def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
         ValueError: a bad regex or window, or a file that is not an LCM log.
         OSError: a file that cannot be opened.
     """
-    path = _os.fspath(path)
+    path = _path(path, "path")
     tables, summary = _rocklab._read_log(
-        path, str(channels), float(start), -1.0 if end is None else float(end), progress
+        path, str(channels), _float(start, "start"), _INF if end is None else _float(end, "end"), progress
     )
     _warn_damage(path, summary, "rocklab.read_log")
     return LogTables(tables, summary)
@@ -328,7 +401,7 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
         LogTables: {"data": structured array}, with ``.summary`` (bad_rows,
         bad_values, read_error, ...).
     """
-    path = _os.fspath(path)
+    path = _path(path, "path")
     if path.lower().endswith(".at2"):
         t, a, _ = _rocklab._read_acceleration(path)
         dtype = _np.dtype(
@@ -341,8 +414,8 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
                        format="at2")
         return LogTables({"data": data}, summary)
     tables, summary = _rocklab._read_raw(
-        path, "" if rig is None else _os.fspath(rig), float(rate), float(start),
-        -1.0 if end is None else float(end), progress,
+        path, "" if rig is None else _path(rig, "rig"), _float(rate, "rate"), _float(start, "start"),
+        _INF if end is None else _float(end, "end"), progress,
     )
     _warn_damage(path, summary, "rocklab.read_raw")
     return LogTables(tables, summary)
@@ -364,7 +437,7 @@ def info(path, rig=None, *, rate=0.0):
     import json
 
     return json.loads(
-        _rocklab._info_json(_os.fspath(path), "" if rig is None else _os.fspath(rig), float(rate))
+        _rocklab._info_json(_path(path, "path"), "" if rig is None else _path(rig, "rig"), _float(rate, "rate"))
     )
 
 
@@ -408,7 +481,7 @@ def reconstruct(raw, rig, *, progress=None):
         Reconstruction: ``states`` (theta, theta_dot, the mirror and camera
         thetas, sliding, twist, flags, ...), ``events``, ``summary``.
     """
-    raw, rig = _os.fspath(raw), _os.fspath(rig)
+    raw, rig = _path(raw, "raw"), _path(rig, "rig")
     columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
     names = list(columns)
     dtype = _np.dtype(
@@ -493,8 +566,9 @@ def fit(
     path, ts, th, table_t, table_a, accel = _record_args(t, theta, table)
     r = _rocklab._fit(
         path, ts, th, table_t, table_a, accel,
-        None if width is None else float(width), None if height is None else float(height), float(chamfer),
-        str(method), str(quarter_time), float(alpha_band), int(min_impacts), progress,
+        None if width is None else _float(width, "width"), None if height is None else _float(height, "height"),
+        _float(chamfer, "chamfer"), str(method), str(quarter_time), _float(alpha_band, "alpha_band"),
+        _int(min_impacts, "min_impacts"), progress,
     )
     return FitResult(r)
 
@@ -505,14 +579,14 @@ def _record_args(t, theta, table):
     if isinstance(t, (str, _os.PathLike)):
         if theta is not None:
             raise ValueError("give either a record path or the arrays t and theta")
-        path = _os.fspath(t)
+        path = _path(t, "t")
     else:
         if theta is None:
             raise ValueError("theta is required with the array t")
-        ts = _np.asarray(t, dtype=float)
-        th = _np.asarray(theta, dtype=float)
+        ts = _floats(t, "t")
+        th = _floats(theta, "theta")
     if isinstance(table, (str, _os.PathLike)):
-        accel = _os.fspath(table)
+        accel = _path(table, "table")
     elif table is not None:
         table_t, table_a = (_np.asarray(x, dtype=float) for x in table)
     return path, ts, th, table_t, table_a, accel
@@ -564,9 +638,11 @@ def _problem(t, theta, width, height, chamfer, method, table, model, seed, walke
     if width is None or height is None:
         raise ValueError("--posterior needs the block geometry: width and height")
     return _rocklab._posterior_problem(
-        path, ts, th, table_t, table_a, accel, float(width), float(height), float(chamfer),
-        str(method), "exact", float(alpha_band), int(min_impacts), str(model), int(seed), int(walkers),
-        int(steps), int(burn_in), int(threads), float(rtol), str(integrator), dict(priors or {}),
+        path, ts, th, table_t, table_a, accel, _float(width, "width"), _float(height, "height"),
+        _float(chamfer, "chamfer"), str(method), "exact", _float(alpha_band, "alpha_band"),
+        _int(min_impacts, "min_impacts"), str(model), _int(seed, "seed"), _int(walkers, "walkers"),
+        _int(steps, "steps"), _int(burn_in, "burn_in"), _int(threads, "threads"), _float(rtol, "rtol"),
+        str(integrator), dict(priors or {}),
     )
 
 
@@ -737,11 +813,11 @@ def sweep(
         return [float(x) for x in _np.atleast_1d(v)] if v is not None else []
 
     text = _rocklab._sweep(
-        [_os.fspath(r) for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
+        [_path(r, "records") for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
         str(scale), bool(pga_g), floats(alpha), floats(p), floats(mu), floats(width), floats(height),
-        [_os.fspath(x) for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
-        str(model), None if duration is None else float(duration), float(rate), float(l),
-        None if rtol is None else float(rtol), int(threads), progress,
+        [_path(x, "polygon") for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
+        str(model), None if duration is None else _float(duration, "duration"), _float(rate, "rate"), _float(l, "l"),
+        None if rtol is None else _float(rtol, "rtol"), _int(threads, "threads"), progress,
     )
     rows = _sweep_rows(text)
     return (rows, text) if csv_text else rows
@@ -774,7 +850,13 @@ def fragility(x, overturned=None, trials=None):
         )
     if overturned is None:
         raise ValueError("fragility(x, overturned[, trials]) or fragility(sweep_results)")
-    x = _np.asarray(x, dtype=float)
-    k = _np.asarray(overturned, dtype=float)
-    n = _np.ones_like(x) if trials is None else _np.asarray(trials, dtype=float)
+    x = _floats(x, "x")
+    k = _floats(overturned, "overturned")
+    n = _np.ones_like(x) if trials is None else _floats(trials, "trials")
     return _rocklab._fragility(x, k, n)
+
+
+for _name in ("block_params", "simulate", "read_log", "read_raw", "info", "reconstruct", "fit", "posterior",
+              "posterior_problem", "sweep", "fragility"):
+    globals()[_name] = _named_type_errors(globals()[_name])
+del _name

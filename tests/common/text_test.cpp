@@ -2,6 +2,8 @@
 // readers). Oracle: the documented contract on hand-picked fields.
 #include "common/text.h"
 
+#include "common/logger_clock.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -116,6 +118,51 @@ TEST(TextTest, Utf8ValidPrefixStopsAtTheFirstBadSequence) {
 TEST(TextTest, EscapeLeavesPrintableAsciiAndEscapesTheRest) {
   EXPECT_EQ(Escape("it's a \\ \x1b[2J\x07\xC3\xA9"), "it's a \\\\ \\x1b[2J\\x07\\xc3\\xa9");
   EXPECT_EQ(Escape(std::string(100, 'a')), std::string(100, 'a'));
+}
+
+// Oracle: the escape rule of docs/reliability.md written out byte by byte:
+// ESC, NUL, TAB, LF, DEL, a C1 control (U+009B, a terminal's CSI), a
+// right-to-left override (U+202E) and a lone continuation byte become \xNN;
+// printable ASCII, backslash and well-formed UTF-8 (U+00E9, U+00B0) stay.
+TEST(TextTest, PrintableEscapesControlBytesAndKeepsUtf8) {
+  const std::string hostile = std::string("a\x1b[2J\0b\t\n\x7f", 10) + "\xC2\x9B" "1m\xE2\x80\xAE" "x\x80 \\ caf\xC3\xA9 \xC2\xB0" "C";
+  EXPECT_EQ(Printable(hostile), "a\\x1b[2J\\x00b\\x09\\x0a\\x7f\\xc2\\x9b1m\\xe2\\x80\\xaex\\x80 \\ caf\xC3\xA9 \xC2\xB0" "C");
+  const std::string once = Printable(hostile);
+  EXPECT_EQ(Printable(once), once);  // escapes are not escaped again
+  EXPECT_TRUE(IsUtf8(once));
+  EXPECT_EQ(Printable(std::string("\xF0\x9F\x98", 3)), "\\xf0\\x9f\\x98");  // cut sequence
+}
+
+// Oracle: 10 000 bytes cut at 100 leave 9 900 out; a 2-byte character that
+// straddles the limit is left out whole (99 kept, 9 901 more).
+TEST(TextTest, PrintableCutsALongLineAndCountsTheBytesLeftOut) {
+  EXPECT_EQ(Printable(std::string(10000, 'a'), 100), std::string(100, 'a') + " ... [9900 bytes more]");
+  const std::string straddle = std::string(99, 'a') + "\xC3\xA9" + std::string(9899, 'b');
+  EXPECT_EQ(Printable(straddle, 100), std::string(99, 'a') + " ... [9901 bytes more]");
+  EXPECT_EQ(Printable(std::string(kMaxLineBytes, 'a')), std::string(kMaxLineBytes, 'a'));
+  EXPECT_EQ(Printable(std::string(kMaxLineBytes + 1, 'a')), std::string(kMaxLineBytes, 'a') + " ... [1 bytes more]");
+  EXPECT_EQ(Quote(std::string(100, 'a'), 10), "'aaaaaaaaaa' ... [90 bytes more]");
+}
+
+// Oracle: the message's own line breaks stay; each line is escaped and cut
+// on its own.
+TEST(TextTest, PrintableLinesKeepsLineBreaksAndCutsEachLine) {
+  EXPECT_EQ(PrintableLines("one\x1b\ntwo\r\n" + std::string(20, 'x'), 10),
+            "one\\x1b\ntwo\\x0d\n" + std::string(10, 'x') + " ... [10 bytes more]");
+}
+
+// Oracle: the bytes a module's logger writes to stderr for a warning that
+// quotes hostile input hold no control byte but the final newline.
+TEST(TextTest, NamedLoggerEscapesTheMessage) {
+  auto logger = NamedLogger("text_test_printable");
+  testing::internal::CaptureStderr();
+  logger->warn("channel {} went quiet", std::string("RL_\x1b]0;pwned\x07\nX"));
+  logger->flush();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("channel RL_\\x1b]0;pwned\\x07\\x0aX went quiet\n"), std::string::npos) << err;
+  for (std::size_t i = 0; i + 1 < err.size(); ++i) {
+    EXPECT_FALSE(static_cast<unsigned char>(err[i]) < 0x20 && err[i] != '\x1b') << "byte " << i << " of " << err;
+  }
 }
 
 }  // namespace

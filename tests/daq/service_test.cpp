@@ -28,6 +28,7 @@
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
 #include "tests/daq/notify_socket.h"
+#include "rocklab/health2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/daq/daq_test_util.h"
 #include "tests/tools/run_cli.h"
@@ -147,6 +148,23 @@ TEST(DaqService, CheckPrintsWhatWouldBeReadOrFails) {
   EXPECT_NE(r.err.find("must name a channel other than RL_RAW"), std::string::npos) << r.err;
 }
 
+// A TCP port on 127.0.0.1 that was free a moment ago (0 when none could
+// be bound).
+int FreeLoopbackPort() {
+  const int probe = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t n = sizeof addr;
+  int port = 0;
+  if (::bind(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
+      ::getsockname(probe, reinterpret_cast<sockaddr*>(&addr), &n) == 0) {
+    port = ntohs(addr.sin_port);
+  }
+  ::close(probe);
+  return port;
+}
+
 // Starts the command with $NOTIFY_SOCKET set to `notify` (its output in
 // NAME.out / NAME.err of the scratch folder).
 pid_t StartNotified(const test::NotifySocket& notify, const std::vector<std::string>& args,
@@ -184,18 +202,8 @@ TEST(DaqService, SigtermEndsLiveInputs) {
     EXPECT_NE(rocklab::test::ReadFile(test::ScratchDir() + "/term_lcm.err").find("stopped by signal"),
               std::string::npos);
   }
-  int port = 0;
-  {
-    const int probe = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t n = sizeof addr;
-    ASSERT_EQ(::bind(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-    ::getsockname(probe, reinterpret_cast<sockaddr*>(&addr), &n);
-    port = ntohs(addr.sin_port);
-    ::close(probe);
-  }
+  const int port = FreeLoopbackPort();
+  ASSERT_GT(port, 0);
   const std::string err = test::ScratchDir() + "/term_tcp.err";
   const pid_t daq = rocklab::test::StartCli({"daq", "--rig", test::LabRigPath(), "--input",
                                              "tcp-listen://127.0.0.1:" + std::to_string(port), "--lcm-url", "memq://"},
@@ -243,4 +251,46 @@ TEST(DaqService, NotifiesSystemdReadyWatchdogAndStopping) {
 }
 
 }  // namespace
+
+// A daemon stopped (SIGTERM) while its TCP listener still waits for the
+// first header: systemd still hears STOPPING=1, as from a node that ran,
+// and its --log holds the RL_HEALTH "waiting for header" heartbeats it sent
+// (written at the stop, stamped 0: there is no sample time).
+TEST(DaqService, StoppedBeforeTheHeaderSaysStoppingAndLogsItsHeartbeats) {
+  const int port = FreeLoopbackPort();
+  ASSERT_GT(port, 0);
+  const std::string log = test::ScratchDir() + "/before_header.lcm";
+  std::remove(log.c_str());
+  test::NotifySocket notify("before_header.sock");
+  const pid_t daq = StartNotified(notify, {"daq", "--rig", test::LabRigPath(), "--input",
+                                           "tcp-listen://127.0.0.1:" + std::to_string(port), "--lcm-url", "memq://",
+                                           "--log", log},
+                                  "before_header");
+  EXPECT_EQ(notify.Next(), "READY=1");
+  EXPECT_EQ(notify.Next(), "WATCHDOG=1");  // the first heartbeat went out
+  ASSERT_EQ(::kill(daq, SIGTERM), 0);
+  bool stopping = false;
+  while (!stopping) {
+    const std::string d = notify.Next();  // "" at the timeout
+    if (d.empty()) break;
+    stopping = d == "STOPPING=1";
+  }
+  EXPECT_TRUE(stopping);
+  EXPECT_EQ(rocklab::test::StopProcess(daq, 0, 20.0), 0)
+      << rocklab::test::ReadFile(test::ScratchDir() + "/before_header.err");
+  const std::string err = rocklab::test::ReadFile(test::ScratchDir() + "/before_header.err");
+  EXPECT_NE(err.find("stopped by signal before tcp-listen://"), std::string::npos) << err;
+  int waiting = 0;
+  common::LogReader reader(log);
+  common::LogEvent ev;
+  while (reader.Next(ev)) {
+    rocklab::health2_t h;
+    if (ev.channel == "RL_HEALTH" && h.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0 &&
+        h.state == "waiting for header") {
+      ++waiting;
+    }
+  }
+  EXPECT_GE(waiting, 1) << err;
+}
+
 }  // namespace rocklab::daq

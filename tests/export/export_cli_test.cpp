@@ -353,5 +353,44 @@ TEST_F(InfoExport, ProgressOnlyOnATerminalWithoutQuiet) {
   }
 }
 
+
+// Oracle: the escape rule of docs/reliability.md: a log whose RL_DAQ_CONFIG
+// strings (rig, calibration, channel names and units) hold terminal
+// control sequences and bytes that are not UTF-8 prints, in `info`,
+// only printable text, those bytes shown as \xNN; `info --json` is valid
+// JSON (the bad bytes as U+FFFD) instead of an exception.
+TEST(InfoHostile, InfoPrintsALogsStringsEscaped) {
+  const std::string dir = test::ScratchDir("info_hostile");
+  const std::string log = dir + "/hostile.lcm";
+  {
+    common::LogWriter w(log);
+    rocklab::daq_config2_t c{};
+    c.utime = 1'000'000;
+    c.rig_name = "rig\x1b]0;pwned\x07";
+    c.calibration_id = "cal\x1b[2J\xff";
+    c.sample_rate_hz = 1000;
+    c.num_channels = 1;
+    c.channel_names = {"a\rb"};
+    c.channel_units = {"m\x9b"};
+    c.channel_sensors = {""};
+    c.gain = {1};
+    c.offset = {0};
+    c.alpha = 0.25;
+    c.p = 2.5;
+    c.mu = 0.9;
+    Put(w, "RL_DAQ_CONFIG", c);
+  }
+  const auto r = test::RunCli({"info", log});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (unsigned char ch : r.out) EXPECT_TRUE(ch == '\n' || (ch >= 0x20 && ch != 0x7f)) << int(ch) << " in\n" << r.out;
+  for (const char* shown : {"rig\\x1b]0;pwned\\x07", "cal\\x1b[2J\\xff", "a\\x0db [m\\x9b]"}) {
+    EXPECT_NE(r.out.find(shown), std::string::npos) << shown << " missing in\n" << r.out;
+  }
+  const auto j = test::RunCli({"info", log, "--json"});
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const auto parsed = nlohmann::json::parse(j.out);
+  EXPECT_EQ(parsed.at("config").at("calibration").get<std::string>(), "cal\x1b[2J\xEF\xBF\xBD");
+}
+
 }  // namespace
 }  // namespace rocklab

@@ -2,8 +2,14 @@
 // Shared by the fuzz targets: a failed invariant stops the run as a crash
 // (libFuzzer saves the input), whatever NDEBUG says.
 
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <string>
 #include <string_view>
 
 namespace rocklab::fuzz {
@@ -21,6 +27,16 @@ inline void CheckMessage(std::string_view message, std::size_t max_bytes = 2048)
   for (unsigned char c : message) {
     if (c < 0x20 || c > 0x7e) Violated("message with a byte that is not printable ASCII", message);
   }
+}
+
+/// Writes the input to a scratch file of this process,
+/// /tmp/rocklab_fuzz_PID_`name`, and returns its path (for readers that
+/// take a path).
+inline std::string WriteScratch(const char* name, const std::uint8_t* data, std::size_t size) {
+  const std::string path = "/tmp/rocklab_fuzz_" + std::to_string(::getpid()) + "_" + name;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  return path;
 }
 
 }  // namespace rocklab::fuzz

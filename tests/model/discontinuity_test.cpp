@@ -255,5 +255,60 @@ TEST(DiscontinuityTest, CvodeRecoversFromAnUndeclaredJump) {
   EXPECT_EQ(cvode.stats().recoveries, 2);
 }
 
+// y' = 1, and a right-hand side that fails for good from t = 0.5 on.
+class FailingSystem final : public detail::OdeSystem {
+ public:
+  int Rhs(double t, const double*, double* ydot) override {
+    ydot[0] = 1.0;
+    return t > 0.5 ? -1 : 0;
+  }
+  int Roots(double, const double*, double* g) override {
+    g[0] = g[1] = g[2] = 1.0;
+    return 0;
+  }
+};
+
+// Oracle: the contract of IntegratorError: the flag and its name, the time
+// the integrator reached (0.5 s: the right-hand side fails past it), the
+// time asked for and the state there (y = t: 0.5).
+TEST(DiscontinuityTest, AFailedStepNamesItsFlagTimeAndState) {
+  FailingSystem system;
+  const double atol[1] = {1e-12};
+  detail::Cvode cvode(1, system, 1e-8, atol, 1e-3);
+  const double y0[1] = {0.0};
+  cvode.ReInit(0.0, y0);
+  try {
+    cvode.Advance(1.0);
+    FAIL() << "no error";
+  } catch (const detail::IntegratorError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("CVode failed with flag -", 0), 0u) << m;
+    EXPECT_NE(m.find(") at t = 0.5 s (asked for 1 s), state [0.5]"), std::string::npos) << m;
+  }
+}
+
+// Not finite from t = 0.2 s on: no integrator step can succeed there.
+class NanAfter final : public Forcing {
+ public:
+  double TableAcceleration(double t) const override { return t < 0.2 ? 0.0 : std::nan(""); }
+};
+
+// Oracle: the contract: the model's message adds its kind, parameters and
+// regime to the integrator's.
+TEST(DiscontinuityTest, AFailedModelRunNamesTheModel) {
+  auto m = RockingModel::Create(ModelKind::kHousner, BlockParams{0.2, 3.0, 0.9});
+  m->Reset(0.0, 0.1, 0.0);
+  try {
+    m->AdvanceTo(1.0, NanAfter());
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.rfind("housner model (alpha 0.2 rad, p 3 rad/s, mu 0.9, rocking): CVode failed with flag", 0), 0u)
+        << msg;
+    EXPECT_NE(msg.find("asked for"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("state ["), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace rocklab::model

@@ -14,6 +14,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "model/fit.h"
+#include "model/fit_impl.h"
 #include "model/test_record.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -40,26 +41,76 @@ std::string TempPath(const std::string& name) {
 // Oracle: the model's own impact events (CVODE root finding, ~1e-10 s). On
 // a noise-free 500 Hz record the two-sided crossing fit must find them to a
 // thousandth of the 2 ms sample period (measured: 3.5e-7 s).
-TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
-  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.0, 1);
+// The impact times of `f` against the model's own events (block 1 released
+// from 0.6 alpha at 0.3 s, run to end_s), to 2e-6 s each.
+void ExpectModelImpactTimes(const model::FreeRockingFeatures& f, double end_s) {
   model::ModelOptions mo;
   mo.rtol = 1e-10;
   auto m = model::RockingModel::Create(model::ModelKind::kHousner, kBlock1, mo);
   const model::NoTableMotion zero;
   m->Reset(0.3, 0.6 * kBlock1.alpha, 0.0);
-  m->AdvanceTo(8.3, zero);
-  const auto f = model::ExtractFreeRocking(rec, {});
-  ASSERT_GE(f.impact_time_s.size(), 20u);
+  m->AdvanceTo(end_s, zero);
   std::size_t i = 0;
   for (const auto& e : m->events()) {
     if (e.kind != model::EventKind::kImpact || i >= f.impact_time_s.size()) continue;
     EXPECT_NEAR(f.impact_time_s[i], e.time_s, 2e-6) << "impact " << i + 1;
     ++i;
   }
+}
+
+TEST(FitFeatures, ImpactTimesMatchTheModelEventsWithoutNoise) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.0, 1);
+  const auto f = model::ExtractFreeRocking(rec, {});
+  ASSERT_GE(f.impact_time_s.size(), 20u);
+  ExpectModelImpactTimes(f, 8.3);
   // The hold makes the release identifiable; r0 is the hold level (1e-6 rad:
   // the onset fit averages 150 noise-free samples).
   ASSERT_TRUE(f.release_time_s && f.r0_rad);
   EXPECT_NEAR(*f.r0_rad, 0.6 * kBlock1.alpha, 1e-6);
+}
+
+// Oracle: golden section's own contract on a parabola (minimum at 0.3).
+// The search of a crossing time over a window of a million samples calls
+// its cost function at most kMaxCrossingGridPoints + 2 + 60 times (grid,
+// golden section): each call costs O(window), so the fit's cost is linear
+// in the samples; 8 calls a sample (8e6 here) made it quadratic.
+TEST(FitFeatures, GridSearchCostIsBoundedWhateverTheSampleRate) {
+  int calls = 0;
+  const auto f = [&calls](double x) {
+    ++calls;
+    return (x - 0.3) * (x - 0.3);
+  };
+  const double x = model::fit_detail::GridThenGolden(f, 0.0, 1.0, 1e-6, 8, model::fit_detail::kMaxCrossingGridPoints);
+  EXPECT_NEAR(x, 0.3, 1e-9);
+  EXPECT_LE(calls, model::fit_detail::kMaxCrossingGridPoints + 62);
+}
+
+// Oracle: the model's own impact events, as above, on a 50 kHz record
+// (315 000 samples), where the capped grid is coarser than a sample: the
+// crossings are still found to 2e-6 s and the hold level to 1e-6 rad.
+TEST(FitFeatures, AHighRateRecordKeepsItsImpactTimes) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 6.0, 50000, 0.0, 1);
+  int polls = 0;
+  const auto f = model::ExtractFreeRocking(rec, {}, [&polls] { return ++polls < 0; });
+  ASSERT_GE(f.impact_time_s.size(), 8u);
+  EXPECT_GE(polls, static_cast<int>(f.impact_time_s.size()));  // the cancel hook is polled along the scan
+  ExpectModelImpactTimes(f, 6.3);
+  ASSERT_TRUE(f.release_time_s && f.r0_rad);
+  EXPECT_NEAR(*f.r0_rad, 0.6 * kBlock1.alpha, 1e-6);
+}
+
+// Oracle: the contract of FitOptions::cancelled: a hook that says stop
+// ends the fit with model::Cancelled (not a FitError), after the poll that
+// said so.
+TEST(FitImpacts, ACancelHookStopsTheFit) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, 1);
+  FitOptions o;
+  int polls = 0;
+  o.cancelled = [&polls] { return ++polls >= 3; };
+  EXPECT_THROW((void)model::FitImpacts(rec, o), model::Cancelled);
+  EXPECT_EQ(polls, 3);
+  o.cancelled = [] { return false; };
+  EXPECT_NO_THROW((void)model::FitImpacts(rec, o));
 }
 
 // The acceptance test: theta0 = 0.6 alpha, 500 Hz, 0.02 deg noise,

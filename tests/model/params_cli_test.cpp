@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -178,6 +179,33 @@ TEST(RigPolygon, FitUsesTheRigPolygon) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(CountLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(bad + ":16: key 'block.polygon' centroid x"), std::string::npos) << r.err;
+}
+
+
+// Oracle: the escape rule of docs/reliability.md: what the user's terminal
+// receives from `params --polygon` and `fit --input` on files whose header
+// holds an ESC sequence and a megabyte-long line is one line of printable
+// text naming the file and line, the bytes shown as \x1b and the long line
+// cut with the count of bytes left out.
+TEST(CliParams, HostileHeadersReachTheTerminalEscapedAndCut) {
+  const std::string dir = ScratchDir("params_hostile");
+  const std::string esc = Write(dir, "esc.csv", "x,\x1b]0;pwned\x07\x1b[2J\nz\n0,0\n");
+  const std::string huge = Write(dir, "huge.csv", "time," + std::string(1 << 20, 'A') + "\n0,0\n");
+  for (const auto& args : std::vector<std::vector<std::string>>{{"params", "--polygon", esc},
+                                                                {"fit", "--input", esc},
+                                                                {"params", "--polygon", huge},
+                                                                {"fit", "--input", huge}}) {
+    const CliResult r = RunCli(args);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_LT(r.err.size(), 600u) << args[2];
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    for (unsigned char c : r.err.substr(0, r.err.size() - 1)) {
+      EXPECT_TRUE(c >= 0x20 && c != 0x7f) << "byte " << int(c) << " in " << r.err;
+    }
+    EXPECT_NE(r.err.find(args[2] + ":1:"), std::string::npos) << r.err;
+    if (args[2] == esc) EXPECT_NE(r.err.find("\\x1b]0;pwned\\x07\\x1b[2J"), std::string::npos) << r.err;
+    if (args[2] == huge) EXPECT_NE(r.err.find(" bytes more]"), std::string::npos) << r.err;
+  }
 }
 
 }  // namespace

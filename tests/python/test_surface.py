@@ -1,0 +1,112 @@
+"""Interrupts, bounds and hostile text at the Python surface (issue 34):
+Ctrl-C stops a long call with KeyboardInterrupt, every error has a
+message naming what is wrong, text from files reaches the message escaped,
+a path with a NUL byte and a negative end are refused.
+"""
+
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import rocklab
+
+
+def _free_record(rate_hz, hold_s=0.5, duration_s=3.0):
+    """A held then released block 1 (Table 2) at rate_hz, with 2e-5 rad of
+    seeded noise: (t, theta), s and rad."""
+    sim = rocklab.simulate(alpha=0.235, p=3.884, mu=0.937, theta0=0.1175, duration=duration_s, rate=rate_hz)
+    hold = np.arange(-round(hold_s * rate_hz), 0) / rate_hz
+    t = np.concatenate([hold, sim.t]) + hold_s
+    theta = np.concatenate([np.full(hold.size, sim.theta[0]), sim.theta])
+    return t, theta + np.random.default_rng(34).normal(0.0, 2e-5, theta.size)
+
+
+def _interrupt_after(delay_s):
+    """SIGINT to this process after delay_s, from a timer thread (as Ctrl-C
+    would); returns the time it was raised (a list filled by the thread)."""
+    raised = []
+
+    def fire():
+        raised.append(time.monotonic())
+        signal.raise_signal(signal.SIGINT)
+
+    timer = threading.Timer(delay_s, fire)
+    timer.start()
+    return timer, raised
+
+
+def test_ctrl_c_stops_a_long_fit_with_keyboard_interrupt():
+    # The trajectory method on a 1 M-sample record runs for minutes; the
+    # fit polls for signals every 0.1 s of work (the model runs between
+    # polls are at most 16 384 samples). Bound: 2 s, 20x the poll period
+    # (a loaded CI machine), where the call once ran to its end.
+    t, theta = _free_record(250_000.0, duration_s=3.5)
+    timer, raised = _interrupt_after(1.0)
+    with pytest.raises(KeyboardInterrupt):
+        try:
+            rocklab.fit(t, theta, 0.247, 1.0, method="trajectory")
+        finally:
+            timer.join()
+    latency = time.monotonic() - raised[0]
+    print(f"KeyboardInterrupt {latency * 1e3:.0f} ms after SIGINT")
+    assert latency < 2.0
+
+
+def test_ctrl_c_stops_the_impacts_fit_of_a_long_record():
+    t, theta = _free_record(500_000.0, duration_s=7.5)  # 4 M samples
+    timer, raised = _interrupt_after(0.3)
+    with pytest.raises(KeyboardInterrupt):
+        try:
+            rocklab.fit(t, theta)
+        finally:
+            timer.join()
+    assert time.monotonic() - raised[0] < 2.0
+
+
+def test_a_binary_file_gives_an_error_with_a_message(tmp_path):
+    # Bytes that are not UTF-8 once made the message vanish (ValueError('')).
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(bytes(b for b in range(256) if b not in b"\r\n") * 4 + b"\n1,2\n")  # one long first line
+    for call in (lambda: rocklab.fit(binary), lambda: rocklab.block_params(polygon=binary)):
+        with pytest.raises(ValueError) as e:
+            call()
+        message = str(e.value)
+        assert str(binary) in message
+        assert "\\x00" in message and "\\x1b" in message
+        assert all(c == "\n" or (c.isprintable() and c != "\x7f") for c in message), repr(message)
+        assert "bytes more]" in message
+
+
+def test_a_nul_byte_in_a_path_is_refused(tmp_path):
+    real = tmp_path / "free.csv"
+    real.write_text("time,theta\n0,0.1\n")
+    with pytest.raises(ValueError, match="NUL byte"):
+        rocklab.fit(str(real) + "\0ignored")
+    with pytest.raises(ValueError, match="NUL byte"):
+        rocklab.read_log(str(real) + "\0.lcm")
+    with pytest.raises(ValueError, match="NUL byte"):
+        rocklab.block_params(polygon=str(real) + "\0")
+
+
+def test_a_negative_end_is_refused_not_read_as_to_the_end(cli, tmp_path):
+    with pytest.raises(ValueError, match=r"--end must be >= 0 s \(leave it out to read to the end\), got -5"):
+        rocklab.read_raw(tmp_path / "any.csv", end=-5)
+    assert "--end must be >= 0 s" in cli.error("export", tmp_path / "any.csv", "--out", tmp_path / "x.csv", "--end", -5)
+
+
+def test_a_wrong_type_names_the_argument_without_a_signature_dump():
+    with pytest.raises(TypeError) as e:
+        rocklab.fit(["a", "b"], [0.1, 0.2])
+    assert str(e.value).startswith("t must be an array of numbers")
+    with pytest.raises(ValueError) as e:
+        rocklab.simulate(alpha="steep", p=3.0, mu=0.9, theta0=0.1, duration=1.0, rate=100)
+    assert str(e.value) == "alpha must be a number, got 'steep'"
+    with pytest.raises(TypeError) as e:
+        rocklab.fit([0.0, 0.1], [0.1, 0.2], width=[1, 2], height=1.0)
+    assert str(e.value).startswith("width must be a number")
+    with pytest.raises(TypeError) as e:
+        rocklab.read_log(123)
+    assert "incompatible function arguments" not in str(e.value)
