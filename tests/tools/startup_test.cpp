@@ -102,6 +102,30 @@ TEST(Startup, VersionSaysBuildTypeAndParts) {
 #endif
 }
 
+// `rocklab COMMAND ...` registers that command alone (tools/main.cpp),
+// `rocklab help COMMAND` every command. Oracle: the latter, for every
+// command `rocklab help` lists: each command's --help is the same text
+// (but for the program's name on its usage line, argv[0] there), so the
+// one command registered is the command asked for, with all its options.
+TEST(Startup, ACommandAloneHasTheSameHelpAsAmongAll) {
+  const CliResult list = RunCli({"help"});
+  ASSERT_EQ(list.exit_code, 0) << list.err;
+  std::vector<std::string> names;
+  const std::regex line(R"(\n  ([a-z][a-z0-9-]*)  )");
+  for (std::sregex_iterator it(list.out.begin(), list.out.end(), line), end; it != end; ++it) {
+    names.push_back((*it)[1].str());
+  }
+  ASSERT_GE(names.size(), 20u) << list.out;
+  const std::regex usage(R"(Usage: \S*rocklab )");
+  for (const std::string& name : names) {
+    const CliResult all = RunCli({"help", name});
+    const CliResult alone = RunCli({name, "--help"});
+    ASSERT_EQ(all.exit_code, 0) << name << ": " << all.err;
+    ASSERT_EQ(alone.exit_code, 0) << name << ": " << alone.err;
+    EXPECT_EQ(std::regex_replace(alone.out, usage, "Usage: rocklab "), all.out) << name;
+  }
+}
+
 // The binary alone in dir/bin, with no lib/rocklab/plugins beside it: a
 // rocklab whose plugins are not installed.
 std::string CopyWithoutPlugins(const std::string& dir) {
