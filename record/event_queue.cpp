@@ -4,8 +4,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace rocklab::record {
@@ -154,7 +156,9 @@ void EventQueue::ReleaseDrained(uint64_t head, uint64_t drained_to) {
     const uint64_t pass_start = begin / cap * cap;
     const uint64_t end = std::min(begin + chunk_, pass_start + cap);
     if (end > drained_to) break;
-    if (begin != pass_start) madvise(ring_ + (begin - pass_start), static_cast<std::size_t>(end - begin), MADV_DONTNEED);
+    if (begin != pass_start) {
+      madvise(ring_ + (begin - pass_start), static_cast<std::size_t>(end - begin), MADV_DONTNEED);
+    }
     begin = end;
   }
   released_ = begin;
