@@ -13,6 +13,7 @@
 /// built from the same sources as the command, so the table's C++ types are
 /// the command's.
 
+#include <mutex>
 #include <string>
 
 namespace rocklab::common {
@@ -58,6 +59,19 @@ const Calls* OpenPlugin(const std::string& file, const char* entry_symbol, int v
             std::to_string(version) + ")";
     return nullptr;
   }
+  return calls;
+}
+
+/// OpenPlugin once for the process, per table type: the first call opens,
+/// later ones give its result (the table, or nullptr and the same `error`).
+template <typename Calls>
+const Calls* OpenPluginOnce(const std::string& file, const char* entry_symbol, int version, std::string& error,
+                            bool global = false) {
+  static const Calls* calls = nullptr;
+  static std::string why;
+  static std::once_flag once;
+  std::call_once(once, [&] { calls = OpenPlugin<Calls>(file, entry_symbol, version, why, global); });
+  if (calls == nullptr) error = why;
   return calls;
 }
 

@@ -87,10 +87,14 @@ struct Cvode::Handles {
 
 // Exceptions must not cross the C library: the thunks keep the first one and
 // Advance rethrows it after CVode has returned its failure flag.
+// Every vector the integrators hand them is serial (h_->y made by
+// N_VNew_Serial, the rest its clones), so its data is read directly:
+// N_VGetArrayPointer's two indirect calls were 4 % of the model node's CPU
+// (docs/performance.md, "Per-sample cost of the model node").
 int Cvode::RhsThunk(double t, N_Vector y, N_Vector ydot, void* user) {
   auto* h = static_cast<Handles*>(user);
   try {
-    return h->system->Rhs(t, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot));
+    return h->system->Rhs(t, NV_DATA_S(y), NV_DATA_S(ydot));
   } catch (...) {
     if (!h->error) h->error = std::current_exception();
     return -1;
@@ -100,7 +104,7 @@ int Cvode::RhsThunk(double t, N_Vector y, N_Vector ydot, void* user) {
 int Cvode::RootThunk(double t, N_Vector y, double* g, void* user) {
   auto* h = static_cast<Handles*>(user);
   try {
-    return h->system->Roots(t, N_VGetArrayPointer(y), g);
+    return h->system->Roots(t, NV_DATA_S(y), g);
   } catch (...) {
     if (!h->error) h->error = std::current_exception();
     return -1;

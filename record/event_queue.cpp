@@ -1,8 +1,14 @@
 #include "record/event_queue.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace rocklab::record {
 namespace {
@@ -22,11 +28,23 @@ std::size_t EventQueue::RecordBytes(std::size_t channel_size, std::size_t data_s
   return Align8(kHeader + channel_size + data_size);
 }
 
-EventQueue::EventQueue(std::size_t capacity_bytes) {
+EventQueue::EventQueue(std::size_t capacity_bytes, std::size_t release_chunk_bytes) {
   if (capacity_bytes < 64) throw std::invalid_argument("EventQueue: capacity must be >= 64 bytes");
+  if (release_chunk_bytes == 0) throw std::invalid_argument("EventQueue: release chunk must be >= 1 byte");
   capacity_ = Align8(capacity_bytes);
-  ring_.reset(new uint8_t[capacity_]);
+  const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  chunk_ = (release_chunk_bytes + page - 1) / page * page;
+  mapped_ = (capacity_ + chunk_ - 1) / chunk_ * chunk_;
+  void* ring = mmap(nullptr, mapped_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+  if (ring == MAP_FAILED) {
+    throw std::runtime_error("EventQueue: cannot map " + std::to_string(mapped_) + " bytes: " + std::strerror(errno));
+  }
+  ring_ = static_cast<uint8_t*>(ring);
+  // Small pages, so that a few written bytes make one page resident, not 2 MiB.
+  madvise(ring_, mapped_, MADV_NOHUGEPAGE);
 }
+
+EventQueue::~EventQueue() { munmap(ring_, mapped_); }
 
 bool EventQueue::Push(int32_t channel_id, int64_t utime, std::string_view channel, const void* data,
                       uint32_t size) {
@@ -34,11 +52,24 @@ bool EventQueue::Push(int32_t channel_id, int64_t utime, std::string_view channe
   const std::size_t n = RecordBytes(channel.size(), size);
   if (n > cap) return false;
   uint64_t head = 0, tail = 0;
+  uint64_t restarted_from = 0;  // the position an empty queue restarted from, when > 0
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (closed_) return false;
+    if (head_ == tail_ && head_ % cap != 0) {
+      // Empty: start again at the ring's start, whose pages are resident.
+      restarted_from = head_;
+      head_ = tail_ = (head_ / cap + 1) * cap;
+    }
     head = head_;
     tail = tail_;
+  }
+  if (restarted_from > 0) {
+    // All drained, the chunk the queue ended in too.
+    ReleaseDrained(restarted_from, ChunkEnd(restarted_from));
+    released_ = head;
+  } else {
+    ReleaseDrained(head, tail);
   }
   // The consumer only ever frees space, so the space seen here stays free.
   const std::size_t used = static_cast<std::size_t>(head - tail);
@@ -107,6 +138,39 @@ int EventQueue::PopBatch(const std::function<void(const EventView&)>& fn, std::c
     tail_ = tail;
   }
   return handed;
+}
+
+uint64_t EventQueue::ChunkEnd(uint64_t position) const {
+  const uint64_t pass_start = position / capacity_ * capacity_;
+  const uint64_t offset = position - pass_start;
+  return pass_start + std::min<uint64_t>((offset + chunk_ - 1) / chunk_ * chunk_, capacity_);
+}
+
+void EventQueue::ReleaseDrained(uint64_t head, uint64_t drained_to) {
+  // Chunk k of a pass covers its offsets [k chunk, min((k + 1) chunk,
+  // capacity)). One whose positions are below `drained_to` has been read;
+  // one at or above head - capacity has not been written again since.
+  const uint64_t cap = capacity_;
+  uint64_t begin = ChunkEnd(std::max(released_, head >= cap ? head - cap : 0));
+  for (;;) {
+    const uint64_t pass_start = begin / cap * cap;
+    const uint64_t end = std::min(begin + chunk_, pass_start + cap);
+    if (end > drained_to) break;
+    if (begin != pass_start) {
+      madvise(ring_ + (begin - pass_start), static_cast<std::size_t>(end - begin), MADV_DONTNEED);
+    }
+    begin = end;
+  }
+  released_ = begin;
+}
+
+std::size_t EventQueue::resident_bytes() const {
+  const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  std::vector<unsigned char> pages(mapped_ / page);
+  if (mincore(ring_, mapped_, pages.data()) != 0) return 0;
+  std::size_t resident = 0;
+  for (const unsigned char p : pages) resident += (p & 1u) != 0 ? page : 0;
+  return resident;
 }
 
 void EventQueue::Close() {

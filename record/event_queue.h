@@ -2,17 +2,26 @@
 /// @file
 /// A bounded queue of LCM events between one producer (LCM's dispatch
 /// thread) and one consumer (the recorder's writer thread), in a single byte
-/// ring allocated at construction: Push copies an event in, PopBatch hands the
+/// ring mapped at construction: Push copies an event in, PopBatch hands the
 /// consumer views of every queued event and then frees them. No allocation
 /// after construction. A full queue refuses the event (the caller counts the
 /// drop) instead of blocking LCM's thread.
+///
+/// Memory: the ring is reserved, not resident. Its pages become resident as
+/// events are written into them, and the queue keeps few of them so: when
+/// the producer finds the queue empty it starts again at the ring's start
+/// (a writer that keeps up reuses the same first pages), and it gives back
+/// to the kernel (madvise MADV_DONTNEED) every whole chunk, other than the
+/// first, that the consumer has drained: only the producer writes, so a
+/// chunk it gives back is never one it is writing into. So the resident
+/// part is about the bytes queued plus two chunks, not the capacity
+/// (docs/performance.md, Start-up: 64 MiB resident before).
 
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <memory>
 #include <mutex>
 #include <string_view>
 
@@ -29,10 +38,17 @@ struct EventView {
 
 class EventQueue {
  public:
+  /// The default `release_chunk_bytes`.
+  static constexpr std::size_t kReleaseChunkBytes = 256u << 10;
+
   /// @param capacity_bytes ring size, bytes, rounded up to a multiple of 8;
   ///        >= 64. Each event takes 24 bytes + channel + payload, 8-aligned.
-  /// @throws std::invalid_argument for a capacity below 64 bytes.
-  explicit EventQueue(std::size_t capacity_bytes);
+  /// @param release_chunk_bytes what is given back to the kernel at once, bytes,
+  ///        rounded up to a multiple of the page size; >= 1.
+  /// @throws std::invalid_argument for a capacity below 64 bytes or a chunk
+  ///         of 0; std::runtime_error when the ring cannot be mapped.
+  explicit EventQueue(std::size_t capacity_bytes, std::size_t release_chunk_bytes = kReleaseChunkBytes);
+  ~EventQueue();
   EventQueue(const EventQueue&) = delete;
   EventQueue& operator=(const EventQueue&) = delete;
 
@@ -56,17 +72,36 @@ class EventQueue {
   /// Bytes an event of this channel and payload takes in the ring.
   static std::size_t RecordBytes(std::size_t channel_size, std::size_t data_size);
 
+  /// The ring's bytes resident in memory now (mincore: whole pages), for
+  /// the tests and the recorder's figures; 0 when mincore fails.
+  std::size_t resident_bytes() const;
+  std::size_t release_chunk_bytes() const { return chunk_; }
+
  private:
-  // Not value-initialised: the kernel maps its pages as they are first used.
-  std::unique_ptr<uint8_t[]> ring_;
+  // Producer: gives back the chunks in [released_, drained_to) that are
+  // whole and not written again since they were read (head: the producer's
+  // position), other than a pass's first chunk (the one an empty queue
+  // restarts in); released_ then says where it stopped.
+  void ReleaseDrained(uint64_t head, uint64_t drained_to);
+  // The end of the chunk `position` is in (position itself at a boundary).
+  uint64_t ChunkEnd(uint64_t position) const;
+
+  // An anonymous mapping: the kernel makes its pages resident as they are
+  // first written, and zero again once given back (ReleaseDrained).
+  uint8_t* ring_{};
+  std::size_t mapped_{};  // ring_'s mapping, bytes: capacity_ rounded up to the chunk
   std::size_t capacity_{};
+  std::size_t chunk_{};
   mutable std::mutex mutex_;
   std::condition_variable ready_;
   // Positions grow without bound (offset = position % capacity); only the
-  // producer moves head_, only the consumer tail_. The bytes in
+  // producer moves head_, only the consumer tail_, except that the producer
+  // moves both to the next multiple of the capacity when it finds them
+  // equal (empty: the consumer holds nothing then). The bytes in
   // [tail_, head_) belong to the consumer, the rest to the producer.
   uint64_t head_{0};
   uint64_t tail_{0};
+  uint64_t released_{0};  // the producer's: chunks below it were given back
   std::size_t high_water_{0};
   bool closed_{false};
 };

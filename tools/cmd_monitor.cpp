@@ -1,7 +1,8 @@
 // rocklab monitor: the live theory-versus-experiment page: a
 // monitor::MonitorNode on an LcmBus (threading and shutdown order are
-// written in monitor/monitor_node.h). SIGINT/SIGTERM set the stop flag;
-// exit 0 (1 when the bus failed).
+// written in monitor/monitor_node.h), its HTTP server from the monitor
+// plugin (tools/monitor_plugin.h). SIGINT/SIGTERM set the stop flag;
+// exit 0 (1 when the bus failed or the plugin does not load).
 #include <atomic>
 #include <cstdio>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "monitor/monitor_node.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"
+#include "tools/monitor_plugin.h"
 
 namespace rocklab::tools {
 namespace {
@@ -46,6 +48,7 @@ int RunMonitor(const MonitorCommand& c) {
   monitor::MonitorNodeConfig config;
   ParseHttp(c.http, config.server);
   config.live.window_s = c.window_s;
+  MonitorPlugin();  // a missing plugin is no --http error: it fails here (exit 1), naming the package
   const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   const std::atomic<bool>& stop = InstallStopSignals();
   std::unique_ptr<monitor::MonitorNode> node;

@@ -9,7 +9,6 @@
 // checks that). A symbol of those files missing here would pull its
 // object in and fail the link with a duplicate definition.
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -25,12 +24,9 @@ namespace tools {
 namespace {
 
 const Hdf5Calls& Hdf5() {
-  static const Hdf5Calls* calls = nullptr;
-  static std::string error;
-  static std::once_flag once;
-  std::call_once(once, [] {
-    calls = common::OpenPlugin<Hdf5Calls>(kHdf5PluginFile, kHdf5PluginEntry, kHdf5PluginVersion, error);
-  });
+  std::string error;
+  const Hdf5Calls* calls =
+      common::OpenPluginOnce<Hdf5Calls>(kHdf5PluginFile, kHdf5PluginEntry, kHdf5PluginVersion, error);
   if (calls == nullptr) {
     throw std::runtime_error("HDF5 and MAT files are read and written by rocklab's plugin " +
                              common::PluginPath(kHdf5PluginFile) + ", which does not load: " + error +

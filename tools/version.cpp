@@ -4,6 +4,7 @@
 
 #include "common/plugin.h"
 #include "tools/hdf5_plugin.h"
+#include "tools/monitor_plugin.h"
 #ifdef ROCKLAB_HAVE_VIDEO
 #include "tools/video_plugin.h"
 #endif
@@ -47,6 +48,8 @@ std::string VersionText(bool load, bool final_newline) {
       PluginState<Hdf5Calls>(kHdf5PluginFile, kHdf5PluginEntry, kHdf5PluginVersion, load);  // both in one plugin
   s += "HDF5 (export, sweep .h5): " + hdf5 + "\n";
   s += "MATLAB (export .mat, libmatio): " + hdf5 + "\n";
+  s += "monitor (its HTTP server, libmicrohttpd): " +
+       PluginState<MonitorCalls>(kMonitorPluginFile, kMonitorPluginEntry, kMonitorPluginVersion, load) + "\n";
 #ifdef ROCKLAB_HAVE_PYTHON
   s += "Python (import rocklab): built\n";
 #else

@@ -1,6 +1,6 @@
 #pragma once
 // `rocklab --version`: the version, the build type and the optional parts
-// (video, MPI, HDF5, MATLAB, Python), each present or not; for the plugins
+// (video, MPI, HDF5, MATLAB, the monitor's server, Python), each present or not; for the plugins
 // (common/plugin.h) whether the file is installed, and with `--load`
 // whether it loads. Without --load nothing is opened, so --version stays
 // within the start-up budget (docs/performance.md).

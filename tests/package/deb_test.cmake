@@ -74,7 +74,8 @@ endfunction()
 require_paths(rocklab "${main_files}" ./usr/bin/rocklab ./usr/share/man/man1/rocklab.1.gz
   ./usr/share/doc/rocklab/copyright ./usr/share/doc/rocklab/changelog.Debian.gz ./usr/share/doc/rocklab/README.md
   ./usr/share/rocklab/rigs/lab_rig.toml ./usr/share/rocklab/lcm_types/block_state_t.lcm
-  ./usr/lib/systemd/system/rocklab-daq.service ./usr/lib/rocklab/plugins/rocklab-hdf5.so)
+  ./usr/lib/systemd/system/rocklab-daq.service ./usr/lib/rocklab/plugins/rocklab-hdf5.so
+  ./usr/lib/rocklab/plugins/rocklab-monitor.so)
 require_paths(rocklab-dev "${dev_files}" ./usr/include/rocklab/model/block.h
   ./usr/include/rocklab/block_state_t.hpp ./usr/lib/librocklab_model.a ./usr/lib/librocklab_sweep.a
   ./usr/lib/cmake/rocklab/rocklabConfig.cmake ./usr/share/doc/rocklab-dev/copyright
@@ -107,7 +108,7 @@ foreach(unit ${units})
 endforeach()
 
 # Depends: dpkg-shlibdeps's libraries of the binary.
-foreach(dep libhdf5 libmatio libopenmpi liblcm1 libsundials-cvode gnuplot-nox)
+foreach(dep libhdf5 libmatio libopenmpi liblcm1 libsundials-cvode libmicrohttpd gnuplot-nox)
   string(FIND "${main_control}" "${dep}" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "deb test: Depends of rocklab lacks ${dep}:\n${main_control}")

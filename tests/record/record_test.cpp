@@ -4,11 +4,16 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -114,6 +119,195 @@ TEST(EventQueueTest, WrapsAroundWithoutLosingOrCorrupting) {
   }
   EXPECT_EQ(next_pop, next_push);
   EXPECT_GT(next_push, 500);  // ~60 ring lengths went through
+}
+
+// The size of event i in the tests below: 0 .. 299 bytes of payload.
+std::size_t TestSize(int i) { return static_cast<std::size_t>((i * 37) % 300); }
+
+bool PushTestEvent(EventQueue& q, int i) {
+  const std::string payload = Payload(i, TestSize(i));
+  return q.Push(i, i, "RL_THETA", payload.data(), static_cast<uint32_t>(payload.size()));
+}
+
+// Checks that `ev` is event `expected` (order and content).
+void ExpectTestEvent(const EventView& ev, int expected) {
+  ASSERT_EQ(ev.channel_id, expected);
+  ASSERT_EQ(ev.utime, expected);
+  ASSERT_EQ(std::string(ev.channel), "RL_THETA");
+  ASSERT_EQ(std::string(reinterpret_cast<const char*>(ev.data), ev.size), Payload(expected, TestSize(expected)));
+}
+
+constexpr std::size_t kPage = 4096;
+
+// Oracle: the kernel's count of the ring's resident pages (mincore). A
+// writer that keeps up (every event popped before the next comes, the
+// recorder at real time) empties the queue before each push, which then
+// starts again at the ring's start: five ring lengths of events go through
+// one 8 MiB ring and at most its first chunk (64 KiB) is ever resident
+// (the events are at most 336 bytes, so in fact its first page). Before,
+// the ring advanced through all of its 8 MiB whatever the fill.
+TEST(EventQueueTest, AWriterThatKeepsUpTouchesOnlyTheFirstChunk) {
+  EventQueue q(8u << 20, 64u << 10);
+  ASSERT_EQ(q.release_chunk_bytes(), 64u << 10);
+  ASSERT_EQ(q.resident_bytes(), 0u);  // reserved, not resident
+  std::size_t through = 0, most_resident = 0;
+  int next_pop = 0;
+  for (int i = 0; through < 5 * q.capacity_bytes(); ++i) {
+    ASSERT_TRUE(PushTestEvent(q, i));
+    through += EventQueue::RecordBytes(8, TestSize(i));
+    ASSERT_EQ(q.PopBatch([&](const EventView& ev) { ExpectTestEvent(ev, next_pop++); }, std::chrono::milliseconds(0)),
+              1);
+    if (i % 1000 == 0) most_resident = std::max(most_resident, q.resident_bytes());
+  }
+  most_resident = std::max(most_resident, q.resident_bytes());
+  EXPECT_GT(most_resident, 0u);
+  EXPECT_LE(most_resident, q.release_chunk_bytes());
+}
+
+// Oracle: mincore again. A writer that stays behind (each event popped
+// replaced by a new one pushed during the batch, so the queue is never
+// empty and every event goes round the ring, wrapping) keeps resident at
+// most the bytes queued plus three chunks: the first (kept for restarts),
+// the one the reader is in and the one the writer is in, each whole. Every
+// event comes out once, in order, unchanged (a chunk given back while
+// still in use would read as zeros).
+TEST(EventQueueTest, AWriterThatStaysBehindKeepsOnlyWhatIsQueuedResident) {
+  const std::size_t chunk = 64u << 10;
+  EventQueue q(8u << 20, chunk);
+  int next_push = 0, next_pop = 0;
+  for (; next_push < 1000; ++next_push) ASSERT_TRUE(PushTestEvent(q, next_push));
+  std::size_t most_resident = 0, through = 0;
+  while (through < 5 * q.capacity_bytes()) {
+    const int n = q.PopBatch(
+        [&](const EventView& ev) {
+          ExpectTestEvent(ev, next_pop++);
+          through += EventQueue::RecordBytes(ev.channel.size(), ev.size);
+          ASSERT_TRUE(PushTestEvent(q, next_push++));
+        },
+        std::chrono::milliseconds(0));
+    ASSERT_EQ(n, 1000);  // the queue held 1000 events at every batch's start
+    most_resident = std::max(most_resident, q.resident_bytes());
+    if (HasFatalFailure()) return;
+  }
+  // 2000 events at most in the ring during a batch, 336 bytes each at most.
+  const std::size_t queued = 2000 * EventQueue::RecordBytes(8, 299);
+  EXPECT_LE(most_resident, queued + 3 * chunk + 2 * kPage);
+  EXPECT_GT(most_resident, 0u);
+}
+
+// Oracle: mincore. A burst fills the whole ring, which is then resident;
+// once the reader has drained it, the next event gives every chunk back
+// but the first.
+TEST(EventQueueTest, ADrainedBurstIsGivenBack) {
+  const std::size_t chunk = 64u << 10;
+  EventQueue q(1u << 20, chunk);
+  int pushed = 0;
+  while (PushTestEvent(q, pushed)) ++pushed;
+  EXPECT_GE(q.resident_bytes(), q.capacity_bytes() - kPage);
+  EXPECT_GE(q.high_water_bytes(), q.capacity_bytes() - EventQueue::RecordBytes(8, 299));
+  int popped = 0;
+  EXPECT_EQ(q.PopBatch([&](const EventView& ev) { ExpectTestEvent(ev, popped++); }, std::chrono::milliseconds(0)),
+            pushed);
+  ASSERT_TRUE(PushTestEvent(q, pushed));
+  EXPECT_LE(q.resident_bytes(), chunk);
+  EXPECT_EQ(q.PopBatch([&](const EventView& ev) { ExpectTestEvent(ev, popped++); }, std::chrono::milliseconds(0)),
+            1);
+}
+
+// Oracle: order and content, in a sequence written out by position (one
+// pass of the ring is 64 KiB = 256 events of 256 bytes, chunks 4 KiB = 16
+// events). The reader has drained to the middle of chunk 12 (52 480); it
+// takes a batch up to 78 336, and while it reads, the writer fills the
+// ring, coming round into chunk 12's first bytes (positions 114 688 ..
+// 118 016 are its bytes 0 .. 3 328 again). Chunk 12 is drained once that
+// batch ends, but it must not be given back: its new bytes are unread. A
+// queue that gave it back reads zeros there (the check throws to end the
+// batch instead of looping on a zero length).
+TEST(EventQueueTest, AChunkTheWriterCameRoundIntoIsKept) {
+  EventQueue q(64u << 10, 4096);
+  const auto push = [&q](int i) {
+    const std::string payload = Payload(i, 224);
+    return q.Push(i, i, "RL_THETA", payload.data(), 224);
+  };
+  ASSERT_EQ(EventQueue::RecordBytes(8, 224), 256u);
+  int next_push = 0, next_pop = 0;
+  const auto check = [&next_pop](const EventView& ev) {
+    const int expected = next_pop++;
+    if (ev.channel_id != expected || std::string(reinterpret_cast<const char*>(ev.data), ev.size) !=
+                                         Payload(expected, 224)) {
+      ADD_FAILURE() << "event " << expected << " read as id " << ev.channel_id << ", " << ev.size << " bytes";
+      throw std::runtime_error("corrupt event");
+    }
+  };
+  for (; next_push < 205; ++next_push) ASSERT_TRUE(push(next_push));  // [0, 52 480)
+  // Batch A: the last event read pushes one more, so the queue is never
+  // empty (an empty queue would restart at the ring's start).
+  ASSERT_EQ(q.PopBatch(
+                [&](const EventView& ev) {
+                  check(ev);
+                  if (ev.channel_id == 204) {
+                    EXPECT_TRUE(push(next_push++));
+                  }
+                },
+                std::chrono::milliseconds(0)),
+            205);
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(push(next_push++));  // up to 78 336
+  // Batch B: while its first event is read the writer fills the ring.
+  int refused = 0;
+  ASSERT_EQ(q.PopBatch(
+                [&](const EventView& ev) {
+                  check(ev);
+                  if (ev.channel_id == 205) {
+                    while (push(next_push)) ++next_push;
+                    ++refused;
+                  }
+                },
+                std::chrono::milliseconds(0)),
+            101);
+  EXPECT_EQ(refused, 1);
+  EXPECT_EQ(next_push, 205 + 1 + 100 + 155);  // 155 more fill [78 336, 118 016)
+  ASSERT_TRUE(push(next_push++));             // gives back the chunks batch B drained
+  try {
+    EXPECT_EQ(q.PopBatch(check, std::chrono::milliseconds(0)), 156);
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(next_pop, next_push);
+}
+
+// Oracle: order and content. A producer thread and the consumer (this
+// thread) on a small ring with one-page chunks, so that chunks are given
+// back all the time while the other side works: every event arrives once,
+// in order, unchanged; a refused push (the ring full) is retried, as the
+// recorder would count it, so the refusals are counted, not lost.
+TEST(EventQueueTest, ThreadsLoseNothingWhileChunksAreGivenBack) {
+  EventQueue q(64u << 10, 1);
+  ASSERT_EQ(q.release_chunk_bytes(), kPage);
+  constexpr int kEvents = 200000;
+  std::atomic<int> refused{0};
+  std::atomic<bool> abandon{false};  // the consumer failed: the producer stops
+  std::thread producer([&] {
+    for (int i = 0; i < kEvents && !abandon; ++i) {
+      while (!PushTestEvent(q, i) && !abandon) {
+        refused.fetch_add(1, std::memory_order_relaxed);
+        std::this_thread::yield();
+      }
+    }
+    q.Close();
+  });
+  int next_pop = 0;
+  for (;;) {
+    const int n = q.PopBatch([&](const EventView& ev) { ExpectTestEvent(ev, next_pop++); },
+                             std::chrono::milliseconds(100));
+    if (n < 0) break;
+    if (HasFatalFailure()) {
+      abandon = true;
+      break;
+    }
+  }
+  producer.join();
+  EXPECT_EQ(next_pop, kEvents);
+  EXPECT_LE(q.high_water_bytes(), q.capacity_bytes());
+  std::printf("refused (ring full, retried): %d\n", refused.load());
 }
 
 // Oracle: the LCM log format written out by hand (sync word 0xEDA1DA01,

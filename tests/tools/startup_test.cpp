@@ -1,8 +1,9 @@
 // The command's start-up (issue 33, docs/performance.md "Start-up"): what
 // `rocklab --version` and `rocklab simulate --help` load, counted (a
 // number, not a time), and the plugins: video and MPI are not loaded by
-// them, `--version` says which parts are there, and a rocklab without its
-// video plugin names the package to install.
+// them, nor the monitor's HTTP server (libmicrohttpd, gnutls), `--version`
+// says which parts are there, and a rocklab without its video or monitor
+// plugin names the package to install.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -51,16 +52,18 @@ std::string Join(const std::set<std::string>& names) {
 }
 
 // The bound: the shared objects `rocklab --version` and `rocklab simulate
-// --help` load as measured at this commit on Debian bookworm, 22 (the
-// command's 11 DT_NEEDED, and libmicrohttpd's gnutls with its 8, glib and
-// pcre2 for liblcm; docs/performance.md, Start-up), with room for two that
-// a Debian update may add to a dependency's closure. Before the plugins it
-// was 259 (OpenCV's videoio 242 of them, HDF5 and matio 25, OpenMPI 6).
-constexpr std::size_t kMaxCoreObjects = 24;
+// --help` load as measured at this commit on Debian bookworm, 12 (the
+// command's 10 DT_NEEDED and liblcm's glib and pcre2; docs/performance.md,
+// Start-up), with room for two that a Debian update may add to a
+// dependency's closure. Before the plugins it was 259 (OpenCV's videoio
+// 242 of them, HDF5 and matio 25, OpenMPI 6), then 22 with libmicrohttpd
+// and its gnutls closure (10 objects), which only `monitor` needs.
+constexpr std::size_t kMaxCoreObjects = 14;
 // Names that only the plugins may bring: OpenCV and what its videoio
 // needs (FFmpeg, GStreamer, GDAL, poppler), OpenMPI, HDF5 and matio (and
-// libcurl, which Debian's HDF5 brings).
-const std::regex kPluginOnly(R"(opencv|avcodec|avformat|gst|gdal|poppler|libmpi|open-pal|open-rte|hdf5|matio|curl)");
+// libcurl, which Debian's HDF5 brings), libmicrohttpd and its gnutls.
+const std::regex kPluginOnly(
+    R"(opencv|avcodec|avformat|gst|gdal|poppler|libmpi|open-pal|open-rte|hdf5|matio|curl|microhttpd|gnutls)");
 
 TEST(Startup, VersionMapsTheCoreLibrariesOnly) {
   for (const std::string args : {"--version", "simulate --help"}) {
@@ -79,9 +82,13 @@ TEST(Startup, VersionSaysBuildTypeAndParts) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.rfind("rocklab 0.1.0\n", 0), 0u) << r.out;  // the first line as before
   EXPECT_NE(r.out.find("\nbuild: "), std::string::npos) << r.out;
-  for (const char* part : {"\nvideo ", "\nMPI ", "\nHDF5 ", "\nMATLAB ", "\nPython "}) {
+  for (const char* part : {"\nvideo ", "\nMPI ", "\nHDF5 ", "\nMATLAB ", "\nmonitor ", "\nPython "}) {
     EXPECT_NE(r.out.find(part), std::string::npos) << part << " missing from\n" << r.out;
   }
+  EXPECT_NE(r.out.find("libmicrohttpd): installed ("), std::string::npos) << r.out;
+  const CliResult loaded = RunCli({"--version", "--load"});
+  ASSERT_EQ(loaded.exit_code, 0) << loaded.err;
+  EXPECT_NE(loaded.out.find("libmicrohttpd): loads ("), std::string::npos) << loaded.out;
 #ifdef ROCKLAB_HAVE_VIDEO
   EXPECT_NE(r.out.find("camera-calibrate): installed ("), std::string::npos) << r.out;
   const CliResult load = RunCli({"--version", "--load"});
@@ -95,14 +102,72 @@ TEST(Startup, VersionSaysBuildTypeAndParts) {
 #endif
 }
 
+// `rocklab COMMAND ...` registers that command alone (tools/main.cpp),
+// `rocklab help COMMAND` every command. Oracle: the latter, for every
+// command `rocklab help` lists: each command's --help is the same text
+// (but for the program's name on its usage line, argv[0] there), so the
+// one command registered is the command asked for, with all its options.
+TEST(Startup, ACommandAloneHasTheSameHelpAsAmongAll) {
+  const CliResult list = RunCli({"help"});
+  ASSERT_EQ(list.exit_code, 0) << list.err;
+  std::vector<std::string> names;
+  const std::regex line(R"(\n  ([a-z][a-z0-9-]*)  )");
+  for (std::sregex_iterator it(list.out.begin(), list.out.end(), line), end; it != end; ++it) {
+    names.push_back((*it)[1].str());
+  }
+  ASSERT_GE(names.size(), 20u) << list.out;
+  const std::regex usage(R"(Usage: \S*rocklab )");
+  for (const std::string& name : names) {
+    const CliResult all = RunCli({"help", name});
+    const CliResult alone = RunCli({name, "--help"});
+    ASSERT_EQ(all.exit_code, 0) << name << ": " << all.err;
+    ASSERT_EQ(alone.exit_code, 0) << name << ": " << alone.err;
+    EXPECT_EQ(std::regex_replace(alone.out, usage, "Usage: rocklab "), all.out) << name;
+  }
+}
+
+// The binary alone in dir/bin, with no lib/rocklab/plugins beside it: a
+// rocklab whose plugins are not installed.
+std::string CopyWithoutPlugins(const std::string& dir) {
+  std::filesystem::create_directories(dir + "/bin");
+  const std::string bin = dir + "/bin/rocklab";
+  std::filesystem::copy_file(ROCKLAB_BINARY, bin, std::filesystem::copy_options::overwrite_existing);
+  return bin;
+}
+
+// Without its plugin, `monitor` fails as a command that cannot run (1),
+// before it opens the bus or binds, naming the file and the package; the
+// bad options are still usage errors (2); other commands run.
+TEST(Startup, WithoutTheMonitorPluginNamesThePackage) {
+  const std::string dir = ScratchDir("no_monitor");
+  const std::string bin = CopyWithoutPlugins(dir);
+  const std::string err = dir + "/err";
+  int status = std::system(("'" + bin + "' monitor --lcm-url memq:// --http 127.0.0.1:0 > /dev/null 2> '" + err +
+                            "'")
+                               .c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string text = Slurp(err);
+  EXPECT_NE(text.find("the monitor's HTTP server is the plugin " + dir + "/lib/rocklab/plugins/rocklab-monitor.so" +
+                      ", which is missing: the package rocklab installs it (apt-get install --reinstall rocklab)"),
+            std::string::npos)
+      << text;
+  status = std::system(("'" + bin + "' monitor --http nohost > /dev/null 2> '" + err + "'").c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2) << Slurp(err);
+  EXPECT_EQ(std::system(("'" + bin + "' --version > '" + dir + "/v.out'").c_str()), 0);
+  const std::string version = Slurp(dir + "/v.out");
+  EXPECT_NE(version.find("libmicrohttpd): not installed (" + dir + "/lib/rocklab/plugins/rocklab-monitor.so missing"),
+            std::string::npos)
+      << version;
+}
+
 #ifdef ROCKLAB_HAVE_VIDEO
 // A rocklab installed without rocklab-video: the binary alone in a bin/
 // folder with no lib/rocklab/plugins beside it.
 TEST(Startup, WithoutTheVideoPluginNamesThePackage) {
   const std::string dir = ScratchDir("no_video");
-  std::filesystem::create_directories(dir + "/bin");
-  const std::string bin = dir + "/bin/rocklab";
-  std::filesystem::copy_file(ROCKLAB_BINARY, bin, std::filesystem::copy_options::overwrite_existing);
+  const std::string bin = CopyWithoutPlugins(dir);
   const std::string rig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
   // The two video commands fail as a command that cannot run (1); an
   // input that cannot be opened is reconstruct's usage error (2), as a
