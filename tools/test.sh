@@ -82,3 +82,5 @@ run_fuzzer lcm_log 16384
 run_fuzzer lcm_types 4096
 run_fuzzer at2 8192
 run_fuzzer daq_config 4096
+run_fuzzer sweep_csv 8192
+run_fuzzer sweep_h5 65536
