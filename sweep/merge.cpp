@@ -248,7 +248,7 @@ void ReadCsvShard(const Layout& l, const std::unordered_map<std::string, std::si
     const std::string where = "--merge: " + part + ":" + std::to_string(line_no) + ": ";
     if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
     if (!header_seen) {
-      if (ParseDefinitionLine(line, definition) || line == "# rocklab sweep definition") continue;
+      if (ParseDefinitionLine(line, definition)) continue;
       if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
       CheckDefinition(part, definition, definitions);
       header_seen = true;

@@ -139,30 +139,44 @@ struct Column {
     return out;
   }
 
-  // Variable-length strings; their bytes are summed (H5Dvlen_get_buf_size,
-  // one at a time) and checked against the file's size before they are read.
+  // Variable-length strings, read kStringBlock rows at a time: their bytes
+  // are summed as they come and may not pass the file's size (each string
+  // is an object of the file's global heap), so what they take is bounded
+  // by the file's size plus one block. (H5Dvlen_get_buf_size would size
+  // them first, but one row at a time: 20 s for 20 000 rows.)
   std::vector<std::string> Texts(std::uintmax_t file_bytes) const {
     if (kind != 's') throw std::runtime_error(where + "not a variable-length string column");
+    constexpr hsize_t kStringBlock = 4096;
     std::vector<std::string> out;
-    if (rows == 0) return out;
+    out.reserve(rows);
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), H5T_VARIABLE);
     H5Tset_cset(mem.get(), H5T_CSET_UTF8);
-    hsize_t bytes = 0;
-    if (H5Dvlen_get_buf_size(d.get(), mem.get(), space.get(), &bytes) < 0) {
-      throw std::runtime_error(where + "cannot size its strings");
+    std::vector<char*> p(static_cast<std::size_t>(std::min(rows, kStringBlock)), nullptr);
+    std::uintmax_t bytes = 0;
+    for (hsize_t first = 0; first < rows; first += kStringBlock) {
+      hsize_t count = std::min(kStringBlock, rows - first);
+      Handle block(H5Scopy(space.get()), H5Sclose);
+      Handle memory(H5Screate_simple(1, &count, nullptr), H5Sclose);
+      if (!block.ok() || !memory.ok() ||
+          H5Sselect_hyperslab(block.get(), H5S_SELECT_SET, &first, nullptr, &count, nullptr) < 0) {
+        throw std::runtime_error(where + "cannot select rows " + std::to_string(first + 1));
+      }
+      std::fill(p.begin(), p.end(), nullptr);
+      if (H5Dread(d.get(), mem.get(), memory.get(), block.get(), H5P_DEFAULT, p.data()) < 0) {
+        throw std::runtime_error(where + "read failed");
+      }
+      for (hsize_t k = 0; k < count; ++k) {
+        const char* q = p[k] ? p[k] : "";
+        bytes += std::strlen(q);
+        if (bytes <= file_bytes) out.emplace_back(q);
+      }
+      H5Dvlen_reclaim(mem.get(), memory.get(), H5P_DEFAULT, p.data());
+      if (bytes > file_bytes) {
+        throw std::runtime_error(where + "strings of more than " + std::to_string(file_bytes) +
+                                 " bytes in a file of that size: a damaged file");
+      }
     }
-    if (bytes > file_bytes) {
-      throw std::runtime_error(where + "strings of " + std::to_string(bytes) + " bytes in a file of " +
-                               std::to_string(file_bytes) + ": a damaged file");
-    }
-    std::vector<char*> p(rows, nullptr);
-    if (H5Dread(d.get(), mem.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) < 0) {
-      throw std::runtime_error(where + "read failed");
-    }
-    out.reserve(rows);
-    for (char* q : p) out.emplace_back(q ? q : "");
-    H5Dvlen_reclaim(mem.get(), space.get(), H5P_DEFAULT, p.data());
     return out;
   }
 

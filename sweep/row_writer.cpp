@@ -100,7 +100,7 @@ class CsvRowWriter final : public RowWriter {
       if (!header_seen) {
         // The definition's lines, then the header (an older rocklab's file
         // has the header alone, and is continued as it is).
-        if (ParseDefinitionLine(line, definition) || line == "# rocklab sweep definition") continue;
+        if (ParseDefinitionLine(line, definition)) continue;
         if (line != Header()) {
           throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
                             " is not a sweep's; --resume continues a file this command wrote");

@@ -316,13 +316,16 @@ Definition DefinitionOf(const Plan& plan) {
   return d;
 }
 
+constexpr const char* kDefinitionTitle = "# rocklab sweep definition";
+
 std::string DefinitionText(const Definition& d) {
-  std::string out = "# rocklab sweep definition\n";
+  std::string out = std::string(kDefinitionTitle) + "\n";
   for (const DefinitionField& f : d) out += "# " + f.key + ": " + f.value + "\n";
   return out;
 }
 
 bool ParseDefinitionLine(const std::string& line, Definition& d) {
+  if (line == kDefinitionTitle) return true;
   if (line.size() < 2 || line[0] != '#' || line[1] != ' ') return false;
   const std::size_t colon = line.find(": ", 2);
   if (colon == std::string::npos || colon == 2) return false;

@@ -150,13 +150,14 @@ Definition DefinitionOf(const Plan& plan);
 /// The CSV form of a definition: a "# rocklab sweep definition" line, then
 /// one "# key: value" line per field, each with its newline.
 std::string DefinitionText(const Definition& d);
-/// Reads one line of DefinitionText (without its newline) into `d`; false
-/// when the line is not a "# key: value" line (the title line is not).
+/// Reads one line of DefinitionText (without its newline) into `d`: true
+/// for its title line (nothing added) and a "# key: value" line, false for
+/// any other.
 bool ParseDefinitionLine(const std::string& line, Definition& d);
 
-/// The first difference between two definitions, "" when equal: "duration_s
-/// A_NAME A_VALUE, B_NAME B_VALUE" style text is the caller's; this returns
-/// the key and fills the two values ("(none)" for a key one lacks).
+/// The key of the first field where `a` and `b` differ (a's keys in order,
+/// then b's), "" when they are equal; `a_value` and `b_value` get the two
+/// values ("(none)" for a key one of them lacks). The caller names files.
 std::string FirstDifference(const Definition& a, const Definition& b, std::string& a_value, std::string& b_value);
 
 /// The CSV header (no newline).
