@@ -1,6 +1,7 @@
 #include "sweep/results_h5.h"
 
 #include <hdf5.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -448,6 +449,40 @@ void WriteAll(int fd, const std::string& bytes) {
   }
 }
 
+// The child's address space is capped at what it has mapped plus 512 MiB
+// plus 64 times the file's size (above the readers' own bound, results_h5.h),
+// so an allocation libhdf5 makes from a damaged size fails in the child
+// instead of taking the machine's memory. Not under ASan, whose shadow
+// memory needs terabytes of address space.
+#if defined(__SANITIZE_ADDRESS__)
+#define ROCKLAB_UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define ROCKLAB_UNDER_ASAN 1
+#endif
+#endif
+void CapAddressSpace(const std::string& path) {
+#ifdef ROCKLAB_UNDER_ASAN
+  (void)path;
+#else
+  long pages = 0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%ld", &pages) != 1) pages = 0;
+    std::fclose(f);
+  }
+  std::error_code ec;
+  const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (pages <= 0 || ec || bytes > (std::uintmax_t{1} << 40)) return;  // no cap rather than a wrong one
+  const rlim_t cap = static_cast<rlim_t>(pages) * static_cast<rlim_t>(::sysconf(_SC_PAGESIZE)) +
+                     (rlim_t{512} << 20) + static_cast<rlim_t>(bytes) * 64;
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_AS, &limit) == 0 && (limit.rlim_cur == RLIM_INFINITY || limit.rlim_cur > cap)) {
+    limit.rlim_cur = cap;
+    ::setrlimit(RLIMIT_AS, &limit);
+  }
+#endif
+}
+
 // Runs read(path) in a forked child and returns its result, or throws its
 // std::runtime_error's message; a child that dies throws naming the file.
 template <typename Result, typename Read>
@@ -463,6 +498,7 @@ Result Isolated(const std::string& path, Read read) {
   }
   if (child == 0) {
     ::close(fds[0]);
+    CapAddressSpace(path);
     Encoder e;
     try {
       const Result result = read(path);
