@@ -504,9 +504,11 @@ py::tuple SampleProblem(const PyPosteriorProblem& p, const py::object& progress)
 std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py::object& progress) {
   ProgressHook hook(progress, 0.0);
   std::vector<std::string> rows;
+  std::string csv;  // the definition and the header, then the rows
   {
     py::gil_scoped_release release;
     const sweep::Plan plan = sweep::MakePlan(options);
+    csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::Header() + "\n";
     hook.set_total(static_cast<double>(plan.size()));
     rows.resize(plan.size());
     if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
@@ -536,7 +538,6 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
     if (error) std::rethrow_exception(error);
     hook.Done(static_cast<double>(plan.size()));
   }
-  std::string csv = sweep::Header() + "\n";
   for (const std::string& row : rows) csv += row;
   return csv;
 }

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -33,6 +34,7 @@
 #include "common/atomic_file.h"
 #include "common/text.h"
 #include "pipeline/option_error.h"
+#include "sweep/plot.h"
 #include "sweep/results_h5.h"
 #include "sweep/row_writer.h"
 #include "sweep/runner.h"
@@ -180,19 +182,76 @@ void Place(const std::unordered_map<std::string, std::size_t>& index_of, const s
   }
 }
 
+// The shards' definitions, checked one against another and against the
+// merge's own plan as each shard is read.
+struct Definitions {
+  Definition plan;
+  std::string first_part;  // the first shard that had one
+  Definition first;
+  bool any_missing{};
+  std::vector<std::string> warnings;
+};
+
+// Refuses a shard whose definition differs from the first shard's (naming
+// both files) or from the merge's options; a shard without one (an older
+// rocklab's) is taken with a warning: its rows are still checked against
+// the plan's cases, what the definition adds cannot be.
+void CheckDefinition(const std::string& part, const Definition& d, Definitions& state) {
+  if (d.empty()) {
+    state.any_missing = true;
+    state.warnings.push_back(part + ": no sweep definition (written by an older rocklab): its rows are checked "
+                             "against this sweep's cases, but not its rtol, rate, duration, l or records' samples; "
+                             "the merged file carries no definition");
+    return;
+  }
+  std::string a, b;
+  if (!state.first_part.empty()) {
+    const std::string key = FirstDifference(d, state.first, a, b);
+    if (!key.empty()) {
+      throw OptionError("--merge: " + part + " and " + state.first_part + " are shards of different sweeps: " + key +
+                        " " + common::Quote(a) + " in " + part + ", " + common::Quote(b) + " in " +
+                        state.first_part);
+    }
+  }
+  const std::string key = FirstDifference(d, state.plan, a, b);
+  if (!key.empty()) {
+    throw OptionError("--merge: " + part + ": its sweep ran with " + key + " " + common::Quote(a) +
+                      ", this merge's options give " + common::Quote(b) + " (merge with the shards' own options)");
+  }
+  if (state.first_part.empty()) {
+    state.first_part = part;
+    state.first = d;
+  }
+}
+
+// sweep-plot's check of a row (RowProblem), on the cells of either format.
+void CheckRow(const Layout& l, const Cells& cells, const std::string& where, const std::string& text) {
+  const auto real = [&](std::size_t c) { return cells.real[l.slot[c]]; };
+  const std::string problem = RowProblem({real(1), real(2), real(3), real(4), real(5), real(7),
+                                          static_cast<double>(cells.integer[l.slot[8]])});
+  if (!problem.empty()) {
+    throw OptionError(where + "row " + common::Quote(text) + ": " + problem + " (sweep-plot would refuse it)");
+  }
+}
+
 void ReadCsvShard(const Layout& l, const std::unordered_map<std::string, std::size_t>& index_of,
-                  const std::string& part, Slots& slots) {
+                  const std::string& part, Slots& slots, Definitions& definitions) {
   std::ifstream in(part, std::ios::binary);
   if (!in) throw OptionError("--merge: cannot read '" + part + "'");
   std::string line;
   std::size_t line_no = 0;
+  bool header_seen = false;
+  Definition definition;
   Cells cells;
   while (std::getline(in, line)) {
     ++line_no;
     const std::string where = "--merge: " + part + ":" + std::to_string(line_no) + ": ";
     if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
-    if (line_no == 1) {
+    if (!header_seen) {
+      if (ParseDefinitionLine(line, definition)) continue;
       if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
+      CheckDefinition(part, definition, definitions);
+      header_seen = true;
       continue;
     }
     std::size_t cut = std::string::npos, from = 0;  // the 7th comma ends the case's key
@@ -205,10 +264,12 @@ void ReadCsvShard(const Layout& l, const std::unordered_map<std::string, std::si
     if (!key.empty() && index_of.count(key) != 0) {
       const std::string wrong = ParseFields(l, line, cells);
       if (!wrong.empty()) throw OptionError(where + "row " + common::Quote(line) + " " + wrong);
+      CheckRow(l, cells, where, line);
     }
     const std::string text = line;
     Place(index_of, key, where, text, slots, std::move(line), cells);
   }
+  if (!header_seen) throw OptionError("--merge: " + part + ": no sweep header (an empty file?)");
 }
 
 const char* KindName(char kind) {
@@ -216,27 +277,25 @@ const char* KindName(char kind) {
 }
 
 void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::size_t>& index_of,
-                 const std::string& part, Slots& slots) {
-  std::vector<H5ResultsColumn> read;
+                 const std::string& part, Slots& slots, Definitions& definitions) {
+  H5ResultsTable read;
   try {
-    read = ReadResultsColumnsH5(part);
+    read = ReadResultsTableH5(part, l.names);
   } catch (const std::runtime_error& e) {
     throw OptionError("--merge: " + std::string(e.what()));
   }
-  // The datasets must be Header()'s columns, each of the type the HDF5 writer gives it.
-  std::vector<std::string> names;
-  for (const H5ResultsColumn& c : read) names.push_back(c.name);
+  // The datasets must be Header()'s columns and no others, each of the type the HDF5 writer gives it.
   std::array<const H5ResultsColumn*, kColumns> column{};
+  std::string missing;
   for (std::size_t c = 0; c < kColumns; ++c) {
-    for (const H5ResultsColumn& r : read) {
-      if (r.name == l.names[c]) column[c] = &r;
-    }
+    column[c] = &read.columns[c];
+    if (read.columns[c].kind == 0) missing += (missing.empty() ? "" : ",") + l.names[c];
   }
-  const bool all = std::all_of(column.begin(), column.end(), [](const H5ResultsColumn* c) { return c != nullptr; });
-  if (!all || read.size() != kColumns) {
-    throw OptionError("--merge: " + part + ": /results columns " + common::Quote(Join(names), 400) +
-                      " are not a sweep's (" + Header() + ")");
+  if (!missing.empty() || read.links != kColumns) {
+    throw OptionError("--merge: " + part + ": /results columns (" + std::to_string(read.links) + " links" +
+                      (missing.empty() ? "" : ", lacking " + missing) + ") are not a sweep's (" + Header() + ")");
   }
+  CheckDefinition(part, read.definition, definitions);
   const std::size_t n = column[0]->size();
   for (std::size_t c = 0; c < kColumns; ++c) {
     const char want = l.type[c] == ColumnType::kDouble ? 'd' : l.type[c] == ColumnType::kInt ? 'i' : 's';
@@ -272,12 +331,13 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
       }
     }
     const std::string key = FormatCells(l, cells, kKeyColumns);
+    if (index_of.count(key) != 0) CheckRow(l, cells, where, line);
     const std::string text = line;
     Place(index_of, key, where, text, slots, std::move(line), cells);
   }
 }
 
-void WriteCsv(const Slots& slots, const std::string& out_path) {
+void WriteCsv(const Slots& slots, const Definition& definition, const std::string& out_path) {
   std::unique_ptr<common::AtomicFile> out;
   try {
     out = std::make_unique<common::AtomicFile>(out_path);
@@ -285,14 +345,15 @@ void WriteCsv(const Slots& slots, const std::string& out_path) {
     throw OptionError(std::string("--out: ") + e.what());
   }
   std::FILE* f = out->stream();
-  bool ok = std::fprintf(f, "%s\n", Header().c_str()) > 0;
+  const std::string head = (definition.empty() ? "" : DefinitionText(definition)) + Header() + "\n";
+  bool ok = std::fputs(head.c_str(), f) >= 0;
   for (const std::string& row : slots.lines) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
   if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
   out->Commit();
 }
 
-void WriteH5(const Layout& l, const Slots& slots, const std::string& out_path) {
-  H5Results out(out_path);  // destroyed without Close() (an error), out_path keeps what it held
+void WriteH5(const Layout& l, const Slots& slots, const Definition& definition, const std::string& out_path) {
+  H5Results out(out_path, definition);  // destroyed without Close() (an error), out_path keeps what it held
   exporter::Row row;
   row.Resize(kColumns);
   for (const Cells& cells : slots.cells) {
@@ -310,7 +371,18 @@ void WriteH5(const Layout& l, const Slots& slots, const std::string& out_path) {
 
 }  // namespace
 
-void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const std::string& part : parts) {
+    if (fs::is_directory(part, ec)) {
+      throw OptionError("--merge: " + common::Quote(part) + " is a directory; give the shard files (e.g. part*.csv)");
+    }
+    if (fs::exists(out_path, ec) && fs::equivalent(part, out_path, ec)) {
+      throw OptionError("--merge: " + common::Quote(part) + " is also --out " + common::Quote(out_path) +
+                        ": the merge would replace a shard it reads; write the merge to another file");
+    }
+  }
   const Layout layout = MakeLayout();
   const bool h5_out = common::HasExtension(out_path, ".h5") || common::HasExtension(out_path, ".hdf5");
   const std::size_t n = plan.size();
@@ -318,11 +390,13 @@ void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const 
   index_of.reserve(n);
   for (std::size_t i = 0; i < n; ++i) index_of.emplace(KeyPrefix(plan, i), i);
   Slots slots(n, h5_out);
+  Definitions definitions;
+  definitions.plan = DefinitionOf(plan);
   for (const std::string& part : parts) {
     if (IsHdf5File(part)) {
-      ReadH5Shard(layout, index_of, part, slots);
+      ReadH5Shard(layout, index_of, part, slots, definitions);
     } else {
-      ReadCsvShard(layout, index_of, part, slots);
+      ReadCsvShard(layout, index_of, part, slots, definitions);
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -331,11 +405,14 @@ void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const 
                         "): a shard is missing or unfinished");
     }
   }
+  // The output claims the definition only when every shard carried it.
+  const Definition written = definitions.any_missing ? Definition{} : definitions.plan;
   if (h5_out) {
-    WriteH5(layout, slots, out_path);
+    WriteH5(layout, slots, written, out_path);
   } else {
-    WriteCsv(slots, out_path);
+    WriteCsv(slots, written, out_path);
   }
+  return MergeReport{std::move(definitions.warnings)};
 }
 
 }  // namespace rocklab::sweep

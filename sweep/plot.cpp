@@ -183,6 +183,18 @@ bool IsHdf5File(const std::string& path) {
   return in.read(head, sizeof head) && std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0;
 }
 
+std::string RowProblem(const RowValues& v) {
+  const std::pair<const char*, double> numbers[] = {{"scale", v.scale}, {"pga_g", v.pga_g},
+                                                    {"alpha", v.alpha}, {"p", v.p},
+                                                    {"mu", v.mu},       {"peak_theta_over_alpha", v.peak_theta_over_alpha}};
+  for (const auto& [name, value] : numbers) {
+    if (!std::isfinite(value)) return std::string(name) + " is not a finite number";
+  }
+  if (v.overturned != 0 && v.overturned != 1) return "overturned is not 0 or 1";
+  if (!(v.pga_g > 0) || !(v.alpha > 0)) return "pga_g and alpha must be > 0";
+  return "";
+}
+
 std::vector<ResultRow> ReadResults(const std::string& path) {
   if (IsHdf5File(path)) return ReadResultsH5(path);
   std::ifstream in(path);
@@ -199,7 +211,7 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
   while (std::getline(in, line)) {
     ++line_no;
     const std::string where = path + ":" + std::to_string(line_no) + ": ";
-    if (common::Trim(line).empty()) continue;
+    if (common::Trim(line).empty() || (at.empty() && line[0] == '#')) continue;
     common::Split(line, ',', fields);
     if (at.empty()) {
       for (std::size_t i = 0; i < fields.size(); ++i) column[std::string(common::Trim(fields[i]))] = i;
@@ -230,11 +242,13 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
     const std::string_view over = common::Trim(fields[at[8]]);
     if (over != "0" && over != "1") throw std::runtime_error(where + "overturned " + common::Quote(over) + " is not 0 or 1");
     r.overturned = over == "1";
+    const std::string problem =
+        RowProblem({r.scale, r.pga_g, r.alpha, r.p, r.mu, r.peak_theta_over_alpha, r.overturned ? 1.0 : 0.0});
+    if (!problem.empty()) throw std::runtime_error(where + problem);
     // The row's own block label (a row cut before it has none).
     if (block_at && *block_at < fields.size() && !common::Trim(fields[*block_at]).empty()) {
       r.block = std::string(common::Trim(fields[*block_at]));
     }
-    if (!(r.pga_g > 0) || !(r.alpha > 0)) throw std::runtime_error(where + "pga_g and alpha must be > 0");
     rows.push_back(std::move(r));
   }
   if (at.empty()) throw std::runtime_error(path + ": empty file (expected a sweep's header)");

@@ -26,9 +26,23 @@ struct ResultRow {
   bool overturned{};
 };
 
+/// The values of a row sweep-plot checks, whatever file they come from.
+struct RowValues {
+  double scale{}, pga_g{}, alpha{}, p{}, mu{}, peak_theta_over_alpha{};
+  double overturned{};  ///< 0 or 1
+};
+
+/// What sweep-plot refuses in a row, "" when it takes it: scale, pga_g,
+/// alpha, p, mu or peak_theta_over_alpha not a finite number, overturned
+/// not 0 or 1, pga_g or alpha not > 0. The one check of sweep-plot's
+/// readers (CSV and HDF5) and of `sweep --merge`, so a merge never writes
+/// a row that sweep-plot would refuse.
+std::string RowProblem(const RowValues& v);
+
 /// Reads a sweep's results: the HDF5 file of `sweep --out FILE.h5` (by its
 /// signature, whatever the name: ReadResultsH5), else a CSV by its header's
-/// column names (extra columns allowed).
+/// column names (extra columns allowed; `#` lines before the header, the
+/// sweep's definition, skipped).
 /// @throws std::runtime_error "FILE:LINE: ..." for a missing column, a
 ///   field that is not a number, or a short row.
 std::vector<ResultRow> ReadResults(const std::string& path);

@@ -53,7 +53,7 @@ class CsvRowWriter final : public RowWriter {
       file_ = std::fopen(partial_.c_str(), "w");
     }
     if (!file_) throw OptionError("--out: cannot write '" + partial_ + "': " + std::strerror(errno));
-    if (keep == 0) Put(Header() + "\n");
+    if (keep == 0) Put(DefinitionText(DefinitionOf(plan_)) + Header() + "\n");
   }
   ~CsvRowWriter() override {
     if (file_) std::fclose(file_);  // the rows stay in the .partial for --resume
@@ -90,16 +90,31 @@ class CsvRowWriter final : public RowWriter {
     std::size_t line_no = 0;
     const std::size_t commas = static_cast<std::size_t>(std::count(Header().begin(), Header().end(), ','));
     rows_done_ = 0;
+    bool header_seen = false;
+    Definition definition;
     while (std::getline(in, line)) {
       ++line_no;
       const bool complete = !in.eof();  // getline stopped at a newline
       if (!complete) break;             // a torn last line: written again
       offset += line.size() + 1;
-      if (line_no == 1) {
+      if (!header_seen) {
+        // The definition's lines, then the header (an older rocklab's file
+        // has the header alone, and is continued as it is).
+        if (ParseDefinitionLine(line, definition)) continue;
         if (line != Header()) {
-          throw OptionError("--out: " + path + ":1: header " + common::Quote(line) +
+          throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
                             " is not a sweep's; --resume continues a file this command wrote");
         }
+        if (!definition.empty()) {
+          std::string theirs, ours;
+          const std::string key = FirstDifference(definition, DefinitionOf(plan_), theirs, ours);
+          if (!key.empty()) {
+            throw OptionError("--out: " + path + ": its sweep ran with " + key + " " + common::Quote(theirs) +
+                              ", this one's options give " + common::Quote(ours) +
+                              "; --resume continues the same sweep only");
+          }
+        }
+        header_seen = true;
         keep = offset;
         continue;
       }
@@ -132,7 +147,7 @@ class CsvRowWriter final : public RowWriter {
 // block) is NaN.
 class H5RowWriter final : public RowWriter {
  public:
-  H5RowWriter(const std::string& path, const Plan& plan) : file_(path), plan_(plan) {
+  H5RowWriter(const std::string& path, const Plan& plan) : file_(path, DefinitionOf(plan)), plan_(plan) {
     row_.Resize(ResultColumns().size());
   }
 
@@ -191,11 +206,19 @@ const std::vector<exporter::Column>& ResultColumns() {
   return columns;
 }
 
-H5Results::H5Results(const std::string& path) {
+H5Results::H5Results(const std::string& path, const Definition& definition) {
   try {
     writer_ = std::make_unique<exporter::H5Writer>(path);
     table_ = writer_->AddTable("results", ResultColumns());
     writer_->DescribeFile("columns_as_csv", Header());
+    if (!definition.empty()) {
+      std::string keys;
+      for (const DefinitionField& f : definition) {
+        writer_->DescribeFile(kH5DefinitionPrefix + f.key, f.value);
+        keys += (keys.empty() ? "" : " ") + f.key;
+      }
+      writer_->DescribeFile(kH5DefinitionKeys, keys);
+    }
   } catch (const std::exception& e) {
     throw OptionError("--out: " + std::string(e.what()));
   }

@@ -51,14 +51,22 @@ class RowWriter {
 /// model and block kString) and unit.
 const std::vector<exporter::Column>& ResultColumns();
 
+/// The root attributes of a sweep's HDF5 file that hold its definition:
+/// kH5DefinitionPrefix + key, one string each, and kH5DefinitionKeys, the
+/// keys in order separated by spaces (read by name: the reader never lists
+/// the file's attributes).
+inline constexpr const char* kH5DefinitionPrefix = "sweep_";
+inline constexpr const char* kH5DefinitionKeys = "sweep_definition_keys";
+
 /// The HDF5 file of a sweep (what OpenRowWriter writes for an .h5): table
-/// "results" of ResultColumns() and the root attribute columns_as_csv,
-/// written beside `path` and renamed at Close() (export's H5Writer). The
-/// one HDF5 table writer of the sweep: RowWriter and --merge append here.
+/// "results" of ResultColumns(), the root attribute columns_as_csv and the
+/// definition's attributes (none when `definition` is empty), written
+/// beside `path` and renamed at Close() (export's H5Writer). The one HDF5
+/// table writer of the sweep: RowWriter and --merge append here.
 class H5Results {
  public:
   /// @throws pipeline::OptionError "--out: ..." when the file cannot be made.
-  explicit H5Results(const std::string& path);
+  H5Results(const std::string& path, const Definition& definition);
   ~H5Results();
   H5Results(const H5Results&) = delete;
   H5Results& operator=(const H5Results&) = delete;

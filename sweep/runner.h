@@ -22,6 +22,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "sweep/row_writer.h"
 #include "sweep/sweep.h"
@@ -98,10 +99,19 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
 /// the result is the unsharded file (merge.cpp says which trips are exact).
 /// The output appears whole or not at all; on an error `out_path` keeps
 /// what it held.
+/// Every shard's definition (DefinitionOf) must equal the first shard's and
+/// the plan's; a shard without one (an older rocklab's) is merged with a
+/// warning, and then the output carries no definition.
 /// @throws pipeline::OptionError naming the file and line (HDF5: row, from
-///   1) of a row that does not belong to the plan or is there twice, a
-///   header (HDF5: /results columns) that is not a sweep's, a torn last
-///   line, or the first case that no file holds.
-void MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path);
+///   1) of a row that does not belong to the plan, is there twice or that
+///   sweep-plot would refuse (RowProblem), a header (HDF5: /results
+///   columns) that is not a sweep's, a torn last line, the first case that
+///   no file holds; naming the field, the two files and their values for
+///   shards of different definitions; a directory among `parts`, or a part
+///   that is `out_path` itself.
+struct MergeReport {
+  std::vector<std::string> warnings;  ///< one line each, naming the file
+};
+MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path);
 
 }  // namespace rocklab::sweep

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <set>
@@ -207,9 +209,7 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
 
   std::vector<double> accel(record.accel_mps2);
   for (double& a : accel) a *= scaling.factor;
-  model::ModelOptions mo;
-  mo.l = plan.l;
-  mo.rtol = plan.rtol;
+  const model::ModelOptions mo = CaseModelOptions(plan);
   pipeline::Scenario scenario;
   scenario.model = model::RockingModel::Create(plan.model, block.params, mo);
   scenario.forcing = std::make_unique<model::SampledAcceleration>(record.time_s, std::move(accel));
@@ -251,6 +251,109 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
   out.impacts = summary.impacts;
   out.uplift_time_s = summary.uplift_time_s;
   return out;
+}
+
+model::ModelOptions CaseModelOptions(const Plan& plan) {
+  model::ModelOptions mo;
+  mo.l = plan.l;
+  mo.rtol = plan.rtol;
+  return mo;
+}
+
+namespace {
+
+std::string Exact(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// FNV-1a, 64 bits, over the bytes of the doubles as this machine holds them
+// (IEEE 754; little-endian on every platform rocklab builds for).
+void Fnv1a(std::uint64_t& h, const std::vector<double>& values) {
+  for (double v : values) {
+    unsigned char bytes[sizeof v];
+    std::memcpy(bytes, &v, sizeof v);
+    for (unsigned char b : bytes) {
+      h ^= b;
+      h *= 0x100000001b3ULL;
+    }
+  }
+}
+
+bool KeyChar(char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; }
+
+}  // namespace
+
+Definition DefinitionOf(const Plan& plan) {
+  const model::ModelOptions mo = CaseModelOptions(plan);
+  Definition d = {
+      {"model", model::ToString(plan.model)},
+      {"integrator", model::ToString(mo.integrator)},
+      {"rtol", Exact(mo.rtol)},
+      {"atol", Exact(mo.atol)},
+      {"max_step_s", Exact(mo.max_step_s)},
+      {"rest_impact_interval_s", Exact(mo.rest_impact_interval_s)},
+      {"l", Exact(mo.l)},
+      {"rate_hz", Exact(plan.rate_hz)},
+      {"duration_s", plan.duration_s ? Exact(*plan.duration_s)
+                                     : "record end + " + Exact(Plan::kDefaultTail_s)},
+      {"scale_kind", plan.scale_kind == ScaleKind::kPgaG ? "pga_g" : "factor"},
+      {"cases", std::to_string(plan.records.size()) + " records x " + std::to_string(plan.blocks.size()) +
+                    " blocks x " + std::to_string(plan.scales.size()) + " scales"},
+      {"records", std::to_string(plan.records.size())},
+  };
+  for (std::size_t k = 0; k < plan.records.size(); ++k) {
+    const Record& r = plan.records[k];
+    std::uint64_t h = 0xcbf29ce484222325ULL;
+    Fnv1a(h, r.time_s);
+    Fnv1a(h, r.accel_mps2);
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+    d.push_back({"record_" + std::to_string(k + 1),
+                 r.name + " " + std::to_string(r.time_s.size()) + " fnv1a64:" + hex});
+  }
+  return d;
+}
+
+constexpr const char* kDefinitionTitle = "# rocklab sweep definition";
+
+std::string DefinitionText(const Definition& d) {
+  std::string out = std::string(kDefinitionTitle) + "\n";
+  for (const DefinitionField& f : d) out += "# " + f.key + ": " + f.value + "\n";
+  return out;
+}
+
+bool ParseDefinitionLine(const std::string& line, Definition& d) {
+  if (line == kDefinitionTitle) return true;
+  if (line.size() < 2 || line[0] != '#' || line[1] != ' ') return false;
+  const std::size_t colon = line.find(": ", 2);
+  if (colon == std::string::npos || colon == 2) return false;
+  const std::string key = line.substr(2, colon - 2);
+  if (!std::all_of(key.begin(), key.end(), KeyChar)) return false;
+  d.push_back({key, line.substr(colon + 2)});
+  return true;
+}
+
+std::string FirstDifference(const Definition& a, const Definition& b, std::string& a_value, std::string& b_value) {
+  const auto find = [](const Definition& d, const std::string& key) -> const std::string* {
+    for (const DefinitionField& f : d) {
+      if (f.key == key) return &f.value;
+    }
+    return nullptr;
+  };
+  for (const Definition* first : {&a, &b}) {
+    for (const DefinitionField& f : *first) {
+      const std::string* in_a = find(a, f.key);
+      const std::string* in_b = find(b, f.key);
+      if (in_a == nullptr || in_b == nullptr || *in_a != *in_b) {
+        a_value = in_a ? *in_a : "(none)";
+        b_value = in_b ? *in_b : "(none)";
+        return f.key;
+      }
+    }
+  }
+  return "";
 }
 
 const std::string& Header() {

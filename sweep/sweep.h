@@ -124,6 +124,42 @@ Scaling ScalingOf(const Plan& plan, std::size_t index);
 /// @throws std::runtime_error when the integrator fails, naming the case.
 Outcome RunCase(const Plan& plan, std::size_t index);
 
+/// The model options every case of `plan` runs with (RunCase's): the
+/// plan's l and rtol, ModelOptions' defaults for the rest.
+model::ModelOptions CaseModelOptions(const Plan& plan);
+
+/// What defines a sweep's cases beyond the key columns of its rows: the
+/// model and its integration knobs, the sampling rate, the duration, the
+/// scale kind, the grid's size and each record's samples (by hash). Written
+/// into every results file (CSV: `# key: value` lines before the header;
+/// HDF5: root attributes `sweep_<key>`), compared by --merge and --resume.
+struct DefinitionField {
+  std::string key;    ///< [a-z0-9_]+
+  std::string value;  ///< one line of printable text
+  bool operator==(const DefinitionField& o) const { return key == o.key && value == o.value; }
+};
+using Definition = std::vector<DefinitionField>;
+
+/// `plan`'s definition, in a fixed order: model, integrator, rtol, atol,
+/// max_step_s, rest_impact_interval_s, l, rate_hz, duration_s, scale_kind,
+/// cases, records, then record_1..record_N ("NAME SAMPLES fnv1a64:HEX", the
+/// FNV-1a 64-bit hash of the samples' time and acceleration doubles).
+/// Doubles are printed with %.17g (they read back to the same double).
+Definition DefinitionOf(const Plan& plan);
+
+/// The CSV form of a definition: a "# rocklab sweep definition" line, then
+/// one "# key: value" line per field, each with its newline.
+std::string DefinitionText(const Definition& d);
+/// Reads one line of DefinitionText (without its newline) into `d`: true
+/// for its title line (nothing added) and a "# key: value" line, false for
+/// any other.
+bool ParseDefinitionLine(const std::string& line, Definition& d);
+
+/// The key of the first field where `a` and `b` differ (a's keys in order,
+/// then b's), "" when they are equal; `a_value` and `b_value` get the two
+/// values ("(none)" for a key one of them lacks). The caller names files.
+std::string FirstDifference(const Definition& a, const Definition& b, std::string& a_value, std::string& b_value);
+
 /// The CSV header (no newline).
 const std::string& Header();
 /// The first columns of case `index`'s row, up to and including `model,`:

@@ -54,7 +54,8 @@ int RunSweepCommand(SweepCommandOptions& o) {
   if (!o.merge.empty()) {
     if (!o.shard.empty() || o.resume) throw UsageError("--merge takes neither --shard nor --resume");
     if (mpi.rank() != 0) return 0;
-    sweep::MergeShards(plan, o.merge, o.out);
+    const sweep::MergeReport report = sweep::MergeShards(plan, o.merge, o.out);
+    for (const std::string& w : report.warnings) std::fprintf(stderr, "rocklab: warning: --merge: %s\n", w.c_str());
     std::printf("sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), o.out.c_str(), plan.size());
     return 0;
   }

@@ -82,8 +82,8 @@ namespace sweep {
 
 std::vector<ResultRow> ReadResultsH5(const std::string& path) { return tools::Hdf5().read_results(path); }
 
-std::vector<H5ResultsColumn> ReadResultsColumnsH5(const std::string& path) {
-  return tools::Hdf5().read_results_columns(path);
+H5ResultsTable ReadResultsTableH5(const std::string& path, const std::vector<std::string>& names) {
+  return tools::Hdf5().read_results_table(path, names);
 }
 
 }  // namespace sweep

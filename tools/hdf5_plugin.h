@@ -23,8 +23,9 @@ namespace rocklab::tools {
 /// The plugin's entry: `extern "C" const Hdf5Calls* rocklab_hdf5_plugin()`.
 inline constexpr const char* kHdf5PluginEntry = "rocklab_hdf5_plugin";
 inline constexpr const char* kHdf5PluginFile = "rocklab-hdf5.so";
-/// Hdf5Calls::version of this build; a plugin with another is refused.
-inline constexpr int kHdf5PluginVersion = 1;
+/// Hdf5Calls::version of this build; a plugin with another is refused (2:
+/// read_results_table replaced read_results_columns).
+inline constexpr int kHdf5PluginVersion = 2;
 
 /// The real classes and functions of export/ and sweep/, by the same names.
 struct Hdf5Calls {
@@ -36,7 +37,7 @@ struct Hdf5Calls {
   std::unique_ptr<exporter::TableSink> (*open_mat)(const std::string& path);
   std::string (*mat_identifier)(const std::string& name);
   std::vector<sweep::ResultRow> (*read_results)(const std::string& path);
-  std::vector<sweep::H5ResultsColumn> (*read_results_columns)(const std::string& path);
+  sweep::H5ResultsTable (*read_results_table)(const std::string& path, const std::vector<std::string>& names);
 };
 
 }  // namespace rocklab::tools

@@ -29,7 +29,7 @@ std::unique_ptr<exporter::TableSink> OpenMat(const std::string& path) {
 
 const Hdf5Calls kCalls{kHdf5PluginVersion,           &ValidateH5Options,          &OpenH5,
                        &DescribeH5File,              &OpenMat,                    &exporter::MatWriter::Identifier,
-                       &sweep::ReadResultsH5,        &sweep::ReadResultsColumnsH5};
+                       &sweep::ReadResultsH5,        &sweep::ReadResultsTableH5};
 
 }  // namespace
 }  // namespace rocklab::tools

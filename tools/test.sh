@@ -87,3 +87,5 @@ run_fuzzer theta_csv 16384 "$here/data/samples"
 if [ -x "$asan/tests/fuzz/fuzz_rig_video" ]; then  # built with the video inputs (OpenCV)
   run_fuzzer rig_video 8192 "$here/data/rigs"
 fi
+run_fuzzer sweep_csv 8192
+run_fuzzer sweep_h5 65536

@@ -743,7 +743,8 @@ def _sweep_rows(text):
     import csv
     import io
 
-    reader = csv.reader(io.StringIO(text))
+    # The sweep's definition (`# key: value` lines) comes before the header.
+    reader = csv.reader(line for line in io.StringIO(text) if not line.startswith("#"))
     header = next(reader)
     assert header == list(SWEEP_DTYPE.names), header
     rows = []

@@ -253,7 +253,12 @@ std::vector<ReadColumn> ReadCsvTable(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream ss;
   ss << in.rdbuf();
-  const std::string text = ss.str();
+  std::string text = ss.str();
+  // `#` lines before the header (a sweep's definition) are not the table's.
+  while (!text.empty() && text[0] == '#') {
+    const std::size_t end = text.find('\n');
+    text.erase(0, end == std::string::npos ? text.size() : end + 1);
+  }
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> row;
   std::string field;

@@ -36,7 +36,8 @@ struct Row {
 std::vector<Row> ReadRows(const std::string& path) {
   std::ifstream in(path);
   std::string line;
-  std::getline(in, line);
+  while (std::getline(in, line) && !line.empty() && line[0] == '#') {
+  }  // the sweep's definition, then the header
   std::map<std::string, int> col;
   {
     std::stringstream h(line);
@@ -182,8 +183,10 @@ TEST(CliSweep, ShardsMergedGiveTheWhole) {
   ASSERT_GT(whole.size(), 100u);
   EXPECT_EQ(Slurp(dir + "/merged.csv"), whole);
   const std::string p = dir + "/part";
-  ASSERT_EQ(Shell("bash -c '{ head -n 1 " + p + "0.csv; paste -d \"\\n\" <(tail -n +2 " + p + "0.csv) <(tail -n +2 " + p +
-                  "1.csv) <(tail -n +2 " + p + "2.csv) | sed \"/^$/d\"; } > " + dir + "/pasted.csv'"),
+  // docs/sweep.md's recipe: the definition and header of shard 0, then the rows round-robin.
+  const std::string rows = " <(sed \"0,/^record,/d\" " + p;
+  ASSERT_EQ(Shell("bash -c '{ sed \"/^record,/q\" " + p + "0.csv; paste -d \"\\n\"" + rows + "0.csv)" + rows +
+                  "1.csv)" + rows + "2.csv) | sed \"/^$/d\"; } > " + dir + "/pasted.csv'"),
             0);
   EXPECT_EQ(Slurp(dir + "/pasted.csv"), whole);
 
@@ -191,6 +194,50 @@ TEST(CliSweep, ShardsMergedGiveTheWhole) {
                                "housner", "--out", dir + "/x.h5"});
   EXPECT_EQ(h5.exit_code, 0) << h5.err;
   EXPECT_TRUE(std::filesystem::exists(dir + "/x.h5"));
+}
+
+// Oracle: the shards' own options. A shard run at --duration 4 among
+// shards run at 3 s (the same key columns) stops the merge with exit 2 (a
+// bad input, as every refused shard), naming the field, both files and
+// values; so does `--merge .` and a shard that is also --out, which keeps
+// its bytes.
+TEST(CliSweep, MergeRefusesShardsOfAnotherDurationADirectoryAndItsOutput) {
+  const std::string dir = ScratchDir("sweep_merge_refusals");
+  const std::string bin = ROCKLAB_BINARY, args = SmallSweep(dir);
+  for (int i = 0; i < 3; ++i) {
+    std::string shard_args = args;
+    if (i == 2) shard_args.replace(shard_args.find("--duration 3"), 12, "--duration 4");
+    ASSERT_EQ(Shell(bin + " sweep " + shard_args + " --shard " + std::to_string(i) + "/3 --out " + dir +
+                    "/part" + std::to_string(i) + ".csv > /dev/null"),
+              0);
+  }
+  std::vector<std::string> merge = {"sweep"};
+  std::stringstream words(args);
+  for (std::string w; words >> w;) merge.push_back(w);
+  const std::vector<std::string> parts = {dir + "/part0.csv", dir + "/part1.csv", dir + "/part2.csv"};
+  const auto run = [&](const std::vector<std::string>& files, const std::string& out) {
+    std::vector<std::string> a = merge;
+    a.push_back("--merge");
+    a.insert(a.end(), files.begin(), files.end());
+    a.push_back("--out");
+    a.push_back(out);
+    return RunCli(a);
+  };
+  CliResult r = run(parts, dir + "/merged.csv");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(parts[2] + " and " + parts[0] + " are shards of different sweeps: duration_s '4' in " +
+                       parts[2] + ", '3' in " + parts[0]),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/merged.csv"));
+  r = run({parts[0], parts[1], "."}, dir + "/merged.csv");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--merge: '.' is a directory"), std::string::npos) << r.err;
+  const std::string before = Slurp(parts[0]);
+  r = run({parts[0], parts[1]}, parts[0]);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("is also --out"), std::string::npos) << r.err;
+  EXPECT_EQ(Slurp(parts[0]), before);
 }
 
 #ifdef ROCKLAB_MPIRUN
