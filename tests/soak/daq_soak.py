@@ -308,11 +308,12 @@ def soak(a):
     # One free-rocking test of the lab rig (a pulse, 60 impacts, back to
     # rest by 20 s), repeated by the feed with its time counting on.
     raw = os.path.join(work, "test.csv")
-    subprocess.run([rocklab, "synth", "--rig", rig, "--alpha", "0.245", "--p", "3.78", "--mu", "0.91",
-                    "--excitation", "hanning:amp=0.03,freq=2,duration=1,start=0.5", "--duration", "20",
-                    "--rate", str(a.rate), "--drop", "0", "--seed", "7", "--out", raw,
-                    "--truth", os.path.join(work, "truth.csv")], check=True, env=env,
-                   stdout=subprocess.DEVNULL)
+    synth = subprocess.run([rocklab, "synth", "--rig", rig, "--alpha", "0.245", "--p", "3.78", "--mu", "0.91",
+                            "--excitation", "hanning:amp=0.03,freq=2,duration=1,start=0.5", "--duration", "20",
+                            "--rate", str(a.rate), "--drop", "0", "--seed", "7", "--out", raw,
+                            "--truth", os.path.join(work, "truth.csv")], env=env, capture_output=True, text=True)
+    if synth.returncode != 0:
+        fail("rocklab synth: " + synth.stderr.strip())
     with open(raw) as f:
         header = f.readline().rstrip("\n")
         rows = [l.rstrip("\n").split(",", 1)[1] for l in f if l.strip()]
@@ -445,8 +446,12 @@ def soak(a):
     if problems:
         fail("%d problem(s):\n  " % len(problems) + "\n  ".join(problems) + "\n(files in %s)" % work)
     print("daq_soak: PASS (%g s, %d rows, files in %s)" % (a.seconds, total, work))
-    if not a.work and not a.keep:
-        shutil.rmtree(work, ignore_errors=True)
+    if not a.keep:  # the logs are about 0.8 MB per second of run; result.json stays in --work
+        if a.work:
+            for name in ("daq.lcm", "record.lcm", "test.csv", "truth.csv"):
+                os.remove(os.path.join(work, name))
+        else:
+            shutil.rmtree(work, ignore_errors=True)
 
 
 def main():
@@ -455,8 +460,8 @@ def main():
     p.add_argument("--seconds", type=float, default=600.0, help="run time of the feed, s (faults at 20/35/55/70 %%)")
     p.add_argument("--rate", type=float, default=1000.0, help="sample rate of the feed, Hz (the rig's)")
     p.add_argument("--sample-every", type=float, default=2.0, help="RSS/fd sampling period, s")
-    p.add_argument("--work", help="folder for the logs (default: a temporary one, removed after a pass)")
-    p.add_argument("--keep", action="store_true", help="keep the temporary folder after a pass")
+    p.add_argument("--work", help="folder for the logs and result.json (default: a temporary one, removed after a pass)")
+    p.add_argument("--keep", action="store_true", help="keep the logs after a pass (they are kept after a failure)")
     p.add_argument("--no-model", action="store_true", help="daq and record only")
     a = p.parse_args()
     if a.seconds < 30:
