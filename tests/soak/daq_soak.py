@@ -35,6 +35,7 @@ import argparse
 import fcntl
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -277,7 +278,6 @@ def wait_for(cond, seconds, what):
 
 def parse_daq_summary(text):
     """Figures of the daq's last lines (pipeline.cpp: 'daq: N frames read, ...')."""
-    import re
     m = re.search(r"daq: (\d+) frames read, (\d+) messages published \((\d+) failed\), (\d+) gaps "
                   r"\((\d+) samples missing\), (\d+) bad samples", text)
     if not m:
