@@ -203,8 +203,12 @@ TEST(CliParams, HostileHeadersReachTheTerminalEscapedAndCut) {
       EXPECT_TRUE(c >= 0x20 && c != 0x7f) << "byte " << int(c) << " in " << r.err;
     }
     EXPECT_NE(r.err.find(args[2] + ":1:"), std::string::npos) << r.err;
-    if (args[2] == esc) EXPECT_NE(r.err.find("\\x1b]0;pwned\\x07\\x1b[2J"), std::string::npos) << r.err;
-    if (args[2] == huge) EXPECT_NE(r.err.find(" bytes more]"), std::string::npos) << r.err;
+    if (args[2] == esc) {
+      EXPECT_NE(r.err.find("\\x1b]0;pwned\\x07\\x1b[2J"), std::string::npos) << r.err;
+    }
+    if (args[2] == huge) {
+      EXPECT_NE(r.err.find(" bytes more]"), std::string::npos) << r.err;
+    }
   }
 }
 
