@@ -63,7 +63,7 @@ SourceOptions Options(std::vector<std::string>* problems, double idle_s) {
 }
 
 // Reads until the source ends, or until it has `until_frames` frames.
-void Read(Source& source, FaultsGot& g, std::size_t until_frames = SIZE_MAX) {
+void ReadFaults(Source& source, FaultsGot& g, std::size_t until_frames = SIZE_MAX) {
   Frame f;
   while (g.frames.size() < until_frames) {
     const ReadStatus s = source.Next(f);
@@ -111,7 +111,7 @@ TEST(LiveFaults, TcpRowCutByADroppedConnectionIsCountedNotPublished) {
   std::vector<std::string> problems;
   auto source = OpenTcpSource("127.0.0.1:" + std::to_string(port), Options(&problems, 0.6));
   FaultsGot got;
-  Read(*source, got);
+  ReadFaults(*source, got);
   server.join();
   ASSERT_EQ(got.frames.size(), 99u);
   for (const Frame& f : got.frames) {
@@ -139,7 +139,7 @@ TEST(LiveFaults, FollowedLastLineUnfinishedAtTheIdleTimeoutIsCounted) {
   opt.follow = true;
   auto source = OpenCsvSource(path, opt);
   FaultsGot got;
-  Read(*source, got);
+  ReadFaults(*source, got);
   EXPECT_EQ(got.last, ReadStatus::kEnd);
   ASSERT_EQ(got.frames.size(), 10u);
   EXPECT_EQ(got.frames.back().values[0], 9);
@@ -165,7 +165,7 @@ void RewriteInOneWrite(bool truncate) {
   opt.follow = true;
   auto source = OpenCsvSource(path, opt);
   FaultsGot got;
-  Read(*source, got, 50);  // the reader is at the old file's end
+  ReadFaults(*source, got, 50);  // the reader is at the old file's end
   ASSERT_EQ(got.frames.size(), 50u);
   std::string second = "time,a,b\n";
   for (int k = 0; k < 150; ++k) second += FaultRow(k, 1000 + k);
@@ -173,7 +173,7 @@ void RewriteInOneWrite(bool truncate) {
   ASSERT_GE(fd, 0);
   ASSERT_EQ(::pwrite(fd, second.data(), second.size(), 0), static_cast<ssize_t>(second.size()));
   ::close(fd);
-  Read(*source, got);
+  ReadFaults(*source, got);
   EXPECT_EQ(got.last, ReadStatus::kEnd);
   ASSERT_EQ(got.frames.size(), 200u) << (problems.empty() ? "" : problems.back());
   for (int k = 0; k < 150; ++k) {
