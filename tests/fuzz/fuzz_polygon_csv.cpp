@@ -5,7 +5,9 @@
 // Invariants: both return or throw std::invalid_argument with one bounded
 // line of printable ASCII naming the file; an accepted file has at least 3
 // finite vertices, a line for each, no crossing edges, and a section of
-// finite, positive area, radius and p, mu in (0, 1].
+// finite, positive area, radius and p, and a finite mu <= 1 (mu may be 0 or
+// below: a section that wide stops dead at its impact, e.g. the right
+// triangle (0,0) (1,1) (1,0), whose mu is 0 to rounding; `params` reports it).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -29,7 +31,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (FindCrossingEdges(file.vertices_m)) rocklab::fuzz::Violated("crossing edges accepted");
     const BlockGeometry g = PolygonBlock(file);
     if (!(g.area > 0) || !std::isfinite(g.area) || !(g.R > 0) || !std::isfinite(g.R) || !(g.p > 0) ||
-        !std::isfinite(g.p) || !(g.mu_general > 0) || !(g.mu_general <= 1 + 1e-12)) {
+        !std::isfinite(g.p) || !std::isfinite(g.mu_general) || !(g.mu_general <= 1 + 1e-12)) {
       rocklab::fuzz::Violated("an accepted section with a bad property");
     }
   } catch (const std::invalid_argument& e) {
