@@ -20,12 +20,13 @@
 #include "rocklab/model_band_t.hpp"
 #include "tests/scratch.h"
 #include "tests/tools/lcm_messages.h"
+#include "common/units.h"
 
 namespace rocklab::compare {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-std::int64_t Utime(int k) { return 1000 * static_cast<std::int64_t>(k); }  // 1 kHz
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
+std::int64_t BandUtime(int k) { return 1000 * static_cast<std::int64_t>(k); }  // 1 kHz
 
 // A band constant in time: [-w95, w95] and [-w68, w68] around `centre`, no impacts.
 BandSample Flat(double centre, double w95, double w68) {
@@ -47,7 +48,7 @@ TEST(BandComparator, CoverageIsTheFractionOfSamplesInside) {
   ComparatorOptions options;
   options.window_s = 2.0005;  // half a sample over 2 s: which samples it holds is not a rounding question
   BandComparator c(options);
-  for (int k = 0; k < 5000; ++k) c.Add(Utime(k), cycle[k % 10], true, Flat(0.0, 1.0, 0.5));
+  for (int k = 0; k < 5000; ++k) c.Add(BandUtime(k), cycle[k % 10], true, Flat(0.0, 1.0, 0.5));
   const BandMetrics& m = c.metrics();
   EXPECT_DOUBLE_EQ(m.coverage95_total, 0.9);
   EXPECT_DOUBLE_EQ(m.coverage68_total, 0.3);
@@ -71,8 +72,8 @@ TEST(BandComparator, MeasurementOutsideTheBandHasCoverageZero) {
   BandComparator outside, inside;
   for (int k = 0; k < 3000; ++k) {
     const double th = 0.05 * std::sin(2 * kPi * 1.1 * k * 1e-3);
-    outside.Add(Utime(k), th + 0.05, true, Flat(th, 0.01, 0.005));
-    inside.Add(Utime(k), th, true, Flat(th, 0.01, 0.005));
+    outside.Add(BandUtime(k), th + 0.05, true, Flat(th, 0.01, 0.005));
+    inside.Add(BandUtime(k), th, true, Flat(th, 0.01, 0.005));
   }
   EXPECT_EQ(outside.metrics().coverage95_total, 0.0);
   EXPECT_EQ(outside.metrics().coverage95_window, 0.0);
@@ -92,7 +93,7 @@ TEST(BandComparator, GaussianDrawsCoverAtTheNominalRate) {
   BandComparator c;
   const int n = 200000;
   for (int k = 0; k < n; ++k) {
-    c.Add(Utime(k), noise(rng), true, Flat(0.0, 0.01 * 1.959964, 0.01 * 0.994458));
+    c.Add(BandUtime(k), noise(rng), true, Flat(0.0, 0.01 * 1.959964, 0.01 * 0.994458));
   }
   EXPECT_NEAR(c.metrics().coverage95_total, 0.95, 4 * std::sqrt(0.95 * 0.05 / n));
   EXPECT_NEAR(c.metrics().coverage68_total, 0.68, 4 * std::sqrt(0.68 * 0.32 / n));
@@ -103,9 +104,9 @@ TEST(BandComparator, GaussianDrawsCoverAtTheNominalRate) {
 // 500 invalid ones outside: coverage 1.
 TEST(BandComparator, InvalidPairsAreLeftOut) {
   BandComparator c;
-  for (int k = 0; k < 1000; ++k) c.Add(Utime(k), 0.0, true, Flat(0.0, 1.0, 0.5));
-  for (int k = 1000; k < 1250; ++k) c.Add(Utime(k), 5.0, false, Flat(0.0, 1.0, 0.5));
-  for (int k = 1250; k < 1500; ++k) c.Add(Utime(k), 5.0, true, Flat(std::nan(""), 1.0, 0.5));
+  for (int k = 0; k < 1000; ++k) c.Add(BandUtime(k), 0.0, true, Flat(0.0, 1.0, 0.5));
+  for (int k = 1000; k < 1250; ++k) c.Add(BandUtime(k), 5.0, false, Flat(0.0, 1.0, 0.5));
+  for (int k = 1250; k < 1500; ++k) c.Add(BandUtime(k), 5.0, true, Flat(std::nan(""), 1.0, 0.5));
   EXPECT_EQ(c.metrics().coverage95_total, 1.0);
   EXPECT_EQ(c.metrics().valid_samples, 1000);
   EXPECT_EQ(c.metrics().samples, 1500);
@@ -135,7 +136,7 @@ BandMetrics RunImpacts(const ImpactCase& ic, int seconds) {
     }
   }
   for (int k = 0; k < n; ++k) {
-    c.Add(Utime(k), 0.1 * std::sin(2 * kPi * k * 1e-3), true, band[static_cast<std::size_t>(k)]);
+    c.Add(BandUtime(k), 0.1 * std::sin(2 * kPi * k * 1e-3), true, band[static_cast<std::size_t>(k)]);
   }
   return c.Finish();
 }
@@ -197,14 +198,14 @@ TEST(CompareNodeBand, CoverageThroughTheNodeAndTheSummary) {
   CompareNode node(CompareNodeConfig{}, bus);
   for (int k = 0; k < 2000; ++k) {
     const double measured = k < 1000 ? 0.0 : 0.015;
-    rocklab::model_band_t b = BandMessage("post", Utime(k), 0.0);
+    rocklab::model_band_t b = BandMessage("post", BandUtime(k), 0.0);
     b.seq = k;
     if (k % 2 == 0) {
-      node.HandleTheta(test::Theta(Utime(k), measured));
+      node.HandleTheta(test::Theta(BandUtime(k), measured));
       node.HandleBand(b);
     } else {
       node.HandleBand(b);
-      node.HandleTheta(test::Theta(Utime(k), measured));
+      node.HandleTheta(test::Theta(BandUtime(k), measured));
     }
   }
   node.Finish();

@@ -1,5 +1,6 @@
 // Comparator metrics against closed-form results on synthetic signals.
 #include "compare/comparator.h"
+#include "common/units.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +12,7 @@
 namespace rocklab::compare {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 constexpr double kRateHz = 1000.0;
 
 std::int64_t Utime(int k) { return static_cast<std::int64_t>(std::llround(k * 1e6 / kRateHz)); }

@@ -43,11 +43,12 @@
 #include "daq/rig_config.h"
 #include "rocklab/event2_t.hpp"
 #include "tests/tools/run_cli.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 
 const std::string kRigPath = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/block1_rig.toml";
 
@@ -307,7 +308,7 @@ TEST(IndependentOracleTest, ProcessorRecoversAKnownMotion) {
 // 1e-8 m for sliding and 1e-8 rad for twist.
 TEST(IndependentOracleTest, ReconstructCommandRecoversAFileWrittenOutsideRocklab) {
   const RigConfig rig = LoadRigConfig(kRigPath);
-  const std::string dir = test::ScratchDir("independent_oracle");
+  const std::string dir = ::rocklab::test::ScratchDir("independent_oracle");
   const std::string raw = dir + "/raw.csv", out = dir + "/theta.csv";
   {
     std::ofstream f(raw);
@@ -327,7 +328,8 @@ TEST(IndependentOracleTest, ReconstructCommandRecoversAFileWrittenOutsideRocklab
       f << ",21.5\n";
     }
   }
-  const test::CliResult r = test::RunCli({"reconstruct", "--rig", kRigPath, "--input", raw, "--out", out});
+  const ::rocklab::test::CliResult r =
+      ::rocklab::test::RunCli({"reconstruct", "--rig", kRigPath, "--input", raw, "--out", out});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(out);
   std::string line;

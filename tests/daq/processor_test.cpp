@@ -20,15 +20,16 @@
 #include "daq/savitzky_golay.h"
 #include "rocklab/table_state_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 constexpr double kU = 0.006;              // table amplitude, m
 constexpr double kW = 2 * kPi * 1.0;      // table angular frequency, rad/s (1 Hz)
 
-TrueMotion Motion(double t) {
+TrueMotion ProcessorMotion(double t) {
   TrueMotion m;
   m.time_s = t;
   m.theta = 0.03 * std::sin(2 * kPi * 1.5 * t);
@@ -45,7 +46,7 @@ std::string LabRigText() {
   text << in.rdbuf();
   return text.str();
 }
-RigConfig LabRig() { return LoadRigConfig(test::LabRigPath()); }
+RigConfig ProcessorLabRig() { return LoadRigConfig(test::LabRigPath()); }
 // The lab rig without its accelerometer (the last [[channel]]), with `table`
 // lines added to its [table] section.
 RigConfig WithoutAccelerometer(const std::string& table = "") {
@@ -86,7 +87,7 @@ void ExpectPairsLeaveAfter(const RigConfig& rig, const std::vector<Frame>& frame
 // window), not k + 50 (the table window's); with 1 % of the samples dropped
 // (gaps bridged or ending a segment) the rule holds for every received sample.
 TEST(ProcessorDelay, WithAnAccelerometerEachPairLeavesAtThetasDelay) {
-  const RigConfig rig = LabRig();
+  const RigConfig rig = ProcessorLabRig();
   {
     test::CollectSink sink;
     Processor proc(rig, Names(rig), "sim", sink);
@@ -94,14 +95,14 @@ TEST(ProcessorDelay, WithAnAccelerometerEachPairLeavesAtThetasDelay) {
     EXPECT_EQ(proc.table_delay_samples(), 5);
   }
   test::CollectSink clean;
-  ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, {}, 1, 1.0, Motion), 5, clean);
+  ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, {}, 1, 1.0, ProcessorMotion), 5, clean);
   for (const TableState& t : clean.table) {
     EXPECT_EQ(t.accel_source, int8_t{rocklab::table_state_t::ACCEL_ACCELEROMETER});
     EXPECT_NEAR(t.acceleration, Acceleration(t.time_s), 1e-9);  // the accelerometer's own sample
   }
   SimulatorNoise drops;
   drops.drop = 0.01;
-  const auto frames = test::SimulateFrames(rig, drops, 4, 5.0, Motion);
+  const auto frames = test::SimulateFrames(rig, drops, 4, 5.0, ProcessorMotion);
   ASSERT_LT(frames.size(), 5000u);
   test::CollectSink gappy;
   ExpectPairsLeaveAfter(rig, frames, 5, gappy);
@@ -114,7 +115,7 @@ TEST(ProcessorDelay, WithoutAnAccelerometerThePairWaitsForTheCentredTable) {
   test::CollectSink sink;
   SimulatorNoise drops;
   drops.drop = 0.01;
-  ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, drops, 4, 5.0, Motion), 50, sink);
+  ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, drops, 4, 5.0, ProcessorMotion), 50, sink);
   for (const TableState& t : sink.table) {
     EXPECT_EQ(t.accel_source, int8_t{rocklab::table_state_t::ACCEL_DIFFERENTIATED});
   }
@@ -128,7 +129,7 @@ TEST(ProcessorDelay, WithoutAnAccelerometerTheDefaultIsTheCentredFilterBitForBit
   const RigConfig rig = WithoutAccelerometer();
   SimulatorNoise noise;
   noise.table_m = 2e-5;
-  const auto frames = test::SimulateFrames(rig, noise, 7, 3.0, Motion);
+  const auto frames = test::SimulateFrames(rig, noise, 7, 3.0, ProcessorMotion);
   test::CollectSink sink, explicit_centre;
   {
     Processor proc(rig, Names(rig), "sim", sink);
@@ -177,14 +178,14 @@ double TaylorBound(const SavitzkyGolay& sg, int deriv, double dt) {
 // (sigma_u times the stated noise gain; probability 2e-9 per sample) on 20 um
 // displacement noise. Interior samples (full windows) only.
 TEST(ProcessorTable, OffCentreVelocityIsWithinItsBoundOfTheSine) {
-  const RigConfig rig = LabRig();
+  const RigConfig rig = ProcessorLabRig();
   const SavitzkyGolay sg(50, 4, 1e-3, 5);
   const double bias = TaylorBound(sg, 1, 1e-3);
   EXPECT_LT(bias, 0.01 * kU * kW);  // the bound itself is useful: < 1 % of the peak
   for (double sigma : {0.0, 2e-5}) {
     SimulatorNoise noise;
     noise.table_m = sigma;
-    const auto frames = test::SimulateFrames(rig, noise, 3, 4.0, Motion);
+    const auto frames = test::SimulateFrames(rig, noise, 3, 4.0, ProcessorMotion);
     test::CollectSink sink;
     Processor proc(rig, Names(rig), "sim", sink);
     for (const Frame& f : frames) proc.Process(f);
@@ -230,7 +231,7 @@ TEST(ProcessorTable, LagOptionSetsTheDelayWithoutAnAccelerometer) {
       EXPECT_EQ(proc.table_delay_samples(), lag);
     }
     test::CollectSink sink;
-    ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, {}, 5, 3.0, Motion), delay, sink);
+    ExpectPairsLeaveAfter(rig, test::SimulateFrames(rig, {}, 5, 3.0, ProcessorMotion), delay, sink);
     const SavitzkyGolay sg(50, 4, 1e-3, lag);
     const double bias = TaylorBound(sg, 2, 1e-3);
     for (size_t i = 100 - lag; i + lag < sink.table.size(); ++i) {

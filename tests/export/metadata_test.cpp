@@ -217,7 +217,7 @@ TEST(LvmMetadata, InfoShowsTheFilesUnitsAndCounts) {
 // ---- a log ---------------------------------------------------------------------
 
 template <class Msg>
-void Put(common::LogWriter& w, const std::string& channel, const Msg& m) {
+void PutMessage(common::LogWriter& w, const std::string& channel, const Msg& m) {
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
   m.encode(buf.data(), 0, static_cast<int>(buf.size()));
   ASSERT_TRUE(w.Write(channel, buf.data(), buf.size(), m.utime));
@@ -247,42 +247,42 @@ const std::vector<std::vector<double>> kRaw = {{100, 3, 7}, {250.5, -0.125, 8}};
 std::string WriteLog(const std::string& name, bool config_first) {
   const std::string path = MetadataDir() + "/" + name;
   common::LogWriter w(path);
-  if (config_first) Put(w, "RL_DAQ_CONFIG", Config());
+  if (config_first) PutMessage(w, "RL_DAQ_CONFIG", Config());
   for (std::size_t k = 0; k < kRaw.size(); ++k) {
     rocklab::raw_frame_t f{};
     f.utime = static_cast<std::int64_t>(1000 * k);
     f.seq = static_cast<std::int64_t>(k);
     f.num_channels = 3;
     f.values = kRaw[k];
-    Put(w, "RL_RAW", f);
+    PutMessage(w, "RL_RAW", f);
   }
   rocklab::event_t e{};
   e.utime = 1000;
   e.source = "daq";
   e.kind = rocklab::event_t::IMPACT;
-  Put(w, "RL_EVENT", e);
+  PutMessage(w, "RL_EVENT", e);
   e.utime = 2000;
   e.kind = 99;  // a code no constant names
-  Put(w, "RL_EVENT", e);
+  PutMessage(w, "RL_EVENT", e);
   rocklab::block_state_t b{};
   b.utime = 1000;
   b.flags = rocklab::block_state_t::FLAG_SLIDING | rocklab::block_state_t::FLAG_NO_MIRROR | 128;
-  Put(w, "RL_THETA", b);
+  PutMessage(w, "RL_THETA", b);
   b.utime = 2000;
   b.flags = 0;
-  Put(w, "RL_THETA", b);
+  PutMessage(w, "RL_THETA", b);
   rocklab::model_state2_t m{};
   m.utime = 1000;
   m.name = "housner";
   m.model = "housner";
   m.regime = rocklab::model_state2_t::REGIME_ROCKING;
   m.equations = rocklab::model_state2_t::EQUATIONS_EQ10;
-  Put(w, "RL_MODEL_housner", m);
+  PutMessage(w, "RL_MODEL_housner", m);
   rocklab::table_state_t t{};
   t.utime = 1000;
   t.accel_source = rocklab::table_state_t::ACCEL_EXACT;
-  Put(w, "RL_TABLE", t);
-  if (!config_first) Put(w, "RL_DAQ_CONFIG", Config());
+  PutMessage(w, "RL_TABLE", t);
+  if (!config_first) PutMessage(w, "RL_DAQ_CONFIG", Config());
   EXPECT_TRUE(w.Close());
   return path;
 }
@@ -433,11 +433,11 @@ TEST(LogMetadata, RawChannelNamesAreMadeSafeColumnNames) {
     c.channel_sensors = {"", ""};
     c.gain = {1, 1};
     c.offset = {0, 0};
-    Put(w, "RL_DAQ_CONFIG", c);
+    PutMessage(w, "RL_DAQ_CONFIG", c);
     rocklab::raw_frame_t f{};
     f.num_channels = 2;
     f.values = {1, 2};
-    Put(w, "RL_RAW", f);
+    PutMessage(w, "RL_RAW", f);
     ASSERT_TRUE(w.Close());
   }
   for (const std::string& ext : kExts) {

@@ -16,6 +16,7 @@
 #include "model/excitation.h"
 #include "model/free_rocking.h"
 #include "model/rocking_model.h"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
@@ -28,11 +29,11 @@ struct Cycle {
   double peak_after_rad;  // |theta| peak after this impact
 };
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 
 // w of eq. (10)'s exact l -> 0 crossing (model/complex.cpp): the speed
 // leaves it multiplied by mu^(1/w), w = sqrt(1 - (ln mu / pi)^2).
-double W(double mu) { return std::sqrt(1 - std::pow(std::log(mu) / kPi, 2)); }
+double DampedRatio(double mu) { return std::sqrt(1 - std::pow(std::log(mu) / kPi, 2)); }
 
 // Oracle: free rocking per side from energy conservation between impacts
 // and the corrected eq. (12) (docs/errata.md item 2) evaluated with that side's
@@ -59,8 +60,8 @@ std::vector<Cycle> FreeRockingOracle(const BlockParams& bp, double t0, double th
     const double w2 = 2 * sp.p * sp.p * (std::cos(sp.alpha - r) - std::cos(sp.alpha));
     side = -side;
     sp = bp.Side(side);
-    const double mu = eq10_limit ? std::pow(sp.mu, 1 / W(sp.mu)) : sp.mu;
-    if (eq10_limit) phi += kPi * (1 / W(sp.mu) - 1);
+    const double mu = eq10_limit ? std::pow(sp.mu, 1 / DampedRatio(sp.mu)) : sp.mu;
+    if (eq10_limit) phi += kPi * (1 / DampedRatio(sp.mu) - 1);
     const double w_after = mu * std::sqrt(w2);
     r = sp.alpha - std::acos(std::cos(sp.alpha) + w_after * w_after / (2 * sp.p * sp.p));
     out.push_back({t, r * std::cos(phi)});

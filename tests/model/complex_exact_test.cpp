@@ -19,13 +19,14 @@
 #include <vector>
 
 #include "model/rocking_model.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::model {
 namespace {
 
 using Real = long double;
 constexpr Real kPiL = 3.141592653589793238462643383279502884L;
-const BlockParams kBlock1{0.235, 3.884, 0.937};
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
 struct ExactRun {
   std::vector<double> impact_times;  // s

@@ -13,12 +13,13 @@
 #include "model/cvode.h"
 #include "model/excitation.h"
 #include "model/rocking_model.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::model {
 namespace {
 
-const BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
-const BlockParams kBlock2{0.168, 3.767, 0.942};  // Table 2, block 2
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
+using ::rocklab::test::kBlock2;  // tests/paper_blocks.h
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // u_g'' = a0 before t_step, a1 from it; declares its jump unless `hidden`.

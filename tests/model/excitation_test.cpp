@@ -2,6 +2,7 @@
 // the displacement, and the documented error messages.
 #include "model/excitation.h"
 #include "tests/scratch.h"
+#include "common/units.h"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +18,7 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 
 std::string ParseError(const std::string& spec) {
   try {
@@ -145,7 +146,7 @@ TEST(ExcitationTest, SampledAccelerationIsLinearAndZeroOutside) {
 
 std::string ScratchPrefix() { return test::ScratchDir("excitation_test") + "/"; }
 
-std::string CsvError(const std::string& name, const std::string& text) {
+std::string ExcitationCsvError(const std::string& name, const std::string& text) {
   const std::string path = ScratchPrefix() + name;
   std::ofstream(path) << text;
   try {
@@ -168,15 +169,15 @@ TEST(ExcitationTest, CsvReaderNamesFileAndLine) {
   std::remove(path.c_str());
 
   const std::string dir = ScratchPrefix();
-  EXPECT_EQ(CsvError("ragged.csv", "time,accel\n0,1\n1,2,3\n"),
+  EXPECT_EQ(ExcitationCsvError("ragged.csv", "time,accel\n0,1\n1,2,3\n"),
             dir + "ragged.csv:3: expected 2 fields (time,accel), got '1,2,3'");
-  EXPECT_NE(CsvError("text.csv", "time,accel\n0,1\n1,abc\n").find("text.csv:3: accel 'abc'"), std::string::npos);
-  EXPECT_NE(CsvError("nan.csv", "time,accel\n0,1\n1,nan\n").find("nan.csv:3:"), std::string::npos);
-  EXPECT_NE(CsvError("order.csv", "time,accel\n0,1\n1,2\n1,3\n").find("order.csv:4: time"), std::string::npos);
-  EXPECT_NE(CsvError("empty.csv", "").find("empty.csv:1: empty file"), std::string::npos);
-  EXPECT_NE(CsvError("header.csv", "t,a\n0,1\n").find("header.csv:1: header"), std::string::npos);
-  EXPECT_NE(CsvError("short.csv", "time,accel\n0,1\n").find("short.csv:2:"), std::string::npos);
-  EXPECT_NE(CsvError("missing.csv", "x").find("missing.csv"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("text.csv", "time,accel\n0,1\n1,abc\n").find("text.csv:3: accel 'abc'"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("nan.csv", "time,accel\n0,1\n1,nan\n").find("nan.csv:3:"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("order.csv", "time,accel\n0,1\n1,2\n1,3\n").find("order.csv:4: time"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("empty.csv", "").find("empty.csv:1: empty file"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("header.csv", "t,a\n0,1\n").find("header.csv:1: header"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("short.csv", "time,accel\n0,1\n").find("short.csv:2:"), std::string::npos);
+  EXPECT_NE(ExcitationCsvError("missing.csv", "x").find("missing.csv"), std::string::npos);
 }
 
 // Oracle: the definition of a sum (the parts' accelerations add; the next
@@ -215,7 +216,7 @@ TEST(ExcitationTest, CsvReaderSkipsCommentsAndKeepsLines) {
   EXPECT_EQ(rows.accel_mps2, (std::vector<double>{0.5, -1.0}));
   EXPECT_EQ(rows.line, (std::vector<std::int64_t>{4, 6}));
   std::remove(path.c_str());
-  EXPECT_NE(CsvError("binary.csv", std::string("time,accel\n0,1\n1,\x01\xff\n")).find("accel '\\x01\\xff'"),
+  EXPECT_NE(ExcitationCsvError("binary.csv", std::string("time,accel\n0,1\n1,\x01\xff\n")).find("accel '\\x01\\xff'"),
             std::string::npos);
 }
 

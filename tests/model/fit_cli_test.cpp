@@ -19,11 +19,12 @@
 #include "rocklab/block_state_t.hpp"
 #include "tests/model/fit_synthetic.h"
 #include "tests/tools/run_cli.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::test {
 namespace {
 
-const model::BlockParams kBlock1{0.235, 3.884, 0.937};
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
 std::string FreeCsv(const std::string& dir, double duration_s = 8.0) {
   const std::string path = dir + "/free.csv";

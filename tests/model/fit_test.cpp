@@ -20,6 +20,7 @@
 #include "rocklab/table_state_t.hpp"
 #include "tests/model/fit_synthetic.h"
 #include "tests/scratch.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::test {
 namespace {
@@ -30,7 +31,7 @@ using model::FitOptions;
 using model::RecordError;
 
 // Table 2 block 1 (docs/errata.md item 10: p = 3.884 rad/s), geometry of Table 1 row 1.
-const BlockParams kBlock1{0.235, 3.884, 0.937};
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 const model::FitGeometry kBlock1Geometry{0.247, 1.0, 0.0};
 
 std::string TempPath(const std::string& name) {

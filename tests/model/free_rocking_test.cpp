@@ -1,6 +1,7 @@
 // Tests of model/free_rocking.h. Oracles: docs/errata.md item 2's numbers, eq. (13)
 // as the slender limit, an independent quadrature, energy conservation.
 #include "model/free_rocking.h"
+#include "common/units.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +12,7 @@
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 
 // Composite Simpson with n (even) panels.
 template <typename F>

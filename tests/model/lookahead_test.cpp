@@ -18,11 +18,12 @@
 #include "model/model_node.h"
 #include "rocklab/event2_t.hpp"
 #include "tests/model/node_messages.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr BlockParams kBlock2{0.168, 3.767, 0.942};  // Table 2, block 2
+using ::rocklab::test::kBlock2;  // tests/paper_blocks.h
 
 // ---------------------------------------------------------------------------
 // SampleWindow

@@ -4,11 +4,12 @@
 
 #include "model/block.h"
 #include "model/excitation.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::model::fixtures {
 
-inline const BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
-inline const BlockParams kBlock2{0.168, 3.767, 0.942};  // Table 2, block 2
+using ::rocklab::test::kBlock1;  // Table 2, block 1 (tests/paper_blocks.h)
+using ::rocklab::test::kBlock2;  // Table 2, block 2
 
 /// u_g'' = a for all t, m/s^2.
 class ConstantForcing final : public Forcing {

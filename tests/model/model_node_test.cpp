@@ -16,11 +16,12 @@
 #include "rocklab/health2_t.hpp"
 #include "tests/model/node_messages.h"
 #include "tests/scratch.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr BlockParams kBlock1{0.235, 3.884, 0.937};  // Table 2, block 1
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
 using node_messages::Table;
 using node_messages::Theta;

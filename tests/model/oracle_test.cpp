@@ -53,11 +53,12 @@
 #include "model/rocking_model.h"
 #include "tests/model/rk4_reference.h"
 #include "rocklab/event2_t.hpp"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 constexpr double kG = 9.81;  // m/s^2, the g of the model library (model/block.h)
 
 // ---------------------------------------------------------------------------
@@ -67,7 +68,7 @@ constexpr double kG = 9.81;  // m/s^2, the g of the model library (model/block.h
 // a = duration / 2, tc = start + a. Returns u''(t), m/s^2:
 //   u'' = U [ W'' sin + 2 W' w cos - W w^2 sin ],
 //   W' = -(pi / 2a) sin(pi x / a),  W'' = -(pi^2 / 2a^2) cos(pi x / a).
-struct TableMotion {
+struct OracleTableMotion {
   double amp_m{};
   double freq_hz{};
   double duration_s{};
@@ -98,7 +99,7 @@ struct TableMotion {
 struct Case {
   const char* name;
   BlockParams params;
-  TableMotion motion;
+  OracleTableMotion motion;
   const char* spec;
   double duration_s;
 };
@@ -115,7 +116,7 @@ using test::rk4::RefResult;
 using test::rk4::Reference;
 
 RefResult RunReference(const Case& c, RefOptions o = {}) {
-  const TableMotion m = c.motion;
+  const OracleTableMotion m = c.motion;
   o.breaks_s = {m.start_s, m.start_s + m.duration_s};
   return Reference(c.params, [m](double t, bool left) { return m.Accel(t, left); }, o).Run(c.duration_s);
 }

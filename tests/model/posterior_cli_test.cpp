@@ -14,13 +14,14 @@
 #include "model/test_record.h"
 #include "tests/model/fit_synthetic.h"
 #include "tests/tools/run_cli.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab::test {
 namespace {
 
-const model::BlockParams kBlock1{0.235, 3.884, 0.937};
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
-std::string FreeCsv(const std::string& dir) {
+std::string PosteriorFreeCsv(const std::string& dir) {
   const std::string path = dir + "/free.csv";
   model::WriteThetaCsv(path, SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 8.0, 500, 0.02, 1));
   return path;
@@ -38,7 +39,7 @@ std::vector<std::string> Lines(const std::string& text) {
 // header the band engineer's reader expects, one row per kept draw.
 TEST(CliPosterior, JsonKeysSamplesAndPlot) {
   const std::string dir = ScratchDir("posterior_json");
-  const CliResult r = RunCli({"fit", "--input", FreeCsv(dir), "--width", "0.247", "--height", "1.0", "--posterior",
+  const CliResult r = RunCli({"fit", "--input", PosteriorFreeCsv(dir), "--width", "0.247", "--height", "1.0", "--posterior",
                               "--seed", "4", "--walkers", "32", "--steps", "4000", "--json", "--quiet", "--samples",
                               dir + "/draws.csv", "--plot", dir + "/corner.svg"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -88,7 +89,7 @@ TEST(CliPosterior, JsonKeysSamplesAndPlot) {
 // with a line naming why, the JSON still written; --allow-unconverged: exit 0.
 TEST(CliPosterior, UnconvergedRunExitsOne) {
   const std::string dir = ScratchDir("posterior_unconverged");
-  const std::string input = FreeCsv(dir);
+  const std::string input = PosteriorFreeCsv(dir);
   const std::vector<std::string> args = {"fit", "--input", input, "--width", "0.247", "--height", "1.0",
                                          "--posterior", "--steps", "12", "--quiet", "--out", dir + "/fit.json"};
   const CliResult r = RunCli(args);
@@ -109,7 +110,7 @@ TEST(CliPosterior, UnconvergedRunExitsOne) {
 // and key; without geometry --posterior is refused.
 TEST(CliPosterior, RigPriorsAndRefusals) {
   const std::string dir = ScratchDir("posterior_rig");
-  const std::string input = FreeCsv(dir);
+  const std::string input = PosteriorFreeCsv(dir);
   const std::string rig = dir + "/rig.toml";
   {
     std::ofstream f(rig);
@@ -140,7 +141,7 @@ TEST(CliPosterior, RigPriorsAndRefusals) {
 // signature and that the CSV is not written instead.
 TEST(CliPosterior, SamplesAsHdf5) {
   const std::string dir = ScratchDir("posterior_h5");
-  const CliResult r = RunCli({"fit", "--input", FreeCsv(dir), "--width", "0.247", "--height", "1.0", "--posterior",
+  const CliResult r = RunCli({"fit", "--input", PosteriorFreeCsv(dir), "--width", "0.247", "--height", "1.0", "--posterior",
                               "--steps", "100", "--allow-unconverged", "--quiet", "--samples", dir + "/draws.h5"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string h5 = ReadFile(dir + "/draws.h5");

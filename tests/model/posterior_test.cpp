@@ -11,6 +11,7 @@
 #include "model/excitation.h"
 #include "model/posterior.h"
 #include "tests/model/fit_synthetic.h"
+#include "tests/paper_blocks.h"
 
 namespace rocklab {
 namespace {
@@ -18,7 +19,7 @@ namespace {
 using model::BlockParams;
 using test::SyntheticFree;
 
-const BlockParams kBlock1{0.235, 3.884, 0.937};  // the paper's Table 2, block 1
+using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
 model::PosteriorOptions Options(model::FitMethod method) {
   model::PosteriorOptions o;

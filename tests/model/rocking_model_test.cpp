@@ -15,11 +15,12 @@
 
 #include "model/free_rocking.h"
 #include "tests/model/model_fixtures.h"
+#include "common/units.h"
 
 namespace rocklab::model {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 using namespace fixtures;  // kBlock1, kBlock2, ConstantForcing
 
 class FunctionForcing final : public Forcing {

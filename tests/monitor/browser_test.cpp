@@ -26,13 +26,14 @@
 
 #include "tests/tools/run_cli.h"
 #include "tests/skip.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::monitor {
 namespace {
 
 using nlohmann::json;
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr const char* kChromium = "/usr/bin/chromium";
 
 // |shown - exact| within half a unit of the 6th significant digit of exact

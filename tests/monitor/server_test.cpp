@@ -41,7 +41,7 @@ namespace {
 using nlohmann::json;
 
 template <class Msg>
-void Feed(LiveState& s, const std::string& channel, const Msg& m) {
+void FeedState(LiveState& s, const std::string& channel, const Msg& m) {
   std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
   m.encode(b.data(), 0, static_cast<int>(b.size()));
   ASSERT_TRUE(s.Ingest(channel, b.data(), static_cast<int>(b.size())));
@@ -219,8 +219,8 @@ TEST_F(MonitorServerTest, MethodsOtherThanGetAndHeadAre405) {
 }
 
 TEST_F(MonitorServerTest, SnapshotIsTheLiveStateAsJson) {
-  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
-  Feed(state_, "RL_MODEL_fit", test::Model("fit", 1'000'000, 0.02));
+  FeedState(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  FeedState(state_, "RL_MODEL_fit", test::Model("fit", 1'000'000, 0.02));
   httplib::Client client("127.0.0.1", port());
   const auto res = client.Get("/api/snapshot");
   ASSERT_TRUE(res);
@@ -312,7 +312,7 @@ TEST_F(MonitorServerTest, TextThatIsNotUtf8IsReplacedNotFatal) {
   h.utime = 1'000'000;
   h.node = "daq\xff";
   h.state = "running";
-  Feed(state_, "RL_HEALTH", h);
+  FeedState(state_, "RL_HEALTH", h);
   httplib::Client client("127.0.0.1", port());
   const auto res = client.Get("/api/snapshot");
   ASSERT_TRUE(res);
@@ -327,7 +327,7 @@ TEST_F(MonitorServerTest, TextThatIsNotUtf8IsReplacedNotFatal) {
 }
 
 TEST_F(MonitorServerTest, EventStreamSendsTheSnapshotThenUpdates) {
-  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  FeedState(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
   StreamReader stream(port(), "/api/events");
   const json first = stream.Event(0);
   ASSERT_FALSE(first.is_null()) << stream.text();
@@ -335,7 +335,7 @@ TEST_F(MonitorServerTest, EventStreamSendsTheSnapshotThenUpdates) {
   EXPECT_EQ(first.at("measured").at("t").size(), 1u);
   EXPECT_NE(stream.text().find("retry: "), std::string::npos);
 
-  Feed(state_, "RL_THETA", test::Theta(1'100'000, 0.02));
+  FeedState(state_, "RL_THETA", test::Theta(1'100'000, 0.02));
   const json second = stream.Event(1);
   ASSERT_FALSE(second.is_null()) << stream.text();
   EXPECT_FALSE(second.at("full").get<bool>());
@@ -434,7 +434,7 @@ std::size_t ResidentBytes() {
 // by less than 64 MB (the flood is bounded at 8 KiB per connection; 300
 // connections cost their libmicrohttpd pools, 300 x 32 KiB at most).
 TEST_F(MonitorServerTest, HoldsUnderIdleConnectionsAndAHeaderFlood) {
-  Feed(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
+  FeedState(state_, "RL_THETA", test::Theta(1'000'000, 0.01));
   const std::size_t rss_before = ResidentBytes();
   // From five other addresses, 60 each (under the 64 per address).
   std::vector<int> idle;
@@ -581,9 +581,9 @@ TEST_F(MonitorServerTest, StreamsThatDoNotReadAreDroppedForOneThatAsks) {
   for (std::int64_t k = 0; k < 60000; ++k) {  // 60 s at 1 kHz, 3 series: a snapshot of about 1 MB
     const std::int64_t u = 1'000'000 + 1000 * k;
     const double theta = 1e-3 * static_cast<double>(k % 1000) + 1e-7 * static_cast<double>(k);
-    Feed(state_, "RL_THETA", test::Theta(u, theta));
-    Feed(state_, "RL_MODEL_a", test::Model("a", u, theta + 1e-4));
-    Feed(state_, "RL_MODEL_b", test::Model("b", u, theta - 1e-4));
+    FeedState(state_, "RL_THETA", test::Theta(u, theta));
+    FeedState(state_, "RL_MODEL_a", test::Model("a", u, theta + 1e-4));
+    FeedState(state_, "RL_MODEL_b", test::Model("b", u, theta - 1e-4));
   }
   ASSERT_GT(state_.Snapshot().dump().size(), std::size_t{400} << 10);
   std::vector<int> stalled;
@@ -706,8 +706,8 @@ TEST_F(MonitorServerTest, AWildUtimeDoesNotBecomeTheOrigin) {
   std::vector<std::uint8_t> b(static_cast<std::size_t>(wild.getEncodedSize()));
   wild.encode(b.data(), 0, static_cast<int>(b.size()));
   EXPECT_FALSE(state_.Ingest("RL_THETA", b.data(), static_cast<int>(b.size())));
-  Feed(state_, "RL_THETA", test::Theta(2'000'000, 0.01));
-  Feed(state_, "RL_THETA", test::Theta(2'100'000, 0.02));
+  FeedState(state_, "RL_THETA", test::Theta(2'000'000, 0.01));
+  FeedState(state_, "RL_THETA", test::Theta(2'100'000, 0.02));
   httplib::Client client("127.0.0.1", port());
   const auto res = client.Get("/api/snapshot");
   ASSERT_TRUE(res);

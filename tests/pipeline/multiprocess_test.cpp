@@ -36,11 +36,12 @@
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
 #include "tests/skip.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::pipeline {
 namespace {
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 const std::string kRig = kSource + "/data/rigs/block1_rig.toml";
 const std::string kUrl = test::kUdpmUrl;
 // Block 1 with the parameters the record is made with (data/samples/README.md).

@@ -31,7 +31,7 @@
 namespace rocklab::pipeline {
 namespace {
 
-constexpr int kBurst = 1000;
+constexpr int kQueueBurst = 1000;
 
 // Subscribed on the node's own LCM instance, so its handlers run on the
 // node's thread. On the node's first RL_HEALTH (sent right after it
@@ -41,19 +41,19 @@ constexpr int kBurst = 1000;
 // then either a TEST_DONE marker, which the node dispatches after everything
 // queued before it, stops the node, or (kStopWhileQueued) the stop flag is
 // raised at once, as a SIGTERM would, with the whole burst still queued.
-enum class StopBy { kMarker, kStopWhileQueued };
+enum class QueueStopBy { kMarker, kStopWhileQueued };
 
 class Burst {
  public:
   Burst(common::Bus& node_bus, std::string channel,
-        std::function<void(lcm::LCM&, int)> publish_one, StopBy stop_by = StopBy::kMarker)
+        std::function<void(lcm::LCM&, int)> publish_one, QueueStopBy stop_by = QueueStopBy::kMarker)
       : channel_(std::move(channel)), publish_one_(std::move(publish_one)), stop_by_(stop_by) {
     subscriptions_.push_back(
         node_bus.SubscribeRaw("RL_HEALTH", [this](const std::string&, const void*, int) { OnHealth(); }));
     subscriptions_.push_back(
         node_bus.SubscribeRaw("TEST_DONE", [this](const std::string&, const void*, int) { stop_ = true; }));
     lcm::Subscription* s = probe_.subscribe(channel_, &Burst::OnProbe, this);
-    s->setQueueCapacity(kBurst + 100);
+    s->setQueueCapacity(kQueueBurst + 100);
   }
   const std::atomic<bool>& stop() const { return stop_; }
   int probed() const { return probed_; }
@@ -62,15 +62,15 @@ class Burst {
   void OnHealth() {
     if (sent_) return;
     sent_ = true;
-    for (int k = 0; k < kBurst; ++k) {
+    for (int k = 0; k < kQueueBurst; ++k) {
       publish_one_(publisher_, k);
       // 16 messages a millisecond, as the DAQ spreads its bursts: the test
       // is about LCM's queue, not about the kernel's socket buffers.
       if (k % 16 == 15) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (probed_ < kBurst && std::chrono::steady_clock::now() < deadline) probe_.handleTimeout(50);
-    if (stop_by_ == StopBy::kStopWhileQueued) {
+    while (probed_ < kQueueBurst && std::chrono::steady_clock::now() < deadline) probe_.handleTimeout(50);
+    if (stop_by_ == QueueStopBy::kStopWhileQueued) {
       stop_ = true;
       return;
     }
@@ -80,7 +80,7 @@ class Burst {
 
   std::string channel_;
   std::function<void(lcm::LCM&, int)> publish_one_;
-  StopBy stop_by_;
+  QueueStopBy stop_by_;
   lcm::LCM publisher_{test::kUdpmUrl};
   lcm::LCM probe_{std::string(test::kUdpmUrl) + "&recv_buf_size=4194304"};
   bool sent_{};
@@ -100,7 +100,7 @@ void PublishSample(lcm::LCM& out, const std::string& channel, int k) {
 
 // The model node's burst: one RL_THETA at rest, then 1 kHz table samples of
 // zero acceleration.
-void PublishRestThenTable(lcm::LCM& out, int k) {
+void PublishRestThenTableOverLcm(lcm::LCM& out, int k) {
   if (k == 0) PublishSample<rocklab::block_state_t>(out, "RL_THETA", 0);
   PublishSample<rocklab::table_state_t>(out, "RL_TABLE", k);
 }
@@ -119,10 +119,10 @@ class NodeQueue : public ::testing::Test {
 
 TEST_F(NodeQueue, ModelNodeHandlesABurstOfTableSamplesThatArrivedWhileItWasBusy) {
   model::ModelNode node(OneHousnerVariant(), *bus_);
-  Burst burst(*bus_, "RL_TABLE", &PublishRestThenTable);
+  Burst burst(*bus_, "RL_TABLE", &PublishRestThenTableOverLcm);
   node.Run(burst.stop());
-  EXPECT_EQ(burst.probed(), kBurst);
-  EXPECT_EQ(node.table_count(), kBurst);
+  EXPECT_EQ(burst.probed(), kQueueBurst);
+  EXPECT_EQ(node.table_count(), kQueueBurst);
   EXPECT_EQ(node.failures(), 0);
 }
 
@@ -132,8 +132,8 @@ TEST_F(NodeQueue, CompareNodeHandlesABurstOfThetaSamplesThatArrivedWhileItWasBus
     PublishSample<rocklab::block_state_t>(out, "RL_THETA", k);
   });
   node.Run(burst.stop());
-  EXPECT_EQ(burst.probed(), kBurst);
-  EXPECT_EQ(node.theta_count(), kBurst);
+  EXPECT_EQ(burst.probed(), kQueueBurst);
+  EXPECT_EQ(node.theta_count(), kQueueBurst);
 }
 
 // A stop (SIGINT/SIGTERM) while input is queued: what arrived before it is
@@ -143,10 +143,10 @@ TEST_F(NodeQueue, ModelNodeStoppedWithABurstQueuedHandlesItBeforeFinishing) {
   model::ModelNode node(OneHousnerVariant(), *bus_);
   Burst burst(
       *bus_, "RL_TABLE",
-      &PublishRestThenTable, StopBy::kStopWhileQueued);
+      &PublishRestThenTableOverLcm, QueueStopBy::kStopWhileQueued);
   node.Run(burst.stop());
-  EXPECT_EQ(burst.probed(), kBurst);
-  EXPECT_EQ(node.table_count(), kBurst);
+  EXPECT_EQ(burst.probed(), kQueueBurst);
+  EXPECT_EQ(node.table_count(), kQueueBurst);
 }
 
 TEST_F(NodeQueue, CompareNodeStoppedWithABurstQueuedComparesItBeforeFinishing) {
@@ -154,10 +154,10 @@ TEST_F(NodeQueue, CompareNodeStoppedWithABurstQueuedComparesItBeforeFinishing) {
   Burst burst(
       *bus_, "RL_THETA",
       [](lcm::LCM& out, int k) { PublishSample<rocklab::block_state_t>(out, "RL_THETA", k); },
-      StopBy::kStopWhileQueued);
+      QueueStopBy::kStopWhileQueued);
   node.Run(burst.stop());
-  EXPECT_EQ(burst.probed(), kBurst);
-  EXPECT_EQ(node.theta_count(), kBurst);
+  EXPECT_EQ(burst.probed(), kQueueBurst);
+  EXPECT_EQ(node.theta_count(), kQueueBurst);
 }
 
 }  // namespace

@@ -18,11 +18,12 @@
 #include "pipeline/pipeline.h"
 #include "rocklab/health2_t.hpp"
 #include "tests/scratch.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::pipeline {
 namespace {
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 const std::string kBlock1Rig = kSource + "/data/rigs/block1_rig.toml";
 const std::string kFig7 = kSource + "/data/samples/fig7_block1.csv";
 

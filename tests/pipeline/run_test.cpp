@@ -21,14 +21,15 @@
 #include "rocklab/health2_t.hpp"
 #include "tests/tools/log_count.h"
 #include "tests/tools/run_cli.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::pipeline {
 namespace {
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 const std::string kBlock1Rig = kSource + "/data/rigs/block1_rig.toml";
 const std::string kFig7 = kSource + "/data/samples/fig7_block1.csv";
-const std::string kLabRig = kSource + "/data/rigs/lab_rig.toml";
+using ::rocklab::test::kLabRig;  // tests/source_paths.h
 const std::string kFreeRocking = kSource + "/data/samples/free_rocking.csv";
 
 std::map<std::string, nlohmann::json> SummaryByName(const std::string& path) {

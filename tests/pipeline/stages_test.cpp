@@ -7,11 +7,12 @@
 #include <string>
 
 #include "model/block.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::pipeline {
 namespace {
 
-const std::string kLabRig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
+using ::rocklab::test::kLabRig;  // tests/source_paths.h
 
 // Oracle: the documented default (Housner and the complex formulation with
 // the rig's geometric parameters) and RectangleBlock's parameters.

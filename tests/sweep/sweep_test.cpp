@@ -41,7 +41,7 @@ std::string Dir(const std::string& name) {
   return d;
 }
 
-std::string Slurp(const std::string& path) {
+std::string ReadWhole(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream s;
   s << in.rdbuf();
@@ -178,8 +178,8 @@ TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
   RunOptions three = one;
   three.threads = 3;
   RunSweep(plan, dir + "/three.csv", three, mpi);
-  const std::string whole = Slurp(dir + "/one.csv");
-  EXPECT_EQ(whole, Slurp(dir + "/three.csv"));
+  const std::string whole = ReadWhole(dir + "/one.csv");
+  EXPECT_EQ(whole, ReadWhole(dir + "/three.csv"));
   std::istringstream lines(whole.substr(RowsStart(whole)));
   std::string line;
   std::size_t n = 1;  // the header
@@ -201,7 +201,7 @@ TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
   }
   std::reverse(parts.begin(), parts.end());  // any order
   MergeShards(plan, parts, dir + "/merged.csv");
-  EXPECT_EQ(Slurp(dir + "/merged.csv"), whole);
+  EXPECT_EQ(ReadWhole(dir + "/merged.csv"), whole);
   EXPECT_THROW(MergeShards(plan, {parts[0], parts[1]}, dir + "/short.csv"), pipeline::OptionError);
   EXPECT_THROW(MergeShards(plan, {parts[0], parts[0], parts[1], parts[2]}, dir + "/twice.csv"), pipeline::OptionError);
 }
@@ -218,21 +218,21 @@ TEST(SweepRun, AStoppedSweepLeavesThePreviousResultsAndResumesFromItsPartial) {
   o.threads = 1;
   o.slice = {0, 1, plan.size()};
   RunSweep(plan, dir + "/whole.csv", o, mpi);
-  const std::string whole = Slurp(dir + "/whole.csv");
+  const std::string whole = ReadWhole(dir + "/whole.csv");
   const std::string out = dir + "/results.csv";
   { std::ofstream(out, std::ios::binary) << "previous results\n"; }
   {
     std::unique_ptr<RowWriter> w = OpenRowWriter(out, plan, o.slice, false);
     for (std::size_t k = 0; k < 5; ++k) w->Write(k, RunCase(plan, k));
   }  // stopped: no Close()
-  EXPECT_EQ(Slurp(out), "previous results\n");
+  EXPECT_EQ(ReadWhole(out), "previous results\n");
   std::size_t cut = RowsStart(whole);
   for (int k = 0; k < 5; ++k) cut = whole.find('\n', cut) + 1;  // 5 rows
-  EXPECT_EQ(Slurp(PartialPath(out)), whole.substr(0, cut));
+  EXPECT_EQ(ReadWhole(PartialPath(out)), whole.substr(0, cut));
   o.resume = true;
   const RunReport r = RunSweep(plan, out, o, mpi);
   EXPECT_EQ(r.resumed, 5u);
-  EXPECT_EQ(Slurp(out), whole);
+  EXPECT_EQ(ReadWhole(out), whole);
   EXPECT_FALSE(std::filesystem::exists(PartialPath(out)));
 }
 
@@ -248,7 +248,7 @@ TEST(SweepRun, ResumeAfterATornLine) {
   o.threads = 2;
   o.slice = {0, 1, plan.size()};
   RunSweep(plan, dir + "/whole.csv", o, mpi);
-  const std::string whole = Slurp(dir + "/whole.csv");
+  const std::string whole = ReadWhole(dir + "/whole.csv");
   std::size_t cut = RowsStart(whole);
   for (int k = 0; k < 11; ++k) cut = whole.find('\n', cut) + 1;  // 11 rows
   cut += 17;                                                      // into row 12
@@ -260,10 +260,10 @@ TEST(SweepRun, ResumeAfterATornLine) {
   const RunReport r = RunSweep(plan, dir + "/resumed.csv", o, mpi);
   EXPECT_EQ(r.resumed, 11u);
   EXPECT_EQ(r.run, plan.size() - 11);
-  EXPECT_EQ(Slurp(dir + "/resumed.csv"), whole);
+  EXPECT_EQ(ReadWhole(dir + "/resumed.csv"), whole);
   // Nothing left to do: the file stays as it is.
   EXPECT_EQ(RunSweep(plan, dir + "/resumed.csv", o, mpi).run, 0u);
-  EXPECT_EQ(Slurp(dir + "/resumed.csv"), whole);
+  EXPECT_EQ(ReadWhole(dir + "/resumed.csv"), whole);
 
   // A file of another sweep (other scales).
   PlanOptions other = SmallPlan(dir);
@@ -284,7 +284,7 @@ TEST(SweepRun, ResumeAfterATornLine) {
   } catch (const pipeline::OptionError& e) {
     EXPECT_NE(std::string(e.what()).find("--resume continues a .csv only"), std::string::npos) << e.what();
   }
-  EXPECT_EQ(Slurp(dir + "/x.h5"), "not a sweep");
+  EXPECT_EQ(ReadWhole(dir + "/x.h5"), "not a sweep");
 }
 
 // Oracle: the CSV of the same sweep. The .h5 output holds the same rows in
@@ -423,7 +423,7 @@ MergeFixture MakeShards(const std::string& name) {
   }
   f.whole_csv = test::ReadCsvTable(f.dir + "/whole.csv");
   f.whole_h5 = test::ReadH5Table(f.dir + "/whole.h5", "results");
-  f.whole_csv_bytes = Slurp(f.dir + "/whole.csv");
+  f.whole_csv_bytes = ReadWhole(f.dir + "/whole.csv");
   return f;
 }
 
@@ -479,7 +479,7 @@ TEST(SweepMerge, CsvShardsIntoHdf5AreTheWholeH5ToTheCsvsDigits) {
   ExpectH5MatchesWhole(f, f.dir + "/merged.h5", [](std::size_t) { return false; });
   // Back to CSV: the unsharded CSV byte for byte (CSV -> HDF5 -> CSV is exact).
   MergeShards(f.plan, {f.dir + "/merged.h5"}, f.dir + "/again.csv");
-  EXPECT_EQ(Slurp(f.dir + "/again.csv"), f.whole_csv_bytes);
+  EXPECT_EQ(ReadWhole(f.dir + "/again.csv"), f.whole_csv_bytes);
   // What sweep-plot reads is the same from either.
   const std::vector<ResultRow> a = ReadResultsH5(f.dir + "/merged.h5"), b = ReadResultsH5(f.dir + "/whole.h5");
   ASSERT_EQ(a.size(), b.size());
@@ -493,7 +493,7 @@ TEST(SweepMerge, CsvShardsIntoHdf5AreTheWholeH5ToTheCsvsDigits) {
 TEST(SweepMerge, Hdf5ShardsIntoCsvAreTheWholeCsvByteForByte) {
   const MergeFixture f = MakeShards("merge_h5_csv");
   MergeShards(f.plan, {f.dir + "/part2.h5", f.dir + "/part0.h5", f.dir + "/part1.h5"}, f.dir + "/merged.csv");
-  EXPECT_EQ(Slurp(f.dir + "/merged.csv"), f.whole_csv_bytes);
+  EXPECT_EQ(ReadWhole(f.dir + "/merged.csv"), f.whole_csv_bytes);
   MergeShards(f.plan, {f.dir + "/part2.h5", f.dir + "/part0.h5", f.dir + "/part1.h5"}, f.dir + "/merged.h5");
   ExpectH5MatchesWhole(f, f.dir + "/merged.h5", [](std::size_t) { return true; });
 }
@@ -503,12 +503,12 @@ TEST(SweepMerge, MixedShardsIntoEitherAreTheWhole) {
   // Case i is in shard i mod 3: shards 0 and 2 from HDF5, shard 1 from CSV.
   const std::vector<std::string> parts = {f.dir + "/part0.h5", f.dir + "/part1.csv", f.dir + "/part2.h5"};
   MergeShards(f.plan, parts, f.dir + "/merged.csv");
-  EXPECT_EQ(Slurp(f.dir + "/merged.csv"), f.whole_csv_bytes);
+  EXPECT_EQ(ReadWhole(f.dir + "/merged.csv"), f.whole_csv_bytes);
   MergeShards(f.plan, parts, f.dir + "/merged.hdf5");
   ExpectH5MatchesWhole(f, f.dir + "/merged.hdf5", [](std::size_t i) { return i % 3 != 1; });
   // CSV shards into CSV: the lines as written (the merge of before).
   MergeShards(f.plan, {f.dir + "/part0.csv", f.dir + "/part1.csv", f.dir + "/part2.csv"}, f.dir + "/all.csv");
-  EXPECT_EQ(Slurp(f.dir + "/all.csv"), f.whole_csv_bytes);
+  EXPECT_EQ(ReadWhole(f.dir + "/all.csv"), f.whole_csv_bytes);
 }
 
 // Oracle: the message names the file and the row of /results (from 1), and
@@ -528,7 +528,7 @@ TEST(SweepMerge, Hdf5ShardErrorsNameTheFileAndRow) {
     // A case missing.
     e = MergeError([&] { MergeShards(f.plan, {d + "/part0.h5", d + "/part1.h5"}, out); });
     EXPECT_NE(e.find("no file holds case 2 "), std::string::npos) << e;
-    EXPECT_EQ(Slurp(out), "previous");
+    EXPECT_EQ(ReadWhole(out), "previous");
   }
   // A shard of another sweep (other scales): its row 1 is not a case here.
   PlanOptions other = SmallPlan(d);
@@ -572,7 +572,7 @@ TEST(SweepMerge, Hdf5ShardErrorsNameTheFileAndRow) {
   e = MergeError([&] { MergeShards(f.plan, {d + "/empty.h5"}, d + "/x.csv"); });
   EXPECT_NE(e.find("empty.h5: no table /results"), std::string::npos) << e;
   // A CSV row of the right case with a column too few.
-  const std::string csv = Slurp(d + "/part0.csv");
+  const std::string csv = ReadWhole(d + "/part0.csv");
   const std::size_t second_line = RowsStart(csv), end = csv.find('\n', second_line);
   const std::string row = csv.substr(second_line, end - second_line);
   { std::ofstream(d + "/short.csv", std::ios::binary) << Header() << "\n" << row.substr(0, row.rfind(',')) << "\n"; }
@@ -671,7 +671,7 @@ TEST(SweepDefinition, EveryResultsFileCarriesTheDefinition) {
   EXPECT_EQ(value("record_1"), "pulse.csv " + RecordHash(dir + "/pulse.csv"));
   EXPECT_EQ(value("record_2"), "noise.csv " + RecordHash(dir + "/noise.csv"));
 
-  const std::string csv = Slurp(dir + "/whole.csv");
+  const std::string csv = ReadWhole(dir + "/whole.csv");
   EXPECT_EQ(csv.substr(0, RowsStart(csv)), DefinitionText(d) + Header() + "\n");
   EXPECT_EQ(ReadResultsTableH5(dir + "/whole.h5", {}).definition, d);
   // sweep-plot reads the CSV past its definition.
@@ -733,7 +733,7 @@ TEST(SweepMerge, MergeRefusesShardsOfAnotherRateRtolLOrRecord) {
   RunShard(plan, 1, dir + "/part1.csv");
   std::filesystem::create_directories(dir + "/other");
   {
-    std::string pulse = Slurp(dir + "/pulse.csv");
+    std::string pulse = ReadWhole(dir + "/pulse.csv");
     const std::size_t row = pulse.find('\n') + 1;
     ASSERT_EQ(pulse.substr(row, 4), "0,0\n");
     pulse.replace(row, 4, "0,0.001\n");
@@ -768,19 +768,19 @@ TEST(SweepMerge, MergeTakesAShardOfAnOlderRocklabWithAWarning) {
   const Plan plan = MakePlan(SmallPlan(dir));
   RunShard(plan, 0, dir + "/whole.csv", 1);
   for (std::size_t i = 0; i < 3; ++i) RunShard(plan, i, dir + "/part" + std::to_string(i) + ".csv");
-  const std::string part0 = Slurp(dir + "/part0.csv");
+  const std::string part0 = ReadWhole(dir + "/part0.csv");
   std::ofstream(dir + "/old0.csv", std::ios::binary) << part0.substr(part0.find(Header()));
   const MergeReport r = MergeShards(plan, {dir + "/old0.csv", dir + "/part1.csv", dir + "/part2.csv"}, dir + "/out.csv");
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_NE(r.warnings[0].find(dir + "/old0.csv: no sweep definition (written by an older rocklab)"),
             std::string::npos)
       << r.warnings[0];
-  const std::string whole = Slurp(dir + "/whole.csv");
-  EXPECT_EQ(Slurp(dir + "/out.csv"), whole.substr(whole.find(Header())));
+  const std::string whole = ReadWhole(dir + "/whole.csv");
+  EXPECT_EQ(ReadWhole(dir + "/out.csv"), whole.substr(whole.find(Header())));
   // Every shard with its definition: no warning, the definition kept.
   EXPECT_TRUE(MergeShards(plan, {dir + "/part0.csv", dir + "/part1.csv", dir + "/part2.csv"}, dir + "/all.csv")
                   .warnings.empty());
-  EXPECT_EQ(Slurp(dir + "/all.csv"), whole);
+  EXPECT_EQ(ReadWhole(dir + "/all.csv"), whole);
 }
 
 // Oracle: sweep-plot's reader (ReadResults) refuses the same row. A row of
@@ -790,7 +790,7 @@ TEST(SweepMerge, MergeRefusesRowsSweepPlotRefuses) {
   const std::string dir = Dir("merge_rows");
   const Plan plan = MakePlan(SmallPlan(dir));
   for (std::size_t i = 0; i < 3; ++i) RunShard(plan, i, dir + "/part" + std::to_string(i) + ".csv");
-  const std::string part0 = Slurp(dir + "/part0.csv");
+  const std::string part0 = ReadWhole(dir + "/part0.csv");
   const std::size_t row = RowsStart(part0), row_end = part0.find('\n', row);
   const std::string first = part0.substr(row, row_end - row);
   std::vector<std::string> f;
@@ -861,13 +861,13 @@ TEST(SweepMerge, MergeRefusesADirectoryOrItsOwnOutput) {
   with_dir.push_back(dir);
   std::string e = MergeMessage(plan, with_dir, dir + "/out.csv");
   EXPECT_NE(e.find("--merge: '" + dir + "' is a directory"), std::string::npos) << e;
-  const std::string before = Slurp(parts[0]);
+  const std::string before = ReadWhole(parts[0]);
   e = MergeMessage(plan, parts, parts[0]);
   EXPECT_NE(e.find("is also --out '" + parts[0] + "'"), std::string::npos) << e;
   // The same file by another name.
   e = MergeMessage(plan, parts, dir + "/../" + dir + "/part0.csv");
   EXPECT_NE(e.find("is also --out"), std::string::npos) << e;
-  EXPECT_EQ(Slurp(parts[0]), before);
+  EXPECT_EQ(ReadWhole(parts[0]), before);
   EXPECT_FALSE(std::filesystem::exists(dir + "/out.csv"));
 }
 
@@ -882,7 +882,7 @@ TEST(SweepRun, ResumeRefusesAFileOfAnotherDuration) {
     std::unique_ptr<RowWriter> w = OpenRowWriter(out, plan, {0, 1, plan.size()}, false);
     for (std::size_t k = 0; k < 3; ++k) w->Write(k, RunCase(plan, k));
   }  // stopped: the rows wait in the .partial
-  const std::string partial = Slurp(PartialPath(out));
+  const std::string partial = ReadWhole(PartialPath(out));
   PlanOptions longer = SmallPlan(dir);
   longer.duration_s = 4.0;
   const Plan other = MakePlan(longer);
@@ -899,7 +899,7 @@ TEST(SweepRun, ResumeRefusesAFileOfAnotherDuration) {
               std::string::npos)
         << e.what();
   }
-  EXPECT_EQ(Slurp(PartialPath(out)), partial);
+  EXPECT_EQ(ReadWhole(PartialPath(out)), partial);
   EXPECT_EQ(RunSweep(plan, out, o, mpi).resumed, 3u);  // the same sweep resumes
 }
 
@@ -1011,7 +1011,7 @@ TEST(SweepMerge, ByteDamagedHdf5ShardsAreErrorsNotCrashes) {
   const std::string dir = Dir("h5_damaged");
   const Plan plan = MakePlan(SmallPlan(dir));
   RunShard(plan, 0, dir + "/part0.h5");
-  const std::string good = Slurp(dir + "/part0.h5");
+  const std::string good = ReadWhole(dir + "/part0.h5");
   ASSERT_GT(good.size(), 4096u);
   std::size_t refused = 0, read = 0, died = 0, turn = 0;
   for (std::size_t at = 0; at < good.size(); at += at < 2048 ? 3 : 211) {

@@ -21,13 +21,14 @@
 #include "rocklab/model_band_t.hpp"
 #include "tests/tools/figure_probe.h"
 #include "tests/tools/run_cli.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::tools {
 namespace {
 
 using nlohmann::json;
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 
 struct BandRun {
   std::string dir, log, summary;

@@ -15,11 +15,12 @@
 #include <gtest/gtest.h>
 
 #include "tests/tools/run_cli.h"
+#include "common/units.h"
 
 namespace rocklab::tools {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using ::rocklab::common::kPi;  // one pi for the tests a unity batch shares
 
 // Figure 7's table displacement, m (amp 6 mm, 3.3 Hz, 4 s from 0.5 s).
 double Displacement(double t) {

@@ -16,11 +16,12 @@
 #include <gtest/gtest.h>
 
 #include "tests/tools/run_cli.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::tools {
 namespace {
 
-const std::string kLabRig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
+using ::rocklab::test::kLabRig;  // tests/source_paths.h
 
 // True once process `pid` has a handler for `sig` (/proc/PID/status SigCgt):
 // the command has installed its stop signals, so a SIGINT stops it in order

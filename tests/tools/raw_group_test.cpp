@@ -26,11 +26,12 @@
 #include "tests/skip.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::test {
 namespace {
 
-const std::string kLabRig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
+using ::rocklab::test::kLabRig;  // tests/source_paths.h
 // 1 s at 1 kHz (1001 rows).
 const std::string kFreeRocking = std::string(ROCKLAB_SOURCE_DIR) + "/data/samples/free_rocking.csv";
 

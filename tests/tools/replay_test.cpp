@@ -23,6 +23,7 @@
 #include "tests/skip.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::pipeline {
 namespace {
@@ -262,7 +263,7 @@ TEST(Replay, FlippedSyncBitAndCutTailAreReportedAndTheRestPublished) {
   EXPECT_NE(r.err.find("2 regions skipped"), std::string::npos) << r.err;
 }
 
-const std::string kLabRig = std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml";
+using ::rocklab::test::kLabRig;  // tests/source_paths.h
 const std::string kFreeRocking = std::string(ROCKLAB_SOURCE_DIR) + "/data/samples/free_rocking.csv";
 
 // Oracle: the CLI's error convention (tools/cli.h): exit 2, one line naming

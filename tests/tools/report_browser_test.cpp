@@ -18,13 +18,14 @@
 
 #include "tests/tools/run_cli.h"
 #include "tests/skip.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::tools {
 namespace {
 
 using nlohmann::json;
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr const char* kChromium = "/usr/bin/chromium";
 
 TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {

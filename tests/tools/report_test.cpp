@@ -30,13 +30,14 @@
 #include "rocklab/table_state_t.hpp"
 #include "tests/tools/figure_probe.h"
 #include "tests/tools/run_cli.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::tools {
 namespace {
 
 using nlohmann::json;
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
 // The log of one `rocklab run` of the bundled figure-7 test, made once per

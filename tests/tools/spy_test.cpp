@@ -35,11 +35,12 @@
 #include "tests/skip.h"
 #include "tests/tools/run_cli.h"
 #include "tests/tools/udpm_netns.h"
+#include "tests/source_paths.h"
 
 namespace rocklab::tools {
 namespace {
 
-const std::string kSource = ROCKLAB_SOURCE_DIR;
+using ::rocklab::test::kSource;  // tests/source_paths.h
 
 // Every channel of the replay and its rocklab type (docs/channels.md).
 const std::map<std::string, std::string> kExpected = {
