@@ -36,21 +36,18 @@ import sys
 import tempfile
 import time
 
-# Test targets per layer, and the layer of each mutant.
+# Test executables per layer (each test folder is one, rocklab_tests_<folder>:
+# tests/CMakeLists.txt), and the layer of each mutant.
 LAYERS = {
-    "model": [
-        "model_block_test", "model_rocking_test", "model_complex_test", "model_oracle_test",
-        "model_free_rocking_test", "model_scenario_test", "model_asymmetric_test",
-        "model_discontinuity_test", "rocklab_model_node_test",
-    ],
-    "daq": ["daq_tests", "daq_independent_oracle_test"],
-    "compare": ["rocklab_comparator_test", "rocklab_compare_node_test"],
-    "export": ["rocklab_export_test", "rocklab_export_cli_test"],
-    "sweep": ["sweep_fragility_test", "sweep_test", "sweep_cli_test"],
-    "fit": ["model_fit_test", "model_fit_cli_test", "model_free_rocking_test", "model_params_cli_test"],
-    "live": ["daq_tests", "daq_live_e2e_test"],
-    "record": ["record_test", "record_udpm_test"],
-    "monitor": ["rocklab_live_state_test", "rocklab_monitor_server_test", "rocklab_monitor_cli_test"],
+    "model": ["rocklab_tests_model"],
+    "daq": ["rocklab_tests_daq"],
+    "compare": ["rocklab_tests_compare"],
+    "export": ["rocklab_tests_export"],
+    "sweep": ["rocklab_tests_sweep"],
+    "fit": ["rocklab_tests_model"],
+    "live": ["rocklab_tests_daq"],
+    "record": ["rocklab_tests_record"],
+    "monitor": ["rocklab_tests_monitor"],
 }
 # Only these gtest suites of a layer's programs (default: all of them).
 LAYER_SUITES = {
