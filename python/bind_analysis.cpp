@@ -527,7 +527,7 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
   std::string csv;  // the definition and the header, then the rows
   {
     py::gil_scoped_release release;
-    const sweep::Plan plan = sweep::MakePlan(options);
+    const sweep::Plan plan = RunStoppable(hook, [&] { return sweep::MakePlan(options); });  // reads the records
     csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::Header() + "\n";
     hook.set_total(static_cast<double>(plan.size()));
     rows.resize(plan.size());
@@ -538,12 +538,16 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
     std::exception_ptr error;
     // Workers take the next case; the first error (a failed case, or the
     // progress callback's exception) stops every worker after its case.
-    auto run = [&](bool report) {
+    // Ctrl-C stops them inside their cases: this thread polls the hook
+    // (in its own cases, and every 10 ms once it waits), the others see
+    // the token's flag every 256 samples.
+    const common::CancelToken token(hook.Cancel());
+    auto run = [&](int worker) {
       for (std::size_t i; (i = next.fetch_add(1)) < plan.size();) {
         try {
-          rows[i] = sweep::FormatRow(plan, i, sweep::RunCase(plan, i));
+          rows[i] = sweep::FormatRow(plan, i, sweep::RunCase(plan, i, &token));
           const std::size_t n = ++done;
-          if (report) hook.Update(static_cast<double>(n));
+          if (worker == 0) hook.Update(static_cast<double>(n));
         } catch (...) {
           const std::lock_guard<std::mutex> lock(error_mutex);
           if (!error) error = std::current_exception();
@@ -551,10 +555,8 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
         }
       }
     };
-    std::vector<std::thread> pool;
-    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(run, false);
-    run(true);  // this thread works too, and calls the progress hook
-    for (std::thread& th : pool) th.join();
+    common::RunOnThreads(static_cast<int>(threads), token, run);  // this thread works too
+    hook.RethrowIfStopped();
     if (error) std::rethrow_exception(error);
     hook.Done(static_cast<double>(plan.size()));
   }

@@ -175,6 +175,23 @@ def test_ctrl_c_stops_the_read_of_a_large_file(large_files, call):
     assert latency < 0.5
 
 
+def test_ctrl_c_stops_a_sweep_inside_a_long_case(tmp_path):
+    # One case: the complex model over a 2000 s record (about 8 s of work).
+    # The sweep once polled between cases only; each case now polls every
+    # 256 output samples. SIGINT 0.3 s in; bound 0.5 s.
+    t = np.arange(200_000) / 100.0
+    record = tmp_path / "long.csv"
+    with open(record, "w") as f:
+        f.write("time,accel\n")
+        np.savetxt(f, np.c_[t, 2.0 * np.sin(2 * np.pi * t)], delimiter=",", fmt="%.6f")
+    latency = _interrupted(
+        lambda: rocklab.sweep(str(record), model="complex", alpha=[0.235], p=[3.884], threads=2, duration=2000.0),
+        0.3)
+    print(f"sweep: KeyboardInterrupt {latency * 1e3:.0f} ms after SIGINT")
+    assert latency < 0.5
+    assert threading.active_count() == 1
+
+
 def test_a_binary_file_gives_an_error_with_a_message(tmp_path):
     # Bytes that are not UTF-8 once made the message vanish (ValueError('')).
     binary = tmp_path / "binary.csv"
