@@ -1,4 +1,5 @@
 #include "common/lcm_log.h"
+#include "common/cancel.h"
 #include "common/channel_pattern.h"
 #include "common/seq_gaps.h"
 
@@ -261,6 +262,7 @@ struct LogReader::Impl {
   bool Advance(LogEvent& ev) {
     if (ended) return false;
     while (ReadRaw(ev)) {
+      PollThreadCancel();  // every event, filtered out or not: a reader may skip a whole log
       if (ev.timestamp_us > stop_after) break;
       if (ev.timestamp_us < window_start || ev.timestamp_us > window_end) {
         ++counts.outside_window;

@@ -93,7 +93,9 @@ class Source {
   virtual bool has_comments() const { return false; }
   /// Nominal sample rate, Hz (from the file's time base where it has one).
   virtual double sample_rate_hz() const = 0;
-  /// Reads the next frame into `frame`, reusing its storage. Never throws;
+  /// Reads the next frame into `frame`, reusing its storage. Never throws
+  /// (but common::ReadCancelled, the stop of a caller that set a
+  /// common::ThreadCancelScope on this thread: Python's Ctrl-C);
   /// kError when the read cannot go on (see the top of this file), and
   /// kError again on every later call.
   [[nodiscard]] virtual ReadStatus Next(Frame& frame) = 0;

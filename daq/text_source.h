@@ -20,6 +20,7 @@
 
 #include "daq/line_input.h"
 #include "daq/source.h"
+#include "common/cancel.h"
 #include "common/text.h"
 #include "common/units.h"
 
@@ -160,6 +161,7 @@ class TextSource : public Source {
   // on_wait_ every wait slice. When the input started over, the line is the
   // first of the new stream and restarted_ is set.
   bool ReadLine(bool may_idle = false) {
+    common::PollThreadCancel();  // ReadCancelled is not a std::exception: Next lets it through
     line_cut_ = false;
     // Waiting in slices lets on_wait_ run (the node's heartbeat).
     const bool in_slices = may_idle || (on_wait_ && input_->live());

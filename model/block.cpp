@@ -1,5 +1,6 @@
 #include "model/block.h"
 
+#include "common/cancel.h"
 #include "common/text.h"
 #include "model/numbers.h"
 
@@ -362,6 +363,7 @@ PolygonFile ReadPolygonCsv(const std::string& path) {
     throw std::invalid_argument(path + ":" + std::to_string(line) + ": " + what);
   };
   while (std::getline(in, text)) {
+    common::PollThreadCancel();
     ++line_no;
     const std::string t = TrimText(text);
     if (t.empty() || t[0] == '#') continue;

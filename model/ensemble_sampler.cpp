@@ -33,7 +33,8 @@ std::string Fmt(double v, int digits = 3) {
 // The stretch move for walkers [first, first + n) of `pos` (every `stride`-th
 // from `offset`, the share of one thread), partners from the other half.
 struct HalfMove {
-  const LogDensity* log_density;
+  const CancellableLogDensity* log_density;
+  const CancelToken* token;
   Eigen::MatrixXd* pos;
   Eigen::VectorXd* lp;
   std::vector<RandomStream>* streams;
@@ -54,7 +55,7 @@ struct HalfMove {
       const double z = ((a - 1.0) * u + 1.0) * ((a - 1.0) * u + 1.0) / a;
       const double log_u = std::log(1.0 - rng.Uniform());  // in (-inf, 0]
       y = pos->row(j).transpose() + z * (pos->row(k).transpose() - pos->row(j).transpose());
-      const double lp_y = (*log_density)(y);
+      const double lp_y = (*log_density)(y, *token);
       const double log_q = static_cast<double>(dim - 1) * std::log(z) + lp_y - (*lp)(k);
       if (std::isfinite(lp_y) && log_u < log_q) {
         pos->row(k) = y.transpose();
@@ -101,6 +102,13 @@ void EnsembleOptions::Validate(int dimension) const {
 
 EnsembleRun RunEnsemble(const LogDensity& log_density, const Eigen::MatrixXd& start,
                         const EnsembleOptions& options) {
+  return RunEnsembleCancellable([&log_density](const Eigen::VectorXd& x, const CancelToken&) { return log_density(x); },
+                                start, options);
+}
+
+EnsembleRun RunEnsembleCancellable(const CancellableLogDensity& log_density, const Eigen::MatrixXd& start,
+                                   const EnsembleOptions& options) {
+  const CancelToken token(options.cancelled);
   const int dim = static_cast<int>(start.cols());
   options.Validate(dim);
   if (start.rows() != options.walkers) {
@@ -115,7 +123,7 @@ EnsembleRun RunEnsemble(const LogDensity& log_density, const Eigen::MatrixXd& st
   Eigen::MatrixXd pos = start;
   Eigen::VectorXd lp(w);
   for (int k = 0; k < w; ++k) {
-    lp(k) = log_density(pos.row(k).transpose());
+    lp(k) = log_density(pos.row(k).transpose(), token);
     if (!std::isfinite(lp(k))) {
       throw std::invalid_argument("walker " + std::to_string(k) + " starts where the log density is not finite");
     }
@@ -135,17 +143,15 @@ EnsembleRun RunEnsemble(const LogDensity& log_density, const Eigen::MatrixXd& st
 
   for (int s = 0; s < options.steps; ++s) {
     for (int h = 0; h < 2; ++h) {
-      const HalfMove move{&log_density, &pos, &lp, &streams, &run.accepted,
+      const HalfMove move{&log_density, &token, &pos, &lp, &streams, &run.accepted,
                           h * half, (1 - h) * half, half, options.a};
-      std::vector<std::thread> pool;
-      for (int t = 1; t < threads; ++t) pool.emplace_back([&move, t, threads] { move.Run(t, threads); });
-      move.Run(0, threads);
-      for (std::thread& t : pool) t.join();
+      common::RunOnThreads(threads, token, [&move, threads](int t) { move.Run(t, threads); });
+      token.ThrowIfCancelled();  // seen by a worker only (the work may have ended at once)
     }
     run.chain.middleRows(static_cast<Eigen::Index>(s) * w, w) = pos;
     run.log_density.segment(static_cast<Eigen::Index>(s) * w, w) = lp;
     if (options.on_step) options.on_step(s + 1, options.steps);
-    ThrowIfCancelled(options.cancelled);
+    token.ThrowIfCancelled();
   }
   return run;
 }

@@ -25,6 +25,10 @@ namespace rocklab::model {
 /// from several threads at once: it must be thread-safe (no shared mutable
 /// state).
 using LogDensity = std::function<double(const Eigen::VectorXd&)>;
+/// The same, given the run's cancel token to poll inside a long evaluation
+/// (token.ThrowIfCancelled(), on whichever thread it runs): Ctrl-C then
+/// stops the run within an evaluation, not after a whole step.
+using CancellableLogDensity = std::function<double(const Eigen::VectorXd&, const CancelToken&)>;
 
 /// A counter-based random stream: SplitMix64 of (seed, stream, counter),
 /// reproducible on every platform (no std:: distribution).
@@ -50,8 +54,9 @@ struct EnsembleOptions {
   /// Called after every step with (step, steps) on the calling thread (may
   /// be empty). Must not throw.
   std::function<void(int, int)> on_step;
-  /// Polled after every step (model/cancel.h): true stops the sampling
-  /// with Cancelled.
+  /// Polled on the calling thread after every step, every 10 ms while it
+  /// waits for the other threads, and by a CancellableLogDensity inside its
+  /// evaluations (model/cancel.h): true stops the sampling with Cancelled.
   CancelHook cancelled;
   /// @throws std::invalid_argument naming the option.
   void Validate(int dimension) const;
@@ -80,6 +85,10 @@ struct EnsembleRun {
 /// @throws std::invalid_argument for bad options or a start outside the support.
 EnsembleRun RunEnsemble(const LogDensity& log_density, const Eigen::MatrixXd& start,
                         const EnsembleOptions& options);
+/// The same with a log density that polls the run's cancel token.
+/// @throws also Cancelled when options.cancelled says stop.
+EnsembleRun RunEnsembleCancellable(const CancellableLogDensity& log_density, const Eigen::MatrixXd& start,
+                                   const EnsembleOptions& options);
 
 /// Integrated autocorrelation time of a series of walkers (x[w][t]), in
 /// steps: the normalised autocorrelation function averaged over the walkers,

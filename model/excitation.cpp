@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/cancel.h"
 #include "common/text.h"
 #include "common/units.h"
 
@@ -401,6 +402,7 @@ AccelerationRows ReadPeerAt2(const std::string& path, std::istream& in) {
   rows.line.reserve(npts);
   std::vector<std::string_view> fields;
   while (std::getline(in, line)) {
+    common::PollThreadCancel();
     ++line_no;
     std::string_view rest = common::Trim(line);
     while (!rest.empty()) {
@@ -456,6 +458,7 @@ AccelerationRows ReadAccelerationRows(const std::string& path) {
   std::string line;
   bool header = false;
   while (std::getline(in, line)) {
+    common::PollThreadCancel();
     ++line_no;
     if (line_no == 1) common::StripByteOrderMark(line);
     const std::string_view text = common::Trim(line);

@@ -52,16 +52,24 @@ struct Knot {
 // theta_dot jumps). Between knots theta is smooth, so the interpolation
 // error is h^4/384 max|d4 theta/dt4| (h the knots' spacing): ~1e-9 rad at
 // h = 10 ms for block 1 (docs/identification.md). +infinity when the model
-// overturns.
+// overturns. `token` (may be null) is polled every kPosteriorPollSamples
+// samples: a run over a long record takes seconds.
+constexpr std::size_t kPosteriorPollSamples = 256;
 double ResidualSquares(RockingModel& m, const Forcing& forcing, const std::vector<double>& t,
-                       const std::vector<double>& th, std::size_t k, int stride) {
+                       const std::vector<double>& th, std::size_t k, int stride, const CancelToken* token) {
   const ModelState& s = m.state();
+  std::size_t unpolled = 0;  // samples since the token was last polled
   Knot a{s.time_s, s.theta, s.theta_dot, s.theta_dot};
   std::size_t seen = m.events().size();
   double ss = 0.0;
   std::vector<Knot> knots;
   while (k < t.size()) {
     const std::size_t last = std::min(k + static_cast<std::size_t>(stride), t.size()) - 1;
+    unpolled += last + 1 - k;
+    if (token != nullptr && unpolled >= kPosteriorPollSamples) {
+      unpolled = 0;
+      token->ThrowIfCancelled();
+    }
     m.AdvanceAhead(t[last], forcing, kInf);
     knots.assign(1, a);
     for (; seen < m.events().size(); ++seen) {
@@ -202,7 +210,7 @@ struct PosteriorProblem::Impl {
     return -0.5 * chi2 - log_det;
   }
 
-  double TrajectoryLogLikelihood(const Eigen::VectorXd& x) const {
+  double TrajectoryLogLikelihood(const Eigen::VectorXd& x, const CancelToken* token) const {
     ModelOptions mo;
     mo.rtol = options.rtol;
     mo.atol = 1e-10;
@@ -228,17 +236,22 @@ struct PosteriorProblem::Impl {
     }
     // The complex model's crossings are integrated through (no jump to
     // split at): it is output at every sample.
-    ss += ResidualSquares(*model, forcing, t, th, k, complex ? 1 : options.output_stride);
+    ss += ResidualSquares(*model, forcing, t, th, k, complex ? 1 : options.output_stride, token);
     const double m = static_cast<double>(t.size() - first);
     return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
   }
 
-  double LogPosterior(const Eigen::VectorXd& x) const {
+  // `token` (may be null): polled inside the trajectory likelihood's model
+  // run (the impacts likelihood is closed-form: microseconds).
+  double LogPosterior(const Eigen::VectorXd& x, const CancelToken* token) const {
     const double prior = LogPrior(x);
     if (!std::isfinite(prior)) return -kInf;
     try {
-      const double ll = options.method == FitMethod::kImpacts ? ImpactsLogLikelihood(x) : TrajectoryLogLikelihood(x);
+      const double ll =
+          options.method == FitMethod::kImpacts ? ImpactsLogLikelihood(x) : TrajectoryLogLikelihood(x, token);
       return std::isfinite(ll) ? prior + ll : -kInf;
+    } catch (const Cancelled&) {
+      throw;
     } catch (const std::exception&) {
       return -kInf;  // a model that cannot run there (e.g. a peak beyond alpha)
     }
@@ -254,7 +267,7 @@ namespace {
 // a better point at random; on a forced test in a chaotic regime the mode's
 // basin is far narrower than the scan's spacing (docs/identification.md),
 // and the start is the point fit's.
-void SearchStart(PosteriorProblem::Impl& s) {
+void SearchStart(PosteriorProblem::Impl& s, const CancelToken& token) {
   const int scan = s.options.start_scan;
   const int dim = static_cast<int>(s.names.size());
   const BlockParams b = s.point_fitted ? s.point.params : s.theory;
@@ -273,20 +286,16 @@ void SearchStart(PosteriorProblem::Impl& s) {
     const double margin = 0.01 * (s.hi(i) - s.lo(i));
     x0(i) = std::clamp(x0(i), s.lo(i) + margin, s.hi(i) - margin);
   }
-  // Evaluates the points in parallel (each thread its share), returns the
-  // best index.
+  // Evaluates the points in parallel (each thread its share, this one's
+  // too), returns the best index.
   const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   auto best_of = [&](const std::vector<Eigen::VectorXd>& pts, double& best_lp) {
     std::vector<double> lp(pts.size());
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (std::size_t k = static_cast<std::size_t>(t); k < pts.size(); k += static_cast<std::size_t>(threads)) {
-          lp[k] = s.LogPosterior(pts[k]);
-        }
-      });
-    }
-    for (std::thread& th : pool) th.join();
+    common::RunOnThreads(threads, token, [&](int t) {
+      for (std::size_t k = static_cast<std::size_t>(t); k < pts.size(); k += static_cast<std::size_t>(threads)) {
+        lp[k] = s.LogPosterior(pts[k], &token);
+      }
+    });
     std::size_t best = 0;
     for (std::size_t k = 1; k < pts.size(); ++k) {
       if (lp[k] > lp[best]) best = k;
@@ -315,6 +324,13 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   Impl& s = *impl;
   s.record = record;
   s.options = options;
+  // The hooks are the caller's, for this construction only: the problem
+  // outlives them (its evaluations take a token, LogPosterior's overload).
+  s.options.fit.cancelled = nullptr;
+  s.options.fit.on_progress = nullptr;
+  s.options.sampler.cancelled = nullptr;
+  s.options.sampler.on_step = nullptr;
+  const CancelToken token(options.fit.cancelled);
   const FitGeometry& g = *options.fit.geometry;
   s.band = AdmissibleAlphaBand(g, options.priors.alpha_band_m);
   if (!g.polygon_m.empty()) {
@@ -323,7 +339,7 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   } else {
     s.theory = RectangleBlock(g.width_m, g.height_m, g.chamfer_m).params();
   }
-  s.f = ExtractFreeRocking(record, options.fit.features);
+  s.f = ExtractFreeRocking(record, options.fit.features, options.fit.cancelled);
   s.noise = s.f.noise_rad;
   if (!(s.noise > 0.0)) {
     throw FitError(record.source + ": the record has no measurable noise (estimated 0 rad): the likelihood's noise "
@@ -408,13 +424,16 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
   hi.push_back(pr.t_offset_s);
   s.lo = Eigen::Map<Eigen::VectorXd>(lo.data(), static_cast<Eigen::Index>(lo.size()));
   s.hi = Eigen::Map<Eigen::VectorXd>(hi.data(), static_cast<Eigen::Index>(hi.size()));
-  SearchStart(s);
+  SearchStart(s, token);
   impl_ = std::move(impl);
 }
 
 const std::vector<std::string>& PosteriorProblem::names() const { return impl_->names; }
 int PosteriorProblem::dimension() const { return static_cast<int>(impl_->names.size()); }
-double PosteriorProblem::LogPosterior(const Eigen::VectorXd& x) const { return impl_->LogPosterior(x); }
+double PosteriorProblem::LogPosterior(const Eigen::VectorXd& x) const { return impl_->LogPosterior(x, nullptr); }
+double PosteriorProblem::LogPosterior(const Eigen::VectorXd& x, const CancelToken& token) const {
+  return impl_->LogPosterior(x, &token);
+}
 double PosteriorProblem::LogPrior(const Eigen::VectorXd& x) const { return impl_->LogPrior(x); }
 const Eigen::VectorXd& PosteriorProblem::lower() const { return impl_->lo; }
 const Eigen::VectorXd& PosteriorProblem::upper() const { return impl_->hi; }
@@ -488,7 +507,8 @@ PosteriorResult SamplePosterior(const PosteriorProblem& problem, const Posterior
   // walkers' indices), so the start depends on the seed alone.
   const Eigen::VectorXd x0 = problem.Start();
   const Eigen::VectorXd scale = problem.StartScale();
-  if (!std::isfinite(problem.LogPosterior(x0))) {
+  const CancelToken token(options.sampler.cancelled);  // for the ball, on this thread
+  if (!std::isfinite(problem.LogPosterior(x0, token))) {
     throw FitError("the posterior is zero at the start point (alpha " + fit_detail::Num(x0(0), 4) + ", p " + fit_detail::Num(x0(1), 4) + ", mu " +
                    fit_detail::Num(x0(2), 4) + "): the model cannot follow the record inside the priors");
   }
@@ -500,14 +520,15 @@ PosteriorResult SamplePosterior(const PosteriorProblem& problem, const Posterior
     for (int attempt = 0; attempt < 1000; ++attempt) {
       if (attempt > 0 && attempt % 100 == 0) shrink /= 2.0;
       for (int i = 0; i < dim; ++i) x(i) = x0(i) + shrink * scale(i) * rng.Normal();
-      if (std::isfinite(problem.LogPosterior(x))) break;
+      if (std::isfinite(problem.LogPosterior(x, token))) break;
       x = x0;
     }
     start.row(k) = x.transpose();
   }
 
-  const EnsembleRun run = RunEnsemble([&problem](const Eigen::VectorXd& x) { return problem.LogPosterior(x); },
-                                      start, options.sampler);
+  const EnsembleRun run = RunEnsembleCancellable(
+      [&problem](const Eigen::VectorXd& x, const CancelToken& t) { return problem.LogPosterior(x, t); }, start,
+      options.sampler);
   const int burn = options.burn_in >= 0 ? options.burn_in : options.sampler.steps / 2;
 
   PosteriorResult r;

@@ -81,8 +81,9 @@ class PosteriorProblem {
  public:
   /// `point`: the point fit of the same record and method when the caller
   /// has one (else it is run here; its failure leaves the walkers to start
-  /// at the geometry).
-  /// @throws FitError when the record cannot give a posterior (never rocks,
+  /// at the geometry). `options.fit.cancelled` is polled while it is built
+  /// (the feature scan, the point fit, the start's scan) and not kept.
+  /// @throws Cancelled when options.fit.cancelled says stop; FitError when the record cannot give a posterior (never rocks,
   ///         overturns, too few impacts, a start the likelihood cannot
   ///         use), std::invalid_argument for bad options (no geometry).
   PosteriorProblem(const RockingRecord& record, const PosteriorOptions& options, const FitResult* point = nullptr);
@@ -94,6 +95,9 @@ class PosteriorProblem {
   /// log prior + log likelihood at x (sampled coordinates), -infinity
   /// outside the prior's support or where the model fails.
   double LogPosterior(const Eigen::VectorXd& x) const;
+  /// The same, polling `token` inside the model run (every 256 samples).
+  /// @throws Cancelled when it says stop.
+  double LogPosterior(const Eigen::VectorXd& x, const CancelToken& token) const;
   double LogPrior(const Eigen::VectorXd& x) const;
   /// The sampled coordinates in the reported units (l = 10^x(3)).
   Eigen::VectorXd ToReported(const Eigen::VectorXd& x) const;

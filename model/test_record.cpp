@@ -12,6 +12,7 @@
 
 #include <memory>
 
+#include "common/cancel.h"
 #include "common/lcm_log.h"
 #include "common/seq_gaps.h"
 #include "common/text.h"
@@ -136,6 +137,7 @@ RockingRecord ReadThetaCsv(const std::string& path) {
   int64_t first_lost_line = 0;
   std::vector<std::string_view> fields;  // views into the trimmed line
   while (std::getline(in, text)) {
+    common::PollThreadCancel();
     ++line_no;
     const std::string trimmed(common::Trim(text));
     if (trimmed.empty() || trimmed[0] == '#') continue;

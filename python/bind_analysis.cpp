@@ -92,36 +92,38 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
   std::string read_error;
   {
     py::gil_scoped_release release;
-    daq::RigConfig rig;
-    try {
-      rig = pipeline::LoadRig(rig_path);
-    } catch (const pipeline::OptionError& e) {
-      ThrowIfUnreadable(rig_path, e.what());
-      throw;
-    }
-    daq::SourceOptions options;  // as `rocklab reconstruct`
-    options.sample_rate_hz = rig.sample_rate_hz;
-    for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
-    options.on_problem = [&sink](const daq::Problem& p) { sink.problems.push_back(daq::ToString(p)); };
-    std::unique_ptr<daq::Source> source;
-    std::unique_ptr<daq::Processor> processor;
-    try {
-      source = daq::OpenSource(input, options);
-      processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);
-    } catch (const std::exception& e) {
-      ThrowIfUnreadable(input, std::string("--input: ") + e.what());
-      throw pipeline::OptionError(std::string("--input: ") + e.what());
-    }
-    daq::Frame frame;
-    daq::ReadStatus status{};
-    while (!hook.stopped() && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
-    hook.RethrowIfStopped();
-    processor->Finish();
-    if (status == daq::ReadStatus::kError) read_error = source->error();
-    src = source->stats();
-    seq = processor->sequence();
-    rec = processor->reconstruction();
-    counts = processor->counts();
+    RunStoppable(hook, [&] {
+      daq::RigConfig rig;
+      try {
+        rig = pipeline::LoadRig(rig_path);
+      } catch (const pipeline::OptionError& e) {
+        ThrowIfUnreadable(rig_path, e.what());
+        throw;
+      }
+      daq::SourceOptions options;  // as `rocklab reconstruct`
+      options.sample_rate_hz = rig.sample_rate_hz;
+      for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
+      options.on_problem = [&sink](const daq::Problem& p) { sink.problems.push_back(daq::ToString(p)); };
+      std::unique_ptr<daq::Source> source;
+      std::unique_ptr<daq::Processor> processor;
+      try {
+        source = daq::OpenSource(input, options);
+        processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);
+      } catch (const std::exception& e) {
+        ThrowIfUnreadable(input, std::string("--input: ") + e.what());
+        throw pipeline::OptionError(std::string("--input: ") + e.what());
+      }
+      daq::Frame frame;
+      daq::ReadStatus status{};
+      while (!hook.stopped() && (status = source->Next(frame)) == daq::ReadStatus::kFrame) processor->Process(frame);
+      hook.RethrowIfStopped();
+      processor->Finish();
+      if (status == daq::ReadStatus::kError) read_error = source->error();
+      src = source->stats();
+      seq = processor->sequence();
+      rec = processor->reconstruction();
+      counts = processor->counts();
+    });
   }
   py::dict columns;
   for (std::size_t i = 0; i < ColumnSink::kReal.size(); ++i) {
@@ -343,12 +345,10 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
   {
     py::gil_scoped_release release;
     try {
-      CompleteRecord(record, t.has_value(), input, accel_path);
-      result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
-                                                    : model::FitTrajectory(record, fo);
-    } catch (const model::Cancelled&) {
-      hook.RethrowIfStopped();
-      throw;
+      result = RunStoppable(hook, [&] {
+        CompleteRecord(record, t.has_value(), input, accel_path);
+        return method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo) : model::FitTrajectory(record, fo);
+      });
     } catch (const model::RecordError& e) {
       throw pipeline::OptionError(e.what());
     } catch (const model::FitError& e) {
@@ -423,7 +423,9 @@ model::PosteriorOptions PosteriorOptionsOf(model::FitOptions fo, model::FitMetho
 class PyPosteriorProblem {
  public:
   PyPosteriorProblem(const model::RockingRecord& record, const model::PosteriorOptions& options)
-      : options_(options), problem_(record, options) {}
+      : options_(options), problem_(record, options) {
+    options_.fit.cancelled = nullptr;  // the caller's hook, for the construction only
+  }
   double LogPosterior(const DoubleArray& x) const {
     const std::vector<double> v = ToVector(x, "x");
     if (static_cast<int>(v.size()) != problem_.dimension()) {
@@ -431,8 +433,20 @@ class PyPosteriorProblem {
                                   Join(problem_.names()) + ")");
     }
     const Eigen::VectorXd e = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-    py::gil_scoped_release release;
-    return problem_.LogPosterior(e);
+    // One model run over a long record takes seconds: Ctrl-C stops it.
+    ProgressHook hook(py::none(), 0.0);
+    double lp = 0.0;
+    {
+      py::gil_scoped_release release;
+      const model::CancelToken token(hook.Cancel());
+      try {
+        lp = problem_.LogPosterior(e, token);
+      } catch (const model::Cancelled&) {
+        hook.RethrowIfStopped();
+        throw;
+      }
+    }
+    return lp;
   }
   const model::PosteriorProblem& problem() const { return problem_; }
   const model::PosteriorOptions& options() const { return options_; }
@@ -458,13 +472,19 @@ PyPosteriorProblem MakeProblem(const std::string& input, std::optional<DoubleArr
                                int threads, double rtol, const std::string& integrator, const py::dict& priors) {
   const model::FitOptions fo = FitOptionsOf(width_m, height_m, chamfer_m, quarter_time, alpha_band_m, min_impacts);
   const model::FitMethod method = FitMethodOf(method_name);
-  const model::PosteriorOptions po =
+  model::PosteriorOptions po =
       PosteriorOptionsOf(fo, method, model_name, seed, walkers, steps, burn_in, threads, rtol, integrator, priors);
   model::RockingRecord record = RecordOfArrays(t, theta, table_t, table_a);
+  // Reading the record, the feature scan, the point fit and the start's
+  // scan poll for signals (model/cancel.h, common/cancel.h).
+  ProgressHook hook(py::none(), 0.0);
+  po.fit.cancelled = hook.Cancel();
   py::gil_scoped_release release;
   try {
-    CompleteRecord(record, t.has_value(), input, accel_path);
-    return PyPosteriorProblem(record, po);
+    return RunStoppable(hook, [&] {
+      CompleteRecord(record, t.has_value(), input, accel_path);
+      return PyPosteriorProblem(record, po);
+    });
   } catch (const model::RecordError& e) {
     throw pipeline::OptionError(e.what());
   } catch (const model::FitError& e) {
@@ -507,7 +527,7 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
   std::string csv;  // the definition and the header, then the rows
   {
     py::gil_scoped_release release;
-    const sweep::Plan plan = sweep::MakePlan(options);
+    const sweep::Plan plan = RunStoppable(hook, [&] { return sweep::MakePlan(options); });  // reads the records
     csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::Header() + "\n";
     hook.set_total(static_cast<double>(plan.size()));
     rows.resize(plan.size());
@@ -518,12 +538,16 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
     std::exception_ptr error;
     // Workers take the next case; the first error (a failed case, or the
     // progress callback's exception) stops every worker after its case.
-    auto run = [&](bool report) {
+    // Ctrl-C stops them inside their cases: this thread polls the hook
+    // (in its own cases, and every 10 ms once it waits), the others see
+    // the token's flag every 256 samples.
+    const common::CancelToken token(hook.Cancel());
+    auto run = [&](int worker) {
       for (std::size_t i; (i = next.fetch_add(1)) < plan.size();) {
         try {
-          rows[i] = sweep::FormatRow(plan, i, sweep::RunCase(plan, i));
+          rows[i] = sweep::FormatRow(plan, i, sweep::RunCase(plan, i, &token));
           const std::size_t n = ++done;
-          if (report) hook.Update(static_cast<double>(n));
+          if (worker == 0) hook.Update(static_cast<double>(n));
         } catch (...) {
           const std::lock_guard<std::mutex> lock(error_mutex);
           if (!error) error = std::current_exception();
@@ -531,10 +555,8 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
         }
       }
     };
-    std::vector<std::thread> pool;
-    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(run, false);
-    run(true);  // this thread works too, and calls the progress hook
-    for (std::thread& th : pool) th.join();
+    common::RunOnThreads(static_cast<int>(threads), token, run);  // this thread works too
+    hook.RethrowIfStopped();
     if (error) std::rethrow_exception(error);
     hook.Done(static_cast<double>(plan.size()));
   }

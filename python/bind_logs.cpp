@@ -81,8 +81,9 @@ py::tuple Read(bool log, const std::string& path, const std::string& channels, d
     options.units = RigUnits(rig_path);
     auto collect = [&problems](const std::string& text) { problems.push_back(text); };
     try {
-      summary = log ? exporter::ExportLog(path, options, sink, collect)
-                    : exporter::ExportRaw(path, options, sink, collect);
+      summary = RunStoppable(hook, [&] {
+        return log ? exporter::ExportLog(path, options, sink, collect) : exporter::ExportRaw(path, options, sink, collect);
+      });
     } catch (const exporter::InputError& e) {
       ThrowIfUnreadable(path, e.what());
       throw;
@@ -110,10 +111,11 @@ py::tuple ReadRaw(const std::string& path, const std::string& rig_path, double r
 // --accel` and `sweep --records` read it: (time s, accel m/s^2, line).
 py::tuple ReadAcceleration(const std::string& path) {
   model::AccelerationRows rows;
+  ProgressHook hook(py::none(), 0.0);  // Ctrl-C
   {
     py::gil_scoped_release release;
     try {
-      rows = model::ReadAccelerationRows(path);
+      rows = RunStoppable(hook, [&] { return model::ReadAccelerationRows(path); });
     } catch (const std::runtime_error& e) {
       ThrowIfUnreadable(path, e.what());
       throw pipeline::OptionError(e.what());
@@ -126,14 +128,19 @@ py::tuple ReadAcceleration(const std::string& path) {
 // `rocklab info --json`'s text, for json.loads.
 std::string InfoJson(const std::string& path, const std::string& rig_path, double rate_hz) {
   pipeline::Require(rate_hz >= 0, "--rate", ">= 0 Hz", rate_hz);
+  ProgressHook hook(py::none(), 0.0);  // Ctrl-C
   py::gil_scoped_release release;
   try {
-    if (exporter::IsLcmLog(path)) return exporter::JsonText(exporter::ToJson(exporter::ReadLogInfo(path)));
-    return exporter::JsonText(exporter::ToJson(exporter::ReadRawInfo(path, rate_hz, RigUnits(rig_path))));
+    return RunStoppable(hook, [&] {
+      if (exporter::IsLcmLog(path)) return exporter::JsonText(exporter::ToJson(exporter::ReadLogInfo(path)));
+      return exporter::JsonText(exporter::ToJson(exporter::ReadRawInfo(path, rate_hz, RigUnits(rig_path))));
+    });
   } catch (const pipeline::OptionError&) {
     throw;
   } catch (const FileError&) {
     throw;
+  } catch (const py::error_already_set&) {
+    throw;  // Ctrl-C's KeyboardInterrupt (RunStoppable)
   } catch (const std::exception& e) {
     ThrowIfUnreadable(path, std::string("INPUT: ") + e.what());
     throw pipeline::OptionError(std::string("INPUT: ") + e.what());

@@ -89,9 +89,10 @@ py::dict PolygonParams(const model::PolygonFile& file, const std::optional<std::
 
 py::dict PolygonFileParams(const std::string& path) {
   model::PolygonFile file;
+  ProgressHook hook(py::none(), 0.0);  // Ctrl-C
   try {
     py::gil_scoped_release release;
-    file = model::ReadPolygonCsv(path);
+    file = RunStoppable(hook, [&] { return model::ReadPolygonCsv(path); });
   } catch (const std::invalid_argument& e) {
     ThrowIfUnreadable(path, e.what());
     throw;
@@ -220,7 +221,7 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
     ProgressHook hook(progress, o.duration_s);
     py::gil_scoped_release release;
     try {
-      s = pipeline::BuildScenario(o);
+      s = RunStoppable(hook, [&] { return pipeline::BuildScenario(o); });  // reads --accel
     } catch (const pipeline::OptionError& e) {
       if (!o.accel_csv.empty()) ThrowIfUnreadable(o.accel_csv, e.what());
       throw;

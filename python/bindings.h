@@ -13,6 +13,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "common/cancel.h"
 #include "model/cancel.h"
 
 namespace rocklab::python {
@@ -44,9 +45,10 @@ class FileError : public std::runtime_error {
 void ThrowIfUnreadable(const std::string& path, const std::string& message);
 
 /// The progress callback of a long call and the interrupt check. Called
-/// with the GIL released; at most every 100 ms it takes the GIL, checks
-/// for signals (Ctrl-C raises KeyboardInterrupt through the call) and calls
-/// `callback(done, total)` when one was given (total None when unknown).
+/// with the GIL released; at most every 20 ms it takes the GIL and checks
+/// for signals (Ctrl-C raises KeyboardInterrupt through the call), and at
+/// most every 100 ms of those it calls `callback(done, total)` when one
+/// was given (total None when unknown).
 /// Update lets a Python exception through as py::error_already_set; Poll
 /// keeps it (for the library's loops, which must not see it), and the
 /// call raises it once the loop has stopped (RethrowIfStopped).
@@ -87,8 +89,27 @@ class ProgressHook {
   double total_;
   double done_{};
   std::exception_ptr stopped_;  // the callback's or the signal's exception
-  std::chrono::steady_clock::time_point next_;
+  std::chrono::steady_clock::time_point next_;           // signal check
+  std::chrono::steady_clock::time_point next_callback_;
 };
+
+/// Runs `work` (on this thread, the GIL released by the caller) with the
+/// file readers polling `hook` (common::ThreadCancelScope). When the hook
+/// stopped it (common::ReadCancelled from a reader, model::Cancelled from
+/// the model), raises the hook's exception (KeyboardInterrupt).
+template <typename F>
+auto RunStoppable(ProgressHook& hook, F&& work) -> decltype(work()) {
+  const common::ThreadCancelScope reading(hook.Cancel());
+  try {
+    return work();
+  } catch (const common::ReadCancelled&) {
+    hook.RethrowIfStopped();
+    throw std::runtime_error("the read was stopped");  // not reached: only the hook stops it
+  } catch (const common::Cancelled&) {
+    hook.RethrowIfStopped();
+    throw;
+  }
+}
 
 /// A 1-D numpy array that takes over `values` (no copy).
 template <typename T>

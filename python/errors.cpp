@@ -70,10 +70,16 @@ void ThrowIfUnreadable(const std::string& path, const std::string& message) {
   if (::access(path.c_str(), R_OK) != 0) throw FileError(errno, message, path);
 }
 
+// The signal check's period: Ctrl-C's KeyboardInterrupt within it (and the
+// work's own poll gap); the callback's, a progress display's rate.
+constexpr std::chrono::milliseconds kSignalCheckPeriod{20};
+constexpr std::chrono::milliseconds kProgressCallbackPeriod{100};
+
 ProgressHook::ProgressHook(py::object callback, double total)
     : callback_(std::move(callback)),
       total_(total),
-      next_(std::chrono::steady_clock::now() + std::chrono::milliseconds(100)) {}
+      next_(std::chrono::steady_clock::now() + kSignalCheckPeriod),
+      next_callback_(std::chrono::steady_clock::now() + kProgressCallbackPeriod) {}
 
 ProgressHook::~ProgressHook() = default;
 
@@ -82,10 +88,12 @@ py::object ProgressHook::Total() const {
 }
 
 void ProgressHook::Call(double done, std::chrono::steady_clock::time_point now) {
-  next_ = now + std::chrono::milliseconds(100);
+  next_ = now + kSignalCheckPeriod;
   py::gil_scoped_acquire gil;
   if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-  if (!callback_.is_none()) callback_(done, Total());
+  if (callback_.is_none() || now < next_callback_) return;
+  next_callback_ = now + kProgressCallbackPeriod;
+  callback_(done, Total());
 }
 
 bool ProgressHook::Poll(double done) noexcept {

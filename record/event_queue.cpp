@@ -96,6 +96,7 @@ bool EventQueue::Push(int32_t channel_id, int64_t utime, std::string_view channe
   {
     std::lock_guard<std::mutex> lock(mutex_);
     head_ = head;
+    ++pushed_events_;
     high_water_ = std::max(high_water_, static_cast<std::size_t>(head_ - tail_));
   }
   ready_.notify_one();
@@ -104,21 +105,25 @@ bool EventQueue::Push(int32_t channel_id, int64_t utime, std::string_view channe
 
 int EventQueue::PopBatch(const std::function<void(const EventView&)>& fn, std::chrono::milliseconds wait) {
   uint64_t head = 0, tail = 0;
+  uint64_t events_at_head = 0;  // events pushed up to `head`
   {
     std::unique_lock<std::mutex> lock(mutex_);
     ready_.wait_for(lock, wait, [this] { return head_ != tail_ || closed_; });
     if (head_ == tail_) return closed_ ? -1 : 0;
     head = head_;
     tail = tail_;
+    events_at_head = pushed_events_;
   }
   const std::size_t cap = capacity_;
   int handed = 0;
+  bool corrupt = false;
   while (tail != head) {
-    const uint8_t* p = &ring_[static_cast<std::size_t>(tail % cap)];
+    const std::size_t offset = static_cast<std::size_t>(tail % cap);
+    const uint8_t* p = &ring_[offset];
     uint32_t total = 0;
     std::memcpy(&total, p, 4);
-    if (total == kWrap) {
-      tail += cap - static_cast<std::size_t>(tail % cap);
+    if (total == kWrap && head - tail > cap - offset) {  // Push wraps only before a record it writes
+      tail += cap - offset;
       continue;
     }
     EventView ev;
@@ -127,6 +132,13 @@ int EventQueue::PopBatch(const std::function<void(const EventView&)>& fn, std::c
     std::memcpy(&ev.utime, p + 8, 8);
     std::memcpy(&channel_size, p + 16, 4);
     std::memcpy(&ev.size, p + 20, 4);
+    // Only Push writes the ring, so a record unlike Push's is memory
+    // damaged by a bug elsewhere: its size cannot be trusted to find the
+    // next one (a total of 0 once stopped the loop here for ever).
+    if (!RecordFits(total, channel_size, ev.size, head - tail, cap - offset)) {
+      corrupt = true;
+      break;
+    }
     ev.channel = std::string_view(reinterpret_cast<const char*>(p + kHeader), channel_size);
     ev.data = p + kHeader + channel_size;
     fn(ev);
@@ -135,9 +147,25 @@ int EventQueue::PopBatch(const std::function<void(const EventView&)>& fn, std::c
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    handed_events_ += static_cast<uint64_t>(handed);
+    if (corrupt) {
+      // Every event of this batch from the damaged one on is given up,
+      // counted: the events pushed up to `head` less those handed out.
+      ++corrupt_records_;
+      discarded_bytes_ += head - tail;
+      discarded_events_ += events_at_head - handed_events_;
+      handed_events_ = events_at_head;
+      tail = head;
+    }
     tail_ = tail;
   }
   return handed;
+}
+
+bool EventQueue::RecordFits(uint32_t total, uint32_t channel_size, uint32_t data_size, uint64_t queued,
+                            std::size_t to_end) {
+  return total >= kHeader && total % 8 == 0 && total <= queued && total <= to_end &&
+         RecordBytes(channel_size, data_size) == total;
 }
 
 uint64_t EventQueue::ChunkEnd(uint64_t position) const {
@@ -184,6 +212,11 @@ void EventQueue::Close() {
 std::size_t EventQueue::high_water_bytes() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return high_water_;
+}
+
+EventQueue::Damage EventQueue::damage() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {corrupt_records_, discarded_events_, discarded_bytes_};
 }
 
 }  // namespace rocklab::record

@@ -60,11 +60,22 @@ class EventQueue {
   /// Consumer: waits up to `wait` for events, calls `fn` on every event queued
   /// at that moment, in order, then frees their space. Returns the number of
   /// events handed out; 0 when none came within `wait`; -1 once the queue is
-  /// closed and empty.
+  /// closed and empty. A record that Push cannot have written (the ring's
+  /// memory damaged) is not handed out: it and the rest of the batch are
+  /// freed and counted (damage()).
   int PopBatch(const std::function<void(const EventView&)>& fn, std::chrono::milliseconds wait);
 
   /// No more pushes; PopBatch drains what is queued, then returns -1.
   void Close();
+
+  /// What PopBatch gave up because the ring held a record Push cannot have
+  /// written (a bug elsewhere wrote over it).
+  struct Damage {
+    uint64_t records{};  ///< damaged records found (each ends its batch)
+    uint64_t events{};   ///< events given up: the damaged one and the rest of its batch
+    uint64_t bytes{};    ///< ring bytes given up
+  };
+  Damage damage() const;
 
   std::size_t capacity_bytes() const { return capacity_; }
   /// Largest number of bytes in use at once since construction.
@@ -83,6 +94,10 @@ class EventQueue {
   // position), other than a pass's first chunk (the one an empty queue
   // restarts in); released_ then says where it stopped.
   void ReleaseDrained(uint64_t head, uint64_t drained_to);
+  // A record header as Push writes it: its total is the 8-aligned size of
+  // its header, channel and payload, within the queued bytes and the ring's end.
+  static bool RecordFits(uint32_t total, uint32_t channel_size, uint32_t data_size, uint64_t queued,
+                         std::size_t to_end);
   // The end of the chunk `position` is in (position itself at a boundary).
   uint64_t ChunkEnd(uint64_t position) const;
 
@@ -103,6 +118,11 @@ class EventQueue {
   uint64_t tail_{0};
   uint64_t released_{0};  // the producer's: chunks below it were given back
   std::size_t high_water_{0};
+  uint64_t pushed_events_{0};   // events published by Push
+  uint64_t handed_events_{0};   // events handed out or given up by PopBatch
+  uint64_t corrupt_records_{0};
+  uint64_t discarded_events_{0};
+  uint64_t discarded_bytes_{0};
   bool closed_{false};
 };
 

@@ -130,8 +130,15 @@ void Recorder::WriterLoop() {
   // of a growing log (and a test waiting for its probe) see it.
   bool dirty = false;
   double last_flush = common::HostNowS();
+  uint64_t damaged_seen = 0;
   while (true) {
     const int n = queue_.PopBatch(write, milliseconds(50));
+    const EventQueue::Damage damage = queue_.damage();
+    if (damage.records > damaged_seen) {
+      damaged_seen = damage.records;
+      Log()->error("the event queue's memory was damaged: {} events ({} bytes) given up so far, counted as dropped",
+                   damage.events, damage.bytes);
+    }
     if (n < 0) break;
     dirty = dirty || n > 0;
     const double now = common::HostNowS();
@@ -182,6 +189,8 @@ RecorderStats Recorder::Stats() const {
     s.write_error = writer_.error();
   }
   s.dropped += unregistered_drops_;
+  s.queue_damaged_events = static_cast<int64_t>(queue_.damage().events);
+  s.dropped += s.queue_damaged_events;
   s.queue_bytes = queue_.capacity_bytes();
   s.queue_high_water_bytes = queue_.high_water_bytes();
   return s;
@@ -196,6 +205,7 @@ std::string SummaryJson(const RecorderStats& s) {
   j["bytes"] = s.bytes;
   j["queue_bytes"] = s.queue_bytes;
   j["queue_high_water_bytes"] = s.queue_high_water_bytes;
+  j["queue_damaged_events"] = s.queue_damaged_events;
   j["write_error"] = s.write_error;
   int64_t gaps = 0, missing = 0;
   nlohmann::json channels = nlohmann::json::array();

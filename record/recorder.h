@@ -19,7 +19,10 @@
 ///   except through sequence numbers (below);
 /// - LCM's per-subscription queue: raised to `lcm_queue_messages`;
 /// - the recorder's queue: counted per channel (`dropped`);
-/// - write errors: counted per channel (`dropped`) with the error logged.
+/// - write errors: counted per channel (`dropped`) with the error logged;
+/// - a queue whose memory a bug damaged: the events given up counted in the
+///   total `dropped` and `queue_damaged_events` (not per channel: a damaged
+///   record does not say its channel), with the error logged.
 /// Channels whose type carries a sequence number right after utime (every
 /// current rocklab type, recognised by its LCM fingerprint: common::WireSeq)
 /// are checked: `seq_gaps` jumps forward, `seq_missing` the numbers skipped,
@@ -83,6 +86,9 @@ struct RecorderStats {
   int64_t bytes{};     ///< log bytes written
   std::size_t queue_bytes{};
   std::size_t queue_high_water_bytes{};
+  /// Events the queue gave up on finding its memory damaged (in `dropped`
+  /// too; EventQueue::damage()).
+  int64_t queue_damaged_events{};
   std::string write_error;  ///< the first write error, if any
 };
 

@@ -201,7 +201,7 @@ Scaling ScalingOf(const Plan& plan, std::size_t index) {
   return s;
 }
 
-Outcome RunCase(const Plan& plan, std::size_t index) {
+Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* token) {
   const CaseIndex c = Locate(plan, index);
   const Record& record = plan.records[c.record];
   const Block& block = plan.blocks[c.block];
@@ -229,8 +229,13 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
   Outcome out;
   pipeline::RunSummary summary;
   double last_theta = 0.0;  // rad; after an overturn, the side it fell to
+  unsigned unpolled = 0;    // output samples since the token was last polled
   try {
-    summary = pipeline::RunScenario(scenario, so, [&out, &last_theta, alpha_plus, alpha_minus](double t, double theta, double) {
+    summary = pipeline::RunScenario(scenario, so, [&](double t, double theta, double) {
+      if (token != nullptr && ++unpolled == 256) {
+        unpolled = 0;
+        token->ThrowIfCancelled();
+      }
       last_theta = theta;
       const double ratio = theta >= 0 ? theta / alpha_plus : -theta / alpha_minus;
       if (ratio > out.peak_theta_over_alpha) {
@@ -238,6 +243,8 @@ Outcome RunCase(const Plan& plan, std::size_t index) {
         out.peak_time_s = t;
       }
     });
+  } catch (const common::Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
   }

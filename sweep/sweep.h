@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel.h"
 #include "model/block.h"
 #include "model/rocking_model.h"
 
@@ -121,8 +122,11 @@ struct Scaling {
 Scaling ScalingOf(const Plan& plan, std::size_t index);
 
 /// Runs case `index` through pipeline::RunScenario from rest at t = 0.
-/// @throws std::runtime_error when the integrator fails, naming the case.
-Outcome RunCase(const Plan& plan, std::size_t index);
+/// `token` (may be null) is polled every 256 output samples: one case of a
+/// long record runs for seconds.
+/// @throws std::runtime_error when the integrator fails, naming the case;
+///         common::Cancelled when the token says stop.
+Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* token = nullptr);
 
 /// The model options every case of `plan` runs with (RunCase's): the
 /// plan's l and rtol, ModelOptions' defaults for the rest.

@@ -121,6 +121,66 @@ TEST(EventQueueTest, WrapsAroundWithoutLosingOrCorrupting) {
   EXPECT_GT(next_push, 500);  // ~60 ring lengths went through
 }
 
+// Oracle: the ring's layout (record_test's RecordBytes: 24 bytes of header,
+// the first 4 the record's total). A bug elsewhere that writes 0 over the
+// second record's total made PopBatch hand that record out again and again
+// for ever (its position never moved); now the damaged record and the rest
+// of its batch are given up and counted, and the queue goes on.
+TEST(EventQueueTest, ADamagedRecordIsCountedNotLoopedOnForEver) {
+  EventQueue q(4096);
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(q.Push(i, i, "CH", Payload(i, 40).data(), 40));
+  const std::size_t first_bytes = EventQueue::RecordBytes(2, 40);
+  int calls = 0;
+  std::vector<int> seen;
+  const int n = q.PopBatch(
+      [&](const EventView& ev) {
+        if (++calls > 100) throw std::runtime_error("PopBatch loops on the damaged record");
+        seen.push_back(ev.channel_id);
+        if (ev.channel_id == 0) {
+          // The memory bug: zero the next record's total (it starts right
+          // after this one's bytes; ev.data is 24 + 2 bytes into this one).
+          auto* second = const_cast<uint8_t*>(ev.data) - 24 - 2 + first_bytes;
+          std::memset(second, 0, 4);
+        }
+      },
+      std::chrono::milliseconds(0));
+  EXPECT_EQ(n, 1);
+  EXPECT_EQ(seen, std::vector<int>{0});
+  const EventQueue::Damage damage = q.damage();
+  EXPECT_EQ(damage.records, 1u);
+  EXPECT_EQ(damage.events, 2u);  // the damaged record and the one after it
+  EXPECT_EQ(damage.bytes, 2 * first_bytes);
+  // The queue is usable again.
+  ASSERT_TRUE(q.Push(7, 7, "CH", Payload(7, 40).data(), 40));
+  seen.clear();
+  EXPECT_EQ(q.PopBatch([&](const EventView& ev) { seen.push_back(ev.channel_id); }, std::chrono::milliseconds(0)), 1);
+  EXPECT_EQ(seen, std::vector<int>{7});
+  EXPECT_EQ(q.damage().events, 2u);
+}
+
+// Oracle: as above; a total that is not 24 + channel + payload rounded to
+// 8 (here one too large by 8, which would skip into the next record's
+// payload), or a wrap marker with nothing queued after it, is damage too.
+TEST(EventQueueTest, ARecordOfTheWrongSizeOrAStrayWrapIsDamage) {
+  for (const uint32_t bad : {static_cast<uint32_t>(EventQueue::RecordBytes(2, 40) + 8), 0xFFFFFFFFu}) {
+    EventQueue q(4096);
+    for (int i = 0; i < 2; ++i) ASSERT_TRUE(q.Push(i, i, "CH", Payload(i, 40).data(), 40));
+    std::vector<int> seen;
+    const int n = q.PopBatch(
+        [&](const EventView& ev) {
+          seen.push_back(ev.channel_id);
+          if (seen.size() > 10) throw std::runtime_error("PopBatch loops on the damaged record");
+          if (ev.channel_id == 0) {
+            auto* second = const_cast<uint8_t*>(ev.data) - 24 - 2 + EventQueue::RecordBytes(2, 40);
+            std::memcpy(second, &bad, 4);
+          }
+        },
+        std::chrono::milliseconds(0));
+    EXPECT_EQ(n, 1) << bad;
+    EXPECT_EQ(q.damage().events, 1u) << bad;
+  }
+}
+
 // The size of event i in the tests below: 0 .. 299 bytes of payload.
 std::size_t TestSize(int i) { return static_cast<std::size_t>((i * 37) % 300); }
 
