@@ -1,5 +1,8 @@
 // The CSV source (a header row naming the columns, then data rows) and the
 // TCP stream of CSV rows; the reader they share is text_source.h.
+#include <exception>
+#include <utility>
+
 #include "daq/text_source.h"
 
 namespace rocklab::daq {
@@ -11,10 +14,6 @@ class CsvSource final : public TextSource {
  public:
   CsvSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
       : TextSource(std::move(input), path, options) {
-    rate_hz_ = options.sample_rate_hz;
-    if (!(rate_hz_ >= kMinRateHz && rate_hz_ <= kMaxRateHz)) {
-      throw std::invalid_argument("CSV source: sample_rate_hz must be in [1e-6, 1e6] Hz");
-    }
     if (options.delimiter != 0 && options.delimiter != ',' && options.delimiter != ';' &&
         options.delimiter != '\t') {
       throw std::invalid_argument("CSV source: the delimiter must be ',', ';' or tab");
@@ -48,10 +47,11 @@ class CsvSource final : public TextSource {
     // with '.' first, then with ','.
     decimal_ = sep_ == ',' ? Decimal::kPoint : Decimal::kSniff;
     ParseHeader(names_, value_cols_, time_col_, columns_);
+    SetRate();
   }
 
   ReadStatus ReadNext(Frame& frame) override {
-    while (ReadDataLine()) {
+    while (NextDataLine()) {
       if (restarted_) {
         restarted_ = false;
         if (!HeaderAgain()) continue;
@@ -69,6 +69,73 @@ class CsvSource final : public TextSource {
   }
 
  private:
+  // The rate: the time column's (read ahead over the first rows of a file)
+  // checked against the one given, or the one given where the file has no
+  // time column or is live (its rows are not there yet to read ahead).
+  void SetRate() {
+    rate_hz_ = given_rate_hz_;
+    if (time_col_ < 0 || live()) {
+      if (rate_hz_ == 0) {
+        Fail(std::string(time_col_ < 0 ? "no time column" : "a live input") +
+             ": the sample rate must be given (--rate, or the rig's sample_rate_hz)");
+      }
+      return;
+    }
+    std::vector<double> times;
+    try {
+      while (pending_.size() < kRateProbeRows && ReadLine()) {
+        pending_.push_back({std::string(line_), line_no_, line_too_long_});
+        double t = kNaN;
+        SplitRow(line_, sep_, fields_);
+        if (!line_too_long_ && static_cast<size_t>(time_col_) < fields_.size() &&
+            ParseValue(fields_[time_col_], t)) {
+          times.push_back(t);
+        }
+      }
+    } catch (const std::exception&) {
+      // A read error after some rows: those rows come first, then the
+      // error, as without the read-ahead (NextDataLine rethrows it).
+      probe_error_ = std::current_exception();
+    }
+    probe_end_line_ = line_no_;
+    const std::optional<double> file_rate = RateOfTimes(times);
+    if (!file_rate && probe_error_ && rate_hz_ == 0) std::rethrow_exception(probe_error_);
+    if (!file_rate) {
+      if (rate_hz_ == 0 && !pending_.empty()) {
+        Fail("the time column's first rows hold fewer than two increasing times: the sample rate cannot be "
+             "taken from it; give it (--rate, or the rig's sample_rate_hz)");
+      }
+      return;  // no data rows: nothing to number
+    }
+    if (!(*file_rate >= kMinRateHz && *file_rate <= kMaxRateHz)) {
+      std::ostringstream msg;
+      msg << "the time column gives a sample rate of " << *file_rate << " Hz, outside [1e-6, 1e6] Hz";
+      Fail(msg.str());
+    }
+    CheckGivenRate(*file_rate, "the time column");
+    if (rate_hz_ == 0) rate_hz_ = *file_rate;
+  }
+
+  // The next data line: the rows read ahead by SetRate first, then the input's.
+  bool NextDataLine() {
+    if (pending_next_ < pending_.size()) {
+      const PendingLine& p = pending_[pending_next_++];
+      line_ = p.text;
+      line_no_ = p.line_no;
+      line_too_long_ = p.too_long;
+      line_cut_ = false;
+      return true;
+    }
+    if (!pending_.empty() || probe_error_) {
+      line_no_ = probe_end_line_;
+      pending_.clear();
+      pending_.shrink_to_fit();
+      pending_next_ = 0;
+      if (probe_error_) std::rethrow_exception(std::exchange(probe_error_, nullptr));
+    }
+    return ReadDataLine();
+  }
+
   void ParseHeader(std::vector<std::string>& names, std::vector<size_t>& cols, int& time_col, size_t& columns) {
     Split(line_, sep_, fields_);
     columns = fields_.size();
@@ -120,6 +187,16 @@ class CsvSource final : public TextSource {
   }
 
   int64_t row_{0};
+  // Data lines read ahead for the rate (a file only: never cut, never restarted).
+  struct PendingLine {
+    std::string text;
+    int64_t line_no;
+    bool too_long;
+  };
+  std::vector<PendingLine> pending_;
+  std::size_t pending_next_{0};
+  int64_t probe_end_line_{0};  // line_no_ after the read-ahead
+  std::exception_ptr probe_error_;  // a read error during the read-ahead, thrown after its rows
 };
 
 }  // namespace

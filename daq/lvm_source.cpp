@@ -237,6 +237,7 @@ class LvmSource final : public TextSource {
       units_ = std::move(units);
       comments_column_ = comment;
       rate_hz_ = 1.0 / *dx;
+      CheckGivenRate(rate_hz_, "the file's Delta_X");
       skip_segment_ = false;
     } else {
       // Another unit in a later segment: its rows are kept (the channels

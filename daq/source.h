@@ -112,8 +112,14 @@ class Source {
 };
 
 struct SourceOptions {
-  /// Rate used when the file has no time column or time base, Hz; > 0.
+  /// The sample rate, Hz: needed for a file without a time column or time
+  /// base, and for live inputs; 0 = take it from the file's time column.
+  /// Where the file has a time column or time base too, the two must agree
+  /// within 0.1 % (a source refuses the file otherwise, naming both).
   double sample_rate_hz{};
+  /// Where sample_rate_hz came from, for that message: the rig's for the
+  /// DAQ, reconstruct and run; "--rate" or "rate=" for export and info.
+  std::string rate_origin{"the rig's sample_rate_hz"};
   /// LCM logs: channel of the raw frames and of their description.
   std::string raw_channel{"RL_RAW"};
   std::string config_channel{"RL_DAQ_CONFIG"};
@@ -143,6 +149,8 @@ struct SourceOptions {
 };
 
 /// CSV with a header row; a `time` column (s) if present, else time = seq / rate.
+/// With a time column and no rate given, the rate is the time column's (its
+/// first 256 rows; a file only, a live input needs the rate).
 /// A UTF-8 byte order mark before the header is ignored. Times must lie in
 /// [-1e12, 1e12] s (a row outside is skipped); a line longer than 1 MiB is
 /// skipped as a bad row.

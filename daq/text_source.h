@@ -10,6 +10,7 @@
 // is a view into the input's block buffer (line_input.h), split into views
 // (fields_) and parsed in place with std::from_chars: nothing is copied or
 // allocated per row.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "daq/line_input.h"
 #include "daq/source.h"
@@ -44,6 +46,35 @@ inline constexpr std::string_view kByteOrderMark{"\xEF\xBB\xBF"};
 // Sample rates a file's time base may give, Hz.
 inline constexpr double kMinRateHz = 1e-6;
 inline constexpr double kMaxRateHz = 1e6;
+
+// A given rate and the file's own (its time column or time base) agree
+// when within this fraction: at 0.1 % the sample numbers drift by one
+// every 1000 samples, which a seq gap count would already show.
+inline constexpr double kRateAgreement = 1e-3;
+// Data rows a file's time column is read ahead for its rate.
+inline constexpr std::size_t kRateProbeRows = 256;
+
+// The sample rate of a run of times (in file order, NaN skipped), Hz: the
+// median positive step, refined over the whole span (span / its number of
+// steps at the median, so that dropped samples and times printed to few
+// digits do not bias it). nullopt without two increasing times.
+inline std::optional<double> RateOfTimes(const std::vector<double>& times) {
+  std::vector<double> steps;
+  std::optional<double> first;
+  std::optional<double> last;
+  for (double t : times) {
+    if (!std::isfinite(t)) continue;
+    if (last && t > *last) steps.push_back(t - *last);
+    if (!first) first = t;
+    last = t;
+  }
+  if (steps.empty() || !(*last > *first)) return std::nullopt;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  const double median = steps[steps.size() / 2];
+  const double span = *last - *first;
+  const double n = std::round(span / median);
+  return n >= 1 ? n / span : 1.0 / median;
+}
 
 // 10^k, k in [0, 22]: exact doubles.
 inline constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
@@ -102,7 +133,19 @@ inline void SplitRow(std::string_view line, char sep, std::vector<std::string_vi
 class TextSource : public Source {
  public:
   TextSource(std::unique_ptr<detail::LineInput> input, const std::string& path, const SourceOptions& options)
-      : path_(path), input_(std::move(input)), on_problem_(options.on_problem), on_wait_(options.on_wait) {}
+      : path_(path),
+        input_(std::move(input)),
+        on_problem_(options.on_problem),
+        on_wait_(options.on_wait),
+        given_rate_hz_(options.sample_rate_hz),
+        rate_origin_(options.rate_origin) {
+    if (!(given_rate_hz_ == 0 || (given_rate_hz_ >= kMinRateHz && given_rate_hz_ <= kMaxRateHz))) {
+      std::ostringstream msg;
+      msg << path << ": " << rate_origin_ << " " << given_rate_hz_
+          << " Hz: a sample rate must be in [1e-6, 1e6] Hz (or 0: from the file's time column)";
+      throw std::invalid_argument(msg.str());
+    }
+  }
   bool live() const override { return input_->live(); }
 
   const std::vector<std::string>& channel_names() const override { return names_; }
@@ -137,6 +180,17 @@ class TextSource : public Source {
   // The format's reader: may throw std::runtime_error naming the file when
   // the read cannot go on; Next turns that into kError.
   virtual ReadStatus ReadNext(Frame& frame) = 0;
+
+  // The file's own rate (`what` says from what) against the one given, if
+  // any: a disagreement stops the read, naming both.
+  void CheckGivenRate(double file_rate_hz, const std::string& what) const {
+    if (given_rate_hz_ == 0 || std::abs(given_rate_hz_ - file_rate_hz) <= kRateAgreement * file_rate_hz) return;
+    std::ostringstream msg;
+    msg.precision(10);
+    msg << what << " gives a sample rate of " << file_rate_hz << " Hz, but " << rate_origin_ << " is "
+        << given_rate_hz_ << " Hz (they must agree within 0.1 %)";
+    Fail(msg.str());
+  }
 
   [[noreturn]] void Fail(const std::string& what) const {
     std::ostringstream msg;
@@ -406,6 +460,8 @@ class TextSource : public Source {
   double time_offset_s_{0};     // added to every time after a restart whose clock went back
   std::optional<double> last_time_;
   double rate_hz_{};
+  double given_rate_hz_{};  // SourceOptions::sample_rate_hz: 0 = none given
+  std::string rate_origin_;  // where given_rate_hz_ came from (messages)
   double x0_s_{};                   // time of row 0 of the block without a time column
   std::optional<double> first_time_;
 };

@@ -130,6 +130,11 @@ struct ChannelState {
 
 }  // namespace
 
+RawRate ChooseRawRate(double rate_hz, const std::string& rate_name, double rig_rate_hz, const std::string& rig_path) {
+  if (rate_hz > 0 || rig_path.empty()) return {rate_hz, rate_name};
+  return {rig_rate_hz, "the rig's sample_rate_hz (" + rig_path + ")"};
+}
+
 void ExportOptions::Validate() const {
   common::ChannelPattern(channels, "--channels");
   if (!(start_s >= 0) || !std::isfinite(start_s)) throw std::invalid_argument("--start must be >= 0 s");
@@ -285,6 +290,7 @@ ExportSummary ExportRaw(const std::string& path, const ExportOptions& options, T
   ExportSummary summary;
   daq::SourceOptions so;
   so.sample_rate_hz = options.sample_rate_hz;
+  so.rate_origin = options.rate_origin;
   so.on_problem = [&](const daq::Problem& p) {
     if (on_problem) on_problem(daq::ToString(p));
   };

@@ -44,7 +44,11 @@ struct ExportOptions {
   /// s from the first sample, >= start_s; infinity (the default): to the
   /// end. A negative end is refused, not read as "to the end".
   double end_s{std::numeric_limits<double>::infinity()};
-  double sample_rate_hz{};     ///< raw files without a time column or time base, Hz
+  /// Raw files: the sample rate, Hz; 0 = the file's time column or time
+  /// base (a file without one needs it); given and the file's disagreeing
+  /// by more than 0.1 %, the file is refused (daq::SourceOptions).
+  double sample_rate_hz{};
+  std::string rate_origin{"--rate"};  ///< where sample_rate_hz came from (messages)
   /// Raw files: units of the channels by name (from a rig file); others "".
   /// A unit the file states itself (LVM Y_Unit_Label) is the one used.
   std::vector<std::pair<std::string, std::string>> units;
@@ -54,6 +58,15 @@ struct ExportOptions {
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
+
+/// The rate to read a raw file at and where it came from: `rate_hz` (the
+/// option `rate_name`) where > 0, else `rig_rate_hz` where a rig is given
+/// (`rig_path` not empty), else 0 (the file's time column decides).
+struct RawRate {
+  double hz{};
+  std::string origin;
+};
+RawRate ChooseRawRate(double rate_hz, const std::string& rate_name, double rig_rate_hz, const std::string& rig_path);
 
 struct ChannelSummary {
   std::string channel;

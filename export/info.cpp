@@ -160,13 +160,14 @@ LogInfo ReadLogInfo(const std::string& path) {
 }
 
 RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
-                    const std::vector<std::pair<std::string, std::string>>& units) {
+                    const std::vector<std::pair<std::string, std::string>>& units, const std::string& rate_origin) {
   RawInfo info;
   info.path = path;
   info.format = common::HasExtension(path, ".lvm") ? "lvm" : "csv";
   info.file_bytes = FileBytes(path);
   daq::SourceOptions so;
   so.sample_rate_hz = sample_rate_hz;
+  so.rate_origin = rate_origin;
   std::unique_ptr<daq::Source> source = daq::OpenSource(path, so);
   info.channels = source->channel_names();
   info.file_units = source->channel_units();

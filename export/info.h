@@ -74,9 +74,11 @@ struct RawInfo {
 /// @throws std::runtime_error when the log cannot be opened.
 LogInfo ReadLogInfo(const std::string& path);
 /// `units`: channel name -> unit (from a rig file), may be empty.
+/// `sample_rate_hz`, `rate_origin`: as ExportOptions' (0: the file's).
 /// @throws std::runtime_error (file:line) when the file cannot be opened.
 RawInfo ReadRawInfo(const std::string& path, double sample_rate_hz,
-                    const std::vector<std::pair<std::string, std::string>>& units);
+                    const std::vector<std::pair<std::string, std::string>>& units,
+                    const std::string& rate_origin = "--rate");
 
 std::string ToText(const LogInfo& info);
 std::string ToText(const RawInfo& info);

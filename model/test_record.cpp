@@ -291,6 +291,43 @@ void CheckRecord(const RockingRecord& record, const RecordOptions& options) {
   }
 }
 
+void WindowRecord(RockingRecord& record, double start_s, double end_s, const RecordOptions& options) {
+  if (!(start_s >= 0) || !std::isfinite(start_s)) {
+    throw std::invalid_argument("--start must be >= 0 s (from the record's first sample)");
+  }
+  if (!(end_s >= start_s)) throw std::invalid_argument("--end must not be before --start");
+  if (record.time_s.empty()) return;
+  const double lo = record.time_s.front() + start_s;
+  const double hi = record.time_s.front() + end_s;
+  const auto inside = [lo, hi](double t) { return t >= lo && t <= hi; };
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < record.size(); ++k) {
+    if (!inside(record.time_s[k])) continue;
+    record.time_s[kept] = record.time_s[k];
+    record.theta[kept] = record.theta[k];
+    record.line[kept] = record.line[k];
+    ++kept;
+  }
+  const bool theta_cut = kept != record.size();
+  record.time_s.resize(kept);
+  record.theta.resize(kept);
+  record.line.resize(kept);
+  std::size_t table_kept = 0;
+  for (std::size_t k = 0; k < record.table_time_s.size(); ++k) {
+    if (!inside(record.table_time_s[k])) continue;
+    record.table_time_s[table_kept] = record.table_time_s[k];
+    record.table_accel_mps2[table_kept] = record.table_accel_mps2[k];
+    ++table_kept;
+  }
+  const bool table_cut = table_kept != record.table_time_s.size();
+  record.table_time_s.resize(table_kept);
+  record.table_accel_mps2.resize(table_kept);
+  // The gaps of the window only (the table's lines are not kept: 0).
+  if (theta_cut) record.theta_gaps = CountGaps(record.time_s, record.line, options.max_step_ratio);
+  if (table_cut) record.table_gaps = CountGaps(record.table_time_s, {}, options.max_step_ratio);
+  CheckRecord(record, options);
+}
+
 void WriteThetaCsv(const std::string& path, const RockingRecord& record) {
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (!f) throw RecordError(path + ": cannot open for writing");

@@ -97,6 +97,14 @@ void CheckRecord(const RockingRecord& record, const RecordOptions& options = {})
 GapCount CountGaps(const std::vector<double>& time_s, const std::vector<int64_t>& line,
                    double max_step_ratio = RecordOptions{}.max_step_ratio);
 
+/// Keeps the samples (theta and table) whose time lies in [t0 + start_s,
+/// t0 + end_s], t0 the first theta sample's time (`fit --start/--end`:
+/// the free rocking of a longer test), and counts the gaps of what is kept
+/// again. A window that keeps everything changes nothing.
+/// @throws std::invalid_argument for start_s < 0 or end_s < start_s (naming
+///         --start/--end); RecordError (CheckRecord) when too few samples are left.
+void WindowRecord(RockingRecord& record, double start_s, double end_s, const RecordOptions& options = {});
+
 /// Writes `time,theta` rows (s, rad), full precision.
 /// @throws RecordError naming the file when it cannot be written.
 void WriteThetaCsv(const std::string& path, const RockingRecord& record);

@@ -331,7 +331,13 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
              std::optional<DoubleArray> table_t, std::optional<DoubleArray> table_a, const std::string& accel_path,
              std::optional<double> width_m, std::optional<double> height_m, double chamfer_m,
              const std::string& method_name, const std::string& quarter_time, double alpha_band_m, int min_impacts,
-             const py::object& progress) {
+             double start_s, double end_s, const py::object& progress) {
+  try {
+    model::RockingRecord none;
+    model::WindowRecord(none, start_s, end_s);  // the window's own checks, before any read
+  } catch (const std::invalid_argument& e) {
+    throw pipeline::OptionError(e.what());
+  }
   model::FitOptions fo = FitOptionsOf(width_m, height_m, chamfer_m, quarter_time, alpha_band_m, min_impacts);
   const model::FitMethod method = FitMethodOf(method_name);
   model::RockingRecord record = RecordOfArrays(t, theta, table_t, table_a);
@@ -347,6 +353,7 @@ py::dict Fit(const std::string& input, std::optional<DoubleArray> t, std::option
     try {
       result = RunStoppable(hook, [&] {
         CompleteRecord(record, t.has_value(), input, accel_path);
+        model::WindowRecord(record, start_s, end_s);
         return method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo) : model::FitTrajectory(record, fo);
       });
     } catch (const model::RecordError& e) {
@@ -647,7 +654,8 @@ void RegisterAnalysis(py::module_& m) {
   m.def("_sample_posterior", &SampleProblem, py::arg("problem"), py::arg("progress"));
   m.def("_fit", &Fit, py::arg("input"), py::arg("t"), py::arg("theta"), py::arg("table_t"), py::arg("table_a"),
         py::arg("accel"), py::arg("width"), py::arg("height"), py::arg("chamfer"), py::arg("method"),
-        py::arg("quarter_time"), py::arg("alpha_band"), py::arg("min_impacts"), py::arg("progress"));
+        py::arg("quarter_time"), py::arg("alpha_band"), py::arg("min_impacts"), py::arg("start"), py::arg("end"),
+        py::arg("progress"));
   m.def(
       "_sweep",
       [](const std::vector<std::string>& records, const std::string& scale, bool pga_g,

@@ -19,17 +19,27 @@ namespace {
 
 using Units = std::vector<std::pair<std::string, std::string>>;
 
-// The channels' units from a rig file (as `rocklab info/export --rig`).
-Units RigUnits(const std::string& rig_path) {
+// What a rig file gives a raw file's read (as `rocklab info/export --rig`):
+// the channels' units and the rate to check the file's against.
+struct RigForRaw {
   Units units;
-  if (rig_path.empty()) return units;
-  try {
-    for (const auto& c : pipeline::LoadRig(rig_path).channels) units.emplace_back(c.name, c.unit);
-  } catch (const std::exception& e) {
-    ThrowIfUnreadable(rig_path, e.what());
-    throw pipeline::OptionError(e.what());
+  exporter::RawRate rate;
+};
+RigForRaw RigUnits(const std::string& rig_path, double rate_hz) {
+  RigForRaw out;
+  double rig_rate_hz = 0;
+  if (!rig_path.empty()) {
+    try {
+      const daq::RigConfig rig = pipeline::LoadRig(rig_path);
+      for (const auto& c : rig.channels) out.units.emplace_back(c.name, c.unit);
+      rig_rate_hz = rig.sample_rate_hz;
+    } catch (const std::exception& e) {
+      ThrowIfUnreadable(rig_path, e.what());
+      throw pipeline::OptionError(e.what());
+    }
   }
-  return units;
+  out.rate = exporter::ChooseRawRate(rate_hz, "rate=", rig_rate_hz, rig_path);
+  return out;
 }
 
 py::dict SummaryDict(const exporter::ExportSummary& s, const std::vector<std::string>& problems) {
@@ -78,7 +88,10 @@ py::tuple Read(bool log, const std::string& path, const std::string& channels, d
   NumpySink sink(&hook);
   {
     py::gil_scoped_release release;
-    options.units = RigUnits(rig_path);
+    RigForRaw rig = RigUnits(rig_path, rate_hz);
+    options.units = std::move(rig.units);
+    options.sample_rate_hz = rig.rate.hz;
+    options.rate_origin = rig.rate.origin;
     auto collect = [&problems](const std::string& text) { problems.push_back(text); };
     try {
       summary = RunStoppable(hook, [&] {
@@ -133,7 +146,9 @@ std::string InfoJson(const std::string& path, const std::string& rig_path, doubl
   try {
     return RunStoppable(hook, [&] {
       if (exporter::IsLcmLog(path)) return exporter::JsonText(exporter::ToJson(exporter::ReadLogInfo(path)));
-      return exporter::JsonText(exporter::ToJson(exporter::ReadRawInfo(path, rate_hz, RigUnits(rig_path))));
+      const RigForRaw rig = RigUnits(rig_path, rate_hz);
+      return exporter::JsonText(
+          exporter::ToJson(exporter::ReadRawInfo(path, rig.rate.hz, rig.units, rig.rate.origin)));
     });
   } catch (const pipeline::OptionError&) {
     throw;

@@ -4,6 +4,7 @@
 
 PYBIND11_MODULE(_rocklab, m) {
   m.doc() = "rocklab's C++ core (use the package rocklab, not this module)";
+  m.attr("__version__") = ROCKLAB_VERSION;  // the build's, as `rocklab --version`
   rocklab::python::RegisterErrors(m);
   rocklab::python::RegisterModel(m);
   rocklab::python::RegisterLogs(m);

@@ -46,9 +46,14 @@ int RunExport(ExportCliOptions& o) {
                      o.input + "' is a raw file, exported as it holds its values");
   }
   if (!o.rig_path.empty()) {
-    for (const auto& c : pipeline::LoadRig(o.rig_path).channels) {
+    const daq::RigConfig rig = pipeline::LoadRig(o.rig_path);
+    for (const auto& c : rig.channels) {
       o.options.units.emplace_back(c.name, c.RawValuesUnit());  // raw values: not the calibrated unit
     }
+    const exporter::RawRate rate =
+        exporter::ChooseRawRate(o.options.sample_rate_hz, "--rate", rig.sample_rate_hz, o.rig_path);
+    o.options.sample_rate_hz = rate.hz;
+    o.options.rate_origin = rate.origin;
   }
   std::unique_ptr<exporter::TableSink> sink;
   try {
@@ -121,7 +126,8 @@ void RegisterExport(CLI::App& app, CommandRun& run) {
   cmd->add_option("--start", opts->options.start_s, "s from the record's first sample (default 0)");
   cmd->add_option("--end", opts->options.end_s, "s from the record's first sample (default: to the end)");
   cmd->add_option("--rig", opts->rig_path, "raw files: rig configuration (TOML) naming the channels' units");
-  cmd->add_option("--rate", opts->options.sample_rate_hz, "raw files without a time column: sample rate, Hz");
+  cmd->add_option("--rate", opts->options.sample_rate_hz,
+                  "raw files: sample rate, Hz; needed without a time column, else checked against it");
   auto* raw = cmd->add_flag("--raw", opts->raw,
                              "logs: RL_RAW's channel-named columns hold the raw values (the default)");
   cmd->add_flag("--calibrated", opts->options.calibrated,

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -30,6 +31,8 @@ struct FitCliOptions {
   double height_m{};
   double chamfer_m{};
   std::string accel_csv;
+  double start_s{0.0};                                 ///< window start, s from the record's first sample
+  double end_s{std::numeric_limits<double>::infinity()};  ///< window end, s from it (infinity: to the end)
   std::string method{"impacts"};
   std::string quarter_time{"exact"};
   double alpha_band_m{0.01};
@@ -348,6 +351,7 @@ int RunFit(const FitCliOptions& o) {
       record = model::ReadRecord(o.input);
     }
     if (!o.accel_csv.empty()) model::AddTableCsv(o.accel_csv, record);
+    model::WindowRecord(record, o.start_s, o.end_s);
     if (method == model::FitMethod::kTrajectory && !o.quiet) {
       fo.on_progress = [](const model::FitProgress& p) {
         std::fprintf(stderr, "fit: iteration %d, %d model runs, rms %.3e rad, alpha %.5f p %.5f mu %.5f (%.1f s)\n",
@@ -416,6 +420,11 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--width", opts->width_m, "block width 2b, m");
   cmd->add_option("--height", opts->height_m, "block height 2h, m");
   cmd->add_option("--chamfer", opts->chamfer_m, "45 degree base chamfer leg, m");
+  cmd->add_option("--start", opts->start_s,
+                  "fit only from this time on, s from the record's first sample (default 0): e.g. the free "
+                  "rocking after a forced test's table stopped");
+  cmd->add_option("--end", opts->end_s, "fit only up to this time, s from the record's first sample (default: to "
+                                        "the end)");
   cmd->add_option("--accel", opts->accel_csv, "table acceleration of a CSV record: " + FormatsHelp(DataKind::kGroundMotion));
   cmd->add_option("--method", opts->method, "impacts (paper, free rocking) | trajectory (whole record)");
   cmd->add_option("--quarter-time", opts->quarter_time, "impacts method: exact (corrected eq. 12) | slender (eq. 13)");

@@ -25,12 +25,6 @@ struct InfoOptions {
   double rate_hz{0.0};
 };
 
-std::vector<std::pair<std::string, std::string>> RigUnits(const std::string& rig_path) {
-  std::vector<std::pair<std::string, std::string>> units;
-  if (rig_path.empty()) return units;
-  for (const auto& c : pipeline::LoadRig(rig_path).channels) units.emplace_back(c.name, c.unit);
-  return units;
-}
 
 int RunInfo(const InfoOptions& o) {
   Require(o.rate_hz >= 0, "--rate", ">= 0 Hz", o.rate_hz);
@@ -42,7 +36,15 @@ int RunInfo(const InfoOptions& o) {
       const exporter::LogInfo info = exporter::ReadLogInfo(o.input);
       text = o.json ? exporter::JsonText(exporter::ToJson(info), 2) + "\n" : exporter::ToText(info);
     } else {
-      const exporter::RawInfo info = exporter::ReadRawInfo(o.input, o.rate_hz, RigUnits(o.rig_path));
+      std::vector<std::pair<std::string, std::string>> units;
+      double rig_rate_hz = 0;
+      if (!o.rig_path.empty()) {
+        const daq::RigConfig rig = pipeline::LoadRig(o.rig_path);
+        for (const auto& c : rig.channels) units.emplace_back(c.name, c.unit);
+        rig_rate_hz = rig.sample_rate_hz;
+      }
+      const exporter::RawRate rate = exporter::ChooseRawRate(o.rate_hz, "--rate", rig_rate_hz, o.rig_path);
+      const exporter::RawInfo info = exporter::ReadRawInfo(o.input, rate.hz, units, rate.origin);
       text = o.json ? exporter::JsonText(exporter::ToJson(info), 2) + "\n" : exporter::ToText(info);
     }
   } catch (const UsageError&) {
@@ -65,8 +67,11 @@ void RegisterInfo(CLI::App& app, CommandRun& run) {
                       ", or sweep results: " + FormatsHelp(DataKind::kSweepResults))
       ->required();
   cmd->add_flag("--json", opts->json, "JSON instead of text (keys: docs/export.md)");
-  cmd->add_option("--rig", opts->rig_path, "raw files: rig configuration (TOML) naming the channels' units");
-  cmd->add_option("--rate", opts->rate_hz, "raw files without a time column: sample rate, Hz");
+  cmd->add_option("--rig", opts->rig_path,
+                  "raw files: rig configuration (TOML) naming the channels' units (its sample_rate_hz is checked "
+                  "against the file's time column)");
+  cmd->add_option("--rate", opts->rate_hz,
+                  "raw files: sample rate, Hz; needed without a time column, else checked against it");
   cmd->callback([opts, &run] { run = [opts] { return RunInfo(*opts); }; });
 }
 

@@ -37,6 +37,7 @@ struct SynthOptions {
   bool decimal_comma{};
   std::string out;
   std::string truth_csv;
+  double hold_s{0.0};  ///< the block held at theta0 (table at rest) this long before the scenario starts, s
 };
 
 // "SIZE@TIME" -> Fault; throws UsageError naming the option.
@@ -70,6 +71,7 @@ int RunSynth(const SynthOptions& o) {
   Require(o.drop >= 0 && o.drop < 1, "--drop", "in [0, 1)", o.drop);
   const std::optional<Fault> slip = ParseFault(o.slip_text, "--slip");
   const std::optional<Fault> twist = ParseFault(o.twist_text, "--twist");
+  Require(std::isfinite(o.hold_s) && o.hold_s >= 0, "--hold", ">= 0 s", o.hold_s);
   pipeline::Scenario scenario = pipeline::BuildScenario(o.scenario);
 
   daq::SimulatorNoise noise = daq::SimulatorNoise::Typical().Scaled(o.noise_scale);
@@ -84,7 +86,12 @@ int RunSynth(const SynthOptions& o) {
   } catch (const std::exception& e) {
     throw UsageError(std::string("--out: ") + e.what());
   }
-  raw->StartSegment(0.0, static_cast<int64_t>(std::floor(o.scenario.duration_s * o.scenario.rate_hz + 1e-9)) + 1);
+  // The hold: whole samples before the scenario's t = 0, which then runs at
+  // t + hold (the lab's free-rocking test: the block held, then let go).
+  const int64_t hold_samples = static_cast<int64_t>(std::llround(o.hold_s * o.scenario.rate_hz));
+  const double hold_s = static_cast<double>(hold_samples) / o.scenario.rate_hz;
+  raw->StartSegment(0.0, hold_samples +
+                             static_cast<int64_t>(std::floor(o.scenario.duration_s * o.scenario.rate_hz + 1e-9)) + 1);
   pipeline::OutputFile truth(o.truth_csv);
   std::FILE* tf = truth.get();
   std::fprintf(tf, "time,theta,theta_dot,table_displacement,table_acceleration,slip,twist,dropped\n");
@@ -92,11 +99,12 @@ int RunSynth(const SynthOptions& o) {
   model::TableMotion table(*scenario.forcing);
   std::vector<double> values;
   long written = 0, dropped = 0;
-  const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, [&](double t, double theta, double theta_dot) {
+  auto sample = [&](double t_scenario, double theta, double theta_dot) {
+    const double t = t_scenario + hold_s;
     daq::TrueMotion m;
     m.time_s = t;
     m.theta = theta;
-    table.At(t, m.table_displacement, m.table_acceleration);
+    if (t_scenario >= 0) table.At(t_scenario, m.table_displacement, m.table_acceleration);
     if (slip && t >= slip->time_s) m.slip_m = slip->size;
     if (twist && t >= twist->time_s) m.twist_rad = twist->size;
     const bool kept = sim.Raw(m, values);
@@ -108,7 +116,11 @@ int RunSynth(const SynthOptions& o) {
     }
     std::fprintf(tf, "%.9f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", t, m.theta, theta_dot,
                  m.table_displacement, m.table_acceleration, m.slip_m, m.twist_rad, kept ? 0 : 1);
-  });
+  };
+  for (int64_t k = 0; k < hold_samples; ++k) {
+    sample(static_cast<double>(k - hold_samples) / o.scenario.rate_hz, o.scenario.theta0, 0.0);
+  }
+  const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, sample);
   raw->Close();
   truth.Close();
   std::fprintf(stderr, "%ld samples written to %s (%ld dropped), truth in %s; peak |theta| %.5f rad, %d impacts\n",
@@ -133,6 +145,10 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
   cmd->add_option("--slip", opts->slip_text, "pivot slip SIZE_M@TIME_S (a step)");
   cmd->add_option("--twist", opts->twist_text, "twist RAD@TIME_S (a step)");
   cmd->add_option("--seed", opts->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--hold", opts->hold_s,
+                  "s the block is held at --theta0 (table at rest) before the run starts (a free-rocking "
+                  "test's release); the run's times follow it")
+      ->capture_default_str();
   cmd->add_flag("--decimal-comma", opts->decimal_comma, "LVM output with a decimal comma");
   cmd->add_option("--out", opts->out, "raw file, RAW.csv or RAW.lvm")->required();
   cmd->add_option("--truth", opts->truth_csv,

@@ -132,6 +132,7 @@ def _named_type_errors(f):
 
 
 #: Default l of the complex formulation (normalised momentum of psi), 1.
+__version__ = _rocklab.__version__  # the build's, as `rocklab --version` prints it
 DEFAULT_L = _rocklab.DEFAULT_L
 #: Gravity used throughout, m/s^2.
 GRAVITY = _rocklab.GRAVITY
@@ -328,6 +329,18 @@ class LogTables(dict):
         super().__init__(tables)
         self.summary = summary
 
+    def __repr__(self):
+        # One line per table (rows, fields, time span), not the arrays: a
+        # log's repr must fit a notebook cell.
+        lines = ["LogTables: %d tables, %d rows" % (len(self), self.summary.get("rows", 0))]
+        for name, a in self.items():
+            fields = a.dtype.names or ()
+            span = ""
+            if "time" in fields and len(a):
+                span = ", %.6g .. %.6g s" % (a["time"][0], a["time"][-1])
+            lines.append("  %s: %d rows x %d fields%s" % (name, len(a), len(fields), span))
+        return "\n".join(lines)
+
 
 def _warn_damage(path, summary, what):
     # The damage line of every log-reading command (pipeline::ReportDamage).
@@ -392,8 +405,12 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
 
     Args:
         path: the .csv or .lvm file.
-        rig: a rig file (TOML) naming the channels' units, or None.
-        rate: sample rate for files without a time column or time base, Hz.
+        rig: a rig file (TOML) naming the channels' units, or None; its
+            sample_rate_hz is checked against the file's time column.
+        rate: sample rate, Hz: needed for a file without a time column or
+            time base; else 0 (the file's) or checked against the file's
+            (a disagreement over 0.1 % stops the read as a file that
+            cannot be read from its start does, OSError, naming both).
         start, end: window, s from the first row's time; end None: to the end.
         progress: None or callable(rows_read, None).
 
@@ -426,8 +443,9 @@ def info(path, rig=None, *, rate=0.0):
 
     Args:
         path: an LCM log, or a raw .csv / .lvm file.
-        rig: raw files: a rig file (TOML) naming the channels' units.
-        rate: raw files without a time column: sample rate, Hz.
+        rig: raw files: a rig file (TOML) naming the channels' units (its
+            sample_rate_hz is checked against the file's time column).
+        rate: raw files: sample rate, Hz, as ``read_raw``'s.
 
     Returns:
         dict: the JSON of ``rocklab info --json`` (docs/export.md), e.g.
@@ -531,6 +549,8 @@ def fit(
     quarter_time="exact",
     alpha_band=0.01,
     min_impacts=4,
+    start=0.0,
+    end=None,
     progress=None,
 ):
     """Fits alpha, p and mu to a recorded test, as ``rocklab fit``.
@@ -551,6 +571,8 @@ def fit(
             "slender" (eq. 13).
         alpha_band: admissible error on b, m.
         min_impacts: fewest impacts accepted (>= 3).
+        start, end: fit only the samples in this window, s from the
+            record's first sample (``--start``/``--end``); end None: to the end.
         progress: trajectory method: None or callable(model_runs,
             max_runs), after each iteration. An exception it raises comes
             out of fit once the fit has ended.
@@ -568,7 +590,8 @@ def fit(
         path, ts, th, table_t, table_a, accel,
         None if width is None else _float(width, "width"), None if height is None else _float(height, "height"),
         _float(chamfer, "chamfer"), str(method), str(quarter_time), _float(alpha_band, "alpha_band"),
-        _int(min_impacts, "min_impacts"), progress,
+        _int(min_impacts, "min_impacts"), _float(start, "start"), _INF if end is None else _float(end, "end"),
+        progress,
     )
     return FitResult(r)
 

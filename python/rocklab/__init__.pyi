@@ -29,6 +29,7 @@ PathLike = Union[str, os.PathLike]
 Progress = Optional[Callable[[float, Optional[float]], Any]]
 ArrayLike = npt.ArrayLike
 
+__version__: str
 DEFAULT_L: float
 GRAVITY: float
 EVENT_DTYPE: np.dtype
@@ -110,6 +111,8 @@ def fit(
     quarter_time: str = ...,
     alpha_band: float = ...,
     min_impacts: int = ...,
+    start: float = ...,
+    end: Optional[float] = ...,
     progress: Progress = ...,
 ) -> FitResult: ...
 

@@ -111,6 +111,30 @@ TEST(SynthReconstruct, HeaderIsExactlyTheDocumentedOne) {
   EXPECT_EQ(header, "time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,out_of_plane,flags");
 }
 
+// --hold: the block held at theta0 (theta_dot 0) for the hold's whole
+// samples, then the scenario shifted by the hold. Oracle: the truth of the
+// same scenario without a hold (same model, same rate), sample by sample.
+TEST(SynthReconstruct, HoldShiftsTheRunAfterAHeldStart) {
+  const Csv plain = ReadCsv(Synth("nohold.csv", "--seed 1") + ".truth.csv");
+  const Csv held = ReadCsv(Synth("hold.csv", "--seed 1 --hold 0.25") + ".truth.csv");
+  const size_t t = held.Col("time"), th = held.Col("theta"), thd = held.Col("theta_dot");
+  ASSERT_EQ(held.rows.size(), plain.rows.size() + 250);
+  for (size_t k = 0; k < 250; ++k) {
+    ASSERT_NEAR(held.rows[k][t], k * 0.001, 1e-9);
+    ASSERT_EQ(held.rows[k][th], 0.1);
+    ASSERT_EQ(held.rows[k][thd], 0.0);
+  }
+  for (size_t k = 0; k < plain.rows.size(); ++k) {
+    ASSERT_NEAR(held.rows[k + 250][t], plain.rows[k][t] + 0.25, 1e-9);
+    ASSERT_EQ(held.rows[k + 250][th], plain.rows[k][th]) << k;  // the same run, only later
+  }
+  std::string err;
+  EXPECT_EQ(Rocklab("synth --rig " + test::LabRigPath() + " " + kScenario + " --hold -1 --out x.csv --truth y.csv",
+                    &err),
+            2);
+  EXPECT_NE(err.find("--hold"), std::string::npos) << err;
+}
+
 TEST(SynthReconstruct, RoundTripRecoversThetaWithinTheInjectedNoise) {
   const double scale = 2.0;
   const std::string raw = Synth("rt.csv", "--seed 5 --noise-scale 2");

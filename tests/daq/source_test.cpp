@@ -125,6 +125,78 @@ TEST(CsvSource, NoTimeColumnUsesTheRigRate) {
   EXPECT_EQ(r.frames[2].values[0], 3.0);
 }
 
+// Without a given rate, a CSV's time column gives it. Oracle: the fixture's
+// step, 4 ms = 250 Hz (exact in the text; the dropped row at 1.008 s is a
+// gap of one sample, not a step of 8 ms).
+TEST(CsvSource, RateFromTheTimeColumnWhenNoneIsGiven) {
+  const std::string path = test::WriteFile("rate.csv", "time,a\n1,1\n1.004,2\n1.012,3\n1.016,4\n");
+  const Read r = ReadAll(path, 0.0);
+  EXPECT_TRUE(r.problems.empty());
+  EXPECT_NEAR(r.rate_hz, 250.0, 1e-9);  // 3 steps over 1.016 - 1 in doubles: 1e-14 relative
+  ASSERT_EQ(r.frames.size(), 4u);
+  EXPECT_EQ(r.frames[2].seq, 3);
+  EXPECT_EQ(r.frames[2].line, 4);
+  EXPECT_EQ(r.frames[3].seq, 4);
+  EXPECT_EQ(r.frames[3].values[0], 4.0);
+}
+
+// More rows than the read-ahead: every row is delivered once, in order,
+// with its line, and the rate is the time column's. Oracle: the rows
+// written (k ms, value k), 1 kHz.
+TEST(CsvSource, RowsReadAheadForTheRateAreDeliveredOnceInOrder) {
+  std::ostringstream csv;
+  csv << "time,a\n";
+  for (int k = 0; k < 1000; ++k) csv << k * 0.001 << "," << k << "\n";
+  const Read r = ReadAll(test::WriteFile("ahead.csv", csv.str()), 0.0);
+  EXPECT_TRUE(r.problems.empty());
+  EXPECT_NEAR(r.rate_hz, 1000.0, 1e-6);  // times printed to 6 digits: steps exact to ~1e-15 s
+  ASSERT_EQ(r.frames.size(), 1000u);
+  for (int k = 0; k < 1000; ++k) {
+    ASSERT_EQ(r.frames[k].values[0], k);
+    ASSERT_EQ(r.frames[k].seq, k);
+    ASSERT_EQ(r.frames[k].line, k + 2);
+  }
+}
+
+// A given rate is checked against the time column: off by more than 0.1 %
+// it stops the read at the start, naming both; within, it is used.
+TEST(CsvSource, AGivenRateDisagreeingWithTheTimeColumnIsAnError) {
+  const std::string path = test::WriteFile("rate2.csv", "time,a\n0,1\n0.001,2\n0.002,3\n");
+  SourceOptions opt;
+  opt.sample_rate_hz = 500;
+  opt.rate_origin = "--rate";
+  try {
+    test::ReadSource(path, opt);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":4: the time column gives a sample rate of 1000 Hz, but --rate is "
+                                            "500 Hz (they must agree within 0.1 %)");
+  }
+  opt.sample_rate_hz = 1000.5;  // 0.05 %: agrees, and is the rate used
+  const Read r = test::ReadSource(path, opt);
+  EXPECT_EQ(r.rate_hz, 1000.5);
+  EXPECT_EQ(r.frames.size(), 3u);
+}
+
+TEST(CsvSource, WithoutATimeColumnTheRateMustBeGiven) {
+  const std::string path = test::WriteFile("norate.csv", "a\n1\n2\n");
+  try {
+    ReadAll(path, 0.0);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ":1: no time column: the sample rate must be given (--rate, or the rig's sample_rate_hz)");
+  }
+  const std::string one = test::WriteFile("onerow.csv", "time,a\n0,1\n");
+  try {
+    ReadAll(one, 0.0);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("fewer than two increasing times"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadAll(one, 100.0).frames.size(), 1u);  // a given rate: nothing to check it against
+}
+
 TEST(CsvSource, MalformedRowsAreReportedCountedAndSkipped) {
   const std::string path = test::WriteFile(
       "bad.csv", "time,a,b\n0.00,1,2\n0.01,1\n0.02,x7,2\n0.03,nan,2\nzzz,1,2\n0.05,1,2\n0.06,1");
@@ -210,7 +282,7 @@ const char* kLvm =
 
 TEST(LvmSource, DecimalCommaTwoSegmentsAndSamplesMismatch) {
   const std::string path = test::WriteFile("two.lvm", kLvm);
-  const Read r = ReadAll(path, 1.0);  // the file's Delta_X wins over the given rate
+  const Read r = ReadAll(path, 0.0);  // no rate given: the file's Delta_X
   EXPECT_EQ(r.names, (std::vector<std::string>{"a", "b"}));
   ASSERT_EQ(r.frames.size(), 5u);
   EXPECT_EQ(r.frames[0].values, (std::vector<double>{1.5, -2.25}));
@@ -225,6 +297,25 @@ TEST(LvmSource, DecimalCommaTwoSegmentsAndSamplesMismatch) {
   ASSERT_EQ(r.problems.size(), 2u);
   EXPECT_EQ(r.problems[0], path + ":28: column 'a': '1.9' is not a number (sample set to NaN)");
   EXPECT_EQ(r.problems[1].rfind(path + ":28: segment 2 header says Samples 5 but it has 2 rows", 0), 0u);
+}
+
+// A given rate is checked against the LVM's Delta_X (0.01 s: 100 Hz).
+TEST(LvmSource, AGivenRateDisagreeingWithDeltaXIsAnError) {
+  const std::string path = test::WriteFile("rate.lvm", kLvm);
+  SourceOptions opt;
+  opt.sample_rate_hz = 1000;
+  opt.rate_origin = "the rig's sample_rate_hz";
+  std::string error = "no error";
+  try {
+    error = test::ReadSource(path, opt).error;
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  EXPECT_NE(error.find("the file's Delta_X gives a sample rate of 100 Hz, but the rig's sample_rate_hz is 1000 Hz"),
+            std::string::npos)
+      << error;
+  opt.sample_rate_hz = 100;
+  EXPECT_EQ(test::ReadSource(path, opt).frames.size(), 5u);
 }
 
 TEST(LvmSource, NoXColumnUsesX0AndDeltaX) {

@@ -177,6 +177,43 @@ TEST_F(InfoExport, InfoOfARawFileMatchesTheSource) {
   EXPECT_EQ(j["channels"][0]["name"], source->channel_names()[0]);
 }
 
+// Every bundled raw CSV has a time column: info and export need no --rate,
+// with or without the rig, and the rate is the file's (1 kHz, the rig's
+// sample_rate_hz that made them: data/samples/README.md). A --rate the
+// time column contradicts is a usage error naming both.
+TEST_F(InfoExport, BundledRawCsvsNeedNoRateAndAWrongOneIsNamed) {
+  const std::string samples = ROCKLAB_SOURCE_DIR "/data/samples/";
+  const std::string rig = ROCKLAB_SOURCE_DIR "/data/rigs/block1_rig.toml";
+  for (const std::string name : {"fig7_block1.csv", "free_rocking.csv", "twist.csv", "free_block1.csv"}) {
+    for (const bool with_rig : {false, true}) {
+      std::vector<std::string> args{"info", samples + name, "--json"};
+      if (with_rig) args.insert(args.end(), {"--rig", rig});
+      const auto r = test::RunCli(args);
+      ASSERT_EQ(r.exit_code, 0) << name << (with_rig ? " --rig" : "") << ": " << r.err;
+      EXPECT_NEAR(nlohmann::json::parse(r.out)["rate_hz"].get<double>(), 1000.0, 1e-6) << name;
+    }
+    const auto e = test::RunCli({"export", samples + name, "--rig", rig, "--out", dir_ + "/raw.csv", "--quiet"});
+    EXPECT_EQ(e.exit_code, 0) << name << ": " << e.err;
+  }
+  const auto bad = test::RunCli({"info", samples + "fig7_block1.csv", "--rate", "500"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("the time column gives a sample rate of 1000 Hz, but --rate is 500 Hz"), std::string::npos)
+      << bad.err;
+  const auto bad_export =
+      test::RunCli({"export", samples + "fig7_block1.csv", "--rate", "2000", "--out", dir_ + "/x.csv"});
+  EXPECT_EQ(bad_export.exit_code, 2);
+  EXPECT_NE(bad_export.err.find("but --rate is 2000 Hz"), std::string::npos) << bad_export.err;
+  // A 500 Hz file against the 1 kHz rig: the rig's rate, named with its file.
+  const std::string slow = dir_ + "/slow.csv";
+  std::ofstream(slow) << "time,mirror_s\n0,0\n0.002,0\n0.004,0\n";
+  const auto rig_bad = test::RunCli({"info", slow, "--rig", rig});
+  EXPECT_EQ(rig_bad.exit_code, 2);
+  EXPECT_NE(rig_bad.err.find("gives a sample rate of 500 Hz, but the rig's sample_rate_hz (" + rig + ") is 1000 Hz"),
+            std::string::npos)
+      << rig_bad.err;
+  EXPECT_EQ(test::RunCli({"info", slow}).exit_code, 0);  // no rig, no --rate: the file's 500 Hz
+}
+
 TEST_F(InfoExport, ExportWritesTheLogAndSaysTheDamage) {
   const std::string out = dir_ + "/test.h5";
   const auto r = test::RunCli({"export", log_, "--out", out, "--channels", "RL_(RAW|TABLE)"});

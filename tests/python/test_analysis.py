@@ -106,6 +106,26 @@ def test_fit_equals_cli_and_finds_the_parameters(cli, free_record, method):
     assert from_file.theory is not None
 
 
+def test_fit_window_equals_cli_and_the_sliced_record(cli, free_record):
+    # fit(start=, end=) as `fit --start --end`; oracle: the fit of the same
+    # samples cut out here (t[0] = 0: the window is in the record's times).
+    path, t, theta = free_record
+    width, height = 2 * 0.5 * np.tan(ALPHA), 2 * 0.5
+    theirs = cli.json("fit", "--input", path, "--width", width, "--height", height, "--start", 0.3, "--end", 3.5,
+                      "--json", "--quiet")
+    windowed = rocklab.fit(path, width=width, height=height, start=0.3, end=3.5)
+    keep = (t >= 0.3) & (t <= 3.5)
+    sliced = rocklab.fit(t[keep], theta[keep], width, height)
+    whole = rocklab.fit(path, width=width, height=height)
+    for key in ("alpha", "p", "mu", "alpha_stderr", "residuals", "impacts"):
+        assert windowed[key] == theirs[key], key
+        assert windowed[key] == sliced[key], key
+    assert windowed["residuals"] < whole["residuals"]  # the impacts after 3.5 s are left out
+    with pytest.raises(ValueError) as e:
+        rocklab.fit(path, start=2, end=1)
+    assert str(e.value) == cli.error("fit", "--input", path, "--start", 2, "--end", 1)
+
+
 def test_fit_table_and_errors(cli, free_record, tmp_path):
     path, t, theta = free_record
     with pytest.raises(ValueError) as e:

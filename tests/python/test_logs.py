@@ -138,6 +138,30 @@ def test_read_raw_equals_export(cli, source_dir, tmp_path):
     assert units["time"] == "s" and units["table_acc"] != ""
 
 
+def test_bundled_raw_csvs_need_no_rate(cli, source_dir, tmp_path):
+    # Issue 36: a CSV with a time column gives its own rate: no rate= (nor
+    # --rate) anywhere, with or without the rig; oracle: the CLI's export and
+    # info of the same files, and the 1 kHz the files were made at.
+    rig = os.path.join(source_dir, "data/rigs/block1_rig.toml")
+    for sample in ("fig7_block1.csv", "free_rocking.csv", "twist.csv", "free_block1.csv"):
+        raw = os.path.join(source_dir, "data/samples", sample)
+        for r in (None, rig):
+            info = rocklab.info(raw, r)
+            assert info == cli.json("info", raw, "--json", *(["--rig", r] if r else []))
+            assert info["rate_hz"] == pytest.approx(1000.0, rel=1e-9)
+        out = tmp_path / f"{sample}.csv"
+        cli.run("export", raw, "--out", out, "--quiet")
+        assert_table_equals_csv(rocklab.read_raw(raw)["data"], out)
+        assert_table_equals_csv(rocklab.read_raw(raw, rig)["data"], out)
+    fig7 = os.path.join(source_dir, "data/samples/fig7_block1.csv")
+    with pytest.raises(OSError) as e:
+        rocklab.read_raw(fig7, rate=500)
+    assert "the time column gives a sample rate of 1000 Hz, but rate= is 500 Hz" in str(e.value)
+    with pytest.raises(ValueError) as e:
+        rocklab.info(fig7, rate=500)
+    assert "the time column gives a sample rate of 1000 Hz, but rate= is 500 Hz" in str(e.value)
+
+
 def test_a_deeply_nested_channel_pattern_is_an_error_not_a_crash(cli, log_path, tmp_path):
     # Issue 34: 20 000 nested groups crashed the interpreter inside std::regex.
     deep = "(" * 20000 + "RL_THETA" + ")" * 20000
@@ -196,3 +220,22 @@ def test_read_raw_at2(cli, tmp_path):
         rocklab.read_raw(bad)
     assert str(e.value) == cli.error("simulate", "--alpha", 0.05, "--p", 5, "--mu", 0.9, "--accel", bad,
                                      "--duration", 1, "--rate", 10, "--out", tmp_path / "x.csv")[len("--accel: "):]
+
+
+def test_version_is_the_clis(cli):
+    # rocklab.__version__: the first line of `rocklab --version`, "rocklab X.Y.Z".
+    first = cli.run("--version").stdout.splitlines()[0]
+    assert first == "rocklab " + rocklab.__version__
+    assert re.fullmatch(r"\d+\.\d+\.\d+", rocklab.__version__)
+
+
+def test_log_tables_repr_is_one_line_per_table(log_path):
+    # A notebook cell shows the repr: the tables' names, rows and spans, not the arrays.
+    tables = rocklab.read_log(log_path)
+    text = repr(tables)
+    lines = text.splitlines()
+    assert len(lines) == len(tables) + 1
+    assert lines[0] == f"LogTables: {len(tables)} tables, {tables.summary['rows']} rows"
+    th = tables["RL_THETA"]
+    assert f"  RL_THETA: {len(th)} rows x {len(th.dtype.names)} fields" in text
+    assert len(text) < 200 * len(lines)
