@@ -205,8 +205,8 @@ FreeHousnerRun SampleFreeHousner(const BlockParams& params, double t0_s, double 
       // O(tau^4)), from the chord's root, kept inside (0, h].
       double tau = h * g0 / (g0 - g1);
       double thi = 0.0, thdi = 0.0;
+      piv.Step(tau, th, thd, thi, thdi);
       for (int it = 0; it < 20; ++it) {
-        piv.Step(tau, th, thd, thi, thdi);
         const double f = thi + side * kFreeHousnerSlackRad;
         if (f == 0.0 || thdi == 0.0) break;
         double next = tau - f / thdi;
@@ -214,10 +214,8 @@ FreeHousnerRun SampleFreeHousner(const BlockParams& params, double t0_s, double 
         if (next > h) next = h;
         const bool done = std::abs(next - tau) <= 1e-15 * (1.0 + std::abs(tc));
         tau = next;
-        if (done) {
-          piv.Step(tau, th, thd, thi, thdi);
-          break;
-        }
+        piv.Step(tau, th, thd, thi, thdi);  // thi, thdi always of this tau
+        if (done) break;
       }
       const double t_imp = last && tau >= h ? ti : tc + tau;
       ++run.impacts;
