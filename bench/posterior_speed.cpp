@@ -1,6 +1,6 @@
 // rocklab_bench_posterior [--case free|forced|impacts] [--model housner|complex]
 //   [--walkers W] [--steps S] [--threads T] [--rtol R] [--integrator adams|rk]
-//   [--stride K] [--seed N] [--accuracy]
+//   [--stride K] [--seed N] [--accuracy] [--cvode]
 // Wall clock of `rocklab fit --posterior`'s sampler on synthetic records
 // (docs/performance.md, "Posterior"):
 //   free:    block 1 (0.247 x 1.0 m, truth alpha 0.235, p 3.884, mu 0.937,
@@ -13,7 +13,8 @@
 // The records are rocklab's own model at rtol 1e-10 (this measures speed;
 // the oracles of the posterior are in the tests). --accuracy also prints
 // theta of one likelihood run at the chosen rtol/integrator against rtol
-// 1e-10 (what the looser model costs).
+// 1e-10 (what the looser model costs). --cvode: free Housner through the
+// CVODE model (PosteriorOptions::free_rk4 off) instead of SampleFreeHousner.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -108,6 +109,8 @@ int main(int argc, char** argv) {
       o.sampler.seed = std::stoull(next());
     } else if (a == "--accuracy") {
       accuracy = true;
+    } else if (a == "--cvode") {
+      o.free_rk4 = false;
     } else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -129,6 +132,7 @@ int main(int argc, char** argv) {
     tight.rtol = 1e-10;
     tight.integrator = Integrator::kAdams;
     tight.output_stride = 1;
+    tight.free_rk4 = false;
     const PosteriorProblem reference(record, tight, &problem.point());
     const Eigen::VectorXd x = problem.Start();
     const auto a0 = std::chrono::steady_clock::now();
@@ -144,13 +148,15 @@ int main(int argc, char** argv) {
     if (o.model == ModelKind::kComplex) truth(3) = std::log10(kDefaultL);
     truth(truth.size() - 2) = 0.02 * 3.14159265358979 / 180.0;
     truth(truth.size() - 1) = 0.0;
-    std::printf("log posterior at the start %.6f (%s), at the truth %.6f\n", lp,
-                problem.start_from_scan() ? "prior scan" : "point fit", problem.LogPosterior(truth));
+    std::printf("log posterior at the start %.6f (%s), at the truth %.6f (%.6f at rtol 1e-10)\n", lp,
+                problem.start_from_scan() ? "prior scan" : "point fit", problem.LogPosterior(truth),
+                reference.LogPosterior(truth));
   }
   const PosteriorResult r = SamplePosterior(problem, o);
-  std::printf("case %s, model %s, rtol %g, integrator %s, output stride %d: %d walkers x %d steps, %d threads\n",
-              which.c_str(), r.model.c_str(), o.rtol, integrator.c_str(), o.output_stride, r.walkers, r.steps,
-              r.threads);
+  std::printf("case %s, model %s, rtol %g, integrator %s, output stride %d%s: %d walkers x %d steps, %d threads\n",
+              which.c_str(), r.model.c_str(), o.rtol, integrator.c_str(), o.output_stride,
+              !forced && o.model == ModelKind::kHousner && o.free_rk4 ? " (free: SampleFreeHousner, RK4)" : "",
+              r.walkers, r.steps, r.threads);
   std::printf("point fit and set-up %.2f s; sampler %.2f s wall (%.3f ms per log posterior)\n", setup, r.runtime_s,
               r.runtime_s * 1e3 * r.threads / (static_cast<double>(r.walkers) * r.steps));
   for (const ParameterSummary& s : r.summary) {

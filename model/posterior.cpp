@@ -210,7 +210,37 @@ struct PosteriorProblem::Impl {
     return -0.5 * chi2 - log_det;
   }
 
+  // Free rocking of Housner's model (no table): SampleFreeHousner at every
+  // sample from the release (a record without one stays at rest: theta 0).
+  double FreeHousnerLogLikelihood(const Eigen::VectorXd& x) const {
+    const std::vector<double>& t = record.time_s;
+    const std::vector<double>& th = record.theta;
+    const double sigma = x(i_sigma);
+    double ss = 0.0;
+    std::size_t k = first;
+    double t0 = t[first], r0 = 0.0;
+    if (from_hold) {
+      t0 = *f.release_time_s + x(i_offset);
+      r0 = theta0;
+      for (; k < t.size() && t[k] <= t0; ++k) ss += (theta0 - th[k]) * (theta0 - th[k]);
+    }
+    thread_local std::vector<double> model_theta;
+    model_theta.resize(t.size() - k);
+    const FreeHousnerRun run = SampleFreeHousner(Params(x), t0, r0, 0.0, t.data() + k, t.size() - k,
+                                                 model_theta.data(), ModelOptions{}.rest_impact_interval_s);
+    if (run.overturned) return -kInf;
+    for (std::size_t i = 0; i < model_theta.size(); ++i) {
+      const double d = model_theta[i] - th[k + i];
+      ss += d * d;
+    }
+    const double m = static_cast<double>(t.size() - first);
+    return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
+  }
+
+  // The free Housner run costs ~50 ns per sample (0.5 ms for 10 s at 1 kHz):
+  // the checks between runs stop it soon enough.
   double TrajectoryLogLikelihood(const Eigen::VectorXd& x, const CancelToken* token) const {
+    if (!complex && !table && options.free_rk4) return FreeHousnerLogLikelihood(x);
     ModelOptions mo;
     mo.rtol = options.rtol;
     mo.atol = 1e-10;

@@ -65,6 +65,12 @@ struct PosteriorOptions {
   /// interpolation split at its events (docs/identification.md); 1: every
   /// sample. The complex model is output at every sample.
   int output_stride{10};
+  /// Trajectory likelihood, Housner's model in free rocking (no table):
+  /// SampleFreeHousner (model/free_rocking.h: fixed-step RK4 output at every
+  /// sample, ~4 times cheaper than the CVODE model with the stride, and
+  /// closer to rtol 1e-10) instead of the CVODE model; rtol, integrator and
+  /// output_stride then do not apply (docs/performance.md, "Posterior").
+  bool free_rk4{true};
   /// Points drawn from the prior for the walkers' start (0: the point fit's).
   int start_scan{256};
   EnsembleOptions sampler;

@@ -5,9 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include "model/rocking_model.h"
 
 namespace rocklab::model {
 namespace {
@@ -113,6 +118,93 @@ TEST(FreeRockingTest, BadArguments) {
   EXPECT_NE(what([] { MuFromPeaks(0.2, 0.1, 0.05, 0); }).find("n must"), std::string::npos);
   EXPECT_NE(what([] { MuFromPeaks(0.2, 0.3, 0.05, 1); }).find("r0 must"), std::string::npos);
   EXPECT_NE(what([] { NextPeak(0.2, 1.2, 0.1); }).find("mu must"), std::string::npos);
+}
+
+// SampleFreeHousner from theta0 at t0 = 0.5 s, 1 kHz for `seconds`, and
+// the same run of the CVODE model (RockingModel, rtol 1e-10, atol 1e-12,
+// AdvanceAhead to every sample): the largest theta difference and the
+// impact times of both.
+struct FreeHousnerComparison {
+  double max_theta_diff{};
+  std::vector<double> rk4_impacts, cvode_impacts;
+  FreeHousnerRun run;
+  bool cvode_rested{};
+};
+FreeHousnerComparison CompareFreeHousner(const BlockParams& params, double theta0, double seconds) {
+  FreeHousnerComparison c;
+  std::vector<double> t;
+  for (int k = 0; k <= static_cast<int>(seconds * 1000); ++k) t.push_back(0.5 + k * 1e-3);
+  std::vector<double> theta(t.size());
+  c.run = SampleFreeHousner(params, 0.5, theta0, 0.0, t.data(), t.size(), theta.data(), 2e-3, &c.rk4_impacts);
+  ModelOptions mo;
+  mo.rtol = 1e-10;
+  auto model = RockingModel::Create(ModelKind::kHousner, params, mo);
+  model->Reset(0.5, theta0, 0.0);
+  const NoTableMotion none;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    model->AdvanceAhead(t[k], none, std::numeric_limits<double>::infinity());
+    c.max_theta_diff = std::max(c.max_theta_diff, std::abs(model->state().theta - theta[k]));
+  }
+  for (const ModelEvent& e : model->events()) {
+    if (e.kind == EventKind::kImpact) c.cvode_impacts.push_back(e.time_s);
+    if (e.kind == EventKind::kRest) c.cvode_rested = true;
+  }
+  return c;
+}
+
+// ORACLE: the closed-form chain of quarter times and peaks (QuarterTimeExact,
+// NextPeak; relative accuracy ~1e-12) for every impact, and the CVODE model
+// at rtol 1e-10 for theta at every sample and the impacts.
+// TOLERANCE: RK4 at p h = 3.9e-3 (1 ms, block 1) has a global error
+// ~(p h)^4 / 120 ~ 2e-12 per unit p t: measured within 8e-11 s of the
+// closed form over the impacts above 1e-4 rad, so 1e-9 s. The CVODE model
+// at rtol 1e-10 drifts from the same chain by up to 2.3e-8 s there and
+// 5.5e-8 s on the last, small impacts before rest (measured here; RK4 is
+// the closer of the two), so 1e-7 s against it; theta within 1e-8 rad
+// (4e-5 of the bench records' 0.02 deg noise).
+TEST(FreeRockingTest, SampleFreeHousnerMatchesCvodeAndClosedForm) {
+  const BlockParams block1{0.235, 3.884, 0.937};
+  const FreeHousnerComparison c = CompareFreeHousner(block1, 0.1, 10.0);
+  EXPECT_FALSE(c.run.overturned);
+  ASSERT_EQ(c.rk4_impacts.size(), c.cvode_impacts.size());
+  ASSERT_GT(c.rk4_impacts.size(), 20u);
+  for (std::size_t i = 0; i < c.rk4_impacts.size(); ++i) EXPECT_NEAR(c.rk4_impacts[i], c.cvode_impacts[i], 1e-7) << i;
+  EXPECT_LT(c.max_theta_diff, 1e-8);
+  EXPECT_EQ(c.run.rested, c.cvode_rested);
+  // The closed-form chain up to the impact that puts the block at rest.
+  double r = 0.1, t = 0.5 + QuarterTimeExact(0.235, 3.884, r);
+  for (std::size_t i = 0; i + 1 < c.rk4_impacts.size(); ++i) {
+    EXPECT_NEAR(c.rk4_impacts[i], t, 1e-9) << i;
+    r = NextPeak(0.235, 0.937, r);
+    t += 2.0 * QuarterTimeExact(0.235, 3.884, r);
+  }
+}
+
+// ORACLE: the CVODE model on an asymmetric section (each pivot its alpha, p
+// and mu) from either side, and on a release beyond alpha (it overturns:
+// NaN from there on). TOLERANCE: as above.
+TEST(FreeRockingTest, SampleFreeHousnerAsymmetricAndOverturn) {
+  BlockParams asym{0.20, 3.5, 0.92};
+  asym.minus = SideParams{0.26, 4.1, 0.95};
+  for (double theta0 : {0.12, -0.15}) {
+    const FreeHousnerComparison c = CompareFreeHousner(asym, theta0, 6.0);
+    ASSERT_EQ(c.rk4_impacts.size(), c.cvode_impacts.size()) << theta0;
+    for (std::size_t i = 0; i < c.rk4_impacts.size(); ++i) {
+      EXPECT_NEAR(c.rk4_impacts[i], c.cvode_impacts[i], 1e-7) << theta0 << " " << i;
+    }
+    EXPECT_LT(c.max_theta_diff, 1e-8) << theta0;
+  }
+  const double t[3] = {0.0, 1.0, 5.0};
+  double theta[3] = {};
+  const FreeHousnerRun run = SampleFreeHousner({0.235, 3.884, 0.937}, 0.0, 0.24, 0.0, t, 3, theta);
+  EXPECT_TRUE(run.overturned);
+  EXPECT_EQ(theta[0], 0.24);
+  EXPECT_TRUE(std::isnan(theta[2]));
+  // At rest (theta0 = theta_dot0 = 0): zero for ever, no impact.
+  const FreeHousnerRun still = SampleFreeHousner({0.235, 3.884, 0.937}, 0.0, 0.0, 0.0, t, 3, theta);
+  EXPECT_EQ(still.impacts, 0);
+  EXPECT_EQ(theta[2], 0.0);
+  EXPECT_THROW(SampleFreeHousner({0.235, 3.884, 0.937}, 2.0, 0.1, 0.0, t, 3, theta), std::invalid_argument);
 }
 
 }  // namespace

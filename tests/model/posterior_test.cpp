@@ -55,14 +55,21 @@ TEST(Posterior, TrajectoryChiSquareAtTheTruthIsTheNoise) {
   const double lp = problem.LogPosterior(x);
   const double ss = -2.0 * noise_rad * noise_rad * (lp + (n + 1.0) * std::log(noise_rad));
   EXPECT_NEAR(ss / (noise_rad * noise_rad) / n, 1.0, 4.0 * std::sqrt(2.0 / n));
-  // Oracle: the model output at every sample. Between outputs 10 samples
-  // (20 ms) apart the Hermite interpolation errs by at most h^4/384
-  // max|d4 theta/dt4| (p^4 alpha = 53 rad/s^4: 2e-8 rad), which moves the
+  // Oracle: the CVODE model (rtol 1e-9) output at every sample. The
+  // likelihood's RK4 (SampleFreeHousner) is within 1e-8 rad of it
+  // (free_rocking_test), and the CVODE run output at every 10th sample
+  // (20 ms) with Hermite interpolation between errs by at most h^4/384
+  // max|d4 theta/dt4| (p^4 alpha = 53 rad/s^4: 2e-8 rad); either moves the
   // log posterior by at most sum |r_i| delta / s^2 (~0.2) in the worst case.
   model::PosteriorOptions every = o;
+  every.free_rk4 = false;
   every.output_stride = 1;
   const model::PosteriorProblem per_sample(rec, every, &problem.point());
   EXPECT_NEAR(per_sample.LogPosterior(x), lp, 0.2);
+  model::PosteriorOptions strided = every;
+  strided.output_stride = 10;
+  const model::PosteriorProblem cvode_strided(rec, strided, &problem.point());
+  EXPECT_NEAR(per_sample.LogPosterior(x), cvode_strided.LogPosterior(x), 0.2);
   // A wrong alpha (by 2 %) leaves the record far from the model.
   x(0) *= 1.02;
   EXPECT_LT(problem.LogPosterior(x), lp - 100.0);
@@ -81,6 +88,7 @@ TEST(Posterior, ACancelStopsTheSamplerInsideAStep) {
   const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 29.7, 20000, 0.02, 11);
   model::PosteriorOptions o = Options(model::FitMethod::kTrajectory);
   o.start_scan = 0;
+  o.free_rk4 = false;  // the CVODE run, whose cancel checks are inside it
   o.sampler.walkers = 10;
   o.sampler.steps = 20;
   o.sampler.threads = 2;
