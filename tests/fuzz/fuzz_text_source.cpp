@@ -2,12 +2,16 @@
 // and the acquisition pipeline behind it. Input: the bytes of a file. When
 // the first byte is odd, the lab rig's header is put before the rest, so
 // that rows reach the Processor (sequence checks, reconstruction, the
-// differentiators) with the fuzzer's times and values.
+// differentiators) with the fuzzer's times and values. When its second bit
+// is set no rate is given, so the rate comes from the file's time column
+// (or time base); otherwise the rig's 1000 Hz, checked against it.
 // Invariants: opening throws only std::runtime_error/std::invalid_argument;
+// an opened source has a finite rate > 0;
 // Next() never throws (source.h): a read error or no usable row is kError
 // with a message in error();
 // every problem message is one bounded line of printable ASCII; the counters
 // add up (bad rows <= rows; frames delivered + bad rows <= rows).
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -70,7 +74,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   if (size > 0) text.append(reinterpret_cast<const char*>(data) + 1, size - 1);
   SourceOptions options;
-  options.sample_rate_hz = rig.sample_rate_hz;
+  options.sample_rate_hz = size > 0 && (data[0] & 2) != 0 ? 0.0 : rig.sample_rate_hz;
   options.on_problem = [](const Problem& p) { rocklab::fuzz::CheckMessage(p.message); };
   std::unique_ptr<Source> source;
   try {
@@ -83,6 +87,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     rocklab::fuzz::CheckMessage(e.what(), 4096);
     return 0;
   }
+  const double rate_hz = source->sample_rate_hz();
+  if (!(rate_hz > 0) || !std::isfinite(rate_hz)) rocklab::fuzz::Violated("an opened source without a rate");
   NullSink sink;
   std::unique_ptr<Processor> processor;
   try {
