@@ -29,8 +29,8 @@ constexpr double kRestEnergy = 2.0;
 // integrated through (a slow one, see kCoreTolerance) passes the origin at
 // the distance l / v.
 constexpr double kAtolPerL = 1e-7;
-// x = theta / alpha, 1: the impact root's shift in Housner's limit (housner.cpp's
-// kImpactSlackRad / alpha, the same 1e-14 rad order).
+// x = theta / alpha, 1: the impact root's shift in Housner's limit
+// (kHousnerImpactSlackRad / alpha, the same 1e-14 rad order).
 constexpr double kLimitImpactSlack = 1e-14;
 // Matched passage (docs/models.md, "Crossings"): the radius where the outer
 // integration hands over, r_m = kMatchPerSpeed2 v^2 (v the normalised

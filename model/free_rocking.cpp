@@ -127,10 +127,6 @@ double MuFromPeaks(double alpha, double r0, double rn, int n) {
 
 namespace {
 
-// housner.cpp's kImpactSlackRad: the impact root is theta shifted by this
-// towards the side the block rocks on.
-constexpr double kFreeHousnerSlackRad = 1e-14;
-
 // Housner's free equation theta'' = -p^2 sin(alpha s - theta) on pivot s,
 // one classical RK4 step of length h (autonomous: no time needed).
 struct FreeHousnerPivot {
@@ -187,8 +183,8 @@ FreeHousnerRun SampleFreeHousner(const BlockParams& params, double t0_s, double 
       const double h = last ? span : span / m;
       double th1 = 0.0, thd1 = 0.0;
       piv.Step(h, th, thd, th1, thd1);
-      const double g0 = th + side * kFreeHousnerSlackRad;
-      const double g1 = th1 + side * kFreeHousnerSlackRad;
+      const double g0 = th + side * kHousnerImpactSlackRad;
+      const double g1 = th1 + side * kHousnerImpactSlackRad;
       const bool impact = side > 0 ? (g0 > 0.0 && g1 <= 0.0) : (g0 < 0.0 && g1 >= 0.0);
       if (!impact) {
         if (side * th1 >= kPi / 2) {
@@ -207,7 +203,7 @@ FreeHousnerRun SampleFreeHousner(const BlockParams& params, double t0_s, double 
       double thi = 0.0, thdi = 0.0;
       piv.Step(tau, th, thd, thi, thdi);
       for (int it = 0; it < 20; ++it) {
-        const double f = thi + side * kFreeHousnerSlackRad;
+        const double f = thi + side * kHousnerImpactSlackRad;
         if (f == 0.0 || thdi == 0.0) break;
         double next = tau - f / thdi;
         if (!(next > 0.0)) next = tau / 2;

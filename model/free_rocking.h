@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "model/block.h"
+#include "model/rocking_model.h"
 
 namespace rocklab::model {
 
@@ -56,7 +57,8 @@ struct FreeHousnerRun {
 ///         non-finite values or times out of order.
 FreeHousnerRun SampleFreeHousner(const BlockParams& params, double t0_s, double theta0, double theta_dot0,
                                  const double* t_s, std::size_t n, double* theta,
-                                 double rest_impact_interval_s = 2e-3, std::vector<double>* impact_times_s = nullptr);
+                                 double rest_impact_interval_s = ModelOptions{}.rest_impact_interval_s,
+                                 std::vector<double>* impact_times_s = nullptr);
 
 /// p h of SampleFreeHousner's longest step: RK4's global error is about
 /// (p h)^4 / 120 of the motion's scale per unit p t (5e-3: ~5e-12 per

@@ -15,8 +15,6 @@
 namespace rocklab::model::detail {
 namespace {
 
-constexpr double kImpactSlackRad = 1e-14;  // rad; see RockingRoots
-
 class HousnerModel final : public CvodeRockingModel {
  public:
   HousnerModel(const BlockParams& params, const ModelOptions& options)
@@ -34,8 +32,8 @@ class HousnerModel final : public CvodeRockingModel {
     ydot[1] = -sp_.p * sp_.p * (std::sin(phi) + ug / kGravity * std::cos(phi));
   }
   void RockingRoots(const double* y, double* g) const override {
-    // The impact root is theta shifted by kImpactSlackRad towards the side
-    // the block rocks on, so it is never zero where rocking starts (theta =
+    // The impact root is theta shifted by kHousnerImpactSlackRad towards the
+    // side the block rocks on, so it is never zero where rocking starts (theta =
     // 0 at an uplift from rest or after an impact). A root that is zero at
     // the initial point takes its sign from CVODE's first step: when the
     // table acceleration only touches g tan(alpha), the block moves off
@@ -45,7 +43,7 @@ class HousnerModel final : public CvodeRockingModel {
     // root and lands the block. The impact is found 1e-14 rad past theta = 0:
     // 1e-14 / |theta_dot| s late, below the root finder's own resolution
     // for any rocking worth the name.
-    g[0] = y[0] + side_ * kImpactSlackRad;
+    g[0] = y[0] + side_ * kHousnerImpactSlackRad;
     g[1] = side_ * y[0] - kPi / 2;
     g[2] = 1.0;  // no switch
   }

@@ -93,6 +93,10 @@ enum class Integrator {
 /// "adams" / "rk".
 const char* ToString(Integrator integrator);
 
+/// Housner's impact root: theta shifted by this towards the side the block
+/// rocks on, rad (the CVODE model's RockingRoots and SampleFreeHousner).
+inline constexpr double kHousnerImpactSlackRad = 1e-14;
+
 /// Integration and regime knobs.
 struct ModelOptions {
   double rtol{1e-10};       ///< CVODE relative tolerance, 1
