@@ -101,9 +101,10 @@ class CsvSource final : public TextSource {
     const std::optional<double> file_rate = RateOfTimes(times);
     if (!file_rate && probe_error_ && rate_hz_ == 0) std::rethrow_exception(probe_error_);
     if (!file_rate) {
-      if (rate_hz_ == 0 && !pending_.empty()) {
-        Fail("the time column's first rows hold fewer than two increasing times: the sample rate cannot be "
-             "taken from it; give it (--rate, or the rig's sample_rate_hz)");
+      if (rate_hz_ == 0) {
+        Fail(std::string(pending_.empty() ? "no data rows after the header"
+                                          : "the time column's first rows hold fewer than two increasing times") +
+             ": the sample rate cannot be taken from it; give it (--rate, or the rig's sample_rate_hz)");
       }
       return;  // no data rows: nothing to number
     }

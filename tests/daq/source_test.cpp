@@ -195,6 +195,17 @@ TEST(CsvSource, WithoutATimeColumnTheRateMustBeGiven) {
     EXPECT_NE(std::string(e.what()).find("fewer than two increasing times"), std::string::npos) << e.what();
   }
   EXPECT_EQ(ReadAll(one, 100.0).frames.size(), 1u);  // a given rate: nothing to check it against
+  // A header and no rows (found by fuzz_csv): no rate to take, so no source
+  // that claims one.
+  const std::string empty = test::WriteFile("headeronly.csv", "time,a\n");
+  try {
+    ReadAll(empty, 0.0);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), empty + ":1: no data rows after the header: the sample rate cannot be taken "
+                                             "from it; give it (--rate, or the rig's sample_rate_hz)");
+  }
+  EXPECT_EQ(ReadAll(empty, 100.0).frames.size(), 0u);
 }
 
 TEST(CsvSource, MalformedRowsAreReportedCountedAndSkipped) {
