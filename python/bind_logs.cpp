@@ -103,7 +103,8 @@ py::tuple Read(bool log, const std::string& path, const std::string& channels, d
     }
     hook.Done(static_cast<double>(sink.rows()));
   }
-  return py::make_tuple(sink.ToNumpy(), SummaryDict(summary, problems));
+  py::tuple tables = sink.ToNumpy();
+  return py::make_tuple(tables[0], SummaryDict(summary, problems), tables[1]);
 }
 
 py::tuple ReadLog(const std::string& path, const std::string& channels, double start_s, double end_s,

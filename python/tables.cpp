@@ -87,9 +87,10 @@ void PutUcs4(char* out, const std::string& text, std::size_t width) {
 
 }  // namespace
 
-py::dict NumpySink::ToNumpy() const {
+py::tuple NumpySink::ToNumpy() const {
   py::module_ np = py::module_::import("numpy");
   py::dict out;
+  py::dict info;
   // With the GIL: the dtypes and the (uninitialised) arrays, and where each
   // field lies in them; then without it, the copy, which for a long log is
   // most of the time (a million rows: ~1 s with the GIL held before).
@@ -115,15 +116,20 @@ py::dict NumpySink::ToNumpy() const {
         widths[i] = longest;
         format = "U" + std::to_string(longest);
       }
-      py::dict field_meta;
-      field_meta["unit"] = c.unit;
-      fields.append(py::make_tuple(c.name, np.attr("dtype")(format, py::arg("metadata") = field_meta)));
+      // The unit rides in the field's title, "name [unit]" (np.save,
+      // np.load and pickle keep titles; numpy cannot reload dtype metadata).
+      if (c.unit.empty()) {
+        fields.append(py::make_tuple(c.name, format));
+      } else {
+        fields.append(py::make_tuple(py::make_tuple(c.name + " [" + c.unit + "]", c.name), format));
+      }
       units[py::str(c.name)] = c.unit;
     }
     py::dict meta;
     for (const auto& [key, value] : t.attributes) meta[py::str(key)] = value;
     meta["units"] = units;
-    py::object dtype = np.attr("dtype")(fields, py::arg("metadata") = meta);
+    info[py::str(t.name)] = meta;
+    py::object dtype = np.attr("dtype")(fields);
     py::array array = np.attr("empty")(t.rows, dtype);
     for (std::size_t i = 0; i < t.columns.size() && t.rows > 0; ++i) {
       py::array field = array.attr("__getitem__")(t.columns[i].name);
@@ -147,7 +153,7 @@ py::dict NumpySink::ToNumpy() const {
       }
     }
   }
-  return out;
+  return py::make_tuple(out, info);
 }
 
 }  // namespace rocklab::python

@@ -24,10 +24,10 @@ class NumpySink final : public exporter::TableSink {
   void Close() override {}
   std::vector<std::string> files() const override { return {}; }
 
-  /// {table name: structured array}; needs the GIL. The dtype's metadata
-  /// holds the table's attributes (channel, lcm_type, source) and `units`
-  /// ({field: unit}); each field's dtype holds {"unit": unit}.
-  py::dict ToNumpy() const;
+  /// ({table name: structured array}, {table name: info}); needs the GIL.
+  /// A field with a unit has the title "name [unit]"; a table's info holds
+  /// its attributes (channel, lcm_type, source) and `units` ({field: unit}).
+  py::tuple ToNumpy() const;
   std::int64_t rows() const { return rows_; }
 
  private:

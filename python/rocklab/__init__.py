@@ -52,6 +52,7 @@ __all__ = [
     "PosteriorProblem",
     "sweep",
     "fragility",
+    "units",
     "SWEEP_DTYPE",
     "DEFAULT_L",
     "GRAVITY",
@@ -137,13 +138,34 @@ DEFAULT_L = _rocklab.DEFAULT_L
 #: Gravity used throughout, m/s^2.
 GRAVITY = _rocklab.GRAVITY
 
+def _dtype(fields):
+    """A structured dtype from (name, format, unit or None): a field with a
+    unit has the title "name [unit]", which np.save, np.load and pickle
+    keep (numpy cannot reload a dtype's metadata); ``units`` reads it."""
+    return _np.dtype([((f"{n} [{u}]", n), f) if u else (n, f) for n, f, u in fields])
+
+
+def units(a):
+    """The units of a structured array's fields, {field: unit}, from their
+    titles ("name [unit]") as every table rocklab returns has them, also
+    after ``np.save``/``np.load`` or ``pickle``; a field without one is left
+    out. ``a`` may be an array or its dtype."""
+    dtype = getattr(a, "dtype", a)
+    out = {}
+    for name, spec in (dtype.fields or {}).items():
+        title = spec[2] if len(spec) > 2 else None
+        if isinstance(title, str) and title.startswith(name + " [") and title.endswith("]"):
+            out[name] = title[len(name) + 2 : -1]
+    return out
+
+
 #: dtype of SimulationResult.events.
-EVENT_DTYPE = _np.dtype(
+EVENT_DTYPE = _dtype(
     [
-        ("time", _np.dtype("f8", metadata={"unit": "s"})),
-        ("kind", "U8"),
-        ("value", _np.dtype("f8", metadata={"unit": "m/s^2 | rad/s | rad"})),
-        ("theta_dot_after", _np.dtype("f8", metadata={"unit": "rad/s"})),
+        ("time", "f8", "s"),
+        ("kind", "U8", None),
+        ("value", "f8", "m/s^2 | rad/s | rad"),
+        ("theta_dot_after", "f8", "rad/s"),
     ]
 )
 
@@ -314,10 +336,12 @@ class LogTables(dict):
     A log's tables are named by their channel (a channel that changed type
     has a second table ``CHANNEL_<type>``); a raw file's table is ``data``.
     Each array has one field per message field (``time`` first, s, the
-    sample clock; arrays as ``values_0`` .. ``values_{n-1}``); each field's
-    unit is in its dtype's metadata (``a.dtype.fields["theta"][0].metadata
-    ["unit"]``, or ``a.dtype.metadata["units"]``), as are the table's
-    ``channel`` and ``lcm_type`` (``a.dtype.metadata``).
+    sample clock; arrays as ``values_0`` .. ``values_{n-1}``); a field's
+    unit is its title, "name [unit]" (``rocklab.units(a)`` gives
+    {field: unit}), which ``np.save``/``np.load`` and ``pickle`` keep.
+
+    Attribute ``info``: per table, its ``channel``, ``lcm_type`` (or a raw
+    file's ``source``) and ``units``.
 
     Attribute ``summary``: the counts of ``rocklab export`` (rows,
     outside_window, filtered, unknown_type, undecodable, damaged_regions,
@@ -325,9 +349,14 @@ class LogTables(dict):
     ``problems``, the lines it prints about the damage.
     """
 
-    def __init__(self, tables, summary):
+    def __init__(self, tables, summary, info=None):
         super().__init__(tables)
         self.summary = summary
+        self.info = info if info is not None else {n: {"units": units(a)} for n, a in tables.items()}
+
+    def __reduce__(self):
+        # dict subclasses pickle their items, not their attributes.
+        return (LogTables, (dict(self), self.summary, self.info))
 
     def __repr__(self):
         # One line per table (rows, fields, time span), not the arrays: a
@@ -383,11 +412,11 @@ def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
         OSError: a file that cannot be opened.
     """
     path = _path(path, "path")
-    tables, summary = _rocklab._read_log(
+    tables, summary, table_info = _rocklab._read_log(
         path, str(channels), _float(start, "start"), _INF if end is None else _float(end, "end"), progress
     )
     _warn_damage(path, summary, "rocklab.read_log")
-    return LogTables(tables, summary)
+    return LogTables(tables, summary, table_info)
 
 
 def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
@@ -421,21 +450,17 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
     path = _path(path, "path")
     if path.lower().endswith(".at2"):
         t, a, _ = _rocklab._read_acceleration(path)
-        dtype = _np.dtype(
-            [("time", _np.dtype("f8", metadata={"unit": "s"})), ("accel", _np.dtype("f8", metadata={"unit": "m/s^2"}))],
-            metadata={"source": path, "units": {"time": "s", "accel": "m/s^2"}},
-        )
-        data = _np.empty(len(t), dtype=dtype)
+        data = _np.empty(len(t), dtype=_dtype([("time", "f8", "s"), ("accel", "f8", "m/s^2")]))
         data["time"], data["accel"] = t, a
         summary = dict(rows=len(t), outside_window=0, bad_rows=0, bad_values=0, read_error="", problems=[],
                        format="at2")
-        return LogTables({"data": data}, summary)
-    tables, summary = _rocklab._read_raw(
+        return LogTables({"data": data}, summary, {"data": {"source": path, "units": units(data)}})
+    tables, summary, table_info = _rocklab._read_raw(
         path, "" if rig is None else _path(rig, "rig"), _float(rate, "rate"), _float(start, "start"),
         _INF if end is None else _float(end, "end"), progress,
     )
     _warn_damage(path, summary, "rocklab.read_raw")
-    return LogTables(tables, summary)
+    return LogTables(tables, summary, table_info)
 
 
 def info(path, rig=None, *, rate=0.0):
@@ -468,7 +493,8 @@ class Reconstruction:
             ``sliding`` (m), ``twist`` (rad), ``out_of_plane`` (m), ``jump``
             (m), ``tilt`` (rad), ``table_displacement`` (m),
             ``table_acceleration`` (m/s^2), ``flags`` (bitmask of the checks,
-            docs/acquisition.md), ``leds_used``; units in the dtype metadata.
+            docs/acquisition.md), ``leds_used``; units in the fields'
+            titles (``rocklab.units(states)``).
         events: structured array of the checks' events: ``time`` (s),
             ``kind`` (event_t's constant), ``value``, ``detail``.
         summary: counts as ``rocklab reconstruct`` prints them (rows,
@@ -502,10 +528,7 @@ def reconstruct(raw, rig, *, progress=None):
     raw, rig = _path(raw, "raw"), _path(rig, "rig")
     columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
     names = list(columns)
-    dtype = _np.dtype(
-        [(n, _np.dtype(columns[n][0].dtype, metadata={"unit": columns[n][1]})) for n in names],
-        metadata={"source": raw, "units": {n: columns[n][1] for n in names}},
-    )
+    dtype = _dtype([(n, columns[n][0].dtype, columns[n][1]) for n in names])
     states = _np.empty(len(columns["time"][0]), dtype=dtype)
     for n in names:
         states[n] = columns[n][0]
@@ -716,10 +739,8 @@ def posterior(
                  rtol, integrator, priors, alpha_band, min_impacts)
     names, columns, log_posterior, summary_json = _rocklab._sample_posterior(p, progress)
     summary = _json.loads(summary_json)
-    units = summary["units"]
-    dtype = _np.dtype(
-        [(n, _np.dtype("f8", metadata={"unit": units.get(n, "1")})) for n in names] + [("log_posterior", "f8")]
-    )
+    draw_units = summary["units"]
+    dtype = _dtype([(n, "f8", draw_units.get(n, "1")) for n in names] + [("log_posterior", "f8", None)])
     draws = _np.empty(len(log_posterior), dtype=dtype)
     for n, c in zip(names, columns):
         draws[n] = c
@@ -732,33 +753,26 @@ def posterior(
 
 
 #: dtype of sweep's results: the columns of ``rocklab sweep``'s CSV.
-SWEEP_DTYPE = _np.dtype(
+SWEEP_DTYPE = _dtype(
     [
-        ("record", "U256"),
-        ("scale", "f8"),
-        ("pga_g", "f8"),
-        ("alpha", "f8"),
-        ("p", "f8"),
-        ("mu", "f8"),
-        ("model", "U8"),
-        ("peak_theta_over_alpha", "f8"),
-        ("overturned", "?"),
-        ("overturn_time", "f8"),
-        ("impacts", "i8"),
-        ("uplift_time", "f8"),
-        ("peak_time", "f8"),
-        ("block", "U256"),
-        ("alpha_minus", "f8"),
-        ("p_minus", "f8"),
-        ("mu_minus", "f8"),
-    ],
-    metadata={
-        "units": {
-            "scale": "1", "pga_g": "g", "alpha": "rad", "p": "rad/s", "mu": "1", "peak_theta_over_alpha": "1",
-            "overturn_time": "s", "uplift_time": "s", "peak_time": "s", "alpha_minus": "rad", "p_minus": "rad/s",
-            "mu_minus": "1",
-        }
-    },
+        ("record", "U256", None),
+        ("scale", "f8", "1"),
+        ("pga_g", "f8", "g"),
+        ("alpha", "f8", "rad"),
+        ("p", "f8", "rad/s"),
+        ("mu", "f8", "1"),
+        ("model", "U8", None),
+        ("peak_theta_over_alpha", "f8", "1"),
+        ("overturned", "?", None),
+        ("overturn_time", "f8", "s"),
+        ("impacts", "i8", None),
+        ("uplift_time", "f8", "s"),
+        ("peak_time", "f8", "s"),
+        ("block", "U256", None),
+        ("alpha_minus", "f8", "rad"),
+        ("p_minus", "f8", "rad/s"),
+        ("mu_minus", "f8", "1"),
+    ]
 )
 
 

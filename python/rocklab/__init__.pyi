@@ -69,6 +69,9 @@ def simulate(
 
 class LogTables(Dict[str, np.ndarray]):
     summary: Dict[str, Any]
+    info: Dict[str, Dict[str, Any]]
+
+def units(a: Union[np.ndarray, np.dtype]) -> Dict[str, str]: ...
 
 def read_log(
     path: PathLike,

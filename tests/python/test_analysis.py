@@ -48,7 +48,7 @@ def test_reconstruct_equals_cli(cli, source_dir, tmp_path):
                 np.testing.assert_array_equal(r.states[name], printed)
             else:
                 np.testing.assert_allclose(r.states[name], printed, rtol=5e-12, atol=1e-300)  # %.12g
-        assert r.states.dtype.metadata["units"]["sliding"] == "m"
+        assert rocklab.units(r.states)["sliding"] == "m"
         # The counts line of the command.
         for key in ("bad_rows", "bad_values", "gaps", "invalid_led_samples", "flagged"):
             words = {"bad_rows": "bad rows", "bad_values": "bad values", "gaps": "gaps",

@@ -82,15 +82,38 @@ def test_read_log_equals_export(cli, log_path, tmp_path, kwargs, args):
 def test_read_log_units_and_types(log_path):
     tables = rocklab.read_log(log_path, "RL_THETA|RL_TABLE")
     theta = tables["RL_THETA"]
-    assert theta.dtype.fields["theta"][0].metadata["unit"] == "rad"
-    assert theta.dtype.fields["time"][0].metadata["unit"] == "s"
-    assert theta.dtype.metadata["units"]["theta_dot"] == "rad/s"
-    assert theta.dtype.metadata["lcm_type"] == "rocklab.block_state_t"
-    assert theta.dtype.metadata["channel"] == "RL_THETA"
-    assert tables["RL_TABLE"].dtype.metadata["units"]["acceleration"] == "m/s^2"
+    assert theta.dtype.fields["theta"][2] == "theta [rad]"
+    assert rocklab.units(theta)["time"] == "s"
+    assert rocklab.units(theta)["theta_dot"] == "rad/s"
+    assert tables.info["RL_THETA"]["lcm_type"] == "rocklab.block_state_t"
+    assert tables.info["RL_THETA"]["channel"] == "RL_THETA"
+    assert tables.info["RL_THETA"]["units"]["theta"] == "rad"
+    assert rocklab.units(tables["RL_TABLE"])["acceleration"] == "m/s^2"
     # The sample clock: time = utime / 1e6 at 1 kHz (to the last bit of a double).
     np.testing.assert_allclose(theta["time"], theta["utime"] / 1e6, rtol=4.5e-16, atol=0)
     assert np.all(np.diff(theta["seq"]) == 1)
+
+
+def test_tables_survive_np_save_and_pickle(log_path, tmp_path):
+    # Issue 36: units once rode in the dtype's metadata, which np.save wrote
+    # and np.load refused (ValueError). Titles survive both, and pickle.
+    import pickle
+
+    tables = rocklab.read_log(log_path, "RL_THETA|RL_TABLE|RL_EVENT")
+    for name, a in tables.items():
+        path = tmp_path / f"{name}.npy"
+        np.save(path, a)
+        back = np.load(path)
+        assert back.dtype == a.dtype and back.tobytes() == a.tobytes(), name  # NaN rows included
+        assert rocklab.units(back) == rocklab.units(a) and rocklab.units(a), name
+    again = pickle.loads(pickle.dumps(tables))
+    assert isinstance(again, rocklab.LogTables)
+    assert again.summary == tables.summary and again.info == tables.info
+    for name, a in tables.items():
+        assert again[name].dtype == a.dtype and again[name].tobytes() == a.tobytes(), name
+    np.savez(tmp_path / "all.npz", **tables)
+    with np.load(tmp_path / "all.npz") as z:
+        assert rocklab.units(z["RL_THETA"])["theta"] == "rad"
 
 
 def test_info_equals_cli(cli, log_path, source_dir):
@@ -134,7 +157,7 @@ def test_read_raw_equals_export(cli, source_dir, tmp_path):
         assert m, proc.stderr
         s = tables.summary
         assert (s["rows"], s["outside_window"], s["bad_rows"], s["bad_values"]) == tuple(map(int, m.groups()))
-    units = rocklab.read_raw(os.path.join(source_dir, "data/samples/slip.lvm"), rig)["data"].dtype.metadata["units"]
+    units = rocklab.units(rocklab.read_raw(os.path.join(source_dir, "data/samples/slip.lvm"), rig)["data"])
     assert units["time"] == "s" and units["table_acc"] != ""
 
 
@@ -209,7 +232,7 @@ def test_read_raw_at2(cli, tmp_path):
     data = rocklab.read_raw(at2)["data"]
     np.testing.assert_allclose(data["time"], np.arange(10) * 0.01, rtol=1e-15, atol=1e-17)
     np.testing.assert_allclose(data["accel"], np.array(values_g) * 9.81, rtol=1e-15, atol=0)
-    assert data.dtype.metadata["units"]["accel"] == "m/s^2"
+    assert rocklab.units(data)["accel"] == "m/s^2"
     a = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=at2, duration=0.2, rate=100)
     b = rocklab.simulate(alpha=0.05, p=5, mu=0.9, accel=(data["time"], data["accel"]), duration=0.2, rate=100)
     np.testing.assert_array_equal(a.theta, b.theta)

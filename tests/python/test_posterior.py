@@ -69,7 +69,7 @@ def test_posterior_summary_keys_and_log_density():
                 "walkers", "steps", "seed", "converged", "problems"):
         assert key in summary, key
     assert summary["correlation"]["order"] == ["alpha", "p", "mu", "sigma", "t_offset"]
-    assert draws.dtype["alpha"].metadata["unit"] == "rad"
+    assert rocklab.units(draws)["alpha"] == "rad"
     # Same seed, same draws.
     with pytest.warns(RuntimeWarning, match="not converged"):
         again, _ = rocklab.posterior(t, theta, WIDTH, HEIGHT, steps=40, seed=1, threads=1)
