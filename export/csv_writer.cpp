@@ -97,22 +97,44 @@ std::string CsvWriter::LegendPath(const std::string& out) {
   return stem + ".columns.csv";  // a '.' no TablePath gives: it cannot be a table's file
 }
 
+std::string CsvWriter::ProvenancePath(const std::string& out) {
+  std::string stem = out;
+  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
+  return stem + ".provenance.csv";
+}
+
+void CsvWriter::DescribeFile(const std::string& key, const std::string& value) {
+  file_attributes_.emplace_back(key, value);
+}
+
 void CsvWriter::Close() {
   if (closed_) return;
   if (!files_.empty()) {
-    std::vector<Row> rows;
-    for (const File& file : files_) AppendLegendRows(file.name, file.columns, rows);
+    std::vector<Row> legend_rows;
+    for (const File& file : files_) AppendLegendRows(file.name, file.columns, legend_rows);
+    std::vector<Row> provenance_rows;
+    for (const auto& [key, value] : file_attributes_) provenance_rows.push_back({{0, 0}, {0, 0}, {key, value}});
     const bool single = single_table_;
-    single_table_ = true;  // AddTable: the legend goes to the path given here
     const std::string out = out_;
-    out_ = LegendPath(out);
     std::vector<File> tables = std::move(files_);
-    files_.clear();
-    const int legend = AddTable("rocklab_columns", LegendColumns());
-    for (const Row& r : rows) Append(legend, r);
-    File legend_file = std::move(files_.back());
+    // Each sidecar through AddTable as a single table at its own path.
+    single_table_ = true;
+    std::vector<File> sidecars;
+    auto add_sidecar = [&](const std::string& path, const std::string& name, const std::vector<Column>& columns,
+                           const std::vector<Row>& rows) {
+      files_.clear();
+      out_ = path;
+      const int t = AddTable(name, columns);
+      for (const Row& r : rows) Append(t, r);
+      sidecars.push_back(std::move(files_.back()));
+    };
+    add_sidecar(LegendPath(out), "rocklab_columns", LegendColumns(), legend_rows);
+    if (!provenance_rows.empty()) {
+      add_sidecar(ProvenancePath(out), "rocklab_provenance",
+                  {{"key", ColumnType::kString, ""}, {"value", ColumnType::kString, ""}}, provenance_rows);
+    }
     files_ = std::move(tables);
-    files_.push_back(std::move(legend_file));
+    for (File& f : sidecars) files_.push_back(std::move(f));
     out_ = out;
     single_table_ = single;
   }

@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/atomic_file.h"
@@ -43,6 +44,10 @@ class CsvWriter final : public TableSink {
   /// the tables: STEM.columns.csv (one row per column of every table: its
   /// unit, codes and description).
   static std::string LegendPath(const std::string& out);
+  /// The provenance file Close() writes beside the tables when DescribeFile
+  /// was called: STEM.provenance.csv, columns key,value.
+  static std::string ProvenancePath(const std::string& out);
+  void DescribeFile(const std::string& key, const std::string& value) override;
 
  private:
   struct File {
@@ -55,6 +60,7 @@ class CsvWriter final : public TableSink {
   bool single_table_;
   bool closed_{false};
   std::vector<File> files_;
+  std::vector<std::pair<std::string, std::string>> file_attributes_;  // DescribeFile, in order
 };
 
 }  // namespace rocklab::exporter

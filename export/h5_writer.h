@@ -52,7 +52,7 @@ class H5Writer final : public TableSink {
   void Append(int table, const Row& row) override;
   void Describe(int table, const std::string& key, const std::string& value) override;
   /// A text attribute on the file's root group (source file, rocklab version).
-  void DescribeFile(const std::string& key, const std::string& value);
+  void DescribeFile(const std::string& key, const std::string& value) override;
   void Close() override;
   std::vector<std::string> files() const override;
 

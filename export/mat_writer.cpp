@@ -137,6 +137,7 @@ std::string Unique(const std::string& base, std::set<std::string>& taken) {
 }  // namespace
 
 constexpr const char* kLegendVariable = "rocklab_columns";
+constexpr const char* kProvenanceVariable = "rocklab_provenance";
 
 struct MatWriter::Impl {
   std::string path;  // the target, as messages name it
@@ -145,6 +146,7 @@ struct MatWriter::Impl {
   mat_t* mat{};
   std::vector<MatTable> tables;
   std::set<std::string> variables;
+  std::vector<std::pair<std::string, std::string>> file_attributes;  // DescribeFile, in order
   std::vector<std::uint16_t> utf16;  // scratch
 
   void WriteTable(MatTable& t) {
@@ -214,6 +216,7 @@ MatWriter::MatWriter(const std::string& path) : impl_(new Impl) {
   impl_->mat = Mat_CreateVer(impl_->out->path().c_str(), "rocklab export (MAT v5)", MAT_FT_MAT5);
   if (!impl_->mat) throw std::runtime_error(path + ": cannot create the MAT file");
   impl_->variables.insert(kLegendVariable);  // a table of that name becomes rocklab_columns_2
+  impl_->variables.insert(kProvenanceVariable);
 }
 
 MatWriter::~MatWriter() {
@@ -304,6 +307,29 @@ void MatWriter::Close() {
       error = e.what();
     }
   }
+  // The provenance: a struct of one text field per key (DescribeFile).
+  if (!m.file_attributes.empty() && error.empty()) {
+    try {
+      MatTable provenance;
+      provenance.variable = kProvenanceVariable;
+      std::set<std::string> fields;
+      Row row;
+      for (const auto& [key, value] : m.file_attributes) {
+        MatColumn mc;
+        mc.column = {key, ColumnType::kString, ""};
+        mc.field = Unique(Identifier(key), fields);
+        mc.spool = std::make_unique<Spool>(m.dir);
+        provenance.columns.push_back(std::move(mc));
+        row.text.push_back(value);
+      }
+      row.real.resize(row.text.size());
+      row.integer.resize(row.text.size());
+      m.tables.push_back(std::move(provenance));
+      Append(static_cast<int>(m.tables.size()) - 1, row);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
   for (MatTable& t : m.tables) {
     try {
       if (error.empty()) m.WriteTable(t);
@@ -316,6 +342,10 @@ void MatWriter::Close() {
   m.mat = nullptr;
   if (!error.empty()) throw std::runtime_error(error);
   m.out->Commit();
+}
+
+void MatWriter::DescribeFile(const std::string& key, const std::string& value) {
+  impl_->file_attributes.emplace_back(key, value);
 }
 
 std::vector<std::string> MatWriter::files() const { return {impl_->path}; }

@@ -47,6 +47,8 @@ class MatWriter final : public TableSink {
 
   int AddTable(const std::string& name, const std::vector<Column>& columns) override;
   void Append(int table, const Row& row) override;
+  /// Kept for Close(), which writes them as the struct `rocklab_provenance`.
+  void DescribeFile(const std::string& key, const std::string& value) override;
   void Close() override;
   std::vector<std::string> files() const override;
 

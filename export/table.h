@@ -84,6 +84,11 @@ class TableSink {
   /// A text attribute of a table (HDF5: an attribute of its group, e.g. the
   /// LCM type); formats without attributes ignore it.
   virtual void Describe(int /*table*/, const std::string& /*key*/, const std::string& /*value*/) {}
+  /// A text attribute of the whole output (its provenance: common/provenance.h):
+  /// HDF5: an attribute of the root group; MAT: a field of the struct
+  /// variable `rocklab_provenance`; CSV: a row of the sidecar
+  /// STEM.provenance.csv (key,value). Keys are unique.
+  virtual void DescribeFile(const std::string& /*key*/, const std::string& /*value*/) {}
   /// Writes what is buffered, closes every file and gives each its name
   /// (written beside, renamed when complete: common::AtomicFile);
   /// idempotent. A sink destroyed without Close() renames nothing and

@@ -18,6 +18,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -59,6 +60,9 @@ struct TablePeaks {
 /// What one pass over a log leaves.
 struct RecordReport {
   std::string log_path;
+  /// What made the page (common::ProvenanceFields): shown at its foot;
+  /// empty: no foot.
+  std::vector<std::pair<std::string, std::string>> provenance;
   nlohmann::json snapshot;     ///< monitor::LiveState::Snapshot() after the last event
   TablePeaks table;
   std::int64_t events{};       ///< LCM events read

@@ -58,6 +58,25 @@ std::string ReplaceReferences(const std::string& html, const std::regex& re, Mak
 
 }  // namespace
 
+namespace {
+
+// Text as HTML element content or attribute value.
+std::string HtmlText(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '&': out += "&amp;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 std::string ReportPage(const RecordReport& record) {
   std::string html(Asset("/index.html").body);
 
@@ -101,6 +120,17 @@ std::string ReportPage(const RecordReport& record) {
   }
   if (!snapshot_written) {
     throw std::runtime_error("the monitor page (index.html) has no <script src=...> to inline");
+  }
+  // Its provenance, at the foot of the page: which rocklab, command, time
+  // and files (with their SHA-256) made it.
+  const std::size_t body_end = html.rfind("</body>");
+  if (!record.provenance.empty() && body_end != std::string::npos) {
+    std::string foot = "<footer class=\"provenance\" style=\"font-size:small;color:#555;margin:1em\">\n<dl>\n";
+    for (const auto& [key, value] : record.provenance) {
+      foot += "<dt>" + HtmlText(key) + "</dt><dd><code>" + HtmlText(value) + "</code></dd>\n";
+    }
+    foot += "</dl>\n</footer>\n";
+    html.insert(body_end, foot);
   }
   return html;
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/progress.h"
+#include "common/provenance.h"
 #include "export/export.h"
 #include "pipeline/pipeline.h"
 #include "tools/cli.h"
@@ -74,6 +75,10 @@ int RunExport(ExportCliOptions& o) {
     } catch (const exporter::InputError& e) {
       throw UsageError(std::string("INPUT: ") + e.what());
     }
+  }
+  // What made the file (hashed after the read: the input is in the page cache).
+  for (const auto& [key, value] : common::ProvenanceFields(common::MakeProvenance({o.input, o.rig_path}))) {
+    sink->DescribeFile(key, value);
   }
   sink->Close();
   if (problems > kShownProblems) {

@@ -15,6 +15,7 @@
 
 #include "common/atomic_file.h"
 #include "common/progress.h"
+#include "common/provenance.h"
 #include "tools/cli.h"
 #include "pipeline/pipeline.h"
 #include "report/report.h"
@@ -132,6 +133,7 @@ int RunReport(ReportCommand& c) {
                  records - 1);
   }
 
+  record.provenance = common::ProvenanceFields(common::MakeProvenance({c.log_path}));
   WriteText(c.out_html, ReportPage(record));
   std::fprintf(stderr, "report: wrote %s\n", c.out_html.c_str());
   if (!c.svg_path.empty() || !c.png_path.empty()) {

@@ -73,6 +73,7 @@ int MatWriter::AddTable(const std::string& name, const std::vector<Column>& colu
   return impl_->sink->AddTable(name, columns);
 }
 void MatWriter::Append(int table, const Row& row) { impl_->sink->Append(table, row); }
+void MatWriter::DescribeFile(const std::string& key, const std::string& value) { impl_->sink->DescribeFile(key, value); }
 void MatWriter::Close() { impl_->sink->Close(); }
 std::vector<std::string> MatWriter::files() const { return impl_->sink->files(); }
 

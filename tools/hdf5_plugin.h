@@ -24,8 +24,9 @@ namespace rocklab::tools {
 inline constexpr const char* kHdf5PluginEntry = "rocklab_hdf5_plugin";
 inline constexpr const char* kHdf5PluginFile = "rocklab-hdf5.so";
 /// Hdf5Calls::version of this build; a plugin with another is refused (2:
-/// read_results_table replaced read_results_columns).
-inline constexpr int kHdf5PluginVersion = 2;
+/// read_results_table replaced read_results_columns; 3: TableSink gained
+/// DescribeFile, which moves its virtual table).
+inline constexpr int kHdf5PluginVersion = 3;
 
 /// The real classes and functions of export/ and sweep/, by the same names.
 struct Hdf5Calls {

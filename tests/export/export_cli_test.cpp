@@ -237,6 +237,28 @@ TEST_F(InfoExport, ExportWritesTheLogAndSaysTheDamage) {
   EXPECT_EQ(raw[7].unit, "");
 }
 
+// A CSV export's provenance sidecar (docs/provenance.md): key,value rows,
+// the log's SHA-256 as coreutils' sha256sum gives it (the oracle).
+TEST_F(InfoExport, CsvExportWritesItsProvenanceBeside) {
+  const std::string out = dir_ + "/prov.csv";
+  const auto r = test::RunCli({"export", log_, "--out", out, "--channels", "RL_TABLE"});
+  EXPECT_NE(r.err.find("prov.provenance.csv"), std::string::npos) << r.err;
+  const auto table = test::ReadCsvTable(dir_ + "/prov.provenance.csv");
+  ASSERT_EQ(table.size(), 2u);
+  ASSERT_EQ(table[0].name, "key");
+  std::map<std::string, std::string> p;
+  for (std::size_t i = 0; i < table[0].text.size(); ++i) p[table[0].text[i]] = table[1].text[i];
+  std::FILE* pipe = ::popen(("sha256sum " + log_).c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char hash[65] = {};
+  ASSERT_EQ(std::fread(hash, 1, 64, pipe), 64u);
+  ::pclose(pipe);
+  EXPECT_EQ(p["source_1"], log_ + " (" + std::to_string(std::filesystem::file_size(log_)) + " bytes, sha256 " +
+                               std::string(hash) + ")");
+  EXPECT_NE(p["command"].find("export " + log_ + " --out " + out), std::string::npos) << p["command"];
+  EXPECT_EQ(p.count("rocklab_version") + p.count("build_type") + p.count("created_utc"), 3u);
+}
+
 // --calibrated: gain * raw + offset in the channel's unit (oracle: the
 // config written above: mirror_s gain 1 offset 0 in m); --raw with it is a
 // usage error; --help says both.

@@ -20,6 +20,7 @@ ROCKLAB_CLI, ROCKLAB_SOURCE_DIR, LCM_GEN, ROCKLAB_SCRATCH (a folder to
 write in).
 """
 
+import hashlib
 import importlib
 import math
 import os
@@ -280,8 +281,35 @@ def main():
         if r.returncode != 0:
             fail(f"rocklab export --out {out}: exit {r.returncode}: {r.stderr}")
             return
-    check_h5(os.path.join(work, "test.h5"), expected)
-    check_mat(os.path.join(work, "test.mat"), expected)
+    provenance = expected_provenance(cli, log)
+    check_h5(os.path.join(work, "test.h5"), expected, provenance)
+    check_mat(os.path.join(work, "test.mat"), expected, provenance)
+
+
+def expected_provenance(cli, log):
+    """What every exported file says made it (docs/provenance.md), with the
+    log's size and SHA-256 from hashlib, not rocklab's own hash."""
+    version = subprocess.run([cli, "--version"], capture_output=True, text=True, check=True).stdout.split()[1]
+    with open(log, "rb") as f:
+        data = f.read()
+    return {"rocklab_version": version,
+            "source_1": f"{log} ({len(data)} bytes, sha256 {hashlib.sha256(data).hexdigest()})"}
+
+
+def check_provenance(where, got, want, out):
+    for key in ("rocklab_version", "build_type", "command", "created_utc", "source_1"):
+        if key not in got:
+            fail(f"{where}: provenance has no {key!r}: {got}")
+    for key, value in want.items():
+        if got.get(key) != value:
+            fail(f"{where}: provenance {key} is {got.get(key)!r}, want {value!r}")
+    if not re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", str(got.get("created_utc"))):
+        fail(f"{where}: created_utc {got.get('created_utc')!r} is not ISO 8601 UTC")
+    if " export " not in str(got.get("command")) or out not in str(got.get("command")):
+        fail(f"{where}: command {got.get('command')!r} is not the export that wrote {out}")
+    extra = set(got) - {"rocklab_version", "build_type", "command", "created_utc", "source_1"}
+    if extra:
+        fail(f"{where}: provenance keys {sorted(extra)} not checked by this test (add them)")
 
 
 def same(kind, got, want):
@@ -308,12 +336,11 @@ def check_values(where, kind, got, want):
             fail(f"{where}: row {r} is {g!r}, want {w!r}")
 
 
-def check_h5(path, expected):
+def check_h5(path, expected, provenance):
     with h5py.File(path, "r") as f:
         if set(f.keys()) != set(expected):
             fail(f"{path}: groups {sorted(f.keys())}, want {sorted(expected)}")
-        if dict(f.attrs):
-            fail(f"{path}: file attributes {dict(f.attrs)} not checked by this test (add them)")
+        check_provenance(f"{path}: file attributes", {k: str(v) for k, v in f.attrs.items()}, provenance, path)
         for channel, columns in expected.items():
             if channel not in f:
                 continue
@@ -372,10 +399,11 @@ def check_mat_legend(path, legend, expected):
                 fail(f"{path}: rocklab_columns says {channel}.{name} is in {unit!r}, want {attrs.get('units', '')!r}")
 
 
-def check_mat(path, expected):
+def check_mat(path, expected, provenance):
     m = scipy.io.loadmat(path, simplify_cells=True)
-    names = {k for k in m if not k.startswith("__") and k != "rocklab_columns"}
+    names = {k for k in m if not k.startswith("__") and k not in ("rocklab_columns", "rocklab_provenance")}
     check_mat_legend(path, m.get("rocklab_columns"), expected)
+    check_provenance(f"{path}: rocklab_provenance", dict(m.get("rocklab_provenance", {})), provenance, path)
     if names != set(expected):
         fail(f"{path}: variables {sorted(names)}, want {sorted(expected)}")
     for channel, columns in expected.items():

@@ -186,6 +186,22 @@ TEST_F(RocklabReport, PageIsSelfContainedAndHoldsTheRecordAsTheLogHasIt) {
     ExpectSeriesMatchesLog(v.at("theta"), log.models.at(name), t0, name);
   }
   EXPECT_EQ(names, (std::set<std::string>{"fitted", "theory"}));
+
+  // Its foot says what made it: the log with its size and SHA-256
+  // (oracle: coreutils' sha256sum), the command and rocklab's version.
+  std::FILE* pipe = ::popen(("sha256sum " + Fig7Log()).c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char hash[65] = {};
+  ASSERT_EQ(std::fread(hash, 1, 64, pipe), 64u);
+  ::pclose(pipe);
+  const std::size_t foot = html.find("<footer class=\"provenance\"");
+  ASSERT_NE(foot, std::string::npos);
+  const std::string tail = html.substr(foot);
+  EXPECT_NE(tail.find(Fig7Log() + " (" + std::to_string(std::filesystem::file_size(Fig7Log())) +
+                      " bytes, sha256 " + hash + ")"),
+            std::string::npos);
+  EXPECT_NE(tail.find("report " + Fig7Log() + " --out " + html_path), std::string::npos);
+  EXPECT_NE(tail.find("<dt>rocklab_version</dt>"), std::string::npos);
 }
 
 TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {

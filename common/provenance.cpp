@@ -1,0 +1,209 @@
+#include "common/provenance.h"
+
+#include <array>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+namespace rocklab::common {
+namespace {
+
+constexpr std::array<std::uint32_t, 64> kRoundConstants = {
+    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4, 0xab1c5ed5,
+    0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe, 0x9bdc06a7, 0xc19bf174,
+    0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f, 0x4a7484aa, 0x5cb0a9dc, 0x76f988da,
+    0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7, 0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967,
+    0x27b70a85, 0x2e1b2138, 0x4d2c6dfc, 0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85,
+    0xa2bfe8a1, 0xa81a664b, 0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070,
+    0x19a4c116, 0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
+    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7, 0xc67178f2};
+
+constexpr std::uint32_t RotateRight(std::uint32_t x, int n) { return (x >> n) | (x << (32 - n)); }
+
+// A word of the command line for a POSIX shell: as it is when it holds only
+// characters no shell treats specially, else in single quotes.
+std::string ShellWord(const std::string& w) {
+  bool plain = !w.empty();
+  for (char c : w) {
+    const bool safe = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      std::string_view("_-+=/.,:@%").find(c) != std::string_view::npos;
+    plain = plain && safe;
+  }
+  if (plain) return w;
+  std::string out = "'";
+  for (char c : w) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string ThisCommandLine() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string out;
+  std::size_t start = 0;
+  while (start < all.size()) {
+    std::size_t end = all.find('\0', start);
+    if (end == std::string::npos) end = all.size();
+    if (!out.empty()) out += ' ';
+    out += ShellWord(all.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
+std::string NowUtc() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+}  // namespace
+
+Sha256::Sha256()
+    : h_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19},
+      buffer_{} {}
+
+void Sha256::Block(const unsigned char* p) {
+  std::uint32_t w[64];
+  for (int i = 0; i < 16; ++i) {
+    w[i] = (std::uint32_t{p[4 * i]} << 24) | (std::uint32_t{p[4 * i + 1]} << 16) |
+           (std::uint32_t{p[4 * i + 2]} << 8) | std::uint32_t{p[4 * i + 3]};
+  }
+  for (int i = 16; i < 64; ++i) {
+    const std::uint32_t s0 = RotateRight(w[i - 15], 7) ^ RotateRight(w[i - 15], 18) ^ (w[i - 15] >> 3);
+    const std::uint32_t s1 = RotateRight(w[i - 2], 17) ^ RotateRight(w[i - 2], 19) ^ (w[i - 2] >> 10);
+    w[i] = w[i - 16] + s0 + w[i - 7] + s1;
+  }
+  std::uint32_t a = h_[0], b = h_[1], c = h_[2], d = h_[3], e = h_[4], f = h_[5], g = h_[6], h = h_[7];
+  for (int i = 0; i < 64; ++i) {
+    const std::uint32_t t1 = h + (RotateRight(e, 6) ^ RotateRight(e, 11) ^ RotateRight(e, 25)) +
+                             ((e & f) ^ (~e & g)) + kRoundConstants[static_cast<std::size_t>(i)] + w[i];
+    const std::uint32_t t2 = (RotateRight(a, 2) ^ RotateRight(a, 13) ^ RotateRight(a, 22)) + ((a & b) ^ (a & c) ^ (b & c));
+    h = g;
+    g = f;
+    f = e;
+    e = d + t1;
+    d = c;
+    c = b;
+    b = a;
+    a = t1 + t2;
+  }
+  h_[0] += a;
+  h_[1] += b;
+  h_[2] += c;
+  h_[3] += d;
+  h_[4] += e;
+  h_[5] += f;
+  h_[6] += g;
+  h_[7] += h;
+}
+
+void Sha256::Update(const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  total_bytes_ += bytes;
+  while (bytes > 0) {
+    if (buffered_ == 0 && bytes >= 64) {
+      Block(p);
+      p += 64;
+      bytes -= 64;
+      continue;
+    }
+    const std::size_t take = std::min(bytes, 64 - buffered_);
+    std::copy(p, p + take, buffer_ + buffered_);
+    buffered_ += take;
+    p += take;
+    bytes -= take;
+    if (buffered_ == 64) {
+      Block(buffer_);
+      buffered_ = 0;
+    }
+  }
+}
+
+std::string Sha256::HexDigest() {
+  // Padding: 0x80, zeros to 56 mod 64, the message length in bits (big-endian).
+  const std::uint64_t bits = total_bytes_ * 8;
+  const unsigned char one = 0x80, zero = 0;
+  Update(&one, 1);
+  while (buffered_ != 56) Update(&zero, 1);
+  unsigned char length[8];
+  for (int i = 0; i < 8; ++i) length[i] = static_cast<unsigned char>(bits >> (56 - 8 * i));
+  Update(length, 8);
+  char hex[65];
+  for (int i = 0; i < 8; ++i) std::snprintf(hex + 8 * i, 9, "%08x", h_[i]);
+  return std::string(hex, 64);
+}
+
+std::string Sha256Hex(std::istream& in) {
+  Sha256 sha;
+  std::array<char, 1 << 16> chunk;
+  while (in) {
+    in.read(chunk.data(), chunk.size());
+    sha.Update(chunk.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  return sha.HexDigest();
+}
+
+Provenance MakeProvenance(const std::vector<std::string>& sources) {
+  Provenance p;
+  p.rocklab_version = ROCKLAB_VERSION;
+  p.build_type = ROCKLAB_BUILD_TYPE;
+  p.command = ThisCommandLine();
+  p.created_utc = NowUtc();
+  std::set<std::string> seen;
+  for (const std::string& path : sources) {
+    if (path.empty() || path == "-" || !seen.insert(path).second) continue;
+    SourceFile s{path, -1, ""};
+    std::ifstream in(path, std::ios::binary);
+    if (in) {
+      Sha256 sha;
+      std::array<char, 1 << 16> chunk;
+      std::int64_t size = 0;
+      while (in) {
+        in.read(chunk.data(), chunk.size());
+        sha.Update(chunk.data(), static_cast<std::size_t>(in.gcount()));
+        size += in.gcount();
+      }
+      if (!in.bad()) {
+        s.size_bytes = size;
+        s.sha256 = sha.HexDigest();
+      }
+    }
+    p.sources.push_back(std::move(s));
+  }
+  return p;
+}
+
+std::string ProvenanceJson(const Provenance& p) {
+  nlohmann::ordered_json j;
+  j["rocklab_version"] = p.rocklab_version;
+  j["build_type"] = p.build_type;
+  j["command"] = p.command;
+  j["created_utc"] = p.created_utc;
+  j["sources"] = nlohmann::ordered_json::array();
+  for (const SourceFile& s : p.sources) {
+    j["sources"].push_back({{"path", s.path}, {"size_bytes", s.size_bytes}, {"sha256", s.sha256}});
+  }
+  // Paths and arguments are bytes: invalid UTF-8 is replaced, not thrown.
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+
+std::vector<std::pair<std::string, std::string>> ProvenanceFields(const Provenance& p) {
+  std::vector<std::pair<std::string, std::string>> out = {{"rocklab_version", p.rocklab_version},
+                                                          {"build_type", p.build_type},
+                                                          {"command", p.command},
+                                                          {"created_utc", p.created_utc}};
+  for (const SourceFile& s : p.sources) {
+    out.emplace_back("source_" + std::to_string(out.size() - 3), s.size_bytes < 0 ? s.path + " (could not be read)"
+                                                : s.path + " (" + std::to_string(s.size_bytes) +
+                                                      " bytes, sha256 " + s.sha256 + ")");
+  }
+  return out;
+}
+
+}  // namespace rocklab::common
