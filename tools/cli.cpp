@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cctype>
 #include <csignal>
+#include <filesystem>
+
+#include <unistd.h>
 
 #include "common/bus_urls.h"
+#include "common/text.h"
 
 namespace rocklab::tools {
 
@@ -37,18 +41,23 @@ const std::atomic<bool>& InstallStopSignals() {
 }
 
 std::size_t EditDistance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  // Optimal string alignment: insertions, deletions, substitutions and
+  // swaps of two neighbours (`--otu` for `--out`) each cost one edit.
+  const std::size_t w = b.size() + 1;
+  std::vector<std::size_t> d((a.size() + 1) * w);
+  for (std::size_t j = 0; j <= b.size(); ++j) d[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
+    d[i * w] = i;
     for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
+      std::size_t best = std::min({d[(i - 1) * w + j] + 1, d[i * w + j - 1] + 1,
+                                   d[(i - 1) * w + j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        best = std::min(best, d[(i - 2) * w + j - 2] + 1);
+      }
+      d[i * w + j] = best;
     }
   }
-  return row[b.size()];
+  return d[a.size() * w + b.size()];
 }
 
 std::string DidYouMean(std::string_view word, const std::vector<std::string>& names) {
@@ -98,6 +107,43 @@ std::string UnknownOption(const CLI::App& cmd, const std::vector<std::string>& a
     return message + "; `rocklab help " + cmd.get_name() + "` lists its options";
   }
   return "";
+}
+
+void RequireOutputFolder(const std::string& option, const std::string& file) {
+  if (file.empty()) return;
+  std::filesystem::path folder = std::filesystem::path(file).parent_path();
+  if (folder.empty()) folder = ".";
+  if (!std::filesystem::is_directory(folder)) {
+    throw UsageError(option + ": folder '" + folder.string() + "' does not exist (for '" + file + "')");
+  }
+  if (::access(folder.c_str(), W_OK) != 0) {
+    throw UsageError(option + ": folder '" + folder.string() + "' is not writable (for '" + file + "')");
+  }
+}
+
+std::string ConversionMessage(const CLI::App& app, const std::string& what) {
+  static const std::string kPrefix = "Could not convert: ";
+  if (what.compare(0, kPrefix.size(), kPrefix) != 0) return what;
+  const std::size_t eq = what.find(" = ", kPrefix.size());
+  if (eq == std::string::npos) return what;
+  const std::string name = what.substr(kPrefix.size(), eq - kPrefix.size());
+  const std::string value = what.substr(eq + 3);
+  const CLI::App* cmd = &app;
+  for (const CLI::App* sub : app.get_subcommands()) cmd = sub;  // the one parsed
+  const CLI::Option* opt = cmd->get_option_no_throw(name);
+  std::string type = opt != nullptr ? opt->get_type_name() : "";
+  if (type == "FLOAT") {
+    type = "a number";
+  } else if (type == "INT" || type == "UINT") {
+    type = type == "INT" ? "an integer" : "a whole number >= 0";
+  } else if (!type.empty()) {
+    type = "of type " + type;
+  } else {
+    type = "a value of the option's type";
+  }
+  const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
+  return where + name + ": " + common::Quote(value) + " is not " + type + "; `rocklab help " +
+         (cmd == &app ? std::string() : cmd->get_name()) + "` says what it takes";
 }
 
 std::string CommandList(const CLI::App& app) {

@@ -51,9 +51,19 @@ std::string SubscriberUrl(const std::string& url);
 /// (common/bus_urls.h, docs/channels.md).
 CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url);
 
-/// Levenshtein distance between `a` and `b` (insertions, deletions,
-/// substitutions, each 1).
+/// The folder `file` goes into exists and may be written; else a
+/// UsageError naming `option` (checked before the work, so a typo in an
+/// output path costs nothing and exits as a usage error). "" passes.
+void RequireOutputFolder(const std::string& option, const std::string& file);
+
+/// Edit distance between `a` and `b` (optimal string alignment:
+/// insertions, deletions, substitutions and swaps of neighbours, each 1).
 std::size_t EditDistance(std::string_view a, std::string_view b);
+
+/// CLI11's "Could not convert: --alpha = abc" as the user needs it: the
+/// command, the option, the value and the type expected ("simulate: --alpha:
+/// 'abc' is not a number"); other messages as they are.
+std::string ConversionMessage(const CLI::App& app, const std::string& what);
 
 /// The name of `names` closest to `word` when it is close enough to be a
 /// typo of it (edit distance at most 2, and at most a third of the longer

@@ -33,6 +33,7 @@ int RunExport(ExportCliOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
+  RequireOutputFolder("--out", o.out);
   // The input first: a missing or unreadable one (a typo) stops here, before
   // any output exists. The sink writes beside --out and renames only at
   // Close, so a later failure leaves the previous file as it was too.
@@ -75,6 +76,15 @@ int RunExport(ExportCliOptions& o) {
     } catch (const exporter::InputError& e) {
       throw UsageError(std::string("INPUT: ") + e.what());
     }
+  }
+  if (log && s.tables.empty()) {
+    // Nothing selected: an error, and no file (the sink is not closed, so a
+    // previous file of that name stays as it was).
+    std::fprintf(stderr,
+                 "rocklab export: no message of %s is on a channel --channels '%s' selects (%lld left out); "
+                 "nothing written; `rocklab info %s` lists its channels\n",
+                 o.input.c_str(), o.options.channels.c_str(), static_cast<long long>(s.filtered), o.input.c_str());
+    return kFailureExit;
   }
   // What made the file (hashed after the read: the input is in the page cache).
   for (const auto& [key, value] : common::ProvenanceFields(common::MakeProvenance({o.input, o.rig_path}))) {

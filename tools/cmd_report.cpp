@@ -43,22 +43,6 @@ struct ReportCommand {
   bool quiet{};
 };
 
-// The folder `file` goes into exists and may be written (checked before the
-// log is read, so a typo costs nothing).
-void RequireOutputFolder(const std::string& option, const std::string& file) {
-  if (file.empty()) return;
-  std::filesystem::path folder = std::filesystem::path(file).parent_path();
-  if (folder.empty()) folder = ".";
-  if (!std::filesystem::is_directory(folder)) {
-    throw UsageError(option + ": folder '" + folder.string() + "' does not exist (for '" + file +
-                     "')");
-  }
-  if (::access(folder.c_str(), W_OK) != 0) {
-    throw UsageError(option + ": folder '" + folder.string() + "' is not writable (for '" + file +
-                     "')");
-  }
-}
-
 std::pair<int, int> ParseSize(const std::string& text) {
   static const std::regex kSize("([0-9]{1,5})x([0-9]{1,5})");
   std::smatch m;

@@ -179,6 +179,9 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::ConversionError& e) {
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(ConversionMessage(app, e.what())).c_str());
+    return kUsageExit;
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
     return kUsageExit;

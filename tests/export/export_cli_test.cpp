@@ -237,6 +237,17 @@ TEST_F(InfoExport, ExportWritesTheLogAndSaysTheDamage) {
   EXPECT_EQ(raw[7].unit, "");
 }
 
+// Nothing selected is an error, and writes nothing (issue 36: it exited 0
+// with an empty file).
+TEST_F(InfoExport, ExportWithNoChannelSelectedIsAnErrorAndWritesNothing) {
+  const std::string out = dir_ + "/none.h5";
+  const auto r = test::RunCli({"export", log_, "--out", out, "--channels", "RL_NOPE"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("--channels 'RL_NOPE' selects"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("nothing written"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 // A CSV export's provenance sidecar (docs/provenance.md): key,value rows,
 // the log's SHA-256 as coreutils' sha256sum gives it (the oracle).
 TEST_F(InfoExport, CsvExportWritesItsProvenanceBeside) {

@@ -175,6 +175,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{Sim({"--excitation", "sine:amp=0.006,freq=-5,duration=2"}), "freq"},
         BadCase{Sim({"--accel", "scratch/does-not-exist.csv"}), "does-not-exist.csv"},
         BadCase{Sim({"--out", "/nonexistent-dir/x.csv"}), "/nonexistent-dir/x.csv"},
+        // export checks its output's folder before the work, as report does.
+        BadCase{{"export", "scratch/does-not-exist.lcm", "--out", "/nonexistent-dir/x.h5"}, "/nonexistent-dir"},
         BadCase{{"frobnicate"}, "frobnicate"}),
     BadCaseName);
 
@@ -240,7 +242,14 @@ TEST(CliHelp, DidYouMean) {
                         Case{Sim({"--alpah", "0.2"}), "unknown option --alpah (did you mean --alpha?)"},
                         Case{Sim({"--rate=100", "", "--ratee=5"}), "unknown option --ratee (did you mean --rate?)"},
                         Case{{"sweep-plot", "r.csv", "--outdir", "x"}, "(did you mean --out-dir?)"},
-                        Case{Sim({"--frobnicate", "1"}), "unknown option --frobnicate; "}}) {
+                        Case{Sim({"--frobnicate", "1"}), "unknown option --frobnicate; "},
+                        // Swapped neighbours are one edit (issue 36's typos).
+                        Case{Sim({"--otu", "x.csv"}), "unknown option --otu (did you mean --out?)"},
+                        Case{{"report", "x.lcm", "--sgv", "x.svg"}, "unknown option --sgv (did you mean --svg?)"},
+                        // A value that is not of the option's type names the
+                        // command, the option, the value and the type.
+                        Case{Sim({"--alpha", "abc"}), "simulate: --alpha: 'abc' is not a number"},
+                        Case{{"fit", "x.csv", "--walkers", "many"}, "fit: --walkers: 'many' is not an integer"}}) {
     const CliResult r = RunCli(c.args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(CountLines(r.err), 1) << r.err;

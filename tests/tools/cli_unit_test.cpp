@@ -17,6 +17,11 @@ TEST(CliTypos, EditDistance) {
   EXPECT_EQ(EditDistance("--duraton", "--duration"), 1u);
   EXPECT_EQ(EditDistance("sweep-plot", "sweepplot"), 1u);
   EXPECT_EQ(EditDistance("same", "same"), 0u);
+  // A swap of neighbours is one edit (Levenshtein counts two).
+  EXPECT_EQ(EditDistance("--otu", "--out"), 1u);
+  EXPECT_EQ(EditDistance("--sgv", "--svg"), 1u);
+  EXPECT_EQ(EditDistance("ab", "ba"), 1u);
+  EXPECT_EQ(EditDistance("ca", "abc"), 3u);  // optimal string alignment: no edit of a swapped pair
 }
 
 TEST(CliTypos, DidYouMean) {
@@ -41,6 +46,8 @@ TEST(CliTypos, UnknownOption) {
   const std::string m = UnknownOption(*cmd, {"--duraton", "5"});
   EXPECT_NE(m.find("unknown option --duraton (did you mean --duration?)"), std::string::npos) << m;
   EXPECT_NE(UnknownOption(*cmd, {"-x"}).find("unknown option -x"), std::string::npos);
+  // The typos: swapped letters.
+  EXPECT_NE(UnknownOption(*cmd, {"--otu", "x"}).find("(did you mean --out?)"), std::string::npos);
 }
 
 }  // namespace
