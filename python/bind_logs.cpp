@@ -98,8 +98,10 @@ py::tuple Read(bool log, const std::string& path, const std::string& channels, d
         return log ? exporter::ExportLog(path, options, sink, collect) : exporter::ExportRaw(path, options, sink, collect);
       });
     } catch (const exporter::InputError& e) {
+      // Unreadable: OSError; readable but not what it should be (no
+      // header, a rate that disagrees): ValueError, as info() says it.
       ThrowIfUnreadable(path, e.what());
-      throw;
+      throw pipeline::OptionError(e.what());
     }
     hook.Done(static_cast<double>(sink.rows()));
   }
@@ -158,8 +160,8 @@ std::string InfoJson(const std::string& path, const std::string& rig_path, doubl
   } catch (const py::error_already_set&) {
     throw;  // Ctrl-C's KeyboardInterrupt (RunStoppable)
   } catch (const std::exception& e) {
-    ThrowIfUnreadable(path, std::string("INPUT: ") + e.what());
-    throw pipeline::OptionError(std::string("INPUT: ") + e.what());
+    ThrowIfUnreadable(path, e.what());
+    throw pipeline::OptionError(e.what());  // the CLI's message without its "INPUT: "
   }
 }
 

@@ -21,8 +21,9 @@ The same C++ core as the ``rocklab`` command line (docs/python.md):
 SI units throughout (m, s, rad, m/s^2). Every call releases the GIL while
 it works; long ones take ``progress=callable(done, total)`` and stop with
 KeyboardInterrupt on Ctrl-C. Bad arguments raise ValueError with the
-command line's message (naming the option, e.g. ``--alpha``), files that
-cannot be read raise OSError.
+command line's message (naming the option, e.g. ``--alpha``), as does a
+file that opens but is not what it should be (no header, a rate that
+disagrees, naming its line); files that cannot be read raise OSError.
 """
 
 import functools as _functools
@@ -438,8 +439,7 @@ def read_raw(path, rig=None, *, rate=0.0, start=0.0, end=None, progress=None):
             sample_rate_hz is checked against the file's time column.
         rate: sample rate, Hz: needed for a file without a time column or
             time base; else 0 (the file's) or checked against the file's
-            (a disagreement over 0.1 % stops the read as a file that
-            cannot be read from its start does, OSError, naming both).
+            (a disagreement over 0.1 % is a ValueError naming both).
         start, end: window, s from the first row's time; end None: to the end.
         progress: None or callable(rows_read, None).
 

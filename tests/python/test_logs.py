@@ -177,12 +177,16 @@ def test_bundled_raw_csvs_need_no_rate(cli, source_dir, tmp_path):
         assert_table_equals_csv(rocklab.read_raw(raw)["data"], out)
         assert_table_equals_csv(rocklab.read_raw(raw, rig)["data"], out)
     fig7 = os.path.join(source_dir, "data/samples/fig7_block1.csv")
-    with pytest.raises(OSError) as e:
+    # A readable file that disagrees is a ValueError in both (issue 36:
+    # read_raw raised OSError, info ValueError), with the same message.
+    with pytest.raises(ValueError) as e:
         rocklab.read_raw(fig7, rate=500)
+    raw_message = str(e.value)
     assert "the time column gives a sample rate of 1000 Hz, but rate= is 500 Hz" in str(e.value)
     with pytest.raises(ValueError) as e:
         rocklab.info(fig7, rate=500)
     assert "the time column gives a sample rate of 1000 Hz, but rate= is 500 Hz" in str(e.value)
+    assert str(e.value) == raw_message
 
 
 def test_a_deeply_nested_channel_pattern_is_an_error_not_a_crash(cli, log_path, tmp_path):
@@ -209,7 +213,7 @@ def test_errors_are_the_clis(cli, log_path, tmp_path, source_dir):
         rocklab.read_log(os.path.join(source_dir, "data/samples/free_rocking.csv"))
     empty = tmp_path / "empty.csv"
     empty.write_text("")
-    with pytest.raises(OSError) as e:
+    with pytest.raises(ValueError) as e:
         rocklab.read_raw(empty)
     assert str(e.value) == cli.error("export", empty, "--out", tmp_path / "y.csv")[len("INPUT: "):]
 
