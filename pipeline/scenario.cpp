@@ -122,6 +122,10 @@ RunSummary RunScenario(Scenario& s, const ScenarioOptions& o,
 }
 
 OutputFile::OutputFile(const std::string& path) {
+  if (path == "-") {
+    file_ = stdout;
+    return;
+  }
   try {
     out_ = std::make_unique<common::AtomicFile>(path);
   } catch (const std::runtime_error& e) {
@@ -131,6 +135,14 @@ OutputFile::OutputFile(const std::string& path) {
 }
 
 void OutputFile::Close() {
+  if (!out_) {
+    if (file_ != nullptr && (std::fflush(file_) != 0 || std::ferror(file_) != 0)) {
+      file_ = nullptr;
+      throw std::runtime_error("cannot write to standard output (--out -)");
+    }
+    file_ = nullptr;
+    return;
+  }
   if (out_->committed()) return;
   file_ = nullptr;
   out_->Commit();

@@ -72,7 +72,8 @@ void WriteEventsCsv(const std::string& path, const std::vector<model::ModelEvent
 /// An output file written beside `path` (common::AtomicFile) that gets its
 /// name only at Close(), complete; destroyed without Close() (an error
 /// before the end), it is removed and `path` keeps what it held. Throws
-/// naming the path when it cannot be created or written.
+/// naming the path when it cannot be created or written. "-" is standard
+/// output (written as it goes; Close() flushes it).
 class OutputFile {
  public:
   explicit OutputFile(const std::string& path);

@@ -25,7 +25,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
   auto check = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("daq", "DAQ node: publish a raw input's frames and reconstruction over LCM");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)");
-  cmd->add_option("--input", opts->input,
+  cmd->add_option("input,--input", opts->input,
                   "raw input: .csv, .lvm or an LCM log; tcp://HOST:PORT or tcp-listen://[HOST]:PORT (CSV lines); lcm://CHANNEL (raw_frame_t); video:FILE or v4l2:/dev/videoN (docs/video.md)");
   auto* speed = cmd->add_option("--speed", opts->speed, "sample-clock pace factor (1 = real time)")
                     ->capture_default_str();

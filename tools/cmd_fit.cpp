@@ -412,7 +412,7 @@ int RunFit(const FitCliOptions& o) {
 void RegisterFit(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<FitCliOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("fit", "fit alpha, p, mu to a recorded test (impacts or trajectory)");
-  cmd->add_option("--input", opts->input,
+  cmd->add_option("input,--input", opts->input,
                   "CSV with header time,theta (s, rad; extra columns allowed) or rocklab LCM log "
                   "(RL_THETA, RL_TABLE)")
       ->required();

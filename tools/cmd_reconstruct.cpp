@@ -181,7 +181,7 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<ReconstructOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("reconstruct", "reconstruct theta and the checks from a raw file");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)")->required();
-  cmd->add_option("--input", opts->input, "raw file: .csv, .lvm, an LCM log, or video:FILE (docs/video.md)")->required();
+  cmd->add_option("input,--input", opts->input, "raw file: .csv, .lvm, an LCM log, or video:FILE (docs/video.md)")->required();
   cmd->add_option("--out", opts->out_csv,
                   "output CSV: time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,"
                   "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask)")

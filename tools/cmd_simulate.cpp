@@ -101,6 +101,9 @@ nlohmann::json SummaryJson(const pipeline::ScenarioOptions& o, const pipeline::S
 }
 
 int RunSimulate(const SimulateOptions& o) {
+  if (o.out_csv == "-" && o.events_csv == "-") {
+    throw UsageError("--out - and --events -: only one of them can be standard output");
+  }
   pipeline::Scenario s = pipeline::BuildScenario(o.scenario);
   pipeline::OutputFile out(o.out_csv);
   std::FILE* f = out.get();
@@ -117,26 +120,29 @@ int RunSimulate(const SimulateOptions& o) {
   out.Close();
   if (!o.events_csv.empty()) pipeline::WriteEventsCsv(o.events_csv, s.model->events());
 
+  // With the CSV on standard output (--out -), the summary goes to stderr.
+  std::FILE* report = o.out_csv == "-" || o.events_csv == "-" ? stderr : stdout;
+  const std::string written_to = o.out_csv == "-" ? "standard output" : o.out_csv;
   if (o.json) {
-    std::printf("%s\n", SummaryJson(o.scenario, s, r, cpu_s).dump(2).c_str());
+    std::fprintf(report, "%s\n", SummaryJson(o.scenario, s, r, cpu_s).dump(2).c_str());
   } else {
-    std::printf("%s model, alpha %.4f rad, p %.4f rad/s, mu %.4f; excitation %s\n",
+    std::fprintf(report, "%s model, alpha %.4f rad, p %.4f rad/s, mu %.4f; excitation %s\n",
                 o.scenario.model.c_str(), o.scenario.alpha, o.scenario.p, o.scenario.mu,
                 s.forcing_description.c_str());
     if (r.uplift_time_s) {
-      std::printf("  uplift at %.4f s\n", *r.uplift_time_s);
+      std::fprintf(report, "  uplift at %.4f s\n", *r.uplift_time_s);
     } else if (o.scenario.theta0 == 0.0) {
-      std::printf("  no uplift\n");
+      std::fprintf(report, "  no uplift\n");
     }
-    std::printf("  peak |theta| %.5f rad (%.3f deg) at %.4f s, %d impacts%s\n",
+    std::fprintf(report, "  peak |theta| %.5f rad (%.3f deg) at %.4f s, %d impacts%s\n",
                 r.peak_abs_theta, r.peak_abs_theta * common::kDegPerRad, r.peak_time_s, r.impacts,
                 r.overturned ? ", OVERTURNED" : "");
     if (s.model->kind() == model::ModelKind::kComplex) {
       const model::SolverStats stats = s.model->solver_stats();
-      std::printf("  eq. (10) for %.1f %% of the rocking time%s\n", 100.0 * stats.eq10_fraction,
+      std::fprintf(report, "  eq. (10) for %.1f %% of the rocking time%s\n", 100.0 * stats.eq10_fraction,
                   o.scenario.complex_handoff > 0 ? " (l -> 0 hand-off on)" : "");
     }
-    std::printf("  %zu rows written to %s\n", r.samples, o.out_csv.c_str());
+    std::fprintf(report, "  %zu rows written to %s\n", r.samples, written_to.c_str());
   }
   return 0;
 }
@@ -147,7 +153,7 @@ void RegisterSimulate(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SimulateOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("simulate", "simulate a rocking block (housner or complex)");
   pipeline::AddScenarioOptions(*cmd, opts->scenario, FormatsHelp(DataKind::kGroundMotion));
-  cmd->add_option("--out", opts->out_csv, "output CSV: time,theta,theta_dot (s, rad, rad/s)")
+  cmd->add_option("--out", opts->out_csv, "output CSV: time,theta,theta_dot (s, rad, rad/s); - for standard output")
       ->required();
   cmd->add_option("--events", opts->events_csv, "events CSV: time,kind (s, name)");
   cmd->add_flag("--json", opts->json, "print the run summary as JSON");
