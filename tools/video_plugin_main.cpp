@@ -105,7 +105,8 @@ int RunTrack(const TrackRequest& o) {
                "%lld repeated, %lld out of order, %lld unreadable, %lld missing at the end; LED samples: %lld missing "
                "(%lld occlusions), %lld merged, %lld ambiguous, %lld inconsistent, %lld saturated; "
                "%lld stray blobs (reflections); rigid fits in %lld frames; marks fit to %.3g mm (%.3g px), "
-               "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged); "
+               "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged), "
+               "%lld statistics restarted, %lld drops from the rigid fit held; "
                "%s; times mid-exposure (exposure %.3g ms), rolling-shutter readout %.3g ms\n",
                static_cast<long long>(rows), o.out_csv.c_str(), v.width_px, v.height_px, v.rate_hz,
                v.rate_source.c_str(), static_cast<long long>(v.frames.dropped),
@@ -117,6 +118,7 @@ int RunTrack(const TrackRequest& o) {
                static_cast<long long>(v.track.inconsistent), static_cast<long long>(v.track.saturated),
                static_cast<long long>(v.track.reflections), static_cast<long long>(v.track.fits),
                1e3 * v.mark_rms_m, v.mark_rms_px, 1e3 * v.m_per_px, static_cast<long long>(v.track.outliers),
+               static_cast<long long>(v.track.stat_restarts), static_cast<long long>(v.track.held_drops),
                Timing(v).c_str(), 1e3 * v.exposure_s, 1e3 * v.readout_s);
   return 0;
 }
