@@ -189,9 +189,11 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
 
   // A blob off its LED's running statistics is not the LED alone.
   for (std::size_t i = 0; i < n; ++i) {
-    if (out[i].flags != 0) continue;
     BlobStats& st = blob_stats_[i];
-    if (!Departs(st, blobs[static_cast<std::size_t>(pick_[i])])) continue;
+    if (out[i].flags != 0 || !Departs(st, blobs[static_cast<std::size_t>(pick_[i])])) {
+      st.rejecting_since_s = std::numeric_limits<double>::quiet_NaN();  // an episode of departures ends
+      continue;
+    }
     if (std::isnan(st.rejecting_since_s)) st.rejecting_since_s = time_s;
     if (time_s - st.rejecting_since_s > kReseedS) {
       st = BlobStats{};  // the LED changed for good: learn it again
@@ -291,12 +293,6 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
     seen_[i] = (o.flags & kLedMissing) == 0;
   }
   for (std::size_t j = 0; j < blobs.size(); ++j) counts_.reflections += blob_users_[j] == 0 ? 1 : 0;
-  for (const LedSample& o : out) {
-    if (std::isfinite(o.x_m)) {
-      ++counts_.lit_frames;
-      break;
-    }
-  }
 
   if (fitted) {
     ++counts_.fits;

@@ -64,8 +64,6 @@ struct TrackCounts {
   int64_t outliers{};          ///< LED-frames rejected: blob area or light off its running statistics
   int64_t held_drops{};        ///< drops from the rigid fit kept on last frame's LED (hysteresis)
   int64_t stat_restarts{};     ///< an LED's blob statistics started again after kReseedS of outliers
-  /// Frames where at least one LED was identified (measured, not NaN).
-  int64_t lit_frames{};
 };
 
 /// No allocation after the first frame.

@@ -144,5 +144,46 @@ TEST(LedTracker, FollowsARotationByPredictionAndCountsEachOcclusionOnce) {
   EXPECT_EQ(t.counts().inconsistent + t.counts().ambiguous + t.counts().merged, 0);
 }
 
+TEST(LedTracker, ABlobOffItsRunningStatisticsIsAnOutlierUntilTheStatisticsStartAgain) {
+  Fixture f;
+  LedTracker t(f.config, *f.map);
+  std::vector<LedSample> out;
+  // Oracle: the rule of led_tracker.cpp on blobs of known area and light.
+  // Twenty frames of LED A at area 16 or 18 px, light 1600 or 1620:
+  // mean 17 px, sd 1 px; mean 1610, sd 10.
+  for (int k = 0; k < 20; ++k) {
+    std::vector<Blob> b = f.AtRest();
+    for (Blob& x : b) x.area_px = 16 + 2 * (k % 2), x.flux = 1600 + 20 * (k % 2);
+    t.Track(b, k / 100.0, out);
+    ASSERT_EQ(out[0].flags, 0u) << k;
+  }
+  // Area 22 px: off by 5 px, within max(6 sd, 35 % of 17 = 6 px): kept.
+  std::vector<Blob> b = f.AtRest();
+  for (Blob& x : b) x.area_px = 17, x.flux = 1610;
+  b[0].area_px = 22;
+  t.Track(b, 0.20, out);
+  EXPECT_EQ(out[0].flags, 0u);
+  // Light 1400: off by 13 % of 1610 (more than 10 % and 6 sd): an outlier,
+  // NaN, counted; so is a glint's doubled area.
+  b[0].area_px = 17;
+  b[0].flux = 1400;
+  t.Track(b, 0.21, out);
+  EXPECT_EQ(out[0].flags, kLedOutlier);
+  EXPECT_TRUE(std::isnan(out[0].x_m));
+  b[0].area_px = 40;
+  b[0].flux = 3500;
+  for (int k = 22; k <= 120; ++k) {
+    t.Track(b, k / 100.0, out);
+    ASSERT_EQ(out[0].flags, kLedOutlier) << k;  // 0.99 s of departures
+  }
+  EXPECT_EQ(t.counts().outliers, 100);
+  EXPECT_EQ(t.counts().fits, 121);  // the other three fit throughout
+  // More than kReseedS (1 s) after the first departure (0.21 s): the LED
+  // changed for good; its statistics start again and it is measured.
+  t.Track(b, 1.25, out);
+  EXPECT_EQ(out[0].flags, 0u);
+  EXPECT_EQ(t.counts().stat_restarts, 1);
+}
+
 }  // namespace
 }  // namespace rocklab::video
