@@ -28,6 +28,10 @@ constexpr double kReseedS = 1.0;
 // An LED dropped from the rigid fit last frame is dropped again while its
 // residual is at least this fraction of the worst one's.
 constexpr double kHysteresis = 0.5;
+// Rolling shutter: refits with the frame's own rates, at most, and the
+// change of phi (rad) below which they stop.
+constexpr int kRefits = 30;
+constexpr double kRefitTolRad = 1e-10;
 
 struct Fit {
   double phi, tx, tz, worst;
@@ -251,14 +255,20 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
   }
   for (std::size_t i = 0; i < n; ++i) dropped_last_[i] = (out[i].flags & kLedInconsistent) != 0;
   if (fitted && rolling && have_pose_) {
-    // Once more with the rates this fit gives (the predicted ones lag by
-    // half a frame): the rate error then enters only through the acceleration.
+    // Again with the rates this frame's fit gives against the last one's
+    // (a secant over the frame interval): the fit depends on those rates,
+    // so this is iterated to its fixed point, which contracts by the LEDs'
+    // mean delay over the frame interval (< 1 while the readout is shorter
+    // than a frame). The rates' error then enters only through the
+    // acceleration.
     const double dt = time_s - pose_time_s_;
-    if (dt > 0 && dt < kMaxRateGapS) {
+    for (int iteration = 0; iteration < kRefits && dt > 0 && dt < kMaxRateGapS; ++iteration) {
       const double now[3] = {fit.phi, fit.tx, fit.tz};
       const double rate[3] = {(fit.phi - pose_[0]) / dt, (fit.tx - pose_[1]) / dt, (fit.tz - pose_[2]) / dt};
       Correct(now, rate);
+      const double before = fit.phi;
       fit = FitRigid(mx_, mz_, wx_, wz_, used_);
+      if (std::abs(fit.phi - before) < kRefitTolRad) break;
     }
   }
 
