@@ -22,6 +22,10 @@ void RegisterTrack(CLI::App& app, CommandRun& run) {
                   "raw CSV: time (s), the camera's LED channels (raw units of the rig's channels), and per LED "
                   "<camera>_<led>_area_px, _peak (8-bit), _flags (docs/video.md)")
       ->required();
+  cmd->add_option("--fps", opts->fps_hz,
+                  "the camera's true frame rate, Hz: stamps frame k at t0 + k / fps (a slow-motion export "
+                  "stored at 30 frames/s); over the rig's [camera.video] fps and the container's rate")
+      ->check(CLI::Range(0.01, 1e6));
   cmd->add_option("--frames", opts->max_frames, "stop after this many frames (0: all; a device: until Ctrl-C)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([opts, &run] {

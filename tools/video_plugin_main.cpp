@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -24,6 +25,24 @@ using pipeline::OptionError;
 
 constexpr int kShownProblems = 20;
 
+// How the frames were timed, for track's summary.
+std::string Timing(const VideoStats& v) {
+  char b[200];
+  if (v.device) {
+    std::snprintf(b, sizeof b, "frame times from the driver");
+  } else if (v.times_from_fps) {
+    std::snprintf(b, sizeof b, "frame times index / %.6g Hz (the video gives none)", v.rate_hz);
+  } else if (v.frames.off_grid > 0) {
+    std::snprintf(b, sizeof b,
+                  "frame k at t0 + k / %.6g Hz: %lld container times rounded (off that grid by up to %.3g ms), "
+                  "used only to find drops and repeats",
+                  v.rate_hz, static_cast<long long>(v.frames.off_grid), 1e3 * v.frames.max_off_grid_s);
+  } else {
+    std::snprintf(b, sizeof b, "frame k at t0 + k / %.6g Hz (the container's times on that grid)", v.rate_hz);
+  }
+  return b;
+}
+
 // rocklab track VIDEO --rig RIG.toml --out RAW.csv: a camera's video tracked
 // into the rig's LED channels (docs/video.md), written as a raw CSV that
 // `daq`, `reconstruct` and `run` read like any other.
@@ -41,7 +60,8 @@ int RunTrack(const TrackRequest& o) {
   const std::string spec = o.video.substr(device ? 5 : (o.video.rfind("video:", 0) == 0 ? 6 : 0));
   std::unique_ptr<daq::Source> source;
   try {
-    source = OpenVideoSource(spec, device, options);
+    source = OpenVideoSource(spec, device, options,
+                             o.fps_hz > 0 ? std::optional<double>(o.fps_hz) : std::nullopt);
   } catch (const std::exception& e) {
     throw OptionError(std::string("VIDEO: ") + e.what());
   }
@@ -58,6 +78,13 @@ int RunTrack(const TrackRequest& o) {
   while ((o.max_frames == 0 || rows < o.max_frames) && !(o.stop != nullptr && o.stop->load())) {
     const daq::ReadStatus status = source->Next(frame);
     if (status == daq::ReadStatus::kIdle) continue;  // a device between frames
+    if (status == daq::ReadStatus::kError) {
+      // Nothing written: the video could not be read as asked (e.g. no LED
+      // for longer than max_dark_s).
+      std::fclose(out);
+      std::remove(part.c_str());
+      throw std::runtime_error(source->error());
+    }
     if (status != daq::ReadStatus::kFrame) break;
     std::fprintf(out, "%.9f", frame.time_s);
     for (double v : frame.values) std::fprintf(out, ",%.10g", v);  // NaN prints "nan", read back as NaN
@@ -75,19 +102,24 @@ int RunTrack(const TrackRequest& o) {
   if (problems > kShownProblems) std::fprintf(stderr, "rocklab: %ld more problems not shown\n", problems - kShownProblems);
   std::fprintf(stderr,
                "%lld frames tracked to %s (%dx%d px, %.6g frames/s from %s); %lld dropped in %lld places, "
-               "%lld repeated, %lld out of order, %lld unreadable; LED samples: %lld missing "
+               "%lld repeated, %lld out of order, %lld unreadable, %lld missing at the end; LED samples: %lld missing "
                "(%lld occlusions), %lld merged, %lld ambiguous, %lld inconsistent, %lld saturated; "
                "%lld stray blobs (reflections); rigid fits in %lld frames; marks fit to %.3g mm (%.3g px), "
-               "%.3g mm/px\n",
+               "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged), "
+               "%lld statistics restarted, %lld drops from the rigid fit held; "
+               "%s; times mid-exposure (exposure %.3g ms), rolling-shutter readout %.3g ms\n",
                static_cast<long long>(rows), o.out_csv.c_str(), v.width_px, v.height_px, v.rate_hz,
                v.rate_source.c_str(), static_cast<long long>(v.frames.dropped),
                static_cast<long long>(v.frames.drop_events), static_cast<long long>(v.frames.repeated),
                static_cast<long long>(v.frames.backwards), static_cast<long long>(v.frames.unreadable),
+               static_cast<long long>(v.frames.missing_at_end),
                static_cast<long long>(v.track.missing_samples), static_cast<long long>(v.track.occlusions),
                static_cast<long long>(v.track.merged), static_cast<long long>(v.track.ambiguous),
                static_cast<long long>(v.track.inconsistent), static_cast<long long>(v.track.saturated),
                static_cast<long long>(v.track.reflections), static_cast<long long>(v.track.fits),
-               1e3 * v.mark_rms_m, v.mark_rms_px, 1e3 * v.m_per_px);
+               1e3 * v.mark_rms_m, v.mark_rms_px, 1e3 * v.m_per_px, static_cast<long long>(v.track.outliers),
+               static_cast<long long>(v.track.stat_restarts), static_cast<long long>(v.track.held_drops),
+               Timing(v).c_str(), 1e3 * v.exposure_s, 1e3 * v.readout_s);
   return 0;
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <condition_variable>
 #include <mutex>
 #include <stdexcept>
@@ -13,12 +14,19 @@
 #include <opencv2/videoio.hpp>
 
 namespace rocklab::video {
+namespace {
+// A container time further than this from its frame's place on the
+// t_first + k / rate grid counts as off the grid (rounded), s.
+constexpr double kOffGridS = 1e-6;
+// Frames announced but not read at the end beyond this many are missing.
+constexpr int64_t kAnnouncedSlack = 1;
+}  // namespace
 
 struct FrameReader::Capture {
   cv::VideoCapture cap;
 };
 
-FrameReader::FrameReader(const std::string& spec, bool device, std::optional<double> fallback_fps)
+FrameReader::FrameReader(const std::string& spec, bool device, std::optional<double> fps)
     : cap_(std::make_unique<Capture>()) {
   kind_ = device ? Kind::kDevice
                  : (spec.find('%') != std::string::npos ? Kind::kImageSequence : Kind::kFile);
@@ -39,21 +47,37 @@ FrameReader::FrameReader(const std::string& spec, bool device, std::optional<dou
   width_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_WIDTH));
   height_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_HEIGHT));
   const double container_fps = kind_ == Kind::kImageSequence ? 0.0 : cap_->cap.get(cv::CAP_PROP_FPS);
-  if (std::isfinite(container_fps) && container_fps > 0) {
-    rate_hz_ = container_fps;
+  if (kind_ == Kind::kFile) {
+    const double announced = cap_->cap.get(cv::CAP_PROP_FRAME_COUNT);
+    if (std::isfinite(announced) && announced > 0 && announced < 1e12) {
+      counts_.announced = static_cast<int64_t>(std::llround(announced));
+    }
+  }
+  const bool has_rate = std::isfinite(container_fps) && container_fps > 0;
+  if (kind_ == Kind::kImageSequence) {
+    if (!fps) {
+      throw std::runtime_error(spec + ": an image sequence has no timestamps; set [camera.video] fps in the rig");
+    }
+    times_from_fps_ = true;
+    rate_hz_ = container_rate_hz_ = *fps;
+    rate_source_ = "[camera.video] fps: an image sequence has no timestamps";
+  } else if (fps && kind_ == Kind::kFile) {
+    // The camera's true rate over the container's (a slow-motion export
+    // stored at 30 frames/s): the container's still numbers the frames.
+    rate_hz_ = *fps;
+    container_rate_hz_ = has_rate ? container_fps : *fps;
+    char what[160];
+    std::snprintf(what, sizeof what, "the given fps (the container says %.6g frames/s, which numbers the frames)",
+                  container_rate_hz_);
+    rate_source_ = has_rate ? what : "the given fps (the video gives none)";
+  } else if (has_rate) {
+    rate_hz_ = container_rate_hz_ = container_fps;
     rate_source_ = kind_ == Kind::kDevice ? "the device's nominal rate" : "the container's nominal rate";
-  } else if (fallback_fps) {
-    rate_hz_ = *fallback_fps;
+  } else if (fps) {
+    rate_hz_ = container_rate_hz_ = *fps;
     rate_source_ = "[camera.video] fps (the video gives none)";
   } else {
     throw std::runtime_error(spec + ": the video gives no frame rate; set [camera.video] fps in the rig");
-  }
-  if (kind_ == Kind::kImageSequence) {
-    times_from_fps_ = true;
-    rate_source_ = "[camera.video] fps: an image sequence has no timestamps";
-    if (!fallback_fps) {
-      throw std::runtime_error(spec + ": an image sequence has no timestamps; set [camera.video] fps in the rig");
-    }
   }
 }
 
@@ -67,31 +91,70 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     } catch (const cv::Exception&) {
       ok = false;
     }
-    if (!ok || raw_.empty()) return false;
+    if (!ok || raw_.empty()) {
+      // The end: frames the container announced beyond the last number
+      // read are missing (one frame of slack: a duration x rate estimate).
+      if (counts_.announced > 0 && last_number_ >= 0 && !times_from_fps_) {
+        const int64_t after = counts_.announced - (last_number_ + 1);
+        counts_.missing_at_end = after > kAnnouncedSlack ? after : 0;
+      }
+      return false;
+    }
+    // A frame of another size (OpenCV's image reader gives it as it is; its
+    // FFmpeg reader keeps the first size, and the LEDs' blob statistics
+    // then reject what it makes of the new frames).
+    const cv::Size decoded = raw_.size();
+    if (first_size_.empty()) first_size_ = decoded;
+    if (decoded != first_size_) {
+      // Not measured with the first size's marks and intrinsics: stop, said.
+      char msg[256];
+      std::snprintf(msg, sizeof msg,
+                    "frame %lld (read %lld of the file): the frame size changed from %dx%d to %dx%d px; the marks, region "
+                    "and intrinsics hold for the first size (cut the video where it changes)",
+                    static_cast<long long>(last_number_ + 1), static_cast<long long>(index_ + 1), first_size_.width,
+                    first_size_.height, decoded.width, decoded.height);
+      error_ = msg;
+      return false;
+    }
     const int64_t index = index_++;
-    double t = 0;
-    if (times_from_fps_) {
-      t = static_cast<double>(index) / rate_hz_;
+    double t = 0;        // the frame's time, s
+    double stored = 0;   // its container (device) time, s
+    int64_t n = index;   // its number
+    if (times_from_fps_ && kind_ == Kind::kImageSequence) {
+      t = stored = static_cast<double>(index) / rate_hz_;
     } else {
-      t = cap_->cap.get(cv::CAP_PROP_POS_MSEC) * 1e-3;
-      if (!std::isfinite(t)) {
+      stored = cap_->cap.get(cv::CAP_PROP_POS_MSEC) * 1e-3;
+      if (!std::isfinite(stored)) {
         ++counts_.unreadable;
         continue;
       }
+      if (counts_.frames == 0 && last_number_ < 0) first_time_s_ = stored;
+      if (!times_from_fps_ && index == 1 && counts_.frames == 1 && stored <= first_time_s_) {
+        // No times from this video (the backend gives every frame the same):
+        // index / rate from here on, counted (the source says so).
+        times_from_fps_ = true;
+      }
+      if (times_from_fps_) {
+        stored = first_time_s_ + static_cast<double>(index) / container_rate_hz_;
+        t = first_time_s_ + static_cast<double>(index) / rate_hz_;
+        ++counts_.untimed;
+      } else {
+        n = std::llround((stored - first_time_s_) * container_rate_hz_);
+        if (kind_ == Kind::kDevice) {
+          t = stored;  // the driver's clock: real times, not a grid
+        } else {
+          // The container's time only numbers the frame; its rounding stays out.
+          t = first_time_s_ + static_cast<double>(n) / rate_hz_;
+          const double off = std::abs(stored - (first_time_s_ + static_cast<double>(n) / container_rate_hz_));
+          if (off > kOffGridS) {
+            ++counts_.off_grid;
+            counts_.max_off_grid_s = std::max(counts_.max_off_grid_s, off);
+          }
+        }
+      }
     }
-    if (counts_.frames == 0 && last_number_ < 0) first_time_s_ = t;
-    if (!times_from_fps_ && index == 1 && counts_.frames == 1 && t <= first_time_s_) {
-      // No times from this video (the backend gives every frame the same):
-      // index / rate from here on, counted (the source says so).
-      times_from_fps_ = true;
-    }
-    if (times_from_fps_ && kind_ != Kind::kImageSequence) {
-      t = first_time_s_ + static_cast<double>(index) / rate_hz_;
-      ++counts_.untimed;
-    }
-    const int64_t n = std::llround((t - first_time_s_) * rate_hz_);
     if (last_number_ >= 0) {
-      if (t < last_time_s_) {
+      if (stored < last_time_s_) {
         ++counts_.backwards;
         continue;
       }
@@ -105,7 +168,7 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
       }
     }
     last_number_ = n;
-    last_time_s_ = t;
+    last_time_s_ = stored;
     if (raw_.channels() == 1) {
       if (raw_.depth() == CV_8U) {
         gray = raw_;
@@ -132,6 +195,7 @@ struct ReadAhead::Impl {
     double time_s{};
     int64_t number{};
     FrameCounts counts;
+    std::string error;
     bool end{false};
   };
   FrameReader* reader{};
@@ -160,6 +224,7 @@ struct ReadAhead::Impl {
       s.number = n;
       s.counts = reader->counts();
       s.end = !ok;
+      if (!ok) s.error = reader->error();
       lock.lock();
       head = (head + 1) % slots.size();
       ++filled;
@@ -206,7 +271,10 @@ bool ReadAhead::Next(cv::Mat& gray, double& time_s, int64_t& number, double time
   }
   const Impl::Slot& s = m.slots[m.tail];
   counts_ = s.counts;
-  if (s.end) return false;  // stays filled: every later call ends too
+  if (s.end) {
+    error_ = s.error;
+    return false;
+  }  // stays filled: every later call ends too
   m.holding = true;
   gray = s.gray;
   time_s = s.time_s;

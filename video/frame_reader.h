@@ -4,13 +4,18 @@
 /// (FFmpeg backend: mp4, mkv, avi; FFV1, MJPG, H.264...), an image sequence
 /// (`frames/%06d.png`, OpenCV's image reader) or a V4L2 device (live).
 ///
-/// Time: each frame's from the container's timestamps (CAP_PROP_POS_MSEC,
-/// the decoded frame's presentation time) or, live, the driver's buffer
-/// time; never from the frame's index. Image sequences have no times: there
-/// the rig's `[camera.video] fps` is used and `times_from_fps()` says so.
-/// The frame number is round((t - t_first) x nominal rate): a dropped
-/// frame is a skipped number (counted), a repeated one (the same number
-/// again, or a time going back) is counted and not delivered.
+/// Time: a file's frame k is stamped t_first + k / rate, the rate being the
+/// given `fps` (the rig's or `--fps`: a slow-motion export stored at 30
+/// frames/s) or else the container's nominal rate. The container's
+/// timestamps (CAP_PROP_POS_MSEC, the decoded frame's presentation time)
+/// only number the frames: k = round((t - t_first) x container rate), so a
+/// dropped frame is a skipped number (counted), a repeated one (the same
+/// number again, or a time going back) is counted and not delivered, and
+/// timestamps rounded by the container (Matroska's milliseconds: up to
+/// 0.5 ms at 240 frames/s) are counted (`off_grid`) and do not reach the
+/// frame's time. Image sequences have no times: index / `fps`, and
+/// `times_from_fps()` says so. A device's frames keep the driver's buffer
+/// times (a live clock, not a grid).
 
 #include <cstdint>
 #include <memory>
@@ -31,17 +36,27 @@ struct FrameCounts {
   /// Frames timed index / rate because the video turned out to give no
   /// times (its second frame's time not after its first's).
   int64_t untimed{};
+  /// Frames whose container time is off the t_first + k / rate grid by more
+  /// than 1 us (rounded timestamps), and the largest such offset, s.
+  int64_t off_grid{};
+  double max_off_grid_s{};
+  /// Frames the container announces (its frame count, or duration x rate)
+  /// after the last one read: a truncated file, or a decode error that
+  /// ended the read. Set at the end; 0 when the container says nothing.
+  int64_t missing_at_end{};
+  int64_t announced{};  ///< the container's frame count; 0: not known
 };
 
 class FrameReader {
  public:
   enum class Kind { kFile, kImageSequence, kDevice };
   /// Opens `spec` (a file, a printf pattern of images, or /dev/videoN with
-  /// `device`). `fallback_fps` (Hz) is used where the video has no times
-  /// or no nominal rate.
+  /// `device`). `fps` (Hz), where given, is the camera's true rate: it
+  /// stamps a file's frames (the container's rate only numbers them) and
+  /// times an image sequence; a device uses it only when it gives no rate.
   /// @throws std::runtime_error naming the spec when it cannot be opened,
-  ///         or when it has no times and no fallback rate was given.
-  FrameReader(const std::string& spec, bool device, std::optional<double> fallback_fps);
+  ///         or when it has no times and no rate was given.
+  FrameReader(const std::string& spec, bool device, std::optional<double> fps);
   ~FrameReader();
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
@@ -51,8 +66,12 @@ class FrameReader {
   bool Next(cv::Mat& gray, double& time_s, int64_t& number);
 
   Kind kind() const { return kind_; }
-  /// Nominal frame rate, Hz: the container's, else the fallback.
+  /// Frame rate the frames are stamped with, Hz: the given fps, else the
+  /// container's nominal rate.
   double rate_hz() const { return rate_hz_; }
+  /// The container's (device's) nominal rate that numbers the frames from
+  /// their timestamps, Hz (= rate_hz() unless fps overrides it).
+  double container_rate_hz() const { return container_rate_hz_; }
   /// Image sequences: from the start. Other videos: once they turn out to
   /// give no times (FrameCounts::untimed); read it on the reading thread.
   bool times_from_fps() const { return times_from_fps_; }
@@ -62,12 +81,17 @@ class FrameReader {
   int height() const { return height_; }
   const FrameCounts& counts() const { return counts_; }
   const std::string& backend() const { return backend_; }
+  /// Why Next() stopped before the end (a frame of another size: the
+  /// marks and intrinsics hold for the first), "frame K (...): ..."; empty
+  /// at a plain end.
+  const std::string& error() const { return error_; }
 
  private:
   struct Capture;
   std::unique_ptr<Capture> cap_;
   Kind kind_{};
   double rate_hz_{};
+  double container_rate_hz_{};
   bool times_from_fps_{false};
   std::string rate_source_;
   std::string backend_;
@@ -77,6 +101,8 @@ class FrameReader {
   int64_t last_number_{-1};
   double last_time_s_{};
   FrameCounts counts_;
+  std::string error_;
+  cv::Size first_size_;
   cv::Mat raw_;  // reused: the decoded frame before the grey conversion
 };
 
@@ -105,11 +131,14 @@ class ReadAhead {
   bool Next(cv::Mat& gray, double& time_s, int64_t& number, double timeout_s, bool* timed_out);
   /// The reader's counts as of the frame Next() returned last.
   const FrameCounts& counts() const { return counts_; }
+  /// After Next() returned false at the end: the reader's error() then.
+  const std::string& error() const { return error_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   FrameCounts counts_;
+  std::string error_;
 };
 
 }  // namespace rocklab::video

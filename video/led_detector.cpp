@@ -91,6 +91,7 @@ void LedDetector::Detect(const cv::Mat& gray, std::vector<Blob>& out) {
     b.v_px = sv / sw;
     b.peak = peak;
     b.saturated_px = sat;
+    b.flux = sw;
     out.push_back(b);
   }
   counts_.blobs += static_cast<int64_t>(out.size());

@@ -22,6 +22,7 @@ struct Blob {
   int peak{};             ///< brightest pixel, 8-bit level
   int saturated_px{};     ///< pixels at or above the saturation level
   bool oversize{false};   ///< larger than max_area_px: not one LED (merged LEDs, a reflection)
+  double flux{};          ///< light above the background over the box, 8-bit levels x px
 };
 
 struct DetectorOptions {

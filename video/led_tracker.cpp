@@ -10,6 +10,28 @@ namespace {
 constexpr double kClearRatio = 3.0;
 // Rates from two fits further apart than this are not trusted, s.
 constexpr double kMaxRateGapS = 0.5;
+// Blob statistics: samples before any is judged; the weight of a new sample
+// afterwards (a memory of about 20 samples, so blur and distance changes
+// over a swing are followed); a sample departs when it is off the mean by
+// more than kDepartSigmas standard deviations and a fraction of the mean:
+// kAreaFraction of its area (which fluctuates by a few pixels of ~20),
+// kFluxFraction of its light (a sum over ~100 pixels, steady to ~1 %; a
+// glint next to the LED raises the background of its box and takes light
+// off before the blobs merge, then doubles it); after kReseedS of
+// departures the statistics start again (the LED itself changed), counted.
+constexpr int64_t kStatsWarmup = 10;
+constexpr double kStatsWeight = 0.05;
+constexpr double kDepartSigmas = 6.0;
+constexpr double kAreaFraction = 0.35;
+constexpr double kFluxFraction = 0.10;
+constexpr double kReseedS = 1.0;
+// An LED dropped from the rigid fit last frame is dropped again while its
+// residual is at least this fraction of the worst one's.
+constexpr double kHysteresis = 0.5;
+// Rolling shutter: refits with the frame's own rates, at most, and the
+// change of phi (rad) below which they stop.
+constexpr int kRefits = 30;
+constexpr double kRefitTolRad = 1e-10;
 
 struct Fit {
   double phi, tx, tz, worst;
@@ -69,6 +91,49 @@ LedTracker::LedTracker(const VideoConfig& config, const PlaneMap& map)
     mz_[i] = leds_[i].z_m;
   }
   used_.reserve(n);
+  blob_stats_.resize(n);
+  rx_.resize(n), rz_.resize(n), led_dt_.assign(n, 0.0);
+  dropped_last_.assign(n, false);
+}
+
+bool LedTracker::Departs(const BlobStats& st, const Blob& b) const {
+  if (st.n < kStatsWarmup) return false;
+  const auto off = [](double v, double mean, double var, double fraction) {
+    return std::abs(v - mean) > std::max(kDepartSigmas * std::sqrt(var), fraction * mean);
+  };
+  return off(b.area_px, st.area_mean, st.area_var, kAreaFraction) ||
+         (st.flux_mean > 0 && off(b.flux, st.flux_mean, st.flux_var, kFluxFraction));
+}
+
+void LedTracker::Learn(BlobStats& st, const Blob& b) {
+  ++st.n;
+  const auto update = [&st](double v, double& mean, double& var) {
+    const double d = v - mean;
+    if (st.n <= kStatsWarmup) {  // Welford: var holds the running sum of squares until the warm-up ends
+      mean += d / static_cast<double>(st.n);
+      var += d * (v - mean);
+      if (st.n == kStatsWarmup) var /= static_cast<double>(st.n);
+    } else {
+      mean += kStatsWeight * d;
+      var = (1 - kStatsWeight) * (var + kStatsWeight * d * d);
+    }
+  };
+  update(b.area_px, st.area_mean, st.area_var);
+  update(b.flux, st.flux_mean, st.flux_var);
+  st.rejecting_since_s = std::numeric_limits<double>::quiet_NaN();
+}
+
+// Each used LED's position taken back from its row's time to row 0's along
+// the rigid motion at `pose` with `rate`: d/dt (R(phi) m + t) =
+// phi_dot R'(phi) m + t_dot.
+void LedTracker::Correct(const double pose[3], const double rate[3]) {
+  const double c = std::cos(pose[0]), s = std::sin(pose[0]);
+  for (int i : used_) {
+    const double vx = rate[0] * (-s * mx_[i] - c * mz_[i]) + rate[1];
+    const double vz = rate[0] * (c * mx_[i] - s * mz_[i]) + rate[2];
+    wx_[i] = rx_[i] - vx * led_dt_[i];
+    wz_[i] = rz_[i] - vz * led_dt_[i];
+  }
 }
 
 void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vector<LedSample>& out) {
@@ -126,31 +191,85 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
     }
   }
 
-  // The identified LEDs, then the rigid fit; the worst one off it is dropped
-  // until the rest agree (two LEDs that disagree are both dropped).
+  // A blob off its LED's running statistics is not the LED alone.
+  for (std::size_t i = 0; i < n; ++i) {
+    BlobStats& st = blob_stats_[i];
+    if (out[i].flags != 0 || !Departs(st, blobs[static_cast<std::size_t>(pick_[i])])) {
+      st.rejecting_since_s = std::numeric_limits<double>::quiet_NaN();  // an episode of departures ends
+      continue;
+    }
+    if (std::isnan(st.rejecting_since_s)) st.rejecting_since_s = time_s;
+    if (time_s - st.rejecting_since_s > kReseedS) {
+      st = BlobStats{};  // the LED changed for good: learn it again
+      ++counts_.stat_restarts;
+    } else {
+      out[i].flags |= kLedOutlier;
+    }
+  }
+
+  // The identified LEDs (taken back to row 0's time along the predicted
+  // motion), then the rigid fit; the worst one off it is dropped until the
+  // rest agree (two LEDs that disagree are both dropped).
   used_.clear();
   for (std::size_t i = 0; i < n; ++i) {
     if (out[i].flags != 0) continue;
     const cv::Point2d& p = blob_xz_[static_cast<std::size_t>(pick_[i])];
-    wx_[i] = p.x;
-    wz_[i] = p.y;
+    wx_[i] = rx_[i] = p.x;
+    wz_[i] = rz_[i] = p.y;
+    led_dt_[i] = row_time_s_ * blobs[static_cast<std::size_t>(pick_[i])].v_px;
     used_.push_back(static_cast<int>(i));
   }
+  const bool rolling = row_time_s_ > 0;
+  if (rolling && have_rate_) Correct(pose, rate_);
   bool fitted = false;
   Fit fit{};
+  // Hysteresis: an LED dropped last frame is dropped again while its
+  // residual is at least kHysteresis of the worst one's, or of residual_m
+  // when the rest would pass; so a systematic misfit (a lens that is not
+  // calibrated: every LED a little off) does not make the dropped LEDs, and
+  // theta with them, change from frame to frame with the noise.
   while (used_.size() >= 2) {
     fit = FitRigid(mx_, mz_, wx_, wz_, used_);
-    if (fit.worst <= residual_m_) {
+    int drop = fit.worst <= residual_m_ ? -1 : fit.worst_at;
+    const double c_fit = std::cos(fit.phi), s_fit = std::sin(fit.phi);
+    for (int i : used_) {
+      if (!dropped_last_[static_cast<std::size_t>(i)] || (drop >= 0 && dropped_last_[static_cast<std::size_t>(drop)])) {
+        continue;
+      }
+      const double r = std::hypot(c_fit * mx_[i] - s_fit * mz_[i] + fit.tx - wx_[i],
+                                  s_fit * mx_[i] + c_fit * mz_[i] + fit.tz - wz_[i]);
+      if (r >= kHysteresis * (drop >= 0 ? fit.worst : residual_m_)) drop = i;
+    }
+    if (drop < 0) {
       fitted = true;
       break;
     }
+    if (drop != fit.worst_at || fit.worst <= residual_m_) ++counts_.held_drops;
     if (used_.size() == 2) {
       for (int i : used_) out[static_cast<std::size_t>(i)].flags |= kLedInconsistent;
       used_.clear();
       break;
     }
-    out[static_cast<std::size_t>(fit.worst_at)].flags |= kLedInconsistent;
-    used_.erase(std::find(used_.begin(), used_.end(), fit.worst_at));
+    out[static_cast<std::size_t>(drop)].flags |= kLedInconsistent;
+    used_.erase(std::find(used_.begin(), used_.end(), drop));
+  }
+  for (std::size_t i = 0; i < n; ++i) dropped_last_[i] = (out[i].flags & kLedInconsistent) != 0;
+  if (fitted && rolling && have_pose_) {
+    // Again with the rates this frame's fit gives against the last one's
+    // (a secant over the frame interval): the fit depends on those rates,
+    // so this is iterated to its fixed point, which contracts by the LEDs'
+    // mean delay over the frame interval (< 1 while the readout is shorter
+    // than a frame). The rates' error then enters only through the
+    // acceleration.
+    const double dt = time_s - pose_time_s_;
+    for (int iteration = 0; iteration < kRefits && dt > 0 && dt < kMaxRateGapS; ++iteration) {
+      const double now[3] = {fit.phi, fit.tx, fit.tz};
+      const double rate[3] = {(fit.phi - pose_[0]) / dt, (fit.tx - pose_[1]) / dt, (fit.tz - pose_[2]) / dt};
+      Correct(now, rate);
+      const double before = fit.phi;
+      fit = FitRigid(mx_, mz_, wx_, wz_, used_);
+      if (std::abs(fit.phi - before) < kRefitTolRad) break;
+    }
   }
 
   // Samples, flags and counts.
@@ -167,6 +286,7 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
     if (o.flags == 0) {
       o.x_m = wx_[i];
       o.z_m = wz_[i];
+      Learn(blob_stats_[i], blobs[static_cast<std::size_t>(pick_[i])]);
       if (o.saturated_px > 0) {
         o.flags |= kLedSaturated;
         ++counts_.saturated;
@@ -179,6 +299,7 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
     counts_.merged += (o.flags & kLedMerged) ? 1 : 0;
     counts_.ambiguous += (o.flags & kLedAmbiguous) ? 1 : 0;
     counts_.inconsistent += (o.flags & kLedInconsistent) ? 1 : 0;
+    counts_.outliers += (o.flags & kLedOutlier) ? 1 : 0;
     seen_[i] = (o.flags & kLedMissing) == 0;
   }
   for (std::size_t j = 0; j < blobs.size(); ++j) counts_.reflections += blob_users_[j] == 0 ? 1 : 0;

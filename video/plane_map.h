@@ -18,7 +18,11 @@ namespace rocklab::video {
 class PlaneMap {
  public:
   /// @throws std::runtime_error naming the rig file when the marks do not
-  ///         determine a homography (fewer than 4, or 3 on a line).
+  ///         determine a homography (fewer than 4, or 3 on a line), or one
+  ///         that is not a camera's view of a plane: folded between the
+  ///         marks, an infinite or zero scale, a scale changing by more than
+  ///         20x across them, or a mark off it by more than 5 % of their
+  ///         spread (naming that mark's line).
   PlaneMap(const std::optional<Intrinsics>& intrinsics, const std::vector<Mark>& marks,
            const std::string& rig_path);
   /// Maps image points (px) to the plane (m), in place of `xz` (resized). Never throws.
@@ -33,6 +37,8 @@ class PlaneMap {
 
  private:
   void Undistort(const std::vector<cv::Point2d>& in, std::vector<cv::Point2d>& out) const;
+  void CheckPlausible(const std::vector<Mark>& marks, const std::vector<cv::Point2d>& image_ideal,
+                      const std::vector<cv::Point2d>& plane, const std::string& rig_path) const;
   bool distorted_{false};
   cv::Matx33d k_;
   cv::Mat dist_;

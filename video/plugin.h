@@ -23,7 +23,7 @@ inline constexpr const char* kPluginFile = "rocklab-video.so";
 /// The Debian package that installs it (cmake/RocklabPackage.cmake).
 inline constexpr const char* kPluginPackage = "rocklab-video";
 /// PluginCalls::version of this build; a plugin with another is refused.
-inline constexpr int kPluginVersion = 1;
+inline constexpr int kPluginVersion = 2;  // 2: TrackRequest::fps_hz
 
 /// `rocklab track`'s options (tools/cmd_track.cpp).
 struct TrackRequest {
@@ -32,6 +32,7 @@ struct TrackRequest {
   std::string out_csv;
   std::int64_t max_frames{0};  ///< 0: all
   const std::atomic<bool>* stop{};  ///< Ctrl-C (tools::InstallStopSignals)
+  double fps_hz{0};  ///< the camera's true frame rate over the rig's and the container's; 0: none given
 };
 
 /// `rocklab camera-calibrate`'s options (tools/cmd_camera_calibrate.cpp).

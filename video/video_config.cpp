@@ -195,6 +195,9 @@ VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
 
   Keys k(rig.path, *video, "camera.video");
   if ((c.fps = k.Number("fps", 0.01, 1e6))) c.fps_line = k.LineOfKey("fps");
+  c.exposure_s = k.Number("exposure_s", 0, 10).value_or(c.exposure_s);
+  c.readout_s = k.Number("readout_s", 0, 10).value_or(c.readout_s);
+  c.max_dark_s = k.Number("max_dark_s", 0, 1e9).value_or(c.max_dark_s);
   if (const toml::node* n = k.Get("roi_px")) {
     const toml::array* a = n->as_array();
     bool ok = a != nullptr && a->size() == 4;

@@ -46,9 +46,20 @@ struct VideoConfig {
   std::string rig_path;
   std::string camera;  ///< the [[camera]]'s name
   std::vector<VideoLed> leds;
-  /// Frame rate used only when the video has no timestamps (image sequences), Hz.
+  /// The camera's true frame rate, Hz: stamps the frames of a file (its
+  /// container's rate then only numbers them: a slow-motion export) and
+  /// times an image sequence; absent: the container's rate.
   std::optional<double> fps;
   int fps_line{};
+  /// Exposure time, s: a frame's time is the middle of its exposure (the
+  /// container's time taken as its start). 0: times as stored.
+  double exposure_s{0};
+  /// Rolling shutter: row r starts its exposure readout_s x r / height
+  /// after row 0, s; each LED is taken back to row 0's time. 0: global shutter.
+  double readout_s{0};
+  /// No LED identified for longer than this is an error (the read stops,
+  /// naming the file and frame), s; 0: never an error.
+  double max_dark_s{1.0};
   /// Region searched for LEDs: x, y, width, height (px); width 0 = whole frame.
   std::array<int, 4> roi_px{};
   double threshold{40};        ///< 8-bit level a blob's pixels exceed

@@ -3,6 +3,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <optional>
 #include <stdexcept>
 
 #include "common/logger_clock.h"
@@ -22,13 +24,14 @@ constexpr double kIdleWaitS = 0.1;
 
 class VideoSource : public daq::Source {
  public:
-  VideoSource(const std::string& spec, bool device, const daq::SourceOptions& options)
+  VideoSource(const std::string& spec, bool device, const daq::SourceOptions& options,
+              std::optional<double> fps_override)
       : path_(device ? "v4l2:" + spec : spec),
         device_(device),
         on_problem_(options.on_problem),
         stop_(options.stop),
         idle_timeout_s_(options.idle_timeout_s),
-        config_(LoadVideoConfig(*options.rig)),
+        config_(WithFps(LoadVideoConfig(*options.rig), fps_override)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps),
         detector_(Options(config_)),
@@ -53,6 +56,10 @@ class VideoSource : public daq::Source {
     stats_.times_from_fps = reader_.times_from_fps();
     stats_.width_px = reader_.width();
     stats_.height_px = reader_.height();
+    stats_.exposure_s = config_.exposure_s;
+    stats_.device = device;
+    stats_.readout_s = config_.readout_s;
+    tracker_.SetRowTime(config_.readout_s, reader_.height());
     if (config_.intrinsics && config_.intrinsics->width_px > 0 && reader_.width() > 0 &&
         (config_.intrinsics->width_px != reader_.width() || config_.intrinsics->height_px != reader_.height())) {
       throw std::runtime_error(path_ + ": frames are " + std::to_string(reader_.width()) + "x" +
@@ -61,10 +68,13 @@ class VideoSource : public daq::Source {
                                "x" + std::to_string(config_.intrinsics->height_px));
     }
     auto log = common::NamedLogger("video");
-    log->info("{}: {}x{} px, {:.6g} frames/s from {}{}; camera '{}', {} LEDs; marks fit to {:.3g} mm "
-              "({:.3g} px), {:.3g} mm/px, gate {:.3g} mm",
+    log->info("{}: {}x{} px, {:.6g} frames/s from {}{}; exposure {:.3g} ms, rolling-shutter readout {:.3g} ms; "
+              "camera '{}', {} LEDs; marks fit to {:.3g} mm ({:.3g} px), {:.3g} mm/px, gate {:.3g} mm",
               path_, reader_.width(), reader_.height(), reader_.rate_hz(), reader_.rate_source(),
-              reader_.times_from_fps() ? " (frame times are index / fps)" : ", frame times from its timestamps",
+              reader_.times_from_fps() ? " (frame times are index / fps)"
+              : device_                ? ", frame times from the driver"
+                                       : ", frame k at t0 + k / rate (the container's times number the frames)",
+              1e3 * config_.exposure_s, 1e3 * config_.readout_s,
               config_.camera, config_.leds.size(), 1e3 * map_.mark_rms_m(), map_.mark_rms_px(),
               1e3 * map_.scale_m_per_px(), 1e3 * tracker_.gate_m());
     if (std::abs(reader_.rate_hz() - options.rig->sample_rate_hz) > 1e-3 * reader_.rate_hz()) {
@@ -94,6 +104,19 @@ class VideoSource : public daq::Source {
     // A device is waited on 0.1 s at a time (the DAQ's live contract: kIdle).
     if (!read_ahead_->Next(gray_, t, number, device_ ? kIdleWaitS : -1.0, &idle)) {
       Sync();
+      if (!idle && !read_ahead_->error().empty()) {
+        error_ = path_ + ":" + std::to_string(stats_.frames.frames + 1) + ": " + read_ahead_->error();
+        Report(stats_.frames.frames + 1, read_ahead_->error());
+        return daq::ReadStatus::kError;
+      }
+      if (!idle && stats_.frames.missing_at_end > 0 && !end_said_) {
+        end_said_ = true;
+        ++stats_src_.warnings;
+        Report(stats_.frames.frames + 1,
+               "the container announces " + std::to_string(stats_.frames.announced) + " frames but the read ended " +
+                   std::to_string(stats_.frames.missing_at_end) +
+                   " frame(s) early (a truncated file, or a decode error that ended it)");
+      }
       if (idle) {
         const double quiet_s = std::chrono::duration<double>(Clock::now() - last_frame_).count();
         const bool stopped = stop_ != nullptr && stop_->load();
@@ -110,6 +133,13 @@ class VideoSource : public daq::Source {
       Report(number, "the video gives no frame times: frames are timed index / " + std::to_string(reader_rate_) +
                          " Hz and drops cannot be seen");
     }
+    if (read_ahead_->counts().off_grid > 0 && !off_grid_said_) {
+      off_grid_said_ = true;
+      ++stats_src_.warnings;
+      Report(number, "the container's timestamps are off the 1/rate grid (rounded, as Matroska's milliseconds): "
+                     "frames are stamped t0 + k / " + std::to_string(reader_rate_) +
+                         " Hz, the container's times only find drops and repeats");
+    }
     const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
@@ -117,9 +147,13 @@ class VideoSource : public daq::Source {
         Report(number, std::to_string(dropped) + " frame(s) dropped before this one (from the frame times)");
       }
     }
+    // The middle of the exposure (the stored time is its start).
+    t += 0.5 * config_.exposure_s;
     detector_.Detect(gray_, blobs_);
     tracker_.Track(blobs_, t, samples_);
     ++stats_src_.rows;
+    if (!CheckLit(t, number)) return daq::ReadStatus::kError;
+    ReportOutliers(number);
     frame.seq = number;
     frame.time_s = t;
     frame.line = number + 1;
@@ -151,6 +185,46 @@ class VideoSource : public daq::Source {
     o.saturation = c.saturation;
     return o;
   }
+  static VideoConfig WithFps(VideoConfig c, std::optional<double> fps) {
+    if (fps) c.fps = fps;
+    return c;
+  }
+  // No LED identified for longer than max_dark_s is an error naming the frame.
+  bool CheckLit(double t, int64_t number) {
+    bool lit = false;
+    for (const LedSample& s : samples_) lit = lit || std::isfinite(s.x_m);
+    if (!have_lit_time_ || lit) {
+      last_lit_s_ = t;
+      have_lit_time_ = true;
+      return true;
+    }
+    if (config_.max_dark_s <= 0 || t - last_lit_s_ <= config_.max_dark_s) return true;
+    char msg[256];
+    std::snprintf(msg, sizeof msg,
+                  "frame %lld (t = %.6f s): no LED identified for %.3f s, more than [camera.video] max_dark_s = "
+                  "%g s of %s (set it to 0 to read on)",
+                  static_cast<long long>(number), t, t - last_lit_s_, config_.max_dark_s, config_.rig_path.c_str());
+    error_ = path_ + ":" + std::to_string(number + 1) + ": " + msg;
+    Report(number + 1, msg);
+    Sync();
+    return false;
+  }
+  // One message per episode of an LED's blob rejected by its statistics.
+  void ReportOutliers(int64_t number) {
+    outlier_now_.resize(samples_.size(), false);
+    for (std::size_t i = 0; i < samples_.size(); ++i) {
+      const bool now = (samples_[i].flags & kLedOutlier) != 0;
+      if (now && !outlier_now_[i]) {
+        ++stats_src_.warnings;
+        if (++outlier_episodes_ <= kShownDrops) {
+          Report(number + 1, "LED " + config_.leds[i].name + ": blob of " + std::to_string(samples_[i].area_px) +
+                                 " px departs from its running area and light (a glint or reflection merged "
+                                 "with it?): rejected from here on until it matches again");
+        }
+      }
+      outlier_now_[i] = now;
+    }
+  }
   void Report(int64_t line, const std::string& message) {
     if (on_problem_) on_problem_(daq::Problem{daq::Location{&path_, line}, message});
   }
@@ -181,6 +255,12 @@ class VideoSource : public daq::Source {
   // Decoding on its own thread, tracking on the caller's; declared after
   // reader_, so destroyed (its thread joined) before it.
   std::unique_ptr<ReadAhead> read_ahead_;
+  bool off_grid_said_{false};
+  bool end_said_{false};
+  bool have_lit_time_{false};
+  double last_lit_s_{};
+  std::vector<bool> outlier_now_;
+  int64_t outlier_episodes_{0};
   cv::Mat gray_;
   std::vector<Blob> blobs_;
   std::vector<LedSample> samples_;
@@ -197,9 +277,14 @@ std::unique_ptr<daq::Source> OpenVideoDevice(const std::string& spec, const daq:
 
 std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
                                              const daq::SourceOptions& options) {
+  return OpenVideoSource(spec, device, options, std::nullopt);
+}
+
+std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
+                                             const daq::SourceOptions& options, std::optional<double> fps) {
   if (options.rig == nullptr) throw std::invalid_argument(spec + ": a video input needs the rig (--rig)");
   if (spec.empty()) throw std::invalid_argument("video: no file (expected video:FILE or v4l2:/dev/videoN)");
-  return std::make_unique<VideoSource>(spec, device, options);
+  return std::make_unique<VideoSource>(spec, device, options, fps);
 }
 
 const VideoStats* VideoStatsOf(const daq::Source& source) {

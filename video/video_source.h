@@ -19,6 +19,7 @@
 /// and ends on SourceOptions::stop or after its idle_timeout_s.
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "daq/source.h"
@@ -41,6 +42,9 @@ struct VideoStats {
   std::string rate_source;   ///< where the frame rate came from
   bool times_from_fps{};     ///< no timestamps: times are frame index / fps
   int width_px{}, height_px{};
+  double exposure_s{};       ///< [camera.video] exposure_s: times are mid-exposure
+  double readout_s{};        ///< [camera.video] readout_s: LEDs taken back to row 0's time
+  bool device{};             ///< a live device: frames keep the driver's times
 };
 
 /// `spec`: a video file or image pattern (device false), or /dev/videoN.
@@ -49,6 +53,10 @@ struct VideoStats {
 ///         naming the rig file (line, key) or the video.
 std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
                                              const daq::SourceOptions& options);
+/// The same with the camera's true frame rate given (`rocklab track --fps`),
+/// over the rig's [camera.video] fps and the container's rate (Hz).
+std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool device,
+                                             const daq::SourceOptions& options, std::optional<double> fps);
 /// The counts of a source OpenVideoSource made; nullptr for any other source.
 const VideoStats* VideoStatsOf(const daq::Source& source);
 /// Registers `video:` and `v4l2:` with daq::OpenSource (call once at start-up).

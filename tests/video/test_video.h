@@ -5,6 +5,7 @@
 // each frame at a timestamp of the test's choosing, so a dropped frame is a
 // real gap in the container's times.
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -49,9 +50,45 @@ struct TestCamera {
   }
 };
 
+/// An LED of a test rig: its name and block-frame place, m.
+struct RigLed {
+  std::string name;
+  double x_m, z_m;
+};
+
+/// A rig file for a 0.25 x 1.0 m block filmed by one camera "side" with
+/// these LEDs (channels side_<led>_x|z, gain 1: metres), its
+/// [camera.video] section holding `video_keys` (TOML lines) and reference
+/// marks at the plane points `marks` (x, z; m) where `cam` projects them.
+std::string VideoRigText(const TestCamera& cam, double sample_rate_hz, const std::vector<RigLed>& leds,
+                         const std::string& video_keys, const std::vector<std::array<double, 2>>& marks);
+
+/// The error opening `input` (empty: a missing video in the scratch
+/// folder `name`) with the rig `rig_text` written there gives; "" if it opens.
+std::string VideoOpenError(const std::string& name, const std::string& rig_text, const std::string& input);
+
+/// Standard deviation of the detector's centroid along one axis, px, for a
+/// Gaussian spot (sigma `spot_sigma_px`, `peak` levels over `background`)
+/// under white pixel noise `pixel_sigma` (levels). Oracle: the
+/// intensity-weighted centroid over a box of N pixels has standard
+/// deviation sigma * sqrt(sum (x - u)^2) / sum(w); the box is the blob's
+/// above-threshold extent (radius r where the spot falls to the threshold)
+/// widened by the margin; sum(w) = 2 pi s^2 peak; 8-bit quantisation adds
+/// 1/12 level^2 to sigma^2.
+inline double CentroidSigmaPx(double spot_sigma_px, double peak, double threshold, double background, int margin_px,
+                              double pixel_sigma) {
+  const double r = spot_sigma_px * std::sqrt(2 * std::log(peak / (threshold - background)));
+  const int h = static_cast<int>(std::ceil(r)) + margin_px;
+  double sum_x2 = 0;
+  for (int i = -h; i <= h; ++i) sum_x2 += (2 * h + 1) * i * i;
+  const double sum_w = 2 * M_PI * spot_sigma_px * spot_sigma_px * peak;
+  return std::sqrt(pixel_sigma * pixel_sigma + 1.0 / 12) * std::sqrt(sum_x2) / sum_w;
+}
+
 /// Writes 8-bit grey frames into a Matroska file: FFV1 (lossless) or MJPEG
 /// (lossy, quantiser `mjpeg_q`, 2 = fine .. 31 = coarse), each frame at
-/// its own presentation time (ms).
+/// its own presentation time (ms). An MJPEG file's frames may change size
+/// midway (the stream's header keeps the first size).
 class TestVideoWriter {
  public:
   TestVideoWriter(const std::string& path, bool lossless, int width, int height, int fps, int mjpeg_q = 3);

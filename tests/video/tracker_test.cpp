@@ -2,7 +2,9 @@
 // plane 1 mm per pixel): what it must flag and count instead of guessing.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "video/led_tracker.h"
@@ -142,6 +144,99 @@ TEST(LedTracker, FollowsARotationByPredictionAndCountsEachOcclusionOnce) {
   EXPECT_EQ(t.counts().occlusions, 2);
   EXPECT_EQ(t.counts().missing_samples, 7);
   EXPECT_EQ(t.counts().inconsistent + t.counts().ambiguous + t.counts().merged, 0);
+}
+
+TEST(LedTracker, ABlobOffItsRunningStatisticsIsAnOutlierUntilTheStatisticsStartAgain) {
+  Fixture f;
+  LedTracker t(f.config, *f.map);
+  std::vector<LedSample> out;
+  // Oracle: the rule of led_tracker.cpp on blobs of known area and light.
+  // Twenty frames of LED A at area 16 or 18 px, light 1600 or 1620:
+  // mean 17 px, sd 1 px; mean 1610, sd 10.
+  for (int k = 0; k < 20; ++k) {
+    std::vector<Blob> b = f.AtRest();
+    for (Blob& x : b) x.area_px = 16 + 2 * (k % 2), x.flux = 1600 + 20 * (k % 2);
+    t.Track(b, k / 100.0, out);
+    ASSERT_EQ(out[0].flags, 0u) << k;
+  }
+  // Area 22 px: off by 5 px, within max(6 sd, 35 % of 17 = 6 px): kept.
+  std::vector<Blob> b = f.AtRest();
+  for (Blob& x : b) x.area_px = 17, x.flux = 1610;
+  b[0].area_px = 22;
+  t.Track(b, 0.20, out);
+  EXPECT_EQ(out[0].flags, 0u);
+  // Light 1400: off by 13 % of 1610 (more than 10 % and 6 sd): an outlier,
+  // NaN, counted; so is a glint's doubled area.
+  b[0].area_px = 17;
+  b[0].flux = 1400;
+  t.Track(b, 0.21, out);
+  EXPECT_EQ(out[0].flags, kLedOutlier);
+  EXPECT_TRUE(std::isnan(out[0].x_m));
+  b[0].area_px = 40;
+  b[0].flux = 3500;
+  for (int k = 22; k <= 120; ++k) {
+    t.Track(b, k / 100.0, out);
+    ASSERT_EQ(out[0].flags, kLedOutlier) << k;  // 0.99 s of departures
+  }
+  EXPECT_EQ(t.counts().outliers, 100);
+  EXPECT_EQ(t.counts().fits, 121);  // the other three fit throughout
+  // More than kReseedS (1 s) after the first departure (0.21 s): the LED
+  // changed for good; its statistics start again and it is measured.
+  t.Track(b, 1.25, out);
+  EXPECT_EQ(out[0].flags, 0u);
+  EXPECT_EQ(t.counts().stat_restarts, 1);
+}
+
+TEST(LedTracker, ARollingShutterIsTakenOutAlongTheRigidMotion) {
+  Fixture f;
+  // Oracle: a block turning at a constant 0.5 rad/s about its +x corner,
+  // filmed at 100 frames/s by a rolling shutter whose row v (1 mm per row,
+  // rows 450 to 850 for the LEDs) is exposed 1e-5 s x v after row 0: each
+  // LED's blob where the block put it at its own row's time (found by
+  // fixed-point iteration on the row). Bound, docs/video.md (Time): the
+  // secant's error a'' (delta^2 + Delta delta) / 2 per LED, a'' = theta'^2 L
+  // (L <= 0.59 m, delta <= 8.5 ms, Delta = 10 ms), over sqrt(S) (S = 0.186
+  // m^2): 2.6e-5 rad. The first fit has no rates (the block already
+  // moving): its lag (1.7e-3 rad) is carried into the next frames' secant
+  // and shrinks by r / (1 + r) a frame (r, the LEDs' mean delay over the
+  // frame interval, ~0.65), so the error is taken from frame 10 on (0.4^10
+  // of 1.7e-3: 2e-7 rad). Uncorrected, theta is late by the LEDs' delays:
+  // more than 1e-3 rad.
+  constexpr double kOmega = 0.5, kRowS = 1e-5;
+  const auto blobs_at = [&f](double tk) {
+    std::vector<Blob> b;
+    for (const VideoLed& l : f.config.leds) {
+      const double dx = l.x_m - 0.125, dz = l.z_m;
+      double v = 1000 * (1 - dz);
+      cv::Point2d p;
+      for (int it = 0; it < 20; ++it) {
+        const double theta = kOmega * (tk + kRowS * v), c = std::cos(-theta), s = std::sin(-theta);
+        p = Px(0.125 + c * dx - s * dz, s * dx + c * dz);
+        v = p.y;
+      }
+      b.push_back({p.x, p.y, 12, 180, 0, false});
+    }
+    return b;
+  };
+  const double lever = std::hypot(0.08 + 0.125, 0.55), delta = 8.5e-3, frame = 0.01;
+  const double bound = kOmega * kOmega * lever * (delta * delta + frame * delta) / 2 / std::sqrt(0.1856);
+  LedTracker rolling(f.config, *f.map), global(f.config, *f.map);
+  rolling.SetRowTime(kRowS * 1000, 1000);
+  std::vector<LedSample> out;
+  double worst = 0, worst_global = 0;
+  for (int k = 0; k < 40; ++k) {
+    const double tk = k * frame;
+    const std::vector<Blob> b = blobs_at(tk);
+    rolling.Track(b, tk, out);
+    global.Track(b, tk, out);
+    if (k < 10) continue;
+    worst = std::max(worst, std::abs(rolling.theta() - kOmega * tk));
+    worst_global = std::max(worst_global, std::abs(global.theta() - kOmega * tk));
+  }
+  std::printf("rolling shutter, 0.5 rad/s: theta error max %.3g rad (bound %.3g); as a global shutter %.3g rad\n",
+              worst, bound, worst_global);
+  EXPECT_LT(worst, bound);
+  EXPECT_GT(worst_global, 1e-3);
 }
 
 }  // namespace

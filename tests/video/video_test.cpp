@@ -103,34 +103,16 @@ cv::Mat Render(const test::TestCamera& cam, int k, std::mt19937& rng) {
 }
 
 std::string RigText(const test::TestCamera& cam) {
-  std::ostringstream r;
-  r.precision(10);
-  r << "name = \"video-test\"\nsample_rate_hz = " << kFps << "\n"
-    << "[block]\nwidth_m = 0.25\nheight_m = 1.0\n"
-    << "[theta_dot]\nwindow_s = 0.05\norder = 2\n"
-    << "[[camera]]\nname = \"side\"\nled = [";
-  for (const Led& led : kLeds) {
-    r << (led.name[0] == 'A' ? "" : ", ") << "{ name = \"" << led.name << "\", x_m = " << led.x << ", z_m = " << led.z
-      << " }";
-  }
-  r << "]\n[camera.video]\nthreshold = " << kThreshold << "\nintrinsics = { fx_px = " << cam.fx
-    << ", fy_px = " << cam.fy << ", cx_px = " << cam.cx << ", cy_px = " << cam.cy << ", distortion = [" << cam.k1
-    << ", " << cam.k2 << ", 0, 0, 0] }\n";
+  std::ostringstream keys;
+  keys.precision(10);
+  keys << "threshold = " << kThreshold << "\nintrinsics = { fx_px = " << cam.fx << ", fy_px = " << cam.fy
+       << ", cx_px = " << cam.cx << ", cy_px = " << cam.cy << ", distortion = [" << cam.k1 << ", " << cam.k2
+       << ", 0, 0, 0] }\n";
+  std::vector<test::RigLed> leds;
+  for (const Led& led : kLeds) leds.push_back({led.name, led.x, led.z});
   // Reference marks: where the test's own projection puts six plane points.
-  const double marks[][2] = {{-0.3, 0.1}, {0.3, 0.1}, {-0.3, 0.6}, {0.3, 0.6}, {0.0, 0.35}, {-0.15, 0.45}};
-  r << "mark = [\n";
-  for (const auto& m : marks) {
-    const cv::Point2d uv = cam.Project(m[0], m[1]);
-    r << "  { u_px = " << uv.x << ", v_px = " << uv.y << ", x_m = " << m[0] << ", z_m = " << m[1] << " },\n";
-  }
-  r << "]\n";
-  for (const Led& led : kLeds) {
-    for (const char* axis : {"x", "z"}) {
-      r << "[[channel]]\nname = \"side_" << led.name << "_" << axis << "\"\nsensor = \"side." << led.name << "."
-        << axis << "\"\ngain = 1.0\nraw_min = -10.0\nraw_max = 10.0\n";
-    }
-  }
-  return r.str();
+  return test::VideoRigText(cam, kFps, leds, keys.str(),
+                            {{{-0.3, 0.1}}, {{0.3, 0.1}}, {{-0.3, 0.6}}, {{0.3, 0.6}}, {{0.0, 0.35}}, {{-0.15, 0.45}}});
 }
 
 // Writes the scene's video (every frame but the dropped one) and the rig.
@@ -154,25 +136,15 @@ Scene MakeScene(const std::string& name, bool lossless) {
   return s;
 }
 
-// The theta noise the pixel noise allows. Oracle: the intensity-weighted
-// centroid over a box of N pixels with white noise sigma has standard
-// deviation sigma * sqrt(sum (x - u)^2) / sum(w) per axis; the box is the
-// blob's above-threshold extent (radius r where the spot falls to the
-// threshold) widened by the margin; sum(w) = 2 pi s^2 peak. Quantisation
-// adds 1/12 level^2 to sigma^2. In metres by the plane scale at the LEDs,
-// and the rigid fit's rotation has sigma_m / sqrt(S), S the LEDs' spread
-// about their centroid (the 3 LEDs left during the occlusion: the worst).
+// The theta noise the pixel noise allows. Oracle: the centroid's noise
+// (test::CentroidSigmaPx) in metres by the plane scale at the LEDs, and the
+// rigid fit's rotation has sigma_m / sqrt(S), S the LEDs' spread about
+// their centroid (the 3 LEDs left during the occlusion: the worst).
 struct NoiseBound {
   double sigma_px, sigma_theta;
 };
 NoiseBound ThetaSigma(double pixel_sigma) {
-  const double r = kSpotSigmaPx * std::sqrt(2 * std::log(kPeak / (kThreshold - kBackground)));
-  const int h = static_cast<int>(std::ceil(r)) + kMarginPx;
-  double sum_x2 = 0;
-  for (int i = -h; i <= h; ++i) sum_x2 += (2 * h + 1) * i * i;
-  const double sum_w = 2 * M_PI * kSpotSigmaPx * kSpotSigmaPx * kPeak;
-  const double sigma = std::sqrt(pixel_sigma * pixel_sigma + 1.0 / 12);
-  const double sigma_px = sigma * std::sqrt(sum_x2) / sum_w;
+  const double sigma_px = test::CentroidSigmaPx(kSpotSigmaPx, kPeak, kThreshold, kBackground, kMarginPx, pixel_sigma);
   // Plane scale: the largest metres-per-pixel among the LEDs' places.
   const test::TestCamera cam = Camera();
   double m_per_px = 0;
@@ -435,18 +407,7 @@ TEST(VideoTracking, ImageSequenceWithoutFpsIsAStartUpErrorNamingTheKey) {
 
 // Oracle for the rig errors: the file the test wrote, its line numbers.
 std::string OpenError(const std::string& name, const std::string& rig_text, const std::string& input) {
-  const std::string dir = test::ScratchDir(name);
-  std::ofstream(dir + "/rig.toml") << rig_text;
-  RegisterSources();
-  try {
-    const daq::RigConfig rig = daq::LoadRigConfig(dir + "/rig.toml");
-    daq::SourceOptions options;
-    options.rig = &rig;
-    (void)daq::OpenSource(input.empty() ? "video:" + dir + "/none.mkv" : input, options);
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
+  return test::VideoOpenError(name, rig_text, input);
 }
 
 TEST(VideoConfigErrors, NameTheFileLineAndKey) {
