@@ -365,6 +365,9 @@ void ParsePosterior(Reader& r, const toml::table& root, PosteriorPriorConfig& c)
   c.t_offset_s = r.OptionalDouble(*t, "posterior", "t_offset_s");
   r.Check(!c.t_offset_s || (*c.t_offset_s > 0 && *c.t_offset_s <= 1), *t, "posterior", "t_offset_s",
           "must be in (0, 1] s");
+  c.sigma_mu_max = r.OptionalDouble(*t, "posterior", "sigma_mu_max");
+  r.Check(!c.sigma_mu_max || (*c.sigma_mu_max > 0 && *c.sigma_mu_max <= 0.5), *t, "posterior", "sigma_mu_max",
+          "must be in (0, 0.5]");
   r.RejectUnknown(*t, "posterior");
 }
 

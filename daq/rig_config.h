@@ -132,6 +132,9 @@ struct PosteriorPriorConfig {
   std::optional<double> log10_l_min;   ///< complex model: log10 l uniform on [min, max]; -20 <= min < max <= -2
   std::optional<double> log10_l_max;
   std::optional<double> t_offset_s;    ///< time offset uniform on [-t, t], s; in (0, 1]
+  /// Given: a restitution per impact, mu_n ~ N(mu, sigma_mu^2), sigma_mu
+  /// uniform on (0, this], 1; in (0, 0.5] (impacts likelihood).
+  std::optional<double> sigma_mu_max;
   int line{};                          ///< line of the [posterior] table (0: none)
 };
 

@@ -18,18 +18,20 @@ using namespace fit_detail;
 namespace {
 
 // Residuals theta_model(t_k) - theta_k over the samples [first, last) for
-// x = (alpha, p, mu[, release time]). Before a fitted release the model
-// holds at the release level.
+// x = (alpha, p, mu[, release time, release level]). Before a fitted
+// release the model holds at the release level, which is fitted with the
+// rest: taken as measured (the onset fit's), its error reached every
+// amplitude and impact time after it uncounted in the stated errors
+// (docs/fit_coverage.md).
 struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
   TrajectoryFunctor(const RockingRecord& record, std::size_t first, std::size_t last, const Forcing& forcing,
-                    bool from_hold, double theta0, const FitOptions& options)
-      : Eigen::DenseFunctor<double>(from_hold ? 4 : 3, static_cast<int>(last - first)),
+                    bool from_hold, const FitOptions& options)
+      : Eigen::DenseFunctor<double>(from_hold ? 5 : 3, static_cast<int>(last - first)),
         record_(&record),
         first_(first),
         last_(last),
         forcing_(&forcing),
         from_hold_(from_hold),
-        theta0_(theta0),
         cancelled_(&options.cancelled) {
     model_options_.rtol = options.rtol;
     model_options_.atol = 1e-10;
@@ -49,9 +51,9 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
       auto model = RockingModel::Create(ModelKind::kHousner, bp, model_options_);
       std::size_t k = first_;
       if (from_hold_) {
-        const double tr = x(3);
-        for (; k < last_ && t[k] <= tr; ++k) f(static_cast<Eigen::Index>(k - first_)) = theta0_ - th[k];
-        model->Reset(tr, theta0_, 0.0);
+        const double tr = x(3), level = x(4);
+        for (; k < last_ && t[k] <= tr; ++k) f(static_cast<Eigen::Index>(k - first_)) = level - th[k];
+        model->Reset(tr, level, 0.0);
       } else {
         model->Reset(t[first_], 0.0, 0.0);
       }
@@ -74,7 +76,6 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
   std::size_t last_;  // residuals at the samples [first_, last_)
   const Forcing* forcing_;  // non-owning; outlives the fit
   bool from_hold_;
-  double theta0_;
   ModelOptions model_options_;
   const CancelHook* cancelled_;  // non-owning: the fit's options, which outlive it
   std::shared_ptr<int> count_ = std::make_shared<int>(0);  // shared: NumericalDiff copies the functor
@@ -181,7 +182,7 @@ struct MultiStartResult {
 // parameters over long records, so a start far from the answer finds the
 // whole record's cost rugged; over the first window it is not.
 MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t first, const Forcing& forcing,
-                                   bool from_hold, double theta0, const Eigen::VectorXd& x0, const MultiStart& ms,
+                                   bool from_hold, const Eigen::VectorXd& x0, const MultiStart& ms,
                                    const FitOptions& options, std::chrono::steady_clock::time_point t_start) {
   const std::vector<double>& t = record.time_s;
   std::vector<std::size_t> ends;
@@ -192,7 +193,7 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
   }
   ends.push_back(t.size());
   auto functor_to = [&](std::size_t end) {
-    return TrajectoryFunctor(record, first, end, forcing, from_hold, theta0, options);
+    return TrajectoryFunctor(record, first, end, forcing, from_hold, options);
   };
   std::vector<Eigen::VectorXd> starts{x0};
   for (int i = 1; i <= ms.count; ++i) {
@@ -312,16 +313,19 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   }
   const std::size_t first = from_hold ? f.hold_start_index : 0;
   const double theta0 = from_hold ? f.first_sign * *f.r0_rad : 0.0;
-  Eigen::VectorXd x(from_hold ? 4 : 3);
+  Eigen::VectorXd x(from_hold ? 5 : 3);
   x(0) = start_params.alpha;
   x(1) = start_params.p;
   x(2) = start_params.mu;
-  if (from_hold) x(3) = *f.release_time_s;
+  if (from_hold) {
+    x(3) = *f.release_time_s;
+    x(4) = theta0;
+  }
   MultiStart ms;
   ms.count = options.starts < 0 ? kDefaultTrajectoryStarts : options.starts;
   ms.box = PriorBox(out, start_params);
   ms.motion_start_s = from_hold ? *f.release_time_s : FirstMotion(record, f.hysteresis_rad);
-  const MultiStartResult found = FitFromManyStarts(record, first, *forcing, from_hold, theta0, x, ms, options, start);
+  const MultiStartResult found = FitFromManyStarts(record, first, *forcing, from_hold, x, ms, options, start);
   LmOutcome lm = found.lm;
   out.starts = found.screened;
   out.starts_refined = found.refined;
@@ -346,7 +350,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     // The table record's sampling: the same run on the cubic through the
     // samples; the difference d is about the chord's error.
     const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
-    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, theta0, options);
+    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, options);
     Eigen::VectorXd fc(lm.residuals.size());
     on_cubic(lm.x, fc);
     const Eigen::VectorXd d = fc - lm.residuals;

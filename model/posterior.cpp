@@ -124,6 +124,9 @@ void PosteriorPriors::Validate() const {
         " and " + fit_detail::Num(log10_l_max, 4));
   }
   if (!(t_offset_s > 0.0 && t_offset_s <= 1.0)) bad("posterior.t_offset_s must be in (0, 1] s, got " + fit_detail::Num(t_offset_s, 4));
+  if (!(sigma_mu_max > 0.0 && sigma_mu_max <= 0.5)) {
+    bad("posterior.sigma_mu_max must be in (0, 0.5], got " + fit_detail::Num(sigma_mu_max, 4));
+  }
 }
 
 void PosteriorOptions::Validate() const {
@@ -134,6 +137,10 @@ void PosteriorOptions::Validate() const {
                                 "come from it");
   }
   if (!(rtol > 0.0 && rtol < 1e-3)) throw std::invalid_argument("posterior rtol must be in (0, 1e-3), got " + fit_detail::Num(rtol, 4));
+  if (priors.per_impact_mu && method != FitMethod::kImpacts) {
+    throw std::invalid_argument("per-impact restitution (posterior.per_impact_mu) is implemented for the impacts "
+                                "likelihood only (--method impacts)");
+  }
   if (start_scan < 0) throw std::invalid_argument("start scan must be >= 0 points, got " + std::to_string(start_scan));
   if (output_stride < 1 || output_stride > 1000) {
     throw std::invalid_argument("output stride must be in [1, 1000] samples, got " + std::to_string(output_stride));
@@ -157,6 +164,7 @@ struct PosteriorProblem::Impl {
   std::vector<std::string> names;
   Eigen::VectorXd lo, hi;
   int i_sigma{}, i_offset{};
+  int i_sigma_mu{-1};  // per-impact restitution's sigma_mu (-1: one mu)
   double noise{};
   // Impacts: the release is known (the first pair starts from it).
   bool release{};
@@ -194,18 +202,65 @@ struct PosteriorProblem::Impl {
     if (!(r < alpha)) return -kInf;
     double t = release ? *f.release_time_s + off + QuarterTimeExact(alpha, p, r) : f.impact_time_s[i0] + off;
     double chi2 = 0.0, log_det = 0.0;
+    // Per-impact restitution: the whitened residuals z and their
+    // derivatives h by each impact's mu_j - mu (j = i0.., the impacts whose
+    // next peak is measured), docs/identification.md; dt_dmu accumulates
+    // the next impact time's derivatives.
+    const bool scatter = i_sigma_mu >= 0;
+    const Eigen::Index m = scatter ? static_cast<Eigen::Index>(n - 1 - i0) : 0;
+    thread_local Eigen::VectorXd z, dt_dmu;
+    thread_local Eigen::MatrixXd h;
+    if (scatter) {
+      z.resize(2 * m + 1);
+      h.setZero(2 * m + 1, m);
+      dt_dmu.setZero(m);
+    }
+    Eigen::Index row = 0;
     for (std::size_t i = i0; i < n; ++i) {
       const double st = k * f.impact_time_stderr_s[i];
       const double zt = (f.impact_time_s[i] - t) / st;
       chi2 += zt * zt;
       log_det += std::log(st);
+      if (scatter) {
+        z(row) = zt;
+        h.row(row++) = dt_dmu.transpose() / st;
+      }
       if (i + 1 == n) break;
       r = NextPeak(alpha, mu, r);
       const double sr = k * f.peak_stderr_rad[i];
       const double zr = (f.peak_rad[i] - r) / sr;
       chi2 += zr * zr;
       log_det += std::log(sr);
-      t += 2.0 * QuarterTimeExact(alpha, p, r);
+      const double q = QuarterTimeExact(alpha, p, r);
+      t += 2.0 * q;
+      if (scatter) {
+        // e = cos(alpha - r) - cos alpha is mu_j^2 times the previous one at
+        // every impact j, so d r / d mu_j = (2 / mu) e / sin(alpha - r) for
+        // every impact j up to this one; the next impact time moves by
+        // 2 T'(r) times that (a forward difference: relative error ~1e-7
+        // from the step and from T's 1e-14 accuracy).
+        const double dr = 2.0 / mu * (std::cos(alpha - r) - std::cos(alpha)) / std::sin(alpha - r);
+        const double step = 1e-7 * std::min(r, alpha - r);
+        const double dq = (QuarterTimeExact(alpha, p, r + step) - q) / step;
+        const Eigen::Index j_last = static_cast<Eigen::Index>(i - i0);
+        z(row) = zr;
+        h.row(row).head(j_last + 1).setConstant(dr / sr);
+        ++row;
+        dt_dmu.head(j_last + 1).array() += 2.0 * dq * dr;
+      }
+    }
+    if (scatter && m > 0) {
+      // Marginal of the mu_j ~ N(mu, sigma_mu^2), linear in them: the
+      // whitened covariance I + s2 H H^T, by Woodbury and the determinant
+      // lemma through the m x m matrix A = I + s2 H^T H.
+      const double s2 = x(i_sigma_mu) * x(i_sigma_mu);
+      Eigen::MatrixXd a = s2 * h.transpose() * h;
+      a.diagonal().array() += 1.0;
+      const Eigen::LLT<Eigen::MatrixXd> llt(a);
+      if (llt.info() != Eigen::Success) return -kInf;
+      const Eigen::VectorXd b = h.transpose() * z;
+      chi2 -= s2 * b.dot(llt.solve(b));
+      log_det += llt.matrixLLT().diagonal().array().log().sum();  // 0.5 log det A
     }
     return -0.5 * chi2 - log_det;
   }
@@ -309,6 +364,12 @@ void SearchStart(PosteriorProblem::Impl& s, const CancelToken& token) {
   if (s.complex) x0(3) = std::log10(kDefaultL);
   x0(s.i_sigma) = s.noise;
   x0(s.i_offset) = 0.0;
+  // sigma_mu from the point fit's scatter of the mu_n from peak pairs
+  // (which holds the peaks' noise too: an upper estimate).
+  if (s.i_sigma_mu >= 0) {
+    const double spread = s.point_fitted ? s.point.mu_spread : kNaN;
+    x0(s.i_sigma_mu) = std::isfinite(spread) ? spread : 0.1 * s.hi(s.i_sigma_mu);
+  }
   if (s.point_fitted && s.options.method == FitMethod::kTrajectory && s.point.release_time_s && s.f.release_time_s) {
     x0(s.i_offset) = *s.point.release_time_s - *s.f.release_time_s;
   }
@@ -445,6 +506,12 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
     lo.push_back(pr.log10_l_min);
     hi.push_back(pr.log10_l_max);
   }
+  if (pr.per_impact_mu) {
+    s.i_sigma_mu = static_cast<int>(s.names.size());
+    s.names.push_back("sigma_mu");
+    lo.push_back(0.0);
+    hi.push_back(pr.sigma_mu_max);
+  }
   s.i_sigma = static_cast<int>(s.names.size());
   s.names.push_back("sigma");
   lo.push_back(s.noise / 10.0);
@@ -506,6 +573,7 @@ Eigen::VectorXd PosteriorProblem::StartScale() const {
   // sigma from n data: relative standard error 1 / sqrt(2 n).
   if (s.start_from_scan) scale.head(3) = 1e-3 * (s.hi.head(3) - s.lo.head(3));
   scale(s.i_sigma) = s.noise / std::sqrt(2.0 * std::max(1, data_points()));
+  if (s.i_sigma_mu >= 0) scale(s.i_sigma_mu) = 0.1 * s.start(s.i_sigma_mu);
   if (s.options.method == FitMethod::kImpacts && !s.f.impact_time_stderr_s.empty()) {
     scale(s.i_offset) = s.f.impact_time_stderr_s[0];
   }
@@ -617,7 +685,8 @@ std::string PosteriorJson(const PosteriorResult& r) {
   json j;
   json rhat = json::object(), ess = json::object(), tau = json::object(), units = json::object();
   const std::map<std::string, std::string> unit_of = {{"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"},
-                                                      {"l", "1"},       {"sigma", "rad"}, {"t_offset", "s"}};
+                                                      {"l", "1"},       {"sigma", "rad"}, {"t_offset", "s"},
+                                                      {"sigma_mu", "1"}};
   for (const ParameterSummary& s : r.summary) {
     j[s.name] = {{"median", s.median}, {"ci68", {s.ci68_lo, s.ci68_hi}}, {"ci95", {s.ci95_lo, s.ci95_hi}},
                  {"sd", s.sd},         {"mean", s.mean}};
@@ -626,6 +695,12 @@ std::string PosteriorJson(const PosteriorResult& r) {
     tau[s.name] = finite(s.tau);
     const auto u = unit_of.find(s.name);
     units[s.name] = u != unit_of.end() ? u->second : "1";
+  }
+  // Per-impact restitution: mu is the mean restitution mu_bar; under that
+  // name too (docs/identification.md).
+  if (j.contains("sigma_mu") && j.contains("mu")) {
+    j["mu_bar"] = j["mu"];
+    units["mu_bar"] = "1";
   }
   json matrix = json::array();
   for (Eigen::Index i = 0; i < r.correlation.rows(); ++i) {

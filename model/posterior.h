@@ -22,7 +22,9 @@
 /// on [log10_l_min, log10_l_max] (complex model), sigma log-uniform on
 /// [noise / 10, 10 noise] (noise from the record, EstimateThetaNoise), the
 /// time offset on [-t_offset_s, t_offset_s]. The time offset shifts the
-/// release (free) or the table record against theta (forced).
+/// release (free) or the table record against theta (forced). Optionally
+/// (impacts likelihood, PosteriorPriors::per_impact_mu) a restitution per
+/// impact, mu_n ~ N(mu, sigma_mu^2), with sigma_mu sampled.
 
 #include <cstdint>
 #include <memory>
@@ -46,6 +48,12 @@ struct PosteriorPriors {
   double log10_l_min{-14.0};  ///< complex model: log10 l uniform on [min, max]
   double log10_l_max{-8.0};
   double t_offset_s{0.05};    ///< time offset uniform on [-t_offset_s, t_offset_s], s
+  /// Impacts likelihood: each impact n has its own restitution
+  /// mu_n ~ N(mu_bar, sigma_mu^2) (mu is then mu_bar), marginalised to
+  /// first order in mu_n - mu_bar (docs/identification.md); sigma_mu is
+  /// sampled, uniform on (0, sigma_mu_max].
+  bool per_impact_mu{false};
+  double sigma_mu_max{0.1};
   /// @throws std::invalid_argument naming the key.
   void Validate() const;
 };
@@ -94,8 +102,9 @@ class PosteriorProblem {
   ///         use), std::invalid_argument for bad options (no geometry).
   PosteriorProblem(const RockingRecord& record, const PosteriorOptions& options, const FitResult* point = nullptr);
 
-  /// Names of the sampled parameters in order: alpha, p, mu[, l], sigma,
-  /// t_offset (l is sampled as log10 l; see ToReported).
+  /// Names of the sampled parameters in order: alpha, p, mu[, l]
+  /// [, sigma_mu], sigma, t_offset (l is sampled as log10 l; see
+  /// ToReported; with per-impact restitution mu is its mean mu_bar).
   const std::vector<std::string>& names() const;
   int dimension() const;
   /// log prior + log likelihood at x (sampled coordinates), -infinity

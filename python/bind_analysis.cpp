@@ -413,6 +413,9 @@ model::PosteriorOptions PosteriorOptionsOf(model::FitOptions fo, model::FitMetho
       pr.log10_l_max = v;
     } else if (k == "t_offset_s") {
       pr.t_offset_s = v;
+    } else if (k == "sigma_mu_max") {  // as in the rig file: given, per-impact restitution is on
+      pr.per_impact_mu = true;
+      pr.sigma_mu_max = v;
     } else {
       throw pipeline::OptionError("priors: unknown key '" + k + "' (the rig file's [posterior] keys)");
     }

@@ -57,6 +57,7 @@ struct FitCliOptions {
   std::string samples;
   std::string plot;
   bool allow_unconverged{};
+  bool per_impact_mu{};  // --per-impact-mu (or the rig's posterior.sigma_mu_max)
 };
 
 // Exit code of a posterior run that fails its convergence rule (without
@@ -318,6 +319,9 @@ int RunFit(const FitCliOptions& o) {
       throw UsageError("--integrator must be adams or rk, got '" + o.integrator + "'");
     }
     po.integrator = o.integrator == "rk" ? model::Integrator::kRungeKutta : model::Integrator::kAdams;
+    if (o.per_impact_mu && method != model::FitMethod::kImpacts) {
+      throw UsageError("--per-impact-mu needs --method impacts (the trajectory likelihoods have one mu)");
+    }
     if (po.model == model::ModelKind::kComplex && method != model::FitMethod::kTrajectory) {
       throw UsageError("--model complex needs --method trajectory (the impacts likelihood is Housner's closed form)");
     }
@@ -328,6 +332,7 @@ int RunFit(const FitCliOptions& o) {
     po.sampler.steps = o.steps;
     po.sampler.threads = o.threads;
     po.burn_in = o.burn_in;
+    po.priors.per_impact_mu = o.per_impact_mu;
     po.priors.alpha_band_m = fo.alpha_band_m > 0.0 ? fo.alpha_band_m : po.priors.alpha_band_m;
     if (!o.rig.empty()) {
       const daq::PosteriorPriorConfig c = daq::LoadRigConfig(o.rig).posterior;
@@ -339,6 +344,8 @@ int RunFit(const FitCliOptions& o) {
       pr.log10_l_min = c.log10_l_min.value_or(pr.log10_l_min);
       pr.log10_l_max = c.log10_l_max.value_or(pr.log10_l_max);
       pr.t_offset_s = c.t_offset_s.value_or(pr.t_offset_s);
+      pr.per_impact_mu = pr.per_impact_mu || c.sigma_mu_max.has_value();
+      pr.sigma_mu_max = c.sigma_mu_max.value_or(pr.sigma_mu_max);
     }
   }
 
@@ -453,6 +460,9 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--integrator", opts->integrator, "posterior, trajectory method: adams | rk (default adams)");
   cmd->add_option("--samples", opts->samples, "posterior: write the draws, FILE.csv or FILE.h5");
   cmd->add_option("--plot", opts->plot, "posterior: write the corner plot, FILE.svg");
+  cmd->add_flag("--per-impact-mu", opts->per_impact_mu,
+                "posterior, impacts method: a restitution per impact, mu_n ~ N(mu, sigma_mu^2), sigma_mu sampled "
+                "(its prior: the rig's posterior.sigma_mu_max, default 0.1)");
   cmd->add_flag("--allow-unconverged", opts->allow_unconverged,
                 "posterior: exit 0 even when the convergence rule fails (else exit code 1)");
   cmd->callback([opts, &run] { run = [opts] { return RunFit(*opts); }; });

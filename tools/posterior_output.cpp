@@ -18,7 +18,7 @@ namespace {
 
 std::string UnitOf(const std::string& name) {
   static const std::map<std::string, std::string> units = {
-      {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"}, {"sigma", "rad"}, {"t_offset", "s"},
+      {"alpha", "rad"}, {"p", "rad/s"}, {"mu", "1"}, {"l", "1"}, {"sigma", "rad"}, {"t_offset", "s"}, {"sigma_mu", "1"},
       {"log_posterior", "1"}};
   const auto u = units.find(name);
   return u != units.end() ? u->second : "1";

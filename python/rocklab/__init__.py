@@ -721,7 +721,8 @@ def posterior(
         rtol, integrator: trajectory method: the model run's relative
             tolerance and integrator ("adams" or "rk").
         priors: dict of the rig file's [posterior] keys (alpha_band_m,
-            p_range, mu_min, mu_max, log10_l_min, log10_l_max, t_offset_s).
+            p_range, mu_min, mu_max, log10_l_min, log10_l_max, t_offset_s,
+            sigma_mu_max: given, a restitution per impact, impacts method).
         progress: None or callable(step, steps).
 
     Returns:

@@ -9,6 +9,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "model/excitation.h"
 #include "model/test_record.h"
@@ -24,11 +25,13 @@ inline constexpr double kDeg = 3.14159265358979323846 / 180.0;
 /// theta from the tests' RK4 reference (rk4_reference.h, h = 1e-5 s: ~1e-12
 /// rad), not rocklab's Housner model, which the fits use themselves.
 /// hold_s * rate_hz must be whole (the release on a sample). A block that
-/// overturns stays at +-pi/2 (as rocklab's model stops there).
+/// overturns stays at +-pi/2 (as rocklab's model stops there). Impact n
+/// keeps mu_per_impact[n] of the speed where given (else truth.mu).
 inline model::RockingRecord SyntheticFree(const model::BlockParams& truth, double theta0,
                                           double hold_s, double duration_s, double rate_hz,
                                           double noise_deg, std::uint32_t seed,
-                                          const std::string& name = "synthetic-free") {
+                                          const std::string& name = "synthetic-free",
+                                          const std::vector<double>& mu_per_impact = {}) {
   const long hold_n = std::lround(hold_s * rate_hz);
   if (std::abs(static_cast<double>(hold_n) - hold_s * rate_hz) > 1e-9) {
     throw std::logic_error("SyntheticFree: hold_s * rate_hz must be whole");
@@ -36,6 +39,7 @@ inline model::RockingRecord SyntheticFree(const model::BlockParams& truth, doubl
   rk4::RefOptions o;
   o.theta0 = theta0;
   o.sample_rate_hz = rate_hz;
+  o.mu_per_impact = mu_per_impact;
   const rk4::RefResult ref = rk4::Reference(truth, [](double, bool) { return 0.0; }, o).Run(duration_s);
   if (ref.sample_theta.empty()) throw std::logic_error("SyntheticFree: no sample");
   const double fallen = std::copysign(rk4::kPi / 2, theta0);

@@ -137,6 +137,43 @@ TEST(CliPosterior, RigPriorsAndRefusals) {
   EXPECT_NE(no_geometry.err.find("geometry"), std::string::npos) << no_geometry.err;
 }
 
+// Per-impact restitution (docs/identification.md): the rig's
+// posterior.sigma_mu_max turns it on and bounds sigma_mu's prior; the JSON
+// gains `sigma_mu` and `mu_bar` (the same object as `mu`, which stays), the
+// draws the column sigma_mu after mu. Oracle: the documented keys and
+// header, the prior's support; a bad bound and the trajectory method are
+// refused (exit 2) naming the key or option.
+TEST(CliPosterior, PerImpactRestitution) {
+  const std::string dir = ScratchDir("posterior_per_impact");
+  const std::string input = PosteriorFreeCsv(dir);
+  const std::string rig = dir + "/rig.toml";
+  auto write_rig = [&rig](const std::string& posterior) {
+    std::ofstream f(rig);
+    f << "name = \"t\"\nsample_rate_hz = 500.0\n[block]\nwidth_m = 0.247\nheight_m = 1.0\n[posterior]\n" << posterior
+      << "\n[[channel]]\nname = \"acc\"\nsensor = \"table.acceleration\"\n";
+  };
+  write_rig("sigma_mu_max = 0.05");
+  const CliResult r = RunCli({"fit", "--input", input, "--rig", rig, "--posterior", "--walkers", "16", "--steps", "100",
+                              "--allow-unconverged", "--quiet", "--json", "--samples", dir + "/draws.csv"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto p = nlohmann::json::parse(r.out).at("posterior");
+  EXPECT_EQ(p.at("parameters").get<std::vector<std::string>>(),
+            (std::vector<std::string>{"alpha", "p", "mu", "sigma_mu", "sigma", "t_offset"}));
+  EXPECT_EQ(p.at("mu_bar"), p.at("mu"));
+  EXPECT_GT(p.at("sigma_mu").at("ci95")[0].get<double>(), 0.0);
+  EXPECT_LE(p.at("sigma_mu").at("ci95")[1].get<double>(), 0.05);
+  EXPECT_EQ(p.at("units").at("sigma_mu"), "1");
+  EXPECT_EQ(Lines(ReadFile(dir + "/draws.csv"))[0], "alpha,p,mu,sigma_mu,sigma,t_offset,log_posterior");
+  const CliResult trajectory = RunCli({"fit", "--input", input, "--width", "0.247", "--height", "1.0", "--posterior",
+                                       "--per-impact-mu", "--method", "trajectory"});
+  EXPECT_EQ(trajectory.exit_code, 2);
+  EXPECT_NE(trajectory.err.find("--per-impact-mu"), std::string::npos) << trajectory.err;
+  write_rig("sigma_mu_max = 0.7");
+  const CliResult bad = RunCli({"fit", "--input", input, "--rig", rig, "--posterior"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("rig.toml:7: key 'posterior.sigma_mu_max'"), std::string::npos) << bad.err;
+}
+
 // --samples FILE.h5: the HDF5 table `posterior` (export's H5Writer); its
 // signature and that the CSV is not written instead.
 TEST(CliPosterior, SamplesAsHdf5) {

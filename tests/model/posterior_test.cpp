@@ -1,16 +1,19 @@
 // The posterior's likelihoods and priors on synthetic records whose truth is
 // known (fit_synthetic.h: the tests' own RK4, not the model code the
 // likelihood runs).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <vector>
 #include <limits>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "model/excitation.h"
+#include "model/free_rocking.h"
 #include "model/posterior.h"
 #include "tests/model/fit_synthetic.h"
 #include "tests/paper_blocks.h"
@@ -219,6 +222,138 @@ TEST(Posterior, ComplexModelSamplesL) {
   const double ss = -2.0 * noise_rad * noise_rad * (lp + (n + 1.0) * std::log(noise_rad));
   std::printf("complex at l = 1e-14: chi-square / n = %.4f (n = %.0f)\n", ss / (noise_rad * noise_rad) / n, n);
   EXPECT_NEAR(ss / (noise_rad * noise_rad) / n, 1.0, 4.0 * std::sqrt(2.0 / n));
+}
+
+}  // namespace
+}  // namespace rocklab
+
+namespace rocklab {
+namespace {
+
+// The impacts features predicted by the closed-form chain with a
+// restitution per impact (mu[j] at the j-th impact whose next peak is
+// measured), in the likelihood's order t_0, r_0, t_1, ..., t_last; written
+// here from QuarterTimeExact and NextPeak, independently of the
+// likelihood's derivatives.
+Eigen::VectorXd ChainPerImpact(const model::FreeRockingFeatures& f, double alpha, double p,
+                               const Eigen::VectorXd& mu, double offset) {
+  const std::size_t n = f.impact_time_s.size();
+  Eigen::VectorXd y(2 * static_cast<Eigen::Index>(n) - 1);
+  double r = *f.r0_rad;
+  double t = *f.release_time_s + offset + model::QuarterTimeExact(alpha, p, r);
+  for (std::size_t i = 0; i < n; ++i) {
+    y(static_cast<Eigen::Index>(2 * i)) = t;
+    if (i + 1 == n) break;
+    r = model::NextPeak(alpha, mu(static_cast<Eigen::Index>(i)), r);
+    y(static_cast<Eigen::Index>(2 * i + 1)) = r;
+    t += 2.0 * model::QuarterTimeExact(alpha, p, r);
+  }
+  return y;
+}
+
+// Per-impact restitution mu_n ~ N(mu, sigma_mu^2), marginalised to first
+// order. Oracle: the same marginal written densely here, the Gaussian of the
+// features with covariance D + sigma_mu^2 G G^T, G the chain's derivatives
+// by each impact's mu from central differences of ChainPerImpact (step
+// 1e-6: relative error ~1e-10) and D the features' variances (their
+// standard errors scaled by sigma / noise); log posterior = its log density
+// - log sigma (the prior). Agreement within 1e-6 (the differences' error on
+// a log density of order 1e3). And as sigma_mu -> 0 (1e-12) the log
+// posterior is the one-mu likelihood's at the same point, within 1e-9.
+TEST(Posterior, PerImpactRestitutionIsTheLinearisedMarginal) {
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 9.0, 500, 0.02, 5);
+  model::PosteriorOptions one = Options(model::FitMethod::kImpacts);
+  one.start_scan = 0;
+  const model::PosteriorProblem single(rec, one);
+  model::PosteriorOptions o = one;
+  o.priors.per_impact_mu = true;
+  const model::PosteriorProblem scatter(rec, o, &single.point());
+  ASSERT_EQ(scatter.names(), (std::vector<std::string>{"alpha", "p", "mu", "sigma_mu", "sigma", "t_offset"}));
+  EXPECT_DOUBLE_EQ(scatter.upper()(3), 0.1);
+  const model::FreeRockingFeatures f = model::ExtractFreeRocking(rec, o.fit.features);
+  ASSERT_TRUE(f.release_time_s && f.r0_rad);
+  const Eigen::VectorXd x5 = single.Start();
+  Eigen::VectorXd x6(6);
+  x6 << x5(0), x5(1), x5(2), 1e-12, x5(3), x5(4);
+  EXPECT_NEAR(scatter.LogPosterior(x6), single.LogPosterior(x5), 1e-9);
+
+  x6(3) = 0.02;
+  const double alpha = x6(0), p = x6(1), sigma = x6(4), offset = x6(5);
+  const std::size_t n = f.impact_time_s.size();
+  const auto m = static_cast<Eigen::Index>(n - 1);
+  ASSERT_GE(m, 10);
+  Eigen::VectorXd obs(2 * m + 1), sd(2 * m + 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    obs(static_cast<Eigen::Index>(2 * i)) = f.impact_time_s[i];
+    sd(static_cast<Eigen::Index>(2 * i)) = sigma / f.noise_rad * f.impact_time_stderr_s[i];
+    if (i + 1 == n) break;
+    obs(static_cast<Eigen::Index>(2 * i + 1)) = f.peak_rad[i];
+    sd(static_cast<Eigen::Index>(2 * i + 1)) = sigma / f.noise_rad * f.peak_stderr_rad[i];
+  }
+  const Eigen::VectorXd mu = Eigen::VectorXd::Constant(m, x6(2));
+  const Eigen::VectorXd r = obs - ChainPerImpact(f, alpha, p, mu, offset);
+  Eigen::MatrixXd g(2 * m + 1, m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    Eigen::VectorXd up = mu, down = mu;
+    up(j) += 1e-6;
+    down(j) -= 1e-6;
+    g.col(j) = (ChainPerImpact(f, alpha, p, up, offset) - ChainPerImpact(f, alpha, p, down, offset)) / 2e-6;
+  }
+  Eigen::MatrixXd c = x6(3) * x6(3) * g * g.transpose();
+  c.diagonal() += sd.array().square().matrix();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(c);
+  const double log_det = ldlt.vectorD().array().log().sum();
+  const double oracle = -std::log(sigma) - 0.5 * r.dot(ldlt.solve(r)) - 0.5 * log_det;
+  EXPECT_NEAR(scatter.LogPosterior(x6), oracle, 1e-6 * std::abs(oracle));
+}
+
+// Oracle: a record whose impacts keep scattered restitutions, mu_n drawn
+// from N(0.937, 0.02^2) (seeded), made by the tests' RK4 with mu_n at
+// impact n (7 s: ~25 impacts). The per-impact posterior holds the truth of
+// sigma_mu and of the mean mu within 4 posterior sd (its sd includes the
+// draw of the mu_n themselves; a short run, 16 x 1000, whose medians' Monte
+// Carlo error, sd / sqrt(ESS) with ESS >= 100, is a tenth of that), and
+// its sigma is the noise within 50 %. The one-mu likelihood of the same
+// record, at the one-mu point fit (its walkers' start), cannot follow the
+// peaks: its best sigma is over 3 times the noise. That sigma is
+// noise sqrt(chi2 / n), chi2 the features' at sigma = noise, n of them:
+// from the log posterior at noise and 2 noise, -log s - chi2 noise^2 /
+// (2 s^2) - n log s + const, chi2 = ((n + 1) log 2 - (lp(noise) - lp(2 noise))) / 0.375.
+TEST(Posterior, PerImpactRestitutionRecoversItsScatter) {
+  const double sigma_mu = 0.02, noise_rad = 0.02 * test::kDeg;
+  std::mt19937 rng(17);
+  std::normal_distribution<double> draw(kBlock1.mu, sigma_mu);
+  std::vector<double> mu_n(200);
+  for (double& v : mu_n) v = std::min(draw(rng), 0.999);
+  const auto rec = SyntheticFree(kBlock1, 0.6 * kBlock1.alpha, 0.3, 7.0, 500, 0.02, 5, "scattered", mu_n);
+  model::PosteriorOptions o = Options(model::FitMethod::kImpacts);
+  o.sampler.walkers = 16;
+  o.sampler.steps = 1000;
+  o.start_scan = 0;
+  o.priors.per_impact_mu = true;
+  const model::PosteriorProblem problem(rec, o);
+  const model::PosteriorResult r = model::SamplePosterior(problem, o);
+  ASSERT_EQ(r.names[3], "sigma_mu");
+  model::PosteriorOptions one = o;
+  one.priors.per_impact_mu = false;
+  const model::PosteriorProblem single(rec, one, &problem.point());
+  Eigen::VectorXd x = single.Start();
+  const double noise = problem.point().features.noise_rad, n = single.data_points();
+  x(3) = noise;
+  const double lp1 = single.LogPosterior(x);
+  x(3) = 2.0 * noise;
+  const double chi2 = ((n + 1.0) * std::log(2.0) - (lp1 - single.LogPosterior(x))) / 0.375;
+  const double one_mu_sigma = std::sqrt(chi2 / n);
+  std::printf("per-impact: sigma_mu %.4f +- %.4f (ESS %.0f), mu %.5f +- %.5f, sigma / noise %.2f (sampler %.2f s); "
+              "one mu: best sigma / noise %.2f\n",
+              r.summary[3].median, r.summary[3].sd, r.summary[3].ess, r.summary[2].median, r.summary[2].sd,
+              r.summary[4].median / noise_rad, r.runtime_s, one_mu_sigma);
+  for (int i = 0; i < 6; ++i) EXPECT_GE(r.summary[static_cast<std::size_t>(i)].ess, 100.0) << r.names[static_cast<std::size_t>(i)];
+  EXPECT_NEAR(r.summary[3].median, sigma_mu, 4.0 * r.summary[3].sd);
+  EXPECT_NEAR(r.summary[2].median, kBlock1.mu, 4.0 * r.summary[2].sd);
+  EXPECT_NEAR(r.summary[0].median, kBlock1.alpha, 4.0 * r.summary[0].sd);
+  EXPECT_NEAR(r.summary[4].median / noise_rad, 1.0, 0.5);
+  EXPECT_GT(one_mu_sigma, 3.0);
 }
 
 }  // namespace

@@ -39,6 +39,10 @@ struct RefOptions {
   // Only while the table cannot lift the block (|u_g''| <= g tan alpha)
   // does the 2 ms rule put it to rest (docs/errata.md item 6).
   bool rest_needs_quiet_table{true};
+  // Impact n (0-based, counted from the start) keeps mu_per_impact[n] of
+  // the speed instead of mu, where given (Housner's model only): a
+  // restitution that scatters from impact to impact.
+  std::vector<double> mu_per_impact;
   double theta0{0};      // initial state, rad and rad/s (both 0: at rest)
   double theta_dot0{0};
 };
@@ -139,7 +143,8 @@ class Reference {
       }
       last_impact = t;
       th = 0;
-      w = restitution * w1;
+      const std::size_t n_impact = r.impact_times.size() - 1;
+      w = (n_impact < o_.mu_per_impact.size() ? o_.mu_per_impact[n_impact] : restitution) * w1;
       side = -side;
       if (o_.limit_w > 0) {
         turn += kPi / o_.limit_w - kPi;  // beyond the half turn that switches the side
