@@ -291,8 +291,10 @@ struct PosteriorProblem::Impl {
       for (; k < t.size() && t[k] < rest_s; ++k) ss += th[k] * th[k];
       model->Reset(rest_s, 0.0, 0.0);
     }
-    // The complex model's crossings are integrated through (no jump to
-    // split at): it is output at every sample.
+    // The complex model is output at every sample: its slow crossings are
+    // integrated through (no jump to split at), and every 10th sample moved
+    // the log posterior by tens at the bench's start in a trial (docs/performance.md,
+    // "The forced complex likelihood").
     ss += ResidualSquares(*model, forcing, t, th, k, complex ? 1 : options.output_stride, token);
     const double m = static_cast<double>(t.size() - first);
     return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
