@@ -135,6 +135,9 @@ int main(int argc, char** argv) {
     tight.free_rk4 = false;
     const PosteriorProblem reference(record, tight, &problem.point());
     const Eigen::VectorXd x = problem.Start();
+    std::printf("start point (sampled coordinates):");
+    for (Eigen::Index i = 0; i < x.size(); ++i) std::printf(" %s %.9g", problem.names()[static_cast<std::size_t>(i)].c_str(), x(i));
+    std::printf("\n");
     const auto a0 = std::chrono::steady_clock::now();
     const double lp = problem.LogPosterior(x);
     const double run = std::chrono::duration<double>(std::chrono::steady_clock::now() - a0).count();

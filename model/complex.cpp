@@ -52,6 +52,16 @@ constexpr double kMinCoreRatio = 1e3;
 // resolve the transverse drift to rtol (free rocking of block 1: 2946
 // steps for 10 impacts against 819, the same impact times to 1e-11 s).
 constexpr double kTransverseAtolPerL = 1e-2;
+// kCoreTolerance and kTransverseAtolPerL were set for rtol 1e-10
+// (simulate's default); a looser rtol scales the first by s = rtol /
+// kToleranceRtol and the second by sqrt(s) (rtol 1e-6: 1e4 and 1e2). A
+// matched core then errs by at most rtol in the crossing's energy ratio,
+// and the transverse coordinate sets fewer of the steps that shrink with
+// the distance on the way into every crossing. Measured (docs/performance.md,
+// "The forced complex likelihood"): s itself on the transverse tolerance
+// lets the line's turn drift (figure 8 at rtol 1e-6: 6.7e-5 rad against
+// rtol 1e-12, 1.5e-7 unscaled, 1.3e-7 with sqrt(s)).
+constexpr double kToleranceRtol = 1e-10;
 // RK4 steps of each leg (entry radius to the origin, origin to exit): the
 // legs are gravity and table along a ray over r_m, smooth on that scale.
 constexpr int kLegSteps = 16;
@@ -116,7 +126,10 @@ class ComplexModel final : public CvodeRockingModel {
     same_sides_ = plus.alpha == minus.alpha && plus.p == minus.p && plus.mu == minus.mu;
     limit_ = handoff_;
     const double tight[4] = {pos, pos, vel, vel};
-    const double loose[4] = {pos, kTransverseAtolPerL * l, vel, kTransverseAtolPerL * l * params.p};
+    const double scale = std::max(1.0, options.rtol / kToleranceRtol);
+    core_tolerance_ = kCoreTolerance * scale;
+    const double transverse = kTransverseAtolPerL * std::sqrt(scale) * l;
+    const double loose[4] = {pos, transverse, vel, transverse * params.p};
     std::copy(tight, tight + 4, atol_tight_);
     std::copy(loose, loose + 4, atol_loose_);
     Init(4, atol_tight_);
@@ -488,7 +501,7 @@ class ComplexModel final : public CvodeRockingModel {
     const double core_speed = plan.in.speed[kLegSteps] / from.p;  // normalised
     const double core = std::abs(momentum) / core_speed;          // b = l / v
     if (chi < kMinCoreRatio * core) return false;
-    if (std::abs(to.damping) * std::abs(momentum) / (core_speed * core_speed * core_speed) > kCoreTolerance) {
+    if (std::abs(to.damping) * std::abs(momentum) / (core_speed * core_speed * core_speed) > core_tolerance_) {
       return false;
     }
     const BinetCrossing binet = SolveBinet(chi / core, to.damping, to.w);
@@ -524,6 +537,7 @@ class ComplexModel final : public CvodeRockingModel {
   double atol_tight_[4]{};   // while a crossing is integrated through
   double atol_loose_[4]{};   // elsewhere: the transverse coordinates to 1e-2 l
   bool tight_{true};
+  double core_tolerance_{kCoreTolerance};  // kCoreTolerance scaled with rtol (above)
 };
 
 }  // namespace

@@ -293,6 +293,27 @@ struct PosteriorProblem::Impl {
     return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
   }
 
+  // The latest time >= t0_s up to which a block at rest from t0_s stays at
+  // rest under the table delayed by offset_s: the start of the table's
+  // interval (its samples shifted by offset_s) in which u_g'' first leaves
+  // the uplift band [-g tan alpha_+, g tan alpha_-]; linear between samples,
+  // it first leaves the band inside the interval that ends at the first
+  // sample outside it. t0_s itself when u_g''(t0_s) is outside.
+  double RestUntil(const BlockParams& params, double offset_s, double t0_s) const {
+    const double up = kGravity * std::tan(params.Side(-1).alpha);   // u_g'' above: onto -x
+    const double down = -kGravity * std::tan(params.Side(+1).alpha);
+    auto outside = [&](double a) { return a > up || a < down; };
+    if (outside(table->TableAcceleration(t0_s - offset_s))) return t0_s;
+    double rest_s = t0_s;
+    const std::vector<double>& tt = record.table_time_s;
+    for (auto j = static_cast<std::size_t>(std::upper_bound(tt.begin(), tt.end(), t0_s - offset_s) - tt.begin());
+         j < tt.size(); ++j) {
+      if (outside(record.table_accel_mps2[j])) return rest_s;
+      rest_s = tt[j] + offset_s;
+    }
+    return rest_s;
+  }
+
   // The free Housner run costs ~50 ns per sample (0.5 ms for 10 s at 1 kHz,
   // 5 ms for 100 000 samples): a check before each run stops it soon enough.
   double TrajectoryLogLikelihood(const Eigen::VectorXd& x, const CancelToken* token) const {
@@ -318,10 +339,17 @@ struct PosteriorProblem::Impl {
       for (; k < t.size() && t[k] <= tr; ++k) ss += (theta0 - th[k]) * (theta0 - th[k]);
       model->Reset(tr, theta0, 0.0);
     } else {
-      model->Reset(t[first], 0.0, 0.0);
+      // At rest (theta = 0) until the table first leaves the uplift band:
+      // the model starts there, without CVODE's rest steps (a third of a
+      // forced run's steps on figure 7's record; docs/performance.md).
+      const double rest_s = table ? RestUntil(Params(x), off, t[first]) : t[first];
+      for (; k < t.size() && t[k] < rest_s; ++k) ss += th[k] * th[k];
+      model->Reset(rest_s, 0.0, 0.0);
     }
-    // The complex model's crossings are integrated through (no jump to
-    // split at): it is output at every sample.
+    // The complex model is output at every sample: its slow crossings are
+    // integrated through (no jump to split at), and every 10th sample moved
+    // the log posterior by tens at the bench's start in a trial (docs/performance.md,
+    // "The forced complex likelihood").
     ss += ResidualSquares(*model, forcing, t, th, k, complex ? 1 : options.output_stride, token);
     const double m = static_cast<double>(t.size() - first);
     return -0.5 * ss / (sigma * sigma) - m * std::log(sigma);
