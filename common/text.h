@@ -57,6 +57,10 @@ std::string Quote(std::string_view text, std::size_t max_bytes = kMaxQuotedBytes
 /// message a library wrote about input (it may echo the input's bytes).
 std::string Escape(std::string_view text);
 
+/// `text` as XML/HTML element content or a double-quoted attribute value:
+/// `<`, `>`, `&` and `"` as entities, every other byte as it is.
+std::string XmlText(std::string_view text);
+
 /// Bytes of one line that Printable keeps by default: a line of a message
 /// or log that carries text from a file or the network holds at most this
 /// many bytes of it (plus escapes and the cut notice); docs/reliability.md.

@@ -8,6 +8,7 @@
 #include <string>
 #include <string_view>
 
+#include "common/text.h"
 #include "monitor/assets.h"
 #include "report/report.h"
 
@@ -58,25 +59,6 @@ std::string ReplaceReferences(const std::string& html, const std::regex& re, Mak
 
 }  // namespace
 
-namespace {
-
-// Text as HTML element content or attribute value.
-std::string HtmlText(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-}  // namespace
-
 std::string ReportPage(const RecordReport& record) {
   std::string html(Asset("/index.html").body);
 
@@ -112,10 +94,7 @@ std::string ReportPage(const RecordReport& record) {
   const std::size_t title = html.find("<title>");
   const std::size_t title_end = html.find("</title>", title);
   if (title != std::string::npos && title_end != std::string::npos) {
-    std::string name;
-    for (char c : std::filesystem::path(record.log_path).filename().string()) {
-      name += c == '<' ? std::string("&lt;") : c == '&' ? std::string("&amp;") : std::string(1, c);
-    }
+    const std::string name = common::XmlText(std::filesystem::path(record.log_path).filename().string());
     html.replace(title + 7, title_end - title - 7, "rocklab report: " + name);
   }
   if (!snapshot_written) {
@@ -127,7 +106,7 @@ std::string ReportPage(const RecordReport& record) {
   if (!record.provenance.empty() && body_end != std::string::npos) {
     std::string foot = "<footer class=\"provenance\" style=\"font-size:small;color:#555;margin:1em\">\n<dl>\n";
     for (const auto& [key, value] : record.provenance) {
-      foot += "<dt>" + HtmlText(key) + "</dt><dd><code>" + HtmlText(value) + "</code></dd>\n";
+      foot += "<dt>" + common::XmlText(key) + "</dt><dd><code>" + common::XmlText(value) + "</code></dd>\n";
     }
     foot += "</dl>\n</footer>\n";
     html.insert(body_end, foot);

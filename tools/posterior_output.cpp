@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/atomic_file.h"
+#include "common/text.h"
 #include "export/h5_writer.h"
 
 namespace rocklab::tools {
@@ -26,24 +27,6 @@ std::string UnitOf(const std::string& name) {
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-std::string Xml(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<') {
-      out += "&lt;";
-    } else if (c == '>') {
-      out += "&gt;";
-    } else if (c == '&') {
-      out += "&amp;";
-    } else if (c == '"') {
-      out += "&quot;";
-    } else {
-      out += c;
-    }
-  }
-  return out;
 }
 
 std::string F(double v, const char* fmt = "%.2f") {
@@ -116,7 +99,7 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
          F(size_h, "%.0f") + "\" viewBox=\"0 0 " + F(size_w, "%.0f") + " " + F(size_h, "%.0f") +
          "\" font-family=\"sans-serif\" font-size=\"11\">\n";
   svg += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  svg += "<text x=\"" + F(left) + "\" y=\"20\" font-size=\"13\">" + Xml(title) + "</text>\n";
+  svg += "<text x=\"" + F(left) + "\" y=\"20\" font-size=\"13\">" + common::XmlText(title) + "</text>\n";
   const auto n = static_cast<double>(r.draws.rows());
   for (int row = 0; row < d; ++row) {
     for (int col = 0; col <= row; ++col) {
@@ -143,7 +126,7 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
           svg += "<line x1=\"" + F(x) + "\" x2=\"" + F(x) + "\" y1=\"0\" y2=\"" + F(panel) +
                  "\" stroke=\"#d62728\" stroke-dasharray=\"" + (v == s.median ? "none" : "4,3") + "\"/>\n";
         }
-        svg += "<text x=\"2\" y=\"-3\">" + Xml(s.name) + " = " + F(s.median, "%.6g") + " [" + F(s.ci68_lo, "%.6g") +
+        svg += "<text x=\"2\" y=\"-3\">" + common::XmlText(s.name) + " = " + F(s.median, "%.6g") + " [" + F(s.ci68_lo, "%.6g") +
                ", " + F(s.ci68_hi, "%.6g") + "]</text>\n";
       } else {
         std::vector<double> h(static_cast<std::size_t>(bins * bins), 0.0);
@@ -171,7 +154,7 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
         svg += "<text x=\"" + F(x0 + panel) + "\" y=\"" + F(y0 + panel + 14) + "\" text-anchor=\"end\">" +
                F(hi[k], "%.6g") + "</text>\n";
         svg += "<text x=\"" + F(x0 + panel / 2) + "\" y=\"" + F(y0 + panel + 30) + "\" text-anchor=\"middle\">" +
-               Xml(r.names[k]) + " (" + Xml(UnitOf(r.names[k])) + ")</text>\n";
+               common::XmlText(r.names[k]) + " (" + common::XmlText(UnitOf(r.names[k])) + ")</text>\n";
       }
       if (col == 0 && row > 0) {
         const auto k = static_cast<std::size_t>(row);
@@ -183,7 +166,7 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
     }
   }
   svg += "<text x=\"" + F(left) + "\" y=\"" + F(size_h - 8) + "\">" +
-         Xml(std::to_string(r.walkers) + " walkers x " + std::to_string(r.steps) + " steps, burn-in " +
+         common::XmlText(std::to_string(r.walkers) + " walkers x " + std::to_string(r.steps) + " steps, burn-in " +
              std::to_string(r.diagnostics.burn_in) + ", " + std::to_string(static_cast<long>(n)) +
              " draws; red: median and 68 % interval; " + (r.converged() ? "converged" : "NOT converged")) +
          "</text>\n</svg>\n";
