@@ -139,14 +139,26 @@ std::string Sha256::HexDigest() {
   return std::string(hex, 64);
 }
 
-std::string Sha256Hex(std::istream& in) {
+namespace {
+
+// SHA-256 of what `in` yields, and its length in bytes.
+std::string Digest(std::istream& in, std::int64_t& bytes) {
   Sha256 sha;
   std::array<char, 1 << 16> chunk;
+  bytes = 0;
   while (in) {
     in.read(chunk.data(), chunk.size());
     sha.Update(chunk.data(), static_cast<std::size_t>(in.gcount()));
+    bytes += in.gcount();
   }
   return sha.HexDigest();
+}
+
+}  // namespace
+
+std::string Sha256Hex(std::istream& in) {
+  std::int64_t bytes = 0;
+  return Digest(in, bytes);
 }
 
 Provenance MakeProvenance(const std::vector<std::string>& sources) {
@@ -161,17 +173,11 @@ Provenance MakeProvenance(const std::vector<std::string>& sources) {
     SourceFile s{path, -1, ""};
     std::ifstream in(path, std::ios::binary);
     if (in) {
-      Sha256 sha;
-      std::array<char, 1 << 16> chunk;
       std::int64_t size = 0;
-      while (in) {
-        in.read(chunk.data(), chunk.size());
-        sha.Update(chunk.data(), static_cast<std::size_t>(in.gcount()));
-        size += in.gcount();
-      }
+      std::string hex = Digest(in, size);
       if (!in.bad()) {
         s.size_bytes = size;
-        s.sha256 = sha.HexDigest();
+        s.sha256 = std::move(hex);
       }
     }
     p.sources.push_back(std::move(s));

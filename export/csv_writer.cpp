@@ -8,6 +8,12 @@
 namespace rocklab::exporter {
 namespace {
 
+// `out` without its .csv: the stem of the tables' and the sidecars' names.
+std::string CsvStem(const std::string& out) {
+  const bool csv = out.size() >= 4 && out.compare(out.size() - 4, 4, ".csv") == 0;
+  return csv ? out.substr(0, out.size() - 4) : out;
+}
+
 void WriteQuoted(std::FILE* f, const std::string& s) {
   std::fputc('"', f);
   for (char c : s) {
@@ -43,15 +49,13 @@ CsvWriter::CsvWriter(std::string out, bool single_table)
 CsvWriter::~CsvWriter() = default;  // each AtomicFile removes its temporary
 
 std::string CsvWriter::TablePath(const std::string& out, const std::string& name) {
-  std::string stem = out;
-  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
   std::string safe = name;
   for (char& c : safe) {
     const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
                     c == '_' || c == '-';
     if (!ok) c = '_';
   }
-  return stem + "_" + safe + ".csv";
+  return CsvStem(out) + "_" + safe + ".csv";
 }
 
 int CsvWriter::AddTable(const std::string& name, const std::vector<Column>& columns) {
@@ -92,16 +96,10 @@ void CsvWriter::Append(int table, const Row& row) {
 }
 
 std::string CsvWriter::LegendPath(const std::string& out) {
-  std::string stem = out;
-  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
-  return stem + ".columns.csv";  // a '.' no TablePath gives: it cannot be a table's file
+  return CsvStem(out) + ".columns.csv";  // a '.' no TablePath gives: it cannot be a table's file
 }
 
-std::string CsvWriter::ProvenancePath(const std::string& out) {
-  std::string stem = out;
-  if (stem.size() >= 4 && stem.compare(stem.size() - 4, 4, ".csv") == 0) stem.resize(stem.size() - 4);
-  return stem + ".provenance.csv";
-}
+std::string CsvWriter::ProvenancePath(const std::string& out) { return CsvStem(out) + ".provenance.csv"; }
 
 void CsvWriter::DescribeFile(const std::string& key, const std::string& value) {
   file_attributes_.emplace_back(key, value);
