@@ -25,6 +25,7 @@
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/export/readback.h"
+#include "tests/sha256sum.h"
 #include "tests/tools/run_cli.h"
 
 namespace rocklab {
@@ -259,13 +260,10 @@ TEST_F(InfoExport, CsvExportWritesItsProvenanceBeside) {
   ASSERT_EQ(table[0].name, "key");
   std::map<std::string, std::string> p;
   for (std::size_t i = 0; i < table[0].text.size(); ++i) p[table[0].text[i]] = table[1].text[i];
-  std::FILE* pipe = ::popen(("sha256sum " + log_).c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  char hash[65] = {};
-  ASSERT_EQ(std::fread(hash, 1, 64, pipe), 64u);
-  ::pclose(pipe);
+  const std::string hash = test::Sha256sum(log_);
+  ASSERT_EQ(hash.size(), 64u);
   EXPECT_EQ(p["source_1"], log_ + " (" + std::to_string(std::filesystem::file_size(log_)) + " bytes, sha256 " +
-                               std::string(hash) + ")");
+                               hash + ")");
   EXPECT_NE(p["command"].find("export " + log_ + " --out " + out), std::string::npos) << p["command"];
   EXPECT_EQ(p.count("rocklab_version") + p.count("build_type") + p.count("created_utc"), 3u);
 }

@@ -30,6 +30,7 @@
 #include "rocklab/table_state_t.hpp"
 #include "tests/tools/figure_probe.h"
 #include "tests/tools/run_cli.h"
+#include "tests/sha256sum.h"
 #include "tests/source_paths.h"
 
 namespace rocklab::tools {
@@ -189,11 +190,8 @@ TEST_F(RocklabReport, PageIsSelfContainedAndHoldsTheRecordAsTheLogHasIt) {
 
   // Its foot says what made it: the log with its size and SHA-256
   // (oracle: coreutils' sha256sum), the command and rocklab's version.
-  std::FILE* pipe = ::popen(("sha256sum " + Fig7Log()).c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  char hash[65] = {};
-  ASSERT_EQ(std::fread(hash, 1, 64, pipe), 64u);
-  ::pclose(pipe);
+  const std::string hash = test::Sha256sum(Fig7Log());
+  ASSERT_EQ(hash.size(), 64u);
   const std::size_t foot = html.find("<footer class=\"provenance\"");
   ASSERT_NE(foot, std::string::npos);
   const std::string tail = html.substr(foot);
