@@ -59,7 +59,15 @@ CXXFLAGS="-gline-tables-only -DNDEBUG ${CXXFLAGS:-}" ROCKLAB_BUILD_DIR=$asan \
   ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
-run_ctest "$asan" "$@"
+# Left to the plain pass: long numerical tests whose code the sanitizer pass
+# still runs in smaller tests (the edge sweep: BlockTest.SweepFinds...,
+# 100 000 polygons; the forced trajectory fit:
+# CliFit.TrajectoryWithAccelOnAReconstructedForcedRecord). Under ASan they
+# took 55, 53, 34, 33 and 26 s of the pass's 652 s (docs/testing.md).
+asan_left_out='^(BlockTest\.AMillionVertexSectionIsCheckedInLinearlyManyEdgeTests'
+asan_left_out+='|FitTrajectory\.(SaysWhenTheTableRecordsSamplingMovesTheFit|ForcedNearThresholdFindsTheTruthOrSaysNotConverged'
+asan_left_out+='|RecoversBlock1FromAForcedTest|ResidualToNoiseSeesAWrongModel))$'
+run_ctest "$asan" -E "$asan_left_out" "$@"
 
 seconds=${ROCKLAB_FUZZ_SECONDS:-12}
 mkdir -p "$asan/fuzz-artifacts"
