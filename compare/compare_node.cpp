@@ -206,8 +206,17 @@ bool CompareNode::PublishDue(std::int64_t utime, std::int64_t last_pub_utime) co
 }
 
 std::size_t CompareNode::FindMeasured(std::int64_t utime) const {
-  // Binary search in the ring (utime increasing).
-  std::size_t lo = 0, hi = measured_.size();
+  // The model's sample is nearly always one of the newest measured ones (it
+  // follows the table sample the measurement came with): look there first,
+  // then binary search the ring (utime increasing). The search was 7.5 % of
+  // `run --max`'s CPU with four variants (docs/performance.md).
+  const std::size_t n = measured_.size();
+  for (std::size_t back = 1; back <= std::min<std::size_t>(n, 4); ++back) {
+    const std::int64_t u = measured_[n - back].utime;
+    if (u == utime) return n - back;
+    if (u < utime) return n;  // between two measured samples: none has it
+  }
+  std::size_t lo = 0, hi = n;
   while (lo < hi) {
     const std::size_t mid = (lo + hi) / 2;
     if (measured_[mid].utime < utime) {
