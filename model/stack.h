@@ -1,0 +1,104 @@
+#pragma once
+// A stack of rigid blocks rocking on a moving table, Housner-type (no
+// sliding, no bounce, no flight): the dynamics of each contact mode in
+// generalised coordinates, the contact loads that decide uplift, and the
+// impact map. Issue 37's first piece: no integration loop and no command
+// uses it yet. Derivation: docs/models.md, "Assemblies"; its independent
+// reference: tests/model/oracle/stack_oracle.py.
+//
+// Conventions: table frame, x to the right, z up, angles counter-clockwise.
+// Bodies bottom-up; interface k lies under body k (0: the table). Each
+// interface is closed (0) or pivots on the left corner of its contact face
+// (+1: the body above turns counter-clockwise relative to the one below) or
+// on its right corner (-1). The contact face of interface k is [-c_k, c_k]
+// (c_0 = b_0, c_k = min(b_k-1, b_k): centred bodies).
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+namespace rocklab::model::stack {
+
+/// Largest number of bodies (fixed-size matrices: no allocation per call).
+inline constexpr int kMaxBodies = 8;
+
+/// A rectangular body: half sizes (m), mass (kg), moment of inertia about
+/// its centre of mass (kg m^2).
+struct Body {
+  double half_width_m{};
+  double half_height_m{};
+  double mass_kg{};
+  double inertia_kgm2{};
+  /// A solid rectangle of these sizes and mass.
+  static Body Rectangle(double width_m, double height_m, double mass_kg);
+};
+
+/// Contact state per interface: 0 closed, +1 pivot left, -1 pivot right.
+using Mode = std::array<int, kMaxBodies>;
+
+using Vec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxBodies, 1>;
+using Mat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxBodies, kMaxBodies>;
+
+/// Normal force (N, along the lower face's normal, pushing the body above)
+/// and moment (N m, counter-clockwise, about the interface's contact point:
+/// the face centre when closed, the pivot corner otherwise) that the body
+/// below gives the bodies above an interface.
+struct Load {
+  double normal_n{};
+  double moment_nm{};
+};
+
+class Stack {
+ public:
+  /// Bottom-up; `glued`: interfaces that never open (size 0 or bodies()).
+  /// Throws std::invalid_argument for no body, more than kMaxBodies, or a
+  /// size, mass or inertia that is not finite and > 0.
+  explicit Stack(std::vector<Body> bodies, std::vector<bool> glued = {});
+
+  int bodies() const { return n_; }
+  const Body& body(int i) const { return bodies_[static_cast<std::size_t>(i)]; }
+  /// Half-width of interface k's contact face, m.
+  double contact_half_width_m(int k) const { return c_[static_cast<std::size_t>(k)]; }
+  bool glued(int k) const { return glued_[static_cast<std::size_t>(k)]; }
+
+  /// Number of generalised coordinates in `mode`: its pivoting interfaces.
+  int Dofs(const Mode& mode) const;
+  /// Absolute angle (rad) and rate (rad/s) of every body from the relative
+  /// angles q and rates qdot of the pivoting interfaces (interface order).
+  void Bodies(const Mode& mode, const Vec& q, const Vec& qdot, double* theta, double* theta_dot) const;
+  /// Generalised accelerations (rad/s^2) under the table's acceleration
+  /// (m/s^2): Lagrange's equations M(q) qddot = f(q, qdot, u_g'').
+  Vec Accelerations(const Mode& mode, const Vec& q, const Vec& qdot, double table_accel_mps2) const;
+  /// The load through every interface (`loads`: bodies() values) for the
+  /// motion q, qdot, qddot under that table acceleration.
+  void Loads(const Mode& mode, const Vec& q, const Vec& qdot, const Vec& qddot, double table_accel_mps2,
+             Load* loads) const;
+  /// Kinetic plus potential energy (J), the table at rest.
+  double Energy(const Mode& mode, const Vec& q, const Vec& qdot) const;
+
+  /// After interface k's pivot closes (its relative angle 0): the first
+  /// post-impact mode, fewest contact changes first (k on its other corner
+  /// or closed; each closed, unglued interface kept closed or opened), whose
+  /// impulses push (normal impulse >= 0, a closed face's impulsive moment
+  /// within c times it) and whose opened interfaces move apart. Angular
+  /// momentum of the bodies above every pivot is conserved about it (the
+  /// inelastic impact); with `restitution` >= 0 interface k's relative rate
+  /// is instead that factor times its rate before. Throws std::runtime_error
+  /// when no candidate is consistent.
+  struct ImpactResult {
+    Mode mode{};
+    Vec q;     ///< the same configuration in the new mode's coordinates
+    Vec qdot;  ///< rad/s
+  };
+  ImpactResult Impact(const Mode& mode, const Vec& q, const Vec& qdot, int k, double restitution = -1.0) const;
+
+ private:
+  struct Geometry;
+  void Describe(const Mode& mode, const Vec& q, Geometry& out) const;
+  std::vector<Body> bodies_;
+  std::vector<double> c_;
+  std::vector<bool> glued_;
+  int n_{};
+};
+
+}  // namespace rocklab::model::stack
