@@ -111,9 +111,10 @@ int Cvode::RootThunk(double t, N_Vector y, double* g, void* user) {
   }
 }
 
-Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, Method method)
-    : h_(std::make_unique<Handles>()), n_(n) {
+Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, Method method, int roots)
+    : h_(std::make_unique<Handles>()), n_(n), roots_(roots) {
   if (n < 1 || n > kMaxEquations) throw std::invalid_argument("Cvode: n must be 1.." + std::to_string(kMaxEquations));
+  if (roots < 1 || roots > kMaxRoots) throw std::invalid_argument("Cvode: roots must be 1.." + std::to_string(kMaxRoots));
   h_->system = &system;
   h_->rk = method == Method::kRungeKutta;
   Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
@@ -125,8 +126,11 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   // vectors instead of one N_VLinearSum per vector. On a 2-4 element state
   // the per-call overhead is the cost (docs/performance.md). The
   // integrators clone their vectors from y, which carries the operations.
-  if (!UseSmallVectorOps(h_->y)) throw std::logic_error("Cvode: no fixed-length vector operations for n");
-  UseSmallVectorOps(h_->atol);
+  if (UseSmallVectorOps(h_->y)) {
+    UseSmallVectorOps(h_->atol);
+  } else if (n <= 4) {
+    throw std::logic_error("Cvode: no fixed-length vector operations for n");
+  }
   double* y = N_VGetArrayPointer(h_->y);
   double* a = N_VGetArrayPointer(h_->atol);
   for (int i = 0; i < n; ++i) {
@@ -146,7 +150,7 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
     Check(ERKStepSetInterpolantDegree(h_->mem, kRungeKuttaInterpolantDegree), "ERKStepSetInterpolantDegree");
     Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
     Check(ERKStepSetMaxNumSteps(h_->mem, 1000000), "ERKStepSetMaxNumSteps");
-    Check(ERKStepRootInit(h_->mem, kRoots, RootThunk), "ERKStepRootInit");
+    Check(ERKStepRootInit(h_->mem, roots_, RootThunk), "ERKStepRootInit");
     Check(ERKStepSetNoInactiveRootWarn(h_->mem), "ERKStepSetNoInactiveRootWarn");
     Check(ERKStepSetErrFile(h_->mem, nullptr), "ERKStepSetErrFile");
     return;
@@ -159,7 +163,7 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   Check(CVodeSetNonlinearSolver(h_->mem, h_->nls), "CVodeSetNonlinearSolver");
   Check(CVodeSetMaxStep(h_->mem, max_step_s), "CVodeSetMaxStep");
   Check(CVodeSetMaxNumSteps(h_->mem, 1000000), "CVodeSetMaxNumSteps");
-  Check(CVodeRootInit(h_->mem, kRoots, RootThunk), "CVodeRootInit");
+  Check(CVodeRootInit(h_->mem, roots_, RootThunk), "CVodeRootInit");
   Check(CVodeSetNoInactiveRootWarn(h_->mem), "CVodeSetNoInactiveRootWarn");
   // No messages on stderr: a failure throws with the flag's name, a
   // recovered one is counted (Stats::recoveries).
@@ -199,10 +203,18 @@ void Cvode::SetMaxStep(double max_step_s) {
 }
 
 void Cvode::SetRootDirection(std::array<int, kRoots> direction) {
+  if (roots_ != kRoots) throw std::logic_error("Cvode: SetRootDirection of three roots on " + std::to_string(roots_));
+  SetRootDirection(direction.data());
+}
+
+void Cvode::SetRootDirection(const int* direction) {
+  // SUNDIALS takes a non-const array and copies it.
+  std::array<int, kMaxRoots> copy{};
+  std::copy(direction, direction + roots_, copy.begin());
   if (h_->rk) {
-    Check(ERKStepSetRootDirection(h_->mem, direction.data()), "ERKStepSetRootDirection");
+    Check(ERKStepSetRootDirection(h_->mem, copy.data()), "ERKStepSetRootDirection");
   } else {
-    Check(CVodeSetRootDirection(h_->mem, direction.data()), "CVodeSetRootDirection");
+    Check(CVodeSetRootDirection(h_->mem, copy.data()), "CVodeSetRootDirection");
   }
 }
 
@@ -299,13 +311,18 @@ Cvode::Stats Cvode::stats() const {
 }
 
 std::array<int, Cvode::kRoots> Cvode::RootsFound() {
+  if (roots_ != kRoots) throw std::logic_error("Cvode: RootsFound of three roots on " + std::to_string(roots_));
   std::array<int, kRoots> found{};
-  if (h_->rk) {
-    Check(ERKStepGetRootInfo(h_->mem, found.data()), "ERKStepGetRootInfo");
-  } else {
-    Check(CVodeGetRootInfo(h_->mem, found.data()), "CVodeGetRootInfo");
-  }
+  RootsFound(found.data());
   return found;
+}
+
+void Cvode::RootsFound(int* found) {
+  if (h_->rk) {
+    Check(ERKStepGetRootInfo(h_->mem, found), "ERKStepGetRootInfo");
+  } else {
+    Check(CVodeGetRootInfo(h_->mem, found), "CVodeGetRootInfo");
+  }
 }
 
 const double* Cvode::y() const { return N_VGetArrayPointer(h_->y); }

@@ -19,13 +19,14 @@ class IntegratorError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// A small ODE y' = f(t, y) with three root functions g(t, y).
+/// A small ODE y' = f(t, y) with root functions g(t, y) (three, or the
+/// number given to Cvode).
 class OdeSystem {
  public:
   virtual ~OdeSystem() = default;
   /// Right-hand side; returns 0 on success, > 0 for a recoverable failure.
   virtual int Rhs(double t_s, const double* y, double* ydot) = 0;
-  /// The three root functions.
+  /// The root functions.
   virtual int Roots(double t_s, const double* y, double* g) = 0;
 };
 
@@ -35,8 +36,9 @@ class OdeSystem {
 /// not stability, bounds the step). No Jacobian, no matrix, high order.
 class Cvode {
  public:
-  static constexpr int kRoots = 3;
-  static constexpr int kMaxEquations = 4;
+  static constexpr int kRoots = 3;         ///< the rocking models' roots
+  static constexpr int kMaxRoots = 16;     ///< a stack's: two per interface
+  static constexpr int kMaxEquations = 16;  ///< a stack's: angle and rate per interface
 
   /// CVODE's Adams-Moulton (multistep: its history carries over from step
   /// to step) or ARKODE's explicit Runge-Kutta (ERKStep, one step at a
@@ -46,10 +48,12 @@ class Cvode {
   static constexpr int kRungeKuttaOrder = 5;
   /// Degree of its dense output (ERKStepSetInterpolantDegree).
   static constexpr int kRungeKuttaInterpolantDegree = 3;
-  /// @param n number of equations, 1 .. kMaxEquations
+  /// @param n number of equations, 1 .. kMaxEquations (fixed-length vector
+  ///        operations up to 4, SUNDIALS' serial ones beyond)
   /// @param atol absolute tolerances, one per equation
+  /// @param roots number of root functions, 1 .. kMaxRoots
   Cvode(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s,
-        Method method = Method::kAdams);
+        Method method = Method::kAdams, int roots = kRoots);
   ~Cvode();
   Cvode(const Cvode&) = delete;
   Cvode& operator=(const Cvode&) = delete;
@@ -58,6 +62,8 @@ class Cvode {
   void ReInit(double t0_s, const double* y0);
   /// Root directions (+1 rising, -1 falling, 0 both) for the three roots.
   void SetRootDirection(std::array<int, kRoots> direction);
+  /// The same for as many roots as given at construction.
+  void SetRootDirection(const int* direction);
   /// Relative and absolute (n values) tolerances from the next step on.
   void SetTolerances(double rtol, const double* atol);
   /// Largest internal step, s; 0 for none.
@@ -89,6 +95,8 @@ class Cvode {
   /// Which roots were found by the last Advance returning kRoot (+1/-1 the
   /// direction, 0 not found).
   std::array<int, kRoots> RootsFound();
+  /// The same for as many roots as given at construction (into `found`).
+  void RootsFound(int* found);
 
   double t_s() const { return t_; }
   const double* y() const;
@@ -102,6 +110,7 @@ class Cvode {
   void AddCounters();      // moves them (reset by ReInit) into done_
   std::unique_ptr<Handles> h_;
   int n_{};
+  int roots_{kRoots};
   double t_{};
   Stats done_;  // work before the last ReInit
   double last_failure_t_{-1e300};  // where Advance last restarted after a failure, s

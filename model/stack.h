@@ -15,7 +15,11 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
+#include <string>
 #include <vector>
+
+#include "model/rocking_model.h"
 
 namespace rocklab::model::stack {
 
@@ -100,5 +104,55 @@ class Stack {
   std::vector<bool> glued_;
   int n_{};
 };
+
+/// How a stack is integrated and sampled.
+struct RunOptions {
+  double rtol{1e-10};           ///< CVODE's relative tolerance, 1
+  double atol_rad{1e-12};       ///< absolute tolerance on the angles, rad (rates: x 100, rad/s)
+  double rate_hz{200.0};        ///< output samples per second, Hz
+  double duration_s{10.0};      ///< s, from t = 0 at rest
+  double rest_step_s{1e-3};     ///< largest step while nothing moves (the table's push is looked at this often), s
+  /// Per interface (bottom-up): the restitution of its impacts (relative
+  /// rate after / before), or < 0 (and absent) for the angular momentum rule.
+  std::vector<double> restitution;
+  /// A pivot whose relative rate after an impact is below this closes
+  /// (stays shut: Housner's impacts would otherwise come ever closer), rad/s.
+  double rest_rate_rad_s{1e-6};
+};
+
+/// The single block's kinds (uplift, impact, rest, overturn) and their names.
+using model::EventKind;
+using model::ToString;
+
+struct Event {
+  double time_s{};
+  EventKind kind{};
+  int interface{};  ///< 0: the table, k: under body k
+  Mode after{};     ///< the contact states from then on
+};
+
+/// A stack's run: samples at t = k / rate_hz (angles counter-clockwise,
+/// the stack's convention) and its events.
+struct Run {
+  std::vector<double> time_s;
+  std::vector<std::array<double, kMaxBodies>> theta;      ///< rad, per body
+  std::vector<std::array<double, kMaxBodies>> theta_dot;  ///< rad/s, per body
+  std::vector<Mode> mode;
+  std::vector<Event> events;
+  bool overturned{false};
+  long steps{};  ///< the integrator's
+};
+
+/// Integrates `stack` from rest under `forcing` (CVODE's Adams method; the
+/// equations of the current contact mode, restarted at every change of it
+/// and at the forcing's declared jumps). Stops at an overturning (an
+/// interface's relative angle reaching pi/2). @throws std::invalid_argument
+/// for a rate or duration out of range, std::runtime_error when the
+/// integrator or an impact fails.
+Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options);
+
+/// A mode's name, one letter per interface bottom-up: C closed, L pivot on
+/// the left corner, R on the right one ("CC": at rest, two bodies).
+std::string ModeName(const Mode& mode, int interfaces);
 
 }  // namespace rocklab::model::stack

@@ -438,12 +438,58 @@ def check():
     return 1 if failures else 0
 
 
+MODE_LETTER = {0: "C", 1: "L", -1: "R"}
+
+
+def compare(a):
+    """Integrates the stack and sine the arguments give and compares its
+    events with the CSV `time,kind,interface,mode` another integration wrote
+    (rocklab's StackRun test): the same kinds, interfaces and modes in the
+    same order, times within --tolerance s. Exit 0 when they agree."""
+    floats = lambda text: [float(x) for x in text.split(",")]
+    st = Stack(floats(a.widths), floats(a.heights), floats(a.masses))
+    amp, freq = floats(a.sine)
+    accel = lambda t: -amp * (2 * math.pi * freq) ** 2 * math.sin(2 * math.pi * freq * t)
+    ev, _ = simulate(st, accel, a.duration)
+    mine = [(t, kind, k, "".join(MODE_LETTER[x] for x in mode)) for t, kind, k, mode in ev]
+    theirs = []
+    with open(a.compare) as f:
+        header = f.readline().strip()
+        if header != "time,kind,interface,mode":
+            print("%s: header %r, not time,kind,interface,mode" % (a.compare, header))
+            return 2
+        for line in f:
+            t, kind, k, mode = line.strip().split(",")
+            theirs.append((float(t), kind, int(k), mode))
+    worst = 0.0
+    for i, (m, o) in enumerate(zip(mine, theirs)):
+        if m[1:] != o[1:]:
+            print("event %d differs: reference %s, compared %s" % (i, m, o))
+            return 1
+        worst = max(worst, abs(m[0] - o[0]))
+    if len(mine) != len(theirs):
+        print("%d events in the reference, %d compared" % (len(mine), len(theirs)))
+        return 1
+    print("%d events agree; largest time difference %.3g s" % (len(mine), worst))
+    return 0 if worst <= a.tolerance else 1
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="run the oracles (ctest External.stack_oracle)")
+    ap.add_argument("--compare", metavar="EVENTS.csv", help="compare another integration's events (time,kind,"
+                    "interface,mode) with this one's for the stack and sine below")
+    ap.add_argument("--widths", help="m, bottom-up, comma-separated")
+    ap.add_argument("--heights", help="m")
+    ap.add_argument("--masses", help="kg")
+    ap.add_argument("--sine", help="AMP,FREQ: the table's displacement AMP sin(2 pi FREQ t), m and Hz")
+    ap.add_argument("--duration", type=float, help="s")
+    ap.add_argument("--tolerance", type=float, default=1e-6, help="largest time difference, s")
     a = ap.parse_args()
     if a.check:
         sys.exit(check())
+    if a.compare:
+        sys.exit(compare(a))
     ap.print_help()
 
 
