@@ -25,6 +25,25 @@ double Cross(const V2& a, const V2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 }  // namespace
 
+BlockParams FrameEquivalent(const Frame& f) {
+  if (f.columns < 1) throw std::invalid_argument("frame: columns must be >= 1");
+  const std::pair<const char*, double> fields[] = {{"column_width_m", f.column_width_m},
+                                                   {"column_height_m", f.column_height_m},
+                                                   {"column_mass_kg", f.column_mass_kg}};
+  for (const auto& [name, v] : fields) {
+    if (!(std::isfinite(v) && v > 0)) throw std::invalid_argument(std::string("frame: ") + name + " must be > 0");
+  }
+  if (!(std::isfinite(f.beam_mass_kg) && f.beam_mass_kg >= 0)) throw std::invalid_argument("frame: beam_mass_kg must be >= 0");
+  const double b = f.column_width_m / 2, h = f.column_height_m / 2;
+  const double alpha = std::atan2(b, h), gamma = f.beam_mass_kg / (f.columns * f.column_mass_kg);
+  const double p = std::sqrt(3 * common::kGravity / (4 * std::hypot(b, h)));
+  BlockParams params;
+  params.alpha = alpha;
+  params.p = p * std::sqrt((1 + 2 * gamma) / (1 + 3 * gamma));
+  params.mu = (1 - 1.5 * std::pow(std::sin(alpha), 2) + 3 * gamma * std::cos(2 * alpha)) / (1 + 3 * gamma);
+  return params;
+}
+
 Body Body::Rectangle(double width_m, double height_m, double mass_kg) {
   const double b = width_m / 2, h = height_m / 2;
   return {b, h, mass_kg, mass_kg * (b * b + h * h) / 3.0};

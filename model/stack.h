@@ -105,6 +105,24 @@ class Stack {
   int n_{};
 };
 
+/// A rocking frame: `columns` equal rectangular columns under a rigid cap
+/// beam resting on their tops (Makris and Vassiliou 2013).
+struct Frame {
+  int columns{2};
+  double column_width_m{};
+  double column_height_m{};
+  double column_mass_kg{};
+  double beam_mass_kg{};
+};
+
+/// The single block that moves as the frame does (docs/models.md, "The
+/// rocking frame"): the columns' alpha, p_hat = p sqrt((1 + 2 gamma) / (1 +
+/// 3 gamma)) and mu = (1 - 1.5 sin^2(alpha) + 3 gamma cos(2 alpha)) / (1 +
+/// 3 gamma), gamma = m_beam / (N m_column). @throws std::invalid_argument
+/// naming the field for a count < 1 or a size or mass not finite and > 0
+/// (the beam's mass may be 0).
+BlockParams FrameEquivalent(const Frame& frame);
+
 /// How a stack is integrated and sampled.
 struct RunOptions {
   double rtol{1e-10};           ///< CVODE's relative tolerance, 1

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
 #include <cmath>
 #include <fstream>
 
@@ -271,3 +272,108 @@ TEST(StackDynamics, BadBodiesAreRefused) {
 }
 
 }  // namespace
+
+namespace {
+
+// The frame written here as three bodies (two columns and the beam), apart
+// from FrameEquivalent's closed forms. Columns of half sizes b, h turned by
+// theta about their left base corners A_j = (x_j - b, 0); the beam on their
+// top right corners (the highest, diagonal to the pivots).
+struct FrameBodies {
+  double b, h, m, mb, x0 = 0.0, x1 = 3.0;
+  Eigen::Vector2d Rot(double t, Eigen::Vector2d r) const {
+    return {std::cos(t) * r.x() - std::sin(t) * r.y(), std::sin(t) * r.x() + std::cos(t) * r.y()};
+  }
+  // Kinetic energy per theta'^2 / 2 and potential energy (J) at theta.
+  double Inertia(double t) const {
+    const double eps = 1e-6;
+    double sum = 0;
+    for (double x : {x0, x1}) {
+      const Eigen::Vector2d a(x - b, 0);
+      const Eigen::Vector2d v = (a + Rot(t + eps, {b, h}) - (a + Rot(t - eps, {b, h}))) / (2 * eps);
+      sum += m * v.squaredNorm() + m * (b * b + h * h) / 3;
+    }
+    const Eigen::Vector2d vb = (Rot(t + eps, {2 * b, 2 * h}) - Rot(t - eps, {2 * b, 2 * h})) / (2 * eps);
+    return sum + mb * vb.squaredNorm();
+  }
+  double Potential(double t) const {
+    return 2 * m * kG * Rot(t, {b, h}).y() + mb * kG * Rot(t, {2 * b, 2 * h}).y();
+  }
+};
+
+}  // namespace
+
+// Oracles: (1) the frame's motion from its energies, computed here from the
+// three bodies' positions (central differences, 1e-6 rad: error ~1e-12):
+// theta'' = -V'(theta) / I, against the equivalent block's -p_hat^2
+// sin(alpha - theta) (its restoring term), to 1e-7 relative; (2) its
+// impact: the impulse that brings columns and beam into the new contacts
+// (left base corners to right ones, the beam onto the columns' top left
+// corners), solved here as M v+ = M v- + C^T P, C v+ = 0 for the nine
+// coordinates, against FrameEquivalent's mu, to 1e-10; gamma = 0 is
+// Housner's 1 - 1.5 sin^2(alpha).
+TEST(StackFrame, TheFrameIsItsEquivalentBlock) {
+  for (double mb : {0.0, 300.0, 2000.0}) {
+    FrameBodies f{0.2, 1.1, 500.0, mb};
+    const auto params = rocklab::model::stack::FrameEquivalent({2, 0.4, 2.2, 500.0, mb});
+    EXPECT_NEAR(params.alpha, std::atan(0.2 / 1.1), 1e-15);
+    for (double t : {0.01, 0.1}) {
+      const double dv = (f.Potential(t + 1e-6) - f.Potential(t - 1e-6)) / 2e-6;
+      const double accel = -dv / f.Inertia(t);
+      const double expected = -params.p * params.p * std::sin(params.alpha - t);
+      EXPECT_NEAR(accel, expected, 1e-7 * std::abs(expected)) << "beam " << mb;
+    }
+    // Impact at theta = 0, omega- = -1 rad/s (closing on the left corners).
+    // Coordinates: column j (x, z, angle) = 3j.., beam 6..8.
+    Eigen::Matrix<double, 9, 9> mass = Eigen::Matrix<double, 9, 9>::Zero();
+    Eigen::Matrix<double, 9, 1> v = Eigen::Matrix<double, 9, 1>::Zero();
+    const double inertia = 500.0 * (0.2 * 0.2 + 1.1 * 1.1) / 3;
+    for (int j = 0; j < 2; ++j) {
+      mass(3 * j, 3 * j) = mass(3 * j + 1, 3 * j + 1) = 500.0;
+      mass(3 * j + 2, 3 * j + 2) = inertia;
+      v.segment<3>(3 * j) << -1.0 * -1.1, -1.0 * 0.2, -1.0;  // omega x (b, h) about the left corner
+    }
+    mass(6, 6) = mass(7, 7) = std::max(mb, 1e-9);
+    mass(8, 8) = std::max(mb, 1e-9) * 1.0;  // a beam's turn is held by its two contacts
+    v.segment<3>(6) << -1.0 * -2.2, -1.0 * 0.4, 0.0;
+    // New contacts: each column's right base corner (b, -h) from its centre
+    // fixed; the beam's points over the columns' top left corners (-b, h).
+    Eigen::Matrix<double, 8, 9> c = Eigen::Matrix<double, 8, 9>::Zero();
+    for (int j = 0; j < 2; ++j) {
+      const int row = 4 * j;
+      c(row, 3 * j) = 1;  // x + (-r_z) w, r = (0.2, -1.1): the corner's velocity
+      c(row, 3 * j + 2) = 1.1;
+      c(row + 1, 3 * j + 1) = 1;
+      c(row + 1, 3 * j + 2) = 0.2;
+      // the beam's point there moves as the column's top left corner,
+      // r_col = (-0.2, 1.1) from its centre; the beam's point at its centre
+      // line (its depth does not enter: the beam does not turn)
+      // the corner's abscissa from the beam's centre, which is taken midway
+      // between the columns (x 0 and 3 m): x_j - b - 1.5
+      const double rbx = (j == 0 ? 0.0 : 3.0) - 0.2 - 1.5;
+      c(row + 2, 6) = 1;
+      c(row + 2, 8) = 0.0;
+      c(row + 3, 7) = 1;
+      c(row + 3, 8) = rbx;
+      c(row + 2, 3 * j) = -1;
+      c(row + 2, 3 * j + 2) = 1.1;  // -(-r_z) with r_z = 1.1
+      c(row + 3, 3 * j + 1) = -1;
+      c(row + 3, 3 * j + 2) = 0.2;  // -(r_x) with r_x = -0.2
+    }
+    Eigen::Matrix<double, 17, 17> kkt = Eigen::Matrix<double, 17, 17>::Zero();
+    kkt.topLeftCorner<9, 9>() = mass;
+    kkt.topRightCorner<9, 8>() = c.transpose();
+    kkt.bottomLeftCorner<8, 9>() = c;
+    Eigen::Matrix<double, 17, 1> rhs = Eigen::Matrix<double, 17, 1>::Zero();
+    rhs.head<9>() = mass * v;
+    const Eigen::Matrix<double, 17, 1> x = kkt.fullPivLu().solve(rhs);
+    const double ratio = x(2) / -1.0;
+    EXPECT_NEAR(ratio, params.mu, 1e-10) << "beam " << mb;
+    EXPECT_NEAR(x(5), x(2), 1e-12);  // the columns stay parallel
+  }
+  const double alpha = std::atan(0.2 / 1.1);
+  EXPECT_NEAR(rocklab::model::stack::FrameEquivalent({2, 0.4, 2.2, 500.0, 0.0}).mu,
+              1 - 1.5 * std::pow(std::sin(alpha), 2), 1e-15);
+  EXPECT_THROW(rocklab::model::stack::FrameEquivalent({0, 0.4, 2.2, 500.0, 10.0}), std::invalid_argument);
+  EXPECT_THROW(rocklab::model::stack::FrameEquivalent({2, 0.4, 2.2, -1.0, 10.0}), std::invalid_argument);
+}
