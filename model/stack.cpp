@@ -320,8 +320,13 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
     }
     if (consistent) return out;
   }
-  throw std::runtime_error("stack impact at interface " + std::to_string(k) +
-                           ": no post-impact contact state is consistent");
+  std::string state;
+  for (Eigen::Index i = 0; i < q.size(); ++i) {
+    state += (i ? ", " : "") + std::to_string(q(i)) + " rad at " + std::to_string(qdot(i)) + " rad/s";
+  }
+  throw std::runtime_error("stack impact at interface " + std::to_string(k) + " (mode " + ModeName(mode, n_) +
+                           "; relative angles " + state +
+                           "): no post-impact contact state keeps every contact pushing (a block would jump)");
 }
 
 }  // namespace rocklab::model::stack

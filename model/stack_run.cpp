@@ -109,6 +109,19 @@ void Insert(const Mode& before, int k, Vec& q, Vec& qdot) {
   qdot = nqd;
 }
 
+// Interface k (generalised coordinate `dof`) closed: its coordinate out.
+void Shut(int k, Eigen::Index dof, Mode& mode, Vec& q, Vec& qdot) {
+  mode[static_cast<std::size_t>(k)] = 0;
+  Vec nq(q.size() - 1), nqd(qdot.size() - 1);
+  for (Eigen::Index i = 0, o = 0; i < q.size(); ++i) {
+    if (i == dof) continue;
+    nq(o) = q(i);
+    nqd(o++) = qdot(i);
+  }
+  q = nq;
+  qdot = nqd;
+}
+
 }  // namespace
 
 Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options) {
@@ -207,23 +220,28 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
         int dof = 0;
         for (int j = 0; j < k; ++j) dof += mode[static_cast<std::size_t>(j)] != 0;
         q(dof) = 0.0;
-        Stack::ImpactResult after = stack.Impact(mode, q, qdot, k, restitution(k));
+        if (std::abs(qdot(dof)) < options.rest_rate_rad_s || mode[kk] * qdot(dof) >= 0) {
+          // Closing at (about) no relative rate, or grazing (the root found
+          // in the noise of an angle that hovers at 0): no impulse; it shuts.
+          Shut(k, dof, mode, q, qdot);
+          run.events.push_back({t, EventKind::kRest, k, mode});
+          continue;
+        }
+        Stack::ImpactResult after;
+        try {
+          after = stack.Impact(mode, q, qdot, k, restitution(k));
+        } catch (const std::runtime_error& e) {
+          throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
+        }
         int new_dof = 0;
         for (int j = 0; j < k; ++j) new_dof += after.mode[static_cast<std::size_t>(j)] != 0;
         if (after.mode[kk] != 0 && std::abs(after.qdot(new_dof)) < options.rest_rate_rad_s) {
           // Too slow to lift again: shut, its rate taken out by the impact.
           after = stack.Impact(mode, q, qdot, k, 0.0);
-          Mode shut = after.mode;
-          shut[kk] = 0;
-          Vec nq(after.q.size() - 1), nqd(after.qdot.size() - 1);
-          for (Eigen::Index i = 0, o = 0; i < after.q.size(); ++i) {
-            if (i == new_dof) continue;
-            nq(o) = after.q(i);
-            nqd(o++) = after.qdot(i);
-          }
-          mode = shut;
-          q = nq;
-          qdot = nqd;
+          mode = after.mode;
+          q = after.q;
+          qdot = after.qdot;
+          Shut(k, new_dof, mode, q, qdot);
           run.events.push_back({t, EventKind::kRest, k, mode});
         } else {
           mode = after.mode;
