@@ -51,9 +51,9 @@ def _import_hint(error):
         f"import rocklab failed: {error}\n"
         f"The module rocklab was built for Python {b.PYTHON_VERSION} ({b.PYTHON_EXECUTABLE}) with numpy "
         f"{b.NUMPY_VERSION}; this is Python {running} ({_sys.executable}) with {running_numpy}.\n"
-        f"Run it with the system's python3 ({b.PYTHON_EXECUTABLE}), or from a venv made with "
-        f"`{b.PYTHON_EXECUTABLE} -m venv --system-site-packages DIR` (which sees Debian's numpy), "
-        "or rebuild rocklab for this interpreter (docs/python.md, \"Install\")."
+        f"Use the interpreter it was built for ({b.PYTHON_EXECUTABLE}): the system's /usr/bin/python3, or a venv "
+        "made from it with `/usr/bin/python3 -m venv --system-site-packages DIR` (which sees Debian's numpy); "
+        "or rebuild rocklab for this interpreter (docs/python.md, \"Install with pip\")."
     )
 
 
