@@ -49,6 +49,9 @@ def test_reconstruct_equals_cli(cli, source_dir, tmp_path):
             else:
                 np.testing.assert_allclose(r.states[name], printed, rtol=5e-12, atol=1e-300)  # %.12g
         assert rocklab.units(r.states)["sliding"] == "m"
+        from test_typing import typed_dict_keys
+
+        assert set(r.summary) == typed_dict_keys("ReconstructionSummary")  # the stub's keys
         text = repr(r)  # a summary, not the states (issue 36)
         assert len(text) < 2000 and text.startswith(f"Reconstruction: {len(r.states)} samples"), text
         assert "sliding [m]" in text or "... (+" in text

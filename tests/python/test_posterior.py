@@ -73,6 +73,10 @@ def test_posterior_summary_keys_and_log_density():
     # The summary is the JSON object, with a one-screen repr naming each
     # parameter's median and 68 % interval (issue 36).
     assert isinstance(summary, dict) and isinstance(summary, rocklab.PosteriorSummary)
+    from test_typing import typed_dict_keys
+
+    optional = {"l", "sigma_mu", "mu_bar"}  # NotRequired in the stub: complex model, per-impact mu
+    assert set(summary) - optional == typed_dict_keys("PosteriorSummary") - optional  # the stub's keys
     text = repr(summary)
     assert text.startswith("PosteriorSummary: impacts method") and "NOT converged" in text.splitlines()[0]
     for name in summary["parameters"]:
