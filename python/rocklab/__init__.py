@@ -67,6 +67,27 @@ try:
 except (ImportError, RuntimeError) as _e:  # numpy missing, or of another ABI (RuntimeError at _import_array)
     raise ImportError(_import_hint(_e), name=__name__) from _e
 
+
+def _numpy_abi_error(running, built):
+    """Why numpy `running` cannot serve a module built against `built`, or
+    None. numpy's rule: a module runs on the numpy major version it was
+    built against, of that minor version or later (pybind11 reads numpy's
+    API table only at the first array, so the import would not fail)."""
+    import re
+
+    r, b = (re.match(r"(\d+)\.(\d+)", v) for v in (running, built))
+    if not r or not b:
+        return None
+    (rmaj, rmin), (bmaj, bmin) = ((int(m.group(1)), int(m.group(2))) for m in (r, b))
+    if rmaj != bmaj or rmin < bmin:
+        return f"numpy {running} cannot run a module built against numpy {built} (another ABI)"
+    return None
+
+
+_abi = _numpy_abi_error(getattr(_np, "__version__", ""), _build_info.NUMPY_VERSION)
+if _abi:
+    raise ImportError(_import_hint(_abi), name=__name__)
+
 from ._lcm_types import *  # noqa: F401,F403  the LCM types (lcm-gen -p), rocklab.raw_frame_t etc.
 
 __all__ = [

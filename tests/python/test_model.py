@@ -286,6 +286,13 @@ def test_import_error_names_the_build_and_the_interpreter(tmp_path):
             f"{built.NUMPY_VERSION}; this is Python {platform.python_version()} ({sys.executable}) "
             "with no importable numpy") in last
     assert "-m venv --system-site-packages" in last
+    # A numpy of another ABI (older than the build's): refused at the import,
+    # not at the first array.
+    (hide / "numpy" / "__init__.py").write_text("__version__ = '1.19.5'\n")
+    err = _import_rocklab_with(tmp_path, hide)
+    last = err[err.rindex("ImportError: import rocklab failed"):]
+    assert f"numpy 1.19.5 cannot run a module built against numpy {built.NUMPY_VERSION}" in last
+    assert f"({sys.executable}) with numpy 1.19.5" in last
     # A module built for another interpreter: the package as installed, its
     # _build_info saying Python 3.9; refused before the native module loads.
     other = tmp_path / "other" / "rocklab"
