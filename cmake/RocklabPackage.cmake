@@ -64,7 +64,13 @@ add_custom_command(OUTPUT ${rocklab_pkg_dir}/rocklab.1.gz
     -P ${PROJECT_SOURCE_DIR}/packaging/manpage.cmake
   DEPENDS rocklab ${PROJECT_SOURCE_DIR}/packaging/manpage.cmake
   COMMENT "rocklab.1.gz from rocklab help" VERBATIM)
-add_custom_target(rocklab_package_docs ALL
+# Not in `all` for the Python module alone (ROCKLAB_PYTHON_ONLY): the man
+# page needs the command built.
+set(rocklab_package_docs_all ALL)
+if(ROCKLAB_PYTHON_ONLY)
+  set(rocklab_package_docs_all)
+endif()
+add_custom_target(rocklab_package_docs ${rocklab_package_docs_all}
   DEPENDS ${rocklab_pkg_dir}/changelog.Debian.gz ${rocklab_pkg_dir}/rocklab.1.gz)
 install(FILES ${rocklab_pkg_dir}/rocklab.1.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 COMPONENT runtime)
 file(GLOB rocklab_guides CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/docs/*.md)

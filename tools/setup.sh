@@ -28,12 +28,14 @@ command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 # under Xvfb, the export read-back test reads with h5py (and scipy, above),
 # the posterior test samples with emcee as an independent sampler, the
 # README test (tests/docs/run_day_in_the_lab.py) plots with matplotlib,
-# the citation test reads CITATION.cff with python3-yaml,
+# the citation test reads CITATION.cff with python3-yaml, the stub test
+# type-checks with python3-mypy, the pip install test (ROCKLAB_SOAK_TESTS)
+# builds through python3-skbuild in a python3-venv venv,
 # the sanitizer and fuzz pass (tools/test.sh, build-asan/) needs clang with
 # its sanitizer and libFuzzer runtimes, and the package test runs lintian on
 # the .debs; only tools/test.sh asks.
 if [ "${ROCKLAB_TEST_TOOLS:-}" = "1" ]; then
-  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb python3-h5py python3-emcee python3-matplotlib python3-yaml lintian)
+  packages+=(chromium chromium-driver fonts-dejavu-core clang libclang-rt-dev xvfb python3-h5py python3-emcee python3-matplotlib python3-yaml python3-mypy python3-skbuild python3-venv lintian)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -27,13 +27,67 @@ disagrees, naming its line); files that cannot be read raise OSError.
 """
 
 import functools as _functools
+import html as _html
 import operator as _operator
 import os as _os
+import sys as _sys
 import warnings as _warnings
 
-import numpy as _np
+from . import _build_info
 
-from . import _rocklab
+
+def _import_hint(error):
+    """The ImportError of a failed ``import rocklab``: the interpreter and
+    numpy the module was built for, the ones running, and the way out."""
+    try:
+        import numpy
+
+        running_numpy = "numpy " + numpy.__version__
+    except Exception:  # missing, or broken: either way not the build's
+        running_numpy = "no importable numpy"
+    running = "%d.%d.%d" % _sys.version_info[:3]
+    b = _build_info
+    return (
+        f"import rocklab failed: {error}\n"
+        f"The module rocklab was built for Python {b.PYTHON_VERSION} ({b.PYTHON_EXECUTABLE}) with numpy "
+        f"{b.NUMPY_VERSION}; this is Python {running} ({_sys.executable}) with {running_numpy}.\n"
+        f"Use the interpreter it was built for ({b.PYTHON_EXECUTABLE}): the system's /usr/bin/python3, or a venv "
+        "made from it with `/usr/bin/python3 -m venv --system-site-packages DIR` (which sees Debian's numpy); "
+        "or rebuild rocklab for this interpreter (docs/python.md, \"Install with pip\")."
+    )
+
+
+_built_minor = ".".join(_build_info.PYTHON_VERSION.split(".")[:2])
+if _built_minor and "%d.%d" % _sys.version_info[:2] != _built_minor:
+    raise ImportError(_import_hint(f"the native module is built for Python {_built_minor}"), name=__name__)
+try:
+    import numpy as _np
+
+    from . import _rocklab
+except (ImportError, RuntimeError) as _e:  # numpy missing, or of another ABI (RuntimeError at _import_array)
+    raise ImportError(_import_hint(_e), name=__name__) from _e
+
+
+def _numpy_abi_error(running, built):
+    """Why numpy `running` cannot serve a module built against `built`, or
+    None. numpy's rule: a module runs on the numpy major version it was
+    built against, of that minor version or later (pybind11 reads numpy's
+    API table only at the first array, so the import would not fail)."""
+    import re
+
+    r, b = (re.match(r"(\d+)\.(\d+)", v) for v in (running, built))
+    if not r or not b:
+        return None
+    (rmaj, rmin), (bmaj, bmin) = ((int(m.group(1)), int(m.group(2))) for m in (r, b))
+    if rmaj != bmaj or rmin < bmin:
+        return f"numpy {running} cannot run a module built against numpy {built} (another ABI)"
+    return None
+
+
+_abi = _numpy_abi_error(getattr(_np, "__version__", ""), _build_info.NUMPY_VERSION)
+if _abi:
+    raise ImportError(_import_hint(_abi), name=__name__)
+
 from ._lcm_types import *  # noqa: F401,F403  the LCM types (lcm-gen -p), rocklab.raw_frame_t etc.
 
 __all__ = [
@@ -51,10 +105,13 @@ __all__ = [
     "posterior",
     "posterior_problem",
     "PosteriorProblem",
+    "PosteriorSummary",
     "sweep",
     "fragility",
     "units",
     "SWEEP_DTYPE",
+    "EVENT_DTYPE",
+    "EVENT_FIELDS",
     "DEFAULT_L",
     "GRAVITY",
 ]
@@ -160,6 +217,89 @@ def units(a):
     return out
 
 
+def _num(v, digits=4):
+    """v for a summary: `digits` significant digits; None (withheld) as n/a."""
+    if v is None:
+        return "n/a"
+    if isinstance(v, (float, _np.floating)):
+        return f"{float(v):.{digits}g}"
+    return str(v)
+
+
+def _with_error(value, error, unit=""):
+    """ "value +- error unit", the error to 2 significant digits."""
+    text = _num(value) if error is None else f"{_num(value)} +- {_num(error, 2)}"
+    return f"{text} {unit}" if unit else text
+
+
+def _counts(names):
+    """ "3 impact, 1 uplift": the count of each distinct name, most first."""
+    tally = {}
+    for n in names:
+        tally[str(n)] = tally.get(str(n), 0) + 1
+    return ", ".join(f"{c} {n}" for n, c in sorted(tally.items(), key=lambda kv: (-kv[1], kv[0]))) or "none"
+
+
+def _fields_text(a, most=6):
+    """An array's fields with their units, "time [s], theta [rad], ...", at most `most`."""
+    fields = a.dtype.names or ()
+    field_units = units(a)
+    shown = [f"{n} [{field_units[n]}]" if n in field_units else n for n in fields[:most]]
+    if len(fields) > most:
+        shown.append(f"... (+{len(fields) - most} fields)")
+    return ", ".join(shown)
+
+
+class _Summarised:
+    """A one-screen ``repr`` and a notebook's ``_repr_html_`` from
+    ``_summary()``: (title, [(label, text)]), never the data itself (a
+    log's tables are MB: their repr would fill a notebook cell)."""
+
+    _SUMMARY_ROWS = 40
+
+    def _rows(self):
+        title, rows = self._summary()
+        if len(rows) > self._SUMMARY_ROWS:
+            more = len(rows) - self._SUMMARY_ROWS + 1
+            rows = rows[: self._SUMMARY_ROWS - 1] + [("...", f"{more} more")]
+        return title, rows
+
+    def __repr__(self):
+        title, rows = self._rows()
+        width = max((len(label) for label, _ in rows), default=0)
+        return "\n".join([title] + [f"  {label.ljust(width)}  {text}" for label, text in rows])
+
+    def _repr_html_(self):
+        title, rows = self._rows()
+        e = _html.escape
+        cells = "".join(
+            f"<tr><th style='text-align:left'>{e(label)}</th><td style='text-align:left'>{e(text)}</td></tr>"
+            for label, text in rows
+        )
+        return f"<div><strong>{e(title)}</strong><table>{cells}</table></div>"
+
+    def _repr_pretty_(self, printer, cycle):
+        # IPython's console: the same summary, not its dict pretty-printer.
+        printer.text(repr(self))
+
+
+def _event_kind_codes():
+    """{name: code} of event_t's constants (UPLIFT 1, IMPACT 2, ...): the
+    kind_name and kind_code of every events array."""
+    event_type = getattr(_lcm_types, "event_t", None)
+    return {
+        k: v for k, v in vars(event_type).items() if k.isupper() and isinstance(v, int)
+    } if event_type is not None else {}
+
+
+#: The fields every events array has (read_log's RL_EVENT tables,
+#: SimulationResult.events, Reconstruction.events), whatever else it holds:
+#: ``time`` (s), ``kind_name`` (event_t's constant's name: "UPLIFT",
+#: "IMPACT", ...), ``kind_code`` (its value, int64) and ``value``. The field
+#: ``kind`` predates them and is kept as it was: read_log's and
+#: reconstruct's the code, simulate's the lower-case name.
+EVENT_FIELDS = ("time", "kind_name", "kind_code", "value")
+
 #: dtype of SimulationResult.events.
 EVENT_DTYPE = _dtype(
     [
@@ -167,8 +307,41 @@ EVENT_DTYPE = _dtype(
         ("kind", "U8", None),
         ("value", "f8", "m/s^2 | rad/s | rad"),
         ("theta_dot_after", "f8", "rad/s"),
+        ("kind_name", "U16", None),
+        ("kind_code", "i8", None),
     ]
 )
+
+
+def _is_event_type(lcm_type):
+    """rocklab.event_t, rocklab.event2_t, ...: the types whose kind is event_t's constant."""
+    import re
+
+    return re.fullmatch(r"rocklab\.event[0-9]*_t", lcm_type) is not None
+
+
+def _with_kind_code(a):
+    """An events table with the field kind_code (int64, the field kind's
+    event_t constant) appended, and kind_name where it lacks one (a copy;
+    event tables are small)."""
+    names = a.dtype.names or ()
+    if "kind" not in names or "kind_code" in names:
+        return a
+    extra = [("kind_code", "<i8")]
+    if "kind_name" not in names:
+        extra.insert(0, ("kind_name", "<U16"))
+    fields = []
+    for n in names:
+        spec = a.dtype.fields[n]
+        fields.append(((spec[2], n) if len(spec) > 2 and spec[2] else n, spec[0]))
+    out = _np.empty(a.shape, dtype=_np.dtype(fields + extra))
+    for n in names:
+        out[n] = a[n]
+    out["kind_code"] = a["kind"]
+    if "kind_name" not in names:
+        by_code = {v: k for k, v in _event_kind_codes().items()}
+        out["kind_name"] = [by_code.get(int(k), str(int(k))) for k in a["kind"]]
+    return out
 
 
 def block_params(width=None, height=None, chamfer=0.0, *, polygon=None):
@@ -200,7 +373,7 @@ def block_params(width=None, height=None, chamfer=0.0, *, polygon=None):
     return _rocklab._rectangle_params(_float(width, "width"), _float(height, "height"), _float(chamfer, "chamfer"))
 
 
-class SimulationResult:
+class SimulationResult(_Summarised):
     """What ``simulate`` returns.
 
     Attributes:
@@ -208,7 +381,9 @@ class SimulationResult:
         theta: rocking angle at t, rad (> 0 about the +x corner).
         theta_dot: angular velocity at t, rad/s.
         events: structured array (EVENT_DTYPE): ``time`` (s), ``kind``
-            ("uplift", "impact", "rest", "overturn"), ``value``: uplift:
+            ("uplift", "impact", "rest", "overturn"; also as ``kind_name``,
+            "UPLIFT" .., and ``kind_code``, event_t's constant, as every
+            events array has them: EVENT_FIELDS), ``value``: uplift:
             the table acceleration, m/s^2; impact: theta_dot just before,
             rad/s; rest: 0; overturn: theta, rad; and ``theta_dot_after``:
             impact: theta_dot just after, rad/s (0 where the block comes to
@@ -232,13 +407,21 @@ class SimulationResult:
         """The events of kind "impact" (a view of ``events``)."""
         return self.events[self.events["kind"] == "impact"]
 
-    def __repr__(self):
+    def _summary(self):
         s = self.summary
-        return (
-            f"SimulationResult({s['model']}, {s['samples']} samples, "
-            f"{s['impacts']} impacts, peak |theta| {s['peak_abs_theta']:.5g} rad"
-            f"{', overturned' if s['overturned'] else ''})"
-        )
+        title = (f"SimulationResult: {s.get('model')}, alpha {_num(s.get('alpha'))} rad, "
+                 f"p {_num(s.get('p'))} rad/s, mu {_num(s.get('mu'))}")
+        rows = [
+            ("samples", f"{len(self.t)} at {_num(s.get('rate'))} Hz over {_num(s.get('duration'))} s"),
+            ("events", _counts(self.events["kind"])),
+            ("uplift", "none" if s.get("uplift_time") is None else f"{_num(s['uplift_time'])} s"),
+            ("peak |theta|", f"{_num(s.get('peak_abs_theta'))} rad at {_num(s.get('peak_time'))} s"),
+            ("impacts", str(s.get("impacts"))),
+            ("overturned", f"yes, at {_num(s.get('overturn_time'))} s" if s.get("overturned") else "no"),
+            ("final regime", str(s.get("final_regime"))),
+            ("solver", f"{s.get('steps')} steps, {_num(s.get('cpu_time'), 3)} s CPU"),
+        ]
+        return title, rows
 
 
 def simulate(
@@ -328,10 +511,13 @@ def simulate(
     events["kind"] = ev["kind"]
     events["value"] = ev["value"]
     events["theta_dot_after"] = ev["theta_dot_after"]
+    codes = _event_kind_codes()
+    events["kind_name"] = _np.char.upper(events["kind"])
+    events["kind_code"] = [codes.get(str(k), -1) for k in events["kind_name"]]
     return SimulationResult(r["t"], r["theta"], r["theta_dot"], events, r["summary"])
 
 
-class LogTables(dict):
+class LogTables(_Summarised, dict):
     """What ``read_log`` and ``read_raw`` return: {table name: structured array}.
 
     A log's tables are named by their channel (a channel that changed type
@@ -359,17 +545,21 @@ class LogTables(dict):
         # dict subclasses pickle their items, not their attributes.
         return (LogTables, (dict(self), self.summary, self.info))
 
-    def __repr__(self):
-        # One line per table (rows, fields, time span), not the arrays: a
-        # log's repr must fit a notebook cell.
-        lines = ["LogTables: %d tables, %d rows" % (len(self), self.summary.get("rows", 0))]
+    def _summary(self):
+        # One line per table (rows, time span, fields with units), not the
+        # arrays: a log's repr must fit a notebook cell.
+        s = self.summary
+        title = f"LogTables: {len(self)} tables, {s.get('rows', 0)} rows"
+        lost = [f"{s[k]} {k.replace('_', ' ')}" for k in ("damaged_regions", "bad_rows", "undecodable") if s.get(k)]
+        if lost:
+            title += " (" + ", ".join(lost) + ")"
+        rows = []
         for name, a in self.items():
-            fields = a.dtype.names or ()
             span = ""
-            if "time" in fields and len(a):
-                span = ", %.6g .. %.6g s" % (a["time"][0], a["time"][-1])
-            lines.append("  %s: %d rows x %d fields%s" % (name, len(a), len(fields), span))
-        return "\n".join(lines)
+            if "time" in (a.dtype.names or ()) and len(a):
+                span = f", {_num(a['time'][0])} .. {_num(a['time'][-1])} s"
+            rows.append((name, f"{len(a)} rows{span}: {_fields_text(a)}"))
+        return title, rows
 
 
 def _warn_damage(path, summary, what):
@@ -417,6 +607,9 @@ def read_log(path, channels=".*", *, start=0.0, end=None, progress=None):
         path, str(channels), _float(start, "start"), _INF if end is None else _float(end, "end"), progress
     )
     _warn_damage(path, summary, "rocklab.read_log")
+    # RL_EVENT tables gain kind_code beside export's kind and kind_name (EVENT_FIELDS).
+    tables = {n: _with_kind_code(a) if _is_event_type(table_info.get(n, {}).get("lcm_type", "")) else a
+              for n, a in tables.items()}
     return LogTables(tables, summary, table_info)
 
 
@@ -484,7 +677,7 @@ def info(path, rig=None, *, rate=0.0):
     )
 
 
-class Reconstruction:
+class Reconstruction(_Summarised):
     """What ``reconstruct`` returns.
 
     Attributes:
@@ -496,7 +689,8 @@ class Reconstruction:
             docs/acquisition.md), ``leds_used``; units in the fields'
             titles (``rocklab.units(states)``).
         events: structured array of the checks' events: ``time`` (s),
-            ``kind`` (event_t's constant), ``value``, ``detail``.
+            ``kind`` (event_t's constant), ``value``, ``detail``, then
+            ``kind_name`` and ``kind_code`` (EVENT_FIELDS).
         summary: counts as ``rocklab reconstruct`` prints them (rows,
             bad_rows, bad_values, gaps, missing, duplicates, out_of_order,
             invalid_led_samples, flagged, damage, read_error, problems).
@@ -509,8 +703,18 @@ class Reconstruction:
         self.events = events
         self.summary = summary
 
-    def __repr__(self):
-        return f"Reconstruction({len(self.states)} samples, {self.summary['flagged']} flagged)"
+    def _summary(self):
+        s, st = self.summary, self.states
+        span = f", {_num(st['time'][0])} .. {_num(st['time'][-1])} s" if len(st) else ""
+        rows = [
+            ("states", f"{len(st)} samples{span}: {_fields_text(st)}"),
+            ("flagged", f"{s.get('flagged', 0)} samples"),
+            ("events", _counts(self.events["kind_name"])),
+        ]
+        lost = [f"{s[k]} {k.replace('_', ' ')}" for k in ("bad_rows", "bad_values", "gaps", "missing", "duplicates",
+                                                          "out_of_order", "invalid_led_samples") if s.get(k)]
+        rows.append(("input", ", ".join(lost) if lost else "no bad rows, gaps or missing samples"))
+        return f"Reconstruction: {len(st)} samples, {s.get('flagged', 0)} flagged", rows
 
 
 def reconstruct(raw, rig, *, progress=None):
@@ -532,15 +736,15 @@ def reconstruct(raw, rig, *, progress=None):
     states = _np.empty(len(columns["time"][0]), dtype=dtype)
     for n in names:
         states[n] = columns[n][0]
-    ev = _np.array(
+    ev = _with_kind_code(_np.array(
         [tuple(e) for e in events],
-        dtype=[("time", "f8"), ("kind", "i1"), ("value", "f8"), ("detail", "U64")],
-    )
+        dtype=_dtype([("time", "f8", "s"), ("kind", "i1", None), ("value", "f8", None), ("detail", "U64", None)]),
+    ))
     _warn_damage(raw, summary, "rocklab.reconstruct")
     return Reconstruction(states, ev, summary)
 
 
-class FitResult(dict):
+class FitResult(_Summarised, dict):
     """What ``fit`` returns: the dict of ``rocklab fit --json``.
 
     Keys: alpha (rad), p (rad/s), mu; their standard errors alpha_stderr,
@@ -558,6 +762,31 @@ class FitResult(dict):
             return self[name]
         except KeyError:
             raise AttributeError(name) from None
+
+    def _summary(self):
+        g = self.get
+        state = "converged" if g("converged") else "NOT converged"
+        title = f"FitResult: {g('method')} method, {state}"
+        rows = [
+            ("alpha", _with_error(g("alpha"), g("alpha_stderr"), "rad")),
+            ("p", _with_error(g("p"), g("p_stderr"), "rad/s")),
+            ("mu", _with_error(g("mu"), g("mu_stderr"))),
+        ]
+        theory = g("theory")
+        if isinstance(theory, dict):
+            rows.append(("theory", ", ".join(f"{k} {_num(theory.get(k))}" for k in ("alpha", "p", "mu") if k in theory)))
+        residual_unit = "s" if g("method") == "impacts" else "rad"
+        rows += [
+            ("impacts", str(len(g("impacts") or []))),
+            ("rms residual", f"{_num(g('rms_residual'))} {residual_unit}"
+                             f" ({_num(g('residual_to_noise'), 3)} x noise)"),
+            ("chi2/dof", f"{_num(g('chi2_per_dof'), 3)}, p-value {_num(g('p_value'), 3)}"),
+        ]
+        for w in (g("warnings") or [])[:3]:
+            rows.append(("warning", str(w)))
+        if len(g("warnings") or []) > 3:
+            rows.append(("warning", f"... {len(g('warnings')) - 3} more"))
+        return title, rows
 
 
 def fit(
@@ -638,7 +867,35 @@ def _record_args(t, theta, table):
     return path, ts, th, table_t, table_a, accel
 
 
-class PosteriorProblem:
+class PosteriorSummary(_Summarised, dict):
+    """The summary ``posterior`` returns: the dict of ``rocklab fit --json``'s
+    ``posterior`` object (per parameter median, ci68, ci95, sd, mean;
+    correlation; rhat, ess, tau; acceptance, walkers, steps, seed,
+    converged, problems, units, ...), with a one-screen repr."""
+
+    def __reduce__(self):
+        return (PosteriorSummary, (dict(self),))
+
+    def _summary(self):
+        g = self.get
+        state = "converged" if g("converged") else "NOT converged"
+        title = (f"PosteriorSummary: {g('method')} method, {g('model')} model, {state} "
+                 f"({g('walkers')} walkers x {g('steps')} steps, acceptance {_num(g('acceptance'), 3)})")
+        draw_units = g("units") or {}
+        rows = []
+        for name in g("parameters") or []:
+            p = g(name) or {}
+            ci = p.get("ci68") or [None, None]
+            unit = draw_units.get(name, "")
+            unit = "" if unit == "1" else " " + unit
+            rows.append((name, f"{_num(p.get('median'))}{unit}, 68 % [{_num(ci[0])}, {_num(ci[1])}], "
+                               f"sd {_num(p.get('sd'), 2)}, rhat {_num((g('rhat') or {}).get(name), 3)}"))
+        for problem in (g("problems") or [])[:3]:
+            rows.append(("problem", str(problem)))
+        return title, rows
+
+
+class PosteriorProblem(_Summarised):
     """The log posterior of one record (``posterior_problem``), for any sampler.
 
     Attributes:
@@ -676,6 +933,10 @@ class PosteriorProblem:
 
     def to_reported(self, x):
         return _np.array(self._p.to_reported(_np.asarray(x, dtype=float)))
+
+    def _summary(self):
+        return (f"PosteriorProblem: {len(self.names)} coordinates",
+                [(n, f"[{_num(lo)}, {_num(hi)}]") for n, lo, hi in zip(self.names, self.lower, self.upper)])
 
 
 def _problem(t, theta, width, height, chamfer, method, table, model, seed, walkers, steps, burn_in, threads,
@@ -728,7 +989,7 @@ def posterior(
     Returns:
         (draws, summary): draws, a numpy structured array with one field per
         parameter (alpha, p, mu[, l], sigma, t_offset) and log_posterior;
-        summary, the dict of ``rocklab fit --json``'s ``posterior`` object
+        summary, a PosteriorSummary: the dict of ``rocklab fit --json``'s ``posterior`` object
         (per parameter median, ci68, ci95, sd; correlation; rhat, ess, tau;
         acceptance, walkers, steps, seed, converged, problems).
         A run that fails the convergence rule warns (RuntimeWarning) and
@@ -739,7 +1000,7 @@ def posterior(
     p = _problem(t, theta, width, height, chamfer, method, table, model, seed, walkers, steps, burn_in, threads,
                  rtol, integrator, priors, alpha_band, min_impacts)
     names, columns, log_posterior, summary_json = _rocklab._sample_posterior(p, progress)
-    summary = _json.loads(summary_json)
+    summary = PosteriorSummary(_json.loads(summary_json))
     draw_units = summary["units"]
     dtype = _dtype([(n, "f8", draw_units.get(n, "1")) for n in names] + [("log_posterior", "f8", None)])
     draws = _np.empty(len(log_posterior), dtype=dtype)

@@ -1,7 +1,7 @@
 # Type stub of the package rocklab (python/rocklab/__init__.py) for editors
 # and type checkers. SI units: m, s, rad, m/s^2.
 import os
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, Dict, List, Literal, NotRequired, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -25,14 +25,53 @@ from .model_state_t import model_state_t as model_state_t
 from .raw_frame_t import raw_frame_t as raw_frame_t
 from .table_state_t import table_state_t as table_state_t
 
-PathLike = Union[str, os.PathLike]
-Progress = Optional[Callable[[float, Optional[float]], Any]]
+PathLike = Union[str, "os.PathLike[str]"]
+#: progress=callable(done, total): total None where unknown; its return value is ignored.
+Progress = Optional[Callable[[float, Optional[float]], object]]
 ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+#: A structured array (one field per column; units in the fields' titles).
+Table = npt.NDArray[np.void]
 
 __version__: str
 DEFAULT_L: float
 GRAVITY: float
-EVENT_DTYPE: np.dtype
+EVENT_DTYPE: np.dtype[np.void]
+EVENT_FIELDS: Tuple[str, ...]
+SWEEP_DTYPE: np.dtype[np.void]
+
+# ---- block_params ---------------------------------------------------------
+
+class BlockSide(TypedDict):
+    """One side's parameters of a section (block_params' plus_side, minus_side)."""
+    alpha: float  # rad
+    R: float  # m
+    p: float  # rad/s
+    mu: float  # 1
+    I_O_per_mass: float  # m^2
+    pivot: Tuple[float, float]  # (x, z), m
+
+class BlockParams(TypedDict):
+    """block_params: the keys of `rocklab params --json`."""
+    width: Optional[float]  # m; None for a polygon
+    height: Optional[float]
+    chamfer: Optional[float]
+    alpha: float  # rad
+    p: float  # rad/s
+    mu: float  # 1, mu_general
+    mu_housner: float
+    mu_general: float
+    R: float  # m
+    I_O_per_mass: float  # m^2
+    g: float  # m/s^2
+    polygon: Optional[str]  # the CSV's path, or None
+    vertices: Optional[List[Tuple[float, float]]]  # m; None for a rectangle
+    area: float  # m^2
+    I_G_per_mass: float  # m^2
+    centroid: Tuple[float, float]  # m
+    symmetric: bool
+    plus_side: BlockSide
+    minus_side: BlockSide
 
 def block_params(
     width: Optional[float] = ...,
@@ -40,19 +79,54 @@ def block_params(
     chamfer: float = ...,
     *,
     polygon: Union[PathLike, ArrayLike, None] = ...,
-) -> Dict[str, Any]: ...
+) -> BlockParams: ...
+
+# ---- simulate -------------------------------------------------------------
+
+class SimulationSummary(TypedDict):
+    """SimulationResult.summary: the keys of `rocklab simulate --json` (without units)."""
+    model: str
+    alpha: float
+    p: float
+    mu: float
+    l: Optional[float]
+    theta0: float
+    excitation: str
+    duration: float
+    rate: float
+    samples: int
+    uplift_time: Optional[float]
+    peak_abs_theta: float
+    peak_time: float
+    impacts: int
+    overturned: bool
+    overturn_time: Optional[float]
+    final_regime: str
+    complex_handoff: Optional[float]
+    eq10_fraction: float
+    rocking_time: float
+    steps: int
+    rhs_evals: int
+    error_test_fails: int
+    restarts: int
+    recoveries: int
+    cpu_time: float
 
 class SimulationResult:
-    t: npt.NDArray[np.float64]
-    theta: npt.NDArray[np.float64]
-    theta_dot: npt.NDArray[np.float64]
-    events: np.ndarray
-    summary: Dict[str, Any]
-    def impacts(self) -> np.ndarray: ...
+    t: FloatArray
+    theta: FloatArray
+    theta_dot: FloatArray
+    #: EVENT_DTYPE: time, kind (lower-case name), value, theta_dot_after, kind_name, kind_code.
+    events: Table
+    summary: SimulationSummary
+    def __init__(self, t: FloatArray, theta: FloatArray, theta_dot: FloatArray, events: Table,
+                 summary: SimulationSummary) -> None: ...
+    def impacts(self) -> Table: ...
+    def _repr_html_(self) -> str: ...
 
 def simulate(
-    model: str = ...,
-    alpha: Union[float, Dict[str, Any], None] = ...,
+    model: Literal["housner", "complex"] = ...,
+    alpha: Union[float, BlockParams, None] = ...,
     p: Optional[float] = ...,
     mu: Optional[float] = ...,
     *,
@@ -67,11 +141,48 @@ def simulate(
     progress: Progress = ...,
 ) -> SimulationResult: ...
 
-class LogTables(Dict[str, np.ndarray]):
-    summary: Dict[str, Any]
-    info: Dict[str, Dict[str, Any]]
+# ---- logs and raw files ---------------------------------------------------
 
-def units(a: Union[np.ndarray, np.dtype]) -> Dict[str, str]: ...
+class ReadTable(TypedDict):
+    """ReadSummary.tables[i]: one table read."""
+    channel: str
+    type: str  # the LCM type's name, or "raw"
+    rows: int
+    reshaped: int  # rows whose arrays changed length, padded or cut to the table's
+
+class ReadSummary(TypedDict):
+    """LogTables.summary: the counts `rocklab export` prints (raw files and
+    .AT2 records have the keys that apply to them)."""
+    tables: NotRequired[List[ReadTable]]
+    rows: int
+    outside_window: int
+    filtered: NotRequired[int]
+    unknown_type: NotRequired[int]
+    undecodable: NotRequired[int]
+    damaged_regions: NotRequired[int]
+    damaged_bytes: NotRequired[int]
+    damaged_events: NotRequired[int]
+    bad_rows: int
+    bad_values: int
+    read_error: str
+    problems: List[str]
+    format: NotRequired[str]
+
+class TableInfo(TypedDict):
+    """LogTables.info[name]: where a table comes from, and its units."""
+    channel: NotRequired[str]
+    lcm_type: NotRequired[str]
+    source: NotRequired[str]
+    units: Dict[str, str]
+
+class LogTables(Dict[str, Table]):
+    summary: ReadSummary
+    info: Dict[str, TableInfo]
+    def __init__(self, tables: Dict[str, Table], summary: ReadSummary,
+                 info: Optional[Dict[str, TableInfo]] = ...) -> None: ...
+    def _repr_html_(self) -> str: ...
+
+def units(a: Union[npt.NDArray[np.generic], np.dtype[np.generic]]) -> Dict[str, str]: ...
 
 def read_log(
     path: PathLike,
@@ -90,17 +201,189 @@ def read_raw(
     end: Optional[float] = ...,
     progress: Progress = ...,
 ) -> LogTables: ...
-def info(path: PathLike, rig: Optional[PathLike] = ..., *, rate: float = ...) -> Dict[str, Any]: ...
+
+class RigConfig(TypedDict):
+    """LogInfo.config: the rig's RL_DAQ_CONFIG as the log holds it."""
+    rig: str
+    calibration: str
+    sample_rate_hz: Optional[float]
+    channels: List[str]
+    units: List[str]
+    sensors: List[str]
+    alpha: Optional[float]  # rad
+    p: Optional[float]  # rad/s
+    mu: Optional[float]
+    messages: int
+    changes: int
+
+class LogChannel(TypedDict):
+    """LogInfo.channels[i]: one channel (and type) of a log."""
+    name: str
+    type: str
+    fingerprint: str  # "0x..."
+    count: int
+    bytes: int
+    first_time: Optional[float]  # s, sample clock
+    last_time: Optional[float]
+    rate_hz: Optional[float]
+    seq_gaps: Optional[int]  # None: the type has no sequence number
+    seq_missing: Optional[int]
+    seq_back: Optional[int]
+    seq_late: Optional[int]
+    seq_duplicates: Optional[int]
+    seq_restarts: Optional[int]
+    seq_wild: Optional[int]
+    undecodable: int
+
+class LogInfo(TypedDict):
+    """info(log): `rocklab info --json` of an LCM log."""
+    kind: Literal["lcm_log"]
+    path: str
+    file_bytes: int
+    events: int
+    duration: float  # s, sample clock
+    first_time: Optional[float]
+    last_time: Optional[float]
+    log_duration: float  # s, the writer's stamps
+    damaged_regions: int
+    damaged_bytes: int
+    damaged_events: int
+    config: Optional[RigConfig]
+    channels: List[LogChannel]
+
+class RawChannel(TypedDict):
+    """RawInfo.channels[i]: a raw file's channel and its units."""
+    name: str
+    unit: Optional[str]  # the values' unit: the file's, else the rig's
+    file_unit: Optional[str]
+    rig_unit: Optional[str]
+
+class RawInfo(TypedDict):
+    """info(raw file): `rocklab info --json` of a CSV or LVM file."""
+    kind: Literal["csv", "lvm"]
+    path: str
+    file_bytes: int
+    rows: int
+    bad_rows: int
+    bad_values: int
+    empty_values: int
+    comments: int
+    warnings: int
+    segments: int
+    rate_hz: Optional[float]
+    measured_rate_hz: Optional[float]
+    first_time: Optional[float]
+    last_time: Optional[float]
+    duration: Optional[float]
+    seq_gaps: int
+    seq_missing: int
+    read_error: Optional[str]
+    channels: List[RawChannel]
+
+#: What info returns: a log's or a raw file's (tell them apart by ``kind``).
+FileInfo = Union[LogInfo, RawInfo]
+
+def info(path: PathLike, rig: Optional[PathLike] = ..., *, rate: float = ...) -> FileInfo: ...
+
+# ---- reconstruct ----------------------------------------------------------
+
+class ReconstructionSummary(TypedDict):
+    """Reconstruction.summary: the counts `rocklab reconstruct` prints."""
+    rows: int
+    bad_rows: int
+    bad_values: int
+    gaps: int
+    missing: int
+    duplicates: int
+    out_of_order: int
+    invalid_led_samples: int
+    reconstructed: int
+    flagged: int
+    damaged_regions: int
+    damaged_bytes: int
+    damaged_events: int
+    read_error: str
+    problems: List[str]
 
 class Reconstruction:
-    states: np.ndarray
-    events: np.ndarray
-    summary: Dict[str, Any]
+    states: Table
+    #: time, kind (event_t's constant), value, detail, kind_name, kind_code.
+    events: Table
+    summary: ReconstructionSummary
+    def __init__(self, states: Table, events: Table, summary: ReconstructionSummary) -> None: ...
+    def _repr_html_(self) -> str: ...
 
 def reconstruct(raw: PathLike, rig: PathLike, *, progress: Progress = ...) -> Reconstruction: ...
 
-class FitResult(Dict[str, Any]):
-    def __getattr__(self, name: str) -> Any: ...
+# ---- fit ------------------------------------------------------------------
+
+class FitImpact(TypedDict):
+    """FitResult.impacts[i]: one impact of the record (None: not measured)."""
+    n: int
+    time: Optional[float]  # s
+    peak: Optional[float]  # rad
+    mu_n: Optional[float]
+    tau: Optional[float]  # s
+    residual: Optional[float]  # s
+    residual_noise: Optional[float]  # s
+
+class FitTheory(TypedDict):
+    """FitResult.theory: the parameters of the stated geometry."""
+    alpha: float
+    p: float
+    mu: float
+
+class FitAlphaBand(TypedDict):
+    """FitResult.alpha_band: the admissible alpha from the geometry."""
+    lo: float  # rad
+    hi: float
+    band_m: float  # m
+
+class FitResult(Dict[str, object]):
+    """fit: the dict of `rocklab fit --json`, its keys also attributes
+    (typed here; index the dict for the JSON-like view)."""
+    input: str  # the record's path, or "<arrays>"
+    method: Literal["impacts", "trajectory"]
+    quarter_time: Optional[str]
+    alpha: float  # rad
+    p: float  # rad/s
+    mu: float
+    mu_spread: Optional[float]
+    alpha_stderr: Optional[float]  # None: withheld
+    p_stderr: Optional[float]
+    mu_stderr: Optional[float]
+    alpha_p_correlation: Optional[float]
+    rms_residual: float  # s (impacts) or rad (trajectory)
+    residuals: List[float]
+    iterations: int
+    evaluations: int
+    runtime: float  # s
+    forced: bool
+    noise: float  # rad
+    dof: int
+    converged: bool
+    residual_to_noise: Optional[float]
+    chi2: Optional[float]
+    chi2_per_dof: Optional[float]
+    p_value: Optional[float]
+    significance: float
+    noise_dof: Optional[float]
+    noise_stated: bool
+    starts: int
+    starts_refined: int
+    noise_residual: Optional[float]
+    stderr_withheld: bool
+    missing_samples: int
+    gaps: int
+    longest_gap: float  # s
+    missing_table_samples: int
+    table_interpolation_error: Optional[float]  # rad
+    release_time: Optional[float]  # s
+    impacts: List[FitImpact]
+    warnings: List[str]
+    theory: Optional[FitTheory]
+    alpha_band: Optional[FitAlphaBand]
+    def _repr_html_(self) -> str: ...
 
 def fit(
     t: Union[PathLike, ArrayLike],
@@ -109,9 +392,9 @@ def fit(
     height: Optional[float] = ...,
     *,
     chamfer: float = ...,
-    method: str = ...,
+    method: Literal["impacts", "trajectory"] = ...,
     table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
-    quarter_time: str = ...,
+    quarter_time: Literal["exact", "slender"] = ...,
     alpha_band: float = ...,
     min_impacts: int = ...,
     start: float = ...,
@@ -119,15 +402,66 @@ def fit(
     progress: Progress = ...,
 ) -> FitResult: ...
 
+# ---- posterior ------------------------------------------------------------
+
 class PosteriorProblem:
     names: List[str]
-    lower: np.ndarray
-    upper: np.ndarray
+    lower: FloatArray
+    upper: FloatArray
     def log_posterior(self, x: ArrayLike) -> float: ...
     def __call__(self, x: ArrayLike) -> float: ...
-    def start(self) -> np.ndarray: ...
-    def start_scale(self) -> np.ndarray: ...
-    def to_reported(self, x: ArrayLike) -> np.ndarray: ...
+    def start(self) -> FloatArray: ...
+    def start_scale(self) -> FloatArray: ...
+    def to_reported(self, x: ArrayLike) -> FloatArray: ...
+    def _repr_html_(self) -> str: ...
+
+class ParameterSummary(TypedDict):
+    """PosteriorSummary[name]: one parameter's marginal."""
+    median: float
+    ci68: List[float]  # [lo, hi]
+    ci95: List[float]
+    sd: float
+    mean: float
+
+class Correlation(TypedDict):
+    order: List[str]
+    matrix: List[List[Optional[float]]]
+
+# The name of a TypedDict at type-checking time; at run time posterior's
+# summary is rocklab.PosteriorSummary, a dict with a one-screen repr.
+PosteriorSummary = TypedDict(
+    "PosteriorSummary",
+    {
+        "alpha": ParameterSummary,  # rad
+        "p": ParameterSummary,  # rad/s
+        "mu": ParameterSummary,
+        "l": NotRequired[ParameterSummary],  # model "complex"
+        "sigma": ParameterSummary,  # rad
+        "t_offset": ParameterSummary,  # s
+        "sigma_mu": NotRequired[ParameterSummary],  # per-impact restitution
+        "mu_bar": NotRequired[ParameterSummary],
+        "parameters": List[str],
+        "correlation": Correlation,
+        "rhat": Dict[str, Optional[float]],
+        "ess": Dict[str, Optional[float]],
+        "tau": Dict[str, Optional[float]],
+        "acceptance": float,
+        "walkers": int,
+        "steps": int,
+        "burn_in": int,
+        "draws": int,
+        "seed": int,
+        "threads": int,
+        "method": str,
+        "model": str,
+        "converged": bool,
+        "problems": List[str],
+        "start": str,
+        "warnings": List[str],
+        "runtime": float,  # s
+        "units": Dict[str, str],
+    },
+)
 
 def posterior_problem(
     t: Union[PathLike, ArrayLike],
@@ -136,11 +470,11 @@ def posterior_problem(
     height: Optional[float] = ...,
     *,
     chamfer: float = ...,
-    method: str = ...,
+    method: Literal["impacts", "trajectory"] = ...,
     table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
-    model: str = ...,
+    model: Literal["housner", "complex"] = ...,
     rtol: float = ...,
-    integrator: str = ...,
+    integrator: Literal["adams", "rk"] = ...,
     priors: Optional[Dict[str, float]] = ...,
     alpha_band: float = ...,
     min_impacts: int = ...,
@@ -153,28 +487,29 @@ def posterior(
     height: Optional[float] = ...,
     *,
     chamfer: float = ...,
-    method: str = ...,
+    method: Literal["impacts", "trajectory"] = ...,
     table: Union[PathLike, Tuple[ArrayLike, ArrayLike], None] = ...,
-    model: str = ...,
+    model: Literal["housner", "complex"] = ...,
     seed: int = ...,
     walkers: int = ...,
     steps: int = ...,
     burn_in: int = ...,
     threads: int = ...,
     rtol: float = ...,
-    integrator: str = ...,
+    integrator: Literal["adams", "rk"] = ...,
     priors: Optional[Dict[str, float]] = ...,
     alpha_band: float = ...,
     min_impacts: int = ...,
     progress: Progress = ...,
-) -> Tuple[np.ndarray, Dict[str, Any]]: ...
+) -> Tuple[Table, PosteriorSummary]: ...
 
-SWEEP_DTYPE: np.dtype
+# ---- sweep and fragility --------------------------------------------------
 
+@overload
 def sweep(
     records: Union[PathLike, Sequence[PathLike]],
     *,
-    model: str,
+    model: Literal["housner", "complex"],
     scale: str = ...,
     pga_g: bool = ...,
     alpha: Union[float, Sequence[float]] = ...,
@@ -189,10 +524,50 @@ def sweep(
     rtol: Optional[float] = ...,
     threads: int = ...,
     progress: Progress = ...,
-    csv_text: bool = ...,
-) -> Any: ...
-def fragility(
-    x: Union[ArrayLike, np.ndarray],
-    overturned: Optional[ArrayLike] = ...,
-    trials: Optional[ArrayLike] = ...,
-) -> Any: ...
+    csv_text: Literal[False] = ...,
+) -> Table: ...
+@overload
+def sweep(
+    records: Union[PathLike, Sequence[PathLike]],
+    *,
+    model: Literal["housner", "complex"],
+    scale: str = ...,
+    pga_g: bool = ...,
+    alpha: Union[float, Sequence[float]] = ...,
+    p: Union[float, Sequence[float]] = ...,
+    mu: Union[float, Sequence[float]] = ...,
+    width: Union[float, Sequence[float]] = ...,
+    height: Union[float, Sequence[float]] = ...,
+    polygon: Union[PathLike, Sequence[PathLike]] = ...,
+    duration: Optional[float] = ...,
+    rate: float = ...,
+    l: float = ...,
+    rtol: Optional[float] = ...,
+    threads: int = ...,
+    progress: Progress = ...,
+    csv_text: Literal[True],
+) -> Tuple[Table, str]: ...
+
+class Fragility(TypedDict):
+    """A lognormal fragility fit (sweep::FitLognormalFragility)."""
+    status: Literal["fitted", "none", "all", "separated"]
+    median: Optional[float]  # fitted: the intensity's unit (g for pga_g)
+    beta: Optional[float]  # fitted: 1
+    log_likelihood: Optional[float]
+    safe_below: Optional[float]  # separated: the bracket of the median
+    overturned_above: Optional[float]
+    iterations: int
+
+class BlockFragility(Fragility):
+    """fragility(sweep_rows): one block's fit, as sweep-plot's fragility.csv."""
+    model: str
+    alpha: float
+    p: float
+    mu: float
+    rows: int
+    overturned: int
+
+@overload
+def fragility(x: Table) -> List[BlockFragility]: ...
+@overload
+def fragility(x: ArrayLike, overturned: ArrayLike, trials: Optional[ArrayLike] = ...) -> Fragility: ...

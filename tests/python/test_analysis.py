@@ -49,6 +49,12 @@ def test_reconstruct_equals_cli(cli, source_dir, tmp_path):
             else:
                 np.testing.assert_allclose(r.states[name], printed, rtol=5e-12, atol=1e-300)  # %.12g
         assert rocklab.units(r.states)["sliding"] == "m"
+        from test_typing import typed_dict_keys
+
+        assert set(r.summary) == typed_dict_keys("ReconstructionSummary")  # the stub's keys
+        text = repr(r)  # a summary, not the states (issue 36)
+        assert len(text) < 2000 and text.startswith(f"Reconstruction: {len(r.states)} samples"), text
+        assert "sliding [m]" in text or "... (+" in text
         # The counts line of the command.
         for key in ("bad_rows", "bad_values", "gaps", "invalid_led_samples", "flagged"):
             words = {"bad_rows": "bad rows", "bad_values": "bad values", "gaps": "gaps",
@@ -104,6 +110,14 @@ def test_fit_equals_cli_and_finds_the_parameters(cli, free_record, method):
     for name, truth in (("alpha", ALPHA), ("p", P), ("mu", MU)):
         assert abs(from_file[name] - truth) < 5 * from_file[f"{name}_stderr"] + 1e-12, name
     assert from_file.theory is not None
+    # Its repr: the values with their standard errors, one screen (issue 36).
+    text = repr(from_file)
+    assert len(text.splitlines()) <= 14 and len(text) < 1500, text
+    assert text.startswith(f"FitResult: {method} method, " + ("converged" if from_file.converged else "NOT"))
+    assert f"{from_file.alpha:.4g} +- {from_file.alpha_stderr:.2g} rad" in text
+    assert f"{from_file.p:.4g} +- {from_file.p_stderr:.2g} rad/s" in text
+    assert any(line.split() == ["impacts", str(len(from_file.impacts))] for line in text.splitlines()), text
+    assert from_file._repr_html_().count("<tr>") == len(text.splitlines()) - 1
 
 
 def test_fit_window_equals_cli_and_the_sliced_record(cli, free_record):

@@ -44,7 +44,12 @@ def read_export_csv(path):
 
 def assert_table_equals_csv(array, path):
     header, rows = read_export_csv(path)
-    assert list(array.dtype.names) == header
+    names = list(array.dtype.names)
+    if names[-1:] == ["kind_code"] and "kind" in header:
+        # Events: read_log adds kind_code (the code of kind) after export's columns (issue 36).
+        np.testing.assert_array_equal(array["kind_code"], array["kind"])
+        names = names[:-1]
+    assert names == header
     assert len(array) == len(rows)
     for j, name in enumerate(header):
         column = [r[j] for r in rows]
@@ -256,13 +261,49 @@ def test_version_is_the_clis(cli):
     assert re.fullmatch(r"\d+\.\d+\.\d+", rocklab.__version__)
 
 
-def test_log_tables_repr_is_one_line_per_table(log_path):
-    # A notebook cell shows the repr: the tables' names, rows and spans, not the arrays.
+def test_log_tables_repr_is_a_one_screen_summary(log_path):
+    # Issue 36: a LogTables repr was the arrays (66 KB in a notebook cell).
     tables = rocklab.read_log(log_path)
-    text = repr(tables)
+    text, html = repr(tables), tables._repr_html_()
     lines = text.splitlines()
-    assert len(lines) == len(tables) + 1
+    assert len(text) < 4000 and len(lines) <= 1 + len(tables), text
     assert lines[0] == f"LogTables: {len(tables)} tables, {tables.summary['rows']} rows"
-    th = tables["RL_THETA"]
-    assert f"  RL_THETA: {len(th)} rows x {len(th.dtype.names)} fields" in text
-    assert len(text) < 200 * len(lines)
+    for name, a in tables.items():
+        line = next(x for x in lines[1:] if x.split()[0] == name)
+        assert f" {len(a)} rows" in line, line
+        assert any(f"{n} [{u}]" in line for n, u in rocklab.units(a).items()), line
+    assert "theta [rad]" in next(x for x in lines if x.split()[0] == "RL_THETA")
+    assert html.startswith("<div>") and html.count("<tr>") == len(tables) and len(html) < 8000
+    # IPython's console printer uses the same text.
+    printed = []
+    tables._repr_pretty_(type("P", (), {"text": lambda self, t: printed.append(t)})(), False)
+    assert printed == [text]
+
+
+def event_kind_codes():
+    return {k: v for k, v in vars(rocklab.event_t).items() if k.isupper() and isinstance(v, int)}
+
+
+def test_events_have_the_same_fields_everywhere(log_path, source_dir):
+    # Issue 36: read_log's events had kind (int) and kind_name, simulate's
+    # kind (str). Now every events array has EVENT_FIELDS; kind stays as it was.
+    codes = event_kind_codes()
+    assert codes["UPLIFT"] == 1 and codes["IMPACT"] == 2  # event_t.lcm
+    logged = rocklab.read_log(log_path, "RL_EVENT")["RL_EVENT"]
+    simulated = rocklab.simulate("housner", 0.235, 3.884, 0.937, theta0=0.1, duration=3, rate=100).events
+    rig = os.path.join(source_dir, "data/rigs/lab_rig.toml")
+    checked = rocklab.reconstruct(os.path.join(source_dir, "data/samples/slip.lvm"), rig).events
+    for name, events in (("read_log", logged), ("simulate", simulated), ("reconstruct", checked)):
+        assert len(events) > 0, name
+        assert set(rocklab.EVENT_FIELDS) <= set(events.dtype.names), name
+        assert events["kind_code"].dtype == np.int64 and events["kind_name"].dtype.kind == "U", name
+        assert [codes[n] for n in events["kind_name"]] == list(events["kind_code"]), name
+        assert rocklab.units(events)["time"] == "s", name
+    np.testing.assert_array_equal(logged["kind"], logged["kind_code"])
+    np.testing.assert_array_equal(checked["kind"], checked["kind_code"])
+    assert list(simulated["kind"]) == [n.lower() for n in simulated["kind_name"]]
+    assert "impact" in set(simulated["kind"])
+    # The events table still pickles and saves with its titles.
+    import pickle
+
+    assert pickle.loads(pickle.dumps(logged)).dtype == logged.dtype

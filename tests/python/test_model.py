@@ -242,3 +242,69 @@ def test_simulate_releases_the_gil():
     # Held, n <= free_rate * 0.01; released, n ~ free_rate * seconds (less
     # on a loaded machine): ask for 5 % of it, above 5x the held bound.
     assert n > max(0.05 * free_rate * seconds, 0.05 * free_rate), (n, free_rate, seconds)
+
+
+def test_simulation_result_repr_is_a_one_screen_summary():
+    r = rocklab.simulate("housner", **FIG8, excitation=FIG8_SINE, duration=20, rate=200)
+    text = repr(r)
+    assert len(text.splitlines()) <= 12 and len(text) < 1000, text
+    assert text.startswith(f"SimulationResult: housner, alpha {FIG8['alpha']:.4g} rad")
+    kinds = dict(zip(*np.unique(r.events["kind"], return_counts=True)))
+    assert f"{kinds['impact']} impact" in text and f"{len(r.t)} at 200 Hz" in text, text
+    assert f"{r.summary['peak_abs_theta']:.4g} rad at {r.summary['peak_time']:.4g} s" in text
+    assert r._repr_html_().count("<tr>") == len(text.splitlines()) - 1
+
+
+def _import_rocklab_with(tmp_path, env_path, setup=""):
+    """stderr of `import rocklab` in a fresh interpreter with env_path first on PYTHONPATH."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(env_path), os.environ["PYTHONPATH"]]))
+    r = subprocess.run([sys.executable, "-c", setup + "import rocklab"], env=env, capture_output=True, text=True,
+                       cwd=tmp_path)
+    assert r.returncode == 1, r.stderr
+    return r.stderr
+
+
+def test_import_error_names_the_build_and_the_interpreter(tmp_path):
+    # Issue 36: with a pyenv or venv python3 first on PATH the import failed
+    # (numpy missing) with no hint. Hidden here by a numpy that cannot import.
+    import platform
+    import sys
+
+    from rocklab import _build_info as built
+
+    assert built.PYTHON_VERSION == platform.python_version() and built.NUMPY_VERSION == np.__version__
+    hide = tmp_path / "hide"
+    (hide / "numpy").mkdir(parents=True)
+    (hide / "numpy" / "__init__.py").write_text("raise ImportError('numpy hidden by the test')\n")
+    err = _import_rocklab_with(tmp_path, hide)
+    last = err[err.rindex("ImportError: import rocklab failed"):]
+    assert "numpy hidden by the test" in last
+    assert (f"built for Python {built.PYTHON_VERSION} ({built.PYTHON_EXECUTABLE}) with numpy "
+            f"{built.NUMPY_VERSION}; this is Python {platform.python_version()} ({sys.executable}) "
+            "with no importable numpy") in last
+    assert "-m venv --system-site-packages" in last
+    # A numpy of another ABI (older than the build's): refused at the import,
+    # not at the first array.
+    (hide / "numpy" / "__init__.py").write_text("__version__ = '1.19.5'\n")
+    err = _import_rocklab_with(tmp_path, hide)
+    last = err[err.rindex("ImportError: import rocklab failed"):]
+    assert f"numpy 1.19.5 cannot run a module built against numpy {built.NUMPY_VERSION}" in last
+    assert f"({sys.executable}) with numpy 1.19.5" in last
+    # A module built for another interpreter: the package as installed, its
+    # _build_info saying Python 3.9; refused before the native module loads.
+    other = tmp_path / "other" / "rocklab"
+    other.mkdir(parents=True)
+    package = os.path.dirname(rocklab.__file__)
+    for name in os.listdir(package):
+        if name != "_build_info.py" and not name.startswith("__pycache__"):
+            os.symlink(os.path.join(package, name), other / name)
+    (other / "_build_info.py").write_text(
+        'PYTHON_VERSION = "3.9.2"\nPYTHON_EXECUTABLE = "/usr/bin/python3.9"\nNUMPY_VERSION = "1.19.5"\n')
+    err = _import_rocklab_with(tmp_path, other.parent)
+    last = err[err.rindex("ImportError: import rocklab failed"):]
+    assert "the native module is built for Python 3.9" in last
+    assert (f"built for Python 3.9.2 (/usr/bin/python3.9) with numpy 1.19.5; this is Python "
+            f"{platform.python_version()} ({sys.executable}) with numpy {np.__version__}") in last

@@ -70,6 +70,19 @@ def test_posterior_summary_keys_and_log_density():
         assert key in summary, key
     assert summary["correlation"]["order"] == ["alpha", "p", "mu", "sigma", "t_offset"]
     assert rocklab.units(draws)["alpha"] == "rad"
+    # The summary is the JSON object, with a one-screen repr naming each
+    # parameter's median and 68 % interval (issue 36).
+    assert isinstance(summary, dict) and isinstance(summary, rocklab.PosteriorSummary)
+    from test_typing import typed_dict_keys
+
+    optional = {"l", "sigma_mu", "mu_bar"}  # NotRequired in the stub: complex model, per-impact mu
+    assert set(summary) - optional == typed_dict_keys("PosteriorSummary") - optional  # the stub's keys
+    text = repr(summary)
+    assert text.startswith("PosteriorSummary: impacts method") and "NOT converged" in text.splitlines()[0]
+    for name in summary["parameters"]:
+        lo, hi = summary[name]["ci68"]
+        assert f"{summary[name]['median']:.4g}" in text and f"[{lo:.4g}, {hi:.4g}]" in text, name
+    assert len(text.splitlines()) <= 1 + len(summary["parameters"]) + 3
     # Same seed, same draws.
     with pytest.warns(RuntimeWarning, match="not converged"):
         again, _ = rocklab.posterior(t, theta, WIDTH, HEIGHT, steps=40, seed=1, threads=1)
