@@ -100,7 +100,9 @@ int RunExport(ExportCliOptions& o) {
   }
   long problems = 0;
   auto show = [&problems](const std::string& text) {
-    if (++problems <= kShownProblems) std::fprintf(stderr, "rocklab export: %s\n", text.c_str());
+    if (++problems > kShownProblems) return;
+    // Above the progress line, not through it.
+    common::Progress::PrintAbove(2, [&text] { std::fprintf(stderr, "rocklab export: %s\n", text.c_str()); });
   };
   exporter::ExportSummary s;
   {

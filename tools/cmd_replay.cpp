@@ -60,7 +60,11 @@ int RunLogReplay(const ReplayCommand& c) {
   try {
     common::FileProgress progress("replay", c.log_path, c.quiet || !c.replay.max_speed);
     counts = ReplayLog(c.log_path, c.replay, *bus, stop,
-                       [](const std::string& problem) { std::fprintf(stderr, "replay: %s\n", problem.c_str()); });
+                       [](const std::string& problem) {
+                         common::Progress::PrintAbove(2, [&problem] {
+                           std::fprintf(stderr, "replay: %s\n", problem.c_str());
+                         });
+                       });
   } catch (const std::runtime_error& e) {
     throw UsageError(e.what());
   }
