@@ -10,11 +10,17 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
 
 namespace rocklab::common {
 namespace {
 
 constexpr auto kRedraw = std::chrono::milliseconds(100);  // at most 10 redraws a second
+
+// The bar on screen (at most one: the last drawn) and the lock every draw
+// and every PrintAbove takes, so that a log line and a redraw never mix.
+std::mutex g_draw_mutex;
+Progress* g_shown = nullptr;
 
 void WriteAll(int fd, const char* p, std::size_t n) {
   while (n > 0) {
@@ -38,8 +44,8 @@ int FormatRate(char* out, std::size_t size, double bytes_per_s) {
 
 }  // namespace
 
-Progress::Progress(const char* label, std::int64_t total, bool quiet, int fd)
-    : label_(label), total_(total), fd_(fd) {
+Progress::Progress(const char* label, std::int64_t total, bool quiet, int fd, const char* unit)
+    : label_(label), total_(total), fd_(fd), unit_(unit) {
   active_ = !quiet && ::isatty(fd) == 1;
   start_ = std::chrono::steady_clock::now();
   next_draw_ = start_;
@@ -48,7 +54,8 @@ Progress::Progress(const char* label, std::int64_t total, bool quiet, int fd)
 Progress::~Progress() { Finish(); }
 
 std::size_t Progress::Format(char* out, std::size_t size, const char* label, std::int64_t done,
-                             std::int64_t total, double elapsed_s, int width) {
+                             std::int64_t total, double elapsed_s, int width, const char* unit,
+                             std::int64_t base) {
   if (size == 0) return 0;
   width = std::clamp(width, 1, 100);
   const bool known = total > 0;
@@ -59,9 +66,13 @@ std::size_t Progress::Format(char* out, std::size_t size, const char* label, std
   bar[width] = '\0';
   char rate[32] = "";
   char left[32] = "--:-- left";
-  if (elapsed_s > 0 && done > 0) {
-    const double bps = static_cast<double>(done) / elapsed_s;
-    FormatRate(rate, sizeof rate, bps);
+  if (elapsed_s > 0 && done > base) {
+    const double bps = static_cast<double>(done - base) / elapsed_s;
+    if (unit != nullptr) {
+      std::snprintf(rate, sizeof rate, "%.1f %s/s", bps, unit);
+    } else {
+      FormatRate(rate, sizeof rate, bps);
+    }
     if (known) {
       const auto s = static_cast<long long>(static_cast<double>(std::max<std::int64_t>(total - done, 0)) / bps + 0.5);
       if (s >= 3600) {
@@ -72,7 +83,12 @@ std::size_t Progress::Format(char* out, std::size_t size, const char* label, std
     }
   }
   int n;
-  if (known) {
+  if (unit != nullptr && known) {
+    n = std::snprintf(out, size, "%-8s [%s] %3d%%  %lld/%lld %s  %s  %s", label, bar, static_cast<int>(share * 100.0),
+                      static_cast<long long>(done), static_cast<long long>(total), unit, rate, left);
+  } else if (unit != nullptr) {
+    n = std::snprintf(out, size, "%-8s %lld %s  %s", label, static_cast<long long>(done), unit, rate);
+  } else if (known) {
     n = std::snprintf(out, size, "%-8s [%s] %3d%%  %10s  %s", label, bar,
                       static_cast<int>(share * 100.0), rate, left);
   } else {
@@ -91,16 +107,31 @@ void Progress::Update(std::int64_t done) {
   if (now < next_draw_) return;
   next_draw_ = now + kRedraw;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const std::lock_guard<std::mutex> lock(g_draw_mutex);
   line_[0] = '\r';
-  std::size_t n = 1 + Format(line_ + 1, sizeof line_ - 5, label_, done, total_, elapsed);
+  std::size_t n = 1 + Format(line_ + 1, sizeof line_ - 5, label_, done, total_, elapsed, 20, unit_, base_);
   std::memcpy(line_ + n, "\033[K", 3);  // erase what a longer line left
-  WriteAll(fd_, line_, n + 3);
+  line_size_ = n + 3;
+  g_shown = this;
+  DrawLocked();
 }
+
+void Progress::DrawLocked() { WriteAll(fd_, line_, line_size_); }
 
 void Progress::Finish() {
   if (!active_) return;
+  const std::lock_guard<std::mutex> lock(g_draw_mutex);
   active_ = false;
+  if (g_shown == this) g_shown = nullptr;
   WriteAll(fd_, "\r\033[K", 4);
+}
+
+void Progress::PrintAbove(int fd, const std::function<void()>& print) {
+  const std::lock_guard<std::mutex> lock(g_draw_mutex);
+  Progress* const bar = g_shown != nullptr && g_shown->fd_ == fd ? g_shown : nullptr;
+  if (bar != nullptr) WriteAll(fd, "\r\033[K", 4);
+  print();
+  if (bar != nullptr) bar->DrawLocked();
 }
 
 namespace {

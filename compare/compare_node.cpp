@@ -538,8 +538,8 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
   WriteSummaryJson(summary, {}, path);
 }
 
-void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
-                                   const std::vector<BandSummary>& bands, const std::string& path) {
+std::string CompareNode::SummaryJsonText(const std::vector<VariantSummary>& summary,
+                                         const std::vector<BandSummary>& bands) {
   nlohmann::json variants = nlohmann::json::array();
   for (const VariantSummary& s : summary) {
     const ComparisonMetrics& m = s.metrics;
@@ -589,8 +589,13 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
         {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"},
         {"band_coverage_95", "1"}, {"band_coverage_68", "1"}, {"impact_timing_z_rms", "1"},
         {"impact_timing_z_max_abs", "1"}}}};
+  return doc.dump(2) + "\n";
+}
+
+void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
+                                   const std::vector<BandSummary>& bands, const std::string& path) {
   try {
-    common::WriteFileAtomically(path, doc.dump(2) + "\n");
+    common::WriteFileAtomically(path, SummaryJsonText(summary, bands));
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(std::string("summary: ") + e.what());
   }

@@ -134,6 +134,9 @@ class CompareNode {
                                const std::string& path);
   static void WriteSummaryJson(const std::vector<VariantSummary>& summary,
                                const std::vector<BandSummary>& bands, const std::string& path);
+  /// The document WriteSummaryJson writes (`run --json` prints it).
+  static std::string SummaryJsonText(const std::vector<VariantSummary>& summary,
+                                     const std::vector<BandSummary>& bands);
 
   std::int64_t theta_count() const { return theta_count_; }
   std::int64_t model_count() const { return model_count_; }

@@ -283,6 +283,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
                  static_cast<long long>(s.restarts), static_cast<long long>(s.restart_lost),
                  static_cast<long long>(s.comments));
   }
+  if (o.stats_out != nullptr) *o.stats_out = s;
   int code = ReportDamage(s, o.input, what);
   if (close_log() != 0) code = 1;
   return code;

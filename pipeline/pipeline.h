@@ -63,6 +63,9 @@ struct DaqStageOptions {
   std::string log_path;     ///< write every published message to this LCM log (rotated series)
   int64_t rotate_bytes{};   ///< with log_path: a new file before one passes this size, bytes; 0 = never
   double rotate_seconds{};  ///< with log_path: a new file every this many s of sample clock; 0 = never
+  /// Not an option of the file: where RunDaqStage copies the node's counts
+  /// at the end (`--json`); null: nowhere.
+  daq::DaqNodeStats* stats_out{};
 };
 
 /// The keys of a `rocklab daq --config FILE.toml`: every option of `rocklab

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/plugin.h"
+#include "common/progress.h"
 #include "pipeline/option_error.h"
 #include "sweep/mpi_plugin.h"
 
@@ -66,42 +67,6 @@ std::size_t Unpack(const double* w, Outcome& o) {
   o.beyond_pi_over_2 = w[8] != 0.0;
   return static_cast<std::size_t>(w[0]);
 }
-
-// "\r[#####-----]  120/400 rows  3.2 rows/s  ETA 1m27s" on stderr.
-class ProgressBar {
- public:
-  ProgressBar(bool enabled, std::size_t total, std::size_t first)
-      : enabled_(enabled), total_(total), first_(first), start_(Clock::now()) {}
-  void Update(std::size_t done, bool force = false) {
-    if (!enabled_) return;
-    const auto now = Clock::now();
-    if (!force && now - last_ < std::chrono::milliseconds(200)) return;
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    const double rate = elapsed > 0 ? static_cast<double>(done - first_) / elapsed : 0.0;
-    const int width = 30;
-    const int filled = total_ ? static_cast<int>(width * static_cast<double>(done) / static_cast<double>(total_)) : width;
-    std::string bar(static_cast<std::size_t>(filled), '#');
-    bar.append(static_cast<std::size_t>(width - filled), '-');
-    char eta[32] = "";
-    if (rate > 0 && done < total_) {
-      const long s = static_cast<long>(static_cast<double>(total_ - done) / rate);
-      std::snprintf(eta, sizeof eta, "  ETA %ldm%02lds", s / 60, s % 60);
-    }
-    std::fprintf(stderr, "\rsweep [%s] %zu/%zu rows  %.1f rows/s%s   ", bar.c_str(), done, total_, rate, eta);
-    std::fflush(stderr);
-  }
-  void Finish(std::size_t done) {
-    if (!enabled_) return;
-    Update(done, true);
-    std::fputc('\n', stderr);
-  }
-
- private:
-  bool enabled_;
-  std::size_t total_, first_;
-  Clock::time_point start_, last_{};
-};
 
 // The worker threads of one process and the outcomes they produced, keyed by
 // their place in the slice.
@@ -288,7 +253,9 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
   }
 
   // Rank 0: write every place in order, its own outcomes and the others'.
-  ProgressBar bar(options.progress, report.cases, report.resumed);
+  // The commands' one progress display (common/progress.h), in rows.
+  common::Progress bar("sweep", static_cast<std::int64_t>(report.cases), !options.progress, 2, "rows");
+  bar.SetBase(static_cast<std::int64_t>(report.resumed));
   std::map<std::size_t, Outcome> received;  // from other ranks, by place
   std::size_t own = 0;                      // next position in `places`
   for (std::size_t k = report.resumed; k < report.cases; ++k) {
@@ -331,9 +298,9 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
     if (o.beyond_pi_over_2) {
       if (report.beyond_pi_over_2++ == 0) report.first_beyond_pi_over_2 = KeyPrefix(plan, options.slice.index(k));
     }
-    bar.Update(k + 1);
+    bar.Update(static_cast<std::int64_t>(k + 1));
   }
-  bar.Finish(report.cases);
+  bar.Finish();
   workers.Stop();
   writer->Close();
   report.wall_s = std::chrono::duration<double>(Clock::now() - start).count();

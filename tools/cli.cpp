@@ -3,12 +3,22 @@
 #include <algorithm>
 #include <cctype>
 #include <csignal>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <utility>
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
+
 #include "common/bus_urls.h"
+#include "common/atomic_file.h"
 #include "common/text.h"
+#include "compare/compare_node.h"
+#include "pipeline/pipeline.h"
 
 namespace rocklab::tools {
 
@@ -109,6 +119,114 @@ std::string UnknownOption(const CLI::App& cmd, const std::vector<std::string>& a
   return "";
 }
 
+CLI::Option* AddJsonFlag(CLI::App& cmd, bool& json) {
+  return cmd.add_flag("--json", json, "print the result as JSON on standard output (docs/commands.md)");
+}
+
+void WriteResult(const nlohmann::json& result, bool json, const std::string& summary_path, bool stdout_taken) {
+  const std::string text = result.dump(2) + "\n";
+  if (summary_path == "-") {
+    std::fputs(text.c_str(), stdout);
+  } else if (!summary_path.empty()) {
+    try {
+      common::WriteFileAtomically(summary_path, text);
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(std::string("--summary: ") + e.what());
+    }
+  }
+  if (json && summary_path != "-") std::fputs(text.c_str(), stdout_taken ? stderr : stdout);
+  std::fflush(stdout);
+}
+
+void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path) {
+  const auto summary = node.Summary();
+  const auto bands = node.BandSummaries();
+  if (!json && summary_path != "-") {
+    compare::CompareNode::PrintSummary(summary, stdout);
+    compare::CompareNode::PrintBandSummary(bands, stdout);
+  }
+  WriteResult(nlohmann::json::parse(compare::CompareNode::SummaryJsonText(summary, bands)), json, summary_path);
+}
+
+int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, bool json) {
+  daq::DaqNodeStats s;
+  if (json) options.stats_out = &s;
+  const int code = pipeline::RunDaqStage(options, what, InstallStopSignals());
+  if (json) {
+    WriteResult({{"input", options.input},
+                 {"frames_read", s.frames_read},
+                 {"published", s.published},
+                 {"publish_errors", s.publish_errors},
+                 {"gaps", s.gaps},
+                 {"samples_missing", s.missing},
+                 {"bad_samples", s.bad_samples},
+                 {"problems", s.problems},
+                 {"damaged_regions", s.damaged_regions},
+                 {"damaged_bytes", s.damaged_bytes},
+                 {"damaged_events", s.damaged_events},
+                 {"restarts", s.restarts},
+                 {"restart_samples_lost", s.restart_lost},
+                 {"comments", s.comments},
+                 {"stopped_early", s.stopped_early},
+                 {"read_error", s.read_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.read_error)}},
+                true);
+  }
+  return code;
+}
+
+namespace {
+// The temporary file standard input was copied to, removed at exit.
+struct StdinCopy {
+  std::string path;
+  ~StdinCopy() {
+    if (!path.empty()) ::unlink(path.c_str());
+  }
+};
+StdinCopy g_stdin_copy;
+}  // namespace
+
+std::string InputFile(const std::string& option, const std::string& path, const char* suffix) {
+  if (path != "-") return path;
+  if (!g_stdin_copy.path.empty()) {
+    throw UsageError(option + ": standard input (-) is already the input of another option");
+  }
+  const char* tmp = std::getenv("TMPDIR");
+  std::string name = std::string(tmp != nullptr && *tmp != '\0' ? tmp : "/tmp") + "/rocklab-stdin-XXXXXX" + suffix;
+  const int fd = ::mkstemps(name.data(), static_cast<int>(std::strlen(suffix)));
+  if (fd < 0) throw std::runtime_error(option + ": cannot make a temporary file for standard input: " + std::strerror(errno));
+  g_stdin_copy.path = name;
+  char buf[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
+    if (n == 0) break;
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 || ::write(fd, buf, static_cast<std::size_t>(n)) != n) {
+      const int error = errno;
+      ::close(fd);
+      throw std::runtime_error(option + ": cannot copy standard input to " + name + ": " + std::strerror(error));
+    }
+  }
+  ::close(fd);
+  return name;
+}
+
+void RefuseStandardInput(const std::string& option, const std::string& path, const char* what) {
+  if (path == "-") {
+    throw UsageError(option + ": standard input (-) cannot be read here: " + what + " (give the file)");
+  }
+}
+
+void RequireOneStandardOutput(const std::vector<std::pair<std::string, std::string>>& outputs) {
+  std::string first;
+  for (const auto& [option, path] : outputs) {
+    if (path != "-") continue;
+    if (!first.empty()) {
+      throw UsageError(first + " - and " + option + " -: only one of them can be standard output");
+    }
+    first = option;
+  }
+}
+
 void RequireOutputFolder(const std::string& option, const std::string& file) {
   if (file.empty()) return;
   std::filesystem::path folder = std::filesystem::path(file).parent_path();
@@ -146,6 +264,38 @@ std::string ConversionMessage(const CLI::App& app, const std::string& what) {
          (cmd == &app ? std::string() : cmd->get_name()) + "` says what it takes";
 }
 
+std::string BashCompletion(const CLI::App& app) {
+  std::string commands;
+  std::string cases;
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    commands += (commands.empty() ? "" : " ") + sub->get_name();
+    std::string options;
+    for (const CLI::Option* opt : sub->get_options()) {
+      for (const std::string& l : opt->get_lnames()) options += (options.empty() ? "--" : " --") + l;
+    }
+    cases += "    " + sub->get_name() + ") options='" + options + "' ;;\n";
+  }
+  return "# bash completion for rocklab; generated by `rocklab completion bash` from its command table\n"
+         "_rocklab() {\n"
+         "  local cur=${COMP_WORDS[COMP_CWORD]} commands='" + commands + "' options=''\n"
+         "  if [[ $COMP_CWORD -eq 1 ]]; then\n"
+         "    COMPREPLY=($(compgen -W \"$commands help completion --version\" -- \"$cur\"))\n"
+         "    return\n"
+         "  fi\n"
+         "  case ${COMP_WORDS[1]} in\n"
+         "    help) [[ $COMP_CWORD -eq 2 ]] && COMPREPLY=($(compgen -W \"$commands\" -- \"$cur\")); return ;;\n"
+         "    completion) [[ $COMP_CWORD -eq 2 ]] && COMPREPLY=($(compgen -W bash -- \"$cur\")); return ;;\n" +
+         cases +
+         "  esac\n"
+         "  if [[ $cur == -* ]]; then\n"
+         "    COMPREPLY=($(compgen -W \"$options --help\" -- \"$cur\"))\n"
+         "  else\n"
+         "    COMPREPLY=($(compgen -f -- \"$cur\"))\n"
+         "  fi\n"
+         "}\n"
+         "complete -o filenames -o bashdefault -F _rocklab rocklab\n";
+}
+
 std::string CommandList(const CLI::App& app) {
   std::string out = app.get_description() + "\n\nusage: rocklab COMMAND [OPTIONS]\n\ncommands:\n";
   std::size_t width = 0;
@@ -155,6 +305,7 @@ std::string CommandList(const CLI::App& app) {
            sub->get_description() + "\n";
   }
   out += "\nrocklab help COMMAND (or rocklab COMMAND --help): the command's options\n"
+         "rocklab completion bash: a bash completion script (installed as share/bash-completion/completions/rocklab)\n"
          "rocklab --version: the version; docs/commands.md: every command in full\n";
   return out;
 }

@@ -11,8 +11,19 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "pipeline/option_error.h"
+
+namespace rocklab::compare {
+class CompareNode;
+}
+namespace rocklab::daq {
+struct DaqNodeStats;
+}
+namespace rocklab::pipeline {
+struct DaqStageOptions;
+}
 
 namespace rocklab::tools {
 
@@ -56,6 +67,42 @@ CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url);
 /// output path costs nothing and exits as a usage error). "" passes.
 void RequireOutputFolder(const std::string& option, const std::string& file);
 
+/// Adds `--json` to `cmd` (into `json`): the command prints its result
+/// object on standard output instead of its text summary.
+CLI::Option* AddJsonFlag(CLI::App& cmd, bool& json);
+
+/// A command's result object, the one `--json` prints and `--summary FILE`
+/// holds (one code path builds it; this writes it): to `summary_path`
+/// whole or not at all ("" none, "-" standard output), and with `json` on
+/// standard output, or on stderr when `stdout_taken` (the command's data
+/// went to standard output, `--out -`). Throws naming `--summary` when the
+/// file cannot be written.
+void WriteResult(const nlohmann::json& result, bool json, const std::string& summary_path = "",
+                 bool stdout_taken = false);
+
+/// `run`'s and `compare`'s end: the comparison tables on standard output
+/// (not with `json`) and their JSON by WriteResult.
+void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path);
+
+/// The DAQ stage of `daq` and `replay --rig`, with `json` its counts as
+/// the result object (frames_read, published, ...) on standard output.
+int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, bool json);
+
+/// `path` as a file a reader opens: itself, or for `-` standard input
+/// copied whole into a temporary file named *`suffix` (the readers take
+/// the format from the name and some read the start twice), removed when
+/// the command exits. Standard input can be read once: a second `-` is a
+/// UsageError naming `option`.
+std::string InputFile(const std::string& option, const std::string& path, const char* suffix = ".csv");
+
+/// `-` given for `option`, whose reader needs a file it can seek in (an
+/// LCM log): a UsageError saying so. Other paths pass.
+void RefuseStandardInput(const std::string& option, const std::string& path, const char* what);
+
+/// At most one of `outputs` (option name, path) is `-` (standard output);
+/// else a UsageError naming the two.
+void RequireOneStandardOutput(const std::vector<std::pair<std::string, std::string>>& outputs);
+
 /// Edit distance between `a` and `b` (optimal string alignment:
 /// insertions, deletions, substitutions and swaps of neighbours, each 1).
 std::size_t EditDistance(std::string_view a, std::string_view b);
@@ -79,6 +126,13 @@ std::string DidYouMean(std::string_view word, const std::vector<std::string>& na
 /// one-letter short ones (`-h`) are checked; values (also negative numbers)
 /// and whatever follows a bare `--` are not.
 std::string UnknownOption(const CLI::App& cmd, const std::vector<std::string>& args);
+
+/// `rocklab completion bash`: a bash completion script made from `app`'s
+/// registered subcommands and their long options (the command table, so a
+/// new command or option completes without editing it): the commands (and
+/// help, completion, --version) as the first word, a command's options
+/// after a `-`, file names otherwise.
+std::string BashCompletion(const CLI::App& app);
 
 /// The command list: one line per subcommand of `app` (name and
 /// description), in registration order, with how to get one command's help.

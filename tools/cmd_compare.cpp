@@ -17,6 +17,7 @@ struct CompareCommand {
   compare::CompareNodeConfig config;
   std::string lcm_url;
   std::string summary_json;
+  bool json{};
 };
 
 int RunCompare(CompareCommand& c) {
@@ -25,11 +26,7 @@ int RunCompare(CompareCommand& c) {
   const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   compare::CompareNode node(c.config, *bus);
   node.Run(stop);
-  const auto summary = node.Summary();
-  const auto bands = node.BandSummaries();
-  compare::CompareNode::PrintSummary(summary, stdout);
-  compare::CompareNode::PrintBandSummary(bands, stdout);
-  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, bands, c.summary_json);
+  WriteCompareResult(node, c.json, c.summary_json);
   return 0;
 }
 
@@ -39,7 +36,8 @@ void RegisterCompare(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<CompareCommand>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("compare", "live error between experiment and models (LCM node)");
   compare::AddCompareOptions(*cmd, c->config);
-  cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file");
+  cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file (- : standard output)");
+  AddJsonFlag(*cmd, c->json);
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
   cmd->callback([c, &run] { run = [c] { return RunCompare(*c); }; });
 }

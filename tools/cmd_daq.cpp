@@ -23,6 +23,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<pipeline::DaqStageOptions>();  // shared: owned by the callback
   auto config_path = std::make_shared<std::string>();
   auto check = std::make_shared<bool>(false);
+  auto json = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("daq", "DAQ node: publish a raw input's frames and reconstruction over LCM");
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML)");
   cmd->add_option("input,--input", opts->input,
@@ -41,7 +42,8 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rotate-seconds", opts->rotate_seconds, "--log: start a new file every S s of sample clock");
   cmd->add_option("--config", *config_path, "options as TOML keys (rig, input, ...); flags override");
   cmd->add_flag("--check", *check, "validate the options, rig and input, print what would be read, exit");
-  cmd->callback([opts, config_path, check, cmd, &run] {
+  AddJsonFlag(*cmd, *json);
+  cmd->callback([opts, config_path, check, json, cmd, &run] {
     if (!config_path->empty()) {
       pipeline::ApplyDaqConfigFile(*config_path, *opts, [cmd](const std::string& key) {
         return cmd->count("--" + key) > 0;
@@ -54,7 +56,10 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
       };
       return;
     }
-    run = [opts] { return pipeline::RunDaqStage(*opts, "daq", InstallStopSignals()); };
+    run = [opts, json] {
+      opts->input = InputFile("RAW", opts->input);
+      return RunDaqStageCommand(*opts, "daq", *json);
+    };
   });
 }
 

@@ -5,6 +5,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "common/units.h"
 #include "pipeline/scenario.h"
 #include "tools/cli.h"
@@ -14,6 +16,7 @@ namespace {
 
 struct DemoOptions {
   std::string out_dir{"demo"};
+  bool json{};
 };
 
 int RunDemo(const DemoOptions& o) {
@@ -32,12 +35,16 @@ int RunDemo(const DemoOptions& o) {
   base.duration_s = 8.0;
   base.rate_hz = 200.0;
 
-  std::printf("figure 7 scenario: block 1, alpha %.3f rad, p %.3f rad/s, mu %.3f\n", base.alpha,
-              base.p, base.mu);
-  std::printf("table motion: %s (amp m, freq Hz, duration s, start s)\n\n",
-              base.excitations.front().c_str());
-  std::printf("%-8s  %10s  %14s  %8s  %7s  %-10s  %s\n", "model", "uplift_s", "peak_theta_deg",
-              "peak_s", "impacts", "final", "trajectory");
+  // The text goes to stdout, or with --json to nowhere (the JSON holds it).
+  std::FILE* text = o.json ? nullptr : stdout;
+  auto print = [text](const char* format, auto... args) {
+    if (text != nullptr) std::fprintf(text, format, args...);
+  };
+  print("figure 7 scenario: block 1, alpha %.3f rad, p %.3f rad/s, mu %.3f\n", base.alpha, base.p, base.mu);
+  print("table motion: %s (amp m, freq Hz, duration s, start s)\n\n", base.excitations.front().c_str());
+  print("%-8s  %10s  %14s  %8s  %7s  %-10s  %s\n", "model", "uplift_s", "peak_theta_deg", "peak_s", "impacts",
+        "final", "trajectory");
+  nlohmann::json models = nlohmann::json::array();
   for (const char* name : {"housner", "complex"}) {
     pipeline::ScenarioOptions so = base;
     so.model = name;
@@ -52,9 +59,28 @@ int RunDemo(const DemoOptions& o) {
     out.Close();
     char uplift[32] = "none";
     if (r.uplift_time_s) std::snprintf(uplift, sizeof uplift, "%.4f", *r.uplift_time_s);
-    std::printf("%-8s  %10s  %14.4f  %8.3f  %7d  %-10s  %s\n", name, uplift,
-                r.peak_abs_theta * common::kDegPerRad, r.peak_time_s, r.impacts,
-                model::ToString(s.model->state().regime), path.c_str());
+    print("%-8s  %10s  %14.4f  %8.3f  %7d  %-10s  %s\n", name, uplift, r.peak_abs_theta * common::kDegPerRad,
+          r.peak_time_s, r.impacts, model::ToString(s.model->state().regime), path.c_str());
+    models.push_back({{"model", name},
+                      {"uplift_time", r.uplift_time_s ? nlohmann::json(*r.uplift_time_s) : nlohmann::json(nullptr)},
+                      {"peak_abs_theta", r.peak_abs_theta},
+                      {"peak_time", r.peak_time_s},
+                      {"impacts", r.impacts},
+                      {"final_regime", model::ToString(s.model->state().regime)},
+                      {"trajectory", path}});
+  }
+  if (o.json) {
+    WriteResult({{"alpha", base.alpha},
+                 {"p", base.p},
+                 {"mu", base.mu},
+                 {"excitation", base.excitations.front()},
+                 {"duration", base.duration_s},
+                 {"rate", base.rate_hz},
+                 {"models", models},
+                 {"units",
+                  {{"alpha", "rad"}, {"p", "rad/s"}, {"duration", "s"}, {"rate", "Hz"}, {"uplift_time", "s"},
+                   {"peak_abs_theta", "rad"}, {"peak_time", "s"}}}},
+                true);
   }
   return 0;
 }
@@ -65,6 +91,7 @@ void RegisterDemo(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<DemoOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("demo", "the paper's figure 7 scenario with both models");
   cmd->add_option("--out-dir", opts->out_dir, "folder for the trajectories")->capture_default_str();
+  AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunDemo(*opts); }; });
 }
 

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/progress.h"
 #include "common/provenance.h"
 #include "export/export.h"
@@ -25,7 +27,35 @@ struct ExportCliOptions {
   std::string rig_path;
   bool quiet{false};
   bool raw{false};  // the default; named so that a script can say it
+  bool json{false};
 };
+
+// --json: what the text summary says, as one object.
+nlohmann::json ExportResultJson(const ExportCliOptions& o, const exporter::ExportSummary& s,
+                                const std::vector<std::string>& files, bool log) {
+  nlohmann::json tables = nlohmann::json::array();
+  for (const auto& t : s.tables) {
+    tables.push_back({{"channel", t.channel}, {"type", t.type}, {"rows", t.rows}, {"reshaped", t.reshaped}});
+  }
+  nlohmann::json j = {{"input", o.input},         {"kind", log ? "lcm_log" : "raw"},
+                      {"files", files},           {"rows", s.rows},
+                      {"tables", tables},         {"outside_window", s.outside_window}};
+  if (log) {
+    j.update({{"filtered", s.filtered},
+              {"unknown_type", s.unknown_type},
+              {"undecodable", s.undecodable},
+              {"damaged_regions", s.damaged_regions},
+              {"damaged_bytes", s.damaged_bytes},
+              {"damaged_events", s.damaged_events}});
+  } else {
+    j.update({{"bad_rows", s.bad_rows},
+              {"bad_values", s.bad_values},
+              {"empty_values", s.empty_values},
+              {"comments", s.comments},
+              {"read_error", s.read_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.read_error)}});
+  }
+  return j;
+}
 
 int RunExport(ExportCliOptions& o) {
   try {
@@ -33,10 +63,15 @@ int RunExport(ExportCliOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
+  if (o.out == "-") {
+    throw UsageError("--out: export writes files by their extension (.csv per channel, .mat, .h5), not "
+                     "standard output; give a file name");
+  }
   RequireOutputFolder("--out", o.out);
   // The input first: a missing or unreadable one (a typo) stops here, before
   // any output exists. The sink writes beside --out and renames only at
   // Close, so a later failure leaves the previous file as it was too.
+  RefuseStandardInput("INPUT", o.input, "export reads an LCM log by seeking and a raw file twice");
   if (std::FILE* probe = std::fopen(o.input.c_str(), "rb")) {
     std::fclose(probe);
   } else {
@@ -65,7 +100,9 @@ int RunExport(ExportCliOptions& o) {
   }
   long problems = 0;
   auto show = [&problems](const std::string& text) {
-    if (++problems <= kShownProblems) std::fprintf(stderr, "rocklab export: %s\n", text.c_str());
+    if (++problems > kShownProblems) return;
+    // Above the progress line, not through it.
+    common::Progress::PrintAbove(2, [&text] { std::fprintf(stderr, "rocklab export: %s\n", text.c_str()); });
   };
   exporter::ExportSummary s;
   {
@@ -96,6 +133,7 @@ int RunExport(ExportCliOptions& o) {
   }
   std::string files;
   for (const std::string& f : sink->files()) files += (files.empty() ? "" : ", ") + f;
+  if (o.json) WriteResult(ExportResultJson(o, s, sink->files(), log), true);
   if (log) {
     std::fprintf(stderr,
                  "rocklab export: %lld rows in %zu tables written to %s; %lld outside the window, "
@@ -150,6 +188,7 @@ void RegisterExport(CLI::App& app, CommandRun& run) {
                 "(RL_DAQ_CONFIG); values_0.. stay raw either way")
       ->excludes(raw);
   cmd->add_flag("--quiet", opts->quiet, "no progress bar");
+  AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunExport(*opts); }; });
 }
 

@@ -355,28 +355,27 @@ int RunFit(const FitCliOptions& o) {
     model::RockingRecord record;
     {
       common::FileProgress progress("fit", o.input, o.quiet);  // the record's read
-      record = model::ReadRecord(o.input);
+      record = model::ReadRecord(InputFile("RECORD", o.input));
     }
-    if (!o.accel_csv.empty()) model::AddTableCsv(o.accel_csv, record);
+    if (!o.accel_csv.empty()) model::AddTableCsv(InputFile("--accel", o.accel_csv), record);
     model::WindowRecord(record, o.start_s, o.end_s);
-    if (method == model::FitMethod::kTrajectory && !o.quiet) {
-      fo.on_progress = [](const model::FitProgress& p) {
-        std::fprintf(stderr, "fit: iteration %d, %d model runs, rms %.3e rad, alpha %.5f p %.5f mu %.5f (%.1f s)\n",
-                     p.iteration, p.evaluations, p.rms, p.x(0), p.x(1), p.x(2), p.elapsed_s);
-      };
+    {
+      // The model runs so far on the commands' progress line (a terminal
+      // only; how many the fit needs is not known before it converges).
+      common::Progress bar("fit", 0, o.quiet || method != model::FitMethod::kTrajectory, 2, "model runs");
+      if (bar.active()) fo.on_progress = [&bar](const model::FitProgress& p) { bar.Update(p.evaluations); };
+      result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
+                                                    : model::FitTrajectory(record, fo);
+      fo.on_progress = nullptr;
     }
-    result = method == model::FitMethod::kImpacts ? model::FitImpacts(record, fo)
-                                                  : model::FitTrajectory(record, fo);
     if (o.posterior) {
       po.fit = fo;
       po.fit.on_progress = nullptr;
-      if (!o.quiet) {
-        po.sampler.on_step = [](int step, int steps) {
-          if (step % 100 == 0 || step == steps) std::fprintf(stderr, "posterior: step %d of %d\n", step, steps);
-        };
-      }
+      common::Progress bar("posterior", po.sampler.steps, o.quiet, 2, "steps");
+      if (bar.active()) po.sampler.on_step = [&bar](int step, int) { bar.Update(step); };
       const model::PosteriorProblem problem(record, po, &result);
       posterior = model::SamplePosterior(problem, po);
+      po.sampler.on_step = nullptr;
     }
   } catch (const model::RecordError& e) {
     throw UsageError(e.what());
@@ -445,7 +444,7 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
   cmd->add_option("--starts", opts->starts,
                   "trajectory: prior-box starts screened (default 24); impacts: alpha-profile minima refined (default 3)");
   cmd->add_flag("--json", opts->json, "print the result as JSON");
-  cmd->add_flag("--quiet", opts->quiet, "no progress lines on stderr");
+  cmd->add_flag("--quiet", opts->quiet, "no progress line on stderr (drawn when stderr is a terminal)");
   cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");
   cmd->add_flag("--posterior", opts->posterior,
                 "also sample the posterior of alpha, p, mu (, l), sigma, t_offset (docs/identification.md)");

@@ -28,6 +28,7 @@ struct InfoOptions {
 
 int RunInfo(const InfoOptions& o) {
   Require(o.rate_hz >= 0, "--rate", ">= 0 Hz", o.rate_hz);
+  RefuseStandardInput("INPUT", o.input, "info tells the kind of a file from its name and first bytes");
   std::string text;
   try {
     if (InfoOfOtherFormats(o.input, o.json, text)) {

@@ -43,7 +43,7 @@ int RunParams(const ParamsOptions& o) {
     }
     model::PolygonFile file;
     try {
-      file = model::ReadPolygonCsv(o.polygon);
+      file = model::ReadPolygonCsv(InputFile("--polygon", o.polygon));
       g = model::PolygonBlock(file);
     } catch (const std::invalid_argument& e) {
       throw UsageError(e.what());

@@ -8,6 +8,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "common/csv_number.h"
 #include "daq/processor.h"
 #include "daq/rig_config.h"
@@ -23,6 +25,7 @@ struct ReconstructOptions {
   std::string rig_path;
   std::string input;
   std::string out_csv;
+  bool json{};
 };
 
 // Rows are formatted into a buffer written in blocks: the same text as
@@ -123,7 +126,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   std::unique_ptr<daq::Source> source;
   std::unique_ptr<daq::Processor> processor;
   try {
-    source = daq::OpenSource(o.input, options);
+    source = daq::OpenSource(InputFile("RAW", o.input), options);
     // The units the file states against the rig's (as the DAQ node does).
     for (const std::string& w :
          daq::CheckFileUnits(rig, source->channel_names(), source->channel_units(), source->path())) {
@@ -152,6 +155,23 @@ int RunReconstruct(const ReconstructOptions& o) {
   if (sink.problems() > kShownProblems) {
     std::fprintf(stderr, "rocklab: %ld more problems not shown\n", sink.problems() - kShownProblems);
   }
+  const nlohmann::json result = {
+      {"input", o.input},
+      {"out", o.out_csv},
+      {"rows_written", sink.rows()},
+      {"rows_read", src.rows},
+      {"bad_rows", src.bad_rows},
+      {"bad_values", src.bad_values},
+      {"gaps", seq.gaps},
+      {"samples_missing", seq.missing},
+      {"duplicates", seq.duplicates},
+      {"out_of_order", seq.out_of_order},
+      {"invalid_led_samples", rec.invalid_led_samples},
+      {"flagged", processor->counts().flagged},
+      {"problems", sink.problems()},
+      {"damaged_regions", src.damaged_regions},
+      {"read_error", status == daq::ReadStatus::kError ? nlohmann::json(source->error()) : nlohmann::json(nullptr)}};
+  if (o.json) WriteResult(result, true, "", o.out_csv == "-");
   std::fprintf(stderr,
                "%ld rows written to %s; %lld rows read, %lld bad rows, %lld bad values, "
                "%lld gaps (%lld samples missing), %lld duplicate, %lld out of order, "
@@ -186,6 +206,7 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run) {
                   "output CSV: time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,"
                   "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask)")
       ->required();
+  AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunReconstruct(*opts); }; });
 }
 

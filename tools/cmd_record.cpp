@@ -26,6 +26,7 @@
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 
 #include "common/bus_urls.h"
 #include "common/logger_clock.h"
@@ -41,6 +42,7 @@ struct RecordCommand {
   std::string lcm_url;
   std::string raw_url;  ///< --raw-url (empty: derived from lcm_url)
   std::string summary_json;
+  bool json{};
   double queue_mb{64};
 };
 
@@ -119,7 +121,7 @@ int RunRecord(RecordCommand& c) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
-  if (!c.summary_json.empty()) {
+  if (!c.summary_json.empty() && c.summary_json != "-") {
     std::ofstream probe(c.summary_json, std::ios::app);
     if (!probe) throw UsageError("--summary: cannot write '" + c.summary_json + "'");
   }
@@ -186,13 +188,11 @@ int RunRecord(RecordCommand& c) {
   recorder->Stop();
   const record::RecorderStats stats = recorder->Stats();
   PrintSummary(stats);
-  if (!c.summary_json.empty()) {
-    std::ofstream out(c.summary_json, std::ios::trunc);
-    out << record::SummaryJson(stats);
-    if (!out) {
-      std::fprintf(stderr, "rocklab: --summary: cannot write '%s'\n", c.summary_json.c_str());
-      return kFailureExit;
-    }
+  try {
+    WriteResult(nlohmann::json::parse(record::SummaryJson(stats)), c.json, c.summary_json);
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "rocklab: %s\n", e.what());
+    return kFailureExit;
   }
   return stats.write_error.empty() ? 0 : kFailureExit;
 }
@@ -208,7 +208,8 @@ void RegisterRecord(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rotate-size", c->options.rotate_bytes, "start a new file before one passes BYTES (0: never)");
   cmd->add_option("--rotate-seconds", c->options.rotate_seconds,
                   "start a new file every S seconds of receipt time (0: never)");
-  cmd->add_option("--summary", c->summary_json, "summary JSON written at the end");
+  cmd->add_option("--summary", c->summary_json, "summary JSON written at the end (- : standard output)");
+  AddJsonFlag(*cmd, c->json);
   cmd->add_option("--queue-mb", c->queue_mb, "the recorder's queue, MiB")->capture_default_str();
   cmd->add_flag("--force", c->options.overwrite, "replace existing log files");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");

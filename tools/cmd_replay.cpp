@@ -11,6 +11,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "common/bus_urls.h"
 #include "common/lcm_bus.h"
 #include "common/progress.h"
@@ -36,6 +38,7 @@ struct ReplayCommand {
   // Options of the LOG form that were given (they make no sense with --rig).
   std::string log_only_given;
   bool quiet{};
+  bool json{};
 };
 
 int RunLogReplay(const ReplayCommand& c) {
@@ -57,7 +60,11 @@ int RunLogReplay(const ReplayCommand& c) {
   try {
     common::FileProgress progress("replay", c.log_path, c.quiet || !c.replay.max_speed);
     counts = ReplayLog(c.log_path, c.replay, *bus, stop,
-                       [](const std::string& problem) { std::fprintf(stderr, "replay: %s\n", problem.c_str()); });
+                       [](const std::string& problem) {
+                         common::Progress::PrintAbove(2, [&problem] {
+                           std::fprintf(stderr, "replay: %s\n", problem.c_str());
+                         });
+                       });
   } catch (const std::runtime_error& e) {
     throw UsageError(e.what());
   }
@@ -67,6 +74,19 @@ int RunLogReplay(const ReplayCommand& c) {
                counts.passes, counts.passes == 1 ? "" : "es");
   for (const auto& [channel, n] : counts.per_channel) {
     std::fprintf(stderr, "  %-28s %lld\n", channel.c_str(), static_cast<long long>(n));
+  }
+  if (c.json) {
+    WriteResult({{"log", c.log_path},
+                 {"published", counts.published},
+                 {"read", counts.read},
+                 {"filtered", counts.filtered},
+                 {"failed", counts.failed},
+                 {"passes", counts.passes},
+                 {"per_channel", counts.per_channel},
+                 {"damaged_regions", counts.damaged_regions},
+                 {"damaged_bytes", counts.damaged_bytes},
+                 {"damaged_events", counts.damaged_events}},
+                true);
   }
   // Everything readable was published; the exit code says the log is damaged.
   pipeline::ReportDamage(counts.damaged_regions, counts.damaged_bytes, counts.damaged_events,
@@ -85,6 +105,7 @@ int RunReplay(const ReplayCommand& c) {
       throw UsageError("replay: give LOG.lcm (a recorded log) or --rig RIG.toml --input RAW "
                        "(a raw file through the DAQ stage)");
     }
+    RefuseStandardInput("LOG", c.log_path, "an LCM log is read by seeking in it");
     return RunLogReplay(c);
   }
   if (c.rig_path.empty()) throw UsageError("replay: --input needs --rig RIG.toml");
@@ -96,13 +117,13 @@ int RunReplay(const ReplayCommand& c) {
   }
   pipeline::DaqStageOptions daq;
   daq.rig_path = c.rig_path;
-  daq.input = c.input;
+  daq.input = InputFile("--input", c.input);
   daq.speed = c.replay.speed;
   daq.max_speed = c.replay.max_speed;
   daq.lcm_url = c.lcm_url;
   daq.raw_url = c.raw_url;
   common::FileProgress progress("replay", c.input, c.quiet || !c.replay.max_speed);
-  return pipeline::RunDaqStage(daq, "replay", InstallStopSignals());
+  return RunDaqStageCommand(daq, "replay", c.json);
 }
 
 }  // namespace
@@ -117,6 +138,7 @@ void RegisterReplay(CLI::App& app, CommandRun& run) {
   auto* speed = cmd->add_option("--speed", c->replay.speed, "pace factor (1 = as recorded)");
   cmd->add_flag("--max", c->replay.max_speed, "as fast as possible")->excludes(speed);
   cmd->add_flag("--quiet", c->quiet, "no progress bar (--max draws one when stderr is a terminal)");
+  AddJsonFlag(*cmd, c->json);
   cmd->add_option("--channels", c->replay.channels, "LOG only: regex of the channels to publish")
       ->capture_default_str();
   cmd->add_flag("--loop", c->replay.loop, "LOG only: start again at the end");

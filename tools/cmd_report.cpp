@@ -13,6 +13,8 @@
 #include <string>
 #include <utility>
 
+#include <nlohmann/json.hpp>
+
 #include "common/atomic_file.h"
 #include "common/progress.h"
 #include "common/provenance.h"
@@ -41,6 +43,7 @@ struct ReportCommand {
   long long max_points{20000};
   ReportOptions options;
   bool quiet{};
+  bool json{};
 };
 
 std::pair<int, int> ParseSize(const std::string& text) {
@@ -79,6 +82,7 @@ int RunReport(ReportCommand& c) {
   Require(c.options.start_s >= 0 && std::isfinite(c.options.start_s), "--start", ">= 0 s",
           c.options.start_s);
   Require(c.options.end_s > c.options.start_s, "--end", "> --start (s)", c.options.end_s);
+  RefuseStandardInput("LOG", c.log_path, "an LCM log is read by seeking in it");
   RequireOutputFolder("--out", c.out_html);
   RequireOutputFolder("--png", c.png_path);
   RequireOutputFolder("--svg", c.svg_path);
@@ -125,6 +129,28 @@ int RunReport(ReportCommand& c) {
     DrawFigure(figure, c.svg_path, FigureFormat::kSvg, size);
     DrawFigure(figure, c.png_path, FigureFormat::kPng, size);
   }
+  if (c.json) {
+    auto file = [](const std::string& path) { return path.empty() ? nlohmann::json(nullptr) : nlohmann::json(path); };
+    WriteResult({{"log", c.log_path},
+                 {"out", c.out_html},
+                 {"svg", file(c.svg_path)},
+                 {"png", file(c.png_path)},
+                 {"events", record.events},
+                 {"decode_errors", record.decode_errors},
+                 {"seq_missing", record.seq_missing},
+                 {"dropped", dropped},
+                 {"records", records},
+                 {"problems", record.problems},
+                 {"damaged_regions", record.damaged_regions},
+                 {"damaged_bytes", record.damaged_bytes},
+                 {"damaged_events", record.damaged_events},
+                 {"config", record.snapshot.value("config", nlohmann::json(nullptr))},
+                 {"counters", record.snapshot.value("counters", nlohmann::json(nullptr))},
+                 {"peak_table_accel", record.table.accel_mps2},
+                 {"peak_table_disp", record.table.disp_m},
+                 {"units", {{"peak_table_accel", "m/s^2"}, {"peak_table_disp", "m"}, {"damaged_bytes", "bytes"}}}},
+                true);
+  }
   return record.damaged_regions == 0 ? 0 : kFailureExit;
 }
 
@@ -143,6 +169,7 @@ void RegisterReport(CLI::App& app, CommandRun& run) {
                   "points kept per second of each series, Hz")
       ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "no progress bar (drawn when stderr is a terminal)");
+  AddJsonFlag(*cmd, c->json);
   cmd->add_option("--max-points", c->max_points,
                   "points per series at most (a longer record is shown coarser)")
       ->capture_default_str();

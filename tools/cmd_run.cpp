@@ -36,6 +36,7 @@ struct RunCommand {
   std::string lcm_url{"memq://"};
   std::string log_path;
   std::string summary_json;
+  bool json{};
   double speed{1.0};
   bool max{};
   int lookahead{0};
@@ -67,6 +68,7 @@ int RunAll(RunCommand& c) {
   // (docs/performance.md, "Stepping across samples in the model node").
   g.model.lookahead_samples = c.lookahead;
   g.model.threads = c.threads;
+  c.input = InputFile("RAW", c.input);
   g.daq = pipeline::DaqConfigFor(rig, c.input, c.speed);
   g.daq.stop = &stop;  // a live --input (tcp://, lcm://) waiting for its header ends on SIGINT too
   pipeline::RunGraph graph(g);
@@ -112,11 +114,7 @@ int RunAll(RunCommand& c) {
     std::fprintf(stderr, "run: %lld ensemble members failed and left their band\n",
                  static_cast<long long>(model.member_failures()));
   }
-  const auto summary = graph.compare().Summary();
-  const auto bands = graph.compare().BandSummaries();
-  compare::CompareNode::PrintSummary(summary, stdout);
-  compare::CompareNode::PrintBandSummary(bands, stdout);
-  if (!c.summary_json.empty()) compare::CompareNode::WriteSummaryJson(summary, bands, c.summary_json);
+  WriteCompareResult(graph.compare(), c.json, c.summary_json);
   const int damaged = pipeline::ReportDamage(s, c.input, "run");
   return log_errors > 0 ? kFailureExit : damaged;
 }
@@ -134,7 +132,8 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   cmd->add_option("--lcm-url", c->lcm_url,
                   "where the channels also go (default memq://: in-process only)");
   cmd->add_option("--log", c->log_path, "write every published message to this LCM log");
-  cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file");
+  cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file (- : standard output)");
+  AddJsonFlag(*cmd, c->json);
   auto* speed = cmd->add_option("--speed", c->speed,
                                 "sample-clock s per host s (default 1: real time); 0 = --max");
   cmd->add_flag("--max", c->max, "as fast as possible")->excludes(speed);

@@ -159,6 +159,7 @@ void RegisterSimulate(CLI::App& app, CommandRun& run) {
   cmd->add_flag("--json", opts->json, "print the run summary as JSON");
   cmd->callback([opts, cmd, &run] {
     run = [opts, cmd] {
+      opts->scenario.accel_csv = InputFile("--accel", opts->scenario.accel_csv);
       pipeline::ResolveDuration(*cmd, opts->scenario);
       return RunSimulate(*opts);
     };

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "sweep/plot.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
@@ -28,6 +30,7 @@ struct SweepCommandOptions {
   std::string shard;
   bool resume{};
   std::vector<std::string> merge;
+  bool json{};
 };
 
 sweep::Slice ParseShard(const std::string& text, std::size_t plan_size) {
@@ -56,7 +59,11 @@ int RunSweepCommand(SweepCommandOptions& o) {
     if (mpi.rank() != 0) return 0;
     const sweep::MergeReport report = sweep::MergeShards(plan, o.merge, o.out);
     for (const std::string& w : report.warnings) std::fprintf(stderr, "rocklab: warning: --merge: %s\n", w.c_str());
-    std::printf("sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), o.out.c_str(), plan.size());
+    if (o.json) {
+      WriteResult({{"merged", o.merge}, {"out", o.out}, {"rows", plan.size()}}, true);
+    } else {
+      std::printf("sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), o.out.c_str(), plan.size());
+    }
     return 0;
   }
   sweep::RunOptions ro;
@@ -67,10 +74,29 @@ int RunSweepCommand(SweepCommandOptions& o) {
   const sweep::RunReport r = sweep::RunSweep(plan, o.out, ro, mpi);
   if (r.open_failed_on_rank0) return kUsageExit;
   if (mpi.rank() != 0) return 0;
-  std::printf("sweep: %zu records x %zu blocks x %zu scales = %zu cases%s; %zu kept (--resume), %zu run on %u threads x %d ranks in %.2f s, %zu overturned; rows in %s\n",
+  if (o.json) {
+    WriteResult({{"records", plan.records.size()},
+                 {"blocks", plan.blocks.size()},
+                 {"scales", plan.scales.size()},
+                 {"cases", plan.size()},
+                 {"shard", o.shard.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.shard)},
+                 {"shard_cases", r.cases},
+                 {"resumed", r.resumed},
+                 {"run", r.run},
+                 {"overturned", r.overturned},
+                 {"beyond_pi_over_2", r.beyond_pi_over_2},
+                 {"threads", r.threads},
+                 {"ranks", r.ranks},
+                 {"wall_time", r.wall_s},
+                 {"out", o.out},
+                 {"units", {{"wall_time", "s"}}}},
+                true);
+  } else {
+    std::printf("sweep: %zu records x %zu blocks x %zu scales = %zu cases%s; %zu kept (--resume), %zu run on %u threads x %d ranks in %.2f s, %zu overturned; rows in %s\n",
               plan.records.size(), plan.blocks.size(), plan.scales.size(), plan.size(),
               o.shard.empty() ? "" : (", shard " + o.shard + ": " + std::to_string(r.cases)).c_str(), r.resumed, r.run,
               r.threads, r.ranks, r.wall_s, r.overturned, o.out.c_str());
+  }
   std::fflush(stdout);
   if (r.beyond_pi_over_2 > 0) {
     std::fprintf(stderr,
@@ -93,7 +119,26 @@ struct PlotCommandOptions {
   std::string results;
   sweep::PlotOptions plot;
   std::string format{"svg"};
+  bool json{};
 };
+
+// Each block's fit as --json gives it (the text summary's figures).
+nlohmann::json FragilityJson(const sweep::BlockFragility& f) {
+  auto bound = [](double g, bool open) { return open ? nlohmann::json(nullptr) : nlohmann::json(g); };
+  nlohmann::json j = {{"model", f.model}, {"alpha", f.alpha}, {"p", f.p}, {"mu", f.mu}, {"rows", f.rows},
+                      {"overturned", f.overturned}, {"status", sweep::ToString(f.fit.status)},
+                      {"pga_g_min", f.pga_min_g}, {"pga_g_max", f.pga_max_g}};
+  if (f.fit.status == sweep::FragilityFit::Status::kFitted) {
+    j.update({{"median_g", f.fit.median},
+              {"dispersion", f.fit.beta},
+              {"median_g_low", bound(f.band.median_low, f.band.median_low_open)},
+              {"median_g_high", bound(f.band.median_high, f.band.median_high_open)},
+              {"caveat", f.caveat}});
+  } else if (f.fit.status == sweep::FragilityFit::Status::kSeparated) {
+    j.update({{"safe_below_g", f.fit.safe_below}, {"overturned_above_g", f.fit.overturned_above}});
+  }
+  return j;
+}
 
 int RunSweepPlot(PlotCommandOptions& o) {
   if (o.format == "png") {
@@ -109,6 +154,19 @@ int RunSweepPlot(PlotCommandOptions& o) {
   }
   if (rows.empty()) throw UsageError(o.results + ": no rows");
   const std::vector<sweep::BlockFragility> fits = sweep::FitFragilities(rows);
+  if (o.json) {
+    const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
+    nlohmann::json blocks = nlohmann::json::array();
+    for (const sweep::BlockFragility& f : fits) blocks.push_back(FragilityJson(f));
+    WriteResult({{"results", o.results},
+                 {"rows", rows.size()},
+                 {"fragility", blocks},
+                 {"files", report.files},
+                 {"out_dir", o.plot.out_dir},
+                 {"skipped_figures", report.skipped}},
+                true);
+    return 0;
+  }
   std::printf("fragility (probability of overturning against PGA, lognormal fitted by maximum likelihood; "
               "PGAs tried per block in fragility.csv):\n");
   for (const sweep::BlockFragility& f : fits) {
@@ -165,6 +223,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
   cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
   cmd->add_option("--merge", opts->merge, "shard files to interleave into --out (same sweep options): " + FormatsHelp(DataKind::kSweepResults) + ", mixed as they come; --out CSV or HDF5 by its extension")->expected(1, -1);
+  AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunSweepCommand(*opts); }; });
 
   auto plot = std::make_shared<PlotCommandOptions>();
@@ -173,6 +232,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   pc->add_option("--out-dir", plot->plot.out_dir, "folder for the figures and fragility.csv (default .)");
   pc->add_option("--format", plot->format, "svg (default) or png");
   pc->add_option("--gnuplot", plot->plot.gnuplot, "gnuplot program (default gnuplot)");
+  AddJsonFlag(*pc, plot->json);
   pc->callback([plot, &run] { run = [plot] { return RunSweepPlot(*plot); }; });
 }
 

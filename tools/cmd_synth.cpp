@@ -9,6 +9,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "daq/rig_simulator.h"
 #include "model/table_motion.h"
 #include "pipeline/pipeline.h"
@@ -37,6 +39,7 @@ struct SynthOptions {
   bool decimal_comma{};
   std::string out;
   std::string truth_csv;
+  bool json{};
   double hold_s{0.0};  ///< the block held at theta0 (table at rest) this long before the scenario starts, s
 };
 
@@ -123,6 +126,23 @@ int RunSynth(const SynthOptions& o) {
   const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, sample);
   raw->Close();
   truth.Close();
+  if (o.json) {
+    auto optional = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
+    const nlohmann::json result = {
+        {"out", o.out},
+        {"truth", o.truth_csv},
+        {"samples_written", written},
+        {"samples_dropped", dropped},
+        {"hold", hold_s},
+        {"seed", o.seed},
+        {"uplift_time", optional(summary.uplift_time_s)},
+        {"peak_abs_theta", summary.peak_abs_theta},
+        {"peak_time", summary.peak_time_s},
+        {"impacts", summary.impacts},
+        {"overturned", summary.overturned},
+        {"units", {{"hold", "s"}, {"uplift_time", "s"}, {"peak_abs_theta", "rad"}, {"peak_time", "s"}}}};
+    WriteResult(result, true, "", o.truth_csv == "-");
+  }
   std::fprintf(stderr, "%ld samples written to %s (%ld dropped), truth in %s; peak |theta| %.5f rad, %d impacts\n",
                written, o.out.c_str(), dropped, o.truth_csv.c_str(), summary.peak_abs_theta,
                summary.impacts);
@@ -155,8 +175,10 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
                   "truth CSV: time,theta,theta_dot,table_displacement,table_acceleration,slip,"
                   "twist,dropped (s, rad, rad/s, m, m/s^2, m, rad, 0/1)")
       ->required();
+  AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, cmd, &run] {
     run = [opts, cmd] {
+      opts->scenario.accel_csv = InputFile("--accel", opts->scenario.accel_csv);
       pipeline::ResolveDuration(*cmd, opts->scenario);
       return RunSynth(*opts);
     };

@@ -146,6 +146,14 @@ int main(int argc, char** argv) {
     return kUsageExit;
   }
   const std::string first = argv[1];
+  if (first == "completion") {
+    if (argc != 3 || std::string(argv[2]) != "bash") {
+      std::fprintf(stderr, "rocklab completion: takes one shell, bash (rocklab completion bash)\n");
+      return kUsageExit;
+    }
+    std::fputs(BashCompletion(app).c_str(), stdout);
+    return 0;
+  }
   if (first == "help") {
     if (argc == 2) {
       std::fputs(CommandList(app).c_str(), stdout);

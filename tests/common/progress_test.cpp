@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <string>
 
+#include "common/logger_clock.h"
 #include "tests/scratch.h"
 
 namespace rocklab::common {
@@ -135,6 +136,53 @@ TEST(FileProgress, FollowsTheReadPositionOfTheFile) {
   close(in);
   out += Drain(master);
   EXPECT_NE(out.find(want), std::string::npos) << out;
+  close(slave);
+  close(master);
+}
+
+}  // namespace
+}  // namespace rocklab::common
+
+namespace rocklab::common {
+namespace {
+
+// Oracle: the count form of the line, worked by hand: 120 of 600 rows in
+// 40 s with 20 done before the start: 100 rows / 40 s = 2.5 rows/s, 480
+// rows left -> 192 s = 3:12.
+TEST(ProgressFormat, CountsWithTheirUnit) {
+  char buf[160];
+  std::size_t n = Progress::Format(buf, sizeof buf, "sweep", 120, 600, 40.0, 10, "rows", 20);
+  EXPECT_EQ(std::string(buf, n), "sweep    [##--------]  20%  120/600 rows  2.5 rows/s  3:12 left");
+  n = Progress::Format(buf, sizeof buf, "fit", 30, 0, 10.0, 10, "model runs");
+  EXPECT_EQ(std::string(buf, n), "fit      30 model runs  3.0 model runs/s");
+}
+
+// A log line (a NamedLogger's, on stderr) while the bar is drawn there:
+// the bar's line is cleared, the log line written whole, the bar drawn
+// again below it. Oracle: the byte order on the terminal.
+TEST(Progress, LogLinesGoAboveTheBar) {
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+  std::fflush(stderr);
+  const int saved = dup(2);
+  dup2(slave, 2);
+  {
+    Progress p("export", 1000, false, 2);
+    p.Update(500);
+    NamedLogger("progress_test")->warn("a line above the bar");
+  }
+  dup2(saved, 2);
+  close(saved);
+  const std::string out = Drain(master);
+  const std::size_t bar = out.find("export   [");
+  const std::size_t clear = out.find("\r\033[K", bar);
+  const std::size_t line = out.find("a line above the bar", clear);
+  const std::size_t again = out.find("export   [", line);
+  ASSERT_NE(bar, std::string::npos) << out;
+  ASSERT_NE(clear, std::string::npos) << out;
+  ASSERT_NE(line, std::string::npos) << out;
+  EXPECT_NE(again, std::string::npos) << "the bar is not drawn again below the line: " << out;
+  EXPECT_NE(out.find('\n', line), std::string::npos);
   close(slave);
   close(master);
 }

@@ -72,9 +72,11 @@ for p in files_under((".cpp",)):
     if os.sep + "tests" + os.sep in p:
         continue
     commands.update(re.findall(r'add_subcommand\(\s*"([\w-]+)"', read(p)))
-# `rocklab help [CMD]`, handled before the subcommands are parsed.
-if re.search(r'first == "help"', read(os.path.join(root, "tools", "main.cpp"))):
-    commands.add("help")
+# `rocklab help [CMD]` and `rocklab completion bash`, handled before the
+# subcommands are parsed.
+for word in ("help", "completion"):
+    if re.search(r'first == "' + word + '"', read(os.path.join(root, "tools", "main.cpp"))):
+        commands.add(word)
 
 # Tests: GoogleTest cases and ctest names.
 gtests = set()

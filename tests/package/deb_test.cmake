@@ -75,7 +75,7 @@ require_paths(rocklab "${main_files}" ./usr/bin/rocklab ./usr/share/man/man1/roc
   ./usr/share/doc/rocklab/copyright ./usr/share/doc/rocklab/changelog.Debian.gz ./usr/share/doc/rocklab/README.md
   ./usr/share/rocklab/rigs/lab_rig.toml ./usr/share/rocklab/lcm_types/block_state_t.lcm
   ./usr/lib/systemd/system/rocklab-daq.service ./usr/lib/rocklab/plugins/rocklab-hdf5.so
-  ./usr/lib/rocklab/plugins/rocklab-monitor.so)
+  ./usr/lib/rocklab/plugins/rocklab-monitor.so ./usr/share/bash-completion/completions/rocklab)
 require_paths(rocklab-dev "${dev_files}" ./usr/include/rocklab/model/block.h
   ./usr/include/rocklab/block_state_t.hpp ./usr/lib/librocklab_model.a ./usr/lib/librocklab_sweep.a
   ./usr/lib/cmake/rocklab/rocklabConfig.cmake ./usr/share/doc/rocklab-dev/copyright
