@@ -153,6 +153,12 @@ class VideoSource : public daq::Source {
                      "frames are stamped t0 + k / " + std::to_string(reader_rate_) +
                          " Hz, the container's times only find drops and repeats");
     }
+    if (read_ahead_->counts().no_time > 0 && !no_time_said_) {
+      no_time_said_ = true;
+      ++stats_src_.warnings;
+      Report(number, "frames without a time (OpenCV gives 0: B-frames the decoder hands over at the end): each "
+                     "numbered after the previous one, so a drop among them cannot be seen");
+    }
     const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
@@ -279,6 +285,7 @@ class VideoSource : public daq::Source {
   // reader_, so destroyed (its thread joined) before it.
   std::unique_ptr<ReadAhead> read_ahead_;
   bool off_grid_said_{false};
+  bool no_time_said_{false};
   bool end_said_{false};
   bool have_lit_time_{false};
   double last_lit_s_{};
@@ -315,7 +322,8 @@ std::string VideoSummary(const VideoStats& v) {
   char b[1400];
   std::snprintf(b, sizeof b,
                 "(%dx%d px, %.6g frames/s from %s); %lld dropped in %lld places, "
-                "%lld repeated, %lld out of order, %lld unreadable, %lld missing at the end; LED samples: %lld missing "
+                "%lld repeated, %lld out of order, %lld given no time (numbered after the previous), %lld unreadable, "
+                "%lld missing at the end; LED samples: %lld missing "
                 "(%lld occlusions), %lld merged, %lld ambiguous, %lld inconsistent, %lld saturated; "
                 "%lld stray blobs (reflections); rigid fits in %lld frames; marks fit to %.3g mm (%.3g px), "
                 "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged), "
@@ -323,7 +331,8 @@ std::string VideoSummary(const VideoStats& v) {
                 "%s; times mid-exposure (exposure %.3g ms), rolling-shutter readout %.3g ms",
                 v.width_px, v.height_px, v.rate_hz, v.rate_source.c_str(), static_cast<long long>(v.frames.dropped),
                 static_cast<long long>(v.frames.drop_events), static_cast<long long>(v.frames.repeated),
-                static_cast<long long>(v.frames.backwards), static_cast<long long>(v.frames.unreadable),
+                static_cast<long long>(v.frames.backwards), static_cast<long long>(v.frames.no_time),
+                static_cast<long long>(v.frames.unreadable),
                 static_cast<long long>(v.frames.missing_at_end), static_cast<long long>(v.track.missing_samples),
                 static_cast<long long>(v.track.occlusions), static_cast<long long>(v.track.merged),
                 static_cast<long long>(v.track.ambiguous), static_cast<long long>(v.track.inconsistent),

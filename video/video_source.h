@@ -9,8 +9,10 @@
 /// rig's names), delivered as raw = (metres - offset) / gain so the DAQ's
 /// calibration turns them back into metres; NaN where the LED was not
 /// identified. Then, per LED, `<camera>_<led>_area_px`, `_peak` (8-bit
-/// level) and `_flags` (led_tracker.h's LedFlag bits): carried in RL_RAW
-/// and the track CSV, ignored by the reconstruction.
+/// level) and `_flags` (led_tracker.h's LedFlag bits), then per LED
+/// `<camera>_<led>_sigma_x_m`, `_sigma_z_m` (the centroid's noise on the
+/// plane, m): carried in RL_RAW and the track CSV, ignored by the
+/// reconstruction.
 ///
 /// Frame numbers come from the frame times (frame_reader.h), so a dropped
 /// frame is a gap of the DAQ's sequence, counted like any other. Opening
