@@ -187,6 +187,7 @@ TEST(VideoSample, TheOverlayIsWrittenWholeOrNotAtAll) {
     const std::string name = e.path().filename().string();
     EXPECT_EQ(name.find("dark.mkv"), std::string::npos) << name;
     EXPECT_EQ(name.find("dark.csv"), std::string::npos) << name;
+    EXPECT_EQ(name.find(".tmp-"), std::string::npos) << name;  // no temporary left, written or not
   }
   // A name OpenCV cannot write: refused before the read.
   EXPECT_EQ(RunWithStderr(bin + " track " + kSampleVideo + " --rig " + kSampleRig + " --out " + dir + "/x.csv --overlay " + dir +
