@@ -81,13 +81,13 @@ void SyncFolder(const std::string& target) {
 
 }  // namespace
 
-AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
+AtomicFile::AtomicFile(std::string target, std::string_view temp_suffix) : target_(std::move(target)) {
   if (target_.empty() || target_.back() == '/') {
     throw std::runtime_error("cannot write '" + target_ + "': not a file name");
   }
   RemoveLeftovers(target_);
   for (int attempt = 0; attempt < 100; ++attempt) {
-    temp_ = target_ + ".tmp-" + std::to_string(::getpid()) + "-" + Suffix();
+    temp_ = target_ + ".tmp-" + std::to_string(::getpid()) + "-" + Suffix() + std::string(temp_suffix);
     fd_ = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd_ >= 0) return;
     if (errno != EEXIST) break;

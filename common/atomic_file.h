@@ -25,9 +25,11 @@ namespace rocklab::common {
 
 class AtomicFile {
  public:
-  /// Creates the temporary beside `target`.
+  /// Creates the temporary beside `target`; `temp_suffix` ends its name
+  /// (`TARGET.tmp-PID-XXXXXX.mkv`: for a library that picks the format by
+  /// the name's extension, as FFmpeg's muxers do).
   /// @throws std::runtime_error naming `target` when it cannot.
-  explicit AtomicFile(std::string target);
+  explicit AtomicFile(std::string target, std::string_view temp_suffix = {});
   /// Removes the temporary unless committed.
   ~AtomicFile();
   AtomicFile(AtomicFile&& other) noexcept;

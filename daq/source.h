@@ -106,6 +106,10 @@ class Source {
   virtual bool live() const { return false; }
   /// After kError: why, "file[:line]: ..."; empty before.
   const std::string& error() const { return error_; }
+  /// The source's own counts for the end of a read, one line (a video's
+  /// tracker: frames, drops, LED samples missing, merged, ...); empty when
+  /// it has none beyond stats().
+  virtual std::string summary() const { return {}; }
 
  protected:
   std::string error_;

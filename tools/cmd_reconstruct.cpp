@@ -182,6 +182,8 @@ int RunReconstruct(const ReconstructOptions& o) {
                static_cast<long long>(seq.duplicates), static_cast<long long>(seq.out_of_order),
                static_cast<long long>(rec.invalid_led_samples),
                static_cast<long long>(processor->counts().flagged));
+  // A source's own counts (a video's: frames, drops, LED samples missing, merged, ...).
+  if (const std::string more = source->summary(); !more.empty()) std::fprintf(stderr, "%s\n", more.c_str());
   if (status == daq::ReadStatus::kError) {
     // The rows before it were reconstructed and written; the exit code says
     // the input was not read to its end.

@@ -125,7 +125,10 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<RunCommand>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("run", "daq, model and compare in one process");
   cmd->add_option("--rig", c->rig_path, "rig configuration (TOML)")->required();
-  cmd->add_option("input,--input", c->input, "raw input: CSV, LVM or LCM log")->required();
+  cmd->add_option("input,--input", c->input,
+                  "raw input: CSV, LVM or LCM log, video:FILE (a video file, or an image pattern frames/%06d.png) "
+                  "or v4l2:/dev/videoN with the rig's [camera.video] (docs/video.md)")
+      ->required();
   cmd->add_option("--variant", c->variants,
                   "NAME:MODEL:PARAMS, MODEL housner|complex, PARAMS theoretical | "
                   "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");

@@ -20,12 +20,16 @@ void RegisterTrack(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rig", opts->rig_path, "rig configuration (TOML) with a [camera.video] section")->required();
   cmd->add_option("--out", opts->out_csv,
                   "raw CSV: time (s), the camera's LED channels (raw units of the rig's channels), and per LED "
-                  "<camera>_<led>_area_px, _peak (8-bit), _flags (docs/video.md)")
+                  "<camera>_<led>_area_px, _peak (8-bit), _flags, then _sigma_x_m, _sigma_z_m (the centroid's "
+                  "noise, m) (docs/video.md)")
       ->required();
   cmd->add_option("--fps", opts->fps_hz,
                   "the camera's true frame rate, Hz: stamps frame k at t0 + k / fps (a slow-motion export "
                   "stored at 30 frames/s); over the rig's [camera.video] fps and the container's rate")
       ->check(CLI::Range(0.01, 1e6));
+  cmd->add_option("--overlay", opts->overlay,
+                  "also write OUT.mkv or OUT.avi (MJPEG): each frame with the identified LEDs and their names, the "
+                  "rejected ones and why, the blobs no LED took, and theta drawn (whole or not at all)");
   cmd->add_option("--frames", opts->max_frames, "stop after this many frames (0: all; a device: until Ctrl-C)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([opts, &run] {

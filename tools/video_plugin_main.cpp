@@ -15,6 +15,7 @@
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
 #include "video/camera_calibration.h"
+#include "video/overlay.h"
 #include "video/plugin.h"
 #include "video/video_source.h"
 
@@ -24,24 +25,6 @@ namespace {
 using pipeline::OptionError;
 
 constexpr int kShownProblems = 20;
-
-// How the frames were timed, for track's summary.
-std::string Timing(const VideoStats& v) {
-  char b[200];
-  if (v.device) {
-    std::snprintf(b, sizeof b, "frame times from the driver");
-  } else if (v.times_from_fps) {
-    std::snprintf(b, sizeof b, "frame times index / %.6g Hz (the video gives none)", v.rate_hz);
-  } else if (v.frames.off_grid > 0) {
-    std::snprintf(b, sizeof b,
-                  "frame k at t0 + k / %.6g Hz: %lld container times rounded (off that grid by up to %.3g ms), "
-                  "used only to find drops and repeats",
-                  v.rate_hz, static_cast<long long>(v.frames.off_grid), 1e3 * v.frames.max_off_grid_s);
-  } else {
-    std::snprintf(b, sizeof b, "frame k at t0 + k / %.6g Hz (the container's times on that grid)", v.rate_hz);
-  }
-  return b;
-}
 
 // rocklab track VIDEO --rig RIG.toml --out RAW.csv: a camera's video tracked
 // into the rig's LED channels (docs/video.md), written as a raw CSV that
@@ -66,6 +49,18 @@ int RunTrack(const TrackRequest& o) {
     throw OptionError(std::string("VIDEO: ") + e.what());
   }
 
+  // The overlay: opened before the read (a bad name fails first), renamed
+  // over its target only when the read ended well.
+  std::unique_ptr<OverlayWriter> overlay;
+  if (!o.overlay.empty()) {
+    const VideoStats& v0 = *VideoStatsOf(*source);
+    try {
+      overlay = std::make_unique<OverlayWriter>(o.overlay, v0.rate_hz, v0.width_px, v0.height_px);
+    } catch (const std::runtime_error& e) {
+      throw OptionError(std::string("--overlay: ") + e.what());
+    }
+    ObserveFrames(*source, [&overlay](const FrameView& f) { overlay->Write(f); });
+  }
   // Written beside, renamed when whole.
   const std::string part = o.out_csv + ".part";
   std::FILE* out = std::fopen(part.c_str(), "w");
@@ -97,29 +92,15 @@ int RunTrack(const TrackRequest& o) {
     throw std::runtime_error("cannot write '" + part + "'");
   }
   std::filesystem::rename(part, o.out_csv);
+  if (overlay) {
+    overlay->Commit();
+    std::fprintf(stderr, "%lld frames drawn to %s\n", static_cast<long long>(overlay->frames()), o.overlay.c_str());
+  }
 
   const VideoStats& v = *VideoStatsOf(*source);
   if (problems > kShownProblems) std::fprintf(stderr, "rocklab: %ld more problems not shown\n", problems - kShownProblems);
-  std::fprintf(stderr,
-               "%lld frames tracked to %s (%dx%d px, %.6g frames/s from %s); %lld dropped in %lld places, "
-               "%lld repeated, %lld out of order, %lld unreadable, %lld missing at the end; LED samples: %lld missing "
-               "(%lld occlusions), %lld merged, %lld ambiguous, %lld inconsistent, %lld saturated; "
-               "%lld stray blobs (reflections); rigid fits in %lld frames; marks fit to %.3g mm (%.3g px), "
-               "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged), "
-               "%lld statistics restarted, %lld drops from the rigid fit held; "
-               "%s; times mid-exposure (exposure %.3g ms), rolling-shutter readout %.3g ms\n",
-               static_cast<long long>(rows), o.out_csv.c_str(), v.width_px, v.height_px, v.rate_hz,
-               v.rate_source.c_str(), static_cast<long long>(v.frames.dropped),
-               static_cast<long long>(v.frames.drop_events), static_cast<long long>(v.frames.repeated),
-               static_cast<long long>(v.frames.backwards), static_cast<long long>(v.frames.unreadable),
-               static_cast<long long>(v.frames.missing_at_end),
-               static_cast<long long>(v.track.missing_samples), static_cast<long long>(v.track.occlusions),
-               static_cast<long long>(v.track.merged), static_cast<long long>(v.track.ambiguous),
-               static_cast<long long>(v.track.inconsistent), static_cast<long long>(v.track.saturated),
-               static_cast<long long>(v.track.reflections), static_cast<long long>(v.track.fits),
-               1e3 * v.mark_rms_m, v.mark_rms_px, 1e3 * v.m_per_px, static_cast<long long>(v.track.outliers),
-               static_cast<long long>(v.track.stat_restarts), static_cast<long long>(v.track.held_drops),
-               Timing(v).c_str(), 1e3 * v.exposure_s, 1e3 * v.readout_s);
+  std::fprintf(stderr, "%lld frames tracked to %s %s\n", static_cast<long long>(rows), o.out_csv.c_str(),
+               VideoSummary(v).c_str());
   return 0;
 }
 

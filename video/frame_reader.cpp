@@ -26,8 +26,11 @@ struct FrameReader::Capture {
   cv::VideoCapture cap;
 };
 
-FrameReader::FrameReader(const std::string& spec, bool device, std::optional<double> fps)
-    : cap_(std::make_unique<Capture>()) {
+FrameReader::FrameReader(const std::string& spec, bool device, std::optional<double> fps, const ColourChoice& colour)
+    : cap_(std::make_unique<Capture>()),
+      colour_(colour),
+      bgr_weights_(static_cast<float>(colour.rgb[2]), static_cast<float>(colour.rgb[1]),
+                   static_cast<float>(colour.rgb[0])) {
   kind_ = device ? Kind::kDevice
                  : (spec.find('%') != std::string::npos ? Kind::kImageSequence : Kind::kFile);
   const int api = kind_ == Kind::kDevice ? cv::CAP_V4L2
@@ -128,6 +131,11 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
         ++counts_.unreadable;
         continue;
       }
+      if (kind_ == Kind::kFile && !times_from_fps_ && last_number_ >= 0 && stored == 0.0 && last_time_s_ > 0) {
+        // OpenCV's 0 for "no time" (B-frames flushed at the end): the next frame.
+        stored = first_time_s_ + static_cast<double>(last_number_ + 1) / container_rate_hz_;
+        ++counts_.no_time;
+      }
       if (counts_.frames == 0 && last_number_ < 0) first_time_s_ = stored;
       if (!times_from_fps_ && index == 1 && counts_.frames == 1 && stored <= first_time_s_) {
         // No times from this video (the backend gives every frame the same):
@@ -175,6 +183,12 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
       } else {
         raw_.convertTo(gray, CV_8U, raw_.depth() == CV_16U ? 1.0 / 257 : 1.0);
       }
+    } else if (colour_.kind == ColourChoice::Kind::kChannel) {
+      cv::extractChannel(raw_, gray, 2 - colour_.channel);  // OpenCV's order is B, G, R
+    } else if (colour_.kind == ColourChoice::Kind::kWeights) {
+      cv::Mat bgr = raw_;
+      if (raw_.channels() == 4) cv::cvtColor(raw_, bgr, cv::COLOR_BGRA2BGR);
+      cv::transform(bgr, gray, bgr_weights_);  // saturates to 0..255
     } else {
       cv::cvtColor(raw_, gray, raw_.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
     }

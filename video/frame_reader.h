@@ -24,6 +24,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "video/video_config.h"
+
 namespace rocklab::video {
 
 struct FrameCounts {
@@ -36,6 +38,12 @@ struct FrameCounts {
   /// Frames timed index / rate because the video turned out to give no
   /// times (its second frame's time not after its first's).
   int64_t untimed{};
+  /// Frames whose time OpenCV gave as 0 after frames with later times: its
+  /// FFmpeg reader's time of a frame without a presentation time, as the
+  /// last frames of an H.264/HEVC stream with B-frames are (the decoder
+  /// gives them when flushed at the end). Numbered after the previous one
+  /// (a drop among them cannot be seen).
+  int64_t no_time{};
   /// Frames whose container time is off the t_first + k / rate grid by more
   /// than 1 us (rounded timestamps), and the largest such offset, s.
   int64_t off_grid{};
@@ -56,12 +64,14 @@ class FrameReader {
   /// times an image sequence; a device uses it only when it gives no rate.
   /// @throws std::runtime_error naming the spec when it cannot be opened,
   ///         or when it has no times and no rate was given.
-  FrameReader(const std::string& spec, bool device, std::optional<double> fps);
+  /// `colour`: which light of a colour frame becomes the 8-bit image.
+  FrameReader(const std::string& spec, bool device, std::optional<double> fps,
+              const ColourChoice& colour = ColourChoice{});
   ~FrameReader();
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
 
-  /// The next frame as 8-bit grey, its time (s) and its frame number.
+  /// The next frame as 8-bit grey (or the chosen channel), its time (s) and its frame number.
   /// False at the end (or when the device stops). Never throws.
   bool Next(cv::Mat& gray, double& time_s, int64_t& number);
 
@@ -104,6 +114,8 @@ class FrameReader {
   std::string error_;
   cv::Size first_size_;
   cv::Mat raw_;  // reused: the decoded frame before the grey conversion
+  ColourChoice colour_;
+  cv::Matx13f bgr_weights_;  // ColourChoice::kWeights in OpenCV's B, G, R order
 };
 
 }  // namespace rocklab::video

@@ -23,6 +23,11 @@ struct Blob {
   int saturated_px{};     ///< pixels at or above the saturation level
   bool oversize{false};   ///< larger than max_area_px: not one LED (merged LEDs, a reflection)
   double flux{};          ///< light above the background over the box, 8-bit levels x px
+  /// Standard deviation of the centroid from the pixel noise, px (column,
+  /// row): the noise (the variance of the box's border, at least the 1/12
+  /// level^2 of 8-bit quantisation) through the centroid's sums
+  /// (docs/video.md, "Centroid uncertainty"). 0 for an oversize blob.
+  double sigma_u_px{}, sigma_v_px{};
 };
 
 struct DetectorOptions {

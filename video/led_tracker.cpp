@@ -85,6 +85,8 @@ LedTracker::LedTracker(const VideoConfig& config, const PlaneMap& map)
   seen_.assign(n, false);
   pred_.resize(n);
   pick_.resize(n);
+  jac_px_.reserve(4 * n);
+  jac_xz_.reserve(4 * n);
   mx_.resize(n), mz_.resize(n), wx_.resize(n), wz_.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     mx_[i] = leds_[i].x_m;
@@ -303,6 +305,25 @@ void LedTracker::Track(const std::vector<Blob>& blobs, double time_s, std::vecto
     seen_[i] = (o.flags & kLedMissing) == 0;
   }
   for (std::size_t j = 0; j < blobs.size(); ++j) counts_.reflections += blob_users_[j] == 0 ? 1 : 0;
+
+  // Centroid uncertainty on the plane: the pixel sigmas through the map's
+  // Jacobian (central differences over 1 px; u and v errors independent,
+  // the box being symmetric about the spot).
+  jac_px_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(out[i].x_m)) continue;
+    const double u = out[i].u_px, v = out[i].v_px;
+    jac_px_.insert(jac_px_.end(), {{u + 0.5, v}, {u - 0.5, v}, {u, v + 0.5}, {u, v - 0.5}});
+  }
+  if (!jac_px_.empty()) map_->ToPlane(jac_px_, jac_xz_);
+  for (std::size_t i = 0, k = 0; i < n; ++i) {
+    if (!std::isfinite(out[i].x_m)) continue;
+    const Blob& b = blobs[static_cast<std::size_t>(pick_[i])];
+    const cv::Point2d du = jac_xz_[k] - jac_xz_[k + 1], dv = jac_xz_[k + 2] - jac_xz_[k + 3];
+    k += 4;
+    out[i].sigma_x_m = std::hypot(du.x * b.sigma_u_px, dv.x * b.sigma_v_px);
+    out[i].sigma_z_m = std::hypot(du.y * b.sigma_u_px, dv.y * b.sigma_v_px);
+  }
 
   if (fitted) {
     ++counts_.fits;

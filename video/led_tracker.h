@@ -49,6 +49,11 @@ struct LedSample {
   int peak{};
   int saturated_px{};
   uint32_t flags{};
+  /// The centroid's standard deviation from the pixel noise on the rig
+  /// plane, m (Blob::sigma_u_px, sigma_v_px through the image-to-plane
+  /// map's Jacobian at the centroid); NaN unless identified.
+  double sigma_x_m{std::numeric_limits<double>::quiet_NaN()};
+  double sigma_z_m{std::numeric_limits<double>::quiet_NaN()};
 };
 
 struct TrackCounts {
@@ -111,6 +116,7 @@ class LedTracker {
   std::vector<double> rx_, rz_, led_dt_;  // positions as seen, each LED's time after row 0's (s)
   std::vector<bool> seen_, dropped_last_;
   std::vector<cv::Point2d> blob_px_, blob_xz_, pred_;
+  std::vector<cv::Point2d> jac_px_, jac_xz_;  // +-0.5 px about each identified centroid, and on the plane
   std::vector<int> pick_, blob_users_;
   std::vector<double> mx_, mz_, wx_, wz_;
   std::vector<int> used_;

@@ -23,7 +23,7 @@ inline constexpr const char* kPluginFile = "rocklab-video.so";
 /// The Debian package that installs it (cmake/RocklabPackage.cmake).
 inline constexpr const char* kPluginPackage = "rocklab-video";
 /// PluginCalls::version of this build; a plugin with another is refused.
-inline constexpr int kPluginVersion = 2;  // 2: TrackRequest::fps_hz
+inline constexpr int kPluginVersion = 3;  // 2: TrackRequest::fps_hz; 3: daq::Source::summary, TrackRequest::overlay
 
 /// `rocklab track`'s options (tools/cmd_track.cpp).
 struct TrackRequest {
@@ -33,6 +33,9 @@ struct TrackRequest {
   std::int64_t max_frames{0};  ///< 0: all
   const std::atomic<bool>* stop{};  ///< Ctrl-C (tools::InstallStopSignals)
   double fps_hz{0};  ///< the camera's true frame rate over the rig's and the container's; 0: none given
+  /// A video of the detections drawn on each frame (`--overlay`), written
+  /// whole or not at all; empty: none.
+  std::string overlay;
 };
 
 /// `rocklab camera-calibrate`'s options (tools/cmd_camera_calibrate.cpp).

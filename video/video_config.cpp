@@ -124,6 +124,14 @@ toml::table ParseFile(const std::string& path) {
 
 }  // namespace
 
+std::string ColourChoice::Describe() const {
+  if (kind == Kind::kGrey) return "grey";
+  if (kind == Kind::kChannel) return channel == 0 ? "red" : channel == 1 ? "green" : "blue";
+  char b[96];
+  std::snprintf(b, sizeof b, "%g R + %g G + %g B", rgb[0], rgb[1], rgb[2]);
+  return b;
+}
+
 Intrinsics LoadIntrinsics(const std::string& path) {
   const toml::table root = ParseFile(path);
   return ParseIntrinsics(path, root, "");
@@ -207,6 +215,32 @@ VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
       if (ok) c.roi_px[i] = static_cast<int>(*v);
     }
     if (!ok) k.Fail(Keys::LineOf(*n), "roi_px", "must be [x, y, width, height], whole pixels >= 0");
+  }
+  if (const toml::node* n = k.Get("channel")) {
+    if (const std::optional<std::string> name = n->value<std::string>()) {
+      const char* const kNames[] = {"red", "green", "blue"};
+      c.colour.kind = ColourChoice::Kind::kChannel;
+      c.colour.channel = -1;
+      for (int i = 0; i < 3; ++i) c.colour.channel = *name == kNames[i] ? i : c.colour.channel;
+      if (*name == "grey" || *name == "gray") c.colour.kind = ColourChoice::Kind::kGrey;
+      if (c.colour.kind == ColourChoice::Kind::kChannel && c.colour.channel < 0) {
+        k.Fail(Keys::LineOf(*n), "channel", "must be \"red\", \"green\", \"blue\", \"grey\" or [r, g, b] weights (is \"" +
+                                                *name + "\")");
+      }
+    } else {
+      const toml::array* a = n->as_array();
+      bool ok = a != nullptr && a->size() == 3;
+      double sum = 0;
+      for (std::size_t i = 0; ok && i < 3; ++i) {
+        const std::optional<double> v = a->get(i)->value<double>();
+        ok = v && std::isfinite(*v) && std::abs(*v) <= 10;
+        if (ok) sum += std::abs(c.colour.rgb[i] = *v);
+      }
+      if (!ok || sum == 0) {
+        k.Fail(Keys::LineOf(*n), "channel", "must be a name or [r, g, b]: three weights of at most 10, not all 0");
+      }
+      c.colour.kind = ColourChoice::Kind::kWeights;
+    }
   }
   c.threshold = k.Number("threshold", 1, 254).value_or(c.threshold);
   c.min_area_px = static_cast<int>(k.Number("min_area_px", 1, 1e6).value_or(c.min_area_px));

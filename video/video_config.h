@@ -24,6 +24,18 @@ struct Intrinsics {
   int views{};                         ///< chessboard views used; 0 = not known
 };
 
+/// Which light of a colour frame the LEDs are found in (`channel`): the
+/// luma (grey, the default: 0.299 R + 0.587 G + 0.114 B), one channel, or
+/// a weighted sum of R, G, B (clipped to 0..255). A one-channel video is
+/// taken as it is.
+struct ColourChoice {
+  enum class Kind { kGrey, kChannel, kWeights };
+  Kind kind{Kind::kGrey};
+  int channel{};                    ///< kChannel: 0 red, 1 green, 2 blue
+  std::array<double, 3> rgb{};      ///< kWeights: weights of R, G, B
+  std::string Describe() const;     ///< "grey", "red", "0.5 R + 0.5 G + 0 B"
+};
+
 /// A reference mark on the rig plane: where it is in the image (as seen,
 /// distorted) and where it is in the rig frame.
 struct Mark {
@@ -62,6 +74,7 @@ struct VideoConfig {
   double max_dark_s{1.0};
   /// Region searched for LEDs: x, y, width, height (px); width 0 = whole frame.
   std::array<int, 4> roi_px{};
+  ColourChoice colour;         ///< `channel`: the light the LEDs are found in
   double threshold{40};        ///< 8-bit level a blob's pixels exceed
   int min_area_px{2};          ///< smaller blobs are noise
   int max_area_px{2000};       ///< larger ones are not one LED (merged, a reflection)

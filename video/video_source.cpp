@@ -33,7 +33,7 @@ class VideoSource : public daq::Source {
         idle_timeout_s_(options.idle_timeout_s),
         config_(WithFps(LoadVideoConfig(*options.rig), fps_override)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
-        reader_(spec, device, config_.fps),
+        reader_(spec, device, config_.fps, config_.colour),
         detector_(Options(config_)),
         tracker_(config_, map_) {
     for (const VideoLed& led : config_.leds) {
@@ -45,6 +45,11 @@ class VideoSource : public daq::Source {
       names_.push_back(base + "_area_px");
       names_.push_back(base + "_peak");
       names_.push_back(base + "_flags");
+    }
+    for (const VideoLed& led : config_.leds) {
+      const std::string base = config_.camera + "_" + led.name;
+      names_.push_back(base + "_sigma_x_m");
+      names_.push_back(base + "_sigma_z_m");
     }
     stats_.mark_rms_m = map_.mark_rms_m();
     stats_.mark_rms_px = map_.mark_rms_px();
@@ -69,13 +74,13 @@ class VideoSource : public daq::Source {
     }
     auto log = common::NamedLogger("video");
     log->info("{}: {}x{} px, {:.6g} frames/s from {}{}; exposure {:.3g} ms, rolling-shutter readout {:.3g} ms; "
-              "camera '{}', {} LEDs; marks fit to {:.3g} mm ({:.3g} px), {:.3g} mm/px, gate {:.3g} mm",
+              "camera '{}', {} LEDs found in the {} light; marks fit to {:.3g} mm ({:.3g} px), {:.3g} mm/px, gate {:.3g} mm",
               path_, reader_.width(), reader_.height(), reader_.rate_hz(), reader_.rate_source(),
               reader_.times_from_fps() ? " (frame times are index / fps)"
               : device_                ? ", frame times from the driver"
                                        : ", frame k at t0 + k / rate (the container's times number the frames)",
               1e3 * config_.exposure_s, 1e3 * config_.readout_s,
-              config_.camera, config_.leds.size(), 1e3 * map_.mark_rms_m(), map_.mark_rms_px(),
+              config_.camera, config_.leds.size(), config_.colour.Describe(), 1e3 * map_.mark_rms_m(), map_.mark_rms_px(),
               1e3 * map_.scale_m_per_px(), 1e3 * tracker_.gate_m());
     if (std::abs(reader_.rate_hz() - options.rig->sample_rate_hz) > 1e-3 * reader_.rate_hz()) {
       Report(0, "the video's " + std::to_string(reader_.rate_hz()) + " frames/s differ from the rig's sample_rate_hz " +
@@ -94,6 +99,14 @@ class VideoSource : public daq::Source {
   const std::string& path() const override { return path_; }
   bool live() const override { return device_; }
   const VideoStats& video_stats() const { return stats_; }
+  void Observe(std::function<void(const FrameView&)> observer) {
+    observer_ = std::move(observer);
+    led_names_.clear();
+    for (const VideoLed& led : config_.leds) led_names_.push_back(led.name);
+  }
+  std::string summary() const override {
+    return std::to_string(stats_.frames.frames) + " video frames " + VideoSummary(stats_);
+  }
 
   daq::ReadStatus Next(daq::Frame& frame) override {
     if (!error_.empty()) return daq::ReadStatus::kError;
@@ -140,6 +153,12 @@ class VideoSource : public daq::Source {
                      "frames are stamped t0 + k / " + std::to_string(reader_rate_) +
                          " Hz, the container's times only find drops and repeats");
     }
+    if (read_ahead_->counts().no_time > 0 && !no_time_said_) {
+      no_time_said_ = true;
+      ++stats_src_.warnings;
+      Report(number, "frames without a time (OpenCV gives 0: B-frames the decoder hands over at the end): each "
+                     "numbered after the previous one, so a drop among them cannot be seen");
+    }
     const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
@@ -150,7 +169,13 @@ class VideoSource : public daq::Source {
     // The middle of the exposure (the stored time is its start).
     t += 0.5 * config_.exposure_s;
     detector_.Detect(gray_, blobs_);
+    const int64_t fits_before = tracker_.counts().fits;
     tracker_.Track(blobs_, t, samples_);
+    if (observer_) {
+      FrameView view{&gray_, &blobs_, &samples_, &led_names_, t, number,
+                     tracker_.counts().fits > fits_before ? tracker_.theta() : kNaN};
+      observer_(view);
+    }
     ++stats_src_.rows;
     if (!CheckLit(t, number)) return daq::ReadStatus::kError;
     ReportOutliers(number);
@@ -170,6 +195,10 @@ class VideoSource : public daq::Source {
       frame.values[k++] = s.area_px > 0 ? s.area_px : kNaN;
       frame.values[k++] = s.area_px > 0 ? s.peak : kNaN;
       frame.values[k++] = static_cast<double>(s.flags);
+    }
+    for (const LedSample& s : samples_) {
+      frame.values[k++] = s.sigma_x_m;
+      frame.values[k++] = s.sigma_z_m;
     }
     Sync();
     return daq::ReadStatus::kFrame;
@@ -256,6 +285,7 @@ class VideoSource : public daq::Source {
   // reader_, so destroyed (its thread joined) before it.
   std::unique_ptr<ReadAhead> read_ahead_;
   bool off_grid_said_{false};
+  bool no_time_said_{false};
   bool end_said_{false};
   bool have_lit_time_{false};
   double last_lit_s_{};
@@ -264,7 +294,57 @@ class VideoSource : public daq::Source {
   cv::Mat gray_;
   std::vector<Blob> blobs_;
   std::vector<LedSample> samples_;
+  std::function<void(const FrameView&)> observer_;
+  std::vector<std::string> led_names_;
 };
+
+// How the frames were timed, for track's summary.
+std::string FrameTiming(const VideoStats& v) {
+  char b[200];
+  if (v.device) {
+    std::snprintf(b, sizeof b, "frame times from the driver");
+  } else if (v.times_from_fps) {
+    std::snprintf(b, sizeof b, "frame times index / %.6g Hz (the video gives none)", v.rate_hz);
+  } else if (v.frames.off_grid > 0) {
+    std::snprintf(b, sizeof b,
+                  "frame k at t0 + k / %.6g Hz: %lld container times rounded (off that grid by up to %.3g ms), "
+                  "used only to find drops and repeats",
+                  v.rate_hz, static_cast<long long>(v.frames.off_grid), 1e3 * v.frames.max_off_grid_s);
+  } else {
+    std::snprintf(b, sizeof b, "frame k at t0 + k / %.6g Hz (the container's times on that grid)", v.rate_hz);
+  }
+  return b;
+}
+
+}  // namespace
+
+std::string VideoSummary(const VideoStats& v) {
+  char b[1400];
+  std::snprintf(b, sizeof b,
+                "(%dx%d px, %.6g frames/s from %s); %lld dropped in %lld places, "
+                "%lld repeated, %lld out of order, %lld given no time (numbered after the previous), %lld unreadable, "
+                "%lld missing at the end; LED samples: %lld missing "
+                "(%lld occlusions), %lld merged, %lld ambiguous, %lld inconsistent, %lld saturated; "
+                "%lld stray blobs (reflections); rigid fits in %lld frames; marks fit to %.3g mm (%.3g px), "
+                "%.3g mm/px; %lld LED samples rejected as outliers of their blob statistics (a glint merged), "
+                "%lld statistics restarted, %lld drops from the rigid fit held; "
+                "%s; times mid-exposure (exposure %.3g ms), rolling-shutter readout %.3g ms",
+                v.width_px, v.height_px, v.rate_hz, v.rate_source.c_str(), static_cast<long long>(v.frames.dropped),
+                static_cast<long long>(v.frames.drop_events), static_cast<long long>(v.frames.repeated),
+                static_cast<long long>(v.frames.backwards), static_cast<long long>(v.frames.no_time),
+                static_cast<long long>(v.frames.unreadable),
+                static_cast<long long>(v.frames.missing_at_end), static_cast<long long>(v.track.missing_samples),
+                static_cast<long long>(v.track.occlusions), static_cast<long long>(v.track.merged),
+                static_cast<long long>(v.track.ambiguous), static_cast<long long>(v.track.inconsistent),
+                static_cast<long long>(v.track.saturated), static_cast<long long>(v.track.reflections),
+                static_cast<long long>(v.track.fits), 1e3 * v.mark_rms_m, v.mark_rms_px, 1e3 * v.m_per_px,
+                static_cast<long long>(v.track.outliers), static_cast<long long>(v.track.stat_restarts),
+                static_cast<long long>(v.track.held_drops), FrameTiming(v).c_str(), 1e3 * v.exposure_s,
+                1e3 * v.readout_s);
+  return b;
+}
+
+namespace {
 
 std::unique_ptr<daq::Source> OpenVideoFile(const std::string& spec, const daq::SourceOptions& options) {
   return OpenVideoSource(spec, false, options);
@@ -290,6 +370,12 @@ std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool devic
 const VideoStats* VideoStatsOf(const daq::Source& source) {
   const auto* v = dynamic_cast<const VideoSource*>(&source);
   return v != nullptr ? &v->video_stats() : nullptr;
+}
+
+void ObserveFrames(daq::Source& source, std::function<void(const FrameView&)> observer) {
+  auto* v = dynamic_cast<VideoSource*>(&source);
+  if (v == nullptr) throw std::invalid_argument("ObserveFrames: not a video source");
+  v->Observe(std::move(observer));
 }
 
 void RegisterSources() {

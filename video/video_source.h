@@ -9,8 +9,10 @@
 /// rig's names), delivered as raw = (metres - offset) / gain so the DAQ's
 /// calibration turns them back into metres; NaN where the LED was not
 /// identified. Then, per LED, `<camera>_<led>_area_px`, `_peak` (8-bit
-/// level) and `_flags` (led_tracker.h's LedFlag bits): carried in RL_RAW
-/// and the track CSV, ignored by the reconstruction.
+/// level) and `_flags` (led_tracker.h's LedFlag bits), then per LED
+/// `<camera>_<led>_sigma_x_m`, `_sigma_z_m` (the centroid's noise on the
+/// plane, m): carried in RL_RAW and the track CSV, ignored by the
+/// reconstruction.
 ///
 /// Frame numbers come from the frame times (frame_reader.h), so a dropped
 /// frame is a gap of the DAQ's sequence, counted like any other. Opening
@@ -18,6 +20,7 @@
 /// device (v4l2:) is live: Next() says kIdle after 0.1 s without a frame,
 /// and ends on SourceOptions::stop or after its idle_timeout_s.
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,6 +29,7 @@
 #include "video/frame_reader.h"
 #include "video/led_detector.h"
 #include "video/led_tracker.h"
+#include "video/overlay.h"
 
 namespace rocklab::video {
 
@@ -59,6 +63,14 @@ std::unique_ptr<daq::Source> OpenVideoSource(const std::string& spec, bool devic
                                              const daq::SourceOptions& options, std::optional<double> fps);
 /// The counts of a source OpenVideoSource made; nullptr for any other source.
 const VideoStats* VideoStatsOf(const daq::Source& source);
+/// The counts of `stats` as one line for a summary: "(WxH px, R frames/s
+/// from ...); N dropped in M places, ...; LED samples: ..." (`rocklab
+/// track`, and daq::Source::summary for `reconstruct`).
+std::string VideoSummary(const VideoStats& stats);
+/// Calls `observer` with each frame as tracked (on the thread calling
+/// Next(), before Next() returns it): `rocklab track --overlay`. `source`
+/// must be OpenVideoSource's (else std::invalid_argument).
+void ObserveFrames(daq::Source& source, std::function<void(const FrameView&)> observer);
 /// Registers `video:` and `v4l2:` with daq::OpenSource (call once at start-up).
 void RegisterSources();
 

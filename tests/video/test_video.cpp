@@ -8,6 +8,7 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
+#include <libavutil/log.h>
 #include <libavutil/opt.h>
 }
 
@@ -67,6 +68,8 @@ struct TestVideoWriter::Impl {
   AVPacket* pkt{};
   bool lossless{};
   bool closed{false};
+  int h264_crf{-1};  // >= 0: H.264
+  int b_frames{0};
 
   void Check(int rc, const char* what) {
     if (rc < 0) {
@@ -80,15 +83,23 @@ struct TestVideoWriter::Impl {
   // An encoder for frames of width x height (reopened when the size changes:
   // MJPEG's frames stand alone, so one stream can change size midway).
   void OpenEncoder(int width, int height) {
-    const AVCodec* codec = avcodec_find_encoder(lossless ? AV_CODEC_ID_FFV1 : AV_CODEC_ID_MJPEG);
+    const AVCodec* codec = h264_crf >= 0 ? avcodec_find_encoder_by_name("libx264")
+                           : avcodec_find_encoder(lossless ? AV_CODEC_ID_FFV1 : AV_CODEC_ID_MJPEG);
     if (codec == nullptr) throw std::runtime_error("test video writer: no encoder");
     ctx = avcodec_alloc_context3(codec);
     ctx->width = width;
     ctx->height = height;
     ctx->time_base = AVRational{1, 1000};
     ctx->framerate = AVRational{fps, 1};
-    ctx->pix_fmt = lossless ? AV_PIX_FMT_GRAY8 : AV_PIX_FMT_YUVJ420P;
-    if (!lossless) {
+    ctx->pix_fmt = h264_crf >= 0 ? AV_PIX_FMT_YUV420P : lossless ? AV_PIX_FMT_GRAY8 : AV_PIX_FMT_YUVJ420P;
+    ctx->flags |= AV_CODEC_FLAG_BITEXACT;
+    if (h264_crf >= 0) {
+      ctx->max_b_frames = b_frames;
+      ctx->gop_size = 2 * fps;
+      av_opt_set(ctx->priv_data, "preset", "veryfast", 0);
+      av_opt_set(ctx->priv_data, "crf", std::to_string(h264_crf).c_str(), 0);
+      ctx->thread_count = 1;  // the same bytes every time
+    } else if (!lossless) {
       ctx->flags |= AV_CODEC_FLAG_QSCALE;
       ctx->global_quality = FF_QP2LAMBDA * mjpeg_q;
     }
@@ -101,6 +112,7 @@ struct TestVideoWriter::Impl {
     frame->height = height;
     Check(av_frame_get_buffer(frame, 0), "frame buffer");
   }
+  void Open(const std::string& path, int width, int height);
   void Drain() {
     while (true) {
       const int rc = avcodec_receive_packet(ctx, pkt);
@@ -113,27 +125,43 @@ struct TestVideoWriter::Impl {
   }
 };
 
+void TestVideoWriter::Impl::Open(const std::string& path, int width, int height) {
+  Check(avformat_alloc_output_context2(&fmt, nullptr, "matroska", path.c_str()), "output context");
+  fmt->flags |= AVFMT_FLAG_BITEXACT;  // no random segment UID or writer string: the same bytes every time
+  st = avformat_new_stream(fmt, nullptr);
+  OpenEncoder(width, height);
+  Check(avcodec_parameters_from_context(st->codecpar, ctx), "parameters");
+  st->time_base = AVRational{1, 1000};
+  st->avg_frame_rate = AVRational{fps, 1};
+  Check(avio_open(&fmt->pb, path.c_str(), AVIO_FLAG_WRITE), "avio_open");
+  Check(avformat_write_header(fmt, nullptr), "write header");
+  pkt = av_packet_alloc();
+}
+
 TestVideoWriter::TestVideoWriter(const std::string& path, bool lossless, int width, int height, int fps, int mjpeg_q)
     : impl_(new Impl) {
-  Impl& m = *impl_;
-  m.lossless = lossless;
-  m.fps = fps;
-  m.mjpeg_q = mjpeg_q;
-  m.Check(avformat_alloc_output_context2(&m.fmt, nullptr, "matroska", path.c_str()), "output context");
-  m.st = avformat_new_stream(m.fmt, nullptr);
-  m.OpenEncoder(width, height);
-  m.Check(avcodec_parameters_from_context(m.st->codecpar, m.ctx), "parameters");
-  m.st->time_base = AVRational{1, 1000};
-  m.st->avg_frame_rate = AVRational{fps, 1};
-  m.Check(avio_open(&m.fmt->pb, path.c_str(), AVIO_FLAG_WRITE), "avio_open");
-  m.Check(avformat_write_header(m.fmt, nullptr), "write header");
-  m.pkt = av_packet_alloc();
+  impl_->lossless = lossless;
+  impl_->fps = fps;
+  impl_->mjpeg_q = mjpeg_q;
+  impl_->Open(path, width, height);
+}
+
+TestVideoWriter TestVideoWriter::H264(const std::string& path, int width, int height, int fps, int crf,
+                                      int b_frames) {
+  av_log_set_level(AV_LOG_ERROR);  // libx264's statistics stay out of the test's output
+  auto* impl = new Impl;
+  impl->fps = fps;
+  impl->h264_crf = crf;
+  impl->b_frames = b_frames;
+  TestVideoWriter w(impl);
+  impl->Open(path, width, height);
+  return w;
 }
 
 void TestVideoWriter::Write(const cv::Mat& gray, int64_t pts_ms) {
   Impl& m = *impl_;
   if (gray.cols != m.ctx->width || gray.rows != m.ctx->height) {
-    if (m.lossless) throw std::runtime_error("test video writer: FFV1 frames keep one size");
+    if (m.lossless || m.h264_crf >= 0) throw std::runtime_error("test video writer: FFV1 and H.264 frames keep one size");
     m.Check(avcodec_send_frame(m.ctx, nullptr), "flush");
     m.Drain();
     avcodec_free_context(&m.ctx);
@@ -143,7 +171,7 @@ void TestVideoWriter::Write(const cv::Mat& gray, int64_t pts_ms) {
   for (int y = 0; y < gray.rows; ++y) {
     std::memcpy(m.frame->data[0] + y * m.frame->linesize[0], gray.ptr<uint8_t>(y), static_cast<std::size_t>(gray.cols));
   }
-  if (!m.lossless) {
+  if (!m.lossless) {  // chroma: grey
     for (int p = 1; p < 3; ++p) {
       for (int y = 0; y < (gray.rows + 1) / 2; ++y) {
         std::memset(m.frame->data[p] + y * m.frame->linesize[p], 128, static_cast<std::size_t>((gray.cols + 1) / 2));
@@ -165,6 +193,7 @@ void TestVideoWriter::Close() {
 }
 
 TestVideoWriter::~TestVideoWriter() {
+  if (impl_ == nullptr) return;  // moved from
   Impl& m = *impl_;
   if (!m.closed) {
     try {

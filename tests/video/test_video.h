@@ -85,13 +85,29 @@ inline double CentroidSigmaPx(double spot_sigma_px, double peak, double threshol
   return std::sqrt(pixel_sigma * pixel_sigma + 1.0 / 12) * std::sqrt(sum_x2) / sum_w;
 }
 
+/// `light` (CV_64F, levels) as a sensor gives it: white noise of `sigma`
+/// levels added, rounded and clipped to 8 bits (its ADC).
+inline cv::Mat SensorFrame(const cv::Mat& light, double sigma, cv::RNG& rng) {
+  cv::Mat noise(light.rows, light.cols, CV_64F);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, sigma);
+  cv::Mat out;
+  cv::Mat signal = light + noise;
+  signal.convertTo(out, CV_8U);
+  return out;
+}
+
 /// Writes 8-bit grey frames into a Matroska file: FFV1 (lossless) or MJPEG
 /// (lossy, quantiser `mjpeg_q`, 2 = fine .. 31 = coarse), each frame at
 /// its own presentation time (ms). An MJPEG file's frames may change size
-/// midway (the stream's header keeps the first size).
+/// midway (the stream's header keeps the first size). Or H.264 (H264()).
 class TestVideoWriter {
  public:
   TestVideoWriter(const std::string& path, bool lossless, int width, int height, int fps, int mjpeg_q = 3);
+  /// H.264 (libx264, constant quality `crf`) with up to `b_frames` B-frames
+  /// between references: frames decoded out of order, the decoder holding
+  /// the last ones until it is flushed.
+  static TestVideoWriter H264(const std::string& path, int width, int height, int fps, int crf, int b_frames);
+  TestVideoWriter(TestVideoWriter&& other) noexcept : impl_(other.impl_) { other.impl_ = nullptr; }
   ~TestVideoWriter();
   TestVideoWriter(const TestVideoWriter&) = delete;
   TestVideoWriter& operator=(const TestVideoWriter&) = delete;
@@ -100,6 +116,7 @@ class TestVideoWriter {
 
  private:
   struct Impl;
+  explicit TestVideoWriter(Impl* impl) : impl_(impl) {}
   Impl* impl_;
 };
 

@@ -101,12 +101,7 @@ cv::Mat RenderFrame(const test::TestCamera& cam, const Shot& s, int k, cv::RNG& 
     const cv::Point2d g(c0.x - 30 + 60 * f, c0.y + 0.5);
     for (int y = static_cast<int>(g.y) - 10; y <= static_cast<int>(g.y) + 10; ++y) AddSpotRow(light, y, g, 1.8, 180);
   }
-  cv::Mat noise(cam.height, cam.width, CV_64F);
-  rng.fill(noise, cv::RNG::NORMAL, 0.0, kPixelNoise);
-  cv::Mat out;
-  cv::Mat signal = light + noise;
-  signal.convertTo(out, CV_8U);  // rounds and clips, as a sensor's ADC
-  return out;
+  return test::SensorFrame(light, kPixelNoise, rng);
 }
 
 // The rig's reference marks (x, z), m.
