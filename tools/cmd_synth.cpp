@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "common/provenance.h"
 #include "daq/rig_simulator.h"
 #include "model/table_motion.h"
 #include "pipeline/pipeline.h"
@@ -123,6 +124,9 @@ int RunSynth(const SynthOptions& o) {
   const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, sample);
   raw->Close();
   truth.Close();
+  for (const std::string& written_file : {o.out, o.truth_csv}) {  // beside each: the files stay as readers expect
+    common::WriteProvenanceSidecar(written_file, {o.rig_path, o.scenario.accel_csv});
+  }
   std::fprintf(stderr, "%ld samples written to %s (%ld dropped), truth in %s; peak |theta| %.5f rad, %d impacts\n",
                written, o.out.c_str(), dropped, o.truth_csv.c_str(), summary.peak_abs_theta,
                summary.impacts);
