@@ -282,7 +282,8 @@ bool AddProvenanceToFigure(const std::string& path, const std::vector<std::pair<
     if (bytes.size() < kPngSignature.size() + 12 || bytes.compare(bytes.size() - 8, 4, "IEND") != 0) return false;
     std::string chunks;
     for (const auto& [key, value] : fields) {
-      std::string body = "tEXt" + ("rocklab_" + key).substr(0, 79) + std::string(1, '\0') + value;
+      const std::string keyword = key.rfind("rocklab_", 0) == 0 ? key : "rocklab_" + key;
+      std::string body = "tEXt" + keyword.substr(0, 79) + std::string(1, '\0') + value;
       PutBigEndian32(chunks, static_cast<std::uint32_t>(body.size() - 4));
       chunks += body;
       PutBigEndian32(chunks, PngCrc32(body.data(), body.size()));

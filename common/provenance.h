@@ -84,7 +84,7 @@ void WriteProvenanceSidecarFields(const std::string& csv_path,
 /// element right after its `<svg ...>` start tag holding one
 /// `<rocklab:provenance key="..">value</rocklab:provenance>` per field
 /// (XML-escaped); a PNG one tEXt chunk per field (keyword
-/// `rocklab_KEY`, text as bytes; PNG 1.2: keyword 1-79 Latin-1
+/// `rocklab_KEY`, or KEY when it starts so, text as bytes; PNG 1.2: keyword 1-79 Latin-1
 /// characters) before its IEND chunk. Anything else is left as it is.
 /// @returns false when the file is neither (nothing written).
 /// @throws std::runtime_error naming the file when it cannot be read or written.
