@@ -119,7 +119,8 @@ TEST(Provenance, SidecarBesideACsvHoldsTheFieldsAndTheSourcesHash) {
   }
   const std::string hash = test::Sha256sum(source);
   ASSERT_EQ(hash.size(), 64u);
-  EXPECT_EQ(fields["source_1"], source + " (16 bytes, sha256 " + hash + ")");
+  EXPECT_EQ(fields["source_1"],
+            source + " (" + std::to_string(std::filesystem::file_size(source)) + " bytes, sha256 " + hash + ")");
   EXPECT_EQ(fields["rocklab_version"], ROCKLAB_TEST_VERSION);
   EXPECT_EQ(ProvenanceTestBytes(out), "time,theta\n");  // the CSV untouched
   EXPECT_FALSE(std::filesystem::exists(dir + "/-.provenance.csv"));
