@@ -215,12 +215,9 @@ std::string RootAttributeText(const std::string& path, const char* name) {
     const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
     const hid_t t = H5Aget_type(a);
     if (H5Tis_variable_str(t) > 0) {
-      char* text = nullptr;
-      const hid_t mt = H5Tcopy(H5T_C_S1);
-      H5Tset_size(mt, H5T_VARIABLE);
-      if (H5Aread(a, mt, &text) >= 0 && text != nullptr) out = text;
+      char* text = nullptr;  // read as stored (UTF-8): HDF5 converts no character set
+      if (H5Aread(a, t, &text) >= 0 && text != nullptr) out = text;
       H5free_memory(text);
-      H5Tclose(mt);
     } else {
       std::string buffer(H5Tget_size(t), '\0');
       if (H5Aread(a, t, buffer.data()) >= 0) out = buffer.substr(0, buffer.find('\0'));
