@@ -614,8 +614,11 @@ void WriteFragilityTable(const std::vector<BlockFragility>& fragilities, const P
     out << caveat << '\n';
   }
   common::WriteFileAtomically(table, out.str());
-  common::WriteProvenanceSidecarFields(table, o.provenance);  // fragility.provenance.csv
   report.files.push_back(table);
+  if (!o.provenance.empty()) {
+    common::WriteProvenanceSidecarFields(table, o.provenance);
+    report.files.push_back(common::ProvenanceSidecarPath(table));  // fragility.provenance.csv
+  }
 }
 
 }  // namespace
