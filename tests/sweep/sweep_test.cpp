@@ -229,17 +229,6 @@ std::string RootAttributeText(const std::string& path, const char* name) {
   return out;
 }
 
-// A sweep's CSV without its provenance lines (ProvenanceText).
-std::string WithoutProvenance(const std::string& csv) {
-  std::istringstream in(csv);
-  std::string out;
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("# rocklab provenance", 0) == 0 || line.rfind("# provenance.", 0) == 0) continue;
-    out += line + "\n";
-  }
-  return out;
-}
-
 // Provenance beside the definition (docs/provenance.md). Oracle: the
 // unsharded file written without provenance. Two shards whose provenance
 // differs (command, time) merge into that file plus the merge's own
@@ -282,7 +271,7 @@ TEST(SweepRun, ProvenanceSitsBesideTheDefinitionAndShardsStillMerge) {
   const ProvenanceLines merged_by = {{"command", "rocklab sweep --merge"}, {"source_1", parts[0]}};
   MergeShards(plan, parts, dir + "/merged.csv", merged_by);
   const std::string merged = ReadWhole(dir + "/merged.csv");
-  EXPECT_EQ(WithoutProvenance(merged), whole);
+  EXPECT_EQ(test::WithoutProvenanceLines(merged), whole);
   EXPECT_NE(merged.find("# provenance.command: rocklab sweep --merge\n# provenance.source_1: " + parts[0] + "\n"),
             std::string::npos) << merged.substr(0, RowsStart(merged));
 
