@@ -592,7 +592,9 @@
     if (c) {
       parts.push('rig ' + c.rig_name, 'calibration ' + c.calibration_id);
       if (c.sample_rate_hz !== null) parts.push(fmtG(c.sample_rate_hz) + ' Hz');
-      if (c.alpha !== null) parts.push('alpha ' + fmtG(fromRad(c.alpha)) + ' ' + angleUnit + ', p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+      if (c.alpha !== null) {
+        parts.push('alpha ' + fmtG(fromRad(c.alpha)) + ' ' + angleUnit + ', p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+      }
     }
     document.getElementById('rig').textContent = c ? parts.join(' · ') : 'no RL_DAQ_CONFIG yet';
     document.getElementById('clock').textContent =
