@@ -1,10 +1,15 @@
 #include "common/provenance.h"
 
+#include "common/atomic_file.h"
+
 #include <array>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -171,8 +176,12 @@ Provenance MakeProvenance(const std::vector<std::string>& sources) {
   for (const std::string& path : sources) {
     if (path.empty() || path == "-" || !seen.insert(path).second) continue;
     SourceFile s{path, -1, ""};
-    std::ifstream in(path, std::ios::binary);
-    if (in) {
+    std::error_code ec;
+    // A device or a pipe is not hashed (it may never end): kept as not read.
+    const bool regular = std::filesystem::is_regular_file(path, ec);
+    std::ifstream in;
+    if (regular) in.open(path, std::ios::binary);
+    if (regular && in) {
       std::int64_t size = 0;
       std::string hex = Digest(in, size);
       if (!in.bad()) {
@@ -197,6 +206,106 @@ std::string ProvenanceJson(const Provenance& p) {
   }
   // Paths and arguments are bytes: invalid UTF-8 is replaced, not thrown.
   return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+
+std::string ProvenanceSidecarPath(const std::string& csv_path) {
+  const bool csv = csv_path.size() >= 4 && csv_path.compare(csv_path.size() - 4, 4, ".csv") == 0;
+  return (csv ? csv_path.substr(0, csv_path.size() - 4) : csv_path) + ".provenance.csv";
+}
+
+void WriteProvenanceSidecar(const std::string& csv_path, const std::vector<std::string>& sources) {
+  if (csv_path.empty() || csv_path == "-") return;
+  WriteProvenanceSidecarFields(csv_path, ProvenanceFields(MakeProvenance(sources)));
+}
+
+void WriteProvenanceSidecarFields(const std::string& csv_path,
+                                  const std::vector<std::pair<std::string, std::string>>& fields) {
+  if (csv_path.empty() || csv_path == "-") return;
+  const auto quoted = [](const std::string& s) {
+    std::string out = "\"";
+    for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return out + "\"";
+  };
+  std::string text = "key,value\n";
+  for (const auto& [key, value] : fields) {
+    text += quoted(key) + "," + quoted(value) + "\n";
+  }
+  AtomicFile out(ProvenanceSidecarPath(csv_path));
+  if (std::fwrite(text.data(), 1, text.size(), out.stream()) != text.size()) {
+    throw std::runtime_error("cannot write '" + out.target() + "'");
+  }
+  out.Commit();
+}
+
+std::uint32_t PngCrc32(const void* data, std::size_t bytes) {
+  std::uint32_t crc = 0xFFFFFFFFu;
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < bytes; ++i) {
+    crc ^= p[i];
+    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return crc ^ 0xFFFFFFFFu;
+}
+
+namespace {
+
+std::string XmlEscapedProvenance(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += static_cast<unsigned char>(c) < 0x20 ? ' ' : c;
+    }
+  }
+  return out;
+}
+
+void PutBigEndian32(std::string& out, std::uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) out += static_cast<char>((v >> shift) & 0xFFu);
+}
+
+}  // namespace
+
+bool AddProvenanceToFigure(const std::string& path, const std::vector<std::pair<std::string, std::string>>& fields) {
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot read '" + path + "' to write its provenance");
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  static const std::string kPngSignature("\x89PNG\r\n\x1a\n", 8);
+  if (bytes.compare(0, kPngSignature.size(), kPngSignature) == 0) {
+    // The IEND chunk: its length (0), type, CRC are the file's last 12 bytes.
+    if (bytes.size() < kPngSignature.size() + 12 || bytes.compare(bytes.size() - 8, 4, "IEND") != 0) return false;
+    std::string chunks;
+    for (const auto& [key, value] : fields) {
+      const std::string keyword = key.rfind("rocklab_", 0) == 0 ? key : "rocklab_" + key;
+      std::string body = "tEXt" + keyword.substr(0, 79) + std::string(1, '\0') + value;
+      PutBigEndian32(chunks, static_cast<std::uint32_t>(body.size() - 4));
+      chunks += body;
+      PutBigEndian32(chunks, PngCrc32(body.data(), body.size()));
+    }
+    bytes.insert(bytes.size() - 12, chunks);
+  } else {
+    const std::size_t svg = bytes.find("<svg");
+    const std::size_t open_end = svg == std::string::npos ? svg : bytes.find('>', svg);
+    if (open_end == std::string::npos) return false;
+    std::string meta = "\n<metadata>\n";
+    for (const auto& [key, value] : fields) {
+      meta += "  <rocklab:provenance xmlns:rocklab=\"https://rocklab.invalid/provenance\" key=\"" +
+              XmlEscapedProvenance(key) + "\">" + XmlEscapedProvenance(value) + "</rocklab:provenance>\n";
+    }
+    meta += "</metadata>";
+    bytes.insert(open_end + 1, meta);
+  }
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.close();
+  if (!out) throw std::runtime_error("cannot write the provenance into '" + path + "'");
+  return true;
 }
 
 std::vector<std::pair<std::string, std::string>> ProvenanceFields(const Provenance& p) {

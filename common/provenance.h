@@ -64,4 +64,33 @@ std::string ProvenanceJson(const Provenance& p);
 /// "PATH (SIZE bytes, sha256 HEX)" (keys unique: HDF5 attribute names).
 std::vector<std::pair<std::string, std::string>> ProvenanceFields(const Provenance& p);
 
+/// The provenance sidecar of a CSV file: `STEM.provenance.csv` beside
+/// `STEM.csv` (any other name: NAME.provenance.csv), as `export` writes it.
+std::string ProvenanceSidecarPath(const std::string& csv_path);
+
+/// Writes ProvenanceFields(MakeProvenance(sources)) beside `csv_path` (at
+/// ProvenanceSidecarPath): header `key,value`, one row per field, both
+/// fields double-quoted (a quote doubled), written whole (AtomicFile).
+/// The CSV's own bytes are untouched, so every reader of it reads it as
+/// before. Nothing for "" or "-" (standard output).
+/// @throws std::runtime_error naming the sidecar when it cannot be written.
+void WriteProvenanceSidecar(const std::string& csv_path, const std::vector<std::string>& sources);
+/// The same with the fields made already (ProvenanceFields).
+void WriteProvenanceSidecarFields(const std::string& csv_path,
+                                  const std::vector<std::pair<std::string, std::string>>& fields);
+
+/// Writes `fields` into the figure at `path`, in place, where its format
+/// keeps text without changing the picture: an SVG gets a `<metadata>`
+/// element right after its `<svg ...>` start tag holding one
+/// `<rocklab:provenance key="..">value</rocklab:provenance>` per field
+/// (XML-escaped); a PNG one tEXt chunk per field (keyword
+/// `rocklab_KEY`, or KEY when it starts so, text as bytes; PNG 1.2: keyword 1-79 Latin-1
+/// characters) before its IEND chunk. Anything else is left as it is.
+/// @returns false when the file is neither (nothing written).
+/// @throws std::runtime_error naming the file when it cannot be read or written.
+bool AddProvenanceToFigure(const std::string& path, const std::vector<std::pair<std::string, std::string>>& fields);
+
+/// CRC-32 of PNG chunks (ISO 3309 / ITU-T V.42, reflected 0xEDB88320).
+std::uint32_t PngCrc32(const void* data, std::size_t bytes);
+
 }  // namespace rocklab::common

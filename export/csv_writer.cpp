@@ -1,5 +1,7 @@
 #include "export/csv_writer.h"
 
+#include "common/provenance.h"
+
 #include <cinttypes>
 #include <cmath>
 #include <cstring>
@@ -99,7 +101,7 @@ std::string CsvWriter::LegendPath(const std::string& out) {
   return CsvStem(out) + ".columns.csv";  // a '.' no TablePath gives: it cannot be a table's file
 }
 
-std::string CsvWriter::ProvenancePath(const std::string& out) { return CsvStem(out) + ".provenance.csv"; }
+std::string CsvWriter::ProvenancePath(const std::string& out) { return common::ProvenanceSidecarPath(out); }
 
 void CsvWriter::DescribeFile(const std::string& key, const std::string& value) {
   file_attributes_.emplace_back(key, value);

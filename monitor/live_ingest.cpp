@@ -98,6 +98,9 @@ bool LiveState::Impl::IngestTheta(const void* data, int size) {
   if (!SeeSampleClock(theta_msg.utime)) return true;  // held
   const rocklab::block_state_t& m = theta_msg;
   AddPoint(measured, m.utime, m.theta * kDegPerRad, 0.0);
+  if (InWindow(m.utime) && std::isfinite(m.theta)) {
+    measured_peak_abs_theta = std::fmax(measured_peak_abs_theta, std::fabs(m.theta));
+  }
   for (std::size_t i = 0; i < kFlagBits.size(); ++i) {
     const bool raised = (m.flags & kFlagBits[i].bit) != 0;
     if (raised && open_flags[i] == 0) {
@@ -135,6 +138,9 @@ bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int s
   v->has_params = true;
   v->params = model_msg;  // copies reuse the strings' capacity
   AddPoint(v->theta, model_msg.utime, model_msg.theta * kDegPerRad, 0.0);
+  if (InWindow(model_msg.utime) && std::isfinite(model_msg.theta)) {
+    v->peak_abs_theta = std::fmax(v->peak_abs_theta, std::fabs(model_msg.theta));
+  }
   return true;
 }
 
@@ -145,6 +151,15 @@ bool LiveState::Impl::IngestCompare(std::string_view name, const void* data, int
   if (!v) return true;
   const rocklab::comparison2_t& m = compare_msg;
   AddPoint(v->comparison, m.utime, m.error * kDegPerRad, m.rms_window * kDegPerRad);
+  // A matched crossing's timing error is carried until the next one: count
+  // each once, when the carried value changes.
+  const double timing = m.impact_timing_error;
+  if (InWindow(m.utime) && std::isfinite(timing) &&
+      !(timing == v->timing_last)) {
+    ++v->timing_count;
+    v->timing_sum_sq += timing * timing;
+  }
+  v->timing_last = timing;
   if (T(m.utime) <= options.to_s) {  // the newest comparison inside the window
     v->has_latest = true;
     v->latest = m;

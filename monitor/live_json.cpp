@@ -105,6 +105,12 @@ json LiveState::Impl::VariantsJson(const UpdateWindow& w) const {
     } else {
       j["latest"] = nullptr;
     }
+    j["whole"] = {{"peak_theta", v->peak_abs_theta},
+                  {"peak_theta_measured", measured_peak_abs_theta},
+                  {"impact_timings", v->timing_count},
+                  {"impact_timing_rms",
+                   v->timing_count > 0 ? json(std::sqrt(v->timing_sum_sq / static_cast<double>(v->timing_count)))
+                                       : json(nullptr)}};
     variant_list.push_back(std::move(j));
   }
   return variant_list;
@@ -259,7 +265,8 @@ json LiveState::Impl::UnitsJson() {
               {"hi95_deg", "deg"}, {"coverage95_window", "1"}, {"coverage95_total", "1"},
               {"coverage68_window", "1"}, {"coverage68_total", "1"}, {"median_error", "rad"},
               {"width95", "rad"}, {"impact_timing_z", "1"}, {"impact_time_sd", "s"},
-              {"impact_timing_z_rms", "1"},
+              {"impact_timing_z_rms", "1"}, {"peak_theta", "rad"}, {"peak_theta_measured", "rad"},
+              {"impact_timings", "1"}, {"impact_timing_rms", "s"},
               {"value", "per event kind, see lcm_types/event2_t.lcm"}};
 }
 

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -252,6 +253,14 @@ struct LiveState::Impl {
     Series comparison;  // a: error, deg; b: rms_window, deg
     bool has_latest{};
     rocklab::comparison2_t latest;
+    // Whole-test figures over the window, at the model's full rate (not the
+    // decimated series): max |theta| of RL_MODEL_<name>, rad; the impact
+    // timing errors of RL_COMPARE_<name>, one per matched crossing (a new
+    // crossing changes the carried value), their sum of squares, s^2.
+    double peak_abs_theta{};
+    std::int64_t timing_count{};
+    double timing_sum_sq{};
+    double timing_last{std::numeric_limits<double>::quiet_NaN()};
   };
 
   // An ensemble's posterior predictive band (RL_BAND_<name>) and its
@@ -401,6 +410,7 @@ struct LiveState::Impl {
     table.Clear();
     table_samples = 0;
     table_peak_accel = table_peak_disp = 0.0;
+    measured_peak_abs_theta = 0.0;
     variants.clear();
     by_name.clear();
     bands.clear();
@@ -497,6 +507,7 @@ struct LiveState::Impl {
   std::int64_t dropped_far_from_clock{};
 
   Series measured;  // a: theta, deg
+  double measured_peak_abs_theta{};  // max |theta| of RL_THETA in the window, every sample, rad
   Series table;     // a: u_g'', m/s^2; b: u_g, m
   std::int64_t table_samples{};  // RL_TABLE in the time window
   double table_peak_accel{}, table_peak_disp{};  // max |u_g''| (m/s^2), |u_g| (m) in it

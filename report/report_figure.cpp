@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "common/atomic_file.h"
+#include "common/provenance.h"
 
 extern char** environ;
 
@@ -350,12 +351,13 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
   }
   return RunGnuplot(
       gnuplot_, [&](const std::string& output) { return Script(output, format, width_px, height_px); },
-      out_path);
+      out_path, provenance_);
 }
 
 std::string RunGnuplot(const std::string& gnuplot,
                        const std::function<std::string(const std::string& output)>& script_for,
-                       const std::string& out_path) {
+                       const std::string& out_path,
+                       const std::vector<std::pair<std::string, std::string>>& provenance) {
   std::error_code ignored;
   std::unique_ptr<common::AtomicFile> created;
   try {
@@ -426,6 +428,7 @@ std::string RunGnuplot(const std::string& gnuplot,
     throw FigureError("cannot draw '" + out_path + "': gnuplot exited 0 but wrote no file");
   }
   try {
+    if (!provenance.empty()) common::AddProvenanceToFigure(output.path(), provenance);
     output.Commit();
   } catch (const std::runtime_error& e) {
     throw FigureError(std::string("cannot draw '") + out_path + "': " + e.what());

@@ -10,6 +10,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rocklab::report {
@@ -28,13 +29,16 @@ enum class FigureFormat { kSvg, kPng };
 /// rocklab figure is drawn through it (ThetaFigure::Write, `rocklab
 /// sweep-plot`). `output` is a temporary beside `out_path`
 /// (common::AtomicFile), renamed to `out_path` once gnuplot has succeeded:
-/// a failed drawing leaves `out_path` as it was.
+/// a failed drawing leaves `out_path` as it was. `provenance` (when not
+/// empty) goes into the file before the rename (common::AddProvenanceToFigure:
+/// SVG metadata, PNG tEXt chunks).
 /// @returns gnuplot's warnings (empty when it had none), one per line.
 /// @throws FigureError when gnuplot is missing, exits non-zero or is killed,
 ///   or leaves no output file.
 std::string RunGnuplot(const std::string& gnuplot,
                        const std::function<std::string(const std::string& output)>& script_for,
-                       const std::string& out_path);
+                       const std::string& out_path,
+                       const std::vector<std::pair<std::string, std::string>>& provenance = {});
 
 /// `text` as a gnuplot single-quoted string ('' for a quote; control
 /// characters become spaces).
@@ -71,6 +75,8 @@ class ThetaFigure {
   void set_title(std::string title) { title_ = std::move(title); }
   /// The gnuplot program: a name looked up on PATH (default "gnuplot") or a path.
   void set_gnuplot(std::string program) { gnuplot_ = std::move(program); }
+  /// What made the figure (common::ProvenanceFields), written into the file.
+  void set_provenance(std::vector<std::pair<std::string, std::string>> fields) { provenance_ = std::move(fields); }
 
   const std::vector<ThetaCurve>& curves() const { return curves_; }
   const std::vector<ThetaBand>& bands() const { return bands_; }
@@ -98,6 +104,7 @@ class ThetaFigure {
   std::vector<double> table_time_s_, table_accel_mps2_;
   std::string title_;
   std::string gnuplot_{"gnuplot"};
+  std::vector<std::pair<std::string, std::string>> provenance_;
 };
 
 }  // namespace rocklab::report

@@ -337,7 +337,8 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
   }
 }
 
-void WriteCsv(const Slots& slots, const Definition& definition, const std::string& out_path) {
+void WriteCsv(const Slots& slots, const Definition& definition, const ProvenanceLines& provenance,
+              const std::string& out_path) {
   std::unique_ptr<common::AtomicFile> out;
   try {
     out = std::make_unique<common::AtomicFile>(out_path);
@@ -345,15 +346,17 @@ void WriteCsv(const Slots& slots, const Definition& definition, const std::strin
     throw OptionError(std::string("--out: ") + e.what());
   }
   std::FILE* f = out->stream();
-  const std::string head = (definition.empty() ? "" : DefinitionText(definition)) + Header() + "\n";
+  const std::string head =
+      (definition.empty() ? "" : DefinitionText(definition)) + ProvenanceText(provenance) + Header() + "\n";
   bool ok = std::fputs(head.c_str(), f) >= 0;
   for (const std::string& row : slots.lines) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
   if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
   out->Commit();
 }
 
-void WriteH5(const Layout& l, const Slots& slots, const Definition& definition, const std::string& out_path) {
-  H5Results out(out_path, definition);  // destroyed without Close() (an error), out_path keeps what it held
+void WriteH5(const Layout& l, const Slots& slots, const Definition& definition, const ProvenanceLines& provenance,
+             const std::string& out_path) {
+  H5Results out(out_path, definition, provenance);  // destroyed without Close() (an error), out_path keeps what it held
   exporter::Row row;
   row.Resize(kColumns);
   for (const Cells& cells : slots.cells) {
@@ -371,7 +374,8 @@ void WriteH5(const Layout& l, const Slots& slots, const Definition& definition, 
 
 }  // namespace
 
-MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path) {
+MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path,
+                        const ProvenanceLines& provenance) {
   namespace fs = std::filesystem;
   std::error_code ec;
   for (const std::string& part : parts) {
@@ -408,9 +412,9 @@ MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts,
   // The output claims the definition only when every shard carried it.
   const Definition written = definitions.any_missing ? Definition{} : definitions.plan;
   if (h5_out) {
-    WriteH5(layout, slots, written, out_path);
+    WriteH5(layout, slots, written, provenance, out_path);
   } else {
-    WriteCsv(slots, written, out_path);
+    WriteCsv(slots, written, provenance, out_path);
   }
   return MergeReport{std::move(definitions.warnings)};
 }

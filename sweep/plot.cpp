@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "common/atomic_file.h"
+#include "common/provenance.h"
 #include "common/text.h"
 #include "sweep/results_h5.h"
 
@@ -149,7 +150,7 @@ void Draw(const PlotOptions& o, const std::string& file, const std::string& setu
       [&](const std::string& output) {
         return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + s;
       },
-      path);
+      path, o.provenance);
   report.files.push_back(path);
 }
 
@@ -161,7 +162,7 @@ void DrawRaw(const PlotOptions& o, const std::string& file, const std::string& b
       [&](const std::string& output) {
         return Terminal(o) + "set encoding utf8\nset output " + GnuplotQuoted(output) + "\n" + body + "set output\n";
       },
-      path);
+      path, o.provenance);
   report.files.push_back(path);
 }
 
@@ -614,6 +615,10 @@ void WriteFragilityTable(const std::vector<BlockFragility>& fragilities, const P
   }
   common::WriteFileAtomically(table, out.str());
   report.files.push_back(table);
+  if (!o.provenance.empty()) {
+    common::WriteProvenanceSidecarFields(table, o.provenance);
+    report.files.push_back(common::ProvenanceSidecarPath(table));  // fragility.provenance.csv
+  }
 }
 
 }  // namespace

@@ -80,6 +80,8 @@ struct PlotOptions {
   report::FigureFormat format{report::FigureFormat::kSvg};
   std::string gnuplot{"gnuplot"};
   std::size_t max_figures_per_kind{24};  ///< beyond this, a kind's figures are skipped (and counted)
+  /// What made the figures (common::ProvenanceFields), written into each.
+  std::vector<std::pair<std::string, std::string>> provenance;
 };
 
 /// What MakeFigures wrote.

@@ -25,7 +25,8 @@ using pipeline::OptionError;
 // the complete file to --out, so --out is never a torn or half sweep.
 class CsvRowWriter final : public RowWriter {
  public:
-  CsvRowWriter(const std::string& path, const Plan& plan, const Slice& slice, bool resume)
+  CsvRowWriter(const std::string& path, const Plan& plan, const Slice& slice, bool resume,
+               const ProvenanceLines& provenance)
       : path_(path), partial_(PartialPath(path)), plan_(plan) {
     namespace fs = std::filesystem;
     std::uintmax_t keep = 0;  // bytes of the resumed file to keep
@@ -53,7 +54,7 @@ class CsvRowWriter final : public RowWriter {
       file_ = std::fopen(partial_.c_str(), "w");
     }
     if (!file_) throw OptionError("--out: cannot write '" + partial_ + "': " + std::strerror(errno));
-    if (keep == 0) Put(DefinitionText(DefinitionOf(plan_)) + Header() + "\n");
+    if (keep == 0) Put(DefinitionText(DefinitionOf(plan_)) + ProvenanceText(provenance) + Header() + "\n");
   }
   ~CsvRowWriter() override {
     if (file_) std::fclose(file_);  // the rows stay in the .partial for --resume
@@ -147,7 +148,8 @@ class CsvRowWriter final : public RowWriter {
 // block) is NaN.
 class H5RowWriter final : public RowWriter {
  public:
-  H5RowWriter(const std::string& path, const Plan& plan) : file_(path, DefinitionOf(plan)), plan_(plan) {
+  H5RowWriter(const std::string& path, const Plan& plan, const ProvenanceLines& provenance)
+      : file_(path, DefinitionOf(plan), provenance), plan_(plan) {
     row_.Resize(ResultColumns().size());
   }
 
@@ -206,7 +208,7 @@ const std::vector<exporter::Column>& ResultColumns() {
   return columns;
 }
 
-H5Results::H5Results(const std::string& path, const Definition& definition) {
+H5Results::H5Results(const std::string& path, const Definition& definition, const ProvenanceLines& provenance) {
   try {
     writer_ = std::make_unique<exporter::H5Writer>(path);
     table_ = writer_->AddTable("results", ResultColumns());
@@ -219,6 +221,7 @@ H5Results::H5Results(const std::string& path, const Definition& definition) {
       }
       writer_->DescribeFile(kH5DefinitionKeys, keys);
     }
+    for (const auto& [key, value] : provenance) writer_->DescribeFile(key, value);
   } catch (const std::exception& e) {
     throw OptionError("--out: " + std::string(e.what()));
   }
@@ -235,15 +238,15 @@ void H5Results::Close() {
 std::string PartialPath(const std::string& out) { return out + ".partial"; }
 
 std::unique_ptr<RowWriter> OpenRowWriter(const std::string& path, const Plan& plan, const Slice& slice,
-                                         bool resume) {
+                                         bool resume, const ProvenanceLines& provenance) {
   if (common::HasExtension(path, ".h5") || common::HasExtension(path, ".hdf5")) {
     if (resume && std::filesystem::exists(path)) {
       throw OptionError("--out " + path + ": --resume continues a .csv only (an HDF5 file is written whole); "
                         "resume into a .csv, or start the .h5 afresh without --resume");
     }
-    return std::make_unique<H5RowWriter>(path, plan);
+    return std::make_unique<H5RowWriter>(path, plan, provenance);
   }
-  return std::make_unique<CsvRowWriter>(path, plan, slice, resume);
+  return std::make_unique<CsvRowWriter>(path, plan, slice, resume, provenance);
 }
 
 }  // namespace rocklab::sweep

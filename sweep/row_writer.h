@@ -66,7 +66,8 @@ inline constexpr const char* kH5DefinitionKeys = "sweep_definition_keys";
 class H5Results {
  public:
   /// @throws pipeline::OptionError "--out: ..." when the file cannot be made.
-  H5Results(const std::string& path, const Definition& definition);
+  /// `provenance`: root attributes with its keys (as `export` writes them).
+  H5Results(const std::string& path, const Definition& definition, const ProvenanceLines& provenance = {});
   ~H5Results();
   H5Results(const H5Results&) = delete;
   H5Results& operator=(const H5Results&) = delete;
@@ -96,7 +97,9 @@ std::string PartialPath(const std::string& out);
 /// cut and written again); a row that belongs elsewhere is an error.
 /// @throws pipeline::OptionError naming --out (and FILE:LINE for a row
 ///   that does not belong) when the file cannot be used.
+/// `provenance` goes after the definition (CSV: ProvenanceText; HDF5: root
+/// attributes); a resumed CSV keeps the provenance of the run that began it.
 std::unique_ptr<RowWriter> OpenRowWriter(const std::string& path, const Plan& plan, const Slice& slice,
-                                         bool resume);
+                                         bool resume, const ProvenanceLines& provenance = {});
 
 }  // namespace rocklab::sweep

@@ -209,7 +209,7 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
   std::string open_error;
   if (rank == 0) {
     try {
-      writer = OpenRowWriter(out_path, plan, options.slice, options.resume);
+      writer = OpenRowWriter(out_path, plan, options.slice, options.resume, options.provenance);
       report.resumed = writer->rows_done();
     } catch (const std::exception& e) {
       if (size == 1) throw;

@@ -64,6 +64,7 @@ struct RunOptions {
   Slice slice;          ///< this run's cases (a shard, or the whole plan)
   bool resume{};        ///< keep the output's complete rows and run the rest
   bool progress{};      ///< draw a progress bar on stderr (rank 0)
+  ProvenanceLines provenance;  ///< what made the output (OpenRowWriter)
 };
 
 struct RunReport {
@@ -112,6 +113,9 @@ RunReport RunSweep(const Plan& plan, const std::string& out_path, const RunOptio
 struct MergeReport {
   std::vector<std::string> warnings;  ///< one line each, naming the file
 };
-MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path);
+/// `provenance`: what made the merged file (the merge's command and its
+/// parts), written beside the definition (the shards' own are not compared).
+MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts, const std::string& out_path,
+                        const ProvenanceLines& provenance = {});
 
 }  // namespace rocklab::sweep

@@ -331,8 +331,27 @@ std::string DefinitionText(const Definition& d) {
   return out;
 }
 
+constexpr const char* kProvenanceTitle =
+    "# rocklab provenance (not part of the definition: it differs between runs and shards)";
+constexpr const char* kProvenancePrefix = "# provenance.";
+
+std::string ProvenanceText(const ProvenanceLines& p) {
+  if (p.empty()) return {};
+  std::string out = std::string(kProvenanceTitle) + "\n";
+  for (const auto& [key, value] : p) {
+    std::string line = kProvenancePrefix + key + ": " + value;
+    for (char& c : line) {
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
 bool ParseDefinitionLine(const std::string& line, Definition& d) {
   if (line == kDefinitionTitle) return true;
+  // Provenance lines (ProvenanceText) sit among the definition's, outside it.
+  if (line == kProvenanceTitle || line.rfind(kProvenancePrefix, 0) == 0) return true;
   if (line.size() < 2 || line[0] != '#' || line[1] != ' ') return false;
   const std::size_t colon = line.find(": ", 2);
   if (colon == std::string::npos || colon == 2) return false;

@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/cancel.h"
@@ -158,6 +159,16 @@ std::string DefinitionText(const Definition& d);
 /// for its title line (nothing added) and a "# key: value" line, false for
 /// any other.
 bool ParseDefinitionLine(const std::string& line, Definition& d);
+
+/// What made a results file (common::ProvenanceFields: version, command,
+/// time, source files): written beside the definition, never part of it
+/// (it differs between the shards and runs of one sweep).
+using ProvenanceLines = std::vector<std::pair<std::string, std::string>>;
+/// The CSV form: a "# rocklab provenance ..." title line, then one
+/// "# provenance.KEY: value" line per field (control characters in a value
+/// written as '?'), each with its newline; "" for no field.
+/// ParseDefinitionLine takes these lines and adds nothing for them.
+std::string ProvenanceText(const ProvenanceLines& p);
 
 /// The key of the first field where `a` and `b` differ (a's keys in order,
 /// then b's), "" when they are equal; `a_value` and `b_value` get the two

@@ -13,6 +13,7 @@
 
 #include "common/atomic_file.h"
 #include "common/progress.h"
+#include "common/provenance.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
 #include "model/posterior.h"
@@ -388,8 +389,9 @@ int RunFit(const FitCliOptions& o) {
   nlohmann::json j = ResultJson(o, result);
   if (posterior) {
     j["posterior"] = nlohmann::json::parse(model::PosteriorJson(*posterior));
-    if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior);
-    if (!o.plot.empty()) WriteCornerSvg(o.plot, *posterior, "rocklab fit --posterior: " + o.input);
+    const auto provenance = common::ProvenanceFields(common::MakeProvenance({o.input, o.rig, o.accel_csv}));
+    if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior, provenance);
+    if (!o.plot.empty()) WriteCornerSvg(o.plot, *posterior, "rocklab fit --posterior: " + o.input, provenance);
   }
   if (!o.out_json.empty()) {
     common::WriteFileAtomically(o.out_json, j.dump(2) + "\n");

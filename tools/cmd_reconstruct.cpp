@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/csv_number.h"
+#include "common/provenance.h"
 #include "daq/processor.h"
 #include "daq/rig_config.h"
 #include "daq/source.h"
@@ -148,6 +149,7 @@ int RunReconstruct(const ReconstructOptions& o) {
   processor->Finish();
   sink.Flush();
   out->Close();
+  common::WriteProvenanceSidecar(o.out_csv, {o.input, o.rig_path});  // beside it: the CSV stays as readers expect
 
   const daq::SourceStats& src = source->stats();
   const daq::SequenceCounts& seq = processor->sequence();

@@ -125,7 +125,8 @@ int RunReport(ReportCommand& c) {
   WriteText(c.out_html, ReportPage(record));
   std::fprintf(stderr, "report: wrote %s\n", c.out_html.c_str());
   if (!c.svg_path.empty() || !c.png_path.empty()) {
-    const ThetaFigure figure = ReportFigure(record);
+    ThetaFigure figure = ReportFigure(record);
+    figure.set_provenance(record.provenance);  // SVG metadata, PNG tEXt chunks
     DrawFigure(figure, c.svg_path, FigureFormat::kSvg, size);
     DrawFigure(figure, c.png_path, FigureFormat::kPng, size);
   }

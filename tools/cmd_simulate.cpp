@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/provenance.h"
 #include "common/units.h"
 #include "pipeline/scenario.h"
 #include "pipeline/scenario_flags.h"
@@ -119,6 +120,8 @@ int RunSimulate(const SimulateOptions& o) {
   const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
   out.Close();
   if (!o.events_csv.empty()) pipeline::WriteEventsCsv(o.events_csv, s.model->events());
+  // What made them, beside each (STEM.provenance.csv): the CSVs stay as their readers expect.
+  for (const std::string& csv : {o.out_csv, o.events_csv}) common::WriteProvenanceSidecar(csv, {o.scenario.accel_csv});
 
   // With the CSV on standard output (--out -), the summary goes to stderr.
   std::FILE* report = o.out_csv == "-" || o.events_csv == "-" ? stderr : stdout;

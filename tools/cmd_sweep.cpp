@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/provenance.h"
 #include "sweep/plot.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
@@ -57,7 +58,9 @@ int RunSweepCommand(SweepCommandOptions& o) {
   if (!o.merge.empty()) {
     if (!o.shard.empty() || o.resume) throw UsageError("--merge takes neither --shard nor --resume");
     if (mpi.rank() != 0) return 0;
-    const sweep::MergeReport report = sweep::MergeShards(plan, o.merge, o.out);
+    // The merged file's provenance: this command and the shards it read.
+    const sweep::MergeReport report =
+        sweep::MergeShards(plan, o.merge, o.out, common::ProvenanceFields(common::MakeProvenance(o.merge)));
     for (const std::string& w : report.warnings) std::fprintf(stderr, "rocklab: warning: --merge: %s\n", w.c_str());
     if (o.json) {
       WriteResult({{"merged", o.merge}, {"out", o.out}, {"rows", plan.size()}}, true);
@@ -71,6 +74,11 @@ int RunSweepCommand(SweepCommandOptions& o) {
   ro.slice = ParseShard(o.shard, plan.size());
   ro.resume = o.resume;
   ro.progress = mpi.rank() == 0 && isatty(STDERR_FILENO) != 0;
+  if (mpi.rank() == 0) {  // the records and section files the cases read
+    std::vector<std::string> sources = o.plan.records;
+    sources.insert(sources.end(), o.plan.polygons.begin(), o.plan.polygons.end());
+    ro.provenance = common::ProvenanceFields(common::MakeProvenance(sources));
+  }
   const sweep::RunReport r = sweep::RunSweep(plan, o.out, ro, mpi);
   if (r.open_failed_on_rank0) return kUsageExit;
   if (mpi.rank() != 0) return 0;
@@ -191,6 +199,7 @@ int RunSweepPlot(PlotCommandOptions& o) {
         break;
     }
   }
+  o.plot.provenance = common::ProvenanceFields(common::MakeProvenance({o.results}));
   const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
   std::printf("%zu files in %s", report.files.size(), o.plot.out_dir.c_str());
   if (report.skipped) std::printf(" (%zu figures skipped: more than %zu of a kind)", report.skipped, o.plot.max_figures_per_kind);

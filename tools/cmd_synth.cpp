@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/provenance.h"
 #include "daq/rig_simulator.h"
 #include "model/table_motion.h"
 #include "pipeline/pipeline.h"
@@ -126,6 +127,9 @@ int RunSynth(const SynthOptions& o) {
   const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, sample);
   raw->Close();
   truth.Close();
+  for (const std::string& written_file : {o.out, o.truth_csv}) {  // beside each: the files stay as readers expect
+    common::WriteProvenanceSidecar(written_file, {o.rig_path, o.scenario.accel_csv});
+  }
   if (o.json) {
     auto optional = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
     const nlohmann::json result = {

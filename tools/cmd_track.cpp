@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "common/provenance.h"
 #include "tools/cli.h"
 #include "tools/video_plugin.h"
 
@@ -35,7 +36,11 @@ void RegisterTrack(CLI::App& app, CommandRun& run) {
   cmd->callback([opts, &run] {
     run = [opts] {
       opts->stop = &InstallStopSignals();
-      return VideoPlugin().track(*opts);
+      const int rc = VideoPlugin().track(*opts);
+      // Beside the raw CSV (its readers stay as they are); a device or an
+      // image pattern is listed as not readable (MakeProvenance).
+      if (rc == 0) common::WriteProvenanceSidecar(opts->out_csv, {opts->video, opts->rig_path});
+      return rc;
     };
   });
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/atomic_file.h"
+#include "common/provenance.h"
 #include "common/text.h"
 #include "export/h5_writer.h"
 
@@ -37,7 +38,8 @@ std::string F(double v, const char* fmt = "%.2f") {
 
 }  // namespace
 
-void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r) {
+void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r,
+                           const std::vector<std::pair<std::string, std::string>>& provenance) {
   const auto cols = static_cast<std::size_t>(r.draws.cols());
   if (EndsWith(path, ".h5") || EndsWith(path, ".hdf5")) {
     exporter::H5Writer h5(path);
@@ -51,6 +53,7 @@ void WritePosteriorSamples(const std::string& path, const model::PosteriorResult
     h5.Describe(table, "seed", std::to_string(r.seed));
     h5.Describe(table, "walkers", std::to_string(r.walkers));
     h5.Describe(table, "burn_in", std::to_string(r.diagnostics.burn_in));
+    for (const auto& [key, value] : provenance) h5.DescribeFile(key, value);
     exporter::Row row;
     row.Resize(cols + 1);
     for (Eigen::Index i = 0; i < r.draws.rows(); ++i) {
@@ -72,9 +75,11 @@ void WritePosteriorSamples(const std::string& path, const model::PosteriorResult
     std::fprintf(out, "%.17g\n", r.log_posterior(i));
   }
   file.Commit();
+  common::WriteProvenanceSidecarFields(path, provenance);
 }
 
-void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, const std::string& title) {
+void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, const std::string& title,
+                    const std::vector<std::pair<std::string, std::string>>& provenance) {
   const int d = static_cast<int>(r.draws.cols());
   const double panel = 150.0, gap = 12.0, left = 70.0, top = 40.0, bins = 30;
   const double size_w = left + d * (panel + gap) + 140.0;  // room for the last title
@@ -170,7 +175,13 @@ void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, co
              std::to_string(r.diagnostics.burn_in) + ", " + std::to_string(static_cast<long>(n)) +
              " draws; red: median and 68 % interval; " + (r.converged() ? "converged" : "NOT converged")) +
          "</text>\n</svg>\n";
-  common::WriteFileAtomically(path, svg);
+  common::AtomicFile file(path);
+  if (std::fwrite(svg.data(), 1, svg.size(), file.stream()) != svg.size()) {
+    throw std::runtime_error("cannot write '" + path + "'");
+  }
+  file.Finish();
+  if (!provenance.empty()) common::AddProvenanceToFigure(file.path(), provenance);
+  file.Commit();
 }
 
 }  // namespace rocklab::tools

@@ -4,6 +4,8 @@
 // without a plotting dependency). Formats in docs/identification.md.
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "model/posterior.h"
 
@@ -15,11 +17,16 @@ namespace rocklab::tools {
 /// header `alpha,p,mu[,l],sigma,t_offset,log_posterior`. Written whole or
 /// not at all.
 /// @throws std::runtime_error naming the file.
-void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r);
+/// `provenance` (common::ProvenanceFields): HDF5 root attributes, or the
+/// CSV's sidecar STEM.provenance.csv (the CSV itself as above).
+void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r,
+                           const std::vector<std::pair<std::string, std::string>>& provenance = {});
 
 /// The corner plot: marginal histograms on the diagonal, pairwise 2-D
 /// histograms (shaded by density) below, the medians marked, as SVG.
 /// @throws std::runtime_error naming the file.
-void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, const std::string& title);
+/// `provenance`: in the SVG's <metadata> (common::AddProvenanceToFigure).
+void WriteCornerSvg(const std::string& path, const model::PosteriorResult& r, const std::string& title,
+                    const std::vector<std::pair<std::string, std::string>>& provenance = {});
 
 }  // namespace rocklab::tools

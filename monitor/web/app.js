@@ -37,40 +37,54 @@
     '#17becf', '#bcbd22', '#7f7f7f'];
   const MAX_EVENT_ROWS = 60;     // rows in the events table
   const MAX_EVENTS = 2000;       // events kept by the page (the server keeps at most 1000)
-  const COMPARISON_FIELDS = ['error', 'rms_window', 'rms_total', 'nrms', 'peak_error',
-    'impact_timing_error', 'correlation'];
-  // Every angle on the page is in degrees (the JSON stays SI: rad).
+  // The comparison table: whole-test figures of each variant, from its
+  // newest RL_COMPARE (`latest`: totals since the start) or from every
+  // sample (`whole`, live_json.cpp); [source, field, is an angle].
+  const COMPARISON_COLUMNS = [['latest', 'rms_total', true], ['latest', 'nrms', false],
+    ['latest', 'correlation', false], ['whole', 'impact_timing_rms', false],
+    ['whole', 'impact_timings', false], ['whole', 'peak_theta', true],
+    ['whole', 'peak_theta_measured', true]];
+  const SIGNIFICANT_DIGITS = 4;  // every number in the tables
+  // Angles are shown in the unit of the switch (#angle-unit): rad, as the
+  // CLI, its files and the JSON, or deg. The snapshot's series are in deg.
   const DEG_PER_RAD = 180 / Math.PI;
-  const ANGLE_FIELDS = new Set(['alpha', 'error', 'rms_window', 'rms_total', 'peak_error']);
-  // An event's value: its unit on the page and the factor from the SI value
-  // (lcm_types/event_t.lcm gives the SI unit of each kind).
+  let angleUnit = 'rad';
+  function fromRad(x) { return typeof x === 'number' && angleUnit === 'deg' ? x * DEG_PER_RAD : x; }
+  function fromDeg(x) { return typeof x === 'number' && angleUnit === 'rad' ? x / DEG_PER_RAD : x; }
+  // An event's value: its unit on the page and the value shown (from the SI
+  // value; lcm_types/event_t.lcm gives the SI unit of each kind; null: an angle).
   const EVENT_UNIT = {
-    uplift: ['m/s^2', 1], impact: ['deg/s', DEG_PER_RAD], rest: ['', 1],
-    overturn: ['deg', DEG_PER_RAD], sliding: ['m', 1], twist: ['deg', DEG_PER_RAD],
-    gap: ['samples', 1], stale: ['s', 1], jump: ['m', 1], out_of_plane: ['m', 1],
-    disagree: ['deg', DEG_PER_RAD], recovered: ['', 1], bad_sample: ['samples', 1],
+    uplift: 'm/s^2', impact: null, rest: '', overturn: null, sliding: 'm', twist: null,
+    gap: 'samples', stale: 's', jump: 'm', out_of_plane: 'm', disagree: null, recovered: '',
+    bad_sample: 'samples',
   };
-  function degrees(x) { return typeof x === 'number' ? x * DEG_PER_RAD : x; }
   function eventValue(e) {
-    const [unit, factor] = EVENT_UNIT[e.kind] || ['', 1];
-    return [typeof e.value === 'number' ? e.value * factor : e.value, unit];
+    const unit = EVENT_UNIT[e.kind];
+    if (unit === null) return [fromRad(e.value), e.kind === 'impact' ? angleUnit + '/s' : angleUnit];
+    return [e.value, unit === undefined ? '' : unit];
+  }
+  // The CSV downloads keep their columns' units (deg, as their names say).
+  function eventValueDeg(e) {
+    const unit = EVENT_UNIT[e.kind];
+    if (unit === null && typeof e.value === 'number') {
+      return [e.value * DEG_PER_RAD, e.kind === 'impact' ? 'deg/s' : 'deg'];
+    }
+    return [e.value, unit === null || unit === undefined ? '' : unit];
   }
   const BAND_FIELDS = ['coverage95_window', 'coverage95_total', 'coverage68_window',
     'coverage68_total', 'median_error', 'width95', 'impact_timing_z', 'impact_time_sd',
     'impact_timing_z_rms', 'matched_crossings', 'unmatched_crossings'];
   const BAND_ANGLE_FIELDS = new Set(['median_error', 'width95']);
   const BAND_RGB = ['90, 90, 200', '200, 110, 40', '40, 150, 120', '160, 60, 160'];
-  const HEALTH_FIELDS = ['rate_in_hz', 'rate_out_hz', 'count_in', 'count_out', 'dropped', 'gaps',
-    'bad_samples', 'lag_s'];
-
   // What the page holds: the same shape as a snapshot, in arrays it trims.
   const held = {
     record: null,
     windowS: null,         // null: the whole record (static mode)
     tLatest: null,
+    t0Utime: null,         // sample clock of t = 0, us
     measured: {t: [], theta: []},
     table: {t: [], accel: []},  // RL_TABLE u_g'', m/s^2
-    variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest}
+    variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest, whole}
     bands: new Map(),      // name -> {meta, rgb, band: {t, median, lo68, hi68, lo95, hi95}, latest}
     flags: new Map(),      // interval id -> {flag, source, start, end}
     events: [],
@@ -84,9 +98,9 @@
   let mode = 'starting';
   let renderPending = false;
 
-  // %.6g as C's printf writes it (the comparator's numbers at six digits).
+  // %.4g as C's printf writes it (SIGNIFICANT_DIGITS; `precision` for others).
   function fmtG(x, precision) {
-    const p = precision || 6;
+    const p = precision || SIGNIFICANT_DIGITS;
     if (x === null || x === undefined) return '—';
     if (typeof x === 'boolean') return x ? 'yes' : 'no';
     if (typeof x !== 'number') return String(x);
@@ -145,12 +159,14 @@
     held.record = msg.record;
     held.windowS = msg.window_s;
     held.tLatest = msg.t_latest;
+    held.t0Utime = msg.t0_utime;
     append(held.measured, msg.measured, [['t', 't'], ['theta', 'theta_deg']]);
     if (msg.table) append(held.table, msg.table, [['t', 't'], ['accel', 'accel_mps2']]);
     for (const mv of msg.variants) {
       const v = variantFor(mv.name);
       v.meta = mv;
       v.latest = mv.latest;
+      v.whole = mv.whole;
       append(v.theta, mv.theta, [['t', 't'], ['theta', 'theta_deg']]);
       append(v.cmp, mv.comparison, [['t', 't'], ['err', 'error_deg'], ['rms', 'rms_window_deg']]);
     }
@@ -233,34 +249,92 @@
           ctx.save();
           ctx.font = Math.round(10 * px) + 'px sans-serif';
           ctx.textAlign = 'center';
-          for (const e of held.events) {
-            const x = u.valToPos(e.t, 'x', true);
-            if (x < left || x > left + width) continue;
-            if (e.kind === 'impact') {  // a small triangle in the variant's colour
-              const v = held.variants.get(e.source);
-              ctx.fillStyle = v ? v.color : '#555';
-              ctx.beginPath();
-              ctx.moveTo(x, top + 2 * px);
-              ctx.lineTo(x - 4 * px, top + 9 * px);
-              ctx.lineTo(x + 4 * px, top + 9 * px);
-              ctx.fill();
-            } else if (MARKER[e.kind]) {
-              const m = MARKER[e.kind];
-              ctx.strokeStyle = m.color;
-              ctx.fillStyle = m.color;
-              ctx.setLineDash([4 * px, 3 * px]);
-              ctx.lineWidth = px;
-              ctx.beginPath();
-              ctx.moveTo(x, top + 12 * px);
-              ctx.lineTo(x, top + height);
-              ctx.stroke();
-              ctx.fillText(m.letter, x, top + 22 * px);
+          // One row per variant's impacts (triangles), then one for uplift,
+          // rest and overturn (letters): a marker closer than MARKER_GAP_PX to
+          // the last drawn one of its row is left out and counted.
+          const rows = markerRows();
+          const stats = [];
+          rows.forEach((row, i) => {
+            const y = top + (2 + i * MARKER_ROW_PX) * px;
+            let last = -Infinity;
+            const drawn = [];
+            let hidden = 0, outside = 0;
+            for (const e of row.events) {
+              const x = u.valToPos(e.t, 'x', true);
+              if (!(x >= left && x <= left + width)) { outside++; continue; }
+              if (x - last < MARKER_GAP_PX * px) { hidden++; continue; }
+              last = x;
+              drawn.push(x / px);
+              if (e.kind === 'impact') {
+                ctx.fillStyle = row.color;
+                ctx.beginPath();
+                ctx.moveTo(x, y);
+                ctx.lineTo(x - 4 * px, y + 7 * px);
+                ctx.lineTo(x + 4 * px, y + 7 * px);
+                ctx.fill();
+              } else {
+                const m = MARKER[e.kind];
+                ctx.strokeStyle = m.color;
+                ctx.fillStyle = m.color;
+                ctx.setLineDash([4 * px, 3 * px]);
+                ctx.lineWidth = px;
+                ctx.beginPath();
+                ctx.moveTo(x, y + 10 * px);
+                ctx.lineTo(x, top + height);
+                ctx.stroke();
+                ctx.setLineDash([]);
+                ctx.fillText(m.letter, x, y + 8 * px);
+              }
             }
-          }
+            if (hidden > 0) {  // on a white box over the row's end
+              const label = '+' + hidden + ' more';
+              const w = ctx.measureText(label).width + 4 * px;
+              ctx.fillStyle = 'rgba(255, 255, 255, 0.9)';
+              ctx.fillRect(left + width - w, y - px, w, 10 * px);
+              ctx.fillStyle = row.color;
+              ctx.textAlign = 'right';
+              ctx.fillText(label, left + width - 2 * px, y + 8 * px);
+              ctx.textAlign = 'center';
+            }
+            stats.push({row: row.name, drawn: drawn, hidden: hidden, outside: outside});
+          });
+          markerStats.set(u, stats);
+          if (u === plots.theta) renderMarkerNote(stats);
           ctx.restore();
         }],
       },
     };
+  }
+
+  const MARKER_ROW_PX = 11;  // height of a marker row, CSS px
+  const MARKER_GAP_PX = 9;   // markers of a row at least this far apart (a triangle is 8 px wide)
+  // plot -> per row {row, drawn: [x, CSS px], hidden: too close, outside: out of the plot's time range}
+  const markerStats = new Map();
+
+  // The events drawn as markers, in rows: each variant's impacts, then the
+  // uplifts, rests and overturns of every source (in time order).
+  function markerRows() {
+    const rows = [];
+    const byVariant = new Map();
+    const others = {name: 'uplift/rest/overturn', color: '#444', events: []};
+    for (const e of held.events) {
+      if (e.kind === 'impact') {
+        let row = byVariant.get(e.source);
+        if (!row) {
+          const v = held.variants.get(e.source);
+          row = {name: 'impact ' + e.source, color: v ? v.color : '#555', events: []};
+          byVariant.set(e.source, row);
+        }
+        row.events.push(e);
+      } else if (MARKER[e.kind]) {
+        others.events.push(e);
+      }
+    }
+    for (const name of held.variants.keys()) if (byVariant.has(name)) rows.push(byVariant.get(name));
+    for (const [name, row] of byVariant) if (!held.variants.has(name)) rows.push(row);
+    if (others.events.length) rows.push(others);
+    for (const row of rows) row.events.sort((a, b) => a.t - b.t);
+    return rows;
   }
 
   function chartWidth(el) {
@@ -285,7 +359,7 @@
 
   function buildPlots() {
     const names = Array.from(held.variants.keys()).concat(Array.from(held.bands.keys(), (n) => 'band:' + n));
-    const key = names.join('\n');
+    const key = names.join('\n') + '\n' + angleUnit;
     if (plots.theta && key === plottedVariants) return;
     plottedVariants = key;
     if (plots.theta) plots.theta.destroy();
@@ -311,21 +385,47 @@
       fills.push({series: [first + 4, first + 1], fill: 'rgba(' + b.rgb + ', 0.14)'});  // 97.5 %, 2.5 %
       fills.push({series: [first + 3, first + 2], fill: 'rgba(' + b.rgb + ', 0.22)'});  // 84 %, 16 %
     }
-    plots.theta = makePlot(document.getElementById('theta-chart'), 'θ (deg)', thetaSeries, fills);
-    plots.error = makePlot(document.getElementById('error-chart'), 'error (deg)', errorSeries);
+    plots.theta = makePlot(document.getElementById('theta-chart'), 'θ (' + angleUnit + ')', thetaSeries, fills);
+    plots.error = makePlot(document.getElementById('error-chart'), 'error (' + angleUnit + ')', errorSeries);
   }
+
+  // theta_model - theta_measured (deg) at each model point held: the
+  // measured value at the same sample-clock time (both series keep the
+  // first sample of each slot of the same clock), else interpolated
+  // linearly between its neighbours; null outside the measured span.
+  function modelRateError(model) {
+    const mt = held.measured.t, mtheta = held.measured.theta;
+    const out = new Array(model.t.length);
+    for (let i = 0; i < model.t.length; i++) {
+      const t = model.t[i];
+      const j = firstFrom(mt, t);
+      let measured = null;
+      if (j < mt.length && mt[j] === t) {
+        measured = mtheta[j];
+      } else if (j > 0 && j < mt.length && mtheta[j - 1] !== null && mtheta[j] !== null) {
+        const w = (t - mt[j - 1]) / (mt[j] - mt[j - 1]);
+        measured = mtheta[j - 1] + w * (mtheta[j] - mtheta[j - 1]);
+      }
+      const theta = model.theta[i];
+      out[i] = measured === null || theta === null ? null : theta - measured;
+    }
+    return out;
+  }
+
+  function shown(degreesArray) { return degreesArray.map(fromDeg); }
 
   function renderCharts() {
     buildPlots();
-    const thetaTables = [[held.measured.t, held.measured.theta]];
+    const thetaTables = [[held.measured.t, shown(held.measured.theta)]];
     const errorTables = [];
     for (const v of held.variants.values()) {
-      thetaTables.push([v.theta.t, v.theta.theta]);
-      errorTables.push([v.cmp.t, v.cmp.err, v.cmp.rms]);
+      thetaTables.push([v.theta.t, shown(v.theta.theta)]);
+      errorTables.push([v.theta.t, shown(modelRateError(v.theta))]);
+      errorTables.push([v.cmp.t, shown(v.cmp.rms)]);
     }
     for (const b of held.bands.values()) {
       const s = b.band;
-      thetaTables.push([s.t, s.median, s.lo95, s.lo68, s.hi68, s.hi95]);
+      thetaTables.push([s.t, shown(s.median), shown(s.lo95), shown(s.lo68), shown(s.hi68), shown(s.hi95)]);
     }
     // uPlot.join aligns the series on one x array (they share the sample
     // clock's decimation grid, so it mostly merges equal times).
@@ -364,15 +464,19 @@
     for (const [name, v] of held.variants) {
       const row = nameRow('data-variant', name, v.color);
       const m = v.meta;
-      cell(row, m.model || '—', {'data-variant': name, 'data-field': 'model'}, 'text');
-      for (const f of ['alpha', 'p', 'mu']) {
-        cell(row, fmtG(ANGLE_FIELDS.has(f) ? degrees(m[f]) : m[f]), {'data-variant': name, 'data-field': f});
-      }
+      const at = (f) => ({'data-variant': name, 'data-field': f});
+      cell(row, m.model || '—', at('model'), 'text');
+      cell(row, fmtG(fromRad(m.alpha)), at('alpha'));
+      cell(row, fmtG(m.p), at('p'));
+      cell(row, fmtG(m.mu), at('mu'));
       const l = v.latest || {};
-      cell(row, l.samples === undefined ? '—' : String(l.samples), {'data-variant': name, 'data-field': 'samples'});
-      cell(row, fmtG(l.valid), {'data-variant': name, 'data-field': 'valid'}, l.valid === false ? 'invalid' : '');
-      for (const f of COMPARISON_FIELDS) {
-        cell(row, fmtG(ANGLE_FIELDS.has(f) ? degrees(l[f]) : l[f]), {'data-variant': name, 'data-field': f});
+      // Samples compared; marked when the newest comparison was invalid (DAQ flags).
+      cell(row, l.samples === undefined ? '—' : String(l.samples) + (l.valid === false ? ' (invalid now)' : ''),
+        at('samples'), l.valid === false ? 'invalid' : '');
+      const sources = {latest: l, whole: v.whole || {}};
+      for (const [source, f, angle] of COMPARISON_COLUMNS) {
+        const x = sources[source][f];
+        cell(row, f === 'impact_timings' ? (x === undefined ? '—' : String(x)) : fmtG(angle ? fromRad(x) : x), at(f));
       }
       body.appendChild(row);
     }
@@ -392,21 +496,54 @@
         {'data-band': name, 'data-field': 'members'});
       const l = b.latest || {};
       for (const f of BAND_FIELDS) {
-        cell(row, fmtG(BAND_ANGLE_FIELDS.has(f) ? degrees(l[f]) : l[f]), {'data-band': name, 'data-field': f});
+        cell(row, fmtG(BAND_ANGLE_FIELDS.has(f) ? fromRad(l[f]) : l[f]), {'data-band': name, 'data-field': f});
       }
       body.appendChild(row);
     }
   }
 
+  // Live: each node's latest RL_HEALTH. A finished test (static): its
+  // final counts, and the rates over the time it ran (count over the
+  // sample clock from the record's start to the node's last message).
+  const HEALTH_LIVE = [['state', 'state'], ['rate_in_hz', 'in (Hz)'], ['rate_out_hz', 'out (Hz)'],
+    ['count_in', 'count in'], ['count_out', 'count out'], ['dropped', 'dropped'],
+    ['gaps', 'missing in (gaps)'], ['bad_samples', 'bad samples'], ['lag_s', 'lag (s)']];
+  const HEALTH_FINAL = [['state', 'final state'], ['count_in', 'messages in'],
+    ['count_out', 'messages out'], ['mean_rate_in_hz', 'rate in while it ran (Hz)'],
+    ['mean_rate_out_hz', 'rate out while it ran (Hz)'], ['ran_s', 'ran (s)'], ['dropped', 'dropped'],
+    ['gaps', 'missing in (gaps)'], ['bad_samples', 'bad samples']];
+
   function renderHealth() {
+    const finished = mode === 'static';
+    const columns = finished ? HEALTH_FINAL : HEALTH_LIVE;
+    const title = document.getElementById('health-title');
+    if (title) title.textContent = finished ? 'Node health at the end of the test (last RL_HEALTH of each node)'
+      : 'Node health (latest RL_HEALTH)';
+    const head = document.querySelector('#health thead tr');
+    head.textContent = '';
+    for (const label of ['node'].concat(columns.map(([, l]) => l))) {
+      const th = document.createElement('th');
+      th.textContent = label;
+      head.appendChild(th);
+    }
     const body = document.querySelector('#health tbody');
     body.textContent = '';
+    const t0 = held.t0Utime;
     for (const h of held.health) {
       const row = document.createElement('tr');
       row.setAttribute('data-node', h.node);
       cell(row, h.node, {'data-node': h.node, 'data-field': 'node'});
-      cell(row, h.state, {'data-node': h.node, 'data-field': 'state'}, 'text');
-      for (const f of HEALTH_FIELDS) cell(row, fmtG(h[f]), {'data-node': h.node, 'data-field': f});
+      const ran = typeof t0 === 'number' && typeof h.utime === 'number' ? (h.utime - t0) / 1e6 : null;
+      const value = {
+        ran_s: ran,
+        mean_rate_in_hz: ran > 0 ? h.count_in / ran : null,
+        mean_rate_out_hz: ran > 0 ? h.count_out / ran : null,
+      };
+      for (const [f] of columns) {
+        const x = f in value ? value[f] : h[f];
+        cell(row, f === 'state' ? h.state : (Number.isInteger(x) ? String(x) : fmtG(x)),
+          {'data-node': h.node, 'data-field': f}, f === 'state' ? 'text' : '');
+      }
       body.appendChild(row);
     }
   }
@@ -455,7 +592,9 @@
     if (c) {
       parts.push('rig ' + c.rig_name, 'calibration ' + c.calibration_id);
       if (c.sample_rate_hz !== null) parts.push(fmtG(c.sample_rate_hz) + ' Hz');
-      if (c.alpha !== null) parts.push('alpha ' + fmtG(degrees(c.alpha)) + ' deg, p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+      if (c.alpha !== null) {
+        parts.push('alpha ' + fmtG(fromRad(c.alpha)) + ' ' + angleUnit + ', p ' + fmtG(c.p) + ' rad/s, mu ' + fmtG(c.mu));
+      }
     }
     document.getElementById('rig').textContent = c ? parts.join(' · ') : 'no RL_DAQ_CONFIG yet';
     document.getElementById('clock').textContent =
@@ -465,6 +604,7 @@
 
   function render() {
     renderPending = false;
+    for (const el of document.querySelectorAll('.angle-unit')) el.textContent = angleUnit;
     renderCharts();
     renderComparison();
     renderBands();
@@ -472,6 +612,24 @@
     renderEvents();
     renderCounters();
     renderHeader();
+  }
+
+  // Under the error chart: the marker rows that left markers out, with counts.
+  function renderMarkerNote(stats) {
+    const note = document.getElementById('marker-note');
+    if (!note) return;
+    const thinned = stats.filter((r) => r.hidden > 0)
+      .map((r) => r.row + ': ' + r.drawn.length + ' drawn, ' + r.hidden + ' too close left out');
+    note.textContent = thinned.length ? 'markers thinned (' + thinned.join('; ') + ')' : '';
+  }
+
+  const unitSwitch = document.getElementById('angle-unit');
+  if (unitSwitch) {
+    unitSwitch.value = angleUnit;
+    unitSwitch.addEventListener('change', () => {
+      angleUnit = unitSwitch.value === 'deg' ? 'deg' : 'rad';
+      render();
+    });
   }
 
   function scheduleRender() {
@@ -534,7 +692,7 @@
   function eventsCsv() {
     const lines = ['t_s,source,kind,value,unit,detail'];
     for (const e of held.events) {
-      const [value, unit] = eventValue(e);
+      const [value, unit] = eventValueDeg(e);
       lines.push([e.t, e.source, e.kind, value, unit, e.detail].map(csvField).join(','));
     }
     return lines.join('\n') + '\n';
@@ -571,6 +729,10 @@
       error: plots.error ? plots.error.data.map((a) => a.length) : [],
     }),
     bandNames: () => Array.from(held.bands.keys()),
+    // Per chart and marker row: the markers' x (CSS px) drawn and the number left out.
+    markers: () => ({theta: markerStats.get(plots.theta) || [], error: markerStats.get(plots.error) || []}),
+    get angleUnit() { return angleUnit; },
+    setAngleUnit: (u) => { if (unitSwitch) { unitSwitch.value = u; unitSwitch.dispatchEvent(new Event('change')); } },
     fmtG: fmtG,
     seriesCsv: seriesCsv,
     eventsCsv: eventsCsv,

@@ -227,6 +227,46 @@ TEST(LiveState, LatestComparisonExactlyAsReceivedAndSeriesInDegrees) {
   EXPECT_DOUBLE_EQ(c.at("rms_window_deg")[1].get<double>(), 0.25 * -2e-3 * kDeg);
 }
 
+// The whole-test figures of a variant ("whole"): peaks of |theta| over
+// every message, not the decimated series (the peaks here fall between
+// the 10 ms slots' first samples), and the impact timing errors counted
+// once per matched crossing (the carried value changing; NaN before the
+// first). Oracle: the values fed, by hand: peaks 0.05 (measured, at 3 ms)
+// and 0.07 (model, |-0.07| at 4 ms); timing errors 0.01, -0.02, 0.03: 3,
+// RMS sqrt((1e-4 + 4e-4 + 9e-4) / 3).
+TEST(LiveState, WholeTestPeaksAndImpactTimingsFromEveryMessage) {
+  LiveState s;
+  const double measured[] = {0.01, 0.02, 0.03, -0.05, 0.04, 0.0};
+  const double model[] = {0.0, 0.01, 0.02, 0.03, -0.07, 0.01};
+  for (int i = 0; i < 6; ++i) {
+    ASSERT_TRUE(Feed(s, "RL_THETA", Theta(kT0 + 1'000 * i, measured[i])));
+    ASSERT_TRUE(Feed(s, "RL_MODEL_fit", Model("fit", kT0 + 1'000 * i, model[i])));
+  }
+  const double timing[] = {std::nan(""), 0.01, 0.01, -0.02, -0.02, 0.03};
+  for (int i = 0; i < 6; ++i) {
+    rocklab::comparison2_t c = Compare("fit", kT0 + 1'000 * i, 0.0);
+    c.impact_timing_error = timing[i];
+    ASSERT_TRUE(Feed(s, "RL_COMPARE_fit", c));
+  }
+  const json snap = s.Snapshot();
+  const json& whole = VariantNamed(snap, "fit").at("whole");
+  EXPECT_EQ(whole.at("peak_theta_measured").get<double>(), 0.05);
+  EXPECT_EQ(whole.at("peak_theta").get<double>(), 0.07);
+  EXPECT_EQ(VariantNamed(snap, "fit").at("theta").at("t").size(), 1u);  // the series kept one point
+  EXPECT_EQ(whole.at("impact_timings").get<int>(), 3);
+  EXPECT_NEAR(whole.at("impact_timing_rms").get<double>(), std::sqrt((1e-4 + 4e-4 + 9e-4) / 3), 1e-15);
+  EXPECT_EQ(snap.at("units").at("peak_theta"), "rad");
+  // No crossing matched (NaN throughout): 0 crossings, RMS null.
+  LiveState none;
+  rocklab::comparison2_t unmatched = Compare("fit", kT0, 0.0);
+  unmatched.impact_timing_error = std::nan("");
+  ASSERT_TRUE(Feed(none, "RL_COMPARE_fit", unmatched));
+  const json none_snap = none.Snapshot();
+  const json& w2 = VariantNamed(none_snap, "fit").at("whole");
+  EXPECT_EQ(w2.at("impact_timings").get<int>(), 0);
+  EXPECT_TRUE(w2.at("impact_timing_rms").is_null());
+}
+
 // Decimation keeps the first sample of every 1/series_rate_hz slot.
 TEST(LiveState, SeriesAreDecimatedToTheSeriesRate) {
   LiveOptions o;

@@ -206,6 +206,85 @@ TEST(SweepRun, ThreadsAndShardsGiveTheSameBytes) {
   EXPECT_THROW(MergeShards(plan, {parts[0], parts[0], parts[1], parts[2]}, dir + "/twice.csv"), pipeline::OptionError);
 }
 
+// The text of a root attribute of an HDF5 file ("" when absent).
+std::string RootAttributeText(const std::string& path, const char* name) {
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return "";
+  std::string out;
+  if (H5Aexists(f, name) > 0) {
+    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+    const hid_t t = H5Aget_type(a);
+    if (H5Tis_variable_str(t) > 0) {
+      char* text = nullptr;  // read as stored (UTF-8): HDF5 converts no character set
+      if (H5Aread(a, t, &text) >= 0 && text != nullptr) out = text;
+      H5free_memory(text);
+    } else {
+      std::string buffer(H5Tget_size(t), '\0');
+      if (H5Aread(a, t, buffer.data()) >= 0) out = buffer.substr(0, buffer.find('\0'));
+    }
+    H5Tclose(t);
+    H5Aclose(a);
+  }
+  H5Fclose(f);
+  return out;
+}
+
+// Provenance beside the definition (docs/provenance.md). Oracle: the
+// unsharded file written without provenance. Two shards whose provenance
+// differs (command, time) merge into that file plus the merge's own
+// provenance; a shard with provenance resumes; an .h5 holds it as root
+// attributes beside its sweep_* definition, which the merge still reads.
+TEST(SweepRun, ProvenanceSitsBesideTheDefinitionAndShardsStillMerge) {
+  const std::string dir = Dir("provenance");
+  PlanOptions options = SmallPlan(dir);
+  options.scale = "1:1:1";  // 8 cases
+  const Plan plan = MakePlan(options);
+  MpiSession mpi;
+  RunOptions o;
+  o.threads = 1;
+  o.slice = {0, 1, plan.size()};
+  RunSweep(plan, dir + "/whole.csv", o, mpi);
+  const std::string whole = ReadWhole(dir + "/whole.csv");
+  ASSERT_EQ(whole.find("# provenance."), std::string::npos);
+
+  std::vector<std::string> parts;
+  for (std::size_t i = 0; i < 2; ++i) {
+    RunOptions shard = o;
+    shard.slice = {i, 2, plan.size()};
+    shard.provenance = {{"rocklab_version", "9.9.9"},
+                        {"command", "rocklab sweep --shard " + std::to_string(i) + "/2\nsecond line"},
+                        {"created_utc", "2026-11-27T0" + std::to_string(i) + ":00:00Z"}};
+    parts.push_back(dir + "/part" + std::to_string(i) + (i == 0 ? ".csv" : ".h5"));
+    RunSweep(plan, parts.back(), shard, mpi);
+  }
+  const std::string part0 = ReadWhole(parts[0]);
+  // Between the definition and the header; a newline in a value written as '?'.
+  const std::size_t title = part0.find("# rocklab provenance");
+  ASSERT_NE(title, std::string::npos);
+  EXPECT_LT(part0.find("# record_2: "), title);
+  EXPECT_LT(title, part0.find(Header() + "\n"));
+  EXPECT_NE(part0.find("\n# provenance.command: rocklab sweep --shard 0/2?second line\n"), std::string::npos);
+  EXPECT_EQ(RootAttributeText(parts[1], "command"), "rocklab sweep --shard 1/2\nsecond line");
+  EXPECT_EQ(RootAttributeText(parts[1], "created_utc"), "2026-11-27T01:00:00Z");
+  EXPECT_FALSE(RootAttributeText(parts[1], "sweep_record_1").empty());
+
+  const ProvenanceLines merged_by = {{"command", "rocklab sweep --merge"}, {"source_1", parts[0]}};
+  MergeShards(plan, parts, dir + "/merged.csv", merged_by);
+  const std::string merged = ReadWhole(dir + "/merged.csv");
+  EXPECT_EQ(test::WithoutProvenanceLines(merged), whole);
+  EXPECT_NE(merged.find("# provenance.command: rocklab sweep --merge\n# provenance.source_1: " + parts[0] + "\n"),
+            std::string::npos) << merged.substr(0, RowsStart(merged));
+
+  // --resume over a complete shard with provenance: every row kept.
+  RunOptions again = o;
+  again.slice = {0, 2, plan.size()};
+  again.resume = true;
+  const RunReport r = RunSweep(plan, parts[0], again, mpi);
+  EXPECT_EQ(r.resumed, r.cases);
+  EXPECT_EQ(r.run, 0u);
+  EXPECT_EQ(ReadWhole(parts[0]), part0);  // the provenance of the run that began it
+}
+
 // Oracle: the previous results file's bytes, and the uninterrupted run's
 // file. A sweep that stops before its end (a case that throws, a kill)
 // leaves --out as it was: its rows wait in OUT.partial, which --resume

@@ -1,18 +1,31 @@
 #pragma once
 // Synthetic ground motions the sweep tests write for themselves (PEER's
 // records may not be redistributed): pulses in closed form and filtered
-// noise from a seeded generator.
+// noise from a seeded generator; a results CSV without its provenance.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <functional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace rocklab::test {
+
+/// A sweep's CSV without its provenance lines (sweep::ProvenanceText): what
+/// differs, by design, between runs and shards of one sweep.
+inline std::string WithoutProvenanceLines(const std::string& csv) {
+  std::istringstream in(csv);
+  std::string out;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("# rocklab provenance", 0) == 0 || line.rfind("# provenance.", 0) == 0) continue;
+    out += line + "\n";
+  }
+  return out;
+}
 
 /// Writes `time,accel` rows of accel(t) (m/s^2) at t = k dt, k = 0..round(T / dt).
 inline void WriteRecord(const std::string& path, double duration_s, double dt_s,

@@ -2,16 +2,21 @@
 // playwright-core: tests/tools/report_page.js), opened from disk with every
 // network request refused: the page is self-contained and draws the record.
 // Oracles: the snapshot inlined in the page (its series lengths, variants
-// and their final sample counts) and the absence of any request. Saves a
-// screenshot: build/test-artifacts/report.png.
+// and their final sample counts), the log's messages exported by `rocklab
+// export` (every sample: the peaks and the impact timings), and the absence
+// of any request. The page is laid out in a 1280 px window. Saves a
+// screenshot at that width: build/test-artifacts/report.png.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -27,6 +32,62 @@ using nlohmann::json;
 
 using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr const char* kChromium = "/usr/bin/chromium";
+constexpr double kDegPerRadTest = 180.0 / 3.14159265358979323846;
+
+// |shown - exact| within half a unit of the 4th significant digit of exact
+// (the page's %.4g; plus a relative 1e-12 for the decimal round trip).
+bool SameAtFourDigitsReport(const std::string& shown, double exact) {
+  char* end = nullptr;
+  const double value = std::strtod(shown.c_str(), &end);
+  if (end == shown.c_str() || *end != '\0') return false;
+  if (exact == 0) return value == 0;
+  const double unit = std::pow(10.0, std::floor(std::log10(std::fabs(exact))) - 3);
+  return std::fabs(value - exact) <= 0.5 * unit + 1e-12 * std::fabs(exact);
+}
+
+// Significant digits written in a number's text ("0.001234" -> 4, "1.2e-05" -> 2).
+int SignificantDigits(const std::string& text) {
+  std::string mantissa = text.substr(0, text.find_first_of("eE"));
+  int digits = 0;
+  bool leading = true;
+  for (char c : mantissa) {
+    if (c < '0' || c > '9') continue;
+    if (leading && c == '0') continue;
+    leading = false;
+    ++digits;
+  }
+  return digits;
+}
+
+// A numeric column of a CSV written by `rocklab export` (header on line 1).
+std::vector<double> CsvColumn(const std::string& path, const std::string& name) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::istringstream head(line);
+  int index = -1;
+  int i = 0;
+  for (std::string field; std::getline(head, field, ','); ++i) {
+    if (field == name) index = i;
+  }
+  std::vector<double> out;
+  if (index < 0) return out;
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string field;
+    for (int k = 0; k <= index; ++k) std::getline(row, field, ',');
+    out.push_back(std::strtod(field.c_str(), nullptr));
+  }
+  return out;
+}
+
+double MaxAbs(const std::vector<double>& x) {
+  double m = 0;
+  for (double v : x) {
+    if (std::isfinite(v)) m = std::fmax(m, std::fabs(v));
+  }
+  return m;
+}
 
 TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
   if (access(kChromium, X_OK) != 0) {
@@ -91,10 +152,131 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
     EXPECT_EQ(shown.at("cells").at(name).at("model").get<std::string>(),
               v.at("model").get<std::string>());
   }
-  // Degrees everywhere: no header of the page's tables gives an angle in
-  // rad (p stays rad/s: a frequency, not an angle).
+  // Radians by default, as the CLI and its files: no header gives an angle
+  // in deg; every angle label follows the switch (deg after it).
   for (const json& h : shown.at("headers")) {
-    EXPECT_EQ(h.get<std::string>().find("(rad)"), std::string::npos) << h;
+    EXPECT_EQ(h.get<std::string>().find("(deg)"), std::string::npos) << h;
+  }
+  ASSERT_GE(shown.at("unitHeaders").size(), 6u);
+  for (const json& u : shown.at("unitHeaders")) EXPECT_EQ(u, "rad");
+  for (const json& u : shown.at("degUnitHeaders")) EXPECT_EQ(u, "deg");
+
+  // The page fits a 1280 px window: no horizontal scroll, every table inside.
+  EXPECT_LE(shown.at("pageWidth").get<double>(), 1280.0);
+  for (const json& right : shown.at("tableRights")) EXPECT_LE(right.get<double>(), 1280.0);
+
+  // The comparison table: whole-test figures. Oracles: the snapshot's
+  // newest RL_COMPARE (totals since the start), and every message of the
+  // log as `rocklab export` writes it (peaks of |theta|; the impact timing
+  // errors, one per matched crossing: the carried value changing).
+  const std::string exported = dir + "/x.csv";
+  ASSERT_EQ(test::RunCli({"export", log, "--out", exported, "--quiet"}).exit_code, 0);
+  const double peak_measured = MaxAbs(CsvColumn(dir + "/x_RL_THETA.csv", "theta"));
+  ASSERT_GT(peak_measured, 0.0);
+  for (const json& v : snap.at("variants")) {
+    const std::string name = v.at("name");
+    SCOPED_TRACE(name);
+    const json& cells = shown.at("cells").at(name);
+    const json& deg_cells = shown.at("degCells").at(name);
+    for (const auto& [field, text] : cells.items()) {
+      if (field == "name" || field == "model" || field == "samples" || text == "—") continue;
+      EXPECT_LE(SignificantDigits(text.get<std::string>()), 4) << field << " " << text;
+    }
+    const double rms = v.at("latest").at("rms_total").get<double>();
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("rms_total"), rms)) << cells.at("rms_total");
+    EXPECT_TRUE(SameAtFourDigitsReport(deg_cells.at("rms_total"), rms * kDegPerRadTest));
+    const double alpha = v.at("alpha").get<double>();
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("alpha"), alpha)) << cells.at("alpha");
+    EXPECT_TRUE(SameAtFourDigitsReport(deg_cells.at("alpha"), alpha * kDegPerRadTest));
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("nrms"), v.at("latest").at("nrms").get<double>()));
+    const double peak_model = MaxAbs(CsvColumn(dir + "/x_RL_MODEL_" + name + ".csv", "theta"));
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("peak_theta"), peak_model)) << cells.at("peak_theta");
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("peak_theta_measured"), peak_measured));
+    double last = std::nan(""), sum_sq = 0;
+    long crossings = 0;
+    for (double x : CsvColumn(dir + "/x_RL_COMPARE_" + name + ".csv", "impact_timing_error")) {
+      if (std::isfinite(x) && x != last) {
+        ++crossings;
+        sum_sq += x * x;
+      }
+      last = x;
+    }
+    EXPECT_EQ(cells.at("impact_timings").get<std::string>(), std::to_string(crossings));
+    if (crossings > 0) {
+      EXPECT_TRUE(SameAtFourDigitsReport(cells.at("impact_timing_rms"), std::sqrt(sum_sq / crossings)));
+    } else {
+      EXPECT_EQ(cells.at("impact_timing_rms"), "—");
+    }
+  }
+
+  // The error chart at the model's rate: the first variant's error at each
+  // of its model points, theta_model - theta_measured of the snapshot at
+  // that time (the same sample clock), rad; far more points than RL_COMPARE's.
+  {
+    const json& v0 = snap.at("variants").at(0);
+    std::map<double, double> measured_deg;
+    for (std::size_t i = 0; i < snap.at("measured").at("t").size(); ++i) {
+      measured_deg[snap.at("measured").at("t")[i].get<double>()] =
+          snap.at("measured").at("theta_deg")[i].get<double>();
+    }
+    std::map<double, double> model_deg;
+    for (std::size_t i = 0; i < v0.at("theta").at("t").size(); ++i) {
+      model_deg[v0.at("theta").at("t")[i].get<double>()] = v0.at("theta").at("theta_deg")[i].get<double>();
+    }
+    const json& chart = shown.at("errorChart");
+    std::size_t drawn = 0;
+    for (std::size_t i = 0; i < chart.at("t").size(); ++i) {
+      if (!chart.at("first")[i].is_number()) continue;
+      ++drawn;
+      const double t = chart.at("t")[i].get<double>();
+      ASSERT_TRUE(model_deg.count(t) && measured_deg.count(t)) << t;
+      EXPECT_NEAR(chart.at("first")[i].get<double>(), (model_deg[t] - measured_deg[t]) / kDegPerRadTest,
+                  1e-12) << t;
+    }
+    EXPECT_EQ(drawn, model_deg.size());
+    EXPECT_GT(drawn, 4 * v0.at("comparison").at("t").size());
+  }
+
+  // Event markers: one row per variant's impacts (and one for uplift, rest,
+  // overturn); in a row, markers at least 9 px apart, every event drawn or
+  // counted as left out (too close, or past the plotted time range: an
+  // event after the last sample). Oracle: the snapshot's events.
+  {
+    std::map<std::string, std::size_t> expected;  // row -> events
+    for (const json& e : snap.at("events")) {
+      const std::string kind = e.at("kind");
+      if (kind == "impact") ++expected["impact " + e.at("source").get<std::string>()];
+      if (kind == "uplift" || kind == "rest" || kind == "overturn") ++expected["uplift/rest/overturn"];
+    }
+    ASSERT_FALSE(expected.empty());
+    EXPECT_EQ(shown.at("markers").size(), expected.size()) << shown.at("markers").dump();
+    for (const json& row : shown.at("markers")) {
+      const std::string name = row.at("row");
+      const json& x = row.at("drawn");
+      EXPECT_EQ(x.size() + row.at("hidden").get<std::size_t>() + row.at("outside").get<std::size_t>(),
+                expected[name]) << name;
+      EXPECT_FALSE(x.empty()) << name;
+      for (std::size_t i = 1; i < x.size(); ++i) {
+        EXPECT_GE(x[i].get<double>() - x[i - 1].get<double>(), 9.0 - 1e-9) << name << " marker " << i;
+      }
+    }
+  }
+
+  // A finished test's health: final counts and the rates over the time each
+  // node ran (count / (its last sample clock - the record's start)), not the
+  // last instantaneous rate. Oracle: the snapshot's last RL_HEALTH.
+  ASSERT_FALSE(snap.at("health").empty());
+  for (const json& h : snap.at("health")) {
+    const std::string node = h.at("node");
+    SCOPED_TRACE(node);
+    const json& cells = shown.at("health").at(node);
+    EXPECT_EQ(cells.at("count_in").get<std::string>(), std::to_string(h.at("count_in").get<long>()));
+    EXPECT_EQ(cells.at("state"), h.at("state"));
+    const double ran_s = (h.at("utime").get<double>() - snap.at("t0_utime").get<double>()) / 1e6;
+    ASSERT_GT(ran_s, 0.0);
+    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("mean_rate_in_hz"), h.at("count_in").get<double>() / ran_s))
+        << cells.at("mean_rate_in_hz");
+    EXPECT_FALSE(cells.contains("rate_in_hz"));  // the live figure, 0 Hz once stopped
   }
 
   // The "series as CSV" button: a file built in the page from the inlined
@@ -170,9 +352,9 @@ TEST(ReportBrowser, PageDrawsThePosteriorBand) {
   const json& cells = shown.at("bandCells").at("posterior");
   EXPECT_EQ(cells.at("members").get<std::string>(), "8/8");
   EXPECT_EQ(cells.at("model").get<std::string>(), "complex");
-  // The page prints %.6g of the last RL_COVERAGE, which holds the summary's value.
+  // The page prints %.4g of the last RL_COVERAGE, which holds the summary's value.
   const double coverage = summary.at("bands").at(0).at("band_coverage_95").get<double>();
-  EXPECT_NEAR(std::stod(cells.at("coverage95_total").get<std::string>()), coverage, 1e-6);
+  EXPECT_TRUE(SameAtFourDigitsReport(cells.at("coverage95_total"), coverage)) << cells.at("coverage95_total");
 }
 
 }  // namespace

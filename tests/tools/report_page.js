@@ -13,7 +13,13 @@
 // fills, so a fill reads as its own colour with its alpha); no curve, grid
 // line or flag is such a colour), every table header, the CSV the
 // "series as CSV" button downloads (clicked: a Blob built in the page), the
-// requests made other than for the file itself, and console errors.
+// requests made other than for the file itself, and console errors; and,
+// for the page's layout at 1280 px: `pageWidth` (the document's scroll
+// width), `tableRights` (each table's right edge, px), `markers` (per
+// marker row of the theta chart: x of each marker drawn, number left out),
+// `health` (data-node, data-field -> text), `errorChart` (the error chart's
+// x and first series), `unitHeaders` (the angle headers' units), and
+// `degCells`: the comparison cells after switching the angle unit to deg.
 'use strict';
 
 const fs = require('fs');
@@ -34,7 +40,7 @@ async function main() {
   const consoleErrors = [];
   const requests = [];  // anything but the report file itself and data: URLs
   try {
-    const page = await browser.newPage({viewport: {width: 1400, height: 1000}, acceptDownloads: true});
+    const page = await browser.newPage({viewport: {width: 1280, height: 1000}, acceptDownloads: true});
     const fileUrl = pathToFileURL(path.resolve(reportPath)).href;
     page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
     page.on('pageerror', (e) => consoleErrors.push(String(e)));
@@ -71,10 +77,33 @@ async function main() {
           bandPixels++;
         }
       }
+      const health = {};
+      for (const td of document.querySelectorAll('td[data-node][data-field]')) {
+        const n = td.getAttribute('data-node');
+        (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      const e = window.rocklabMonitor.plots.error;
       return {mode: window.rocklabMonitor.mode, dataLengths: window.rocklabMonitor.dataLengths(),
         cells, headers, title: document.title, bandNames: window.rocklabMonitor.bandNames(),
-        bandCells, bandPixels};
+        bandCells, bandPixels, health,
+        pageWidth: document.documentElement.scrollWidth,
+        tableRights: Array.from(document.querySelectorAll('table'), (t) => t.getBoundingClientRect().right),
+        markers: window.rocklabMonitor.markers().theta,
+        errorChart: {t: e.data[0], first: e.data[1]},
+        unitHeaders: Array.from(document.querySelectorAll('.angle-unit'), (x) => x.textContent)};
     });
+    await page.evaluate(() => window.rocklabMonitor.setAngleUnit('deg'));
+    shown.degCells = await page.evaluate(() => {
+      const cells = {};
+      for (const td of document.querySelectorAll('td[data-variant][data-field]')) {
+        const v = td.getAttribute('data-variant');
+        (cells[v] = cells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+      }
+      return cells;
+    });
+    shown.degUnitHeaders = await page.evaluate(() =>
+      Array.from(document.querySelectorAll('.angle-unit'), (x) => x.textContent));
+    await page.evaluate(() => window.rocklabMonitor.setAngleUnit('rad'));
     const [download] = await Promise.all([
       page.waitForEvent('download', {timeout: STEP_TIMEOUT_MS}),
       page.click('#download-series'),

@@ -208,9 +208,19 @@ TEST_F(RocklabReport, SvgFigureHasOneCurvePerSeriesAndTheLogsParameters) {
   const test::CliResult r =
       test::RunCli({"report", Fig7Log(), "--out", html_path, "--svg", svg_path});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const test::SvgProbe svg = test::ProbeSvg(test::ReadFile(svg_path));
+  const std::string svg_text = test::ReadFile(svg_path);
+  const test::SvgProbe svg = test::ProbeSvg(svg_text);
   ASSERT_TRUE(svg.well_formed) << svg.error;
   EXPECT_EQ(svg.width, 1000);  // the default --size
+  // What made it, in its <metadata>: the log with its size and SHA-256
+  // (oracle: coreutils' sha256sum).
+  const std::string hash = test::Sha256sum(Fig7Log());
+  ASSERT_EQ(hash.size(), 64u);
+  EXPECT_NE(svg_text.find("key=\"source_1\">" + Fig7Log() + " (" +
+                          std::to_string(std::filesystem::file_size(Fig7Log())) + " bytes, sha256 " + hash +
+                          ")</rocklab:provenance>"),
+            std::string::npos);
+  EXPECT_LT(svg_text.find("<metadata>"), svg_text.find("<rocklab:provenance"));
   EXPECT_EQ(svg.height, 650);
 
   // One curve per series of the snapshot, each with all of its points (and
@@ -354,10 +364,21 @@ TEST_F(RocklabReport, PngFigureHasTheSignatureAndTheSizeAsked) {
   const test::CliResult r = test::RunCli(
       {"report", Fig7Log(), "--out", dir_ + "/report.html", "--png", png_path, "--size", "800x500"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const test::PngProbe png = test::ProbePng(test::ReadFile(png_path));
+  const std::string bytes = test::ReadFile(png_path);
+  const test::PngProbe png = test::ProbePng(bytes);
   EXPECT_TRUE(png.signature);
   EXPECT_EQ(png.width, 800);
   EXPECT_EQ(png.height, 500);
+  // Its provenance in a tEXt chunk (keyword, NUL, text) before IEND, the
+  // last chunk; the log's hash as coreutils' sha256sum gives it.
+  const std::string hash = test::Sha256sum(Fig7Log());
+  ASSERT_EQ(hash.size(), 64u);
+  const std::string text = std::string("tEXtrocklab_source_1") + '\0' + Fig7Log() + " (" +
+                           std::to_string(std::filesystem::file_size(Fig7Log())) + " bytes, sha256 " + hash + ")";
+  const std::size_t at = bytes.find(text);
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_LT(at, bytes.rfind("IEND"));
+  EXPECT_EQ(bytes.rfind("IEND"), bytes.size() - 8);
 }
 
 // Writes an LCM log of the given (channel, payload) events.

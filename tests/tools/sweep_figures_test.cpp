@@ -44,7 +44,8 @@ std::string HandResults(const std::vector<std::pair<double, double>>& blocks) {
 
 // Oracle: the list of what a 2-alpha x 4-p sweep should give: a
 // spectrum against PGA and a fragility per block, a spectrum against p and
-// an overturning map per alpha, fragility.csv; nothing numbered.
+// an overturning map per alpha, fragility.csv and its provenance sidecar
+// (docs/provenance.md); nothing numbered.
 TEST(SweepFigures, NamedByWhatTheyShowOnePerGroup) {
   const std::string dir = ScratchDir("sweep_figures_names");
   std::vector<std::pair<double, double>> blocks;
@@ -54,7 +55,8 @@ TEST(SweepFigures, NamedByWhatTheyShowOnePerGroup) {
   WriteFile(dir + "/results.csv", HandResults(blocks));
   const CliResult r = RunCli({"sweep-plot", dir + "/results.csv", "--out-dir", dir + "/figs"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  std::set<std::string> expected = {"fragility.csv", "spectrum_vs_p_housner_alpha0.2.svg",
+  std::set<std::string> expected = {"fragility.csv", "fragility.provenance.csv",
+                                    "spectrum_vs_p_housner_alpha0.2.svg",
                                     "spectrum_vs_p_housner_alpha0.25.svg", "overturn_map_housner_alpha0.2.svg",
                                     "overturn_map_housner_alpha0.25.svg"};
   for (const char* alpha : {"0.2", "0.25"}) {

@@ -90,7 +90,7 @@ async function main() {
     headless: true,
     args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
       '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-    viewport: {width: 1400, height: 1000},
+    viewport: {width: 1280, height: 1000},
   });
   try {
     const page = context.pages()[0] || await context.newPage();
