@@ -110,6 +110,15 @@ TEST(FitCoverage, ImpactsStandardErrorsCoverAtTheirNominalRate) {
   EXPECT_GE(converged, 36);
 }
 
+// The issue's figure-7-like forced test: block 0.225 x 1.0 m (alpha
+// 0.2213 rad), Hanning 6 mm at 3.3 Hz for 4 s from 0.5 s, 0.02 deg noise
+// (seed 8), table at 1 kHz; theta over `duration_s` at `rate_hz`.
+const BlockParams kIssueForcedTruth{std::atan(0.1125 / 0.5), 3.85, 0.93};
+model::RockingRecord IssueForcedRecord(double duration_s, double rate_hz) {
+  const auto ex = model::ParseExcitation("hanning:amp=0.006,freq=3.3,duration=4,start=0.5");
+  return SyntheticForced(kIssueForcedTruth, *ex, duration_s, rate_hz, 1000, 0.02, 8);
+}
+
 // The issue's repro: a figure-7-like forced test (block 0.225 x 1.0 m, so
 // alpha 0.2213 rad; Hanning 6 mm at 3.3 Hz, 4 s from 0.5 s), 7 s of theta at
 // 500 Hz with 0.02 deg noise, table at 1 kHz, fitted from the geometry.
@@ -119,10 +128,8 @@ TEST(FitCoverage, ImpactsStandardErrorsCoverAtTheirNominalRate) {
 // either alpha is within 2 stated standard errors of it, or the fit says it
 // has not converged.
 TEST(FitTrajectory, ForcedNearThresholdFindsTheTruthOrSaysNotConverged) {
-  const double alpha = std::atan(0.1125 / 0.5);
-  const BlockParams truth{alpha, 3.85, 0.93};
-  const auto ex = model::ParseExcitation("hanning:amp=0.006,freq=3.3,duration=4,start=0.5");
-  const auto rec = SyntheticForced(truth, *ex, 7.0, 500, 1000, 0.02, 8);
+  const BlockParams truth = kIssueForcedTruth;
+  const auto rec = IssueForcedRecord(7.0, 500);
   FitOptions o;
   o.geometry = model::FitGeometry{0.225, 1.0, 0.0};
   const auto r = model::FitTrajectory(rec, o);
@@ -148,10 +155,8 @@ TEST(FitTrajectory, ForcedNearThresholdFindsTheTruthOrSaysNotConverged) {
 // from; either alpha is within 2 stated standard errors of it, or the fit
 // says it has not converged.
 TEST(FitTrajectory, ForcedLocalMinimumIsNotCalledConverged) {
-  const double alpha = std::atan(0.1125 / 0.5);
-  const BlockParams truth{alpha, 3.85, 0.93};
-  const auto ex = model::ParseExcitation("hanning:amp=0.006,freq=3.3,duration=4,start=0.5");
-  const auto rec = SyntheticForced(truth, *ex, 4.0, 250, 1000, 0.02, 8);
+  const BlockParams truth = kIssueForcedTruth;
+  const auto rec = IssueForcedRecord(4.0, 250);
   FitOptions o;
   o.geometry = model::FitGeometry{0.225, 1.0, 0.0};
   o.starts = 0;
