@@ -7,7 +7,7 @@
 // parameter (nominal 68.3 % and 95 %).
 //
 //   rocklab_bench_fit_coverage --method impacts|free|forced [--records N]
-//       [--seed S] [--noise-deg D] [--csv FILE]
+//       [--seed S] [--noise-deg D] [--starts N] [--csv FILE]
 //
 // One line per record on --csv (method, seed, truth, fit, stated errors,
 // converged, p-value), the summary on stdout.
@@ -34,6 +34,7 @@ struct Args {
   unsigned seed{1000};
   double noise_deg{0.02};
   std::string csv;
+  int starts{-1};  // FitOptions::starts (-1: the method's default)
 };
 
 struct Case {
@@ -97,7 +98,7 @@ int Main(const Args& a) {
   if (!a.csv.empty()) {
     csv.open(a.csv);
     csv << "method,seed,alpha_true,p_true,mu_true,alpha,p,mu,alpha_stderr,p_stderr,mu_stderr,converged,"
-           "p_value,chi2_per_dof,runtime_s,error\n";
+           "p_value,chi2_per_dof,runtime_s,band_p_value,band_ratio,error\n";
   }
   Tally converged, all;
   int failed = 0, not_converged = 0;
@@ -108,6 +109,7 @@ int Main(const Args& a) {
     const Case c = MakeCase(a, s);
     rocklab::model::FitOptions o;
     o.geometry = c.geometry;
+    o.starts = a.starts;
     try {
       const auto r = a.method == "impacts" ? rocklab::model::FitImpacts(c.record, o)
                                            : rocklab::model::FitTrajectory(c.record, o);
@@ -125,12 +127,12 @@ int Main(const Args& a) {
         csv << a.method << ',' << s << ',' << c.truth.alpha << ',' << c.truth.p << ',' << c.truth.mu << ','
             << r.params.alpha << ',' << r.params.p << ',' << r.params.mu << ',' << r.alpha_stderr << ','
             << r.p_stderr << ',' << r.mu_stderr << ',' << r.converged << ',' << r.p_value << ','
-            << r.chi2_per_dof << ',' << r.runtime_s << ",\n";
+            << r.chi2_per_dof << ',' << r.runtime_s << ',' << r.band_p_value << ',' << r.band_ratio << ",\n";
         csv.flush();  // a long run read while it goes (bench/fit_coverage_table.py)
       }
     } catch (const std::exception& e) {
       ++failed;
-      if (csv) csv << a.method << ',' << s << ",,,,,,,,,,0,,,,\"" << e.what() << "\"\n";
+      if (csv) csv << a.method << ',' << s << ",,,,,,,,,,0,,,,,,\"" << e.what() << "\"\n";
     }
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -156,6 +158,8 @@ int main(int argc, char** argv) {
       a.seed = static_cast<unsigned>(std::atol(v.c_str()));
     } else if (k == "--noise-deg") {
       a.noise_deg = std::atof(v.c_str());
+    } else if (k == "--starts") {
+      a.starts = std::atoi(v.c_str());
     } else if (k == "--csv") {
       a.csv = v;
     } else {
@@ -166,7 +170,7 @@ int main(int argc, char** argv) {
   if ((argc - 1) % 2 != 0 || !(a.method == "impacts" || a.method == "free" || a.method == "forced") ||
       a.records < 1) {
     std::fprintf(stderr, "usage: %s --method impacts|free|forced [--records N] [--seed S] [--noise-deg D] "
-                 "[--csv FILE]\n", argv[0]);
+                 "[--starts N] [--csv FILE]\n", argv[0]);
     return 2;
   }
   return Main(a);

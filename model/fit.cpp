@@ -103,7 +103,90 @@ void SetNoiseVerdict(double chi2, double noise_residual, bool lm_converged, FitR
   out.residual_to_noise = ok ? std::sqrt(out.chi2_per_dof) : kNaN;
   out.noise_dof = out.features.noise_dof;
   out.p_value = ok ? FUpperTail(out.chi2_per_dof, out.dof, out.noise_dof) : kNaN;
-  out.converged = lm_converged && !(out.p_value < out.significance);
+  out.converged = lm_converged && !(out.p_value < ChiSquareLevel(out));
+}
+
+double ChiSquareLevel(const FitResult& out) {
+  return out.method == FitMethod::kTrajectory ? 0.5 * out.significance : out.significance;
+}
+
+namespace {
+
+// The orthonormal DCT-II basis vectors phi_k(j) = c_k cos(pi k (j + 1/2) / n)
+// (c_0 = sqrt(1/n), else sqrt(2/n)), k = 0, 1, ... in turn, by the
+// cosines' three-term recurrence (O(n) per vector).
+class DctBasisWalk {
+ public:
+  explicit DctBasisWalk(Eigen::Index n)
+      : n_(n), two_cos_(n), previous_(n), current_(Eigen::VectorXd::Ones(n)) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double c = std::cos(kPi * (static_cast<double>(j) + 0.5) / static_cast<double>(n));
+      two_cos_(j) = 2.0 * c;
+      previous_(j) = c;  // cos(-theta_j): the recurrence then gives cos(theta_j) next
+    }
+  }
+  Eigen::Index k() const { return k_; }
+  // phi_k . v
+  double Coefficient(const Eigen::VectorXd& v) const { return Scale() * current_.dot(v); }
+  Eigen::RowVectorXd Coefficients(const Eigen::MatrixXd& columns) const {
+    return Scale() * (current_.transpose() * columns);
+  }
+  void Next() {
+    Eigen::VectorXd next = two_cos_.cwiseProduct(current_) - previous_;
+    previous_.swap(current_);
+    current_.swap(next);
+    ++k_;
+  }
+
+ private:
+  double Scale() const { return std::sqrt((k_ == 0 ? 1.0 : 2.0) / static_cast<double>(n_)); }
+  Eigen::Index n_;
+  Eigen::Index k_{0};
+  Eigen::VectorXd two_cos_, previous_, current_;
+};
+
+}  // namespace
+
+BandTest LowBandTest(const Eigen::VectorXd& r, const Eigen::MatrixXd& jacobian, Eigen::Index m) {
+  BandTest out;
+  const Eigen::Index n = r.size(), q = jacobian.cols();
+  if (n < 8 || m < 1 || m >= n || jacobian.rows() != n) return out;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(jacobian.transpose() * jacobian);
+  if (!lu.isInvertible()) return out;
+  double s_low = 0.0;
+  Eigen::MatrixXd low = Eigen::MatrixXd::Zero(q, q);  // J^T P_low J
+  DctBasisWalk phi(n);
+  for (; phi.k() < m; phi.Next()) {
+    const double a = phi.Coefficient(r);
+    s_low += a * a;
+    const Eigen::RowVectorXd aj = phi.Coefficients(jacobian);
+    low += aj.transpose() * aj;
+  }
+  const double s_high = std::max(0.0, r.squaredNorm() - s_low);
+  const double tr_low = (lu.inverse() * low).trace();
+  out.low = static_cast<int>(m);
+  out.dof_low = static_cast<double>(m) - tr_low;
+  out.dof_high = static_cast<double>(n - m) - (static_cast<double>(q) - tr_low);
+  if (!(out.dof_low >= 1.0) || !(out.dof_high >= 1.0) || !(s_high > 0.0)) return out;
+  out.ratio = (s_low / out.dof_low) / (s_high / out.dof_high);
+  out.p_value = FUpperTail(out.ratio, out.dof_low, out.dof_high);
+  return out;
+}
+
+Eigen::Index LowBandSize(const Eigen::VectorXd& model, Eigen::Index q, double fraction) {
+  const Eigen::Index n = model.size();
+  const Eigen::Index lo = std::min<Eigen::Index>(4 * q, n / 2), hi = n / 2;
+  double total = 0.0;  // sum of squared first differences = sum_k lambda_k a_k^2
+  for (Eigen::Index j = 0; j + 1 < n; ++j) total += (model(j + 1) - model(j)) * (model(j + 1) - model(j));
+  double sum = 0.0;
+  DctBasisWalk phi(n);
+  for (; phi.k() < hi; phi.Next()) {
+    const double s = std::sin(kPi * static_cast<double>(phi.k()) / (2.0 * static_cast<double>(n)));
+    const double a = phi.Coefficient(model);
+    sum += 4.0 * s * s * a * a;
+    if (sum >= fraction * total) break;
+  }
+  return std::clamp(phi.k() + 1, lo, hi);
 }
 
 // Notes on what the fit knows: missing samples, withheld standard errors, a
@@ -130,11 +213,11 @@ void AddVerdictWarnings(FitResult& out, const std::string& handled) {
   const bool impacts = out.method == FitMethod::kImpacts;
   const double scale = impacts ? 1e3 : 1.0;
   const char* unit = impacts ? " ms" : " rad";
-  if (out.p_value < out.significance) {
+  if (out.p_value < ChiSquareLevel(out)) {
     out.warnings.push_back("not converged to the noise: residual / noise " + Num(out.residual_to_noise, 3) +
                            " (chi-square " + Num(out.chi2, 5) + " on " + std::to_string(out.dof) +
-                           " degrees of freedom, p = " + Num(out.p_value, 2) + " below the significance " +
-                           Num(out.significance, 2) + "; rms residual " +
+                           " degrees of freedom, p = " + Num(out.p_value, 2) + " below the level " +
+                           Num(ChiSquareLevel(out), 2) + "; rms residual " +
                            Num(out.rms_residual * scale, 3) + unit + ", the noise alone gives " +
                            Num(out.noise_residual * scale, 3) + unit +
                            "): the model does not follow the record, or the fit stopped in a local minimum, "

@@ -298,6 +298,16 @@ struct FitResult {
   /// alone leaves a chi-square this large, the noise estimate's own spread
   /// included (noise_dof; chi2(dof) when the noise is stated).
   double p_value{std::numeric_limits<double>::quiet_NaN()};
+  /// Trajectory method: the band test (docs/fit_coverage.md): the
+  /// residuals' power in their low band (DCT coefficients up to band_hz,
+  /// where the model's motion and so a model error lie) over their power
+  /// above it, each per degree of freedom: F(band dof) for white noise,
+  /// whatever its level. band_p_value is P(F >= band_ratio). A trajectory
+  /// fit converges when both tests pass at half the significance each
+  /// (Bonferroni). NaN when not computed (the impacts method).
+  double band_ratio{std::numeric_limits<double>::quiet_NaN()};
+  double band_p_value{std::numeric_limits<double>::quiet_NaN()};
+  double band_hz{std::numeric_limits<double>::quiet_NaN()};  ///< the low band's top, Hz
   double significance{kDefaultSignificance};  ///< the test's level used
   double noise_dof{std::numeric_limits<double>::infinity()};  ///< of the noise estimate
   /// The least-squares iteration met its convergence test and the residuals

@@ -188,8 +188,37 @@ double DiagonalChi2(const Eigen::VectorXd& residuals, const std::vector<double>&
 // The verdict on the residual: standard errors withheld below
 // kMinDofForStderr degrees of freedom; chi2, chi2 / dof, residual_to_noise
 // (its root), the p-value of F(dof, noise dof) and converged (the LM's test
-// and p_value >= significance). Needs out.dof and out.features.noise_dof.
+// and p_value >= ChiSquareLevel). Needs out.dof and out.features.noise_dof.
 void SetNoiseVerdict(double chi2, double noise_residual, bool lm_converged, FitResult& out);
+
+// The chi-square test's level: the significance; half of it for the
+// trajectory method, whose band test takes the other half (Bonferroni).
+double ChiSquareLevel(const FitResult& out);
+
+// The band test of a trajectory fit (docs/fit_coverage.md, "The band
+// test"): the residuals r (n) split by the orthonormal DCT-II into their
+// first m coefficients (the low band, where a model error lies) and the
+// rest. For white Gaussian noise every coefficient is N(0, sigma^2),
+// independent, so (S_low / d_low) / (S_high / d_high) is F(d_low, d_high),
+// the noise level taken from the record's own high band: no estimate of the
+// noise enters. d_low = m - tr(P_low H), d_high = n - m - tr(P_high H),
+// H = J (J^T J)^-1 J^T the fit's hat matrix (its q = columns of J
+// parameters take their degrees of freedom from both bands).
+struct BandTest {
+  int low{};  // m, the low band's coefficients
+  double dof_low{std::numeric_limits<double>::quiet_NaN()};
+  double dof_high{std::numeric_limits<double>::quiet_NaN()};
+  double ratio{std::numeric_limits<double>::quiet_NaN()};    // the F statistic
+  double p_value{std::numeric_limits<double>::quiet_NaN()};  // P(F >= ratio)
+};
+BandTest LowBandTest(const Eigen::VectorXd& r, const Eigen::MatrixXd& jacobian, Eigen::Index m);
+
+// The low band of LowBandTest for a record: the DCT coefficients that hold
+// kBandEnergy of the fitted model's first-difference energy (its velocity:
+// a parameter error moves the impacts, theta_model' times the shift),
+// `fraction` of it,
+// bounded to [4 q, n / 2]. `model` is theta_model at the samples.
+Eigen::Index LowBandSize(const Eigen::VectorXd& model, Eigen::Index q, double fraction);
 
 // Notes on what the fit knows: missing samples, withheld standard errors, a
 // residual above the noise. `handled`: what the method did with the gaps.

@@ -121,9 +121,16 @@ constexpr int kDefaultTrajectoryStarts = 24;
 // Starts refined on the first window, and those carried to the whole record.
 constexpr int kRefinedOnWindow = 4;
 constexpr int kCarriedToWhole = 2;
+// A fit whose residuals fail the noise tests searches once more, with this
+// many times the points screened, refined and carried.
+constexpr int kWideSearchFactor = 2;
 // The first window: this long after the motion starts, s; each next one
 // twice as long, up to the whole record.
 constexpr double kFirstWindowS = 1.0;
+
+// The band test's low band: the DCT coefficients holding this fraction of
+// the fitted model's first-difference (velocity) energy.
+constexpr double kBandEnergy = 0.999;
 
 // The prior box of the starts: alpha in the admissible band (geometry) or
 // +-10 % of the start, p +-20 % about the geometry's (or the start's), mu in
@@ -162,6 +169,10 @@ double FirstMotion(const RockingRecord& r, double band) {
 
 struct MultiStart {
   int count{};
+  int first_point{1};  // the Halton index of the first screened point
+  int refined{kRefinedOnWindow};
+  int carried{kCarriedToWhole};
+  bool direct{true};  // also x0 LM'd on the whole record
   Box box;
   double motion_start_s{};
 };
@@ -196,7 +207,7 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
     return TrajectoryFunctor(record, first, end, forcing, from_hold, options);
   };
   std::vector<Eigen::VectorXd> starts{x0};
-  for (int i = 1; i <= ms.count; ++i) {
+  for (int i = ms.first_point; i < ms.first_point + ms.count; ++i) {
     Eigen::VectorXd x = x0;
     const int bases[3] = {2, 3, 5};
     for (int d = 0; d < 3; ++d) x(d) = ms.box.lo(d) + (ms.box.hi(d) - ms.box.lo(d)) * RadicalInverse(i, bases[d]);
@@ -217,7 +228,7 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
   std::sort(cost.begin(), cost.end());
   // Refine the best on the first window (when it is not already the whole record).
   std::vector<std::pair<double, Eigen::VectorXd>> window;
-  const std::size_t n_refine = std::min<std::size_t>(kRefinedOnWindow, cost.size());
+  const std::size_t n_refine = std::min<std::size_t>(static_cast<std::size_t>(ms.refined), cost.size());
   for (std::size_t k = 0; k < n_refine; ++k) {
     const Eigen::VectorXd& x = starts[cost[k].second];
     if (ends.size() == 1) {
@@ -234,8 +245,8 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
   // the method's own start LM'd on the whole record directly (the fit before
   // the multi-start), so that the global start never ends above it.
   bool have = false;
-  const std::size_t n_carry = std::min<std::size_t>(kCarriedToWhole, window.size());
-  for (std::size_t k = 0; k <= n_carry; ++k) {
+  const std::size_t n_carry = std::min<std::size_t>(static_cast<std::size_t>(ms.carried), window.size());
+  for (std::size_t k = 0; k < n_carry + (ms.direct ? 1 : 0); ++k) {
     const bool direct = k == n_carry;
     Eigen::VectorXd x = direct ? x0 : window[k].second;
     LmOutcome o;
@@ -251,9 +262,38 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
     if (better) res.lm = std::move(o);
     have = true;
   }
-  res.refined = static_cast<int>(n_refine) + 1;  // and x0 on the whole record
+  res.refined = static_cast<int>(n_refine) + (ms.direct ? 1 : 0);  // and x0 on the whole record
   res.lm.evaluations = evaluations;
   return res;
+}
+
+// The band test of a trajectory fit's residuals (LowBandTest) over the
+// samples from `first`; the model is the record plus the residuals.
+BandTest TrajectoryBandTest(const RockingRecord& record, std::size_t first, const LmOutcome& lm,
+                            double* band_hz) {
+  const Eigen::Index n = lm.residuals.size();
+  Eigen::VectorXd model_theta = lm.residuals;
+  for (Eigen::Index k = 0; k < n; ++k) model_theta(k) += record.theta[first + static_cast<std::size_t>(k)];
+  const Eigen::Index m = LowBandSize(model_theta, lm.x.size(), kBandEnergy);
+  const double span = record.time_s.back() - record.time_s[first];
+  *band_hz = span > 0.0 ? static_cast<double>(m) * static_cast<double>(n - 1) / (2.0 * static_cast<double>(n) * span)
+                        : kNaN;
+  return LowBandTest(lm.residuals, lm.jacobian, m);
+}
+
+// Whether a trajectory fit's residuals are consistent with the noise: the
+// chi-square test against the noise estimate and the band test, each at
+// half the significance (the verdict of FitTrajectory, before the
+// covariance's corrections).
+bool TrajectoryPassesNoise(const RockingRecord& record, std::size_t first, const LmOutcome& lm,
+                           const FreeRockingFeatures& f, double significance) {
+  if (!LmConverged(lm.status)) return false;
+  const double dof = static_cast<double>(lm.residuals.size() - lm.x.size());
+  const double chi2 = lm.residuals.squaredNorm() / (f.noise_rad * f.noise_rad);
+  const double p = FUpperTail(chi2 / dof, dof, f.noise_dof);
+  double hz = kNaN;
+  const BandTest band = TrajectoryBandTest(record, first, lm, &hz);
+  return !(p < 0.5 * significance) && !(band.p_value < 0.5 * significance);
 }
 
 }  // namespace
@@ -325,10 +365,30 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   ms.count = options.starts < 0 ? kDefaultTrajectoryStarts : options.starts;
   ms.box = PriorBox(out, start_params);
   ms.motion_start_s = from_hold ? *f.release_time_s : FirstMotion(record, f.hysteresis_rad);
-  const MultiStartResult found = FitFromManyStarts(record, first, *forcing, from_hold, x, ms, options, start);
-  LmOutcome lm = found.lm;
+  MultiStartResult found = FitFromManyStarts(record, first, *forcing, from_hold, x, ms, options, start);
   out.starts = found.screened;
   out.starts_refined = found.refined;
+  if (ms.count > 0 && LmConverged(found.lm.status) &&
+      !TrajectoryPassesNoise(record, first, found.lm, f, options.significance)) {
+    // A local minimum (a chaotic forced response has many): a wider search,
+    // new Halton points, more of them refined and carried to the whole
+    // record; the lower whole-record cost wins. Bounded: once.
+    MultiStart wide = ms;
+    wide.first_point = ms.count + 1;
+    wide.count = kWideSearchFactor * ms.count;
+    wide.refined = kWideSearchFactor * kRefinedOnWindow;
+    wide.carried = kWideSearchFactor * kCarriedToWhole;
+    wide.direct = false;
+    MultiStartResult more = FitFromManyStarts(record, first, *forcing, from_hold, x, wide, options, start);
+    out.starts += more.screened - 1;  // x0 is in both
+    out.starts_refined += more.refined;
+    const int evaluations = found.lm.evaluations + more.lm.evaluations;
+    if (LmConverged(more.lm.status) && more.lm.residuals.squaredNorm() < found.lm.residuals.squaredNorm()) {
+      found.lm = std::move(more.lm);
+    }
+    found.lm.evaluations = evaluations;
+  }
+  LmOutcome lm = found.lm;
   if (!LmConverged(lm.status)) {
     throw FitError(record.source + ": the trajectory fit did not converge in " +
                    std::to_string(lm.evaluations) + " model runs (status " +
@@ -383,6 +443,21 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   const double chi2 = DiagonalChi2(
       lm.residuals, std::vector<double>(static_cast<std::size_t>(lm.residuals.size()), f.noise_rad), &noise_residual);
   SetNoiseVerdict(chi2, noise_residual, LmConverged(lm.status), out);
+  {
+    const BandTest band = TrajectoryBandTest(record, first, lm, &out.band_hz);
+    out.band_ratio = band.ratio;
+    out.band_p_value = band.p_value;
+    if (band.p_value < 0.5 * out.significance) {
+      out.converged = false;
+      out.warnings.push_back(
+          "not converged to the noise: the residuals' power below " + Num(out.band_hz, 3) + " Hz, where the "
+          "model's motion lies, is " + Num(band.ratio, 3) + " times their power above it (per degree of "
+          "freedom, F(" + Num(band.dof_low, 4) + ", " + Num(band.dof_high, 4) + "), p = " +
+          Num(band.p_value, 2) + " below the level " + Num(0.5 * out.significance, 2) +
+          "): the fit stopped in a local minimum or the model does not follow the record, and the "
+          "standard errors understate the error");
+    }
+  }
   out.warnings.push_back("start values from the " + start_from + " and " + std::to_string(out.starts - 1) +
                          " more from the prior box (" + std::to_string(out.starts_refined) + " refined)");
   AddVerdictWarnings(out, "skipped (the residuals are at the samples present)");

@@ -201,6 +201,9 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   j["chi2"] = Optional(r.chi2);
   j["chi2_per_dof"] = Optional(r.chi2_per_dof);
   j["p_value"] = Optional(r.p_value);
+  j["band_ratio"] = Optional(r.band_ratio);
+  j["band_p_value"] = Optional(r.band_p_value);
+  j["band_hz"] = Optional(r.band_hz);
   j["significance"] = r.significance;
   j["noise_dof"] = Optional(r.noise_dof);
   j["noise_stated"] = std::isinf(r.noise_dof);

@@ -134,6 +134,9 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"chi2", Optional(r.chi2)},
       {"chi2_per_dof", Optional(r.chi2_per_dof)},
       {"p_value", Optional(r.p_value)},
+      {"band_ratio", Optional(r.band_ratio)},
+      {"band_p_value", Optional(r.band_p_value)},
+      {"band_hz", Optional(r.band_hz)},
       {"significance", r.significance},
       {"noise_dof", Optional(r.noise_dof)},
       {"noise_stated", std::isinf(r.noise_dof)},
@@ -155,7 +158,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
         {"p_stderr", "rad/s"}, {"mu_stderr", "1"}, {"time", "s"}, {"peak", "rad"}, {"tau", "s"},
         {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
         {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
-        {"residual_to_noise", "1"}, {"chi2", "1"}, {"chi2_per_dof", "1"}, {"p_value", "1"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
+        {"residual_to_noise", "1"}, {"chi2", "1"}, {"chi2_per_dof", "1"}, {"p_value", "1"}, {"band_ratio", "1"}, {"band_p_value", "1"}, {"band_hz", "Hz"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {

@@ -750,8 +750,10 @@ class FitResult(_Summarised, dict):
     Keys: alpha (rad), p (rad/s), mu; their standard errors alpha_stderr,
     p_stderr, mu_stderr (None when withheld); alpha_p_correlation;
     rms_residual (s for impacts, rad for trajectory), noise (rad),
-    residual_to_noise, chi2, chi2_per_dof, p_value, significance, noise_dof,
-    converged (the chi-square test at that significance), starts,
+    residual_to_noise, chi2, chi2_per_dof, p_value, band_ratio, band_p_value,
+    band_hz (the trajectory method's band test), significance, noise_dof,
+    converged (the chi-square test at that significance; trajectory: it and
+    the band test at half of it each), starts,
     starts_refined; impacts (per impact: n, time, peak, mu_n,
     tau, residual); theory and alpha_band (from the geometry); warnings.
     The same values are attributes: ``r.alpha``, ``r.warnings``.
