@@ -366,6 +366,9 @@ class FitResult(Dict[str, object]):
     chi2: Optional[float]
     chi2_per_dof: Optional[float]
     p_value: Optional[float]
+    band_ratio: Optional[float]  # trajectory: low-band / high-band residual power per degree of freedom
+    band_p_value: Optional[float]
+    band_hz: Optional[float]  # Hz, the low band's top
     significance: float
     noise_dof: Optional[float]
     noise_stated: bool
