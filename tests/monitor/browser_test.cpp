@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/tools/run_cli.h"
+#include "tests/four_digits.h"
 #include "tests/skip.h"
 #include "tests/source_paths.h"
 
@@ -36,17 +37,6 @@ using nlohmann::json;
 
 using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr const char* kChromium = "/usr/bin/chromium";
-
-// |shown - exact| within half a unit of the 4th significant digit of exact
-// (plus a relative 1e-12 for the decimal-binary round trip).
-bool SameAtFourDigits(const std::string& shown, double exact) {
-  char* end = nullptr;
-  const double value = std::strtod(shown.c_str(), &end);
-  if (end == shown.c_str() || *end != '\0') return false;
-  if (exact == 0) return value == 0;
-  const double unit = std::pow(10.0, std::floor(std::log10(std::fabs(exact))) - 3);
-  return std::fabs(value - exact) <= 0.5 * unit + 1e-12 * std::fabs(exact);
-}
 
 TEST(MonitorBrowser, PageShowsTheReplayAndTheComparatorsNumbers) {
   if (access(kChromium, X_OK) != 0) {
@@ -123,11 +113,11 @@ TEST(MonitorBrowser, PageShowsTheReplayAndTheComparatorsNumbers) {
     for (const auto& [page_field, summary_field] : field_of) {
       const std::string text = cells.at(page_field);
       const double exact = v.at(summary_field).get<double>();
-      EXPECT_TRUE(SameAtFourDigits(text, exact))
+      EXPECT_TRUE(rocklab::test::SameAtFourDigits(text, exact))
           << page_field << " shown '" << text << "', summary " << summary_field << " " << exact;
     }
     for (const char* param : {"alpha", "p", "mu"}) {
-      EXPECT_TRUE(SameAtFourDigits(cells.at(param), v.at(param).get<double>())) << param;
+      EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at(param), v.at(param).get<double>())) << param;
     }
   }
   // Static mode (the report's): the same numbers and charts from the

@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/tools/run_cli.h"
+#include "tests/four_digits.h"
 #include "tests/skip.h"
 #include "tests/source_paths.h"
 
@@ -33,17 +34,6 @@ using nlohmann::json;
 using ::rocklab::test::kSource;  // tests/source_paths.h
 constexpr const char* kChromium = "/usr/bin/chromium";
 constexpr double kDegPerRadTest = 180.0 / 3.14159265358979323846;
-
-// |shown - exact| within half a unit of the 4th significant digit of exact
-// (the page's %.4g; plus a relative 1e-12 for the decimal round trip).
-bool SameAtFourDigitsReport(const std::string& shown, double exact) {
-  char* end = nullptr;
-  const double value = std::strtod(shown.c_str(), &end);
-  if (end == shown.c_str() || *end != '\0') return false;
-  if (exact == 0) return value == 0;
-  const double unit = std::pow(10.0, std::floor(std::log10(std::fabs(exact))) - 3);
-  return std::fabs(value - exact) <= 0.5 * unit + 1e-12 * std::fabs(exact);
-}
 
 // Significant digits written in a number's text ("0.001234" -> 4, "1.2e-05" -> 2).
 int SignificantDigits(const std::string& text) {
@@ -183,15 +173,15 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
       EXPECT_LE(SignificantDigits(text.get<std::string>()), 4) << field << " " << text;
     }
     const double rms = v.at("latest").at("rms_total").get<double>();
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("rms_total"), rms)) << cells.at("rms_total");
-    EXPECT_TRUE(SameAtFourDigitsReport(deg_cells.at("rms_total"), rms * kDegPerRadTest));
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("rms_total"), rms)) << cells.at("rms_total");
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(deg_cells.at("rms_total"), rms * kDegPerRadTest));
     const double alpha = v.at("alpha").get<double>();
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("alpha"), alpha)) << cells.at("alpha");
-    EXPECT_TRUE(SameAtFourDigitsReport(deg_cells.at("alpha"), alpha * kDegPerRadTest));
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("nrms"), v.at("latest").at("nrms").get<double>()));
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("alpha"), alpha)) << cells.at("alpha");
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(deg_cells.at("alpha"), alpha * kDegPerRadTest));
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("nrms"), v.at("latest").at("nrms").get<double>()));
     const double peak_model = MaxAbs(CsvColumn(dir + "/x_RL_MODEL_" + name + ".csv", "theta"));
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("peak_theta"), peak_model)) << cells.at("peak_theta");
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("peak_theta_measured"), peak_measured));
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("peak_theta"), peak_model)) << cells.at("peak_theta");
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("peak_theta_measured"), peak_measured));
     double last = std::nan(""), sum_sq = 0;
     long crossings = 0;
     for (double x : CsvColumn(dir + "/x_RL_COMPARE_" + name + ".csv", "impact_timing_error")) {
@@ -203,7 +193,7 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
     }
     EXPECT_EQ(cells.at("impact_timings").get<std::string>(), std::to_string(crossings));
     if (crossings > 0) {
-      EXPECT_TRUE(SameAtFourDigitsReport(cells.at("impact_timing_rms"), std::sqrt(sum_sq / crossings)));
+      EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("impact_timing_rms"), std::sqrt(sum_sq / crossings)));
     } else {
       EXPECT_EQ(cells.at("impact_timing_rms"), "—");
     }
@@ -274,7 +264,7 @@ TEST(ReportBrowser, PageDrawsTheRecordFromDiskWithNoRequest) {
     EXPECT_EQ(cells.at("state"), h.at("state"));
     const double ran_s = (h.at("utime").get<double>() - snap.at("t0_utime").get<double>()) / 1e6;
     ASSERT_GT(ran_s, 0.0);
-    EXPECT_TRUE(SameAtFourDigitsReport(cells.at("mean_rate_in_hz"), h.at("count_in").get<double>() / ran_s))
+    EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("mean_rate_in_hz"), h.at("count_in").get<double>() / ran_s))
         << cells.at("mean_rate_in_hz");
     EXPECT_FALSE(cells.contains("rate_in_hz"));  // the live figure, 0 Hz once stopped
   }
@@ -354,7 +344,7 @@ TEST(ReportBrowser, PageDrawsThePosteriorBand) {
   EXPECT_EQ(cells.at("model").get<std::string>(), "complex");
   // The page prints %.4g of the last RL_COVERAGE, which holds the summary's value.
   const double coverage = summary.at("bands").at(0).at("band_coverage_95").get<double>();
-  EXPECT_TRUE(SameAtFourDigitsReport(cells.at("coverage95_total"), coverage)) << cells.at("coverage95_total");
+  EXPECT_TRUE(rocklab::test::SameAtFourDigits(cells.at("coverage95_total"), coverage)) << cells.at("coverage95_total");
 }
 
 }  // namespace
