@@ -241,7 +241,11 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
           mode = after.mode;
           q = after.q;
           qdot = after.qdot;
-          Shut(k, new_dof, mode, q, qdot);
+          if (mode[kk] != 0) {  // that impact's contacts below k may differ: count again
+            int dof_now = 0;
+            for (int j = 0; j < k; ++j) dof_now += mode[static_cast<std::size_t>(j)] != 0;
+            Shut(k, dof_now, mode, q, qdot);
+          }
           run.events.push_back({t, EventKind::kRest, k, mode});
         } else {
           mode = after.mode;
