@@ -59,15 +59,9 @@ CXXFLAGS="-gline-tables-only -DNDEBUG ${CXXFLAGS:-}" ROCKLAB_BUILD_DIR=$asan \
   ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
-# Left to the plain pass: long numerical tests whose code the sanitizer pass
-# still runs in smaller tests (the edge sweep: BlockTest.SweepFinds...,
-# 100 000 polygons; the forced trajectory fit:
-# CliFit.TrajectoryWithAccelOnAReconstructedForcedRecord). Under ASan they
-# took 55, 53, 34, 33 and 26 s of the pass's 652 s (docs/testing.md); and a
-# fifth forced fit and two posteriors' statistics (8, 21 and 14 s; the
-# sampler's code runs here in Posterior.ACancelStops... and
-# Posterior.PerImpactRestitution...). And the stack oracle, which runs no
-# code of rocklab's (python and scipy only).
+# Left to the plain pass: long numerical tests whose code the sanitizer
+# pass still runs in smaller tests, and the stack oracle (python only).
+# Which, their cost under ASan and why: docs/testing.md, "Build time".
 asan_left_out='^(External\.stack_oracle|BlockTest\.AMillionVertexSectionIsCheckedInLinearlyManyEdgeTests'
 asan_left_out+='|FitTrajectory\.(SaysWhenTheTableRecordsSamplingMovesTheFit|ForcedNearThresholdFindsTheTruthOrSaysNotConverged'
 asan_left_out+='|RecoversBlock1FromAForcedTest|ResidualToNoiseSeesAWrongModel|ForcedLocalMinimumIsNotCalledConverged)'
