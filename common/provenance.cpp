@@ -1,4 +1,5 @@
 #include "common/provenance.h"
+#include "common/text.h"
 
 #include "common/atomic_file.h"
 
@@ -249,18 +250,13 @@ std::uint32_t PngCrc32(const void* data, std::size_t bytes) {
 
 namespace {
 
+// XmlText, with control bytes (not allowed in XML 1.0 text) as spaces.
 std::string XmlEscapedProvenance(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += static_cast<unsigned char>(c) < 0x20 ? ' ' : c;
-    }
+  std::string plain = s;
+  for (char& c : plain) {
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
   }
-  return out;
+  return XmlText(plain);
 }
 
 void PutBigEndian32(std::string& out, std::uint32_t v) {
