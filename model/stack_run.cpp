@@ -97,10 +97,16 @@ class ModeOde final : public detail::OdeSystem {
   Vec q_, qdot_;
 };
 
+// Index of interface k's generalised coordinate in `mode`: its pivots below k.
+int DofOf(const Mode& mode, int k) {
+  int dof = 0;
+  for (int j = 0; j < k; ++j) dof += mode[static_cast<std::size_t>(j)] != 0;
+  return dof;
+}
+
 // q, q' with a new coordinate 0, 0 for interface k (it just opened).
 void Insert(const Mode& before, int k, Vec& q, Vec& qdot) {
-  int at = 0;
-  for (int j = 0; j < k; ++j) at += before[static_cast<std::size_t>(j)] != 0;
+  const int at = DofOf(before, k);
   const Eigen::Index m = q.size();
   Vec nq(m + 1), nqd(m + 1);
   nq << q.head(at), 0.0, q.tail(m - at);
@@ -217,8 +223,7 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
       } else {
         // The striking pivot's relative angle is 0 at the root (CVODE's
         // interpolant leaves ~1e-15 rad): exactly 0 for the new contacts.
-        int dof = 0;
-        for (int j = 0; j < k; ++j) dof += mode[static_cast<std::size_t>(j)] != 0;
+        const int dof = DofOf(mode, k);
         q(dof) = 0.0;
         if (std::abs(qdot(dof)) < options.rest_rate_rad_s || mode[kk] * qdot(dof) >= 0) {
           // Closing at (about) no relative rate, or grazing (the root found
@@ -233,19 +238,14 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
         } catch (const std::runtime_error& e) {
           throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
         }
-        int new_dof = 0;
-        for (int j = 0; j < k; ++j) new_dof += after.mode[static_cast<std::size_t>(j)] != 0;
+        const int new_dof = DofOf(after.mode, k);
         if (after.mode[kk] != 0 && std::abs(after.qdot(new_dof)) < options.rest_rate_rad_s) {
           // Too slow to lift again: shut, its rate taken out by the impact.
           after = stack.Impact(mode, q, qdot, k, 0.0);
           mode = after.mode;
           q = after.q;
           qdot = after.qdot;
-          if (mode[kk] != 0) {  // that impact's contacts below k may differ: count again
-            int dof_now = 0;
-            for (int j = 0; j < k; ++j) dof_now += mode[static_cast<std::size_t>(j)] != 0;
-            Shut(k, dof_now, mode, q, qdot);
-          }
+          if (mode[kk] != 0) Shut(k, DofOf(mode, k), mode, q, qdot);  // its contacts below k may differ
           run.events.push_back({t, EventKind::kRest, k, mode});
         } else {
           mode = after.mode;
