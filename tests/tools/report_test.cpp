@@ -142,7 +142,12 @@ void ExpectSeriesMatchesLog(const json& series, const std::map<std::int64_t, dou
 
 class RocklabReport : public ::testing::Test {
  protected:
-  void SetUp() override { dir_ = test::ScratchDir("report"); }
+  // A folder per test: one test's page must not be taken for another's
+  // (BadInputs checks that no page appears) when the group runs in one process.
+  void SetUp() override {
+    dir_ = test::ScratchDir(std::string("report-") +
+                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  }
   std::string dir_;
 };
 
