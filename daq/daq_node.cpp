@@ -97,12 +97,8 @@ struct DaqNode::Impl : ProcessorSink {
   }
 
   void OnTableState(const TableState& t) override {
-    table_msg.utime = t.utime;
-    table_msg.seq = t.seq;
-    table_msg.displacement = t.displacement;
-    table_msg.velocity = t.velocity;
-    table_msg.acceleration = t.acceleration;
-    table_msg.accel_source = t.accel_source;
+    common::FieldCopier<TableState, rocklab::table_state_t> copy{t, table_msg};
+    common::TableStateFields<rocklab::table_state_t>(copy);
     Publish(ch_table, table_msg);
   }
 
