@@ -8,63 +8,62 @@
 
 namespace rocklab::common {
 
+namespace {
+// An older type's fields are the ones its field table lists; the successor
+// has each of them under the same name.
+template <class In, class Out, class Table>
+void CopyOlderFields(const In& in, Out& out, Table table) {
+  FieldCopier<In, Out> copier{in, out};
+  table(copier);
+}
+}  // namespace
+
 void Upgrade(const rocklab::comparison_t& in, rocklab::comparison2_t& out) {
-  out.utime = in.utime;
+  CopyOlderFields(in, out, [](auto& c) { ComparisonFields<rocklab::comparison_t>(c); });
   out.seq = kNoSeq;
-  out.name = in.name;
-  out.error = in.error;
-  out.rms_window = in.rms_window;
-  out.window_s = in.window_s;
-  out.rms_total = in.rms_total;
-  out.nrms = in.nrms;
-  out.peak_error = in.peak_error;
-  out.impact_timing_error = in.impact_timing_error;
-  out.correlation = in.correlation;
-  out.valid = in.valid;
-  out.samples = in.samples;
 }
 
 void Upgrade(const rocklab::daq_config_t& in, rocklab::daq_config2_t& out) {
-  out.utime = in.utime;
+  CopyOlderFields(in, out, [](auto& c) { DaqConfigFields<rocklab::daq_config_t>(c); });
   out.seq = kNoSeq;
-  out.rig_name = in.rig_name;
-  out.calibration_id = in.calibration_id;
-  out.sample_rate_hz = in.sample_rate_hz;
-  out.num_channels = in.num_channels;
-  out.channel_names = in.channel_names;
-  out.channel_units = in.channel_units;
-  out.channel_sensors = in.channel_sensors;
-  out.gain = in.gain;
-  out.offset = in.offset;
-  out.alpha = in.alpha;
-  out.p = in.p;
-  out.mu = in.mu;
 }
 
 void Upgrade(const rocklab::event_t& in, rocklab::event2_t& out) {
-  out.utime = in.utime;
+  CopyOlderFields(in, out, [](auto& c) { EventFields<rocklab::event_t>(c); });
   out.seq = kNoSeq;
   out.sender.clear();
-  out.source = in.source;
-  out.kind = in.kind;
-  out.value = in.value;
-  out.detail = in.detail;
 }
 
 void Upgrade(const rocklab::health_t& in, rocklab::health2_t& out) {
-  out.utime = in.utime;
+  CopyOlderFields(in, out, [](auto& c) { HealthFields<rocklab::health_t>(c); });
   out.seq = kNoSeq;
   out.sender.clear();
-  out.node = in.node;
-  out.state = in.state;
-  out.rate_in_hz = in.rate_in_hz;
-  out.rate_out_hz = in.rate_out_hz;
-  out.count_in = in.count_in;
-  out.count_out = in.count_out;
-  out.dropped = in.dropped;
-  out.gaps = in.gaps;
-  out.bad_samples = in.bad_samples;
-  out.lag_s = in.lag_s;
+}
+
+void Upgrade(const rocklab::block_state_t& in, rocklab::block_state2_t& out) {
+  CopyOlderFields(in, out, [](auto& c) { BlockStateFields<rocklab::block_state_t>(c); });
+  out.nbodies = 1;
+}
+
+void Upgrade(const rocklab::model_state3_t& in, rocklab::model_state4_t& out) {
+  CopyOlderFields(in, out, [](auto& c) { ModelStateFields<rocklab::model_state3_t>(c); });
+  out.nbodies = 1;
+  out.mode.clear();
+}
+
+void Upgrade(const rocklab::model_state2_t& in, rocklab::model_state4_t& out) {
+  CopyOlderFields(in, out, [](auto& c) { ModelStateFields<rocklab::model_state2_t>(c); });
+  out.seq = kNoSeq;
+  out.nbodies = 1;
+  out.mode.clear();
+}
+
+void Upgrade(const rocklab::model_state_t& in, rocklab::model_state4_t& out) {
+  CopyOlderFields(in, out, [](auto& c) { ModelStateFields<rocklab::model_state_t>(c); });
+  out.seq = kNoSeq;
+  out.equations = rocklab::model_state4_t::EQUATIONS_UNKNOWN;
+  out.nbodies = 1;
+  out.mode.clear();
 }
 
 namespace {
@@ -97,10 +96,12 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
   static const std::int64_t kSingle[] = {
       static_cast<std::int64_t>(rocklab::raw_frame_t::getHash()),
       static_cast<std::int64_t>(rocklab::block_state_t::getHash()),
+      static_cast<std::int64_t>(rocklab::block_state2_t::getHash()),
       static_cast<std::int64_t>(rocklab::table_state_t::getHash()),
       static_cast<std::int64_t>(rocklab::comparison2_t::getHash()),
       static_cast<std::int64_t>(rocklab::daq_config2_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_state3_t::getHash()),
+      static_cast<std::int64_t>(rocklab::model_state4_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_band_t::getHash()),
       static_cast<std::int64_t>(rocklab::band_comparison_t::getHash())};
   static const std::int64_t kSenders[] = {static_cast<std::int64_t>(rocklab::event2_t::getHash()),

@@ -21,8 +21,11 @@
 #include <vector>
 
 #include "common/bus.h"
+#include "common/field_tables.h"
 #include "common/seq_gaps.h"
 #include "common/wire.h"
+#include "rocklab/block_state2_t.hpp"
+#include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
@@ -33,6 +36,7 @@
 #include "rocklab/health_t.hpp"
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/model_state_t.hpp"
 
 namespace rocklab::common {
@@ -49,6 +53,15 @@ void Upgrade(const rocklab::event_t& in, rocklab::event2_t& out);
 void Upgrade(const rocklab::health_t& in, rocklab::health2_t& out);
 void Upgrade(const rocklab::model_state_t& in, rocklab::model_state3_t& out);
 void Upgrade(const rocklab::model_state2_t& in, rocklab::model_state3_t& out);
+
+/// The per-body types (an assembly of rigid bodies, bottom-up): a single
+/// block's message read as nbodies = 1, each per-body field holding the
+/// old field's value as its only element. model_state4_t.mode is "" (an
+/// older type does not say); seq and equations as into model_state3_t.
+void Upgrade(const rocklab::block_state_t& in, rocklab::block_state2_t& out);
+void Upgrade(const rocklab::model_state3_t& in, rocklab::model_state4_t& out);
+void Upgrade(const rocklab::model_state2_t& in, rocklab::model_state4_t& out);
+void Upgrade(const rocklab::model_state_t& in, rocklab::model_state4_t& out);
 
 /// Decodes `Current` or any of `Old` (by the fingerprint) into a `Current`,
 /// guarded (GuardedDecode). Holds one scratch message per older type, so no
@@ -84,24 +97,13 @@ class VersionedDecoder {
   std::tuple<Old...> scratch_;
 };
 
-/// The fields every model_state type has (all but seq and equations),
-/// copied between any two of them.
+/// The fields every model_state type has (all but seq, equations and
+/// model_state4_t's nbodies and mode), copied between any two of them
+/// (into a model_state4_t: each per-body field as its only element).
 template <class In, class Out>
 void CopyModelStateFields(const In& in, Out& out) {
-  out.utime = in.utime;
-  out.name = in.name;
-  out.model = in.model;
-  out.theta = in.theta;
-  out.theta_dot = in.theta_dot;
-  out.chi = in.chi;
-  out.psi = in.psi;
-  out.energy = in.energy;
-  out.impact_count = in.impact_count;
-  out.regime = in.regime;
-  out.alpha = in.alpha;
-  out.p = in.p;
-  out.mu = in.mu;
-  out.l = in.l;
+  FieldCopier<In, Out> copier{in, out};
+  ModelStateFields<rocklab::model_state_t>(copier);
 }
 
 using ComparisonDecoder = VersionedDecoder<rocklab::comparison2_t, rocklab::comparison_t>;
@@ -110,6 +112,12 @@ using EventDecoder = VersionedDecoder<rocklab::event2_t, rocklab::event_t>;
 using HealthDecoder = VersionedDecoder<rocklab::health2_t, rocklab::health_t>;
 using ModelStateDecoder =
     VersionedDecoder<rocklab::model_state3_t, rocklab::model_state2_t, rocklab::model_state_t>;
+/// RL_THETA and RL_MODEL_<name> as the per-body types, whichever type
+/// carries them (no node publishes the per-body types yet; the readers
+/// take both).
+using BlockStateBodiesDecoder = VersionedDecoder<rocklab::block_state2_t, rocklab::block_state_t>;
+using ModelStateBodiesDecoder = VersionedDecoder<rocklab::model_state4_t, rocklab::model_state3_t,
+                                                 rocklab::model_state2_t, rocklab::model_state_t>;
 
 /// Subscribes `handler` to `channel_regex` accepting the current type and
 /// the older ones, with the typed subscription's guard and counters
@@ -128,7 +136,7 @@ template <class Decoder>
 }
 
 /// The sequence number of a rocklab message that carries one (raw_frame_t,
-/// block_state_t, table_state_t and the successors above: int64 utime, int64
+/// block_state_t, block_state2_t, table_state_t and the successors above: int64 utime, int64
 /// seq right after the fingerprint), read from its bytes; and its sender
 /// (event2_t.sender, health2_t.sender: the string after seq; empty for the
 /// single-publisher types). False for any other type, or bytes too short.

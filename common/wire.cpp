@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "rocklab/band_comparison_t.hpp"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
@@ -17,6 +18,7 @@
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -62,6 +64,11 @@ const WireField kBlockState[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {F, 8, 0, "theta"}, {F, 8, 0, "theta_dot"},
     {F, 8, 0, "theta_mirror"}, {F, 8, 0, "theta_camera"}, {F, 8, 0, "sliding"}, {F, 8, 0, "jump"},
     {F, 8, 0, "twist"}, {F, 8, 0, "out_of_plane"}, {F, 4, 0, "leds_used"}, {F, 4, 0, "flags"}};
+// Per body (nbodies, field 2).
+const WireField kBlockState2[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {N, 4, 0, "nbodies"}, {A, 8, 2, "theta"}, {A, 8, 2, "theta_dot"},
+    {A, 8, 2, "theta_mirror"}, {A, 8, 2, "theta_camera"}, {A, 8, 2, "sliding"}, {A, 8, 2, "jump"},
+    {A, 8, 2, "twist"}, {A, 8, 2, "out_of_plane"}, {A, 4, 2, "leds_used"}, {A, 4, 2, "flags"}};
 #define ROCKLAB_COMPARISON_FIELDS                                                             \
   {S, 0, 0, "name"}, {F, 8, 0, "error"}, {F, 8, 0, "rms_window"}, {F, 8, 0, "window_s"},      \
       {F, 8, 0, "rms_total"}, {F, 8, 0, "nrms"}, {F, 8, 0, "peak_error"},                     \
@@ -103,6 +110,12 @@ const WireField kModelState2[] = {{F, 8, 0, "utime"}, ROCKLAB_MODEL_STATE_FIELDS
 const WireField kModelState3[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_MODEL_STATE_FIELDS,
                                   {F, 1, 0, "equations"}};
 #undef ROCKLAB_MODEL_STATE_FIELDS
+// Per body (nbodies, field 4).
+const WireField kModelState4[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "name"}, {S, 0, 0, "model"}, {N, 4, 0, "nbodies"},
+    {A, 8, 4, "theta"}, {A, 8, 4, "theta_dot"}, {A, 8, 4, "chi"}, {A, 8, 4, "psi"}, {F, 8, 0, "energy"},
+    {F, 4, 0, "impact_count"}, {A, 1, 4, "regime"}, {A, 8, 4, "alpha"}, {A, 8, 4, "p"}, {A, 8, 4, "mu"},
+    {F, 8, 0, "l"}, {F, 1, 0, "equations"}, {S, 0, 0, "mode"}};
 const WireField kModelBand[] = {
     {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "name"}, {S, 0, 0, "model"},
     {F, 4, 0, "draws"}, {F, 4, 0, "members"}, {F, 8, 0, "noise_sigma"}, {F, 8, 0, "theta_median"}, {F, 8, 0, "theta_lo95"},
@@ -218,6 +231,7 @@ int WireLengthOffsets(const WireLayout& layout, const void* data, int size, int*
   }
 ROCKLAB_WIRE_LAYOUT(band_comparison_t, kBandComparison)
 ROCKLAB_WIRE_LAYOUT(block_state_t, kBlockState)
+ROCKLAB_WIRE_LAYOUT(block_state2_t, kBlockState2)
 ROCKLAB_WIRE_LAYOUT(comparison_t, kComparison)
 ROCKLAB_WIRE_LAYOUT(comparison2_t, kComparison2)
 ROCKLAB_WIRE_LAYOUT(daq_config_t, kDaqConfig)
@@ -230,6 +244,7 @@ ROCKLAB_WIRE_LAYOUT(model_band_t, kModelBand)
 ROCKLAB_WIRE_LAYOUT(model_state_t, kModelState)
 ROCKLAB_WIRE_LAYOUT(model_state2_t, kModelState2)
 ROCKLAB_WIRE_LAYOUT(model_state3_t, kModelState3)
+ROCKLAB_WIRE_LAYOUT(model_state4_t, kModelState4)
 ROCKLAB_WIRE_LAYOUT(raw_frame_t, kRawFrame)
 ROCKLAB_WIRE_LAYOUT(table_state_t, kTableState)
 #undef ROCKLAB_WIRE_LAYOUT

@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/bus.h"
+#include "common/field_tables.h"
 #include "daq/pacer.h"
 #include "daq/processor.h"
 #include "daq/source.h"
@@ -90,28 +91,14 @@ struct DaqNode::Impl : ProcessorSink {
   }
 
   void OnBlockState(const BlockState& s) override {
-    theta_msg.utime = s.utime;
-    theta_msg.seq = s.seq;
-    theta_msg.theta = s.theta;
-    theta_msg.theta_dot = s.theta_dot;
-    theta_msg.theta_mirror = s.theta_mirror;
-    theta_msg.theta_camera = s.theta_camera;
-    theta_msg.sliding = s.sliding;
-    theta_msg.jump = s.jump;
-    theta_msg.twist = s.twist;
-    theta_msg.out_of_plane = s.out_of_plane;
-    theta_msg.leds_used = s.leds_used;
-    theta_msg.flags = s.flags;
+    common::FieldCopier<BlockState, rocklab::block_state_t> copy{s, theta_msg};
+    common::BlockStateFields<rocklab::block_state_t>(copy);  // the LCM type's fields, by name
     Publish(ch_theta, theta_msg);
   }
 
   void OnTableState(const TableState& t) override {
-    table_msg.utime = t.utime;
-    table_msg.seq = t.seq;
-    table_msg.displacement = t.displacement;
-    table_msg.velocity = t.velocity;
-    table_msg.acceleration = t.acceleration;
-    table_msg.accel_source = t.accel_source;
+    common::FieldCopier<TableState, rocklab::table_state_t> copy{t, table_msg};
+    common::TableStateFields<rocklab::table_state_t>(copy);
     Publish(ch_table, table_msg);
   }
 

@@ -1,13 +1,16 @@
-// One field table per rocklab LCM type (see fields.h). Each Visit lists the
-// fields in .lcm order with their units (from the .lcm comments); the two
-// visitors below turn one list into the columns and into a row.
+// Every rocklab LCM type as table columns (see fields.h), from
+// common/field_tables.h's field tables: the visitors below turn one table
+// into the field names, the columns and a row.
 #include "export/fields.h"
 
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <type_traits>
 
+#include "common/field_tables.h"
 #include "common/wire.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/band_comparison_t.hpp"
 #include "rocklab/comparison2_t.hpp"
@@ -21,6 +24,7 @@
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -29,230 +33,69 @@ namespace rocklab::exporter {
 namespace {
 
 // ---- the field tables -------------------------------------------------------
+// common/field_tables.h's, turned into the calls the visitors below take:
+// one Visit per type, binding the message to the table's accessors.
 
-template <class V>
-void Visit(const rocklab::block_state_t& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  v.Int("seq", m.seq, "");
-  v.Real("theta", m.theta, "rad");
-  v.Real("theta_dot", m.theta_dot, "rad/s");
-  v.Real("theta_mirror", m.theta_mirror, "rad");
-  v.Real("theta_camera", m.theta_camera, "rad");
-  v.Real("sliding", m.sliding, "m");
-  v.Real("jump", m.jump, "m");
-  v.Real("twist", m.twist, "rad");
-  v.Real("out_of_plane", m.out_of_plane, "m");
-  v.Int("leds_used", m.leds_used, "");
-  v.Int("flags", m.flags, "");
-}
-
-// The successors (comparison2_t, ...) list the older type's fields with
-// `seq` after utime: one body for both.
+// Calls the column visitor `v` for each field of `m` as `Table` lists it;
+// a field whose accessor gives an array becomes an array call.
 template <class M, class V>
-void VisitComparison(const M& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::comparison2_t>) v.Int("seq", m.seq, "");
-  v.Text("name", m.name);
-  v.Real("error", m.error, "rad");
-  v.Real("rms_window", m.rms_window, "rad");
-  v.Real("window_s", m.window_s, "s");
-  v.Real("rms_total", m.rms_total, "rad");
-  v.Real("nrms", m.nrms, "1");
-  v.Real("peak_error", m.peak_error, "rad");
-  v.Real("impact_timing_error", m.impact_timing_error, "s");
-  v.Real("correlation", m.correlation, "1");
-  v.Int("valid", m.valid, "");
-  v.Int("samples", m.samples, "");
-}
-
-template <class V>
-void Visit(const rocklab::comparison_t& m, V& v) {
-  VisitComparison(m, v);
-}
-
-template <class V>
-void Visit(const rocklab::comparison2_t& m, V& v) {
-  VisitComparison(m, v);
-}
-
-template <class M, class V>
-void VisitDaqConfig(const M& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::daq_config2_t>) v.Int("seq", m.seq, "");
-  v.Text("rig_name", m.rig_name);
-  v.Text("calibration_id", m.calibration_id);
-  v.Real("sample_rate_hz", m.sample_rate_hz, "Hz");
-  v.Int("num_channels", m.num_channels, "");
-  v.TextArray("channel_names", m.channel_names);
-  v.TextArray("channel_units", m.channel_units);
-  v.TextArray("channel_sensors", m.channel_sensors);
-  v.RealArray("gain", m.gain, "");
-  v.RealArray("offset", m.offset, "");
-  v.Real("alpha", m.alpha, "rad");
-  v.Real("p", m.p, "rad/s");
-  v.Real("mu", m.mu, "1");
-}
-
-template <class V>
-void Visit(const rocklab::daq_config_t& m, V& v) {
-  VisitDaqConfig(m, v);
-}
-
-template <class V>
-void Visit(const rocklab::daq_config2_t& m, V& v) {
-  VisitDaqConfig(m, v);
-}
-
-template <class M, class V>
-void VisitEvent(const M& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::event2_t>) {
-    v.Int("seq", m.seq, "");
-    v.Text("sender", m.sender);
+struct Bound {
+  const M& m;
+  V& v;
+  template <class G>
+  void Int(const char* name, const char* unit, G get, unsigned = 0) {
+    const auto& x = get(m);
+    if constexpr (common::kIsArray<decltype(x)>) {
+      v.IntArray(name, x, unit);
+    } else {
+      v.Int(name, static_cast<std::int64_t>(x), unit);
+    }
   }
-  v.Text("source", m.source);
-  v.Int("kind", m.kind, "");
-  v.Real("value", m.value, "");  // the unit depends on kind (event_t.lcm)
-  v.Text("detail", m.detail);
-}
-
-template <class V>
-void Visit(const rocklab::event_t& m, V& v) {
-  VisitEvent(m, v);
-}
-
-template <class V>
-void Visit(const rocklab::event2_t& m, V& v) {
-  VisitEvent(m, v);
-}
-
-template <class M, class V>
-void VisitHealth(const M& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::health2_t>) {
-    v.Int("seq", m.seq, "");
-    v.Text("sender", m.sender);
+  template <class G>
+  void Real(const char* name, const char* unit, G get, unsigned = 0) {
+    const auto& x = get(m);
+    if constexpr (common::kIsArray<decltype(x)>) {
+      v.RealArray(name, x, unit);
+    } else {
+      v.Real(name, x, unit);
+    }
   }
-  v.Text("node", m.node);
-  v.Text("state", m.state);
-  v.Real("rate_in_hz", m.rate_in_hz, "Hz");
-  v.Real("rate_out_hz", m.rate_out_hz, "Hz");
-  v.Int("count_in", m.count_in, "");
-  v.Int("count_out", m.count_out, "");
-  v.Int("dropped", m.dropped, "");
-  v.Int("gaps", m.gaps, "");
-  v.Int("bad_samples", m.bad_samples, "");
-  v.Real("lag_s", m.lag_s, "s");
-}
+  template <class G>
+  void Text(const char* name, G get) {
+    const auto& x = get(m);
+    if constexpr (common::kIsArray<decltype(x)>) {
+      v.TextArray(name, x);
+    } else {
+      v.Text(name, x);
+    }
+  }
+};
 
-template <class V>
-void Visit(const rocklab::health_t& m, V& v) {
-  VisitHealth(m, v);
-}
-
-template <class V>
-void Visit(const rocklab::health2_t& m, V& v) {
-  VisitHealth(m, v);
-}
-
-// model_state_t, model_state2_t and model_state3_t share their fields (3: seq after utime).
-template <class M, class V>
-void VisitModelState(const M& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  if constexpr (std::is_same_v<M, rocklab::model_state3_t>) v.Int("seq", m.seq, "");
-  v.Text("name", m.name);
-  v.Text("model", m.model);
-  v.Real("theta", m.theta, "rad");
-  v.Real("theta_dot", m.theta_dot, "rad/s");
-  v.Real("chi", m.chi, "1");
-  v.Real("psi", m.psi, "rad");
-  v.Real("energy", m.energy, "1");
-  v.Int("impact_count", m.impact_count, "");
-  v.Int("regime", m.regime, "");
-  v.Real("alpha", m.alpha, "rad");
-  v.Real("p", m.p, "rad/s");
-  v.Real("mu", m.mu, "1");
-  v.Real("l", m.l, "1");
-}
-
-template <class V>
-void Visit(const rocklab::model_state_t& m, V& v) {
-  VisitModelState(m, v);
-}
-
-template <class V>
-void Visit(const rocklab::model_state2_t& m, V& v) {
-  VisitModelState(m, v);
-  v.Int("equations", m.equations, "");
-}
-
-template <class V>
-void Visit(const rocklab::model_state3_t& m, V& v) {
-  VisitModelState(m, v);
-  v.Int("equations", m.equations, "");
-}
-
-template <class V>
-void Visit(const rocklab::model_band_t& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  v.Int("seq", m.seq, "");
-  v.Text("name", m.name);
-  v.Text("model", m.model);
-  v.Int("draws", m.draws, "");
-  v.Int("members", m.members, "");
-  v.Real("noise_sigma", m.noise_sigma, "rad");
-  v.Real("theta_median", m.theta_median, "rad");
-  v.Real("theta_lo95", m.theta_lo95, "rad");
-  v.Real("theta_lo68", m.theta_lo68, "rad");
-  v.Real("theta_hi68", m.theta_hi68, "rad");
-  v.Real("theta_hi95", m.theta_hi95, "rad");
-  v.Int("impacts_up", m.impacts_up, "");
-  v.Real("impact_up_offset_sum", m.impact_up_offset_sum, "s");
-  v.Real("impact_up_offset_sq_sum", m.impact_up_offset_sq_sum, "s^2");
-  v.Int("impacts_down", m.impacts_down, "");
-  v.Real("impact_down_offset_sum", m.impact_down_offset_sum, "s");
-  v.Real("impact_down_offset_sq_sum", m.impact_down_offset_sq_sum, "s^2");
-}
-
-template <class V>
-void Visit(const rocklab::band_comparison_t& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  v.Int("seq", m.seq, "");
-  v.Text("name", m.name);
-  v.Real("window_s", m.window_s, "s");
-  v.Real("coverage95_window", m.coverage95_window, "1");
-  v.Real("coverage95_total", m.coverage95_total, "1");
-  v.Real("coverage68_window", m.coverage68_window, "1");
-  v.Real("coverage68_total", m.coverage68_total, "1");
-  v.Real("median_error", m.median_error, "rad");
-  v.Real("width95", m.width95, "rad");
-  v.Real("impact_timing_z", m.impact_timing_z, "1");
-  v.Real("impact_time_sd", m.impact_time_sd, "s");
-  v.Real("impact_timing_z_rms", m.impact_timing_z_rms, "1");
-  v.Int("matched_crossings", m.matched_crossings, "");
-  v.Int("unmatched_crossings", m.unmatched_crossings, "");
-  v.Int("valid", m.valid, "");
-  v.Int("samples", m.samples, "");
-  v.Int("valid_samples", m.valid_samples, "");
-}
-
-template <class V>
-void Visit(const rocklab::raw_frame_t& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  v.Int("seq", m.seq, "");
-  v.Int("num_channels", m.num_channels, "");
-  v.RealArray("values", m.values, "");  // raw units: RL_DAQ_CONFIG's gain and offset calibrate them
-}
-
-template <class V>
-void Visit(const rocklab::table_state_t& m, V& v) {
-  v.Int("utime", m.utime, "us");
-  v.Int("seq", m.seq, "");
-  v.Real("displacement", m.displacement, "m");
-  v.Real("velocity", m.velocity, "m/s");
-  v.Real("acceleration", m.acceleration, "m/s^2");
-  v.Int("accel_source", m.accel_source, "");
-}
+#define ROCKLAB_VISIT(type, table)                 \
+  template <class V>                               \
+  void Visit(const rocklab::type& m, V& v) {       \
+    Bound<rocklab::type, V> b{m, v};               \
+    common::table<rocklab::type>(b);               \
+  }
+ROCKLAB_VISIT(band_comparison_t, BandComparisonFields)
+ROCKLAB_VISIT(block_state_t, BlockStateFields)
+ROCKLAB_VISIT(block_state2_t, BlockStateFields)
+ROCKLAB_VISIT(comparison_t, ComparisonFields)
+ROCKLAB_VISIT(comparison2_t, ComparisonFields)
+ROCKLAB_VISIT(daq_config_t, DaqConfigFields)
+ROCKLAB_VISIT(daq_config2_t, DaqConfigFields)
+ROCKLAB_VISIT(event_t, EventFields)
+ROCKLAB_VISIT(event2_t, EventFields)
+ROCKLAB_VISIT(health_t, HealthFields)
+ROCKLAB_VISIT(health2_t, HealthFields)
+ROCKLAB_VISIT(model_band_t, ModelBandFields)
+ROCKLAB_VISIT(model_state_t, ModelStateFields)
+ROCKLAB_VISIT(model_state2_t, ModelStateFields)
+ROCKLAB_VISIT(model_state3_t, ModelStateFields)
+ROCKLAB_VISIT(model_state4_t, ModelStateFields)
+ROCKLAB_VISIT(raw_frame_t, RawFrameFields)
+ROCKLAB_VISIT(table_state_t, TableStateFields)
+#undef ROCKLAB_VISIT
 
 // ---- the named values -------------------------------------------------------
 // By field name, not by type: a later type (model_state3_t, ...) with a
@@ -346,15 +189,27 @@ struct NameVisitor {
   void Real(const char* n, double, const char*) { names.emplace_back(n); }
   void Text(const char* n, const std::string&) { names.emplace_back(n); }
   void RealArray(const char* n, const std::vector<double>&, const char*) { names.emplace_back(n); }
+  template <class I>
+  void IntArray(const char* n, const std::vector<I>&, const char*) { names.emplace_back(n); }
   void TextArray(const char* n, const std::vector<std::string>&) { names.emplace_back(n); }
 };
 
-// Columns of one message; records each array's length.
+// Columns of one message; records each array's length, and the field each
+// integer array's columns come from (its legend is the field's).
 struct ColumnVisitor {
   std::vector<Column>* columns;
   std::vector<std::size_t>* array_sizes;
+  std::vector<std::pair<std::size_t, const char*>>* int_array_columns;
   void Int(const char* n, std::int64_t, const char* unit) {
     columns->push_back({n, ColumnType::kInt, unit});
+  }
+  template <class I>
+  void IntArray(const char* n, const std::vector<I>& a, const char* unit) {
+    array_sizes->push_back(a.size());
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      int_array_columns->emplace_back(columns->size(), n);
+      columns->push_back({std::string(n) + "_" + std::to_string(k), ColumnType::kInt, unit});
+    }
   }
   void Real(const char* n, double, const char* unit) {
     columns->push_back({n, ColumnType::kDouble, unit});
@@ -384,6 +239,12 @@ struct RowVisitor {
   void Int(const char*, std::int64_t x, const char*) { row->integer[i++] = x; }
   void Real(const char*, double x, const char*) { row->real[i++] = x; }
   void Text(const char*, const std::string& x) { row->text[i++] = x; }
+  template <class I>
+  void IntArray(const char*, const std::vector<I>& a, const char*) {
+    const std::size_t n = (*array_sizes)[array++];
+    reshaped = reshaped || a.size() != n;
+    for (std::size_t k = 0; k < n; ++k) row->integer[i++] = k < a.size() ? static_cast<std::int64_t>(a[k]) : 0;
+  }
   void RealArray(const char*, const std::vector<double>& a, const char*) {
     const std::size_t n = (*array_sizes)[array++];
     reshaped = reshaped || a.size() != n;
@@ -404,11 +265,6 @@ struct RowVisitor {
   }
 };
 
-template <class M, class = void>
-struct HasSeq : std::false_type {};
-template <class M>
-struct HasSeq<M, std::void_t<decltype(std::declval<M>().seq)>> : std::true_type {};
-
 template <class Msg>
 class TypedDecoder final : public MessageDecoder {
  public:
@@ -420,15 +276,22 @@ class TypedDecoder final : public MessageDecoder {
     array_sizes_.clear();
     named_.clear();
     columns.push_back({"time", ColumnType::kDouble, "s"});
-    ColumnVisitor v{&columns, &array_sizes_};
+    std::vector<std::pair<std::size_t, const char*>> int_array_columns;
+    ColumnVisitor v{&columns, &array_sizes_, &int_array_columns};
     Visit(msg_, v);
-    // Integer fields with named values: the legend on the column, and for
-    // some (Legend::name_column) a text column FIELD_name after the fields
+    // Integer fields with named values: the legend on the column (an
+    // array's columns: the field's legend), and for some
+    // (Legend::name_column) a text column FIELD_name after the fields
     // (appended: the fields keep their positions).
     const std::size_t fields = columns.size();
+    std::size_t next_array_column = 0;
     for (std::size_t i = 0; i < fields; ++i) {
       if (columns[i].type != ColumnType::kInt) continue;
-      const Legend* legend = FindLegend(columns[i].name);
+      const char* field = columns[i].name.c_str();
+      if (next_array_column < int_array_columns.size() && int_array_columns[next_array_column].first == i) {
+        field = int_array_columns[next_array_column++].second;
+      }
+      const Legend* legend = FindLegend(field);
       if (!legend) continue;
       columns[i].codes = legend->codes;
       columns[i].bitmask = legend->bitmask;
@@ -447,9 +310,9 @@ class TypedDecoder final : public MessageDecoder {
     return !v.reshaped;
   }
   std::int64_t utime() const override { return msg_.utime; }
-  bool has_seq() const override { return HasSeq<Msg>::value; }
+  bool has_seq() const override { return common::kHasSeq<Msg>; }
   std::int64_t seq() const override {
-    if constexpr (HasSeq<Msg>::value) {
+    if constexpr (common::kHasSeq<Msg>) {
       return msg_.seq;
     } else {
       return 0;
@@ -487,6 +350,7 @@ MessageType Entry(const char* name) {
 const std::vector<MessageType>& MessageTypes() {
   static const std::vector<MessageType> types = {
       Entry<rocklab::band_comparison_t>("band_comparison_t"),
+      Entry<rocklab::block_state2_t>("block_state2_t"),
       Entry<rocklab::block_state_t>("block_state_t"),
       Entry<rocklab::comparison2_t>("comparison2_t"),
       Entry<rocklab::comparison_t>("comparison_t"),
@@ -497,6 +361,7 @@ const std::vector<MessageType>& MessageTypes() {
       Entry<rocklab::health2_t>("health2_t"),
       Entry<rocklab::health_t>("health_t"),
       Entry<rocklab::model_band_t>("model_band_t"),
+      Entry<rocklab::model_state4_t>("model_state4_t"),
       Entry<rocklab::model_state3_t>("model_state3_t"),
       Entry<rocklab::model_state2_t>("model_state2_t"),
       Entry<rocklab::model_state_t>("model_state_t"),

@@ -1,17 +1,17 @@
 #pragma once
 /// @file
-/// Every field of every rocklab LCM type as table columns. lcm-gen's C++
-/// types have no reflection, so fields.cpp holds one field table (a visitor
-/// over the message) per type in lcm_types/; tests/export/fields_test.cpp
-/// fails when an .lcm file has a field its table does not name, or a type
-/// has no table.
+/// Every field of every rocklab LCM type as table columns, from the field
+/// tables of common/field_tables.h (lcm-gen's C++ types have no
+/// reflection); tests/export/roundtrip_test.cpp fails when an .lcm file has
+/// a field its table does not name, or a type has no table.
 ///
 /// Columns of a message: `time` (s, the sample clock: utime / 1e6) first,
 /// then the fields in .lcm order; an array field `values[n]` becomes
 /// values_0 .. values_{n-1} (n from the channel's first message); int8..int64
 /// and boolean are integer columns, double a real column, string a text
 /// column. An integer field with named values (FieldCodes: kind, flags,
-/// regime, equations, accel_source) carries them in its Column::codes; an
+/// regime, equations, accel_source) carries them in its Column::codes (an
+/// integer array's columns, flags_0 .. of block_state2_t, the field's); an
 /// event's `kind` also gets a text column kind_name after all the fields
 /// (the code's name; a value without a name in decimal).
 

@@ -9,12 +9,15 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
 #include <pybind11/stl.h>
 
+#include "common/field_tables.h"
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "model/fit.h"
@@ -39,46 +42,88 @@ std::vector<double> ToVector(const DoubleArray& a, const char* name) {
 
 // ---- reconstruct ----------------------------------------------------------
 
-// The block states as columns (the CSV of `rocklab reconstruct`, and more).
-// A sink must not throw: the progress hook's exception is kept, and the
-// read loop stops on it.
+// The block states as columns (the CSV of `rocklab reconstruct`, and more):
+// time, then the fields of common/field_tables.h's block state named in
+// kOrder, each with the table's unit. A sink must not throw: the progress
+// hook's exception is kept, and the read loop stops on it.
 class ColumnSink final : public daq::ProcessorSink {
  public:
-  explicit ColumnSink(ProgressHook& hook) : hook_(hook) {}
+  // rocklab.reconstruct's dtype order (the Python contract, older than the
+  // table; utime and seq are not columns).
+  static constexpr std::array<const char*, 13> kOrder{
+      "theta", "theta_dot", "theta_mirror", "theta_camera", "sliding", "twist", "out_of_plane",
+      "jump", "tilt", "table_displacement", "table_acceleration", "flags", "leds_used"};
+  struct Column {
+    const char* unit{};
+    bool integer{};
+    std::vector<double> real;
+    std::vector<std::int64_t> ints;
+  };
+
+  explicit ColumnSink(ProgressHook& hook) : hook_(hook) {
+    Describe d{*this};
+    VisitFields(d);
+    for (std::size_t i = 0; i < kOrder.size(); ++i) {
+      if (columns[i].unit == nullptr) throw std::logic_error(std::string("reconstruct: no field ") + kOrder[i]);
+    }
+  }
   void OnBlockState(const daq::BlockState& s) override {
-    for (std::size_t i = 0; i < kReal.size(); ++i) real[i].push_back(s.*kReal[i].field);
-    flags.push_back(s.flags);
-    leds_used.push_back(s.leds_used);
+    time.push_back(s.time_s);
+    Append a{*this, s};
+    VisitFields(a);
     (void)hook_.Poll(s.time_s);
   }
   void OnEvent(const daq::DaqEvent& e) override { events.push_back(e); }
   void OnProblem(const daq::Problem& p) override { problems.push_back(daq::ToString(p)); }
 
-  struct RealColumn {
-    const char* name;
-    const char* unit;
-    double daq::BlockState::*field;
-  };
-  static constexpr std::array<RealColumn, 12> kReal{{
-      {"time", "s", &daq::BlockState::time_s},
-      {"theta", "rad", &daq::BlockState::theta},
-      {"theta_dot", "rad/s", &daq::BlockState::theta_dot},
-      {"theta_mirror", "rad", &daq::BlockState::theta_mirror},
-      {"theta_camera", "rad", &daq::BlockState::theta_camera},
-      {"sliding", "m", &daq::BlockState::sliding},
-      {"twist", "rad", &daq::BlockState::twist},
-      {"out_of_plane", "m", &daq::BlockState::out_of_plane},
-      {"jump", "m", &daq::BlockState::jump},
-      {"tilt", "rad", &daq::BlockState::tilt},
-      {"table_displacement", "m", &daq::BlockState::table_displacement},
-      {"table_acceleration", "m/s^2", &daq::BlockState::table_acceleration},
-  }};
-  std::array<std::vector<double>, 12> real;
-  std::vector<std::int64_t> flags, leds_used;
+  std::vector<double> time;
+  std::array<Column, kOrder.size()> columns;  // in kOrder
   std::vector<daq::DaqEvent> events;
   std::vector<std::string> problems;
 
  private:
+  template <class V>
+  static void VisitFields(V& v) {
+    common::BlockStateFields<daq::BlockState>(v);
+    common::BlockStateExtraFields(v);
+  }
+  // Which column each field of the table goes to (-1: none), and the
+  // columns' units and types.
+  struct Describe {
+    ColumnSink& sink;
+    template <class G>
+    void Int(const char* name, const char* unit, G, unsigned) { Add(name, unit, true); }
+    template <class G>
+    void Real(const char* name, const char* unit, G, unsigned) { Add(name, unit, false); }
+    void Add(const char* name, const char* unit, bool integer) {
+      int slot = -1;
+      for (std::size_t i = 0; i < kOrder.size(); ++i) {
+        if (std::string_view(kOrder[i]) == name) slot = static_cast<int>(i);
+      }
+      sink.slots_.push_back(slot);
+      if (slot < 0) return;
+      sink.columns[static_cast<std::size_t>(slot)].unit = unit;
+      sink.columns[static_cast<std::size_t>(slot)].integer = integer;
+    }
+  };
+  struct Append {
+    ColumnSink& sink;
+    const daq::BlockState& s;
+    std::size_t field{0};
+    template <class G>
+    void Int(const char*, const char*, G get, unsigned) {
+      if (const int slot = sink.slots_[field++]; slot >= 0) {
+        sink.columns[static_cast<std::size_t>(slot)].ints.push_back(get(s));
+      }
+    }
+    template <class G>
+    void Real(const char*, const char*, G get, unsigned) {
+      if (const int slot = sink.slots_[field++]; slot >= 0) {
+        sink.columns[static_cast<std::size_t>(slot)].real.push_back(get(s));
+      }
+    }
+  };
+  std::vector<int> slots_;  // per field of the table, in its order
   ProgressHook& hook_;
 };
 
@@ -126,11 +171,12 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
     });
   }
   py::dict columns;
-  for (std::size_t i = 0; i < ColumnSink::kReal.size(); ++i) {
-    columns[ColumnSink::kReal[i].name] = py::make_tuple(OwnedArray(std::move(sink.real[i])), ColumnSink::kReal[i].unit);
+  columns["time"] = py::make_tuple(OwnedArray(std::move(sink.time)), "s");
+  for (std::size_t i = 0; i < ColumnSink::kOrder.size(); ++i) {
+    ColumnSink::Column& c = sink.columns[i];
+    columns[ColumnSink::kOrder[i]] =
+        c.integer ? py::make_tuple(OwnedArray(std::move(c.ints)), c.unit) : py::make_tuple(OwnedArray(std::move(c.real)), c.unit);
   }
-  columns["flags"] = py::make_tuple(OwnedArray(std::move(sink.flags)), "");
-  columns["leds_used"] = py::make_tuple(OwnedArray(std::move(sink.leds_used)), "");
   py::list events;
   for (const daq::DaqEvent& e : sink.events) {
     events.append(py::make_tuple(static_cast<double>(e.utime) * 1e-6, static_cast<int>(e.kind), e.value, e.detail));

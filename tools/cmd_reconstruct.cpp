@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/csv_number.h"
+#include "common/field_tables.h"
 #include "common/provenance.h"
 #include "daq/processor.h"
 #include "daq/rig_config.h"
@@ -42,30 +43,19 @@ class CsvSink : public daq::ProcessorSink {
   /// The file the rows go to, from the header on; before it, problems only.
   void Start(std::FILE* out) {
     out_ = out;
-    std::fprintf(out_, "time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,out_of_plane,flags\n");
+    std::string header = "time";
+    HeaderVisitor names{header};
+    common::BlockStateFields<daq::BlockState>(names);
+    header += '\n';
+    std::fputs(header.c_str(), out_);
   }
   CsvSink(const CsvSink&) = delete;
   CsvSink& operator=(const CsvSink&) = delete;
   void OnBlockState(const daq::BlockState& s) override {
     if (kBuffer - used_ < kMaxRow) Flush();
     Put(s.time_s, std::chars_format::fixed, 9);
-    buffer_[used_++] = ',';
-    const std::size_t theta_at = used_;
-    const int64_t flushes = flushes_;
-    Put(s.theta, std::chars_format::general, 12);
-    const std::size_t theta_end = used_;
-    for (double v : {s.theta_dot, s.theta_mirror, s.theta_camera, s.sliding, s.twist, s.out_of_plane}) {
-      buffer_[used_++] = ',';
-      if (std::memcmp(&v, &s.theta, sizeof v) == 0 && flushes == flushes_) {
-        // theta is theta_mirror (or theta_camera) whenever that is valid: its text again.
-        std::memcpy(&buffer_[used_], &buffer_[theta_at], theta_end - theta_at);
-        used_ += theta_end - theta_at;
-        continue;
-      }
-      Put(v, std::chars_format::general, 12);
-    }
-    buffer_[used_++] = ',';
-    used_ = static_cast<std::size_t>(std::to_chars(&buffer_[used_], &buffer_[kBuffer], s.flags).ptr - buffer_.data());
+    RowVisitor row{*this, s};
+    common::BlockStateFields<daq::BlockState>(row);
     buffer_[used_++] = '\n';
     ++rows_;
   }
@@ -88,6 +78,56 @@ class CsvSink : public daq::ProcessorSink {
   // 1e15 s at most 26, a longer one goes through Put's fallback), an int,
   // separators.
   static constexpr std::size_t kMaxRow = 8 * 32 + 16;
+
+  // The columns: the block state's fields that common/field_tables.h marks
+  // kInReconstructCsv, in its order, after `time`.
+  struct HeaderVisitor {
+    std::string& header;
+    template <class G>
+    void Int(const char* name, const char*, G, unsigned outputs) { Add(name, outputs); }
+    template <class G>
+    void Real(const char* name, const char*, G, unsigned outputs) { Add(name, outputs); }
+    void Add(const char* name, unsigned outputs) {
+      if ((outputs & common::kInReconstructCsv) == 0) return;
+      header += ',';
+      header += name;
+    }
+  };
+  // One row's fields after `time`: %.12g, an integer in decimal.
+  struct RowVisitor {
+    CsvSink& sink;
+    const daq::BlockState& s;
+    std::size_t theta_at{}, theta_end{};
+    int64_t flushes{-1};
+    template <class G>
+    void Int(const char*, const char*, G get, unsigned outputs) {
+      if ((outputs & common::kInReconstructCsv) == 0) return;
+      sink.buffer_[sink.used_++] = ',';
+      sink.used_ = static_cast<std::size_t>(
+          std::to_chars(&sink.buffer_[sink.used_], &sink.buffer_[kBuffer], get(s)).ptr - sink.buffer_.data());
+    }
+    template <class G>
+    void Real(const char*, const char*, G get, unsigned outputs) {
+      if ((outputs & common::kInReconstructCsv) == 0) return;
+      sink.buffer_[sink.used_++] = ',';
+      const double& v = get(s);
+      if (&v == &s.theta) {
+        theta_at = sink.used_;
+        flushes = sink.flushes_;
+        sink.Put(v, std::chars_format::general, 12);
+        theta_end = sink.used_;
+        return;
+      }
+      if (std::memcmp(&v, &s.theta, sizeof v) == 0 && flushes == sink.flushes_) {
+        // theta is theta_mirror (or theta_camera) whenever that is valid: its text again.
+        std::memcpy(&sink.buffer_[sink.used_], &sink.buffer_[theta_at], theta_end - theta_at);
+        sink.used_ += theta_end - theta_at;
+        return;
+      }
+      sink.Put(v, std::chars_format::general, 12);
+    }
+  };
+
   void Put(double v, std::chars_format format, int precision) {
     // The exact integer path (common/csv_number.h) where it applies, else to_chars.
     char* const at = &buffer_[used_];

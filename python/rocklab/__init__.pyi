@@ -9,6 +9,7 @@ import numpy.typing as npt
 # The LCM types (lcm-gen -p, generated into the package at build time; one
 # line per lcm_types/*.lcm).
 from .band_comparison_t import band_comparison_t as band_comparison_t
+from .block_state2_t import block_state2_t as block_state2_t
 from .block_state_t import block_state_t as block_state_t
 from .comparison2_t import comparison2_t as comparison2_t
 from .comparison_t import comparison_t as comparison_t
@@ -21,6 +22,7 @@ from .health_t import health_t as health_t
 from .model_band_t import model_band_t as model_band_t
 from .model_state2_t import model_state2_t as model_state2_t
 from .model_state3_t import model_state3_t as model_state3_t
+from .model_state4_t import model_state4_t as model_state4_t
 from .model_state_t import model_state_t as model_state_t
 from .raw_frame_t import raw_frame_t as raw_frame_t
 from .table_state_t import table_state_t as table_state_t

@@ -7,6 +7,7 @@
 
 #include <vector>
 
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -108,6 +109,133 @@ TEST(Versions, OlderTypesReadAsTheirSuccessorWithNoSeq) {
   EXPECT_EQ(Decode<ModelStateDecoder>(m3).seq, 12);
 }
 
+// Oracle: every field of a single block's message set by hand to its own
+// value, read back from the per-body type's element 0.
+TEST(Versions, SingleBodyTypesReadAsThePerBodyTypesWithOneBody) {
+  rocklab::block_state_t b{};
+  b.utime = 11;
+  b.seq = 12;
+  b.theta = 0.01;
+  b.theta_dot = 0.02;
+  b.theta_mirror = 0.03;
+  b.theta_camera = 0.04;
+  b.sliding = 0.05;
+  b.jump = 0.06;
+  b.twist = 0.07;
+  b.out_of_plane = 0.08;
+  b.leds_used = 9;
+  b.flags = rocklab::block_state_t::FLAG_JUMP | rocklab::block_state_t::FLAG_NO_MIRROR;
+  const rocklab::block_state2_t b2 = Decode<BlockStateBodiesDecoder>(b);
+  EXPECT_EQ(b2.utime, 11);
+  EXPECT_EQ(b2.seq, 12);
+  EXPECT_EQ(b2.nbodies, 1);
+  EXPECT_EQ(b2.theta, std::vector<double>{0.01});
+  EXPECT_EQ(b2.theta_dot, std::vector<double>{0.02});
+  EXPECT_EQ(b2.theta_mirror, std::vector<double>{0.03});
+  EXPECT_EQ(b2.theta_camera, std::vector<double>{0.04});
+  EXPECT_EQ(b2.sliding, std::vector<double>{0.05});
+  EXPECT_EQ(b2.jump, std::vector<double>{0.06});
+  EXPECT_EQ(b2.twist, std::vector<double>{0.07});
+  EXPECT_EQ(b2.out_of_plane, std::vector<double>{0.08});
+  EXPECT_EQ(b2.leds_used, std::vector<std::int32_t>{9});
+  EXPECT_EQ(b2.flags, std::vector<std::int32_t>{rocklab::block_state2_t::FLAG_JUMP |
+                                                rocklab::block_state2_t::FLAG_NO_MIRROR});
+
+  rocklab::model_state3_t m3{};
+  m3.utime = 21;
+  m3.seq = 22;
+  m3.name = "fit";
+  m3.model = "complex";
+  m3.theta = 0.1;
+  m3.theta_dot = 0.2;
+  m3.chi = 0.3;
+  m3.psi = 0.4;
+  m3.energy = 0.5;
+  m3.impact_count = 6;
+  m3.regime = rocklab::model_state3_t::REGIME_OVERTURNED;
+  m3.alpha = 0.25;
+  m3.p = 2.5;
+  m3.mu = 0.9;
+  m3.l = 0.7;
+  m3.equations = rocklab::model_state3_t::EQUATIONS_EQ10;
+  const rocklab::model_state4_t m4 = Decode<ModelStateBodiesDecoder>(m3);
+  EXPECT_EQ(m4.utime, 21);
+  EXPECT_EQ(m4.seq, 22);
+  EXPECT_EQ(m4.name, "fit");
+  EXPECT_EQ(m4.model, "complex");
+  EXPECT_EQ(m4.nbodies, 1);
+  EXPECT_EQ(m4.theta, std::vector<double>{0.1});
+  EXPECT_EQ(m4.theta_dot, std::vector<double>{0.2});
+  EXPECT_EQ(m4.chi, std::vector<double>{0.3});
+  EXPECT_EQ(m4.psi, std::vector<double>{0.4});
+  EXPECT_EQ(m4.energy, 0.5);
+  EXPECT_EQ(m4.impact_count, 6);
+  EXPECT_EQ(m4.regime, std::vector<std::int8_t>{rocklab::model_state4_t::REGIME_OVERTURNED});
+  EXPECT_EQ(m4.alpha, std::vector<double>{0.25});
+  EXPECT_EQ(m4.p, std::vector<double>{2.5});
+  EXPECT_EQ(m4.mu, std::vector<double>{0.9});
+  EXPECT_EQ(m4.l, 0.7);
+  EXPECT_EQ(m4.equations, +rocklab::model_state4_t::EQUATIONS_EQ10);
+  EXPECT_EQ(m4.mode, "");
+
+  rocklab::model_state2_t m2{};
+  m2.name = "c";
+  m2.theta = -0.05;
+  m2.equations = rocklab::model_state2_t::EQUATIONS_LIMIT;
+  const rocklab::model_state4_t from2 = Decode<ModelStateBodiesDecoder>(m2);
+  EXPECT_EQ(from2.seq, kNoSeq);
+  EXPECT_EQ(from2.nbodies, 1);
+  EXPECT_EQ(from2.theta, std::vector<double>{-0.05});
+  EXPECT_EQ(from2.equations, +rocklab::model_state4_t::EQUATIONS_LIMIT);
+  rocklab::model_state_t m1{};
+  m1.name = "h";
+  m1.p = 3.0;
+  const rocklab::model_state4_t from1 = Decode<ModelStateBodiesDecoder>(m1);
+  EXPECT_EQ(from1.seq, kNoSeq);
+  EXPECT_EQ(from1.p, std::vector<double>{3.0});
+  EXPECT_EQ(from1.equations, +rocklab::model_state4_t::EQUATIONS_UNKNOWN);
+  EXPECT_EQ(from1.mode, "");
+}
+
+// One decoder, as a node holds it: a three-body message, then a single
+// block's, leaves one element per array (nothing of the three bodies).
+TEST(Versions, PerBodyDecoderReadsBothAndKeepsNoStaleBodies) {
+  rocklab::model_state4_t three{};
+  three.seq = 3;
+  three.name = "stack";
+  three.nbodies = 3;
+  three.theta = {0.1, 0.2, 0.3};
+  three.theta_dot = {1, 2, 3};
+  three.chi = {0, 0, 0};
+  three.psi = {0, 0, 0};
+  three.regime = {1, 1, 0};
+  three.alpha = {0.2, 0.2, 0.2};
+  three.p = {2, 2, 2};
+  three.mu = {0.9, 0.9, 0.9};
+  three.mode = "rocking-both";
+  rocklab::model_state3_t one{};
+  one.seq = 4;
+  one.theta = 0.5;
+  ModelStateBodiesDecoder decode;
+  rocklab::model_state4_t out{};
+  const std::vector<std::uint8_t> b3 = Bytes(three);
+  ASSERT_EQ(decode(b3.data(), static_cast<int>(b3.size()), out), nullptr);
+  EXPECT_EQ(out.theta, three.theta);
+  EXPECT_EQ(out.mode, "rocking-both");
+  const std::vector<std::uint8_t> b1 = Bytes(one);
+  ASSERT_EQ(decode(b1.data(), static_cast<int>(b1.size()), out), nullptr);
+  EXPECT_EQ(out.seq, 4);
+  EXPECT_EQ(out.nbodies, 1);
+  EXPECT_EQ(out.theta, std::vector<double>{0.5});
+  for (const auto* a : {&out.theta_dot, &out.chi, &out.psi, &out.alpha, &out.p, &out.mu}) EXPECT_EQ(a->size(), 1u);
+  EXPECT_EQ(out.regime.size(), 1u);
+  EXPECT_EQ(out.mode, "");
+  // Cut: refused, with the reason.
+  std::vector<std::uint8_t> cut = b3;
+  cut.resize(cut.size() - 8);
+  EXPECT_NE(decode(cut.data(), static_cast<int>(cut.size()), out), nullptr);
+}
+
 TEST(Versions, AnotherTypeIsRefusedWithTheReason) {
   const std::vector<std::uint8_t> b = Bytes(rocklab::block_state_t{});
   EventDecoder decode;
@@ -145,6 +273,12 @@ TEST(Versions, WireSeqReadsEveryCurrentTypeAndNoOlderOne) {
   rocklab::model_state3_t m{};
   m.seq = 6;
   check(Bytes(m), true, 6, "");
+  rocklab::block_state2_t bodies{};
+  bodies.seq = 9;
+  check(Bytes(bodies), true, 9, "");
+  rocklab::model_state4_t m4{};
+  m4.seq = 10;
+  check(Bytes(m4), true, 10, "");
   rocklab::event2_t e{};
   e.seq = 7;
   e.sender = "compare";

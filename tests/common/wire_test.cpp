@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "rocklab/band_comparison_t.hpp"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
 #include "rocklab/comparison_t.hpp"
@@ -29,6 +30,7 @@
 #include "rocklab/model_state2_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/model_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -183,6 +185,36 @@ std::map<std::string, Sample> Samples() {
   rocklab::table_state_t table{};
   table.acceleration = -3.25;
   all["table_state_t"] = Make(table);
+  rocklab::block_state2_t bodies{};
+  bodies.seq = 8;
+  bodies.nbodies = 3;
+  bodies.theta = {0.1, -0.2, 0.3};
+  bodies.theta_dot = {1, 2, 3};
+  bodies.theta_mirror = {0.1, -0.25, 0.35};
+  bodies.theta_camera = {0.1, -0.2, 0.3};
+  bodies.sliding = {0, 1e-3, 2e-3};
+  bodies.jump = {0, 0, 1e-3};
+  bodies.twist = {0, 0, 0};
+  bodies.out_of_plane = {0, 0, 0};
+  bodies.leds_used = {4, 3, 2};
+  bodies.flags = {0, 1, 2};
+  all["block_state2_t"] = Make(bodies);
+  rocklab::model_state4_t m4{};
+  m4.seq = 12;
+  m4.name = "stack";
+  m4.model = "housner";
+  m4.nbodies = 3;
+  m4.theta = {0.1, 0.2, 0.3};
+  m4.theta_dot = {1, 2, 3};
+  m4.chi = {0.5, 1, 1.5};
+  m4.psi = {0, 3.14, 0};
+  m4.regime = {1, 1, 0};
+  m4.alpha = {0.2, 0.25, 0.3};
+  m4.p = {2, 2.5, 3};
+  m4.mu = {0.9, 0.8, 0.7};
+  m4.equations = rocklab::model_state4_t::EQUATIONS_HOUSNER;
+  m4.mode = "upper-alone";
+  all["model_state4_t"] = Make(m4);
   return all;
 }
 

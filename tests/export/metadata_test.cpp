@@ -23,10 +23,12 @@
 #include "export/export.h"
 #include "export/fields.h"
 #include "export/info.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/model_state2_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/export/readback.h"
@@ -322,11 +324,61 @@ TEST(LogMetadata, CodesHaveTheirNamesInEveryFormat) {
   }
 }
 
+// The per-body types (issue 37): each body's code column carries its
+// field's legend and unit, in every format. Oracle: the messages made here
+// and the .lcm constants.
+TEST(LogMetadata, PerBodyCodeColumnsCarryTheirFieldsLegend) {
+  const std::string log = MetadataDir() + "/bodies.lcm";
+  {
+    common::LogWriter w(log);
+    rocklab::block_state2_t b{};
+    b.utime = 1000;
+    b.nbodies = 2;
+    b.theta = {0.01, -0.02};
+    b.theta_dot = b.theta_mirror = b.theta_camera = b.sliding = b.jump = b.twist = b.out_of_plane = b.theta;
+    b.leds_used = {4, 3};
+    b.flags = {0, rocklab::block_state2_t::FLAG_JUMP | rocklab::block_state2_t::FLAG_NO_CAMERA};
+    PutMessage(w, "RL_THETA", b);
+    rocklab::model_state4_t m{};
+    m.utime = 1000;
+    m.name = "stack";
+    m.model = "housner";
+    m.nbodies = 2;
+    m.theta = m.theta_dot = m.chi = m.psi = m.alpha = m.p = m.mu = {0.5, 1.5};
+    m.regime = {rocklab::model_state4_t::REGIME_REST, rocklab::model_state4_t::REGIME_OVERTURNED};
+    m.mode = "lower-alone";
+    PutMessage(w, "RL_MODEL_stack", m);
+    EXPECT_TRUE(w.Close());
+  }
+  for (const std::string& ext : kExts) {
+    SCOPED_TRACE(ext);
+    const std::string out = Export(log, MetadataDir() + "/bodies" + ext, ExportOptions{}, true);
+    const auto theta = ReadTable(out, "RL_THETA", false);
+    const test::ReadColumn* flags = Find(theta, "flags_1");
+    ASSERT_TRUE(flags);
+    EXPECT_EQ(Int(*flags, 0), 2 + 64);
+    for (const char* column : {"flags_0", "flags_1"}) {
+      EXPECT_EQ(MetaOf(out, "RL_THETA", column).codes,
+                "1|=SLIDING;2|=JUMP;4|=TWIST;8|=OUT_OF_PLANE;16|=DISAGREE;32|=NO_MIRROR;64|=NO_CAMERA");
+    }
+    EXPECT_EQ(MetaOf(out, "RL_THETA", "leds_used_1").codes, "");
+    EXPECT_EQ(MetaOf(out, "RL_THETA", "theta_dot_1").unit, "rad/s");
+    const auto model = ReadTable(out, "RL_MODEL_stack", false);
+    const test::ReadColumn* regime = Find(model, "regime_1");
+    ASSERT_TRUE(regime);
+    EXPECT_EQ(Int(*regime, 0), static_cast<std::int64_t>(rocklab::model_state4_t::REGIME_OVERTURNED));
+    EXPECT_EQ(MetaOf(out, "RL_MODEL_stack", "regime_0").codes, "0=REST;1=ROCKING;2=OVERTURNED");
+    EXPECT_EQ(MetaOf(out, "RL_MODEL_stack", "equations").codes, "-1=UNKNOWN;0=HOUSNER;1=EQ10;2=LIMIT");
+    EXPECT_EQ(model.back().name, "mode");
+  }
+}
+
 // Every constant of every .lcm file has a legend under a field of its type
 // (so a new constant, or a new code field, cannot be exported as a bare
 // integer unnoticed). Oracle: the .lcm text.
 TEST(LogMetadata, EveryLcmConstantIsNamedInALegend) {
-  const std::regex field(R"(^\s*(u?int(8|16|32|64)_t|boolean)\s+(\w+)\s*;)");
+  // A scalar or a per-body array (block_state2_t's flags[nbodies]).
+  const std::regex field(R"(^\s*(u?int(8|16|32|64)_t|boolean)\s+(\w+)\s*(\[\s*\w+\s*\])?\s*;)");
   const std::regex constant(R"(^\s*const\s+\w+\s+(\w+)\s*=\s*(-?\d+)\s*;)");
   int constants = 0;
   for (const auto& entry : std::filesystem::directory_iterator(ROCKLAB_SOURCE_DIR "/lcm_types")) {

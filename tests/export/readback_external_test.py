@@ -86,6 +86,10 @@ ATTRS["daq_config2_t"] = dict(ATTRS["daq_config_t"], seq=N)
 ATTRS["event2_t"] = dict(ATTRS["event_t"], seq=N, sender=N)
 ATTRS["health2_t"] = dict(ATTRS["health_t"], seq=N, sender=N)
 ATTRS["model_state3_t"] = dict(MODEL_STATE, seq=N, equations=N)
+# The per-body types: the single-body type's fields as arrays over nbodies
+# (the same comments, so the same units), model_state4_t also its mode.
+ATTRS["block_state2_t"] = dict(ATTRS["block_state_t"], nbodies=N)
+ATTRS["model_state4_t"] = dict(MODEL_STATE, seq=N, equations=N, nbodies=N, mode=N)
 # The posterior band's types (new types, no older one).
 ATTRS["model_band_t"] = {"utime": U("us"), "seq": N, "name": N, "model": N, "draws": N, "members": N,
                          "noise_sigma": U("rad"), "theta_median": U("rad"), "theta_lo95": U("rad"),
@@ -106,12 +110,14 @@ CHANNEL = {"block_state_t": "RL_THETA", "comparison_t": "RL_COMPARE_x", "daq_con
            "model_state2_t": "RL_MODEL_x", "raw_frame_t": "RL_RAW", "table_state_t": "RL_TABLE",
            "comparison2_t": "RL_COMPARE_y", "model_state3_t": "RL_MODEL_y",
            "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH",
-           "model_band_t": "RL_BAND_x", "band_comparison_t": "RL_COVERAGE_x"}
+           "model_band_t": "RL_BAND_x", "band_comparison_t": "RL_COVERAGE_x",
+           "block_state2_t": "RL_THETA", "model_state4_t": "RL_MODEL_z"}
 # The successors come after every older message (a log of nodes upgraded
-# mid-run). On RL_DAQ_CONFIG, RL_EVENT and RL_HEALTH the channel changes
+# mid-run). On RL_DAQ_CONFIG, RL_EVENT, RL_HEALTH and RL_THETA the channel changes
 # type, so its second type gets a table of its own, CHANNEL_<type>, and the
 # first keeps the channel's name (docs/export.md).
-SUCCESSORS = {"comparison2_t", "daq_config2_t", "event2_t", "health2_t", "model_state3_t"}
+SUCCESSORS = {"comparison2_t", "daq_config2_t", "event2_t", "health2_t", "model_state3_t", "block_state2_t",
+              "model_state4_t"}
 TABLE = {t: c + "_" + t if t in SUCCESSORS and list(CHANNEL.values()).count(c) > 1 else c
          for t, c in CHANNEL.items()}
 TYPE_OF = {table: type_name for type_name, table in TABLE.items()}

@@ -2,7 +2,8 @@
 // through the Bus's typed path (common::Bus::Subscribe: the wire pre-check,
 // then lcm-gen's decode) on a DirectBus, and the channels whose type has a
 // successor through common::SubscribeVersioned (the current type or an
-// older one), and common::WireSeq on every payload. Input: the first byte
+// older one; the per-body block_state2_t and model_state4_t with every
+// older type they read), and common::WireSeq on every payload. Input: the first byte
 // picks the channel (and so the type), the rest is the payload; when the
 // second byte is odd the payload starts with that type's fingerprint, so
 // the fuzzer reaches the fields at once.
@@ -21,6 +22,7 @@
 #include "common/direct_bus.h"
 #include "common/versions.h"
 #include "common/wire.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -67,6 +69,10 @@ struct Nodes {
     Versioned<rocklab::common::EventDecoder>("RL_EVENT");
     Versioned<rocklab::common::HealthDecoder>("RL_HEALTH");
     Versioned<rocklab::common::ModelStateDecoder>("RL_MODEL_.*");
+    // The per-body types and every older type they read (no node subscribes
+    // them yet: channels of their own).
+    Versioned<rocklab::common::BlockStateBodiesDecoder>("RL_BODIES_THETA");
+    Versioned<rocklab::common::ModelStateBodiesDecoder>("RL_BODIES_MODEL_.*");
   }
   template <class Msg>
   void Sub(const std::string& channel) {
@@ -104,6 +110,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       {"RL_MODEL_a", static_cast<std::int64_t>(rocklab::model_state2_t::getHash())},
       {"RL_MODEL_c", static_cast<std::int64_t>(rocklab::model_state3_t::getHash())},
       {"RL_MODEL_b", static_cast<std::int64_t>(rocklab::model_state_t::getHash())},
+      // Appended: the seeds' first bytes keep their picks.
+      {"RL_BODIES_THETA", static_cast<std::int64_t>(rocklab::block_state2_t::getHash())},
+      {"RL_BODIES_THETA", static_cast<std::int64_t>(rocklab::block_state_t::getHash())},
+      {"RL_BODIES_MODEL_a", static_cast<std::int64_t>(rocklab::model_state4_t::getHash())},
+      {"RL_BODIES_MODEL_a", static_cast<std::int64_t>(rocklab::model_state3_t::getHash())},
+      {"RL_BODIES_MODEL_a", static_cast<std::int64_t>(rocklab::model_state2_t::getHash())},
+      {"RL_BODIES_MODEL_a", static_cast<std::int64_t>(rocklab::model_state_t::getHash())},
   };
   const Pick& pick = picks[data[0] % (sizeof picks / sizeof picks[0])];
   std::vector<std::uint8_t> payload;

@@ -10,6 +10,7 @@ rocking sample, and damaged here by overwriting bytes in its middle.
 import csv
 import os
 import re
+import struct
 import warnings
 
 import numpy as np
@@ -307,3 +308,58 @@ def test_events_have_the_same_fields_everywhere(log_path, source_dir):
     import pickle
 
     assert pickle.loads(pickle.dumps(logged)).dtype == logged.dtype
+
+
+def write_lcm_log(path, events):
+    """(utime, channel, payload) framed in LCM's log format, in the given order."""
+    with open(path, "wb") as f:
+        for n, (utime, channel, data) in enumerate(events):
+            f.write(struct.pack(">IqqII", 0xEDA1DA01, n, utime, len(channel), len(data)))
+            f.write(channel.encode())
+            f.write(data)
+
+
+def test_read_log_reads_the_single_block_and_the_per_body_types(tmp_path):
+    # Oracle: the messages made here. A log whose RL_THETA and RL_MODEL_stack
+    # change from the single-block types to the per-body ones (issue 37):
+    # both are read, the per-body fields as one column per body.
+    old = rocklab.block_state_t()
+    old.utime, old.seq, old.theta, old.leds_used = 1000, 0, 0.01, 4
+    old.flags = rocklab.block_state_t.FLAG_JUMP
+    new = rocklab.block_state2_t()
+    new.utime, new.seq, new.nbodies = 2000, 1, 2
+    for k, name in enumerate(["theta", "theta_dot", "theta_mirror", "theta_camera", "sliding", "jump", "twist",
+                              "out_of_plane"]):
+        setattr(new, name, [0.1 * k + 0.02, -0.1 * k - 0.03])
+    new.leds_used = [4, 3]
+    new.flags = [0, rocklab.block_state2_t.FLAG_SLIDING | rocklab.block_state2_t.FLAG_TWIST]
+    m3 = rocklab.model_state3_t()
+    m3.utime, m3.seq, m3.name, m3.model, m3.theta, m3.equations = 1000, 0, "stack", "housner", 0.05, 0
+    m4 = rocklab.model_state4_t()
+    m4.utime, m4.seq, m4.name, m4.model, m4.nbodies = 2000, 1, "stack", "housner", 2
+    for name in ("theta", "theta_dot", "chi", "psi", "alpha", "p", "mu"):
+        setattr(m4, name, [1.5, 2.5])
+    m4.regime = [rocklab.model_state4_t.REGIME_REST, rocklab.model_state4_t.REGIME_ROCKING]
+    m4.energy, m4.impact_count, m4.mode = 0.25, 3, "upper-alone"
+    log = tmp_path / "bodies.lcm"
+    write_lcm_log(log, [(1000, "RL_THETA", old.encode()), (1000, "RL_MODEL_stack", m3.encode()),
+                        (2000, "RL_THETA", new.encode()), (2000, "RL_MODEL_stack", m4.encode())])
+    tables = rocklab.read_log(log)
+    assert set(tables) == {"RL_THETA", "RL_THETA_block_state2_t", "RL_MODEL_stack", "RL_MODEL_stack_model_state4_t"}
+    assert tables["RL_THETA"]["theta"][0] == 0.01 and tables["RL_THETA"]["flags"][0] == 2
+    bodies = tables["RL_THETA_block_state2_t"]
+    assert tables.info["RL_THETA_block_state2_t"]["lcm_type"] == "rocklab.block_state2_t"
+    assert list(bodies.dtype.names[:6]) == ["time", "utime", "seq", "nbodies", "theta_0", "theta_1"]
+    assert bodies["nbodies"][0] == 2
+    assert bodies["theta_0"][0] == 0.02 and bodies["theta_1"][0] == -0.03
+    assert bodies["jump_0"][0] == 0.1 * 5 + 0.02 and bodies["jump_1"][0] == -0.1 * 5 - 0.03
+    assert bodies["flags_1"][0] == 1 | 4 and bodies["leds_used_0"][0] == 4
+    assert rocklab.units(bodies)["theta_dot_1"] == "rad/s"
+    model = tables["RL_MODEL_stack_model_state4_t"]
+    assert list(model["regime_0"]) == [0] and list(model["regime_1"]) == [1]
+    assert model["p_1"][0] == 2.5 and model["energy"][0] == 0.25 and model["mode"][0] == "upper-alone"
+    assert tables["RL_MODEL_stack"]["theta"][0] == 0.05
+    info = rocklab.info(log)
+    types = {c["name"]: c["type"] for c in info["channels"]}
+    assert "block_state2_t" in types["RL_THETA"] and "block_state_t" in types["RL_THETA"]
+    assert "model_state4_t" in types["RL_MODEL_stack"]
