@@ -102,7 +102,10 @@ void AddAssemblyOption(CLI::App& cmd, std::string& path) {
       "restitution, or a [frame] (docs/commands.md)");
   for (const char* name : kBlockOnlyOptions) {
     CLI::Option* block = cmd.get_option(name);
-    block->required(false);
+    if (block->get_required()) {
+      block->required(false);
+      block->description(block->get_description() + " (required without --assembly)");
+    }
     assembly->excludes(block);
   }
 }
