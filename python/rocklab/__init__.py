@@ -615,21 +615,31 @@ def _toml_value(v, key):
     raise ValueError(f"assembly: key '{key}' must be a number, a string or true/false, got {type(v).__name__}")
 
 
+def _toml_key(k):
+    """A dict key as a TOML key: bare where TOML allows it, else quoted."""
+    k = str(k)
+    return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) else _json.dumps(k)
+
+
 def _assembly_toml(d):
     """An assembly dict as the TOML text of its file ([[body]], [[interface]], [frame])."""
     plain, tables = [], []
+
+    def entries(table, prefix):
+        return [f"{_toml_key(k)} = {_toml_value(x, prefix + '.' + str(k))}" for k, x in table.items()]
+
     for key, v in d.items():
         if isinstance(v, dict):
-            tables.append(f"[{key}]")
-            tables += [f"{k} = {_toml_value(x, key + '.' + k)}" for k, x in v.items()]
+            tables.append(f"[{_toml_key(key)}]")
+            tables += entries(v, str(key))
         elif isinstance(v, (list, tuple)):
             for entry in v:
                 if not isinstance(entry, dict):
                     raise ValueError(f"assembly: key '{key}' must be a list of dicts")
-                tables.append(f"[[{key}]]")
-                tables += [f"{k} = {_toml_value(x, key + '.' + k)}" for k, x in entry.items()]
+                tables.append(f"[[{_toml_key(key)}]]")
+                tables += entries(entry, str(key))
         else:
-            plain.append(f"{key} = {_toml_value(v, key)}")
+            plain.append(f"{_toml_key(key)} = {_toml_value(v, str(key))}")
     return "\n".join(plain + tables) + "\n"
 
 

@@ -186,6 +186,50 @@ TEST(AssemblyCli, AStackIsTheStackModelsRun) {
   EXPECT_EQ(j.at("samples").get<std::size_t>(), run.time_s.size());
 }
 
+// Oracle: the single block (`simulate --alpha --p --mu`, the statue's
+// alpha, p and Housner's mu from `params`). While the pedestal stays
+// closed (the mode's first letter C throughout, checked), the statue rocks
+// on a fixed base, i.e. as that block on the table: its angle, in the
+// single block's sign, agrees to 1e-7 rad at every sample (two
+// integrators in different coordinates at rtol 1e-10, as
+// StackRun.OneBodyIsRocklabsHousnerModel), and each event's mode is the
+// next sample's.
+TEST(AssemblyCli, AStatueOnAStillPedestalIsItsSingleBlock) {
+  const std::string dir = ScratchDir("assembly_statue_block");
+  const std::string toml = kSource + "/data/assemblies/statue_on_pedestal.toml";
+  const CliResult r =
+      RunCli(SimulateArgs({"--assembly", toml, "--out", dir + "/stack.csv", "--events", dir + "/events.csv"}));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CliResult params = RunCli({"params", "--width", "0.2", "--height", "0.8", "--json"});
+  ASSERT_EQ(params.exit_code, 0) << params.err;
+  const auto p = nlohmann::json::parse(params.out);
+  const CliResult single = RunCli(SimulateArgs({"--alpha", Digits17(p.at("alpha").get<double>()), "--p",
+                                                Digits17(p.at("p").get<double>()), "--mu",
+                                                Digits17(p.at("mu_housner").get<double>()), "--out",
+                                                dir + "/single.csv"}));
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const auto stack = AssemblyCsvRows(dir + "/stack.csv");
+  const auto block = AssemblyCsvRows(dir + "/single.csv");
+  ASSERT_EQ(stack.size(), block.size());
+  double peak = 0;
+  for (std::size_t i = 1; i < stack.size(); ++i) {
+    ASSERT_EQ(stack[i][5][0], 'C') << "the pedestal moved at row " << i << ": the oracle does not hold";
+    EXPECT_NEAR(std::stod(stack[i][3]), std::stod(block[i][1]), 1e-7) << "t " << stack[i][0];
+    peak = std::max(peak, std::abs(std::stod(block[i][1])));
+  }
+  EXPECT_GT(peak, 0.05);
+  const auto events = AssemblyCsvRows(dir + "/events.csv");
+  ASSERT_GT(events.size(), 3u);
+  for (std::size_t e = 1; e < events.size(); ++e) {
+    const double t = std::stod(events[e][0]);
+    std::size_t i = 1;
+    while (i < stack.size() && std::stod(stack[i][0]) <= t) ++i;
+    if (i < stack.size()) {
+      EXPECT_EQ(events[e][4], stack[i][5]) << "event at " << t << " s";
+    }
+  }
+}
+
 // The reader's messages: each bad file names the file, the line and the key.
 std::string AssemblyError(const std::string& text) {
   try {
