@@ -11,10 +11,13 @@
 #include <toml++/toml.h>
 
 #include "common/text.h"
+#include "common/toml_reader.h"
 #include "common/units.h"
 
 namespace rocklab::daq {
 namespace {
+
+using Reader = common::TomlReader;
 
 constexpr double kMaxLengthM = 100.0;  // any length or coordinate in the rig, m
 // The smallest size (width, height, lever, spacing, chamfer, polygon edge)
@@ -22,133 +25,6 @@ constexpr double kMaxLengthM = 100.0;  // any length or coordinate in the rig, m
 // degenerate block would fail far from the file.
 constexpr double kMinSizeM = 1e-3;
 constexpr int kMaxLeds = 64;           // LEDs a rigid fit may require
-
-// Reads keys out of the parsed document, naming file, line and key in every
-// error, and rejects keys nobody read (a typo must not be silently ignored).
-class Reader {
- public:
-  explicit Reader(std::string path) : path_(std::move(path)) {}
-
-  [[noreturn]] void Fail(int line, const std::string& key, const std::string& what) const {
-    std::ostringstream msg;
-    msg << path_ << ":" << line << ": key " << common::Quote(key) << " " << what;  // keys come from the file
-    throw std::runtime_error(msg.str());
-  }
-
-  static int LineOf(const toml::node& node) { return static_cast<int>(node.source().begin.line); }
-
-  const toml::node* Get(const toml::table& table, const std::string& prefix, const std::string& key) {
-    seen_.insert(Join(prefix, key));
-    return table.get(key);
-  }
-
-  double Double(const toml::table& table, const std::string& prefix, const std::string& key,
-                std::optional<double> fallback) {
-    const toml::node* node = Get(table, prefix, key);
-    if (node == nullptr) {
-      if (fallback) return *fallback;
-      Fail(LineOf(table), Join(prefix, key), "is missing");
-    }
-    if (auto v = node->value<double>()) {  // toml++ converts integers too
-      if (!std::isfinite(*v)) Fail(LineOf(*node), Join(prefix, key), "must be finite");
-      return *v;
-    }
-    Fail(LineOf(*node), Join(prefix, key), "must be a number");
-  }
-
-  std::optional<double> OptionalDouble(const toml::table& table, const std::string& prefix,
-                                       const std::string& key) {
-    if (table.get(key) == nullptr) {
-      seen_.insert(Join(prefix, key));
-      return std::nullopt;
-    }
-    return Double(table, prefix, key, std::nullopt);
-  }
-
-  // An integer in [lo, hi], checked before it is narrowed (4294967298 must
-  // not become 2).
-  int Int(const toml::table& table, const std::string& prefix, const std::string& key,
-          std::optional<int> fallback, int lo, int hi) {
-    const toml::node* node = Get(table, prefix, key);
-    if (node == nullptr) {
-      if (fallback) return *fallback;
-      Fail(LineOf(table), Join(prefix, key), "is missing");
-    }
-    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-    if (!node->is_integer()) Fail(LineOf(*node), Join(prefix, key), "must be an integer in " + range);
-    const int64_t v = *node->value<int64_t>();
-    if (v < lo || v > hi) {
-      Fail(LineOf(*node), Join(prefix, key), "must be in " + range + ", got " + std::to_string(v));
-    }
-    return static_cast<int>(v);
-  }
-
-  // A number in [lo, hi] (`unit` names the unit in the message).
-  double Bounded(const toml::table& table, const std::string& prefix, const std::string& key,
-                 std::optional<double> fallback, double lo, double hi, const char* unit) {
-    const double v = Double(table, prefix, key, fallback);
-    if (!(v >= lo && v <= hi)) {
-      std::ostringstream msg;
-      msg << "must be in [" << lo << ", " << hi << "]" << unit << ", got " << v;
-      const toml::node* node = table.get(key);
-      Fail(node != nullptr ? LineOf(*node) : LineOf(table), Join(prefix, key), msg.str());
-    }
-    return v;
-  }
-
-  std::string String(const toml::table& table, const std::string& prefix, const std::string& key,
-                     std::optional<std::string> fallback) {
-    const toml::node* node = Get(table, prefix, key);
-    if (node == nullptr) {
-      if (fallback) return *fallback;
-      Fail(LineOf(table), Join(prefix, key), "is missing");
-    }
-    if (!node->is_string()) Fail(LineOf(*node), Join(prefix, key), "must be a string");
-    return *node->value<std::string>();
-  }
-
-  const toml::table* Table(const toml::table& table, const std::string& prefix,
-                           const std::string& key, bool required) {
-    const toml::node* node = Get(table, prefix, key);
-    if (node == nullptr) {
-      if (required) Fail(LineOf(table), Join(prefix, key), "is missing");
-      return nullptr;
-    }
-    if (!node->is_table()) Fail(LineOf(*node), Join(prefix, key), "must be a table");
-    return node->as_table();
-  }
-
-  const toml::array* Array(const toml::table& table, const std::string& prefix,
-                           const std::string& key) {
-    const toml::node* node = Get(table, prefix, key);
-    if (node == nullptr) return nullptr;
-    if (!node->is_array()) Fail(LineOf(*node), Join(prefix, key), "must be an array");
-    return node->as_array();
-  }
-
-  void Check(bool ok, const toml::table& table, const std::string& prefix, const std::string& key,
-             const std::string& what) const {
-    if (ok) return;
-    const toml::node* node = table.get(key);
-    Fail(node != nullptr ? LineOf(*node) : LineOf(table), Join(prefix, key), what);
-  }
-
-  // Every key of `table` must have been read under `prefix`.
-  void RejectUnknown(const toml::table& table, const std::string& prefix) const {
-    for (const auto& [k, v] : table) {
-      const std::string key = Join(prefix, std::string(k.str()));
-      if (seen_.count(key) == 0) Fail(LineOf(v), key, "is not a rig configuration key");
-    }
-  }
-
-  static std::string Join(const std::string& prefix, const std::string& key) {
-    return prefix.empty() ? key : prefix + "." + key;
-  }
-
- private:
-  std::string path_;
-  std::set<std::string> seen_;
-};
 
 // `with_lag`: the section may set lag_s.
 void ParseDifferentiator(Reader& r, const toml::table& root, const std::string& key,
@@ -207,31 +83,6 @@ int RigConfig::LagSamples(const DifferentiatorConfig& d) const {
 }
 
 namespace {
-
-// The rig file's text as a TOML table: UTF-8 checked first (toml++ is not
-// trusted with anything else: its header-only build reaches an
-// "unreachable" on some invalid sequences); errors name path and line.
-toml::table ParseToml(const std::string& text, const std::string& path) {
-  if (const std::size_t bad = common::Utf8ValidPrefix(text); bad < text.size()) {
-    const std::size_t line_start = bad == 0 ? std::string::npos : text.rfind('\n', bad - 1);
-    const std::size_t column = bad - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
-    const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(bad), '\n');
-    char byte[8];
-    std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(text[bad]));
-    std::ostringstream msg;
-    msg << path << ":" << line << ": the rig file is not valid UTF-8 (byte " << byte << " at column " << column << ")";
-    throw std::runtime_error(msg.str());
-  }
-  toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    std::ostringstream msg;
-    msg << path << ":" << e.source().begin.line << ": " << common::Escape(e.description());  // may echo input
-    throw std::runtime_error(msg.str());
-  }
-  return root;
-}
 
 // [block]: the size, the optional fitted parameters and polygon.
 void ParseBlock(Reader& r, const toml::table& root, BlockConfig& block) {
@@ -452,8 +303,8 @@ void ParseChannels(Reader& r, const toml::table& root, const std::set<std::strin
 }  // namespace
 
 RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
-  const toml::table root = ParseToml(text, path);
-  Reader r(path);
+  const toml::table root = common::ParseTomlText(text, path, "the rig file");
+  Reader r(path, "a rig configuration");
   RigConfig rig;
   rig.path = path;
   rig.name = r.String(root, "", "name", std::nullopt);

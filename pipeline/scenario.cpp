@@ -14,6 +14,46 @@ namespace rocklab::pipeline {
 
 using common::kPi;
 
+std::unique_ptr<model::Forcing> BuildForcing(const ScenarioOptions& o, std::string& description) {
+  description.clear();
+  std::vector<std::unique_ptr<model::Excitation>> parts;
+  for (const std::string& spec : o.excitations) {
+    try {
+      parts.push_back(model::ParseExcitation(spec));
+    } catch (const std::invalid_argument& e) {
+      throw OptionError(std::string("--excitation: ") + e.what());
+    }
+    description += (description.empty() ? "" : " + ") + spec;
+  }
+  std::unique_ptr<model::Forcing> forcing;
+  if (!parts.empty()) {
+    forcing = parts.size() == 1 ? std::move(parts.front()) : model::MakeSum(std::move(parts));
+  }
+  if (!o.accel_csv.empty()) {
+    std::unique_ptr<model::Forcing> record;
+    try {
+      record = std::make_unique<model::SampledAcceleration>(
+          model::ReadAccelerationCsv(o.accel_csv));
+    } catch (const std::exception& e) {
+      throw OptionError(std::string("--accel: ") + e.what());
+    }
+    if (forcing) {
+      std::vector<std::unique_ptr<model::Forcing>> both;
+      both.push_back(std::move(forcing));
+      both.push_back(std::move(record));
+      forcing = model::MakeForcingSum(std::move(both));
+    } else {
+      forcing = std::move(record);
+    }
+    description += (description.empty() ? "" : " + ") + std::string("accel:") + o.accel_csv;
+  }
+  if (!forcing) {
+    forcing = std::make_unique<model::NoTableMotion>();
+    description = "none (free rocking)";
+  }
+  return forcing;
+}
+
 Scenario BuildScenario(const ScenarioOptions& o) {
   model::ModelKind kind{};
   try {
@@ -38,43 +78,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
           o.duration_s);
 
   Scenario s;
-  std::vector<std::unique_ptr<model::Excitation>> parts;
-  for (const std::string& spec : o.excitations) {
-    try {
-      parts.push_back(model::ParseExcitation(spec));
-    } catch (const std::invalid_argument& e) {
-      throw OptionError(std::string("--excitation: ") + e.what());
-    }
-    s.forcing_description += (s.forcing_description.empty() ? "" : " + ") + spec;
-  }
-  std::unique_ptr<model::Forcing> forcing;
-  if (!parts.empty()) {
-    forcing = parts.size() == 1 ? std::move(parts.front()) : model::MakeSum(std::move(parts));
-  }
-  if (!o.accel_csv.empty()) {
-    std::unique_ptr<model::Forcing> record;
-    try {
-      record = std::make_unique<model::SampledAcceleration>(
-          model::ReadAccelerationCsv(o.accel_csv));
-    } catch (const std::exception& e) {
-      throw OptionError(std::string("--accel: ") + e.what());
-    }
-    if (forcing) {
-      std::vector<std::unique_ptr<model::Forcing>> both;
-      both.push_back(std::move(forcing));
-      both.push_back(std::move(record));
-      forcing = model::MakeForcingSum(std::move(both));
-    } else {
-      forcing = std::move(record);
-    }
-    s.forcing_description += (s.forcing_description.empty() ? "" : " + ") +
-                             std::string("accel:") + o.accel_csv;
-  }
-  if (!forcing) {
-    forcing = std::make_unique<model::NoTableMotion>();
-    s.forcing_description = "none (free rocking)";
-  }
-  s.forcing = std::move(forcing);
+  s.forcing = BuildForcing(o, s.forcing_description);
 
   model::ModelOptions mo;
   mo.l = o.l;

@@ -47,6 +47,11 @@ struct Scenario {
 /// model and the forcing (reading --accel; file errors throw OptionError).
 Scenario BuildScenario(const ScenarioOptions& options);
 
+/// The table motion of the options (--excitation summed, plus --accel; no
+/// motion without either) and its description for captions and JSON.
+/// @throws OptionError naming --excitation or --accel.
+std::unique_ptr<model::Forcing> BuildForcing(const ScenarioOptions& options, std::string& description);
+
 /// What a user checks first in a run.
 struct RunSummary {
   std::optional<double> uplift_time_s;  ///< first uplift, s

@@ -1,5 +1,6 @@
 // rocklab.block_params and rocklab.simulate: model/block.h and
-// pipeline/scenario.h as `rocklab params` and `rocklab simulate` call them.
+// pipeline/scenario.h (pipeline/assembly.h for an assembly) as `rocklab
+// params` and `rocklab simulate` call them.
 #include <cmath>
 #include <ctime>
 #include <limits>
@@ -13,6 +14,7 @@
 #include "model/block.h"
 #include "model/excitation.h"
 #include "model/rocking_model.h"
+#include "pipeline/assembly.h"
 #include "pipeline/option_error.h"
 #include "pipeline/scenario.h"
 #include "python/bindings.h"
@@ -175,18 +177,12 @@ py::dict EventColumns(const std::vector<model::ModelEvent>& events) {
   return d;
 }
 
-py::dict Simulate(const std::string& model_name, double alpha, double p, double mu,
-                  const std::vector<std::string>& excitations, const std::string& accel_path,
-                  std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> accel_t,
-                  std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> accel_a,
-                  double theta0, double duration_s, double rate_hz, double l, double complex_handoff,
-                  std::optional<double> rtol, const py::object& progress) {
+// The options a block's and an assembly's run share.
+pipeline::ScenarioOptions RunOptionsOf(const std::string& model_name, const std::vector<std::string>& excitations,
+                                       const std::string& accel_path, double duration_s, double rate_hz, double l,
+                                       double complex_handoff, std::optional<double> rtol) {
   pipeline::ScenarioOptions o;
   o.model = model_name;
-  o.alpha = alpha;
-  o.p = p;
-  o.mu = mu;
-  o.theta0 = theta0;
   o.excitations = excitations;
   o.accel_csv = accel_path;
   o.duration_s = duration_s;
@@ -194,6 +190,21 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
   o.l = l;
   o.complex_handoff = complex_handoff;
   if (rtol) o.rtol = *rtol;  // else the model's default, as without --rtol
+  return o;
+}
+
+py::dict Simulate(const std::string& model_name, double alpha, double p, double mu,
+                  const std::vector<std::string>& excitations, const std::string& accel_path,
+                  std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> accel_t,
+                  std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> accel_a,
+                  double theta0, double duration_s, double rate_hz, double l, double complex_handoff,
+                  std::optional<double> rtol, const py::object& progress) {
+  pipeline::ScenarioOptions o =
+      RunOptionsOf(model_name, excitations, accel_path, duration_s, rate_hz, l, complex_handoff, rtol);
+  o.alpha = alpha;
+  o.p = p;
+  o.mu = mu;
+  o.theta0 = theta0;
 
   std::unique_ptr<model::Forcing> sampled;
   std::string sampled_what;
@@ -259,6 +270,68 @@ py::dict Simulate(const std::string& model_name, double alpha, double p, double 
   return result;
 }
 
+// An assembly (a file's path, or TOML text that Python made of a dict)
+// run as `simulate --assembly`: per body arrays bottom-up, the mode per
+// sample, the events naming interface and body, the summary's JSON text.
+py::dict SimulateAssembly(const std::string& path, const std::string& text, const std::string& model_name,
+                          const std::vector<std::string>& excitations, const std::string& accel_path,
+                          double duration_s, double rate_hz, double l, double complex_handoff,
+                          std::optional<double> rtol) {
+  const pipeline::ScenarioOptions o =
+      RunOptionsOf(model_name, excitations, accel_path, duration_s, rate_hz, l, complex_handoff, rtol);
+  pipeline::AssemblyRun run;
+  std::string summary;
+  {
+    py::gil_scoped_release release;
+    pipeline::Assembly assembly;
+    try {
+      assembly = path.empty() ? pipeline::ParseAssembly(text, "assembly") : pipeline::ReadAssembly(path);
+    } catch (const pipeline::OptionError& e) {
+      if (!path.empty()) ThrowIfUnreadable(path, e.what());
+      throw;
+    }
+    const std::clock_t cpu0 = std::clock();
+    try {
+      run = pipeline::RunAssembly(assembly, o);
+    } catch (const pipeline::OptionError& e) {
+      if (!o.accel_csv.empty()) ThrowIfUnreadable(o.accel_csv, e.what());
+      throw;
+    }
+    const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+    summary = pipeline::AssemblySummaryJson(o, assembly.path, run, pipeline::Summarise(run), cpu_s);
+  }
+  py::list theta, theta_dot;
+  for (std::size_t k = 0; k < run.names.size(); ++k) {
+    theta.append(OwnedArray(std::move(run.theta[k])));
+    theta_dot.append(OwnedArray(std::move(run.theta_dot[k])));
+  }
+  std::vector<double> time;
+  std::vector<int> interface;
+  py::list kind, body, mode;
+  for (const pipeline::AssemblyEvent& e : run.events) {
+    time.push_back(e.time_s);
+    interface.push_back(e.interface);
+    kind.append(model::ToString(e.kind));
+    body.append(run.names[static_cast<std::size_t>(e.interface)]);
+    mode.append(e.mode);
+  }
+  py::dict events;
+  events["time"] = OwnedArray(std::move(time));
+  events["kind"] = kind;
+  events["interface"] = OwnedArray(std::move(interface));
+  events["body"] = body;
+  events["mode"] = mode;
+  py::dict result;
+  result["t"] = OwnedArray(std::move(run.time_s));
+  result["theta"] = theta;
+  result["theta_dot"] = theta_dot;
+  result["names"] = run.names;
+  result["mode"] = run.mode;
+  result["events"] = events;
+  result["summary"] = summary;
+  return result;
+}
+
 }  // namespace
 
 void RegisterModel(py::module_& m) {
@@ -270,6 +343,9 @@ void RegisterModel(py::module_& m) {
         py::arg("excitations"), py::arg("accel_path"), py::arg("accel_t"), py::arg("accel_a"),
         py::arg("theta0"), py::arg("duration"), py::arg("rate"), py::arg("l"),
         py::arg("complex_handoff"), py::arg("rtol"), py::arg("progress"));
+  m.def("_simulate_assembly", &SimulateAssembly, py::arg("path"), py::arg("text"), py::arg("model"),
+        py::arg("excitations"), py::arg("accel_path"), py::arg("duration"), py::arg("rate"), py::arg("l"),
+        py::arg("complex_handoff"), py::arg("rtol"));
   m.attr("DEFAULT_L") = model::kDefaultL;
   m.attr("GRAVITY") = model::kGravity;
 }

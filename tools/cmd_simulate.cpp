@@ -15,6 +15,7 @@
 #include "pipeline/scenario_flags.h"
 #include "tools/cli.h"
 #include "tools/formats.h"
+#include "tools/simulate_assembly.h"
 
 namespace rocklab::tools {
 namespace {
@@ -24,6 +25,7 @@ struct SimulateOptions {
   std::string out_csv;
   std::string events_csv;
   bool json{};
+  std::string assembly_toml;  ///< --assembly: an assembly instead of the block (tools/simulate_assembly.h)
 };
 
 // The output rows, formatted into a buffer written in blocks: each number the
@@ -160,10 +162,15 @@ void RegisterSimulate(CLI::App& app, CommandRun& run) {
       ->required();
   cmd->add_option("--events", opts->events_csv, "events CSV: time,kind (s, name)");
   cmd->add_flag("--json", opts->json, "print the run summary as JSON");
+  AddAssemblyOption(*cmd, opts->assembly_toml);
   cmd->callback([opts, cmd, &run] {
     run = [opts, cmd] {
+      CheckAssemblyOptions(*cmd, opts->assembly_toml);
       opts->scenario.accel_csv = InputFile("--accel", opts->scenario.accel_csv);
       pipeline::ResolveDuration(*cmd, opts->scenario);
+      if (!opts->assembly_toml.empty()) {
+        return RunSimulateAssembly(opts->scenario, opts->assembly_toml, opts->out_csv, opts->events_csv, opts->json);
+      }
       return RunSimulate(*opts);
     };
   });

@@ -28,6 +28,7 @@ disagrees, naming its line); files that cannot be read raise OSError.
 
 import functools as _functools
 import html as _html
+import json as _json
 import operator as _operator
 import os as _os
 import sys as _sys
@@ -94,6 +95,8 @@ __all__ = [
     "block_params",
     "simulate",
     "SimulationResult",
+    "AssemblyResult",
+    "ASSEMBLY_EVENT_DTYPE",
     "read_log",
     "read_raw",
     "LogTables",
@@ -439,8 +442,10 @@ def simulate(
     complex_handoff=0.0,
     rtol=None,
     progress=None,
+    assembly=None,
 ):
-    """Simulates a rocking block, as ``rocklab simulate``.
+    """Simulates a rocking block, as ``rocklab simulate``, or an assembly
+    of bodies, as ``rocklab simulate --assembly``.
 
     Args:
         model: "housner" or "complex" (the paper's eq. (10)).
@@ -464,17 +469,32 @@ def simulate(
         rtol: CVODE relative tolerance, in (0, 1e-3] (``--rtol``; default
             the model's, 1e-10).
         progress: None or callable(done_s, duration_s), called at most
-            every 0.1 s.
+            every 0.1 s (not with ``assembly``).
+        assembly: instead of alpha, p, mu and theta0: the path of an
+            assembly TOML file, or a dict with its keys ({"body": [{"name":
+            .., "width_m": .., "height_m": .., "mass_kg": ..}, ..],
+            "interface": [{"restitution": ..}, ..]} or {"frame": {..}}),
+            as ``--assembly`` (docs/commands.md). ``accel`` is then a path.
 
     Returns:
         SimulationResult: t, theta, theta_dot (numpy arrays), events and
-        summary (the statistics of ``simulate --json``).
+        summary (the statistics of ``simulate --json``); with
+        ``assembly``, an AssemblyResult (per-body columns, modes, events
+        naming interface and body).
 
     Raises:
         ValueError: a bad value, with the command line's message
             ("--alpha must be in (0, pi/2) rad, got 2").
         OSError: an ``accel`` file that cannot be read.
     """
+    if assembly is not None:
+        for name, value in (("alpha", alpha), ("p", p), ("mu", mu)):
+            if value is not None:
+                raise ValueError(f"{name} with assembly: the assembly gives its bodies")
+        if theta0 != 0.0:
+            raise ValueError("theta0 with assembly: an assembly starts at rest")
+        excitations = [] if excitation is None else [excitation] if isinstance(excitation, str) else list(excitation)
+        return _simulate_assembly(assembly, model, excitations, accel, duration, rate, l, complex_handoff, rtol)
     if isinstance(alpha, dict):
         block = alpha
         alpha = block["alpha"]
@@ -515,6 +535,142 @@ def simulate(
     events["kind_name"] = _np.char.upper(events["kind"])
     events["kind_code"] = [codes.get(str(k), -1) for k in events["kind_name"]]
     return SimulationResult(r["t"], r["theta"], r["theta_dot"], events, r["summary"])
+
+
+#: dtype of AssemblyResult.events (EVENT_FIELDS, value NaN, and where).
+ASSEMBLY_EVENT_DTYPE = _dtype(
+    [
+        ("time", "f8", "s"),
+        ("kind", "U8", None),
+        ("interface", "i4", None),
+        ("body", "U64", None),
+        ("mode", "U16", None),
+        ("value", "f8", None),
+        ("kind_name", "U16", None),
+        ("kind_code", "i8", None),
+    ]
+)
+
+
+class AssemblyResult(_Summarised):
+    """What ``simulate(assembly=...)`` returns: the bodies bottom-up.
+
+    Attributes:
+        t: output times, s (k / rate; a stack's stop at an overturning).
+        names: the bodies' names, bottom-up (a frame: ["frame"]).
+        theta: rocking angles, rad, shape (len(t), len(names)): column K-1
+            is ``theta_K`` of ``simulate --assembly``'s CSV (> 0 rocking on
+            the body's +x corner, as ``simulate``'s theta).
+        theta_dot: angular velocities, rad/s, the same shape.
+        mode: the contact state at t, one letter per interface bottom-up
+            (C closed, L/R pivoting on the left/right corner).
+        events: structured array (ASSEMBLY_EVENT_DTYPE): ``time`` (s),
+            ``kind`` ("uplift", "impact", "rest", "overturn"),
+            ``interface`` (0: on the table, K: under body K+1), ``body``
+            (the name of the body above it), ``mode`` (after it), and
+            EVENT_FIELDS's ``kind_name``, ``kind_code``, ``value`` (NaN).
+        summary: the dict of ``rocklab simulate --assembly --json``.
+    """
+
+    __slots__ = ("t", "names", "theta", "theta_dot", "mode", "events", "summary")
+
+    def __init__(self, t, names, theta, theta_dot, mode, events, summary):
+        self.t = t
+        self.names = names
+        self.theta = theta
+        self.theta_dot = theta_dot
+        self.mode = mode
+        self.events = events
+        self.summary = summary
+
+    def _summary(self):
+        s = self.summary
+        title = f"AssemblyResult: {s.get('kind')} of {len(self.names)} bodies, {s.get('model')}"
+        rows = [
+            ("samples", f"{len(self.t)} at {_num(s.get('rate'))} Hz over {_num(s.get('duration'))} s"),
+            ("events", _counts(self.events["kind"])),
+            ("uplift", "none" if s.get("uplift_time") is None else f"{_num(s['uplift_time'])} s"),
+        ]
+        for b in s.get("bodies", []):
+            rows.append((str(b.get("name")), f"peak |theta| {_num(b.get('peak_abs_theta'))} rad at "
+                                             f"{_num(b.get('peak_time'))} s"))
+        rows += [
+            ("impacts", str(s.get("impacts"))),
+            ("modes", f"{s.get('modes')}, {s.get('mode_changes')} changes"),
+            ("overturned", f"{s.get('overturned_body')} at {_num(s.get('overturn_time'))} s"
+             if s.get("overturned") else "no"),
+        ]
+        return title, rows
+
+
+def _toml_value(v, key):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, _np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, _np.floating)):
+        return repr(float(v))
+    if isinstance(v, (str, _os.PathLike)):
+        return _json.dumps(_os.fspath(v))
+    raise ValueError(f"assembly: key '{key}' must be a number, a string or true/false, got {type(v).__name__}")
+
+
+def _toml_key(k):
+    """A dict key as a TOML key: bare where TOML allows it, else quoted."""
+    k = str(k)
+    return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) else _json.dumps(k)
+
+
+def _assembly_toml(d):
+    """An assembly dict as the TOML text of its file ([[body]], [[interface]], [frame])."""
+    plain, tables = [], []
+
+    def entries(table, prefix):
+        return [f"{_toml_key(k)} = {_toml_value(x, prefix + '.' + str(k))}" for k, x in table.items()]
+
+    for key, v in d.items():
+        if isinstance(v, dict):
+            tables.append(f"[{_toml_key(key)}]")
+            tables += entries(v, str(key))
+        elif isinstance(v, (list, tuple)):
+            for entry in v:
+                if not isinstance(entry, dict):
+                    raise ValueError(f"assembly: key '{key}' must be a list of dicts")
+                tables.append(f"[[{_toml_key(key)}]]")
+                tables += entries(entry, str(key))
+        else:
+            plain.append(f"{_toml_key(key)} = {_toml_value(v, str(key))}")
+    return "\n".join(plain + tables) + "\n"
+
+
+def _simulate_assembly(assembly, model, excitations, accel, duration, rate, l, complex_handoff, rtol):
+    if isinstance(assembly, dict):
+        path, text = "", _assembly_toml(assembly)
+    elif isinstance(assembly, (str, _os.PathLike)):
+        path, text = _path(assembly, "assembly"), ""
+    else:
+        raise ValueError("assembly must be the path of a TOML file or a dict of its keys")
+    if accel is not None and not isinstance(accel, (str, _os.PathLike)):
+        raise ValueError("accel with assembly: the path of a record (arrays are taken for a single block only)")
+    r = _rocklab._simulate_assembly(
+        path, text, str(model), excitations, "" if accel is None else _path(accel, "accel"),
+        _float(duration, "duration"), _float(rate, "rate"), _float(l, "l"),
+        _float(complex_handoff, "complex_handoff"), None if rtol is None else _float(rtol, "rtol"),
+    )
+    ev = r["events"]
+    events = _np.empty(len(ev["time"]), dtype=ASSEMBLY_EVENT_DTYPE)
+    for field in ("time", "kind", "interface", "body", "mode"):
+        events[field] = ev[field]
+    events["value"] = _np.nan
+    codes = _event_kind_codes()
+    events["kind_name"] = _np.char.upper(events["kind"])
+    events["kind_code"] = [codes.get(str(k), -1) for k in events["kind_name"]]
+    n = len(r["names"])
+    shape = (len(r["t"]), n)
+    theta = _np.column_stack(r["theta"]) if n else _np.empty(shape)
+    theta_dot = _np.column_stack(r["theta_dot"]) if n else _np.empty(shape)
+    return AssemblyResult(r["t"], list(r["names"]), theta, theta_dot, _np.array(r["mode"], dtype=str), events,
+                          _json.loads(r["summary"]))
 
 
 class LogTables(_Summarised, dict):

@@ -1,7 +1,7 @@
 # Type stub of the package rocklab (python/rocklab/__init__.py) for editors
 # and type checkers. SI units: m, s, rad, m/s^2.
 import os
-from typing import Callable, Dict, List, Literal, NotRequired, Optional, Sequence, Tuple, TypedDict, Union, overload
+from typing import Callable, Dict, List, Literal, Mapping, NotRequired, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -126,6 +126,77 @@ class SimulationResult:
     def impacts(self) -> Table: ...
     def _repr_html_(self) -> str: ...
 
+class AssemblyBodySummary(TypedDict):
+    """AssemblySummary.bodies[i]: one body, bottom-up."""
+    name: str
+    peak_abs_theta: float
+    peak_time: float
+
+class AssemblySummary(TypedDict):
+    """AssemblyResult.summary: the keys of `rocklab simulate --assembly --json`."""
+    assembly: str
+    kind: str  # "block", "frame" or "stack"
+    model: str
+    alpha: Optional[float]  # the single block run (block, frame); None for a stack
+    p: Optional[float]
+    mu: Optional[float]
+    excitation: str
+    duration: float
+    rate: float
+    samples: int
+    bodies: List[AssemblyBodySummary]
+    uplift_time: Optional[float]
+    impacts: int
+    overturned: bool
+    overturned_body: Optional[str]
+    overturn_time: Optional[float]
+    modes: int
+    mode_changes: int
+    final_mode: Optional[str]
+    events: int
+    steps: int
+    cpu_time: float
+    units: Dict[str, str]
+
+#: AssemblyResult.events: time, kind, interface, body, mode.
+ASSEMBLY_EVENT_DTYPE: np.dtype[np.void]
+
+class AssemblyResult:
+    t: FloatArray
+    names: List[str]
+    #: shape (len(t), len(names)), rad
+    theta: FloatArray
+    theta_dot: FloatArray
+    mode: npt.NDArray[np.str_]
+    #: ASSEMBLY_EVENT_DTYPE
+    events: Table
+    summary: AssemblySummary
+    def __init__(self, t: FloatArray, names: List[str], theta: FloatArray, theta_dot: FloatArray,
+                 mode: npt.NDArray[np.str_], events: Table, summary: AssemblySummary) -> None: ...
+    def _repr_html_(self) -> str: ...
+
+#: an assembly file's keys as a dict: {"body": [{...}, ...], "interface": [...]} or {"frame": {...}}
+AssemblyDict = Mapping[str, Union[Mapping[str, Union[float, str]], Sequence[Mapping[str, Union[float, str]]]]]
+
+@overload
+def simulate(
+    model: Literal["housner", "complex"] = ...,
+    alpha: None = ...,
+    p: None = ...,
+    mu: None = ...,
+    *,
+    excitation: Union[str, Sequence[str], None] = ...,
+    accel: Optional[PathLike] = ...,
+    theta0: float = ...,
+    duration: float,
+    rate: float,
+    l: float = ...,
+    complex_handoff: float = ...,
+    rtol: Optional[float] = ...,
+    progress: Progress = ...,
+    assembly: Union[PathLike, AssemblyDict],
+) -> AssemblyResult: ...
+@overload
 def simulate(
     model: Literal["housner", "complex"] = ...,
     alpha: Union[float, BlockParams, None] = ...,
@@ -141,6 +212,7 @@ def simulate(
     complex_handoff: float = ...,
     rtol: Optional[float] = ...,
     progress: Progress = ...,
+    assembly: None = ...,
 ) -> SimulationResult: ...
 
 # ---- logs and raw files ---------------------------------------------------

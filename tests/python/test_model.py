@@ -308,3 +308,47 @@ def test_import_error_names_the_build_and_the_interpreter(tmp_path):
     assert "the native module is built for Python 3.9" in last
     assert (f"built for Python 3.9.2 (/usr/bin/python3.9) with numpy 1.19.5; this is Python "
             f"{platform.python_version()} ({sys.executable}) with numpy {np.__version__}") in last
+
+
+STACK_SINE = "sine:amp=0.02,freq=2,duration=10,start=0"
+
+
+def test_assembly_equals_cli(cli, source_dir, tmp_path):
+    """simulate(assembly=...) against `simulate --assembly`: the CSV prints
+    the shortest text of each double, so the angles are equal exactly; the
+    summary too (but its CPU time). A dict of the file's keys is the file."""
+    toml = os.path.join(source_dir, "data", "assemblies", "statue_on_pedestal.toml")
+    ours = rocklab.simulate(assembly=toml, excitation=STACK_SINE, duration=2, rate=100)
+    out = tmp_path / "stack.csv"
+    theirs = cli.json("simulate", "--assembly", toml, "--excitation", STACK_SINE, "--duration", 2, "--rate", 100,
+                      "--out", out, "--json")
+    csv = read_csv(out)
+    assert ours.names == ["pedestal", "statue"]
+    assert ours.theta.shape == (len(csv), 2)
+    for k in (1, 2):
+        np.testing.assert_array_equal(ours.theta[:, k - 1], csv[f"theta_{k}"])
+        np.testing.assert_array_equal(ours.theta_dot[:, k - 1], csv[f"theta_dot_{k}"])
+    assert list(ours.mode) == list(csv["mode"])
+    assert ours.summary["impacts"] > 0 and ours.events["body"][0] == "statue"
+    for key in ("cpu_time", "units"):
+        ours.summary.pop(key)
+        theirs.pop(key)
+    assert ours.summary == theirs
+    as_dict = {"body": [
+        {"name": "pedestal", "width_m": 0.5, "height_m": 0.4, "depth_m": 0.5, "density_kg_m3": 2400.0},
+        {"name": "statue", "width_m": 0.2, "height_m": 0.8, "depth_m": 0.2, "density_kg_m3": 2700},
+    ]}
+    same = rocklab.simulate(assembly=as_dict, excitation=STACK_SINE, duration=2, rate=100)
+    np.testing.assert_array_equal(same.theta, ours.theta)
+    assert "statue" in repr(same)
+
+
+def test_assembly_errors_name_the_key():
+    body = {"name": "a", "width_m": -0.2, "height_m": 1.0, "mass_kg": 3.0}
+    with pytest.raises(ValueError, match="key 'body.width_m' must be in"):
+        rocklab.simulate(assembly={"body": [body]}, duration=1, rate=10)
+    with pytest.raises(ValueError, match="only housner takes a stack"):
+        rocklab.simulate("complex", assembly={"body": [dict(body, width_m=0.2), dict(body, name="b", width_m=0.2)]},
+                         duration=1, rate=10)
+    with pytest.raises(ValueError, match="alpha with assembly"):
+        rocklab.simulate(alpha=0.2, assembly={"body": [body]}, duration=1, rate=10)

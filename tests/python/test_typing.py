@@ -47,7 +47,7 @@ def test_stub_has_no_any_and_the_result_classes_exist():
     # Every name of rocklab.__all__ is in the stub: test_installed.py.
     with open(STUB) as f:
         assert "Any" not in f.read().replace("ArrayLike", "")  # every shape known is typed
-    for cls in ("SimulationResult", "LogTables", "Reconstruction", "FitResult", "PosteriorProblem",
+    for cls in ("SimulationResult", "AssemblyResult", "LogTables", "Reconstruction", "FitResult", "PosteriorProblem",
                 "PosteriorSummary"):
         assert hasattr(rocklab, cls), cls
 
@@ -58,6 +58,11 @@ def test_stub_keys_are_the_results_keys(tmp_path):
     assert set(block["plus_side"]) == typed_dict_keys("BlockSide")
     run = rocklab.simulate("housner", block, theta0=0.1, duration=4, rate=500)
     assert set(run.summary) == typed_dict_keys("SimulationSummary")
+    stack = rocklab.simulate(assembly={"body": [{"name": "a", "width_m": 0.4, "height_m": 0.5, "mass_kg": 1.0},
+                                                {"name": "b", "width_m": 0.2, "height_m": 0.8, "mass_kg": 1.0}]},
+                             duration=0.1, rate=100)
+    assert set(stack.summary) == typed_dict_keys("AssemblySummary")
+    assert set(stack.summary["bodies"][0]) == typed_dict_keys("AssemblyBodySummary")
     f = rocklab.fit(run.t, run.theta, 0.247, 1.0)
     assert set(f) == typed_dict_keys("FitResult")
     assert set(f.impacts[0]) == typed_dict_keys("FitImpact")
@@ -79,7 +84,10 @@ MISUSES = [
      'TypedDict "SimulationSummary" has no key "impact"'),
     ("rocklab.block_params(0.2, 1.0)['alpha'].upper()", 'has no attribute "upper"'),
     ("s: str = rocklab.info('x')['channels'][0]['count']", "Incompatible types in assignment"),
-    ("rocklab.simulate('hausner', 0.2, 3.0, 0.9, duration=1.0, rate=1.0)", "Argument 1"),
+    # simulate is overloaded (a block, or assembly=): mypy names no argument.
+    ("rocklab.simulate('hausner', 0.2, 3.0, 0.9, duration=1.0, rate=1.0)", 'No overload variant of "simulate"'),
+    ("ar = rocklab.simulate(assembly='a.toml', duration=1.0, rate=1.0)\nar.summary['final_regime']",
+     'TypedDict "AssemblySummary" has no key "final_regime"'),
 ]
 
 

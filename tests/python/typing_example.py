@@ -22,6 +22,16 @@ uplift: Optional[float] = run.summary["uplift_time"]
 events: npt.NDArray[np.void] = run.impacts()
 html: str = run._repr_html_()
 
+stack: rocklab.AssemblyResult = rocklab.simulate(
+    assembly={"body": [{"name": "pedestal", "width_m": 0.5, "height_m": 0.4, "mass_kg": 240.0},
+                       {"name": "statue", "width_m": 0.2, "height_m": 0.8, "mass_kg": 86.4}]},
+    excitation="sine:amp=0.02,freq=2,duration=2", duration=2.0, rate=100.0)
+statue: npt.NDArray[np.float64] = stack.theta[:, 1]
+body_names: List[str] = stack.names
+overturned_body: Optional[str] = stack.summary["overturned_body"]
+peak: float = stack.summary["bodies"][1]["peak_abs_theta"]
+frame: rocklab.AssemblyResult = rocklab.simulate("complex", assembly="portal_frame.toml", duration=1.0, rate=100.0)
+
 log: rocklab.LogTables = rocklab.read_log("test.lcm", channels="RL_THETA")
 th: npt.NDArray[np.void] = log["RL_THETA"]
 rows: int = log.summary["rows"]
