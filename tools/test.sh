@@ -112,6 +112,7 @@ fuzz theta_csv 16384 "$here/data/samples"
 if [ -x "$asan/tests/fuzz/fuzz_rig_video" ]; then  # built with the video inputs (OpenCV)
   fuzz rig_video 8192 "$here/data/rigs"
 fi
+fuzz assembly 4096 "$here/data/assemblies"
 fuzz sweep_csv 8192
 fuzz sweep_h5 65536
 while ((fuzz_running > 0)); do
