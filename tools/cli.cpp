@@ -8,8 +8,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <regex>
 #include <utility>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -123,7 +125,8 @@ CLI::Option* AddJsonFlag(CLI::App& cmd, bool& json) {
   return cmd.add_flag("--json", json, "print the result as JSON on standard output (docs/commands.md)");
 }
 
-void WriteResult(const nlohmann::json& result, bool json, const std::string& summary_path, bool stdout_taken) {
+void WriteResult(const nlohmann::json& result, bool json, const std::string& summary_path, bool stdout_taken,
+                 const char* summary_option) {
   const std::string text = result.dump(2) + "\n";
   if (summary_path == "-") {
     std::fputs(text.c_str(), stdout);
@@ -131,21 +134,24 @@ void WriteResult(const nlohmann::json& result, bool json, const std::string& sum
     try {
       common::WriteFileAtomically(summary_path, text);
     } catch (const std::runtime_error& e) {
-      throw std::runtime_error(std::string("--summary: ") + e.what());
+      throw std::runtime_error(std::string(summary_option) + ": " + e.what());
     }
   }
   if (json && summary_path != "-") std::fputs(text.c_str(), stdout_taken ? stderr : stdout);
   std::fflush(stdout);
 }
 
-void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path) {
+void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path,
+                        const nlohmann::json* extra) {
   const auto summary = node.Summary();
   const auto bands = node.BandSummaries();
   if (!json && summary_path != "-") {
     compare::CompareNode::PrintSummary(summary, stdout);
     compare::CompareNode::PrintBandSummary(bands, stdout);
   }
-  WriteResult(nlohmann::json::parse(compare::CompareNode::SummaryJsonText(summary, bands)), json, summary_path);
+  nlohmann::json result = nlohmann::json::parse(compare::CompareNode::SummaryJsonText(summary, bands));
+  if (extra != nullptr) result.update(*extra);
+  WriteResult(result, json, summary_path);
 }
 
 int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, bool json) {
@@ -175,39 +181,157 @@ int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, boo
 }
 
 namespace {
-// The temporary file standard input was copied to, removed at exit.
-struct StdinCopy {
+// A temporary made for standard input or output: removed at exit, with
+// the folder it sits in when it has one of its own.
+struct CliTemporary {
   std::string path;
-  ~StdinCopy() {
+  std::string folder;  // "" when none
+  CliTemporary() = default;
+  CliTemporary(const CliTemporary&) = delete;
+  CliTemporary& operator=(const CliTemporary&) = delete;
+  ~CliTemporary() { Remove(); }
+  void Remove() {
     if (!path.empty()) ::unlink(path.c_str());
+    if (!folder.empty()) ::rmdir(folder.c_str());
+    path.clear();
+    folder.clear();
   }
 };
-StdinCopy g_stdin_copy;
+CliTemporary g_stdin_copy;
+
+std::string TemporaryFolder() {
+  const char* tmp = std::getenv("TMPDIR");
+  return tmp != nullptr && *tmp != '\0' ? tmp : "/tmp";
+}
+
+// Reads what `fd` yields into `buf`; -1 on an error (errno says which).
+ssize_t ReadSome(int fd, char* buf, std::size_t size) {
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, size);
+    if (n >= 0 || errno != EINTR) return n;
+  }
+}
+
+bool WriteAll(int fd, const char* data, std::size_t size) {
+  while (size > 0) {
+    const ssize_t n = ::write(fd, data, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    data += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
 }  // namespace
 
-std::string InputFile(const std::string& option, const std::string& path, const char* suffix) {
+std::string InputFile(const std::string& option, const std::string& path, const char* suffix,
+                      const char* hdf5_suffix) {
   if (path != "-") return path;
   if (!g_stdin_copy.path.empty()) {
     throw UsageError(option + ": standard input (-) is already the input of another option");
   }
-  const char* tmp = std::getenv("TMPDIR");
-  std::string name = std::string(tmp != nullptr && *tmp != '\0' ? tmp : "/tmp") + "/rocklab-stdin-XXXXXX" + suffix;
-  const int fd = ::mkstemps(name.data(), static_cast<int>(std::strlen(suffix)));
-  if (fd < 0) throw std::runtime_error(option + ": cannot make a temporary file for standard input: " + std::strerror(errno));
-  g_stdin_copy.path = name;
-  char buf[1 << 16];
-  for (;;) {
-    const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
+  // The first bytes say the format where the reader is told it by the name.
+  std::vector<char> buf(1 << 16);
+  std::size_t head = 0;
+  while (head < 8) {
+    const ssize_t n = ReadSome(STDIN_FILENO, buf.data() + head, buf.size() - head);
+    if (n < 0) throw std::runtime_error(option + ": cannot read standard input: " + std::strerror(errno));
     if (n == 0) break;
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 || ::write(fd, buf, static_cast<std::size_t>(n)) != n) {
+    head += static_cast<std::size_t>(n);
+  }
+  static const char kHdf5Signature[8] = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  if (hdf5_suffix != nullptr && head >= 8 && std::memcmp(buf.data(), kHdf5Signature, 8) == 0) suffix = hdf5_suffix;
+  std::string folder = TemporaryFolder() + "/rocklab-stdin-XXXXXX";
+  if (::mkdtemp(folder.data()) == nullptr) {
+    throw std::runtime_error(option + ": cannot make a temporary folder for standard input: " + std::strerror(errno));
+  }
+  g_stdin_copy.folder = folder;
+  const std::string name = folder + "/stdin" + suffix;
+  const int fd = ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) throw std::runtime_error(option + ": cannot make " + name + " for standard input: " + std::strerror(errno));
+  g_stdin_copy.path = name;
+  for (std::size_t n = head;;) {
+    if (!WriteAll(fd, buf.data(), n)) {
       const int error = errno;
       ::close(fd);
       throw std::runtime_error(option + ": cannot copy standard input to " + name + ": " + std::strerror(error));
     }
+    const ssize_t got = ReadSome(STDIN_FILENO, buf.data(), buf.size());
+    if (got < 0) {
+      const int error = errno;
+      ::close(fd);
+      throw std::runtime_error(option + ": cannot read standard input: " + std::strerror(error));
+    }
+    if (got == 0) break;
+    n = static_cast<std::size_t>(got);
+  }
+  if (::close(fd) != 0) throw std::runtime_error(option + ": cannot copy standard input to " + name + ": " + std::strerror(errno));
+  return name;
+}
+
+OutputTarget::OutputTarget(std::string option, std::string path, const char* suffix)
+    : option_(std::move(option)), given_(std::move(path)), write_path_(given_) {
+  if (given_ != "-") return;
+  std::string name = TemporaryFolder() + "/rocklab-stdout-XXXXXX" + suffix;
+  const int fd = ::mkstemps(name.data(), static_cast<int>(std::strlen(suffix)));
+  if (fd < 0) {
+    throw std::runtime_error(option_ + ": cannot make a temporary file for standard output: " + std::strerror(errno));
   }
   ::close(fd);
-  return name;
+  temp_ = write_path_ = name;
+}
+
+OutputTarget::~OutputTarget() {
+  if (!temp_.empty()) ::unlink(temp_.c_str());
+}
+
+void OutputTarget::Finish() {
+  if (temp_.empty()) return;
+  std::fflush(stdout);  // what the command printed before comes first
+  const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error(option_ + " -: cannot read back " + temp_ + ": " + std::strerror(errno));
+  std::vector<char> buf(1 << 16);
+  for (;;) {
+    const ssize_t n = ReadSome(fd, buf.data(), buf.size());
+    if (n == 0) break;
+    if (n < 0 || !WriteAll(STDOUT_FILENO, buf.data(), static_cast<std::size_t>(n))) {
+      const int error = errno;
+      ::close(fd);
+      throw std::runtime_error(option_ + " -: cannot write to standard output: " + std::strerror(error));
+    }
+  }
+  ::close(fd);
+}
+
+void RefuseStandardOutput(const std::string& option, const std::string& path, const char* what) {
+  if (path == "-") {
+    throw UsageError(option + ": standard output (-) cannot be written here: " + what + " (give a file)");
+  }
+}
+
+std::string MissingRequired(const CLI::App& app) {
+  const CLI::App* cmd = &app;
+  for (const CLI::App* sub : app.get_subcommands()) cmd = sub;  // the one parsed
+  std::vector<std::string> missing;
+  for (const CLI::Option* opt : cmd->get_options()) {
+    if (!opt->get_required() || opt->count() > 0) continue;
+    const std::string positional = opt->get_name(true);
+    const std::vector<std::string>& longs = opt->get_lnames();
+    std::string name = longs.empty() ? opt->get_name() : "--" + longs.front();
+    if (!opt->get_positional() || positional.empty() || positional[0] == '-') {
+      missing.push_back(name);
+    } else {
+      std::string upper = positional;
+      for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      missing.push_back(upper + (longs.empty() ? "" : " (or " + name + ")"));
+    }
+  }
+  if (missing.empty()) return "";
+  std::string list;
+  for (std::size_t i = 0; i < missing.size(); ++i) list += (i == 0 ? "" : ", ") + missing[i];
+  const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
+  return where + "missing required " + (missing.size() == 1 ? "option " : "options ") + list + "; `rocklab help " +
+         (cmd == &app ? std::string() : cmd->get_name()) + "` lists its options";
 }
 
 void RefuseStandardInput(const std::string& option, const std::string& path, const char* what) {
@@ -228,7 +352,7 @@ void RequireOneStandardOutput(const std::vector<std::pair<std::string, std::stri
 }
 
 void RequireOutputFolder(const std::string& option, const std::string& file) {
-  if (file.empty()) return;
+  if (file.empty() || file == "-") return;
   std::filesystem::path folder = std::filesystem::path(file).parent_path();
   if (folder.empty()) folder = ".";
   if (!std::filesystem::is_directory(folder)) {
@@ -239,6 +363,78 @@ void RequireOutputFolder(const std::string& option, const std::string& file) {
   }
 }
 
+namespace {
+// "a number", "an integer", ... for CLI11's type name (a check's name after a colon).
+std::string ExpectedType(const CLI::Option* opt) {
+  std::string type = opt != nullptr ? opt->get_type_name() : "";
+  type = type.substr(0, type.find(':'));
+  if (type == "FLOAT") return "a number";
+  if (type == "INT") return "an integer";
+  if (type == "UINT") return "a whole number >= 0";
+  if (!type.empty()) return "of type " + type;
+  return "a value of the option's type";
+}
+
+const CLI::App* ParsedCommand(const CLI::App& app) {
+  const CLI::App* cmd = &app;
+  for (const CLI::App* sub : app.get_subcommands()) cmd = sub;  // the one parsed
+  return cmd;
+}
+
+std::string HelpHint(const CLI::App& app, const CLI::App* cmd) {
+  return "; `rocklab help " + (cmd == &app ? std::string() : cmd->get_name()) + "` says what it takes";
+}
+
+// Whether `text` reads whole as a number of the option's type.
+bool ReadsAsNumber(const std::string& text, bool integer) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  if (integer) {
+    (void)std::strtoll(text.c_str(), &end, 0);
+  } else {
+    (void)std::strtod(text.c_str(), &end);
+  }
+  return errno == 0 && end != nullptr && *end == '\0';
+}
+}  // namespace
+
+std::string ValidationMessage(const CLI::App& app, const std::string& what) {
+  const CLI::App* cmd = ParsedCommand(app);
+  const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
+  const std::size_t colon = what.find(": ");
+  const CLI::Option* opt = colon == std::string::npos ? nullptr : cmd->get_option_no_throw(what.substr(0, colon));
+  if (opt == nullptr) return ParseErrorMessage(app, what);
+  const std::string name = what.substr(0, colon);
+  const std::string type = ExpectedType(opt);
+  if (type == "a number" || type == "an integer" || type == "a whole number >= 0") {
+    for (const std::string& value : opt->results()) {
+      if (!ReadsAsNumber(value, type != "a number")) {
+        return where + name + ": " + common::Quote(value) + " is not " + type + HelpHint(app, cmd);
+      }
+    }
+  }
+  static const std::regex kRange(R"(Value (.*) not in range (\S+) to (\S+))");
+  std::smatch m;
+  if (std::regex_search(what, m, kRange)) {
+    const double low = std::strtod(m[2].str().c_str(), nullptr), high = std::strtod(m[3].str().c_str(), nullptr);
+    char bounds[96];
+    if (high > 1e300) {
+      std::snprintf(bounds, sizeof bounds, ">= %g", low);
+    } else {
+      std::snprintf(bounds, sizeof bounds, "in [%g, %g]", low, high);
+    }
+    return where + name + ": " + common::Quote(m[1].str()) + " is not " + bounds + HelpHint(app, cmd);
+  }
+  return ParseErrorMessage(app, what);
+}
+
+std::string ParseErrorMessage(const CLI::App& app, const std::string& what) {
+  const CLI::App* cmd = ParsedCommand(app);
+  const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
+  return what.compare(0, where.size(), where) == 0 ? what : where + what;
+}
+
 std::string ConversionMessage(const CLI::App& app, const std::string& what) {
   static const std::string kPrefix = "Could not convert: ";
   if (what.compare(0, kPrefix.size(), kPrefix) != 0) return what;
@@ -246,22 +442,10 @@ std::string ConversionMessage(const CLI::App& app, const std::string& what) {
   if (eq == std::string::npos) return what;
   const std::string name = what.substr(kPrefix.size(), eq - kPrefix.size());
   const std::string value = what.substr(eq + 3);
-  const CLI::App* cmd = &app;
-  for (const CLI::App* sub : app.get_subcommands()) cmd = sub;  // the one parsed
-  const CLI::Option* opt = cmd->get_option_no_throw(name);
-  std::string type = opt != nullptr ? opt->get_type_name() : "";
-  if (type == "FLOAT") {
-    type = "a number";
-  } else if (type == "INT" || type == "UINT") {
-    type = type == "INT" ? "an integer" : "a whole number >= 0";
-  } else if (!type.empty()) {
-    type = "of type " + type;
-  } else {
-    type = "a value of the option's type";
-  }
+  const CLI::App* cmd = ParsedCommand(app);
   const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
-  return where + name + ": " + common::Quote(value) + " is not " + type + "; `rocklab help " +
-         (cmd == &app ? std::string() : cmd->get_name()) + "` says what it takes";
+  return where + name + ": " + common::Quote(value) + " is not " + ExpectedType(cmd->get_option_no_throw(name)) +
+         HelpHint(app, cmd);
 }
 
 std::string BashCompletion(const CLI::App& app) {

@@ -64,7 +64,8 @@ CLI::Option* AddRawUrlOption(CLI::App& cmd, std::string& raw_url);
 
 /// The folder `file` goes into exists and may be written; else a
 /// UsageError naming `option` (checked before the work, so a typo in an
-/// output path costs nothing and exits as a usage error). "" passes.
+/// output path costs nothing and exits as a usage error). "" and "-"
+/// (standard output) pass.
 void RequireOutputFolder(const std::string& option, const std::string& file);
 
 /// Adds `--json` to `cmd` (into `json`): the command prints its result
@@ -75,25 +76,73 @@ CLI::Option* AddJsonFlag(CLI::App& cmd, bool& json);
 /// holds (one code path builds it; this writes it): to `summary_path`
 /// whole or not at all ("" none, "-" standard output), and with `json` on
 /// standard output, or on stderr when `stdout_taken` (the command's data
-/// went to standard output, `--out -`). Throws naming `--summary` when the
-/// file cannot be written.
+/// went to standard output, `--out -`). Throws naming `summary_option`
+/// when the file cannot be written.
 void WriteResult(const nlohmann::json& result, bool json, const std::string& summary_path = "",
-                 bool stdout_taken = false);
+                 bool stdout_taken = false, const char* summary_option = "--summary");
 
 /// `run`'s and `compare`'s end: the comparison tables on standard output
-/// (not with `json`) and their JSON by WriteResult.
-void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path);
+/// (not with `json`) and their JSON by WriteResult, with the keys of
+/// `extra` (an object; run's `provenance`) added when given.
+void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path,
+                        const nlohmann::json* extra = nullptr);
 
 /// The DAQ stage of `daq` and `replay --rig`, with `json` its counts as
 /// the result object (frames_read, published, ...) on standard output.
 int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, bool json);
 
 /// `path` as a file a reader opens: itself, or for `-` standard input
-/// copied whole into a temporary file named *`suffix` (the readers take
-/// the format from the name and some read the start twice), removed when
-/// the command exits. Standard input can be read once: a second `-` is a
-/// UsageError naming `option`.
-std::string InputFile(const std::string& option, const std::string& path, const char* suffix = ".csv");
+/// copied whole into a temporary file `stdin`*`suffix` in a folder of its
+/// own (the readers take the format from the name and some read the start
+/// twice; a sweep names a record by its file name), removed when the
+/// command exits. With `hdf5_suffix`, bytes that start with HDF5's
+/// signature get that suffix instead. Standard input can be read once: a
+/// second `-` is a UsageError naming `option`.
+std::string InputFile(const std::string& option, const std::string& path, const char* suffix = ".csv",
+                      const char* hdf5_suffix = nullptr);
+
+/// An output of a command whose writer needs a path (it writes through
+/// common::AtomicFile, or a library opens the name): `path` itself, or for
+/// `-` (standard output) a temporary file named *`suffix` (the format
+/// the name gives) that Finish() copies to standard output; the temporary
+/// is removed when this is destroyed. A file stays whole or absent as its
+/// writer makes it; standard output gets the bytes only once they are all
+/// written.
+class OutputTarget {
+ public:
+  /// @throws std::runtime_error naming `option` when the temporary cannot be made.
+  OutputTarget(std::string option, std::string path, const char* suffix);
+  ~OutputTarget();
+  OutputTarget(const OutputTarget&) = delete;
+  OutputTarget& operator=(const OutputTarget&) = delete;
+
+  /// Where the writer writes.
+  const std::string& path() const { return write_path_; }
+  /// The path as given (for messages: "standard output" for `-`).
+  std::string name() const { return standard_output() ? "standard output" : given_; }
+  bool standard_output() const { return !temp_.empty(); }
+  /// For `-`: the temporary's bytes to standard output, flushed; else
+  /// nothing. @throws std::runtime_error naming the option on a failed read or write.
+  void Finish();
+
+ private:
+  std::string option_;
+  std::string given_;
+  std::string write_path_;
+  std::string temp_;  ///< the temporary of `-`, else ""
+};
+
+/// A usage error naming `option` for an output given as `-` (standard
+/// output) whose format needs a file it can seek in or read back (HDF5,
+/// `--resume`): `what` says which. Other paths pass.
+void RefuseStandardOutput(const std::string& option, const std::string& path, const char* what);
+
+/// The required options of the command `app` parsed that were not given,
+/// in one message naming them all ("simulate: missing required options
+/// --alpha, --p, --mu, --rate; ..."); "" when none is missing (CLI11
+/// reports only the first, one run at a time). Call after CLI11's
+/// RequiredError: what it parsed is counted by then.
+std::string MissingRequired(const CLI::App& app);
 
 /// `-` given for `option`, whose reader needs a file it can seek in (an
 /// LCM log): a UsageError saying so. Other paths pass.
@@ -111,6 +160,18 @@ std::size_t EditDistance(std::string_view a, std::string_view b);
 /// command, the option, the value and the type expected ("simulate: --alpha:
 /// 'abc' is not a number"); other messages as they are.
 std::string ConversionMessage(const CLI::App& app, const std::string& what);
+
+/// CLI11's messages of an option's check (CLI::NonNegativeNumber,
+/// CLI::Range: "--lookahead: Value abc not in range 0.000000 to
+/// 1797693...") as ConversionMessage's: a value not of the option's type
+/// said so ("run: --lookahead: 'abc' is not an integer"), one out of range
+/// with its bounds ("'-1' is not >= 0", "'5e6' is not in [0.01, 1e+06]");
+/// other messages with the command's name before them.
+std::string ValidationMessage(const CLI::App& app, const std::string& what);
+
+/// Any other message of CLI11's parsing with the command's name before
+/// it ("synth: --truth: At Most 1 required but received 2").
+std::string ParseErrorMessage(const CLI::App& app, const std::string& what);
 
 /// The name of `names` closest to `word` when it is close enough to be a
 /// typo of it (edit distance at most 2, and at most a third of the longer

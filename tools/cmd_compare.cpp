@@ -22,6 +22,7 @@ struct CompareCommand {
 
 int RunCompare(CompareCommand& c) {
   pipeline::ValidateCompareOptions(c.config);
+  RequireOutputFolder("--summary", c.summary_json);  // before the node runs, not at its stop
   const std::atomic<bool>& stop = InstallStopSignals();
   const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   compare::CompareNode node(c.config, *bus);

@@ -57,6 +57,7 @@ void RegisterDaq(CLI::App& app, CommandRun& run) {
       return;
     }
     run = [opts, json] {
+      RefuseStandardOutput("--log", opts->log_path, "an LCM log is written to a file");
       opts->input = InputFile("RAW", opts->input);
       return RunDaqStageCommand(*opts, "daq", *json);
     };

@@ -170,7 +170,7 @@ int RunExport(ExportCliOptions& o) {
 void RegisterExport(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<ExportCliOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("export", "a recorded LCM log or a raw CSV/LVM file as CSV, MAT or HDF5");
-  cmd->add_option("input", opts->input, "an LCM log (rocklab's or lcm-logger's), or a raw .csv / .lvm")
+  cmd->add_option("input,--input", opts->input, "an LCM log (rocklab's or lcm-logger's), or a raw .csv / .lvm")
       ->required();
   cmd->add_option("--out", opts->out,
                   "OUT.csv (a log: OUT_<CHANNEL>.csv per channel), OUT.mat (MAT v5) or OUT.h5 (HDF5)")

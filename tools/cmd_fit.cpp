@@ -263,6 +263,12 @@ int RunFit(const FitCliOptions& o) {
   Require(o.noise_rad >= 0.0, "--noise-rad", ">= 0 rad", o.noise_rad);
   Require(o.significance > 0.0 && o.significance < 0.5, "--significance", "in (0, 0.5)", o.significance);
   Require(o.starts >= -1, "--starts", ">= 0", o.starts);
+  // Output paths checked before the work (the fit can take minutes).
+  RequireOutputFolder("--out", o.out_json);
+  RequireOutputFolder("--samples", o.samples);
+  RequireOutputFolder("--plot", o.plot);
+  RefuseStandardOutput("--samples", o.samples, "the draws' provenance goes in a file beside them, or in HDF5");
+  RefuseStandardOutput("--plot", o.plot, "standard output holds the fit's summary");
   fo.features.noise_rad = o.noise_rad;
   fo.significance = o.significance;
   fo.starts = o.starts;
@@ -396,12 +402,9 @@ int RunFit(const FitCliOptions& o) {
     if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior, provenance);
     if (!o.plot.empty()) WriteCornerSvg(o.plot, *posterior, "rocklab fit --posterior: " + o.input, provenance);
   }
-  if (!o.out_json.empty()) {
-    common::WriteFileAtomically(o.out_json, j.dump(2) + "\n");
-  }
-  if (o.json) {
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
+  // One object for --out FILE (- : standard output) and --json.
+  WriteResult(j, o.json, o.out_json, false, "--out");
+  if (!o.json && o.out_json != "-") {
     PrintText(o, result);
     if (posterior) PrintPosterior(*posterior);
   }
@@ -450,7 +453,9 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
                   "trajectory: prior-box starts screened (default 24); impacts: alpha-profile minima refined (default 3)");
   cmd->add_flag("--json", opts->json, "print the result as JSON");
   cmd->add_flag("--quiet", opts->quiet, "no progress line on stderr (drawn when stderr is a terminal)");
-  cmd->add_option("--out", opts->out_json, "write the result JSON (top-level alpha, p, mu) to this file");
+  cmd->add_option("--out", opts->out_json,
+                  "write the result JSON (top-level alpha, p, mu) to this file (- : standard output, without the "
+                  "text summary)");
   cmd->add_flag("--posterior", opts->posterior,
                 "also sample the posterior of alpha, p, mu (, l), sigma, t_offset (docs/identification.md)");
   cmd->add_option("--seed", opts->seed, "posterior: random seed (default 1)");

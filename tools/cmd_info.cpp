@@ -62,7 +62,7 @@ int RunInfo(const InfoOptions& o) {
 void RegisterInfo(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<InfoOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("info", "what a recorded LCM log, a raw CSV/LVM file, a ground-motion record or sweep results hold");
-  cmd->add_option("input", opts->input,
+  cmd->add_option("input,--input", opts->input,
                   "an LCM log (rocklab's or lcm-logger's), a raw .csv / .lvm, a ground-motion record: " +
                       FormatsHelp(DataKind::kGroundMotion) +
                       ", or sweep results: " + FormatsHelp(DataKind::kSweepResults))

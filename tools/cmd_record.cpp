@@ -121,6 +121,7 @@ int RunRecord(RecordCommand& c) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
+  RefuseStandardOutput("LOG", c.options.out_path, "an LCM log is written to a file (rotated by size or time)");
   if (!c.summary_json.empty() && c.summary_json != "-") {
     std::ofstream probe(c.summary_json, std::ios::app);
     if (!probe) throw UsageError("--summary: cannot write '" + c.summary_json + "'");

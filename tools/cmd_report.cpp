@@ -59,17 +59,17 @@ std::pair<int, int> ParseSize(const std::string& text) {
 // previous page as it was.
 void WriteText(const std::string& path, const std::string& text) { common::WriteFileAtomically(path, text); }
 
-void DrawFigure(const ThetaFigure& figure, const std::string& path, FigureFormat format,
+void DrawFigure(const ThetaFigure& figure, const OutputTarget& target, FigureFormat format,
                 std::pair<int, int> size) {
-  if (path.empty()) return;
+  if (target.path().empty()) return;
   std::string warnings;
   try {
-    warnings = figure.Write(path, format, size.first, size.second);
+    warnings = figure.Write(target.path(), format, size.first, size.second);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--size: ") + e.what());
   }
   if (!warnings.empty()) std::fprintf(stderr, "report: gnuplot: %s\n", warnings.c_str());
-  std::fprintf(stderr, "report: wrote %s\n", path.c_str());
+  std::fprintf(stderr, "report: wrote %s\n", target.name().c_str());
 }
 
 int RunReport(ReportCommand& c) {
@@ -83,6 +83,7 @@ int RunReport(ReportCommand& c) {
           c.options.start_s);
   Require(c.options.end_s > c.options.start_s, "--end", "> --start (s)", c.options.end_s);
   RefuseStandardInput("LOG", c.log_path, "an LCM log is read by seeking in it");
+  RequireOneStandardOutput({{"--out", c.out_html}, {"--svg", c.svg_path}, {"--png", c.png_path}});
   RequireOutputFolder("--out", c.out_html);
   RequireOutputFolder("--png", c.png_path);
   RequireOutputFolder("--svg", c.svg_path);
@@ -121,15 +122,18 @@ int RunReport(ReportCommand& c) {
                  records - 1);
   }
 
+  // Each output a file written whole, or (-) standard output once complete.
+  OutputTarget html("--out", c.out_html, ".html"), svg("--svg", c.svg_path, ".svg"), png("--png", c.png_path, ".png");
   record.provenance = common::ProvenanceFields(common::MakeProvenance({c.log_path}));
-  WriteText(c.out_html, ReportPage(record));
-  std::fprintf(stderr, "report: wrote %s\n", c.out_html.c_str());
+  WriteText(html.path(), ReportPage(record));
+  std::fprintf(stderr, "report: wrote %s\n", html.name().c_str());
   if (!c.svg_path.empty() || !c.png_path.empty()) {
     ThetaFigure figure = ReportFigure(record);
     figure.set_provenance(record.provenance);  // SVG metadata, PNG tEXt chunks
-    DrawFigure(figure, c.svg_path, FigureFormat::kSvg, size);
-    DrawFigure(figure, c.png_path, FigureFormat::kPng, size);
+    DrawFigure(figure, svg, FigureFormat::kSvg, size);
+    DrawFigure(figure, png, FigureFormat::kPng, size);
   }
+  for (OutputTarget* out : {&html, &svg, &png}) out->Finish();
   if (c.json) {
     auto file = [](const std::string& path) { return path.empty() ? nlohmann::json(nullptr) : nlohmann::json(path); };
     WriteResult({{"log", c.log_path},
@@ -150,7 +154,7 @@ int RunReport(ReportCommand& c) {
                  {"peak_table_accel", record.table.accel_mps2},
                  {"peak_table_disp", record.table.disp_m},
                  {"units", {{"peak_table_accel", "m/s^2"}, {"peak_table_disp", "m"}, {"damaged_bytes", "bytes"}}}},
-                true);
+                true, "", html.standard_output() || svg.standard_output() || png.standard_output());
   }
   return record.damaged_regions == 0 ? 0 : kFailureExit;
 }
@@ -160,11 +164,11 @@ int RunReport(ReportCommand& c) {
 void RegisterReport(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<ReportCommand>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("report", "a recorded test as a web page and a figure");
-  cmd->add_option("log", c->log_path, "LCM log of the test (rocklab run --log, lcm-logger)")
+  cmd->add_option("log,--input", c->log_path, "LCM log of the test (rocklab run --log, lcm-logger)")
       ->required();
-  cmd->add_option("--out", c->out_html, "the page (HTML, self-contained)")->required();
-  cmd->add_option("--png", c->png_path, "the figure as PNG");
-  cmd->add_option("--svg", c->svg_path, "the figure as SVG");
+  cmd->add_option("--out", c->out_html, "the page (HTML, self-contained; - : standard output)")->required();
+  cmd->add_option("--png", c->png_path, "the figure as PNG (- : standard output)");
+  cmd->add_option("--svg", c->svg_path, "the figure as SVG (- : standard output)");
   cmd->add_option("--size", c->size, "figure size WIDTHxHEIGHT, px")->capture_default_str();
   cmd->add_option("--series-rate", c->options.series_rate_hz,
                   "points kept per second of each series, Hz")

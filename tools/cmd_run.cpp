@@ -16,8 +16,11 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/lcm_log.h"
 #include "common/progress.h"
+#include "common/provenance.h"
 #include "compare/compare_flags.h"
 #include "compare/compare_node.h"
 #include "model/model_node.h"
@@ -55,6 +58,8 @@ int RunAll(RunCommand& c) {
   if (c.speed == 0) c.compare.stale_clock = compare::StaleClock::kSample;
   Require(c.speed >= 0, "--speed", ">= 0", c.speed);
   pipeline::ValidateCompareOptions(c.compare);
+  RefuseStandardOutput("--log", c.log_path, "an LCM log is written to a file");
+  RequireOutputFolder("--summary", c.summary_json);  // before the run, not after it (--log: RunGraph's)
   const std::atomic<bool>& stop = InstallStopSignals();
 
   pipeline::RunGraphConfig g;
@@ -114,7 +119,21 @@ int RunAll(RunCommand& c) {
     std::fprintf(stderr, "run: %lld ensemble members failed and left their band\n",
                  static_cast<long long>(model.member_failures()));
   }
-  WriteCompareResult(graph.compare(), c.json, c.summary_json);
+  // What made the log and the summary: beside the log (LOG.provenance.csv,
+  // the log's bytes as every reader expects them) and in the summary.
+  std::vector<std::string> sources = {c.rig_path, c.input, c.ensemble.samples_path};
+  for (const model::VariantSpec& v : g.model.variants) {
+    if (v.params_source != "theoretical" && v.params_source != "command line") sources.push_back(v.params_source);
+  }
+  const common::Provenance provenance = common::MakeProvenance(sources);
+  nlohmann::json extra = {{"provenance", nlohmann::json::parse(common::ProvenanceJson(provenance))}};
+  extra["provenance"]["rig"] = {{"path", c.rig_path}, {"name", rig.name}, {"calibration", rig.calibration_id}};
+  if (log != nullptr) {
+    auto fields = common::ProvenanceFields(provenance);
+    fields.emplace_back("rig", rig.name + (rig.calibration_id.empty() ? "" : ", calibration " + rig.calibration_id));
+    common::WriteProvenanceSidecarFields(c.log_path, fields);
+  }
+  WriteCompareResult(graph.compare(), c.json, c.summary_json, &extra);
   const int damaged = pipeline::ReportDamage(s, c.input, "run");
   return log_errors > 0 ? kFailureExit : damaged;
 }
@@ -134,7 +153,8 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
                   "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");
   cmd->add_option("--lcm-url", c->lcm_url,
                   "where the channels also go (default memq://: in-process only)");
-  cmd->add_option("--log", c->log_path, "write every published message to this LCM log");
+  cmd->add_option("--log", c->log_path,
+                  "write every published message to this LCM log (its provenance beside it, LOG.provenance.csv)");
   cmd->add_option("--summary", c->summary_json, "end-of-run summary JSON file (- : standard output)");
   AddJsonFlag(*cmd, c->json);
   auto* speed = cmd->add_option("--speed", c->speed,

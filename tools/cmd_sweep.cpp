@@ -12,6 +12,7 @@
 
 #include "common/provenance.h"
 #include "sweep/plot.h"
+#include "sweep/row_writer.h"
 #include "sweep/runner.h"
 #include "sweep/sweep.h"
 #include "tools/cli.h"
@@ -54,18 +55,34 @@ sweep::Slice ParseShard(const std::string& text, std::size_t plan_size) {
 int RunSweepCommand(SweepCommandOptions& o) {
   sweep::MpiSession mpi;
   if (o.duration_s >= 0) o.plan.duration_s = o.duration_s;
+  for (std::string& record : o.plan.records) {
+    if (record == "-" && mpi.size() > 1) throw UsageError("--records -: each rank reads the records; give the file");
+    record = InputFile("--records", record);
+  }
+  RefuseStandardOutput("--out", o.resume ? o.out : "", "--resume reads back the rows already written");
+  // --out -: the rows (CSV) on standard output once complete, the summary on stderr.
+  OutputTarget out("--out", o.out, ".csv");
+  std::FILE* summary = out.standard_output() ? stderr : stdout;
+  struct RemovePartialRows {  // a stopped sweep's rows for -: nothing to --resume, not left in TMPDIR
+    std::string path;
+    ~RemovePartialRows() {
+      if (!path.empty()) std::remove(path.c_str());
+    }
+  } partial_rows{out.standard_output() ? sweep::PartialPath(out.path()) : ""};
   const sweep::Plan plan = sweep::MakePlan(o.plan);
   if (!o.merge.empty()) {
     if (!o.shard.empty() || o.resume) throw UsageError("--merge takes neither --shard nor --resume");
     if (mpi.rank() != 0) return 0;
     // The merged file's provenance: this command and the shards it read.
     const sweep::MergeReport report =
-        sweep::MergeShards(plan, o.merge, o.out, common::ProvenanceFields(common::MakeProvenance(o.merge)));
+        sweep::MergeShards(plan, o.merge, out.path(), common::ProvenanceFields(common::MakeProvenance(o.merge)));
     for (const std::string& w : report.warnings) std::fprintf(stderr, "rocklab: warning: --merge: %s\n", w.c_str());
+    out.Finish();
     if (o.json) {
-      WriteResult({{"merged", o.merge}, {"out", o.out}, {"rows", plan.size()}}, true);
+      WriteResult({{"merged", o.merge}, {"out", o.out}, {"rows", plan.size()}}, true, "", out.standard_output());
     } else {
-      std::printf("sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), o.out.c_str(), plan.size());
+      std::fprintf(summary, "sweep: merged %zu files into %s (%zu rows)\n", o.merge.size(), out.name().c_str(),
+                   plan.size());
     }
     return 0;
   }
@@ -79,9 +96,10 @@ int RunSweepCommand(SweepCommandOptions& o) {
     sources.insert(sources.end(), o.plan.polygons.begin(), o.plan.polygons.end());
     ro.provenance = common::ProvenanceFields(common::MakeProvenance(sources));
   }
-  const sweep::RunReport r = sweep::RunSweep(plan, o.out, ro, mpi);
+  const sweep::RunReport r = sweep::RunSweep(plan, out.path(), ro, mpi);
   if (r.open_failed_on_rank0) return kUsageExit;
   if (mpi.rank() != 0) return 0;
+  out.Finish();
   if (o.json) {
     WriteResult({{"records", plan.records.size()},
                  {"blocks", plan.blocks.size()},
@@ -98,12 +116,12 @@ int RunSweepCommand(SweepCommandOptions& o) {
                  {"wall_time", r.wall_s},
                  {"out", o.out},
                  {"units", {{"wall_time", "s"}}}},
-                true);
+                true, "", out.standard_output());
   } else {
-    std::printf("sweep: %zu records x %zu blocks x %zu scales = %zu cases%s; %zu kept (--resume), %zu run on %u threads x %d ranks in %.2f s, %zu overturned; rows in %s\n",
+    std::fprintf(summary, "sweep: %zu records x %zu blocks x %zu scales = %zu cases%s; %zu kept (--resume), %zu run on %u threads x %d ranks in %.2f s, %zu overturned; rows in %s\n",
               plan.records.size(), plan.blocks.size(), plan.scales.size(), plan.size(),
               o.shard.empty() ? "" : (", shard " + o.shard + ": " + std::to_string(r.cases)).c_str(), r.resumed, r.run,
-              r.threads, r.ranks, r.wall_s, r.overturned, o.out.c_str());
+              r.threads, r.ranks, r.wall_s, r.overturned, out.name().c_str());
   }
   std::fflush(stdout);
   if (r.beyond_pi_over_2 > 0) {
@@ -155,13 +173,15 @@ int RunSweepPlot(PlotCommandOptions& o) {
     throw UsageError("--format must be svg or png, got '" + o.format + "'");
   }
   std::vector<sweep::ResultRow> rows;
+  const std::string results = InputFile("RESULTS", o.results, ".csv", ".h5");
   try {
-    rows = sweep::ReadResults(o.results);
+    rows = sweep::ReadResults(results);
   } catch (const std::runtime_error& e) {
     throw UsageError(e.what());
   }
   if (rows.empty()) throw UsageError(o.results + ": no rows");
   const std::vector<sweep::BlockFragility> fits = sweep::FitFragilities(rows);
+  o.plot.provenance = common::ProvenanceFields(common::MakeProvenance({results}));  // --json's figures too
   if (o.json) {
     const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
     nlohmann::json blocks = nlohmann::json::array();
@@ -199,7 +219,6 @@ int RunSweepPlot(PlotCommandOptions& o) {
         break;
     }
   }
-  o.plot.provenance = common::ProvenanceFields(common::MakeProvenance({o.results}));
   const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
   std::printf("%zu files in %s", report.files.size(), o.plot.out_dir.c_str());
   if (report.skipped) std::printf(" (%zu figures skipped: more than %zu of a kind)", report.skipped, o.plot.max_figures_per_kind);
@@ -213,7 +232,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<SweepCommandOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("sweep", "overturning and peak rocking over records x blocks x scales");
   sweep::PlanOptions& p = opts->plan;
-  cmd->add_option("--records", p.records, "ground-motion records: " + FormatsHelp(DataKind::kGroundMotion))->required()->expected(1, -1);
+  cmd->add_option("--records", p.records, "ground-motion records (- : one CSV from standard input, named stdin.csv): " + FormatsHelp(DataKind::kGroundMotion))->required()->expected(1, -1);
   cmd->add_option("--scale", p.scale, "A:B:N, N values from A to B: factors on each record (default 1:1:1)");
   cmd->add_flag("--pga-g", p.pga_g, "the --scale values are the target PGA in g");
   cmd->add_option("--alpha", p.alpha, "blocks: alpha values, rad")->expected(1, -1);
@@ -227,7 +246,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");
   cmd->add_option("--l", p.l, "complex formulation momentum (default 1e-14)");
   cmd->add_option("--rtol", p.rtol, "CVODE relative tolerance, in (0, 1e-3] (default 1e-10)");
-  cmd->add_option("--out", opts->out, "results: " + FormatsHelp(DataKind::kSweepResults) + " by the extension (--resume: CSV only)")->required();
+  cmd->add_option("--out", opts->out, "results: " + FormatsHelp(DataKind::kSweepResults) + " by the extension (--resume: CSV only; - : CSV on standard output)")->required();
   cmd->add_option("--threads", opts->threads, "worker threads (default: all cores; 1 per rank under mpirun)");
   cmd->add_option("--shard", opts->shard, "I/N: run cases I, I+N, I+2N, ... only (array jobs)");
   cmd->add_flag("--resume", opts->resume, "keep the complete rows already in --out and run the rest");
@@ -237,7 +256,7 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
 
   auto plot = std::make_shared<PlotCommandOptions>();
   CLI::App* pc = app.add_subcommand("sweep-plot", "rocking spectra, overturning maps and fragility of a sweep");
-  pc->add_option("results", plot->results, "results of rocklab sweep: " + FormatsHelp(DataKind::kSweepResults))->required();
+  pc->add_option("results,--input", plot->results, "results of rocklab sweep: " + FormatsHelp(DataKind::kSweepResults) + " (- : standard input, CSV or HDF5)")->required();
   pc->add_option("--out-dir", plot->plot.out_dir, "folder for the figures and fragility.csv (default .)");
   pc->add_option("--format", plot->format, "svg (default) or png");
   pc->add_option("--gnuplot", plot->plot.gnuplot, "gnuplot program (default gnuplot)");

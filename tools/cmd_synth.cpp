@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/atomic_file.h"
 #include "common/provenance.h"
 #include "daq/rig_simulator.h"
 #include "model/table_motion.h"
@@ -73,6 +74,9 @@ int RunSynth(const SynthOptions& o) {
   Require(std::isfinite(o.noise_scale) && o.noise_scale >= 0, "--noise-scale", ">= 0", o.noise_scale);
   Require(o.occlusion >= 0 && o.occlusion < 1, "--occlusion", "in [0, 1)", o.occlusion);
   Require(o.drop >= 0 && o.drop < 1, "--drop", "in [0, 1)", o.drop);
+  RequireOneStandardOutput({{"--out", o.out}, {"--truth", o.truth_csv}});
+  RequireOutputFolder("--out", o.out);
+  RequireOutputFolder("--truth", o.truth_csv);
   const std::optional<Fault> slip = ParseFault(o.slip_text, "--slip");
   const std::optional<Fault> twist = ParseFault(o.twist_text, "--twist");
   Require(std::isfinite(o.hold_s) && o.hold_s >= 0, "--hold", ">= 0 s", o.hold_s);
@@ -82,10 +86,15 @@ int RunSynth(const SynthOptions& o) {
   noise.occlusion = o.occlusion;
   noise.drop = o.drop;
   daq::RigSimulator sim(rig, noise, o.seed);
+  // The raw file whole or not at all (an AtomicFile renamed at the end);
+  // - : a CSV on standard output once it is complete.
   const auto format = daq::RawFileWriter::FormatOf(o.out);
+  OutputTarget raw_target("--out", o.out, ".csv");
+  std::unique_ptr<common::AtomicFile> raw_file;
   std::unique_ptr<daq::RawFileWriter> raw;
   try {
-    raw = std::make_unique<daq::RawFileWriter>(o.out, format, sim.channel_names(),
+    raw_file = std::make_unique<common::AtomicFile>(raw_target.path());
+    raw = std::make_unique<daq::RawFileWriter>(raw_file->path(), format, sim.channel_names(),
                                                rig.sample_rate_hz, o.decimal_comma);
   } catch (const std::exception& e) {
     throw UsageError(std::string("--out: ") + e.what());
@@ -126,7 +135,9 @@ int RunSynth(const SynthOptions& o) {
   }
   const pipeline::RunSummary summary = pipeline::RunScenario(scenario, o.scenario, sample);
   raw->Close();
+  raw_file->Commit();
   truth.Close();
+  raw_target.Finish();
   for (const std::string& written_file : {o.out, o.truth_csv}) {  // beside each: the files stay as readers expect
     common::WriteProvenanceSidecar(written_file, {o.rig_path, o.scenario.accel_csv});
   }
@@ -145,10 +156,11 @@ int RunSynth(const SynthOptions& o) {
         {"impacts", summary.impacts},
         {"overturned", summary.overturned},
         {"units", {{"hold", "s"}, {"uplift_time", "s"}, {"peak_abs_theta", "rad"}, {"peak_time", "s"}}}};
-    WriteResult(result, true, "", o.truth_csv == "-");
+    WriteResult(result, true, "", o.truth_csv == "-" || o.out == "-");
   }
   std::fprintf(stderr, "%ld samples written to %s (%ld dropped), truth in %s; peak |theta| %.5f rad, %d impacts\n",
-               written, o.out.c_str(), dropped, o.truth_csv.c_str(), summary.peak_abs_theta,
+               written, raw_target.name().c_str(), dropped, o.truth_csv == "-" ? "standard output" : o.truth_csv.c_str(),
+               summary.peak_abs_theta,
                summary.impacts);
   return 0;
 }
@@ -174,7 +186,7 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
                   "test's release); the run's times follow it")
       ->capture_default_str();
   cmd->add_flag("--decimal-comma", opts->decimal_comma, "LVM output with a decimal comma");
-  cmd->add_option("--out", opts->out, "raw file, RAW.csv or RAW.lvm")->required();
+  cmd->add_option("--out", opts->out, "raw file, RAW.csv or RAW.lvm (- : CSV on standard output)")->required();
   cmd->add_option("--truth", opts->truth_csv,
                   "truth CSV: time,theta,theta_dot,table_displacement,table_acceleration,slip,"
                   "twist,dropped (s, rad, rad/s, m, m/s^2, m, rad, 0/1)")

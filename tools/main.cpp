@@ -190,8 +190,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::ConversionError& e) {
     std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(ConversionMessage(app, e.what())).c_str());
     return kUsageExit;
+  } catch (const CLI::ValidationError& e) {
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(ValidationMessage(app, e.what())).c_str());
+    return kUsageExit;
+  } catch (const CLI::RequiredError& e) {
+    // Every required option not given, in one message (CLI11 names the first).
+    const std::string missing = MissingRequired(app);
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(missing.empty() ? ParseErrorMessage(app, e.what()) : missing).c_str());
+    return kUsageExit;
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());
+    std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(ParseErrorMessage(app, e.what())).c_str());
     return kUsageExit;
   } catch (const UsageError& e) {
     std::fprintf(stderr, "rocklab: %s\n", rocklab::common::PrintableLines(e.what()).c_str());

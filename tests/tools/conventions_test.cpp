@@ -1,13 +1,15 @@
 // The command-line conventions of docs/commands.md ("Conventions, command
 // by command") over every registered command: --help, an unknown option
 // with the nearest one named, --json where the table says the command has
-// a result (and its output parsed on small inputs), `-` as standard input,
-// the bash completion made from the command table, and the progress line
-// only on a terminal.
+// a result (and its output parsed on small inputs), every missing
+// required option named in one message, `-` as standard input and
+// output, run's provenance, the bash completion made from the command
+// table, and the progress line only on a terminal.
 //
 // Oracle: the table in docs/commands.md and the options each command's
 // --help lists; for the JSON, the same command's text or files.
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <gtest/gtest.h>
 #include <poll.h>
 #include <pty.h>
@@ -89,6 +91,17 @@ TEST(CliConventions, EveryCommandHelpsRefusesUnknownOptionsAndHasJsonWhereDocume
     EXPECT_EQ(bad.exit_code, 2) << bad.err;
     EXPECT_NE(bad.err.find("unknown option " + typo), std::string::npos) << bad.err;
     EXPECT_NE(bad.err.find("did you mean " + option + "?"), std::string::npos) << bad.err;
+    // A value not of its option's type: the command, option, value and type.
+    static const std::regex kNumeric(R"(^\s+(--[a-z][a-z0-9-]*) (FLOAT|INT|UINT)\b)");
+    std::istringstream help_lines(help.out);
+    for (std::string line; std::getline(help_lines, line);) {
+      std::smatch m;
+      if (!std::regex_search(line, m, kNumeric)) continue;
+      const CliResult nan = RunCli({command, m[1].str(), "abc"});
+      EXPECT_EQ(nan.exit_code, 2) << nan.err;
+      EXPECT_NE(nan.err.find(command + ": " + m[1].str() + ": 'abc' is not "), std::string::npos) << nan.err;
+      break;  // one per command: the conversion is the CLI layer's, not the command's
+    }
     const auto row = documented.find(command);
     ASSERT_NE(row, documented.end()) << "not in docs/commands.md's conventions table";
     const bool has_result = row->second.rfind("yes", 0) == 0;
@@ -169,6 +182,216 @@ TEST(CliConventions, DashIsStandardInputForCsvAndRefusedForLogs) {
   const CliResult log = RunCli({"report", "-", "--out", dir + "/r.html"});
   EXPECT_EQ(log.exit_code, 2);
   EXPECT_NE(log.err.find("standard input (-) cannot be read here"), std::string::npos) << log.err;
+}
+
+// Command -> the options its --help marks REQUIRED (CLI11's help: "NAME
+// TYPE REQUIRED"; a positional by its name).
+std::map<std::string, std::vector<std::string>> RequiredOptions(const std::vector<std::string>& commands) {
+  std::map<std::string, std::vector<std::string>> out;
+  static const std::regex kRequired(R"(^\s+(?:-[a-zA-Z],)?(--?[a-z][a-z0-9-]*|[a-z][a-z0-9_-]*)(?:,[^ ]+)?(?: [A-Z:]+)*? REQUIRED)");
+  for (const std::string& command : commands) {
+    const CliResult help = RunCli({command, "--help"});
+    std::istringstream lines(help.out);
+    for (std::string line; std::getline(lines, line);) {
+      std::smatch m;
+      if (std::regex_search(line, m, kRequired)) out[command].push_back(m[1].str());
+    }
+  }
+  return out;
+}
+
+// Oracle: each command's --help (the REQUIRED marks); the message must
+// name every one, on one line, exit 2.
+TEST(CliConventions, EveryMissingRequiredOptionNamedAtOnce) {
+  std::vector<std::string> commands;
+  for (const auto& [command, options] : CompletionOptions()) commands.push_back(command);
+  const auto required = RequiredOptions(commands);
+  ASSERT_GE(required.size(), 8u);  // simulate, synth, sweep, report, run, ... have some
+  for (const auto& [command, names] : required) {
+    SCOPED_TRACE(command);
+    const CliResult r = RunCli({command});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    for (const std::string& name : names) {
+      std::string shown = name;  // a positional is shown in capitals
+      if (shown[0] != '-') std::transform(shown.begin(), shown.end(), shown.begin(), ::toupper);
+      EXPECT_NE(r.err.find(shown), std::string::npos) << name << " not named: " << r.err;
+    }
+  }
+  // The issue's case: simulate's four model options and --out in one line.
+  const CliResult s = RunCli({"simulate", "--theta0", "0.1"});
+  EXPECT_EQ(s.exit_code, 2);
+  EXPECT_NE(s.err.find("simulate: missing required options --alpha, --p, --mu, --rate, --out;"), std::string::npos)
+      << s.err;
+  const CliResult one = RunCli({"simulate", "--alpha", "0.2", "--p", "3", "--mu", "0.9", "--rate", "100"});
+  EXPECT_NE(one.err.find("simulate: missing required option --out;"), std::string::npos) << one.err;
+}
+
+// Drops the lines (or the footer) that say when and by which command a
+// file was made: two runs of one command differ there only.
+std::string WithoutProvenance(const std::string& text) {
+  std::string out;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("# provenance.", 0) == 0 || line.rfind("# rocklab provenance", 0) == 0) continue;
+    out += line + "\n";
+  }
+  const std::size_t foot = out.find("<footer class=\"provenance\"");
+  if (foot != std::string::npos) out.erase(foot, out.find("</footer>", foot) + 9 - foot);
+  return out;
+}
+
+// `-` as standard output for synth, fit, sweep and report, and as
+// standard input for sweep --records and sweep-plot. Oracle: the same
+// command writing a file (byte for byte, but for the provenance lines
+// that name the command and the time).
+TEST(CliConventions, DashIsStandardOutputWhereTheOutputIsOneStream) {
+  const std::string dir = ScratchDir("conventions_stdout");
+  const std::string rig = ROCKLAB_SOURCE_DIR "/data/rigs/block1_rig.toml";
+  const std::vector<std::string> synth = {"synth", "--rig", rig, "--model", "housner", "--alpha", "0.235", "--p",
+                                          "3.884", "--mu", "0.937", "--theta0", "0.1", "--duration", "0.3",
+                                          "--rate", "1000", "--truth", dir + "/truth.csv"};
+  const CliResult file = RunCli(With(synth, {"--out", dir + "/raw.csv"}));
+  ASSERT_EQ(file.exit_code, 0) << file.err;
+  const CliResult piped = RunCli(With(synth, {"--out", "-", "--json"}));
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_EQ(piped.out, ReadFile(dir + "/raw.csv"));
+  EXPECT_NE(piped.err.find("\"samples_written\""), std::string::npos) << "--json to stderr: " << piped.err;
+  std::vector<std::string> two_dashes = With(synth, {"--out", "-"});
+  *std::find(two_dashes.begin(), two_dashes.end(), dir + "/truth.csv") = "-";
+  const CliResult both = RunCli(two_dashes);
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--out - and --truth -"), std::string::npos) << both.err;
+  // Any other parse error names the command too.
+  const CliResult twice = RunCli(With(synth, {"--out", "-", "--truth", "x.csv"}));
+  EXPECT_EQ(twice.exit_code, 2);
+  EXPECT_EQ(twice.err.rfind("rocklab: synth: --truth", 0), 0u) << twice.err;
+
+  // fit: free rocking of block 1 from simulate; --out - holds --out FILE's object.
+  const CliResult sim = RunCli({"simulate", "--alpha", "0.245", "--p", "3.78", "--mu", "0.91", "--theta0", "0.12",
+                                "--duration", "6", "--rate", "200", "--out", dir + "/free.csv"});
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const CliResult fit_file = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1",
+                                     "--out", dir + "/fit.json"});
+  ASSERT_EQ(fit_file.exit_code, 0) << fit_file.err;
+  const CliResult fit_pipe = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1", "--out", "-"});
+  ASSERT_EQ(fit_pipe.exit_code, 0) << fit_pipe.err;
+  auto a = nlohmann::json::parse(ReadFile(dir + "/fit.json")), b = nlohmann::json::parse(fit_pipe.out);
+  a.erase("runtime");
+  b.erase("runtime");
+  EXPECT_EQ(a, b);
+  EXPECT_NE(fit_file.out.find("rocklab fit:"), std::string::npos);  // the text summary, not with --out -
+  const CliResult samples = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1", "--posterior",
+                                    "--samples", "-"});
+  EXPECT_EQ(samples.exit_code, 2);
+  EXPECT_NE(samples.err.find("--samples: standard output (-) cannot be written here"), std::string::npos)
+      << samples.err;
+
+  // sweep: the record from standard input, the rows to standard output.
+  std::string record = "time,accel\n";
+  for (int k = 0; k <= 50; ++k) record += std::to_string(k * 0.02) + "," + (k % 10 < 5 ? "3" : "-3") + "\n";
+  ::mkdir((dir + "/in").c_str(), 0755);
+  WriteFile(dir + "/in/stdin.csv", record);  // the name a record from - gets
+  const std::vector<std::string> sweep = {"sweep", "--alpha", "0.2", "--p", "3", "--scale", "0.5:1.5:3", "--model",
+                                          "housner", "--duration", "1.2", "--threads", "1"};
+  const CliResult sweep_file = RunCli(With(sweep, {"--records", dir + "/in/stdin.csv", "--out", dir + "/sweep.csv"}));
+  ASSERT_EQ(sweep_file.exit_code, 0) << sweep_file.err;
+  int code = -1;
+  std::string command = "cat " + dir + "/in/stdin.csv | " ROCKLAB_BINARY;
+  for (const std::string& arg : sweep) command += " " + arg;
+  const std::string rows = Shell(command + " --records - --out - 2>/dev/null", code);
+  ASSERT_EQ(code, 0);
+  EXPECT_EQ(WithoutProvenance(rows), WithoutProvenance(ReadFile(dir + "/sweep.csv")));
+  EXPECT_NE(rows.find("# provenance.command:"), std::string::npos) << rows;
+  const CliResult resume = RunCli(With(sweep, {"--records", dir + "/in/stdin.csv", "--out", "-", "--resume"}));
+  EXPECT_EQ(resume.exit_code, 2);
+  EXPECT_NE(resume.err.find("--out: standard output (-) cannot be written here"), std::string::npos) << resume.err;
+
+  // sweep-plot: the results from standard input.
+  const CliResult plot_file = RunCli({"sweep-plot", dir + "/sweep.csv", "--out-dir", dir + "/plot1", "--json"});
+  ASSERT_EQ(plot_file.exit_code, 0) << plot_file.err;
+  ::mkdir((dir + "/plot2").c_str(), 0755);
+  ::mkdir((dir + "/plot1").c_str(), 0755);
+  const std::string plot_pipe = Shell("cat " + dir + "/sweep.csv | " ROCKLAB_BINARY " sweep-plot - --out-dir " + dir +
+                                          "/plot2 --json",
+                                      code);
+  ASSERT_EQ(code, 0);
+  EXPECT_EQ(nlohmann::json::parse(plot_file.out).at("fragility"), nlohmann::json::parse(plot_pipe).at("fragility"));
+}
+
+// run: the provenance of its log (beside it, LOG.provenance.csv) and in
+// its summary; the log's readers see the log as before; report --out -.
+// Oracle: coreutils' sha256sum of the sources; the report's page written
+// to a file.
+TEST(CliConventions, RunSaysWhatMadeItsLogAndSummary) {
+  const std::string dir = ScratchDir("conventions_run");
+  const std::string rig = ROCKLAB_SOURCE_DIR "/data/rigs/block1_rig.toml";
+  const CliResult s = RunCli({"synth", "--rig", rig, "--model", "housner", "--alpha", "0.235", "--p", "3.884", "--mu",
+                              "0.937", "--theta0", "0.1", "--duration", "0.5", "--rate", "1000", "--out",
+                              dir + "/raw.csv", "--truth", dir + "/truth.csv"});
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  const CliResult r = RunCli({"run", dir + "/raw.csv", "--rig", rig, "--max", "--variant", "h:housner:theoretical",
+                              "--log", dir + "/test.lcm", "--summary", dir + "/summary.json", "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  int code = -1;
+  auto sha256 = [&code](const std::string& path) { return Shell("sha256sum " + path, code).substr(0, 64); };
+  const auto summary = nlohmann::json::parse(ReadFile(dir + "/summary.json"));
+  ASSERT_TRUE(summary.contains("provenance")) << summary.dump();
+  const auto& p = summary.at("provenance");
+  EXPECT_EQ(p.at("rocklab_version").get<std::string>(), RunCli({"--version"}).out.substr(8, p.at("rocklab_version").get<std::string>().size()));
+  EXPECT_NE(p.at("command").get<std::string>().find("run "), std::string::npos);
+  EXPECT_EQ(p.at("created_utc").get<std::string>().size(), 20u);
+  EXPECT_EQ(p.at("rig").at("name"), "lab-table-A-block1");
+  ASSERT_EQ(p.at("sources").size(), 2u);
+  EXPECT_EQ(p.at("sources")[0].at("sha256"), sha256(rig));
+  EXPECT_EQ(p.at("sources")[1].at("sha256"), sha256(dir + "/raw.csv"));
+  EXPECT_EQ(p.at("sources")[1].at("size_bytes").get<long>(), static_cast<long>(ReadFile(dir + "/raw.csv").size()));
+  const std::string sidecar = ReadFile(dir + "/test.lcm.provenance.csv");
+  EXPECT_EQ(sidecar.rfind("key,value\n", 0), 0u) << sidecar;
+  EXPECT_NE(sidecar.find(sha256(dir + "/raw.csv")), std::string::npos) << sidecar;
+  EXPECT_NE(sidecar.find("\"rig\",\"lab-table-A-block1, calibration 2026-11-01-A\""), std::string::npos) << sidecar;
+  // The log as its readers know it: every channel a rocklab type.
+  const CliResult info = RunCli({"info", dir + "/test.lcm", "--json"});
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  for (const auto& channel : nlohmann::json::parse(info.out).at("channels")) {
+    EXPECT_NE(channel.at("type"), "unknown") << channel.dump();
+  }
+  // report --out -: the page the file gets.
+  const CliResult page_file = RunCli({"report", dir + "/test.lcm", "--out", dir + "/r.html", "--quiet"});
+  ASSERT_EQ(page_file.exit_code, 0) << page_file.err;
+  const CliResult page_pipe = RunCli({"report", dir + "/test.lcm", "--out", "-", "--quiet", "--json"});
+  ASSERT_EQ(page_pipe.exit_code, 0) << page_pipe.err;
+  EXPECT_EQ(WithoutProvenance(page_pipe.out), WithoutProvenance(ReadFile(dir + "/r.html")));
+  EXPECT_NE(page_pipe.out.find("<footer class=\"provenance\""), std::string::npos);
+  EXPECT_NE(page_pipe.err.find("\"decode_errors\""), std::string::npos) << "--json to stderr: " << page_pipe.err;
+}
+
+// A value out of an option's checked range: the bounds said plainly (CLI11
+// printed "not in range 0.000000 to 1797693134862315708...").
+TEST(CliConventions, OutOfRangeValueNamesCommandOptionAndBounds) {
+  const CliResult r = RunCli({"run", "x.csv", "--rig", "r.toml", "--lookahead", "-1"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("run: --lookahead: '-1' is not >= 0;"), std::string::npos) << r.err;
+}
+
+// The main input is positional with --input as its alias in every command
+// that has one (replay's LOG excepted: its --input is the raw file of
+// --rig mode). Oracle: each command's --help (its POSITIONALS section)
+// and the completion script's options.
+TEST(CliConventions, MainInputPositionalWithInputAlias) {
+  const auto commands = CompletionOptions();
+  for (const char* command : {"fit", "reconstruct", "daq", "run", "report", "info", "export", "sweep-plot"}) {
+    SCOPED_TRACE(command);
+    const auto options = commands.find(command);
+    ASSERT_NE(options, commands.end());
+    EXPECT_TRUE(Has(options->second, "--input"));
+    EXPECT_NE(RunCli({command, "--help"}).out.find("Positionals:"), std::string::npos);
+  }
+  const std::string log_free = ROCKLAB_SOURCE_DIR "/data/samples/fig7_block1.csv";
+  const CliResult a = RunCli({"info", log_free, "--json"});
+  const CliResult b = RunCli({"info", "--input", log_free, "--json"});
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  EXPECT_EQ(a.out, b.out);
 }
 
 // Oracle: bash's own completion machinery on the generated script.
