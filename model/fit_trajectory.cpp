@@ -267,6 +267,31 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
   return res;
 }
 
+// The Jacobian of the stated errors (and of the band test's hat matrix) is
+// taken at the model's rtol kCovarianceRtol with central differences of
+// relative step kCovarianceStep, not the search's (rtol options.rtol, step
+// 1e-5): the integrator's error at rtol 1e-8 moves theta by ~1e-6 rad in a
+// forced record, and changes unevenly with the parameters, so a 1e-5 step
+// read it as sensitivity: p's column came out 3.4 times its size (bench
+// seed 3053: norm 0.762 against 0.226 at rtol 1e-10, where steps 1e-6 to
+// 1e-3 agree within 2 %), p's stated error 3.2 times too small
+// (docs/fit_coverage.md, "The forced fit's p").
+constexpr double kCovarianceRtol = 1e-10;
+constexpr double kCovarianceStep = 1e-4;
+
+Eigen::MatrixXd CovarianceJacobian(const RockingRecord& record, std::size_t first, const Forcing& forcing,
+                                   bool from_hold, const Eigen::VectorXd& x, const FitOptions& options,
+                                   int* evaluations) {
+  FitOptions tight = options;
+  tight.rtol = std::min(options.rtol, kCovarianceRtol);
+  const TrajectoryFunctor f(record, first, record.size(), forcing, from_hold, tight);
+  Eigen::NumericalDiff<TrajectoryFunctor, Eigen::Central> diff(f, kCovarianceStep * kCovarianceStep);
+  Eigen::MatrixXd jacobian(f.values(), x.size());
+  diff.df(x, jacobian);
+  *evaluations += *f.count_;
+  return jacobian;
+}
+
 // The band test of a trajectory fit's residuals (LowBandTest) over the
 // samples from `first`; the model is the record plus the residuals.
 BandTest TrajectoryBandTest(const RockingRecord& record, std::size_t first, const LmOutcome& lm,
@@ -394,6 +419,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
                    std::to_string(lm.evaluations) + " model runs (status " +
                    std::to_string(static_cast<int>(lm.status)) + ", start from the " + start_from + ")");
   }
+  lm.jacobian = CovarianceJacobian(record, first, *forcing, from_hold, lm.x, options, &lm.evaluations);
   out.params = {lm.x(0), lm.x(1), lm.x(2)};
   try {
     out.params.Validate();
@@ -408,12 +434,18 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
   if (out.forced) {
     // The table record's sampling: the same run on the cubic through the
-    // samples; the difference d is about the chord's error.
+    // samples; the difference d is about the chord's error. Both runs at
+    // kCovarianceRtol, so that d holds the forcing's difference and not
+    // the integrator's error (~1e-6 rad at rtol 1e-8, see above).
+    FitOptions tight = options;
+    tight.rtol = std::min(options.rtol, kCovarianceRtol);
     const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
-    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, options);
-    Eigen::VectorXd fc(lm.residuals.size());
+    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, tight);
+    const TrajectoryFunctor on_chord(record, first, record.size(), *forcing, from_hold, tight);
+    Eigen::VectorXd fc(lm.residuals.size()), fl(lm.residuals.size());
     on_cubic(lm.x, fc);
-    const Eigen::VectorXd d = fc - lm.residuals;
+    on_chord(lm.x, fl);
+    const Eigen::VectorXd d = fc - fl;
     out.table_interpolation_rad = std::sqrt(d.squaredNorm() / static_cast<double>(d.size()));
     const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
     const Eigen::VectorXd shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
