@@ -434,9 +434,15 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
   if (out.forced) {
     // The table record's sampling: the same run on the cubic through the
-    // samples; the difference d is about the chord's error. Both runs at
-    // kCovarianceRtol, so that d holds the forcing's difference and not
-    // the integrator's error (~1e-6 rad at rtol 1e-8, see above).
+    // samples; the difference d is about the chord's error (rms theta,
+    // both runs at kCovarianceRtol so that d holds the forcing's difference
+    // and not the integrator's error, ~1e-6 rad at rtol 1e-8, see above).
+    // The shift of the answer is the fit again on the cubic, from the
+    // chord's answer: not linearised, since where the chord moves the
+    // motion by as much as the noise (the repro, near the uplift
+    // threshold: 3.4e-4 rad rms) (J^T J)^-1 J^T d gave about half of the
+    // chord's effect on alpha (docs/fit_coverage.md); the linearised
+    // shift only if that fit fails.
     FitOptions tight = options;
     tight.rtol = std::min(options.rtol, kCovarianceRtol);
     const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
@@ -447,8 +453,17 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     on_chord(lm.x, fl);
     const Eigen::VectorXd d = fc - fl;
     out.table_interpolation_rad = std::sqrt(d.squaredNorm() / static_cast<double>(d.size()));
-    const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
-    const Eigen::VectorXd shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
+    const TrajectoryFunctor refit_on_cubic(record, first, record.size(), cubic, from_hold, options);
+    const LmOutcome refit =
+        RunLm(refit_on_cubic, lm.x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
+    lm.evaluations += *refit_on_cubic.count_;
+    Eigen::VectorXd shift;
+    if (LmConverged(refit.status)) {
+      shift = refit.x - lm.x;
+    } else {
+      const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
+      shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
+    }
     out.table_interpolation_shift = {shift(0), shift(1), shift(2)};
     const double stat[3] = {out.alpha_stderr, out.p_stderr, out.mu_stderr};
     bool dominates = false;
