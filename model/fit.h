@@ -338,9 +338,10 @@ struct FitResult {
   /// model. The model runs on the chord between table samples; the same run
   /// on a C1 cubic through them differs by about the chord's error (h^2/8
   /// times a'', against the cubic's h^4): the rms of that difference over
-  /// the residuals (rad), and the fitted values it shifts (linearised,
-  /// (J^T J)^-1 J^T d), which the standard errors above include in
-  /// quadrature. NaN / zero for a free record.
+  /// the residuals (rad), and the fitted values it shifts (the fit again
+  /// on the cubic from the chord's answer, minus that answer; linearised,
+  /// (J^T J)^-1 J^T d, if that fit fails), which the standard errors above
+  /// include in quadrature. NaN / zero for a free record.
   double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
   BlockParams table_interpolation_shift;  ///< alpha (rad), p (rad/s), mu (1)
   std::vector<std::string> warnings;
