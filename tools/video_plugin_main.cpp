@@ -77,6 +77,9 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
   } catch (const std::exception& e) {
     throw OptionError(std::string("--daq: ") + e.what());
   }
+  if (daq_source->live()) {
+    throw OptionError("--daq: " + o.daq + " is a live input; the merge needs the whole record (record it first)");
+  }
   Record daq_rows;
   daq_rows.names = daq_source->channel_names();
   daq::Frame frame;

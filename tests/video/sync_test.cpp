@@ -345,6 +345,24 @@ TEST(VideoSync, AForcedTestIsMergedOnTheDaqClockAndFitted) {
               f.at("residual_to_noise").dump().c_str());
 }
 
+// The rig's sync keys: errors name the file, line and key.
+TEST(VideoSync, SyncKeysAreCheckedWithTheirLine) {
+  std::vector<test::RigLed> leds;
+  for (const SyncLayoutLed& led : kSyncLayout) leds.push_back({led.name, led.x, led.z});
+  const test::TestCamera cam = SyncCamera();
+  const std::string blink =
+      test::VideoOpenError("video_sync_keys", test::VideoRigText(cam, 100, leds, "sync = \"blink\"\n", kSyncMarks), "");
+  EXPECT_NE(blink.find("rig.toml:13: key 'camera.video.sync' must be \"led\""), std::string::npos) << blink;
+  const std::string no_channel = test::VideoOpenError(
+      "video_sync_keys", test::VideoRigText(cam, 100, leds, "sync = \"led\"\nsync_led_px = [190, 110]\n", kSyncMarks),
+      "");
+  EXPECT_NE(no_channel.find("key 'camera.video.sync_channel' must name the DAQ file's column"), std::string::npos)
+      << no_channel;
+  const std::string lone = test::VideoOpenError(
+      "video_sync_keys", test::VideoRigText(cam, 100, leds, "sync_channel = \"drive\"\n", kSyncMarks), "");
+  EXPECT_NE(lone.find("key 'camera.video.sync' is missing"), std::string::npos) << lone;
+}
+
 // The merge and the clock fit on small records written here.
 TEST(VideoSync, TheMergeResamplesOnTheDaqClockAndAPeriodicDriveIsRefused) {
   // A video at 10 frames/s whose channel is 2 t (video clock), a flag
