@@ -53,9 +53,9 @@ void FinishTrackCsv(std::FILE* out, const std::string& part, const std::string& 
 }
 
 // rocklab track ... --daq DAQ: the DAQ's record read whole, the clocks
-// fitted by the sync LED's edges (video/daq_sync.h), and the DAQ's samples
-// inside the video's span written with the video's channels at their
-// times. Returns the summary line.
+// fitted by the sync LED's edges (video/daq_sync.h), and the record inside
+// the video's span written with the video's channels on the DAQ's clock
+// (its samples, or a grid at the camera's rate). Returns the summary line.
 std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const VideoStats& v,
                          const Record& video_rows, const daq::SourceOptions& video_options, TrackResult& result) {
   if (!v.sync_led) {
