@@ -4,15 +4,62 @@
 // here; the run is the video plugin's (tools/video_plugin_main.cpp).
 #include <memory>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "common/provenance.h"
 #include "tools/cli.h"
 #include "tools/video_plugin.h"
 
 namespace rocklab::tools {
+namespace {
+
+// `track --json`: the plugin's counts (video/plugin.h, TrackResult).
+nlohmann::json TrackJson(const video::TrackResult& r, const video::TrackRequest& o) {
+  nlohmann::json j = {{"out", o.out_csv},
+                      {"video", o.video},
+                      {"frames", r.frames},
+                      {"rows", r.rows},
+                      {"rate_hz", r.rate_hz},
+                      {"dropped", r.dropped},
+                      {"drop_places", r.drop_places},
+                      {"missing_at_end", r.missing_at_end},
+                      {"fits", r.fits},
+                      {"led_samples",
+                       {{"missing", r.led_missing},
+                        {"occlusions", r.occlusions},
+                        {"merged", r.merged},
+                        {"ambiguous", r.ambiguous},
+                        {"inconsistent", r.inconsistent},
+                        {"outliers", r.outliers},
+                        {"saturated", r.saturated}}},
+                      {"reflections", r.reflections},
+                      {"summary", r.summary}};
+  if (r.synced) {
+    j["sync"] = {{"daq", o.daq},
+                 {"offset_s", r.offset_s},
+                 {"offset_se_s", r.offset_se_s},
+                 {"drift_ppm", r.drift_ppm},
+                 {"drift_se_ppm", r.drift_se_ppm},
+                 {"residual_rms_s", r.residual_rms_s},
+                 {"residual_max_s", r.residual_max_s},
+                 {"expected_rms_s", r.expected_rms_s},
+                 {"edges_video", r.edges_video},
+                 {"edges_daq", r.edges_daq},
+                 {"edges_paired", r.edges_paired},
+                 {"rows_before", r.rows_before},
+                 {"rows_after", r.rows_after},
+                 {"rows_in_gaps", r.rows_in_gaps}};
+  }
+  return j;
+}
+
+}  // namespace
 
 void RegisterTrack(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<video::TrackRequest>();  // shared: owned by the callback
+  auto json = std::make_shared<bool>(false);
   CLI::App* cmd = app.add_subcommand("track", "track a camera's LEDs in a video into the rig's LED channels (raw CSV)");
   cmd->add_option("video", opts->video,
                   "video file (mp4, mkv, avi...), image pattern (frames/%06d.png), or v4l2:/dev/videoN; "
@@ -31,15 +78,28 @@ void RegisterTrack(CLI::App& app, CommandRun& run) {
   cmd->add_option("--overlay", opts->overlay,
                   "also write OUT.mkv or OUT.avi (MJPEG): each frame with the identified LEDs and their names, the "
                   "rejected ones and why, the blobs no LED took, and theta drawn (whole or not at all)");
+  cmd->add_option("--daq", opts->daq,
+                  "the DAQ's raw record (CSV, LVM, LCM log) with the column driving the rig's sync LED "
+                  "([camera.video] sync = \"led\"): --out is then that record inside the video's span with the "
+                  "video's channels added on the DAQ's clock; the clock offset and drift are fitted and reported");
+  cmd->add_flag("--json", *json, "print the result as JSON on stdout: the counts, and with --daq the clocks "
+                                  "(offset_s, drift_ppm, their standard errors, the residuals)");
   cmd->add_option("--frames", opts->max_frames, "stop after this many frames (0: all; a device: until Ctrl-C)")
       ->check(CLI::NonNegativeNumber);
-  cmd->callback([opts, &run] {
-    run = [opts] {
+  cmd->callback([opts, json, &run] {
+    run = [opts, json] {
       opts->stop = &InstallStopSignals();
+      video::TrackResult result;
+      opts->result = &result;
       const int rc = VideoPlugin().track(*opts);
       // Beside the raw CSV (its readers stay as they are); a device or an
       // image pattern is listed as not readable (MakeProvenance).
-      if (rc == 0) common::WriteProvenanceSidecar(opts->out_csv, {opts->video, opts->rig_path});
+      if (rc == 0) {
+        std::vector<std::string> inputs{opts->video, opts->rig_path};
+        if (!opts->daq.empty()) inputs.push_back(opts->daq);
+        common::WriteProvenanceSidecar(opts->out_csv, inputs);
+        if (*json) WriteResult(TrackJson(result, *opts), true);
+      }
       return rc;
     };
   });

@@ -23,7 +23,27 @@ inline constexpr const char* kPluginFile = "rocklab-video.so";
 /// The Debian package that installs it (cmake/RocklabPackage.cmake).
 inline constexpr const char* kPluginPackage = "rocklab-video";
 /// PluginCalls::version of this build; a plugin with another is refused.
-inline constexpr int kPluginVersion = 3;  // 2: TrackRequest::fps_hz; 3: daq::Source::summary, TrackRequest::overlay
+inline constexpr int kPluginVersion = 4;  // 2: TrackRequest::fps_hz; 3: daq::Source::summary, TrackRequest::overlay;
+                                          // 4: TrackRequest::daq
+
+/// What `rocklab track` did, for its `--json` (built by the command,
+/// tools/cmd_track.cpp; no JSON in the plugin).
+struct TrackResult {
+  std::int64_t frames{};        ///< video frames tracked
+  std::int64_t rows{};          ///< rows written to --out (the DAQ's samples with --daq)
+  double rate_hz{};             ///< the video's frame rate
+  std::int64_t dropped{}, drop_places{}, missing_at_end{};
+  std::int64_t fits{};          ///< frames with a rigid fit
+  std::int64_t led_missing{}, occlusions{}, merged{}, ambiguous{}, inconsistent{}, outliers{}, saturated{};
+  std::int64_t reflections{};
+  std::string summary;          ///< the line printed on stderr
+  /// --daq: the clocks (video/daq_sync.h's ClockFit) and the merge's counts.
+  bool synced{false};
+  double offset_s{}, offset_se_s{}, drift_ppm{}, drift_se_ppm{};
+  double residual_rms_s{}, residual_max_s{}, expected_rms_s{};
+  int edges_video{}, edges_daq{}, edges_paired{};
+  std::int64_t rows_before{}, rows_after{}, rows_in_gaps{};
+};
 
 /// `rocklab track`'s options (tools/cmd_track.cpp).
 struct TrackRequest {
@@ -36,6 +56,11 @@ struct TrackRequest {
   /// A video of the detections drawn on each frame (`--overlay`), written
   /// whole or not at all; empty: none.
   std::string overlay;
+  /// The DAQ's raw record (any --input file form) with the sync LED's
+  /// drive (`--daq`): the video's channels are merged into it on its
+  /// clock (video/daq_sync.h); empty: the video's own clock.
+  std::string daq;
+  TrackResult* result{};  ///< filled when not null (`--json`)
 };
 
 /// `rocklab camera-calibrate`'s options (tools/cmd_camera_calibrate.cpp).
@@ -44,6 +69,8 @@ struct CalibrateRequest {
   std::string board{"9x6"};  ///< inner corners COLSxROWS
   std::string out;
   ChessboardOptions chessboard;  ///< cols and rows from `board` by the plugin
+  /// Filled when not null (`--json`); the text then goes to stderr.
+  CalibrationResult* result{};
 };
 
 /// The plugin's functions. Errors are exceptions, as the commands' own:

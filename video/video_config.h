@@ -54,6 +54,17 @@ struct VideoLed {
   const daq::ChannelConfig* z_channel{};
 };
 
+/// A sync LED in the camera's view driven by a DAQ channel (`sync = "led"`):
+/// the video's clock is put on the DAQ's by its on/off edges
+/// (video/daq_sync.h, `rocklab track --daq`).
+struct SyncLedConfig {
+  bool present{false};
+  double u_px{}, v_px{};   ///< its centre in the image (column, row), px
+  int radius_px{3};        ///< its light is the mean of the (2r+1)^2 pixels around it
+  std::string channel;     ///< the DAQ file's column that drives it
+  int line{};              ///< of the `sync` key in the rig file
+};
+
 struct VideoConfig {
   std::string rig_path;
   std::string camera;  ///< the [[camera]]'s name
@@ -83,6 +94,7 @@ struct VideoConfig {
   double residual_m{0.003};    ///< an identified LED further than this from the rigid fit is dropped, m
   std::optional<Intrinsics> intrinsics;  ///< absent: an ideal lens (no undistortion)
   std::vector<Mark> marks;     ///< >= 4: image-to-plane homography
+  SyncLedConfig sync;          ///< absent (present false): no sync source
 };
 
 /// The one camera of `rig` that has a `[camera.video]` section.

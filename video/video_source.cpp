@@ -1,5 +1,6 @@
 #include "video/video_source.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -50,6 +51,18 @@ class VideoSource : public daq::Source {
       const std::string base = config_.camera + "_" + led.name;
       names_.push_back(base + "_sigma_x_m");
       names_.push_back(base + "_sigma_z_m");
+    }
+    if (config_.sync.present) {
+      names_.push_back(config_.camera + "_sync_level");
+      stats_.sync_led = true;
+      stats_.sync_channel = config_.sync.channel;
+      stats_.sync_row_delay_s =
+          reader_.height() > 0 ? config_.readout_s * config_.sync.v_px / reader_.height() : 0.0;
+      if (reader_.width() > 0 && (config_.sync.u_px >= reader_.width() || config_.sync.v_px >= reader_.height())) {
+        throw std::runtime_error(config_.rig_path + ":" + std::to_string(config_.sync.line) +
+                                 ": key 'camera.video.sync_led_px' is outside the " + std::to_string(reader_.width()) +
+                                 "x" + std::to_string(reader_.height()) + " px frames of " + path_);
+      }
     }
     stats_.mark_rms_m = map_.mark_rms_m();
     stats_.mark_rms_px = map_.mark_rms_px();
@@ -200,6 +213,7 @@ class VideoSource : public daq::Source {
       frame.values[k++] = s.sigma_x_m;
       frame.values[k++] = s.sigma_z_m;
     }
+    if (config_.sync.present) frame.values[k++] = SyncLevel();
     Sync();
     return daq::ReadStatus::kFrame;
   }
@@ -217,6 +231,22 @@ class VideoSource : public daq::Source {
   static VideoConfig WithFps(VideoConfig c, std::optional<double> fps) {
     if (fps) c.fps = fps;
     return c;
+  }
+  // The sync LED's light: the mean level of the window around it (clipped
+  // to the frame), linear in the time it was on during the exposure while
+  // no pixel of it is clipped (docs/video.md, Sync with the DAQ).
+  double SyncLevel() const {
+    const int r = config_.sync.radius_px;
+    const int u = static_cast<int>(std::lround(config_.sync.u_px)), v = static_cast<int>(std::lround(config_.sync.v_px));
+    const int x0 = std::max(0, u - r), x1 = std::min(gray_.cols - 1, u + r);
+    const int y0 = std::max(0, v - r), y1 = std::min(gray_.rows - 1, v + r);
+    if (x1 < x0 || y1 < y0) return kNaN;
+    double sum = 0;
+    for (int y = y0; y <= y1; ++y) {
+      const unsigned char* row = gray_.ptr<unsigned char>(y);
+      for (int x = x0; x <= x1; ++x) sum += row[x];
+    }
+    return sum / ((x1 - x0 + 1) * (y1 - y0 + 1));
   }
   // No LED identified for longer than max_dark_s is an error naming the frame.
   bool CheckLit(double t, int64_t number) {

@@ -12,7 +12,8 @@
 /// level) and `_flags` (led_tracker.h's LedFlag bits), then per LED
 /// `<camera>_<led>_sigma_x_m`, `_sigma_z_m` (the centroid's noise on the
 /// plane, m): carried in RL_RAW and the track CSV, ignored by the
-/// reconstruction.
+/// reconstruction. With a sync LED (`sync = "led"`), last
+/// `<camera>_sync_level`: its mean 8-bit level (video/daq_sync.h).
 ///
 /// Frame numbers come from the frame times (frame_reader.h), so a dropped
 /// frame is a gap of the DAQ's sequence, counted like any other. Opening
@@ -49,6 +50,12 @@ struct VideoStats {
   double exposure_s{};       ///< [camera.video] exposure_s: times are mid-exposure
   double readout_s{};        ///< [camera.video] readout_s: LEDs taken back to row 0's time
   bool device{};             ///< a live device: frames keep the driver's times
+  /// [camera.video] sync = "led": the last channel is `<camera>_sync_level`,
+  /// the sync LED's mean level (8-bit) around sync_led_px, seen
+  /// sync_row_delay_s after the frame's time (its row's rolling-shutter delay).
+  bool sync_led{};
+  std::string sync_channel;  ///< the DAQ column that drives it
+  double sync_row_delay_s{};
 };
 
 /// `spec`: a video file or image pattern (device false), or /dev/videoN.

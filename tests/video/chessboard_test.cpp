@@ -15,6 +15,7 @@
 #include <random>
 #include <string>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 
 #include "tests/scratch.h"
@@ -130,9 +131,11 @@ TEST(CameraCalibrate, RecoversTheRenderingCamerasIntrinsics) {
   EXPECT_NEAR(back.fx_px, k.fx_px, 1e-6 * k.fx_px);
   EXPECT_NEAR(back.distortion[0], k.distortion[0], 1e-8);
   EXPECT_EQ(back.views, k.views);
-  // The command: the same calibration, its file, its report.
+  // The command: the same calibration, its file, its report (on stderr
+  // with --json, whose object is on stdout).
   const std::string cmd = std::string(ROCKLAB_BINARY) + " camera-calibrate " + path + " --board 9x6 --square " +
-                          std::to_string(kSquareM) + " --out " + dir + "/cli.toml > " + dir + "/cli.out 2>&1";
+                          std::to_string(kSquareM) + " --out " + dir + "/cli.toml --json > " + dir + "/cli.json 2> " +
+                          dir + "/cli.out";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const Intrinsics cli = LoadIntrinsics(dir + "/cli.toml");
   EXPECT_NEAR(cli.fx_px, k.fx_px, 1e-6 * k.fx_px);
@@ -140,6 +143,12 @@ TEST(CameraCalibrate, RecoversTheRenderingCamerasIntrinsics) {
   std::ifstream out(dir + "/cli.out");
   const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("reprojection error: RMS"), std::string::npos) << text;
+  std::ifstream json_in(dir + "/cli.json");
+  const nlohmann::json j = nlohmann::json::parse(json_in);
+  EXPECT_NEAR(j.at("fx_px").get<double>(), cli.fx_px, 1e-6 * cli.fx_px);
+  EXPECT_NEAR(j.at("distortion").at(0).get<double>(), cli.distortion[0], 1e-6);
+  EXPECT_NEAR(j.at("rms_reprojection_px").get<double>(), cli.rms_reprojection_px, 1e-5);
+  EXPECT_EQ(j.at("views").get<int>(), cli.views);
   // A board size the video does not hold: an error naming the video, exit 2.
   const std::string bad = std::string(ROCKLAB_BINARY) + " camera-calibrate " + path + " --board 7x5 --out " + dir +
                           "/bad.toml > " + dir + "/bad.out 2>&1";
