@@ -82,6 +82,7 @@ class Dop853 {
   bool started_{false};           // a step was taken since ReInit (h_ set)
   bool last_rejected_{false};
   double h_{};                    // the next step's size
+  double h_hint_{};               // the first step's after a restart (0: estimate it)
 
   // Root search: the part of the current step before t_lo_ is searched.
   double t_lo_{};

@@ -260,8 +260,8 @@ TEST(OracleTest, HousnerFigure7MatchesTheReference) { CompareWithReference(kFig7
 // Oracle: the same reference, for Dormand-Prince 8(5,3) (model/dop853.h,
 // what `rocklab simulate` integrates Housner's model with) at the same rtol
 // 1e-10: the tolerances of Adams above, not widened. Measured (this machine):
-// figure 8 impacts within 6.5e-12 s, theta within 6.9e-12 rad (Adams:
-// 2.6e-10 s, 1.0e-10 rad); figure 7 within 8.1e-10 s and 1.6e-10 rad
+// figure 8 impacts within 1.3e-11 s, theta within 8.2e-12 rad (Adams:
+// 2.6e-10 s, 1.0e-10 rad); figure 7 within 3.0e-9 s and 6.8e-10 rad
 // (Adams: 4.4e-8 s, 3.9e-9 rad), the window's end stepped across by the
 // error test as Adams does.
 TEST(OracleTest, HousnerDormandPrinceMatchesTheReference) {
