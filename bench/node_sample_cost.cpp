@@ -10,8 +10,8 @@
 //   acceleration linear between samples, no error control, no events: the
 //   least any integrator that looks at every sample does;
 // - each model alone, stepped with RockingModel::Step as the node does
-//   (Runge-Kutta, rtol 1e-10: ModelNodeConfig's defaults), with its steps
-//   and right-hand sides per sample;
+//   (ModelNodeConfig's integrator, rtol 1e-10), with its steps and
+//   right-hand sides per sample; then with ARKODE's Runge-Kutta 5;
 // - the model node with the four variants of bench/figures.py on a
 //   DirectBus: RL_THETA and RL_TABLE in, the four RL_MODEL_* out (encoded
 //   and published, nobody subscribed), one thread.
@@ -105,20 +105,25 @@ int main(int argc, char** argv) {
   std::printf("floor: one RK4 step per sample (Housner)       %7.1f ns/sample\n",
               BestNsPerSample(n, [&] { sink = FloorRk4(accel, dt); }));
 
-  ModelOptions node_options;
-  node_options.integrator = ModelNodeConfig{}.integrator;
-  for (ModelKind kind : {ModelKind::kHousner, ModelKind::kComplex}) {
-    SolverStats stats;
-    const double ns = BestNsPerSample(n, [&] {
-      auto m = RockingModel::Create(kind, kFitted, node_options);
-      m->Reset(0.0, 0.0, 0.0);
-      for (std::size_t k = 0; k < n; ++k) m->Step(static_cast<double>(k) * dt, accel[k]);
-      stats = m->solver_stats();
-    });
-    std::printf("model alone, %-8s Step (%s)                %7.1f ns/sample  %.3f steps, %.2f rhs per sample\n",
-                ToString(kind), ToString(node_options.integrator), ns,
-                static_cast<double>(stats.steps) / static_cast<double>(n),
-                static_cast<double>(stats.rhs_evals) / static_cast<double>(n));
+  // The node's integrator (ModelNodeConfig's default), and ARKODE's
+  // Runge-Kutta 5 (the default before issue 33) beside it.
+  for (Integrator integrator : {ModelNodeConfig{}.integrator, Integrator::kRungeKutta}) {
+    ModelOptions node_options;
+    node_options.integrator = integrator;
+    for (ModelKind kind : {ModelKind::kHousner, ModelKind::kComplex}) {
+      SolverStats stats;
+      const double ns = BestNsPerSample(n, [&] {
+        auto m = RockingModel::Create(kind, kFitted, node_options);
+        m->Reset(0.0, 0.0, 0.0);
+        for (std::size_t k = 0; k < n; ++k) m->Step(static_cast<double>(k) * dt, accel[k]);
+        stats = m->solver_stats();
+      });
+      std::printf("model alone, %-8s Step (%s)                %7.1f ns/sample  %.3f steps, %.2f rhs per sample\n",
+                  ToString(kind), ToString(node_options.integrator), ns,
+                  static_cast<double>(stats.steps) / static_cast<double>(n),
+                  static_cast<double>(stats.rhs_evals) / static_cast<double>(n));
+    }
+    if (integrator == Integrator::kRungeKutta) break;
   }
 
   ModelNodeConfig config;

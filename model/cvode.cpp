@@ -1,5 +1,6 @@
 #include "model/cvode.h"
 
+#include "model/dop853.h"
 #include "model/small_vector.h"
 
 #include <arkode/arkode_erkstep.h>
@@ -66,6 +67,7 @@ struct Cvode::Handles {
   SUNNonlinearSolver nls{nullptr};
   void* mem{nullptr};
   bool rk{false};  // ARKODE's ERKStep instead of CVODE
+  std::unique_ptr<Dop853> dp;  // or Dormand-Prince 8(5,3), without SUNDIALS
   OdeSystem* system{nullptr};
   std::exception_ptr error;
 
@@ -116,6 +118,10 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   if (n < 1 || n > kMaxEquations) throw std::invalid_argument("Cvode: n must be 1.." + std::to_string(kMaxEquations));
   if (roots < 1 || roots > kMaxRoots) throw std::invalid_argument("Cvode: roots must be 1.." + std::to_string(kMaxRoots));
   h_->system = &system;
+  if (method == Method::kDormandPrince853) {
+    h_->dp = std::make_unique<Dop853>(n, system, rtol, atol, max_step_s, roots);
+    return;
+  }
   h_->rk = method == Method::kRungeKutta;
   Check(SUNContext_Create(nullptr, &h_->ctx), "SUNContext_Create");
   h_->y = CheckPtr(N_VNew_Serial(n, h_->ctx), "N_VNew_Serial");
@@ -174,6 +180,11 @@ Cvode::~Cvode() = default;
 
 void Cvode::ReInit(double t0_s, const double* y0) {
   AddCounters();
+  if (h_->dp) {
+    h_->dp->ReInit(t0_s, y0);
+    t_ = t0_s;
+    return;
+  }
   double* y = N_VGetArrayPointer(h_->y);
   for (int i = 0; i < n_; ++i) y[i] = y0[i];
   if (h_->rk) {
@@ -185,6 +196,10 @@ void Cvode::ReInit(double t0_s, const double* y0) {
 }
 
 void Cvode::SetTolerances(double rtol, const double* atol) {
+  if (h_->dp) {
+    h_->dp->SetTolerances(rtol, atol);
+    return;
+  }
   double* a = N_VGetArrayPointer(h_->atol);
   for (int i = 0; i < n_; ++i) a[i] = atol[i];
   if (h_->rk) {
@@ -195,6 +210,10 @@ void Cvode::SetTolerances(double rtol, const double* atol) {
 }
 
 void Cvode::SetMaxStep(double max_step_s) {
+  if (h_->dp) {
+    h_->dp->SetMaxStep(max_step_s);
+    return;
+  }
   if (h_->rk) {
     Check(ERKStepSetMaxStep(h_->mem, max_step_s), "ERKStepSetMaxStep");
   } else {
@@ -211,6 +230,10 @@ void Cvode::SetRootDirection(const int* direction) {
   // SUNDIALS takes a non-const array and copies it.
   std::array<int, kMaxRoots> copy{};
   std::copy(direction, direction + roots_, copy.begin());
+  if (h_->dp) {
+    h_->dp->SetRootDirection(copy.data());
+    return;
+  }
   if (h_->rk) {
     Check(ERKStepSetRootDirection(h_->mem, copy.data()), "ERKStepSetRootDirection");
   } else {
@@ -221,6 +244,11 @@ void Cvode::SetRootDirection(const int* direction) {
 Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
   // SUNDIALS 6.4 has no CVodeClearStopTime: "no bound" is the largest double.
   const double tstop = std::min(tstop_s, DBL_MAX);
+  if (h_->dp) {
+    const Dop853::Result r = h_->dp->Advance(tout_s, tstop);
+    t_ = h_->dp->t_s();
+    return r == Dop853::Result::kRoot ? Result::kRoot : Result::kReached;
+  }
   const bool rk = h_->rk;
   while (true) {
     // The stop time is cleared once reached: set it for every call.
@@ -278,7 +306,11 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
 
 Cvode::Stats Cvode::Counters() const {
   long steps = 0, rhs = 0, fails = 0;
-  if (h_->rk) {
+  if (h_->dp) {
+    steps = h_->dp->steps();
+    rhs = h_->dp->rhs_evals();
+    fails = h_->dp->error_test_fails();
+  } else if (h_->rk) {
     Check(ERKStepGetNumSteps(h_->mem, &steps), "ERKStepGetNumSteps");
     Check(ERKStepGetNumRhsEvals(h_->mem, &rhs), "ERKStepGetNumRhsEvals");
     Check(ERKStepGetNumErrTestFails(h_->mem, &fails), "ERKStepGetNumErrTestFails");
@@ -318,14 +350,16 @@ std::array<int, Cvode::kRoots> Cvode::RootsFound() {
 }
 
 void Cvode::RootsFound(int* found) {
-  if (h_->rk) {
+  if (h_->dp) {
+    h_->dp->RootsFound(found);
+  } else if (h_->rk) {
     Check(ERKStepGetRootInfo(h_->mem, found), "ERKStepGetRootInfo");
   } else {
     Check(CVodeGetRootInfo(h_->mem, found), "CVodeGetRootInfo");
   }
 }
 
-const double* Cvode::y() const { return N_VGetArrayPointer(h_->y); }
-double* Cvode::y_mut() { return N_VGetArrayPointer(h_->y); }
+const double* Cvode::y() const { return h_->dp ? h_->dp->y() : N_VGetArrayPointer(h_->y); }
+double* Cvode::y_mut() { return h_->dp ? h_->dp->y_mut() : N_VGetArrayPointer(h_->y); }
 
 }  // namespace rocklab::model::detail

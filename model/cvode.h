@@ -43,7 +43,9 @@ class Cvode {
   /// CVODE's Adams-Moulton (multistep: its history carries over from step
   /// to step) or ARKODE's explicit Runge-Kutta (ERKStep, one step at a
   /// time: nothing to lose at a kink of the forcing where it stops).
-  enum class Method { kAdams, kRungeKutta };
+  /// Or Dormand and Prince's 8(5,3) with its dense output, in fixed arrays
+  /// (model/dop853.h; no SUNDIALS call on its stepping path).
+  enum class Method { kAdams, kRungeKutta, kDormandPrince853 };
   /// Order of the Runge-Kutta method.
   static constexpr int kRungeKuttaOrder = 5;
   /// Degree of its dense output (ERKStepSetInterpolantDegree).

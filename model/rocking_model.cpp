@@ -71,6 +71,7 @@ const char* ToString(Integrator integrator) {
   switch (integrator) {
     case Integrator::kAdams: return "adams";
     case Integrator::kRungeKutta: return "rk";
+    case Integrator::kDormandPrince853: return "dop853";
   }
   return "?";
 }
@@ -174,9 +175,11 @@ CvodeRockingModel::CvodeRockingModel(const BlockParams& params, const ModelOptio
 
 void CvodeRockingModel::Init(int n, const double* atol) {
   n_ = n;
+  Cvode::Method method = Cvode::Method::kAdams;
+  if (options_.integrator == Integrator::kRungeKutta) method = Cvode::Method::kRungeKutta;
+  if (options_.integrator == Integrator::kDormandPrince853) method = Cvode::Method::kDormandPrince853;
   cvode_ = std::make_unique<Cvode>(n, static_cast<OdeSystem&>(*this), options_.rtol, atol, options_.max_step_s,
-                                   options_.integrator == Integrator::kRungeKutta ? Cvode::Method::kRungeKutta
-                                                                                  : Cvode::Method::kAdams);
+                                   method);
   EnterRest(0.0);
 }
 

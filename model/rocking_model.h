@@ -89,8 +89,13 @@ enum class Integrator {
   /// of the forcing where it stops (every sample of Step's chord) costs it
   /// nothing (docs/performance.md, "Work and precision").
   kRungeKutta,
+  /// Dormand and Prince's 8(5,3) with its order-7 dense output, written for
+  /// the small state (model/dop853.h): far fewer right-hand sides than
+  /// either where the forcing is smooth, and no library bookkeeping per
+  /// step; Simulate's Housner model (docs/performance.md, "Issue 33").
+  kDormandPrince853,
 };
-/// "adams" / "rk".
+/// "adams" / "rk" / "dop853".
 const char* ToString(Integrator integrator);
 
 /// Housner's impact root: theta shifted by this towards the side the block

@@ -84,6 +84,10 @@ Scenario BuildScenario(const ScenarioOptions& o) {
   mo.l = o.l;
   mo.rtol = o.rtol;
   mo.complex_resolved_energy = o.complex_handoff;
+  // Housner's smooth flights between impacts: Dormand-Prince 8(5,3) takes a
+  // fifth of Adams' right-hand sides at the same tolerance, without CVODE's
+  // per-step bookkeeping (docs/performance.md, "Issue 33").
+  if (kind == model::ModelKind::kHousner) mo.integrator = model::Integrator::kDormandPrince853;
   s.model = model::RockingModel::Create(kind, {o.alpha, o.p, o.mu}, mo);
   return s;
 }

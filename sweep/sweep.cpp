@@ -264,6 +264,9 @@ model::ModelOptions CaseModelOptions(const Plan& plan) {
   model::ModelOptions mo;
   mo.l = plan.l;
   mo.rtol = plan.rtol;
+  // A case is `rocklab simulate`'s run to the bit: its integrator per model
+  // as pipeline::BuildScenario chooses it.
+  if (plan.model == model::ModelKind::kHousner) mo.integrator = model::Integrator::kDormandPrince853;
   return mo;
 }
 

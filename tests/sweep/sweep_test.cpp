@@ -738,7 +738,7 @@ TEST(SweepDefinition, EveryResultsFileCarriesTheDefinition) {
     return std::string("(none)");
   };
   EXPECT_EQ(value("model"), "housner");
-  EXPECT_EQ(value("integrator"), "adams");
+  EXPECT_EQ(value("integrator"), "dop853");  // Housner's, as `rocklab simulate`
   EXPECT_EQ(value("rtol"), "1e-10");
   EXPECT_EQ(value("atol"), "9.9999999999999998e-13");  // 1e-12 to 17 digits
   EXPECT_EQ(value("rate_hz"), "200");
