@@ -309,10 +309,64 @@ void RefuseStandardOutput(const std::string& option, const std::string& path, co
   }
 }
 
+namespace {
+
+// RequiredUnless's pairs: option, its alternative (the commands' options
+// live as long as the program's CLI::App).
+std::vector<std::pair<const CLI::Option*, const CLI::Option*>>& ConditionalRequired() {
+  static std::vector<std::pair<const CLI::Option*, const CLI::Option*>> pairs;
+  return pairs;
+}
+
+// The conditional options of `cmd` missing with their alternative, one
+// entry per alternative: "--alpha, --p, --mu (or --assembly)"; `count`
+// grows by the options named.
+std::vector<std::string> MissingConditional(const CLI::App& cmd, std::size_t& count) {
+  std::vector<std::pair<const CLI::Option*, std::string>> groups;  // alternative, names
+  const std::vector<const CLI::Option*> own = cmd.get_options();
+  for (const auto& [option, alternative] : ConditionalRequired()) {
+    if (std::find(own.begin(), own.end(), option) == own.end()) continue;
+    if (option->count() > 0 || alternative->count() > 0) continue;
+    auto group = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == alternative; });
+    if (group == groups.end()) group = groups.insert(groups.end(), {alternative, std::string()});
+    group->second += (group->second.empty() ? "--" : ", --") + option->get_lnames().front();
+    ++count;
+  }
+  std::vector<std::string> missing;
+  for (const auto& [alternative, names] : groups) {
+    missing.push_back(names + " (or --" + alternative->get_lnames().front() + ")");
+  }
+  return missing;
+}
+
+// "simulate: missing required options A, B; ..." (`count` options named).
+std::string MissingMessage(const CLI::App* cmd, bool top, const std::vector<std::string>& missing,
+                           std::size_t count) {
+  std::string list;
+  for (std::size_t i = 0; i < missing.size(); ++i) list += (i == 0 ? "" : ", ") + missing[i];
+  const std::string where = top ? "" : cmd->get_name() + ": ";
+  return where + "missing required " + (count == 1 ? "option " : "options ") + list + "; `rocklab help " +
+         (top ? std::string() : cmd->get_name()) + "` lists its options";
+}
+
+}  // namespace
+
+void RequiredUnless(CLI::Option* option, const CLI::Option* alternative) {
+  ConditionalRequired().emplace_back(option, alternative);
+}
+
+void CheckRequiredUnless(const CLI::App& cmd) {
+  std::size_t count = 0;
+  const std::vector<std::string> missing = MissingConditional(cmd, count);
+  if (!missing.empty()) throw UsageError(MissingMessage(&cmd, cmd.get_parent() == nullptr, missing, count));
+}
+
 std::string MissingRequired(const CLI::App& app) {
   const CLI::App* cmd = &app;
   for (const CLI::App* sub : app.get_subcommands()) cmd = sub;  // the one parsed
-  std::vector<std::string> missing;
+  std::size_t count = 0;
+  std::vector<std::string> missing = MissingConditional(*cmd, count);
+  const std::size_t conditional_entries = missing.size();
   for (const CLI::Option* opt : cmd->get_options()) {
     if (!opt->get_required() || opt->count() > 0) continue;
     const std::string positional = opt->get_name(true);
@@ -327,11 +381,7 @@ std::string MissingRequired(const CLI::App& app) {
     }
   }
   if (missing.empty()) return "";
-  std::string list;
-  for (std::size_t i = 0; i < missing.size(); ++i) list += (i == 0 ? "" : ", ") + missing[i];
-  const std::string where = cmd == &app ? "" : cmd->get_name() + ": ";
-  return where + "missing required " + (missing.size() == 1 ? "option " : "options ") + list + "; `rocklab help " +
-         (cmd == &app ? std::string() : cmd->get_name()) + "` lists its options";
+  return MissingMessage(cmd, cmd == &app, missing, count + missing.size() - conditional_entries);
 }
 
 void RefuseStandardInput(const std::string& option, const std::string& path, const char* what) {

@@ -144,6 +144,17 @@ void RefuseStandardOutput(const std::string& option, const std::string& path, co
 /// RequiredError: what it parsed is counted by then.
 std::string MissingRequired(const CLI::App& app);
 
+/// `option` is required unless `alternative` is given (simulate's --alpha,
+/// --p, --mu without --assembly): MissingRequired names it with the others,
+/// as "--alpha (or --assembly)", and MissingUnlessGiven after a parse.
+void RequiredUnless(CLI::Option* option, const CLI::Option* alternative);
+
+/// After a successful parse of `cmd`: the options RequiredUnless made
+/// conditional that are missing, all in one UsageError ("simulate: missing
+/// required options --alpha, --p, --mu (or --assembly); ..."). No-op when
+/// none is missing.
+void CheckRequiredUnless(const CLI::App& cmd);
+
 /// `-` given for `option`, whose reader needs a file it can seek in (an
 /// LCM log): a UsageError saying so. Other paths pass.
 void RefuseStandardInput(const std::string& option, const std::string& path, const char* what);

@@ -105,6 +105,7 @@ void AddAssemblyOption(CLI::App& cmd, std::string& path) {
     if (block->get_required()) {
       block->required(false);
       block->description(block->get_description() + " (required without --assembly)");
+      RequiredUnless(block, assembly);
     }
     assembly->excludes(block);
   }
@@ -112,9 +113,7 @@ void AddAssemblyOption(CLI::App& cmd, std::string& path) {
 
 void CheckAssemblyOptions(const CLI::App& cmd, const std::string& path) {
   if (!path.empty()) return;  // CLI11 refused the block's options beside it
-  for (const char* name : {"--alpha", "--p", "--mu"}) {
-    if (cmd.count(name) == 0) throw UsageError(std::string(name) + " is required (or --assembly FILE.toml)");
-  }
+  CheckRequiredUnless(cmd);
 }
 
 int RunSimulateAssembly(const pipeline::ScenarioOptions& o, const std::string& path, const std::string& out_csv,

@@ -306,7 +306,7 @@ TEST(AssemblyCli, UsageErrorsExit2) {
       {{"--model", "complex", "--assembly", stack}, "only housner takes a stack"},
       {{"--alpha", "0.2", "--assembly", stack}, "--alpha"},
       {{"--assembly", dir + "/bad.toml"}, "bad.toml:1: key 'body.mass_kg' is missing"},
-      {{"--p", "3", "--mu", "0.9"}, "--alpha is required (or --assembly FILE.toml)"},
+      {{"--p", "3", "--mu", "0.9"}, "simulate: missing required option --alpha (or --assembly);"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> args = c.args;

@@ -218,11 +218,19 @@ TEST(CliConventions, EveryMissingRequiredOptionNamedAtOnce) {
       EXPECT_NE(r.err.find(shown), std::string::npos) << name << " not named: " << r.err;
     }
   }
-  // The case: simulate's four model options and --out in one line.
+  // The case: simulate's four model options and --out in one line;
+  // the block's three are required unless an --assembly file is given.
   const CliResult s = RunCli({"simulate", "--theta0", "0.1"});
   EXPECT_EQ(s.exit_code, 2);
-  EXPECT_NE(s.err.find("simulate: missing required options --alpha, --p, --mu, --rate, --out;"), std::string::npos)
+  EXPECT_NE(s.err.find("simulate: missing required options --alpha, --p, --mu (or --assembly), --rate, --out;"),
+            std::string::npos)
       << s.err;
+  const std::string out = ScratchDir("conventions_missing") + "/s.csv";
+  const CliResult block = RunCli({"simulate", "--alpha", "0.2", "--rate", "100", "--out", out});
+  EXPECT_EQ(block.exit_code, 2);
+  EXPECT_NE(block.err.find("simulate: missing required options --p, --mu (or --assembly);"), std::string::npos)
+      << block.err;
+  EXPECT_EQ(std::count(block.err.begin(), block.err.end(), '\n'), 1) << block.err;
   const CliResult one = RunCli({"simulate", "--alpha", "0.2", "--p", "3", "--mu", "0.9", "--rate", "100"});
   EXPECT_NE(one.err.find("simulate: missing required option --out;"), std::string::npos) << one.err;
 }
