@@ -324,7 +324,9 @@ std::vector<std::pair<const CLI::Option*, const CLI::Option*>>& ConditionalRequi
 std::vector<std::string> MissingConditional(const CLI::App& cmd, std::size_t& count) {
   std::vector<std::pair<const CLI::Option*, std::string>> groups;  // alternative, names
   const std::vector<const CLI::Option*> own = cmd.get_options();
-  for (const auto& [option, alternative] : ConditionalRequired()) {
+  for (const auto& pair : ConditionalRequired()) {
+    const CLI::Option* option = pair.first;
+    const CLI::Option* alternative = pair.second;  // a plain variable: lambdas cannot capture bindings in C++17
     if (std::find(own.begin(), own.end(), option) == own.end()) continue;
     if (option->count() > 0 || alternative->count() > 0) continue;
     auto group = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == alternative; });
