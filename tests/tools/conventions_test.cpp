@@ -361,7 +361,8 @@ TEST(CliConventions, RunSaysWhatMadeItsLogAndSummary) {
   // The log as its readers know it: every channel a rocklab type.
   const CliResult info = RunCli({"info", dir + "/test.lcm", "--json"});
   ASSERT_EQ(info.exit_code, 0) << info.err;
-  for (const auto& channel : nlohmann::json::parse(info.out).at("channels")) {
+  const nlohmann::json info_json = nlohmann::json::parse(info.out);  // alive through the loop
+  for (const auto& channel : info_json.at("channels")) {
     EXPECT_NE(channel.at("type"), "unknown") << channel.dump();
   }
   // report --out -: the page the file gets.
