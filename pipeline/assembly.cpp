@@ -157,9 +157,10 @@ Assembly ReadAssembly(const std::string& path) {
   return ParseAssembly(text.str(), path);
 }
 
-std::optional<model::BlockParams> EquivalentBlock(const Assembly& a) {
+namespace {
+
+model::BlockParams SingleBlockOf(const Assembly& a) {
   if (a.frame) return model::stack::FrameEquivalent(*a.frame);
-  if (a.bodies.size() != 1) return std::nullopt;
   const AssemblyBody& b = a.bodies.front();
   model::BlockGeometry g;
   if (!b.polygon_csv.empty()) {
@@ -180,6 +181,22 @@ std::optional<model::BlockParams> EquivalentBlock(const Assembly& a) {
   params.alpha = g.alpha;
   params.p = g.p;
   params.mu = !a.restitution.empty() && a.restitution.front() > 0 ? a.restitution.front() : g.mu_general;
+  return params;
+}
+
+}  // namespace
+
+std::optional<model::BlockParams> EquivalentBlock(const Assembly& a) {
+  if (!a.frame && a.bodies.size() != 1) return std::nullopt;
+  const model::BlockParams params = SingleBlockOf(a);
+  if (!(params.mu > 0 && params.mu <= 1)) {
+    // Housner's (or the frame's) momentum balance gives no rebound for a
+    // section this squat (alpha near pi/2): it does not rock.
+    throw OptionError("--assembly: " + a.path + ": key '" + (a.frame ? "frame" : "body") +
+                      "': a section this squat (alpha " + std::to_string(params.alpha) +
+                      " rad) has restitution " + std::to_string(params.mu) +
+                      " by the angular momentum rule, not in (0, 1]: it does not rock; give a slenderer section");
+  }
   return params;
 }
 

@@ -48,7 +48,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   // A polygon section is read from a file beside the assembly: not here.
   if (!a.bodies.empty() && !a.bodies.front().polygon_csv.empty()) return 0;
-  const std::optional<model::BlockParams> block = pipeline::EquivalentBlock(a);
+  std::optional<model::BlockParams> block;
+  try {
+    block = pipeline::EquivalentBlock(a);
+  } catch (const pipeline::OptionError& e) {
+    if (std::string(e.what()).find("fuzz.toml") == std::string::npos) fuzz::Violated("message without the file", e.what());
+    fuzz::CheckMessage(e.what());
+    return 0;
+  }
   if (!block) fuzz::Violated("a one-body assembly or frame without its single block");
   if (!(block->alpha > 0 && block->alpha < M_PI / 2 && block->p > 0 && std::isfinite(block->p) && block->mu > 0 &&
         block->mu <= 1)) {
