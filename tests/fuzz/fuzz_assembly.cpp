@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -17,16 +19,23 @@
 
 using namespace rocklab;
 
+namespace {
+
+// A refusal names the assembly file on one printable line.
+void CheckAssemblyRefusal(const pipeline::OptionError& e) {
+  if (std::string(e.what()).find("fuzz.toml") == std::string::npos) fuzz::Violated("message without the file", e.what());
+  fuzz::CheckMessage(e.what());
+}
+
+}  // namespace
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   pipeline::Assembly a;
   try {
     a = pipeline::ParseAssembly(text, "fuzz.toml");
   } catch (const pipeline::OptionError& e) {
-    if (std::string(e.what()).find("fuzz.toml") == std::string::npos) {
-      fuzz::Violated("message without the file", e.what());
-    }
-    fuzz::CheckMessage(e.what());
+    CheckAssemblyRefusal(e);
     return 0;
   } catch (const std::exception& e) {
     fuzz::Violated("an exception other than OptionError", e.what());
@@ -52,8 +61,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     block = pipeline::EquivalentBlock(a);
   } catch (const pipeline::OptionError& e) {
-    if (std::string(e.what()).find("fuzz.toml") == std::string::npos) fuzz::Violated("message without the file", e.what());
-    fuzz::CheckMessage(e.what());
+    CheckAssemblyRefusal(e);
     return 0;
   }
   if (!block) fuzz::Violated("a one-body assembly or frame without its single block");
