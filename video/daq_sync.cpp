@@ -68,6 +68,98 @@ LineFit FitSyncLine(const SyncPairs& p) {
   return f;
 }
 
+// The DAQ's columns on `grid` (ascending, at least 2 points) as the
+// least-squares chord of the DAQ's own chord between its samples: the
+// values c_k whose chord between the grid's points is nearest, in the
+// integral of the squared difference, to the DAQ's chord (its L2
+// projection on the hat functions of the grid), the interpolant the model
+// and the fit draw between a record's samples. Point samples put the chord
+// below a peak by a'' h^2 / 8 between them (docs/video.md, "In step with
+// the DAQ"); the projection keeps each point's local mean. The normal
+// equations are tridiagonal: sum_j M_kj c_j = b_k with M the hats' Gram
+// matrix (h/6, 2h/3, h/6; h/3 at the ends) and b_k the integral of the
+// DAQ's chord times hat k, exact by Simpson's rule on each piece between
+// the DAQ's and the grid's points (both linear there). An interval of the
+// grid the DAQ record does not cover, or with a non-finite sample, splits
+// the chord into runs solved apart; a point in none is NaN. Per column.
+std::vector<std::vector<double>> SyncChord(const Record& daq, const std::vector<double>& grid) {
+  const std::size_t n = grid.size(), cols = daq.names.size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::vector<double>> out(cols, std::vector<double>(n, nan));
+  if (n < 2 || daq.t_s.size() < 2) return out;
+  // Per column: b_k, and whether interval [k, k + 1] is covered and finite.
+  std::vector<std::vector<double>> b(cols, std::vector<double>(n, 0.0));
+  std::vector<std::vector<char>> ok(cols, std::vector<char>(n - 1, 0));
+  const std::vector<double>& td = daq.t_s;
+  // The DAQ's chord of column c at t inside [td[i], td[i + 1]].
+  auto chord_at = [&daq, &td](std::size_t i, std::size_t c, double t) {
+    const double w = (t - td[i]) / (td[i + 1] - td[i]);
+    return daq.rows[i][c] + w * (daq.rows[i + 1][c] - daq.rows[i][c]);
+  };
+  std::size_t i = 0;  // DAQ interval [td[i], td[i + 1]] holding the piece's start
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double g0 = grid[k], g1 = grid[k + 1], h = g1 - g0;
+    if (!(td.front() <= g0 && td.back() >= g1 && h > 0)) continue;
+    while (i + 2 < td.size() && td[i + 1] <= g0) ++i;
+    std::vector<double> lo(cols, 0.0), hi(cols, 0.0);
+    std::vector<char> finite(cols, 1);
+    double s0 = g0;
+    for (std::size_t j = i; s0 < g1; ++j) {
+      const double s1 = std::min(g1, td[j + 1]);
+      if (s1 > s0) {
+        const double sm = 0.5 * (s0 + s1), len = s1 - s0;
+        for (std::size_t c = 0; c < cols; ++c) {
+          const double x0 = chord_at(j, c, s0), xm = chord_at(j, c, sm), x1 = chord_at(j, c, s1);
+          finite[c] = finite[c] && std::isfinite(x0) && std::isfinite(x1);
+          // Hats: (g1 - t) / h for point k, (t - g0) / h for point k + 1.
+          lo[c] += len / 6 * (x0 * (g1 - s0) + 4 * xm * (g1 - sm) + x1 * (g1 - s1)) / h;
+          hi[c] += len / 6 * (x0 * (s0 - g0) + 4 * xm * (sm - g0) + x1 * (s1 - g0)) / h;
+        }
+      }
+      s0 = s1;
+    }
+    for (std::size_t c = 0; c < cols; ++c) {
+      if (!finite[c]) continue;
+      ok[c][k] = 1;
+      b[c][k] += lo[c];
+      b[c][k + 1] += hi[c];
+    }
+  }
+  std::vector<double> diag, sup, rhs;
+  for (std::size_t c = 0; c < cols; ++c) {
+    for (std::size_t k0 = 0; k0 + 1 < n;) {
+      if (!ok[c][k0]) {
+        ++k0;
+        continue;
+      }
+      std::size_t k1 = k0;  // the run's intervals: k0 .. k1 - 1, points k0 .. k1
+      while (k1 + 1 < n && ok[c][k1]) ++k1;
+      const std::size_t m = k1 - k0 + 1;
+      diag.assign(m, 0.0);
+      sup.assign(m, 0.0);
+      rhs.assign(m, 0.0);
+      for (std::size_t k = k0; k < k1; ++k) {
+        const double h = grid[k + 1] - grid[k];
+        diag[k - k0] += h / 3;
+        diag[k - k0 + 1] += h / 3;
+        sup[k - k0] = h / 6;
+      }
+      // b at the run's ends holds only the run's side (runs are maximal).
+      for (std::size_t k = k0; k <= k1; ++k) rhs[k - k0] = b[c][k];
+      // Thomas's algorithm (the Gram matrix is diagonally dominant).
+      for (std::size_t r = 1; r < m; ++r) {
+        const double f = sup[r - 1] / diag[r - 1];
+        diag[r] -= f * sup[r - 1];
+        rhs[r] -= f * rhs[r - 1];
+      }
+      out[c][k1] = rhs[m - 1] / diag[m - 1];
+      for (std::size_t r = m - 1; r-- > 0;) out[c][k0 + r] = (rhs[r] - sup[r] * out[c][k0 + r + 1]) / diag[r];
+      k0 = k1;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<SyncEdge> FindSyncEdges(const std::vector<double>& t_s, const std::vector<double>& level,
@@ -319,22 +411,19 @@ Record MergeOnDaqClock(const Record& daq, const Record& video, const std::vector
       out.rows.push_back(std::move(row));
     }
   } else {
-    // The camera's rate on the DAQ's clock; the DAQ's samples within half a
-    // step of each point averaged (a box filter against aliasing).
+    // The camera's rate on the DAQ's clock: the video's channels at each
+    // point, the DAQ's as the least-squares chord of their own (SyncChord).
     const double step = 1 / grid_rate_hz;
-    std::size_t from = 0;
     for (int64_t k = 0;; ++k) {
       const double t = first + static_cast<double>(k) * step;
       if (t > last) break;
-      while (from < daq.t_s.size() && daq.t_s[from] < t - 0.5 * step) ++from;
-      std::vector<double> row(daq.names.size(), 0.0);
-      int64_t n = 0;
-      for (std::size_t r = from; r < daq.t_s.size() && daq.t_s[r] < t + 0.5 * step; ++r, ++n) {
-        for (std::size_t c = 0; c < row.size(); ++c) row[c] += daq.rows[r][c];
-      }
-      for (double& v : row) v = n > 0 ? v / static_cast<double>(n) : nan;
-      add_video(t, row);
       out.t_s.push_back(t);
+    }
+    const std::vector<std::vector<double>> chord = SyncChord(daq, out.t_s);
+    for (std::size_t k = 0; k < out.t_s.size(); ++k) {
+      std::vector<double> row(daq.names.size());
+      for (std::size_t c = 0; c < row.size(); ++c) row[c] = chord[c][k];
+      add_video(out.t_s[k], row);
       out.rows.push_back(std::move(row));
     }
   }

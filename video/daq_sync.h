@@ -94,8 +94,13 @@ struct MergeCounts {
 /// `grid_rate_hz` 0: the DAQ's samples, each with the video's channels at
 /// its time (the video's time `fit.VideoTime(t)`). Otherwise a grid at
 /// that rate (the camera's) from the first frame's DAQ time, the video's
-/// channels at each point and the DAQ's channels averaged over the DAQ
-/// samples within half a grid step of it (NaN where none is).
+/// channels at each point and the DAQ's channels as the least-squares chord
+/// of their own: the values whose chord between the grid's points is
+/// nearest (in the integral of the squared difference) to the DAQ's chord
+/// between its samples, so that a reader drawing the chord (the model, the
+/// fit) gets the table's motion and not one cut below its peaks by
+/// a'' h^2 / 8 (NaN where the DAQ record does not cover the grid or has a
+/// non-finite sample next to the point).
 /// @throws std::runtime_error when a video channel's name is one of the DAQ's.
 Record MergeOnDaqClock(const Record& daq, const Record& video, const std::vector<Resample>& kinds,
                        const ClockFit& fit, double frame_period_s, double grid_rate_hz, MergeCounts* counts);
