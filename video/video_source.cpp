@@ -10,6 +10,7 @@
 
 #include "common/logger_clock.h"
 #include "daq/rig_config.h"
+#include "video/board_marks.h"
 #include "video/plane_map.h"
 #include "video/video_config.h"
 #include "common/units.h"
@@ -32,7 +33,7 @@ class VideoSource : public daq::Source {
         on_problem_(options.on_problem),
         stop_(options.stop),
         idle_timeout_s_(options.idle_timeout_s),
-        config_(WithFps(LoadVideoConfig(*options.rig), fps_override)),
+        config_(ResolveBoardMarks(WithFps(LoadVideoConfig(*options.rig), fps_override), device ? "" : spec)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps, config_.colour),
         detector_(Options(config_)),
