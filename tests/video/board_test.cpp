@@ -167,6 +167,12 @@ TEST(VideoBoard, ACharucoBoardGivesTheHomographyOfTheTruth) {
     EXPECT_EQ(from_video.marks[i].u_px, config.marks[i].u_px);  // lossless: the same pixels
     EXPECT_EQ(from_video.marks[i].v_px, config.marks[i].v_px);
   }
+  // The video input opens with them (the source resolves the board itself).
+  {
+    const std::string text = BoardRigText(cam, "squares = [6, 4]\nsquare_m = 0.05\nmarker_m = 0.03\n"
+                                         "origin_m = [-0.15, 0.45]\n");
+    EXPECT_EQ(test::VideoOpenError("video_board", text, "video:" + dir + "/board.mkv"), "");
+  }
   const PlaneMap map(config.intrinsics, config.marks, config.rig_path);
   std::vector<cv::Point2d> image, plane, truth;
   for (double x = -0.1; x <= 0.1001; x += 0.01) {
