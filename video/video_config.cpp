@@ -367,29 +367,44 @@ VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
   }
   if (const toml::node* n = k.Get("sync")) {
     const std::optional<std::string> how = n->value<std::string>();
-    if (!how || *how != "led") {
-      k.Fail(Keys::LineOf(*n), "sync", "must be \"led\" (a sync LED driven by a DAQ channel: docs/video.md)");
+    if (!how || (*how != "led" && *how != "table")) {
+      k.Fail(Keys::LineOf(*n), "sync", "must be \"led\" (a sync LED driven by a DAQ channel) or \"table\" (the "
+                                       "table's motion against its displacement channel): docs/video.md");
     }
     c.sync.present = true;
     c.sync.line = Keys::LineOf(*n);
-    const toml::node* at = k.Get("sync_led_px");
-    const toml::array* a = at != nullptr ? at->as_array() : nullptr;
-    std::optional<double> u, v;
-    if (a != nullptr && a->size() == 2) u = a->get(0)->value<double>(), v = a->get(1)->value<double>();
-    if (!u || !v || *u < 0 || *v < 0 || *u > kMaxPx || *v > kMaxPx) {
-      k.Fail(at != nullptr ? Keys::LineOf(*at) : c.sync.line, "sync_led_px",
-             "must be [u, v]: the sync LED's column and row in the image, px >= 0");
+    if (*how == "table") {
+      c.sync.by_table = true;
+      if (const toml::node* led = k.Get("sync_led_px")) {
+        k.Fail(Keys::LineOf(*led), "sync_led_px", "is for sync = \"led\" (sync = \"table\" needs no LED)");
+      }
+      const toml::node* ch = k.Get("sync_channel");
+      const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
+      if (!name || name->empty()) {
+        k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
+               "must name the DAQ file's column of the table's displacement");
+      }
+      c.sync.channel = *name;
+    } else {
+      const toml::node* at = k.Get("sync_led_px");
+      const toml::array* a = at != nullptr ? at->as_array() : nullptr;
+      std::optional<double> u, v;
+      if (a != nullptr && a->size() == 2) u = a->get(0)->value<double>(), v = a->get(1)->value<double>();
+      if (!u || !v || *u < 0 || *v < 0 || *u > kMaxPx || *v > kMaxPx) {
+        k.Fail(at != nullptr ? Keys::LineOf(*at) : c.sync.line, "sync_led_px",
+               "must be [u, v]: the sync LED's column and row in the image, px >= 0");
+      }
+      c.sync.u_px = *u;
+      c.sync.v_px = *v;
+      c.sync.radius_px = static_cast<int>(k.Number("sync_radius_px", 0, 100).value_or(c.sync.radius_px));
+      const toml::node* ch = k.Get("sync_channel");
+      const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
+      if (!name || name->empty()) {
+        k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
+               "must name the DAQ file's column that drives the sync LED");
+      }
+      c.sync.channel = *name;
     }
-    c.sync.u_px = *u;
-    c.sync.v_px = *v;
-    c.sync.radius_px = static_cast<int>(k.Number("sync_radius_px", 0, 100).value_or(c.sync.radius_px));
-    const toml::node* ch = k.Get("sync_channel");
-    const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
-    if (!name || name->empty()) {
-      k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
-             "must name the DAQ file's column that drives the sync LED");
-    }
-    c.sync.channel = *name;
   } else if (k.Get("sync_led_px") != nullptr || k.Get("sync_channel") != nullptr ||
              k.Get("sync_radius_px") != nullptr) {
     k.Fail(k.LineOfKey("sync_led_px"), "sync", "is missing (sync_led_px, sync_channel need sync = \"led\")");

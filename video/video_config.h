@@ -59,6 +59,10 @@ struct VideoLed {
 /// (video/daq_sync.h, `rocklab track --daq`).
 struct SyncLedConfig {
   bool present{false};
+  /// `sync = "table"`: no LED; the table's motion seen in the video (the
+  /// pivot corner of the LEDs' rigid fit) against `channel`, the DAQ's
+  /// table displacement (video/daq_sync.h, FitClockByMotion).
+  bool by_table{false};
   double u_px{}, v_px{};   ///< its centre in the image (column, row), px
   int radius_px{3};        ///< its light is the mean of the (2r+1)^2 pixels around it
   std::string channel;     ///< the DAQ file's column that drives it

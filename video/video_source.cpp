@@ -53,7 +53,10 @@ class VideoSource : public daq::Source {
       names_.push_back(base + "_sigma_x_m");
       names_.push_back(base + "_sigma_z_m");
     }
-    if (config_.sync.present) {
+    if (config_.sync.by_table) {
+      stats_.sync_table = true;
+      stats_.sync_channel = config_.sync.channel;
+    } else if (config_.sync.present) {
       names_.push_back(config_.camera + "_sync_level");
       stats_.sync_led = true;
       stats_.sync_channel = config_.sync.channel;
@@ -214,7 +217,7 @@ class VideoSource : public daq::Source {
       frame.values[k++] = s.sigma_x_m;
       frame.values[k++] = s.sigma_z_m;
     }
-    if (config_.sync.present) frame.values[k++] = SyncLevel();
+    if (config_.sync.present && !config_.sync.by_table) frame.values[k++] = SyncLevel();
     Sync();
     return daq::ReadStatus::kFrame;
   }

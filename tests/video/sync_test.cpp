@@ -138,6 +138,7 @@ const std::vector<std::array<double, 2>> kSyncMarks = {{-0.2, 0.12}, {0.2, 0.12}
 struct Shot {
   std::string dir, video, daq;
   std::string rig_camera;  // sample_rate_hz: the camera's
+  std::string rig_table;   // the same, sync = "table"
 };
 
 Shot WriteForcedShot(const Truth& truth, const std::string& name) {
@@ -186,6 +187,16 @@ Shot WriteForcedShot(const Truth& truth, const std::string& name) {
          "[[channel]]\nname = \"table_acc\"\nsensor = \"table.acceleration\"\nunit = \"m/s^2\"\ngain = 1.0\n";
   s.rig_camera = s.dir + "/rig.toml";
   std::ofstream(s.rig_camera) << rig;
+  // The same rig synced by the table's motion: no LED, the DAQ's table
+  // displacement against the block's pivot seen in the video.
+  std::string by_table = rig;
+  const std::string led_keys = "sync = \"led\"";
+  by_table.replace(by_table.find(led_keys), rig.find("sync_channel") - rig.find(led_keys),
+                   "sync = \"table\"\n");
+  const std::string drive_key = "sync_channel = \"sync_out\"";
+  by_table.replace(by_table.find(drive_key), drive_key.size(), "sync_channel = \"table_disp\"");
+  s.rig_table = s.dir + "/rig_table.toml";
+  std::ofstream(s.rig_table) << by_table;
   return s;
 }
 
@@ -270,6 +281,56 @@ TEST(VideoSync, AForcedTestIsMergedOnTheDaqClockAndFitted) {
   EXPECT_EQ(j.at("rows").get<int>(), static_cast<int>(std::floor((kFrames - 1) * (1 + 1e-6 * kDriftPpm))) + 1);
   // DAQ samples before the first frame's time (mid-exposure, E / 2 on the video's clock).
   EXPECT_NEAR(sy.at("rows_before").get<int>(), std::ceil(DaqTime(0.5 * kExposure) * kDaqRate), 1);
+
+  // The same video synced by the table's motion instead (sync = "table":
+  // the pivot corner of the LEDs' rigid fit against the DAQ's table
+  // displacement). Oracle: the clock the shot was rendered with, within 4
+  // a-priori standard errors of a least-squares time shift, sigma_x /
+  // sqrt(sum x'(t)^2) over the frames for the offset (and sigma_x /
+  // sqrt(sum (t - tbar)^2 x'(t)^2) for the drift), x' the truth's table
+  // velocity and sigma_x the pivot's noise: the centroid noise through the
+  // rigid fit, the translation's (sigma_c / 2 with 4 LEDs) and theta's
+  // (sigma_c / sqrt(S)) times the 0.35 m from the LEDs' centre down to
+  // the pivot. The reported standard errors within a factor 2 of those.
+  {
+    const std::string merged_table = s.dir + "/merged_table.csv";
+    ASSERT_EQ(SyncRun(bin + " track " + s.video + " --rig " + s.rig_table + " --daq " + s.daq + " --out " +
+                          merged_table + " --json",
+                      s.dir + "/track_table.json", s.dir + "/track_table.err"),
+              0)
+        << SyncSlurp(s.dir + "/track_table.err");
+    const nlohmann::json jt = nlohmann::json::parse(SyncSlurp(s.dir + "/track_table.json")).at("sync");
+    EXPECT_EQ(jt.at("method").get<std::string>(), "table");
+    const double sigma_c = test::CentroidSigmaPx(kSpotPx, kLedPeak, kThreshold, kBackground, 3, kNoise) * 2.5e-3;
+    const double sigma_x = std::hypot(sigma_c / 2, 0.35 * sigma_c / std::sqrt(0.186));
+    double tbar = 0, n_frames = 0;
+    for (int k = 0; k < kFrames; ++k) tbar += (k + 0.5) / kFrameRate, ++n_frames;
+    tbar /= n_frames;
+    double sv = 0, svt = 0;
+    for (int k = 0; k < kFrames; ++k) {
+      const double tv = (k + 0.5) / kFrameRate;
+      const double v = truth.table->Velocity(DaqTime(tv));
+      sv += v * v;
+      svt += (tv - tbar) * (tv - tbar) * v * v;
+    }
+    const double se_c = sigma_x / std::sqrt(sv), se_d = sigma_x / std::sqrt(svt);
+    // The offset at the video's time 0 carries the drift's error times tbar.
+    const double se_c0 = std::hypot(se_c, tbar * se_d);
+    EXPECT_NEAR(jt.at("offset_s").get<double>(), kOffset, 4 * se_c0) << jt.dump();
+    EXPECT_NEAR(jt.at("drift_ppm").get<double>(), kDriftPpm, 4e6 * se_d) << jt.dump();
+    EXPECT_GT(jt.at("correlation").get<double>(), 0.99);
+    EXPECT_LT(jt.at("offset_se_s").get<double>(), 2 * se_c0);
+    EXPECT_GT(jt.at("offset_se_s").get<double>(), 0.5 * se_c0);
+    std::ifstream tin(merged_table);
+    std::string theader;
+    std::getline(tin, theader);
+    EXPECT_EQ(theader.find("_sync_level"), std::string::npos) << theader;
+    std::printf("sync by the table: offset %.7f s (se %.2g; a-priori %.2g), drift %.1f ppm (se %.3g; a-priori %.3g), "
+                "correlation %.5f, residual %.3g mm\n",
+                jt.at("offset_s").get<double>(), jt.at("offset_se_s").get<double>(), se_c0,
+                jt.at("drift_ppm").get<double>(), jt.at("drift_se_ppm").get<double>(), 1e6 * se_d,
+                jt.at("correlation").get<double>(), 1e3 * jt.at("motion_residual_m").get<double>());
+  }
 
   // Through reconstruct: theta on the DAQ's clock against the truth there.
   const std::string theta = s.dir + "/theta.csv";
@@ -367,6 +428,17 @@ TEST(VideoSync, SyncKeysAreCheckedWithTheirLine) {
   const std::string lone = test::VideoOpenError(
       "video_sync_keys", test::VideoRigText(cam, 100, leds, "sync_channel = \"drive\"\n", kSyncMarks), "");
   EXPECT_NE(lone.find("key 'camera.video.sync' is missing"), std::string::npos) << lone;
+  const std::string table_led = test::VideoOpenError(
+      "video_sync_keys",
+      test::VideoRigText(cam, 100, leds, "sync = \"table\"\nsync_led_px = [190, 110]\nsync_channel = \"d\"\n",
+                         kSyncMarks),
+      "");
+  EXPECT_NE(table_led.find("key 'camera.video.sync_led_px' is for sync = \"led\""), std::string::npos) << table_led;
+  const std::string table_alone = test::VideoOpenError(
+      "video_sync_keys", test::VideoRigText(cam, 100, leds, "sync = \"table\"\n", kSyncMarks), "");
+  EXPECT_NE(table_alone.find("key 'camera.video.sync_channel' must name the DAQ file's column of the table's"),
+            std::string::npos)
+      << table_alone;
 }
 
 // The merge and the clock fit on small records written here.
