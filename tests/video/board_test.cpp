@@ -142,7 +142,7 @@ TEST(VideoBoard, ACharucoBoardGivesTheHomographyOfTheTruth) {
   // area-sampled, foreshortened corner errs more, alternating with the
   // corner's parity: 0.02 px worst with this camera square-on, 0.17 px
   // turned 0.2 rad (measured; docs/video.md, "Marks from a board"). The
-  // bound is that with margin and half the 0.5 px that OpenCV 4.6's own
+  // bound is that with margin and below the 0.45 to 0.81 px OpenCV 4.6's own
   // placement left before the second refinement (so that is caught).
   double worst_px = 0;
   for (const Mark& m : config.marks) {
