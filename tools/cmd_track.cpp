@@ -50,7 +50,13 @@ nlohmann::json TrackJson(const video::TrackResult& r, const video::TrackRequest&
                  {"edges_paired", r.edges_paired},
                  {"rows_before", r.rows_before},
                  {"rows_after", r.rows_after},
-                 {"rows_in_gaps", r.rows_in_gaps}};
+                 {"rows_in_gaps", r.rows_in_gaps},
+                 {"method", r.by_table ? "table" : "led"}};
+    if (r.by_table) {
+      j["sync"]["correlation"] = r.correlation;
+      j["sync"]["motion_residual_m"] = r.motion_residual_m;
+      j["sync"]["motion_samples"] = r.motion_samples;
+    }
   }
   return j;
 }
@@ -80,7 +86,8 @@ void RegisterTrack(CLI::App& app, CommandRun& run) {
                   "rejected ones and why, the blobs no LED took, and theta drawn (whole or not at all)");
   cmd->add_option("--daq", opts->daq,
                   "the DAQ's raw record (CSV, LVM, LCM log) with the column driving the rig's sync LED "
-                  "([camera.video] sync = \"led\"): --out is then that record inside the video's span with the "
+                  "([camera.video] sync = \"led\"), or its table displacement (sync = \"table\": the table's "
+                  "motion seen in the video): --out is then that record inside the video's span with the "
                   "video's channels added on the DAQ's clock; the clock offset and drift are fitted and reported");
   cmd->add_flag("--json", *json, "print the result as JSON on stdout: the counts, and with --daq the clocks "
                                   "(offset_s, drift_ppm, their standard errors, the residuals)");

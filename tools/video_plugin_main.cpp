@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -21,6 +22,7 @@
 #include "video/daq_sync.h"
 #include "video/overlay.h"
 #include "video/plugin.h"
+#include "video/video_config.h"
 #include "video/video_source.h"
 
 namespace rocklab::video {
@@ -52,15 +54,67 @@ void FinishTrackCsv(std::FILE* out, const std::string& part, const std::string& 
   std::filesystem::rename(part, path);
 }
 
+// The table's displacement seen in the video (sync = "table"), m, per row
+// of `video_rows` (NaN where fewer than 2 LEDs are seen): the pivot corner
+// of the LEDs' rigid fit (2-D Procrustes: the block frame at rest turned
+// by theta and moved by T onto the LEDs seen, theta positive leaning to
+// +x as the rig's), which stays on the table: its x minus its x at rest.
+std::vector<double> TableSeenInVideo(const daq::RigConfig& rig, const Record& video_rows) {
+  const VideoConfig c = LoadVideoConfig(rig);
+  struct Column {
+    std::size_t x, z;
+    double bx, bz;
+    const daq::ChannelConfig* cx;
+    const daq::ChannelConfig* cz;
+  };
+  std::vector<Column> cols;
+  for (const VideoLed& led : c.leds) {
+    const auto ix = std::find(video_rows.names.begin(), video_rows.names.end(), led.x_channel->name);
+    const auto iz = std::find(video_rows.names.begin(), video_rows.names.end(), led.z_channel->name);
+    if (ix == video_rows.names.end() || iz == video_rows.names.end()) continue;
+    cols.push_back({static_cast<std::size_t>(ix - video_rows.names.begin()),
+                    static_cast<std::size_t>(iz - video_rows.names.begin()), led.x_m, led.z_m, led.x_channel,
+                    led.z_channel});
+  }
+  const double b = rig.block.pivot_half_width_m();
+  std::vector<double> out(video_rows.t_s.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> px, pz, qx, qz;
+  for (std::size_t r = 0; r < video_rows.rows.size(); ++r) {
+    px.clear(), pz.clear(), qx.clear(), qz.clear();
+    for (const Column& col : cols) {
+      const double x = col.cx->gain * video_rows.rows[r][col.x] + col.cx->offset;
+      const double z = col.cz->gain * video_rows.rows[r][col.z] + col.cz->offset;
+      if (!std::isfinite(x) || !std::isfinite(z)) continue;
+      px.push_back(col.bx), pz.push_back(col.bz), qx.push_back(x), qz.push_back(z);
+    }
+    if (px.size() < 2) continue;
+    const double n = static_cast<double>(px.size());
+    double mpx = 0, mpz = 0, mqx = 0, mqz = 0;
+    for (std::size_t i = 0; i < px.size(); ++i) mpx += px[i] / n, mpz += pz[i] / n, mqx += qx[i] / n, mqz += qz[i] / n;
+    double cross = 0, dot = 0;
+    for (std::size_t i = 0; i < px.size(); ++i) {
+      const double ax = px[i] - mpx, az = pz[i] - mpz, cx = qx[i] - mqx, cz = qz[i] - mqz;
+      cross += cx * az - cz * ax;
+      dot += cx * ax + cz * az;
+    }
+    // q = R p + T with R = [[cos, sin], [-sin, cos]] (theta > 0 leans to +x).
+    const double theta = std::atan2(cross, dot), cs = std::cos(theta), sn = std::sin(theta);
+    const double tx = mqx - (cs * mpx + sn * mpz);
+    const double corner = theta >= 0 ? b : -b;
+    out[r] = cs * corner + tx - corner;
+  }
+  return out;
+}
+
 // rocklab track ... --daq DAQ: the DAQ's record read whole, the clocks
 // fitted by the sync LED's edges (video/daq_sync.h), and the record inside
 // the video's span written with the video's channels on the DAQ's clock
 // (its samples, or a grid at the camera's rate). Returns the summary line.
 std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const VideoStats& v,
                          const Record& video_rows, const daq::SourceOptions& video_options, TrackResult& result) {
-  if (!v.sync_led) {
+  if (!v.sync_led && !v.sync_table) {
     throw OptionError("--daq: " + rig.path + " names no sync source ([camera.video] sync = \"led\", sync_led_px, "
-                      "sync_channel: docs/video.md)");
+                      "sync_channel, or sync = \"table\", sync_channel: docs/video.md)");
   }
   // The merged record is at the rig's rate: the DAQ's samples when that is
   // the DAQ's, else a grid at the camera's rate (then the DAQ record's own
@@ -96,25 +150,39 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
                       ": camera.video.sync_channel)");
   }
   const std::size_t sc = static_cast<std::size_t>(sync_col - daq_rows.names.begin());
-  std::vector<double> t, level;
-  for (std::size_t i = 0; i < video_rows.t_s.size(); ++i) {
-    t.push_back(video_rows.t_s[i] + v.sync_row_delay_s);
-    level.push_back(video_rows.rows[i].back());
-  }
   const double frame_period = 1 / v.rate_hz, daq_period = 1 / daq_source->sample_rate_hz();
-  double contrast = 0;
-  const std::vector<SyncEdge> video_edges = FindSyncEdges(t, level, v.exposure_s, 1.5 * frame_period, &contrast);
-  if (contrast < 10) {
-    throw std::runtime_error(o.video + ": the sync LED's light changes by " + std::to_string(contrast) +
-                             " levels around sync_led_px of " + rig.path + " (fewer than 10: is it there, and lit?)");
+  ClockFit fit;
+  if (v.sync_table) {
+    std::vector<double> table;
+    for (const auto& r : daq_rows.rows) table.push_back(r[sc]);
+    const MotionFit m = FitClockByMotion(video_rows.t_s, TableSeenInVideo(rig, video_rows), daq_rows.t_s, table,
+                                         daq_period, "the sync of " + o.video + " with " + o.daq +
+                                                         " by the table's motion");
+    fit = m.clock;
+    result.by_table = true;
+    result.correlation = m.correlation;
+    result.motion_residual_m = m.residual_rms;
+    result.motion_samples = m.samples;
+  } else {
+    std::vector<double> t, level;
+    for (std::size_t i = 0; i < video_rows.t_s.size(); ++i) {
+      t.push_back(video_rows.t_s[i] + v.sync_row_delay_s);
+      level.push_back(video_rows.rows[i].back());
+    }
+    double contrast = 0;
+    const std::vector<SyncEdge> video_edges = FindSyncEdges(t, level, v.exposure_s, 1.5 * frame_period, &contrast);
+    if (contrast < 10) {
+      throw std::runtime_error(o.video + ": the sync LED's light changes by " + std::to_string(contrast) +
+                               " levels around sync_led_px of " + rig.path + " (fewer than 10: is it there, and lit?)");
+    }
+    std::vector<double> drive;
+    for (const auto& r : daq_rows.rows) drive.push_back(r[sc]);
+    double daq_contrast = 0;
+    const std::vector<SyncEdge> daq_edges =
+        FindSyncEdges(daq_rows.t_s, drive, 0.0, 1.5 * daq_period, &daq_contrast);
+    fit = FitClock(video_edges, daq_edges, frame_period, v.exposure_s, daq_period,
+                   "the sync of " + o.video + " with " + o.daq);
   }
-  std::vector<double> drive;
-  for (const auto& r : daq_rows.rows) drive.push_back(r[sc]);
-  double daq_contrast = 0;
-  const std::vector<SyncEdge> daq_edges =
-      FindSyncEdges(daq_rows.t_s, drive, 0.0, 1.5 * daq_period, &daq_contrast);
-  const ClockFit fit = FitClock(video_edges, daq_edges, frame_period, v.exposure_s, daq_period,
-                                "the sync of " + o.video + " with " + o.daq);
   std::vector<Resample> kinds;
   auto ends = [](const std::string& n, const std::string& tail) {
     return n.size() >= tail.size() && n.compare(n.size() - tail.size(), tail.size(), tail) == 0;
@@ -149,6 +217,19 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
   result.rows_after = counts.after;
   result.rows_in_gaps = counts.in_gaps;
   char line[768];
+  if (result.by_table) {
+    std::snprintf(line, sizeof line,
+                  "%lld rows merged to %s on the DAQ's clock, %s (%lld DAQ samples before the video's first frame "
+                  "and %lld after its last left out, %lld rows between frames a drop apart); sync by the table's "
+                  "motion: t_daq = offset + (1 + drift) t_video, offset %.6f s +- %.2g s, drift %.1f +- %.2g ppm; "
+                  "%d frames, correlation %.4f, residual RMS %.3g mm",
+                  static_cast<long long>(counts.rows), o.out_csv.c_str(),
+                  at_camera_rate ? "at the camera's rate (the rig's sample_rate_hz)" : "at the DAQ's samples",
+                  static_cast<long long>(counts.before), static_cast<long long>(counts.after),
+                  static_cast<long long>(counts.in_gaps), fit.offset_s, fit.offset_se_s, fit.drift_ppm,
+                  fit.drift_se_ppm, result.motion_samples, result.correlation, 1e3 * result.motion_residual_m);
+    return line;
+  }
   std::snprintf(line, sizeof line,
                 "%lld rows merged to %s on the DAQ's clock, %s (%lld DAQ samples before the video's first frame "
                 "and %lld after its last left out, %lld rows between frames a drop apart); sync: t_daq = offset + (1 + drift) "

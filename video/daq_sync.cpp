@@ -68,6 +68,98 @@ LineFit FitSyncLine(const SyncPairs& p) {
   return f;
 }
 
+// The DAQ's columns on `grid` (ascending, at least 2 points) as the
+// least-squares chord of the DAQ's own chord between its samples: the
+// values c_k whose chord between the grid's points is nearest, in the
+// integral of the squared difference, to the DAQ's chord (its L2
+// projection on the hat functions of the grid), the interpolant the model
+// and the fit draw between a record's samples. Point samples put the chord
+// below a peak by a'' h^2 / 8 between them (docs/video.md, "In step with
+// the DAQ"); the projection keeps each point's local mean. The normal
+// equations are tridiagonal: sum_j M_kj c_j = b_k with M the hats' Gram
+// matrix (h/6, 2h/3, h/6; h/3 at the ends) and b_k the integral of the
+// DAQ's chord times hat k, exact by Simpson's rule on each piece between
+// the DAQ's and the grid's points (both linear there). An interval of the
+// grid the DAQ record does not cover, or with a non-finite sample, splits
+// the chord into runs solved apart; a point in none is NaN. Per column.
+std::vector<std::vector<double>> SyncChord(const Record& daq, const std::vector<double>& grid) {
+  const std::size_t n = grid.size(), cols = daq.names.size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::vector<double>> out(cols, std::vector<double>(n, nan));
+  if (n < 2 || daq.t_s.size() < 2) return out;
+  // Per column: b_k, and whether interval [k, k + 1] is covered and finite.
+  std::vector<std::vector<double>> b(cols, std::vector<double>(n, 0.0));
+  std::vector<std::vector<char>> ok(cols, std::vector<char>(n - 1, 0));
+  const std::vector<double>& td = daq.t_s;
+  // The DAQ's chord of column c at t inside [td[i], td[i + 1]].
+  auto chord_at = [&daq, &td](std::size_t i, std::size_t c, double t) {
+    const double w = (t - td[i]) / (td[i + 1] - td[i]);
+    return daq.rows[i][c] + w * (daq.rows[i + 1][c] - daq.rows[i][c]);
+  };
+  std::size_t i = 0;  // DAQ interval [td[i], td[i + 1]] holding the piece's start
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double g0 = grid[k], g1 = grid[k + 1], h = g1 - g0;
+    if (!(td.front() <= g0 && td.back() >= g1 && h > 0)) continue;
+    while (i + 2 < td.size() && td[i + 1] <= g0) ++i;
+    std::vector<double> lo(cols, 0.0), hi(cols, 0.0);
+    std::vector<char> finite(cols, 1);
+    double s0 = g0;
+    for (std::size_t j = i; s0 < g1; ++j) {
+      const double s1 = std::min(g1, td[j + 1]);
+      if (s1 > s0) {
+        const double sm = 0.5 * (s0 + s1), len = s1 - s0;
+        for (std::size_t c = 0; c < cols; ++c) {
+          const double x0 = chord_at(j, c, s0), xm = chord_at(j, c, sm), x1 = chord_at(j, c, s1);
+          finite[c] = finite[c] && std::isfinite(x0) && std::isfinite(x1);
+          // Hats: (g1 - t) / h for point k, (t - g0) / h for point k + 1.
+          lo[c] += len / 6 * (x0 * (g1 - s0) + 4 * xm * (g1 - sm) + x1 * (g1 - s1)) / h;
+          hi[c] += len / 6 * (x0 * (s0 - g0) + 4 * xm * (sm - g0) + x1 * (s1 - g0)) / h;
+        }
+      }
+      s0 = s1;
+    }
+    for (std::size_t c = 0; c < cols; ++c) {
+      if (!finite[c]) continue;
+      ok[c][k] = 1;
+      b[c][k] += lo[c];
+      b[c][k + 1] += hi[c];
+    }
+  }
+  std::vector<double> diag, sup, rhs;
+  for (std::size_t c = 0; c < cols; ++c) {
+    for (std::size_t k0 = 0; k0 + 1 < n;) {
+      if (!ok[c][k0]) {
+        ++k0;
+        continue;
+      }
+      std::size_t k1 = k0;  // the run's intervals: k0 .. k1 - 1, points k0 .. k1
+      while (k1 + 1 < n && ok[c][k1]) ++k1;
+      const std::size_t m = k1 - k0 + 1;
+      diag.assign(m, 0.0);
+      sup.assign(m, 0.0);
+      rhs.assign(m, 0.0);
+      for (std::size_t k = k0; k < k1; ++k) {
+        const double h = grid[k + 1] - grid[k];
+        diag[k - k0] += h / 3;
+        diag[k - k0 + 1] += h / 3;
+        sup[k - k0] = h / 6;
+      }
+      // b at the run's ends holds only the run's side (runs are maximal).
+      for (std::size_t k = k0; k <= k1; ++k) rhs[k - k0] = b[c][k];
+      // Thomas's algorithm (the Gram matrix is diagonally dominant).
+      for (std::size_t r = 1; r < m; ++r) {
+        const double f = sup[r - 1] / diag[r - 1];
+        diag[r] -= f * sup[r - 1];
+        rhs[r] -= f * rhs[r - 1];
+      }
+      out[c][k1] = rhs[m - 1] / diag[m - 1];
+      for (std::size_t r = m - 1; r-- > 0;) out[c][k0 + r] = (rhs[r] - sup[r] * out[c][k0 + r + 1]) / diag[r];
+      k0 = k1;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<SyncEdge> FindSyncEdges(const std::vector<double>& t_s, const std::vector<double>& level,
@@ -270,6 +362,166 @@ ClockFit FitClock(const std::vector<SyncEdge>& video, const std::vector<SyncEdge
   return fit;
 }
 
+namespace {
+
+// The DAQ's chord of x at t (t inside the record).
+double MotionChordAt(const std::vector<double>& t, const std::vector<double>& x, double at) {
+  const auto it = std::upper_bound(t.begin(), t.end(), at);
+  const std::size_t j = std::clamp<std::size_t>(static_cast<std::size_t>(it - t.begin()), 1, t.size() - 1);
+  const double w = (at - t[j - 1]) / (t[j] - t[j - 1]);
+  return x[j - 1] + w * (x[j] - x[j - 1]);
+}
+
+// Pearson's correlation of xv with the DAQ's chord at tv + c.
+double MotionCorrelation(const std::vector<double>& tv, const std::vector<double>& xv, const std::vector<double>& td,
+                         const std::vector<double>& xd, double c) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  const double n = static_cast<double>(tv.size());
+  for (std::size_t k = 0; k < tv.size(); ++k) {
+    const double a = xv[k], b = MotionChordAt(td, xd, tv[k] + c);
+    sa += a, sb += b, saa += a * a, sbb += b * b, sab += a * b;
+  }
+  const double va = saa - sa * sa / n, vb = sbb - sb * sb / n;
+  return va > 0 && vb > 0 ? (sab - sa * sb / n) / std::sqrt(va * vb) : 0.0;
+}
+
+// Solves the 4 x 4 system m y = r in place (Gauss-Jordan, partial pivots);
+// false when singular. `inv` receives m's inverse.
+bool MotionSolve4(double m[4][4], double r[4], double inv[4][4]) {
+  double a[4][8];
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) a[i][j] = m[i][j], a[i][j + 4] = i == j ? 1.0 : 0.0;
+  }
+  for (int c = 0; c < 4; ++c) {
+    int p = c;
+    for (int i = c + 1; i < 4; ++i) p = std::abs(a[i][c]) > std::abs(a[p][c]) ? i : p;
+    if (!(std::abs(a[p][c]) > 0)) return false;
+    for (int j = 0; j < 8; ++j) std::swap(a[c][j], a[p][j]);
+    const double d = a[c][c];
+    for (int j = 0; j < 8; ++j) a[c][j] /= d;
+    for (int i = 0; i < 4; ++i) {
+      if (i == c) continue;
+      const double f = a[i][c];
+      for (int j = 0; j < 8; ++j) a[i][j] -= f * a[c][j];
+    }
+  }
+  double y[4] = {};
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) inv[i][j] = a[i][j + 4], y[i] += inv[i][j] * r[j];
+  }
+  for (int i = 0; i < 4; ++i) r[i] = y[i];
+  return true;
+}
+
+}  // namespace
+
+MotionFit FitClockByMotion(const std::vector<double>& t_video, const std::vector<double>& x_video,
+                           const std::vector<double>& t_daq, const std::vector<double>& x_daq,
+                           double daq_period_s, const std::string& what) {
+  std::vector<double> tv, xv;
+  for (std::size_t k = 0; k < t_video.size(); ++k) {
+    if (std::isfinite(x_video[k])) tv.push_back(t_video[k]), xv.push_back(x_video[k]);
+  }
+  std::vector<double> td, xd;
+  for (std::size_t i = 0; i < t_daq.size(); ++i) {
+    if (std::isfinite(x_daq[i])) td.push_back(t_daq[i]), xd.push_back(x_daq[i]);
+  }
+  if (tv.size() < 20 || td.size() < 2) {
+    throw std::runtime_error(what + ": " + std::to_string(tv.size()) +
+                             " frames show the table's motion (at least 20 are needed)");
+  }
+  const double lo = td.front() - tv.front(), hi = td.back() - tv.back();
+  if (hi < lo) {
+    throw std::runtime_error(what + ": the DAQ record (" + std::to_string(td.back() - td.front()) +
+                             " s) is shorter than the video (" + std::to_string(tv.back() - tv.front()) +
+                             " s): the table's motion cannot be found in it");
+  }
+  // Every offset a DAQ period apart (at most 20000 of them), the best
+  // refined on the DAQ's periods around it.
+  const double step = std::max(daq_period_s, (hi - lo) / 20000);
+  std::vector<double> offsets, corr;
+  for (double c = lo; c <= hi + 1e-12; c += step) offsets.push_back(c), corr.push_back(MotionCorrelation(tv, xv, td, xd, c));
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < corr.size(); ++i) best = std::abs(corr[i]) > std::abs(corr[best]) ? i : best;
+  double second = 0;
+  for (std::size_t i = 1; i + 1 < corr.size(); ++i) {
+    const bool peak = std::abs(corr[i]) >= std::abs(corr[i - 1]) && std::abs(corr[i]) >= std::abs(corr[i + 1]);
+    if (peak && std::abs(offsets[i] - offsets[best]) > 4 * std::max(step, daq_period_s)) {
+      second = std::max(second, std::abs(corr[i]));
+    }
+  }
+  double c0 = offsets[best];
+  if (step > daq_period_s) {
+    double bc = std::abs(corr[best]);
+    for (double c = offsets[best] - step; c <= offsets[best] + step; c += daq_period_s) {
+      const double r = std::abs(MotionCorrelation(tv, xv, td, xd, c));
+      if (r > bc && c >= lo && c <= hi) bc = r, c0 = c;
+    }
+  }
+  MotionFit out;
+  out.correlation = MotionCorrelation(tv, xv, td, xd, c0);
+  if (std::abs(out.correlation) < 0.9) {
+    throw std::runtime_error(what + ": the table's motion in the video correlates " +
+                             std::to_string(out.correlation) +
+                             " at best with the DAQ's sync_channel (below 0.9: is it the table's displacement, "
+                             "and did the table move while filmed?)");
+  }
+  if (second >= 0.99 * std::abs(out.correlation)) {
+    throw std::runtime_error(what + ": the table's motion matches at two offsets (correlation " +
+                             std::to_string(std::abs(out.correlation)) + " and " + std::to_string(second) +
+                             "): a periodic motion cannot set the clocks; record its start and end");
+  }
+  // Gauss-Newton on (offset, drift, scale, level).
+  double p[4] = {c0, 0.0, 0.0, 0.0};
+  {
+    // Scale and level by least squares at the offset found.
+    double sa = 0, sb = 0, sbb = 0, sab = 0;
+    const double n = static_cast<double>(tv.size());
+    for (std::size_t k = 0; k < tv.size(); ++k) {
+      const double b = MotionChordAt(td, xd, tv[k] + c0);
+      sa += xv[k], sb += b, sbb += b * b, sab += xv[k] * b;
+    }
+    p[2] = (sab - sa * sb / n) / (sbb - sb * sb / n);
+    p[3] = (sa - p[2] * sb) / n;
+  }
+  const double h = std::max(daq_period_s, 1e-6);
+  double cov[4][4] = {};
+  double rss = 0;
+  for (int iter = 0; iter < 20; ++iter) {
+    double m[4][4] = {}, r[4] = {};
+    rss = 0;
+    for (std::size_t k = 0; k < tv.size(); ++k) {
+      const double tau = std::clamp(p[0] + (1 + p[1]) * tv[k], td.front() + h, td.back() - h);
+      const double d = MotionChordAt(td, xd, tau);
+      const double slope = (MotionChordAt(td, xd, tau + h) - MotionChordAt(td, xd, tau - h)) / (2 * h);
+      const double j[4] = {p[2] * slope, p[2] * slope * tv[k], d, 1.0};
+      const double e = xv[k] - (p[2] * d + p[3]);
+      rss += e * e;
+      for (int a = 0; a < 4; ++a) {
+        r[a] += j[a] * e;
+        for (int b = 0; b < 4; ++b) m[a][b] += j[a] * j[b];
+      }
+    }
+    if (!MotionSolve4(m, r, cov)) throw std::runtime_error(what + ": the table's motion does not fix the clocks");
+    for (int a = 0; a < 4; ++a) p[a] += r[a];
+    if (std::abs(r[0]) < 1e-9 && std::abs(r[1]) < 1e-12) break;
+  }
+  const double n = static_cast<double>(tv.size());
+  const double s2 = rss / (n - 4);
+  out.clock.offset_s = p[0];
+  out.clock.drift_ppm = 1e6 * p[1];
+  out.clock.offset_se_s = std::sqrt(s2 * cov[0][0]);
+  out.clock.drift_se_ppm = 1e6 * std::sqrt(s2 * cov[1][1]);
+  out.scale = p[2];
+  out.residual_rms = std::sqrt(rss / n);
+  out.samples = static_cast<int>(tv.size());
+  if (std::abs(out.clock.drift_ppm) > kMaxSyncDriftPpm) {
+    throw std::runtime_error(what + ": the clocks drift by " + std::to_string(out.clock.drift_ppm) +
+                             " ppm by the table's motion, more than a camera's or a DAQ's clock can (1000 ppm)");
+  }
+  return out;
+}
+
 Record MergeOnDaqClock(const Record& daq, const Record& video, const std::vector<Resample>& kinds,
                        const ClockFit& fit, double frame_period_s, double grid_rate_hz, MergeCounts* counts) {
   Record out;
@@ -319,22 +571,19 @@ Record MergeOnDaqClock(const Record& daq, const Record& video, const std::vector
       out.rows.push_back(std::move(row));
     }
   } else {
-    // The camera's rate on the DAQ's clock; the DAQ's samples within half a
-    // step of each point averaged (a box filter against aliasing).
+    // The camera's rate on the DAQ's clock: the video's channels at each
+    // point, the DAQ's as the least-squares chord of their own (SyncChord).
     const double step = 1 / grid_rate_hz;
-    std::size_t from = 0;
     for (int64_t k = 0;; ++k) {
       const double t = first + static_cast<double>(k) * step;
       if (t > last) break;
-      while (from < daq.t_s.size() && daq.t_s[from] < t - 0.5 * step) ++from;
-      std::vector<double> row(daq.names.size(), 0.0);
-      int64_t n = 0;
-      for (std::size_t r = from; r < daq.t_s.size() && daq.t_s[r] < t + 0.5 * step; ++r, ++n) {
-        for (std::size_t c = 0; c < row.size(); ++c) row[c] += daq.rows[r][c];
-      }
-      for (double& v : row) v = n > 0 ? v / static_cast<double>(n) : nan;
-      add_video(t, row);
       out.t_s.push_back(t);
+    }
+    const std::vector<std::vector<double>> chord = SyncChord(daq, out.t_s);
+    for (std::size_t k = 0; k < out.t_s.size(); ++k) {
+      std::vector<double> row(daq.names.size());
+      for (std::size_t c = 0; c < row.size(); ++c) row[c] = chord[c][k];
+      add_video(out.t_s[k], row);
       out.rows.push_back(std::move(row));
     }
   }

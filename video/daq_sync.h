@@ -67,6 +67,31 @@ inline constexpr double kMaxSyncDriftPpm = 1000;
 ClockFit FitClock(const std::vector<SyncEdge>& video, const std::vector<SyncEdge>& daq, double frame_period_s,
                   double exposure_s, double daq_period_s, const std::string& what);
 
+/// What FitClockByMotion measured besides the clock.
+struct MotionFit {
+  ClockFit clock;              ///< offset, drift and their standard errors; no edges
+  double correlation{};        ///< of the video's motion with the DAQ's at the clock found
+  double scale{};              ///< video motion per DAQ unit (1 for metres against metres)
+  double residual_rms{};       ///< of the video's motion about the fit, its unit
+  int samples{};               ///< video samples used
+};
+
+/// The clocks from the table's motion (`sync = "table"`): `x_video` (the
+/// table's displacement seen in the video, at video times `t_video`, NaN
+/// where not seen) against `x_daq` (the DAQ's table displacement at its
+/// times `t_daq`, read as the chord between them). Fitted by Gauss-Newton:
+/// x_video(t) = scale D(offset + (1 + drift) t) + level, from the offset of
+/// the best correlation over every offset that keeps the video inside the
+/// DAQ record (steps of a DAQ period). Standard errors from the residuals
+/// (s^2 (J^T J)^-1, s^2 = RSS / (n - 4)).
+/// @throws std::runtime_error naming `what`: fewer than 20 video samples, a
+///   DAQ record shorter than the video, a correlation below 0.9 (no motion
+///   seen, or not the table's), another offset correlating within 1 % of
+///   the best (a periodic motion: ambiguous), or a drift beyond 1000 ppm.
+MotionFit FitClockByMotion(const std::vector<double>& t_video, const std::vector<double>& x_video,
+                           const std::vector<double>& t_daq, const std::vector<double>& x_daq,
+                           double daq_period_s, const std::string& what);
+
 /// How a video channel is carried onto the DAQ's samples.
 enum class Resample {
   kLinear,   ///< between the two frames around the sample (coordinates, sigmas)
@@ -94,8 +119,13 @@ struct MergeCounts {
 /// `grid_rate_hz` 0: the DAQ's samples, each with the video's channels at
 /// its time (the video's time `fit.VideoTime(t)`). Otherwise a grid at
 /// that rate (the camera's) from the first frame's DAQ time, the video's
-/// channels at each point and the DAQ's channels averaged over the DAQ
-/// samples within half a grid step of it (NaN where none is).
+/// channels at each point and the DAQ's channels as the least-squares chord
+/// of their own: the values whose chord between the grid's points is
+/// nearest (in the integral of the squared difference) to the DAQ's chord
+/// between its samples, so that a reader drawing the chord (the model, the
+/// fit) gets the table's motion and not one cut below its peaks by
+/// a'' h^2 / 8 (NaN where the DAQ record does not cover the grid or has a
+/// non-finite sample next to the point).
 /// @throws std::runtime_error when a video channel's name is one of the DAQ's.
 Record MergeOnDaqClock(const Record& daq, const Record& video, const std::vector<Resample>& kinds,
                        const ClockFit& fit, double frame_period_s, double grid_rate_hz, MergeCounts* counts);

@@ -43,6 +43,11 @@ struct TrackResult {
   double residual_rms_s{}, residual_max_s{}, expected_rms_s{};
   int edges_video{}, edges_daq{}, edges_paired{};
   std::int64_t rows_before{}, rows_after{}, rows_in_gaps{};
+  /// sync = "table": the clocks from the table's motion (no edges); the
+  /// correlation of the motions and the video's residual about the fit, m.
+  bool by_table{false};
+  double correlation{}, motion_residual_m{};
+  int motion_samples{};
 };
 
 /// `rocklab track`'s options (tools/cmd_track.cpp).

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -122,6 +123,76 @@ toml::table ParseFile(const std::string& path) {
   }
 }
 
+// OpenCV's predefined ArUco dictionaries, in the order of its
+// PREDEFINED_DICTIONARY_NAME (the index is the enum's value).
+constexpr const char* kBoardDictionaries[] = {
+    "DICT_4X4_50",   "DICT_4X4_100",   "DICT_4X4_250",      "DICT_4X4_1000",      "DICT_5X5_50",
+    "DICT_5X5_100",  "DICT_5X5_250",   "DICT_5X5_1000",     "DICT_6X6_50",        "DICT_6X6_100",
+    "DICT_6X6_250",  "DICT_6X6_1000",  "DICT_7X7_50",       "DICT_7X7_100",       "DICT_7X7_250",
+    "DICT_7X7_1000", "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5", "DICT_APRILTAG_25h9", "DICT_APRILTAG_36h10",
+    "DICT_APRILTAG_36h11"};
+
+bool IsBoardDictionary(const std::string& name) { return BoardDictionaryIndex(name) >= 0; }
+
+std::string BoardDictionaryNames() {
+  std::string all;
+  for (const char* n : kBoardDictionaries) all += (all.empty() ? "" : ", ") + std::string(n);
+  return all;
+}
+
+// A board's table: its layout as printed, where it hangs, where it is seen.
+BoardConfig ParseBoard(const std::string& path, const toml::table& t) {
+  Keys k(path, t, "camera.video.board");
+  BoardConfig b;
+  b.present = true;
+  b.line = Keys::LineOf(t);
+  const toml::node* kind = k.Get("kind");
+  const std::optional<std::string> kind_name = kind != nullptr ? kind->value<std::string>() : std::nullopt;
+  if (kind != nullptr && (!kind_name || *kind_name != "charuco")) {
+    k.Fail(Keys::LineOf(*kind), "kind", "must be \"charuco\" (a chessboard with ArUco markers in its white squares)");
+  }
+  if (const toml::node* d = k.Get("dictionary")) {
+    const std::optional<std::string> name = d->value<std::string>();
+    if (!name || !IsBoardDictionary(*name)) {
+      k.Fail(Keys::LineOf(*d), "dictionary", "must name one of OpenCV's predefined ArUco dictionaries (" +
+                                                 BoardDictionaryNames() + ")");
+    }
+    b.dictionary = *name;
+  }
+  const toml::node* sq = k.Get("squares");
+  const toml::array* sa = sq != nullptr ? sq->as_array() : nullptr;
+  std::optional<int64_t> sx, sy;
+  if (sa != nullptr && sa->size() == 2) sx = sa->get(0)->value<int64_t>(), sy = sa->get(1)->value<int64_t>();
+  if (!sx || !sy || *sx < 2 || *sy < 2 || *sx > 100 || *sy > 100 || *sx * *sy < 6) {
+    k.Fail(sq != nullptr ? Keys::LineOf(*sq) : k.line(), "squares",
+           "must be [across, down]: the board's squares, 2 to 100 each (at least 3 inner corners)");
+  }
+  b.squares_x = static_cast<int>(*sx);
+  b.squares_y = static_cast<int>(*sy);
+  b.square_m = k.Required("square_m", 1e-4, kMaxLengthM);
+  b.marker_m = k.Required("marker_m", 1e-4, kMaxLengthM);
+  if (b.marker_m >= b.square_m) k.Fail(k.LineOfKey("marker_m"), "marker_m", "must be smaller than square_m");
+  const toml::node* o = k.Get("origin_m");
+  const toml::array* oa = o != nullptr ? o->as_array() : nullptr;
+  std::optional<double> ox, oz;
+  if (oa != nullptr && oa->size() == 2) ox = oa->get(0)->value<double>(), oz = oa->get(1)->value<double>();
+  if (!ox || !oz || !std::isfinite(*ox) || !std::isfinite(*oz) || std::abs(*ox) > kMaxLengthM ||
+      std::abs(*oz) > kMaxLengthM) {
+    k.Fail(o != nullptr ? Keys::LineOf(*o) : k.line(), "origin_m",
+           "must be [x, z]: the rig coordinates of the board's top-left corner, m");
+  }
+  b.origin_x_m = *ox;
+  b.origin_z_m = *oz;
+  if (const toml::node* im = k.Get("image")) {
+    const std::optional<std::string> file = im->value<std::string>();
+    if (!file || file->empty()) k.Fail(Keys::LineOf(*im), "image", "must be a file name (an image or a video)");
+    b.image = (std::filesystem::path(path).parent_path() / *file).string();
+  }
+  b.min_corners = static_cast<int>(k.Number("min_corners", 4, 1e6).value_or(b.min_corners));
+  k.Done();
+  return b;
+}
+
 }  // namespace
 
 std::string ColourChoice::Describe() const {
@@ -154,6 +225,13 @@ void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::st
     throw std::runtime_error("cannot write '" + part + "'");
   }
   std::filesystem::rename(part, path);
+}
+
+int BoardDictionaryIndex(const std::string& name) {
+  for (std::size_t i = 0; i < std::size(kBoardDictionaries); ++i) {
+    if (name == kBoardDictionaries[i]) return static_cast<int>(i);
+  }
+  return -1;
 }
 
 VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
@@ -262,11 +340,19 @@ VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
   }
   const toml::node* marks = k.Get("mark");
   const toml::array* ma = marks != nullptr ? marks->as_array() : nullptr;
-  if (ma == nullptr || ma->size() < 4) {
+  if (const toml::node* b = k.Get("board")) {
+    const toml::table* t = b->as_table();
+    if (t == nullptr) k.Fail(Keys::LineOf(*b), "board", "must be a table ([camera.video.board])");
+    if (marks != nullptr) {
+      k.Fail(Keys::LineOf(*marks), "mark", "and [camera.video.board] both give the marks: keep one");
+    }
+    c.board = ParseBoard(rig.path, *t);
+  } else if (ma == nullptr || ma->size() < 4) {
     k.Fail(marks != nullptr ? Keys::LineOf(*marks) : k.line(), "mark",
            "must list at least 4 reference marks { u_px, v_px, x_m, z_m } (image to rig plane)");
   }
-  for (const toml::node& node : *ma) {
+  for (std::size_t i = 0; ma != nullptr && i < ma->size(); ++i) {
+    const toml::node& node = *ma->get(i);
     const toml::table* t = node.as_table();
     if (t == nullptr) k.Fail(Keys::LineOf(node), "mark", "must be tables { u_px, v_px, x_m, z_m }");
     Keys mk(rig.path, *t, "camera.video.mark");
@@ -281,29 +367,44 @@ VideoConfig LoadVideoConfig(const daq::RigConfig& rig) {
   }
   if (const toml::node* n = k.Get("sync")) {
     const std::optional<std::string> how = n->value<std::string>();
-    if (!how || *how != "led") {
-      k.Fail(Keys::LineOf(*n), "sync", "must be \"led\" (a sync LED driven by a DAQ channel: docs/video.md)");
+    if (!how || (*how != "led" && *how != "table")) {
+      k.Fail(Keys::LineOf(*n), "sync", "must be \"led\" (a sync LED driven by a DAQ channel) or \"table\" (the "
+                                       "table's motion against its displacement channel): docs/video.md");
     }
     c.sync.present = true;
     c.sync.line = Keys::LineOf(*n);
-    const toml::node* at = k.Get("sync_led_px");
-    const toml::array* a = at != nullptr ? at->as_array() : nullptr;
-    std::optional<double> u, v;
-    if (a != nullptr && a->size() == 2) u = a->get(0)->value<double>(), v = a->get(1)->value<double>();
-    if (!u || !v || *u < 0 || *v < 0 || *u > kMaxPx || *v > kMaxPx) {
-      k.Fail(at != nullptr ? Keys::LineOf(*at) : c.sync.line, "sync_led_px",
-             "must be [u, v]: the sync LED's column and row in the image, px >= 0");
+    if (*how == "table") {
+      c.sync.by_table = true;
+      if (const toml::node* led = k.Get("sync_led_px")) {
+        k.Fail(Keys::LineOf(*led), "sync_led_px", "is for sync = \"led\" (sync = \"table\" needs no LED)");
+      }
+      const toml::node* ch = k.Get("sync_channel");
+      const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
+      if (!name || name->empty()) {
+        k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
+               "must name the DAQ file's column of the table's displacement");
+      }
+      c.sync.channel = *name;
+    } else {
+      const toml::node* at = k.Get("sync_led_px");
+      const toml::array* a = at != nullptr ? at->as_array() : nullptr;
+      std::optional<double> u, v;
+      if (a != nullptr && a->size() == 2) u = a->get(0)->value<double>(), v = a->get(1)->value<double>();
+      if (!u || !v || *u < 0 || *v < 0 || *u > kMaxPx || *v > kMaxPx) {
+        k.Fail(at != nullptr ? Keys::LineOf(*at) : c.sync.line, "sync_led_px",
+               "must be [u, v]: the sync LED's column and row in the image, px >= 0");
+      }
+      c.sync.u_px = *u;
+      c.sync.v_px = *v;
+      c.sync.radius_px = static_cast<int>(k.Number("sync_radius_px", 0, 100).value_or(c.sync.radius_px));
+      const toml::node* ch = k.Get("sync_channel");
+      const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
+      if (!name || name->empty()) {
+        k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
+               "must name the DAQ file's column that drives the sync LED");
+      }
+      c.sync.channel = *name;
     }
-    c.sync.u_px = *u;
-    c.sync.v_px = *v;
-    c.sync.radius_px = static_cast<int>(k.Number("sync_radius_px", 0, 100).value_or(c.sync.radius_px));
-    const toml::node* ch = k.Get("sync_channel");
-    const std::optional<std::string> name = ch != nullptr ? ch->value<std::string>() : std::nullopt;
-    if (!name || name->empty()) {
-      k.Fail(ch != nullptr ? Keys::LineOf(*ch) : c.sync.line, "sync_channel",
-             "must name the DAQ file's column that drives the sync LED");
-    }
-    c.sync.channel = *name;
   } else if (k.Get("sync_led_px") != nullptr || k.Get("sync_channel") != nullptr ||
              k.Get("sync_radius_px") != nullptr) {
     k.Fail(k.LineOfKey("sync_led_px"), "sync", "is missing (sync_led_px, sync_channel need sync = \"led\")");

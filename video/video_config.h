@@ -59,10 +59,35 @@ struct VideoLed {
 /// (video/daq_sync.h, `rocklab track --daq`).
 struct SyncLedConfig {
   bool present{false};
+  /// `sync = "table"`: no LED; the table's motion seen in the video (the
+  /// pivot corner of the LEDs' rigid fit) against `channel`, the DAQ's
+  /// table displacement (video/daq_sync.h, FitClockByMotion).
+  bool by_table{false};
   double u_px{}, v_px{};   ///< its centre in the image (column, row), px
   int radius_px{3};        ///< its light is the mean of the (2r+1)^2 pixels around it
   std::string channel;     ///< the DAQ file's column that drives it
   int line{};              ///< of the `sync` key in the rig file
+};
+
+/// Reference marks from a printed ChArUco board laid on the rig plane
+/// (`[camera.video.board]`, docs/video.md), instead of typed `mark`s: the
+/// board's chessboard corners found in an image from the camera's place
+/// (video/board_marks.h), each with its rig coordinates. The board's own
+/// frame (OpenCV's): x along its rows of squares, y down its columns from
+/// its top-left corner as printed; it hangs upright on the plane, so rig
+/// x = origin x + board x and rig z = origin z - board y.
+struct BoardConfig {
+  bool present{false};
+  std::string dictionary{"DICT_4X4_50"};  ///< OpenCV's predefined ArUco dictionary
+  int squares_x{}, squares_y{};           ///< squares across and down
+  double square_m{}, marker_m{};          ///< sides as printed (measure them), m
+  double origin_x_m{}, origin_z_m{};      ///< rig coordinates of the board's top-left corner, m
+  /// A still (image, or a video's first frame) of the board seen from the
+  /// camera's place, path as given (relative to the rig file); empty: the
+  /// video input's own first frame.
+  std::string image;
+  int min_corners{8};  ///< fewer corners found is an error
+  int line{};          ///< of the [camera.video.board] table
 };
 
 struct VideoConfig {
@@ -93,16 +118,21 @@ struct VideoConfig {
   double gate_m{};             ///< identification radius around a prediction, m; 0 = 0.4 x smallest LED spacing
   double residual_m{0.003};    ///< an identified LED further than this from the rigid fit is dropped, m
   std::optional<Intrinsics> intrinsics;  ///< absent: an ideal lens (no undistortion)
-  std::vector<Mark> marks;     ///< >= 4: image-to-plane homography
+  std::vector<Mark> marks;     ///< >= 4: image-to-plane homography (none with a board)
+  BoardConfig board;           ///< present: the marks come from the board (ResolveBoardMarks)
   SyncLedConfig sync;          ///< absent (present false): no sync source
 };
 
 /// The one camera of `rig` that has a `[camera.video]` section.
 /// @throws std::runtime_error "PATH:LINE: key 'camera.video.K' ..." on a
 ///         missing, mistyped, unknown or out-of-range key, fewer than 4
-///         marks, an LED without its channels, or no (or more than one)
+///         marks (and no board), a board with marks, an LED without its channels, or no (or more than one)
 ///         camera with a video section.
 VideoConfig LoadVideoConfig(const daq::RigConfig& rig);
+
+/// OpenCV's value of a predefined ArUco dictionary's name ("DICT_4X4_50"
+/// is 0), -1 for a name it does not have.
+int BoardDictionaryIndex(const std::string& name);
 
 /// Reads an intrinsics file as `rocklab camera-calibrate` writes it.
 /// @throws std::runtime_error naming the file, line and key.

@@ -10,6 +10,7 @@
 
 #include "common/logger_clock.h"
 #include "daq/rig_config.h"
+#include "video/board_marks.h"
 #include "video/plane_map.h"
 #include "video/video_config.h"
 #include "common/units.h"
@@ -32,7 +33,7 @@ class VideoSource : public daq::Source {
         on_problem_(options.on_problem),
         stop_(options.stop),
         idle_timeout_s_(options.idle_timeout_s),
-        config_(WithFps(LoadVideoConfig(*options.rig), fps_override)),
+        config_(ResolveBoardMarks(WithFps(LoadVideoConfig(*options.rig), fps_override), device ? "" : spec)),
         map_(config_.intrinsics, config_.marks, config_.rig_path),
         reader_(spec, device, config_.fps, config_.colour),
         detector_(Options(config_)),
@@ -52,7 +53,10 @@ class VideoSource : public daq::Source {
       names_.push_back(base + "_sigma_x_m");
       names_.push_back(base + "_sigma_z_m");
     }
-    if (config_.sync.present) {
+    if (config_.sync.by_table) {
+      stats_.sync_table = true;
+      stats_.sync_channel = config_.sync.channel;
+    } else if (config_.sync.present) {
       names_.push_back(config_.camera + "_sync_level");
       stats_.sync_led = true;
       stats_.sync_channel = config_.sync.channel;
@@ -213,7 +217,7 @@ class VideoSource : public daq::Source {
       frame.values[k++] = s.sigma_x_m;
       frame.values[k++] = s.sigma_z_m;
     }
-    if (config_.sync.present) frame.values[k++] = SyncLevel();
+    if (config_.sync.present && !config_.sync.by_table) frame.values[k++] = SyncLevel();
     Sync();
     return daq::ReadStatus::kFrame;
   }

@@ -54,7 +54,10 @@ struct VideoStats {
   /// the sync LED's mean level (8-bit) around sync_led_px, seen
   /// sync_row_delay_s after the frame's time (its row's rolling-shutter delay).
   bool sync_led{};
-  std::string sync_channel;  ///< the DAQ column that drives it
+  /// [camera.video] sync = "table": no sync channel; the clocks come from
+  /// the table's motion (the LEDs' pivot corner) against sync_channel.
+  bool sync_table{};
+  std::string sync_channel;  ///< the DAQ column that drives the LED (or the table's displacement)
   double sync_row_delay_s{};
 };
 

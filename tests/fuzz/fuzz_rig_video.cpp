@@ -4,7 +4,8 @@
 // scratch file of this process (the video section is read from the file).
 // Invariants: only std::runtime_error escapes, its message one bounded line
 // of printable ASCII naming the file; an accepted section has its values
-// within the documented bounds, at least 4 marks and one LED with channels,
+// within the documented bounds, at least 4 marks (or a board, whose marks
+// are found later in its image) and one LED with channels,
 // and a PlaneMap built from it maps its marks to finite points.
 #include <cmath>
 #include <cstddef>
@@ -45,7 +46,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     CheckError(path, e);
     return 0;
   }
-  if (c.leds.empty() || c.marks.size() < 4) rocklab::fuzz::Violated("accepted without LEDs or 4 marks");
+  // A board's marks are found in its image when the input opens, not here.
+  if (c.leds.empty() || (c.marks.size() < 4 && !c.board.present)) {
+    rocklab::fuzz::Violated("accepted without LEDs or 4 marks (or a board)");
+  }
+  if (c.board.present && (!c.marks.empty() || c.board.squares_x < 2 || c.board.squares_y < 2 ||
+                          !(c.board.marker_m < c.board.square_m))) {
+    rocklab::fuzz::Violated("a board with typed marks or an impossible layout");
+  }
+  if (c.board.present) return 0;
   for (const auto& led : c.leds) {
     if (led.x_channel == nullptr || led.z_channel == nullptr) rocklab::fuzz::Violated("an LED without channels");
   }
