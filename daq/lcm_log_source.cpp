@@ -141,7 +141,7 @@ std::unique_ptr<Source> OpenSource(const std::string& path, const SourceOptions&
   }
   if (path.rfind("video:", 0) == 0 || path.rfind("v4l2:", 0) == 0) {
     throw std::invalid_argument(path + ": this rocklab was built without video inputs "
-                                       "(ROCKLAB_VIDEO; needs libopencv-dev)");
+                                       "(ROCKLAB_VIDEO; needs libopencv-dev and libopencv-contrib-dev)");
   }
   if (path.rfind("tcp://", 0) == 0) return OpenTcpSource(path.substr(6), options);
   if (path.rfind("tcp-listen://", 0) == 0) return OpenTcpSource(path.substr(13), options, true);

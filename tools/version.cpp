@@ -34,7 +34,7 @@ std::string VersionText(bool load, bool final_newline) {
 #ifdef ROCKLAB_HAVE_VIDEO
   s += "video (video:, v4l2:, track, camera-calibrate): " + VideoPluginState(load) + "\n";
 #else
-  s += "video (video:, v4l2:, track, camera-calibrate): not built (ROCKLAB_VIDEO; needs libopencv-dev)\n";
+  s += "video (video:, v4l2:, track, camera-calibrate): not built (ROCKLAB_VIDEO; needs libopencv-dev and libopencv-contrib-dev)\n";
 #endif
 #ifdef ROCKLAB_HAVE_MPI
   s += "MPI (mpirun ... rocklab sweep): " +
