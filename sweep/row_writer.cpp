@@ -103,10 +103,8 @@ class CsvRowWriter final : public RowWriter {
         // The definition's lines, then the header (an older rocklab's file
         // has the header alone, and is continued as it is).
         if (ParseDefinitionLine(line, definition)) continue;
-        if (line != header) {
-          throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
-                            " is not a sweep's; --resume continues a file this command wrote");
-        }
+        // The definition first: another assembly's header differs too, and
+        // its field says why.
         if (!definition.empty()) {
           std::string theirs, ours;
           const std::string key = FirstDifference(definition, DefinitionOf(plan_), theirs, ours);
@@ -115,6 +113,10 @@ class CsvRowWriter final : public RowWriter {
                               ", this one's options give " + common::Quote(ours) +
                               "; --resume continues the same sweep only");
           }
+        }
+        if (line != header) {
+          throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
+                            " is not a sweep's; --resume continues a file this command wrote");
         }
         header_seen = true;
         keep = offset;

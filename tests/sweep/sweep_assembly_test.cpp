@@ -6,8 +6,10 @@
 // first. The row's alpha, p and mu of a stack (pipeline::StackRowParams)
 // against closed forms.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -320,7 +322,7 @@ TEST(SweepAssembly, BadAssembliesAreRefusedNamingFileAndKey) {
 // assembly's columns included; a shard of another assembly file (a copy
 // with a comment added: the same key columns and rows, so only the
 // definition's size and hash tell) is refused naming the field `assembly`
-// and both files.
+// and both files, and so is --resume of the file with another assembly.
 TEST(SweepAssembly, ShardsOfOneAssemblyMergeAndOfAnotherAreRefused) {
   const std::string dir = ScratchDir("sweep_assembly_merge");
   const std::string record = SineRecord(dir);
@@ -345,6 +347,11 @@ TEST(SweepAssembly, ShardsOfOneAssemblyMergeAndOfAnotherAreRefused) {
   EXPECT_EQ(WithoutProvenanceLines(ReadFile(dir + "/merged.csv")), WithoutProvenanceLines(ReadFile(dir + "/whole.csv")));
   EXPECT_NE(ReadFile(dir + "/whole.csv").find("\n# assembly: statue_on_pedestal.toml "), std::string::npos);
 
+  // --resume of the whole file with another assembly: refused by the same field.
+  r = with({"--assembly", kSource + "/data/assemblies/drums3.toml", "--resume", "--out", dir + "/whole.csv"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("its sweep ran with assembly 'statue_on_pedestal.toml "), std::string::npos) << r.err;
+
   r = with({"--assembly", dir + "/statue_on_pedestal.toml", "--shard", "1/2", "--out", dir + "/other1.csv"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   r = with({"--assembly", toml, "--merge", dir + "/part0.h5", dir + "/other1.csv", "--out", dir + "/mixed.csv"});
@@ -354,6 +361,36 @@ TEST(SweepAssembly, ShardsOfOneAssemblyMergeAndOfAnotherAreRefused) {
       << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir + "/mixed.csv"));
 }
+
+#ifdef ROCKLAB_MPIRUN
+// Oracle: the threaded run's bytes. Two MPI ranks carry an assembly's
+// outcome (the first body to fall and the peaks per body) to rank 0 on
+// the wire and write the threaded file (the environment of
+// CliSweep.MpiRanksWriteTheThreadedFile, which says why).
+TEST(SweepAssembly, MpiRanksWriteTheThreadedStackFile) {
+  const std::string dir = ScratchDir("sweep_assembly_mpi");
+  const std::string record = SineRecord(dir);
+  const std::string bin = ROCKLAB_BINARY;
+  const std::string args = " sweep --records " + record + " --scale 3:6:4 --assembly " + kSource +
+                           "/data/assemblies/statue_on_pedestal.toml --model housner --duration 3 --rate 100";
+  const CliResult threads = Sweep({"--records", record, "--scale", "3:6:4", "--assembly",
+                                   kSource + "/data/assemblies/statue_on_pedestal.toml", "--model", "housner",
+                                   "--duration", "3", "--rate", "100", "--threads", "2", "--out",
+                                   dir + "/threads.csv"});
+  ASSERT_EQ(threads.exit_code, 0) << threads.err;
+  const std::string env = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,vader "
+                          "OMPI_MCA_oob_tcp_if_include=lo OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_pml=ob1 "
+                          "OMPI_MCA_memory=^patcher ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:detect_leaks=0\" ";
+  const int status = std::system((env + ROCKLAB_MPIRUN + std::string(" -np 2 --oversubscribe ") + bin + args +
+                                  " --out " + dir + "/mpi.csv > " + dir + "/mpi.out 2> " + dir + "/mpi.err")
+                                     .c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << ReadFile(dir + "/mpi.err");
+  EXPECT_NE(ReadFile(dir + "/mpi.out").find("x 2 ranks"), std::string::npos) << ReadFile(dir + "/mpi.out");
+  const std::string whole = ReadFile(dir + "/threads.csv");
+  EXPECT_NE(whole.find(",statue,"), std::string::npos);  // a row that names the body carried the wire
+  EXPECT_EQ(WithoutProvenanceLines(ReadFile(dir + "/mpi.csv")), WithoutProvenanceLines(whole));
+}
+#endif
 
 // Oracle: a hand count of the rows. sweep-plot of a stack's sweep prints
 // and draws which body overturned first: the count per body (the rows'
