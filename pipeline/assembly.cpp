@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -254,29 +255,25 @@ void RunAssemblyAsBlock(const model::BlockParams& block, const ScenarioOptions& 
   run.steps = m.solver_stats().steps;
 }
 
-void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, AssemblyRun& run) {
-  if (o.model != "housner" && o.model != "complex") {
-    throw OptionError("--model must be housner or complex, got '" + o.model + "'");
-  }
-  if (o.model != "housner") {
-    throw OptionError("--model " + o.model + " with the stack of " + std::to_string(a.bodies.size()) + " bodies in " +
-                      a.path +
-                      ": only housner takes a stack (eq. (10)'s extension to several bodies is not derived, "
-                      "docs/models.md, \"Assemblies\"); a frame or a one-body assembly takes complex");
-  }
-  Require(std::isfinite(o.rtol) && o.rtol > 0 && o.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", o.rtol);
+std::vector<model::stack::Body> StackBodiesOf(const Assembly& a) {
   std::vector<model::stack::Body> bodies;
   for (const AssemblyBody& b : a.bodies) {
     bodies.push_back(model::stack::Body::Rectangle(b.width_m, b.height_m, b.mass_kg));
   }
-  const model::stack::Stack stack(bodies);
-  const std::unique_ptr<model::Forcing> forcing = BuildForcing(o, run.forcing_description);
+  return bodies;
+}
+
+void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,
+                        AssemblyRun& run) {
+  CheckAssemblyModel(a, o.model);
+  Require(std::isfinite(o.rtol) && o.rtol > 0 && o.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", o.rtol);
+  const model::stack::Stack stack(StackBodiesOf(a));
   model::stack::RunOptions ro;
   ro.rtol = o.rtol;
   ro.rate_hz = o.rate_hz;
   ro.duration_s = o.duration_s;
   ro.restitution = a.restitution;
-  const model::stack::Run r = model::stack::Simulate(stack, *forcing, ro);
+  const model::stack::Run r = model::stack::Simulate(stack, forcing, ro);
   const int n = stack.bodies();
   run.theta.assign(static_cast<std::size_t>(n), {});
   run.theta_dot.assign(static_cast<std::size_t>(n), {});
@@ -298,6 +295,78 @@ void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, AssemblyRun
 
 }  // namespace
 
+void CheckAssemblyModel(const Assembly& a, const std::string& model) {
+  if (model != "housner" && model != "complex") {
+    throw OptionError("--model must be housner or complex, got '" + model + "'");
+  }
+  if (model != "housner" && !a.frame && a.bodies.size() > 1) {
+    throw OptionError("--model " + model + " with the stack of " + std::to_string(a.bodies.size()) + " bodies in " +
+                      a.path +
+                      ": only housner takes a stack (eq. (10)'s extension to several bodies is not derived, "
+                      "docs/models.md, \"Assemblies\"); a frame or a one-body assembly takes complex");
+  }
+}
+
+AssemblyRun RunStackUnder(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,
+                          const std::string& forcing_description) {
+  if (a.frame || a.bodies.size() < 2) {
+    throw OptionError("--assembly: " + a.path + ": a " + a.kind() + " is run as its single block, not as a stack");
+  }
+  AssemblyRun run;
+  run.kind = a.kind();
+  for (int k = 0; k < a.output_bodies(); ++k) run.names.push_back(a.body_name(k));
+  run.forcing_description = forcing_description;
+  RunAssemblyAsStack(a, o, forcing, run);
+  return run;
+}
+
+model::BlockParams StackRowParams(const Assembly& a) {
+  if (a.frame || a.bodies.size() < 2) {
+    throw OptionError("--assembly: " + a.path + ": a " + a.kind() + " is named by its single block");
+  }
+  const model::stack::Stack stack(StackBodiesOf(a));
+  const int n = stack.bodies();
+  // Centres' heights above the table and the interfaces' heights, m.
+  std::vector<double> z_centre(static_cast<std::size_t>(n)), z_face(static_cast<std::size_t>(n));
+  double z = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const auto ii = static_cast<std::size_t>(i);
+    z_face[ii] = z;
+    z_centre[ii] = z + stack.body(i).half_height_m;
+    z += 2 * stack.body(i).half_height_m;
+  }
+  // Uplift from rest at interface k (docs/sweep.md, "Assemblies"): the
+  // table's push a on the bodies above turns them about a corner of the
+  // face once a M_k (first moment) exceeds g c_k M_k: a/g > c_k M_k / S_k.
+  double tan_alpha = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < n; ++k) {
+    double mass = 0.0, moment = 0.0;
+    for (int j = k; j < n; ++j) {
+      mass += stack.body(j).mass_kg;
+      moment += stack.body(j).mass_kg * (z_centre[static_cast<std::size_t>(j)] - z_face[static_cast<std::size_t>(k)]);
+    }
+    tan_alpha = std::min(tan_alpha, stack.contact_half_width_m(k) * mass / moment);
+  }
+  // The stack as one body about its base corner (-c_0, 0).
+  const double c0 = stack.contact_half_width_m(0);
+  double mass = 0.0, moment = 0.0, inertia = 0.0;
+  for (int j = 0; j < n; ++j) {
+    const model::stack::Body& b = stack.body(j);
+    const double zj = z_centre[static_cast<std::size_t>(j)];
+    mass += b.mass_kg;
+    moment += b.mass_kg * zj;
+    inertia += b.inertia_kgm2 + b.mass_kg * (c0 * c0 + zj * zj);
+  }
+  const double z_g = moment / mass;
+  const double r = std::hypot(c0, z_g);
+  model::BlockParams params;
+  params.alpha = std::atan(tan_alpha);
+  params.p = std::sqrt(mass * common::kGravity * r / inertia);
+  params.mu = !a.restitution.empty() && a.restitution.front() > 0 ? a.restitution.front()
+                                                                   : 1 - 2 * mass * c0 * c0 / inertia;
+  return params;
+}
+
 AssemblyRun RunAssembly(const Assembly& a, const ScenarioOptions& o) {
   Require(std::isfinite(o.duration_s) && o.duration_s >= 0, "--duration", ">= 0 s", o.duration_s);
   Require(std::isfinite(o.rate_hz) && o.rate_hz > 0, "--rate", "> 0 Hz", o.rate_hz);
@@ -310,7 +379,9 @@ AssemblyRun RunAssembly(const Assembly& a, const ScenarioOptions& o) {
   if (run.block) {
     RunAssemblyAsBlock(*run.block, o, run);
   } else {
-    RunAssemblyAsStack(a, o, run);
+    CheckAssemblyModel(a, o.model);
+    const std::unique_ptr<model::Forcing> forcing = BuildForcing(o, run.forcing_description);
+    RunAssemblyAsStack(a, o, *forcing, run);
   }
   return run;
 }

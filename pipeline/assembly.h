@@ -93,6 +93,31 @@ struct AssemblyRun {
 /// several bodies), std::runtime_error when the integration fails.
 AssemblyRun RunAssembly(const Assembly& assembly, const ScenarioOptions& options);
 
+/// Refuses a model the assembly cannot run: anything but housner or
+/// complex, and complex on a stack of several bodies (eq. (10)'s extension
+/// is not derived). @throws OptionError naming the file.
+void CheckAssemblyModel(const Assembly& assembly, const std::string& model);
+
+/// Runs a stack of two or more bodies (EquivalentBlock is nullopt) from
+/// rest under `forcing` (described by `forcing_description`) for the
+/// options' duration at their rate, with their tolerance: RunAssembly's
+/// stack path, which `sweep --assembly` shares with `simulate --assembly`.
+/// @throws OptionError as RunAssembly, std::runtime_error when the
+/// integration fails.
+AssemblyRun RunStackUnder(const Assembly& assembly, const ScenarioOptions& options, const model::Forcing& forcing,
+                          const std::string& forcing_description);
+
+/// The single-block parameters that name a stack of two or more bodies in
+/// a sweep's rows (docs/sweep.md, "Assemblies"): alpha the stack's uplift
+/// from rest, tan(alpha) = min over interfaces k of c_k M_k / S_k (M_k the
+/// mass above interface k, S_k its first moment about the interface's
+/// height, c_k the contact face's half-width); p and mu those of the stack
+/// rocking as one body on its base corner, p^2 = M g R / I_O, mu = 1 - 2 M
+/// c_0^2 / I_O (or the first interface's restitution when given). A single
+/// rectangle gives its own alpha, p and 1 - 1.5 sin^2(alpha).
+/// @throws OptionError for a frame or a one-body assembly (EquivalentBlock).
+model::BlockParams StackRowParams(const Assembly& assembly);
+
 /// What a user checks first in an assembly's run.
 struct AssemblySummary {
   std::vector<double> peak_abs_theta;  ///< per output body, rad

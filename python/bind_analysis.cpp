@@ -587,7 +587,7 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
   {
     py::gil_scoped_release release;
     const sweep::Plan plan = RunStoppable(hook, [&] { return sweep::MakePlan(options); });  // reads the records
-    csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::Header() + "\n";
+    csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::HeaderOf(plan) + "\n";
     hook.set_total(static_cast<double>(plan.size()));
     rows.resize(plan.size());
     if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());

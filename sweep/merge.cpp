@@ -45,22 +45,29 @@ namespace {
 using exporter::ColumnType;
 using pipeline::OptionError;
 
-// ResultColumns(): 17 columns, 12 of them doubles, 2 integers, 3 text (checked in MakeLayout).
+// ResultColumns(): 17 columns, 12 of them doubles, 2 integers, 3 text (checked in MakeLayout);
+// an assembly's sweep adds a text and a double per body (ResultColumnsOf).
 constexpr std::size_t kColumns = 17, kReals = 12, kIntegers = 2, kTexts = 3;
 constexpr std::size_t kKeyColumns = 7;  // record..model: KeyPrefix
 
-// One row's cells as the HDF5 table holds them (about 200 bytes a case);
+// An assembly's sweep adds at most these: first_overturned_body, a peak per body.
+constexpr std::size_t kAssemblyTexts = 1, kAssemblyReals = model::stack::kMaxBodies;
+
+// One row's cells as the HDF5 table holds them (about 300 bytes a case);
 // a cell of column c is in the array of its type, at slot[c].
 struct Cells {
-  std::array<double, kReals> real{};
+  std::array<double, kReals + kAssemblyReals> real{};
   std::array<std::int64_t, kIntegers> integer{};
-  std::array<std::string, kTexts> text;
+  std::array<std::string, kTexts + kAssemblyTexts> text;
 };
 
 struct Layout {
-  std::vector<std::string> names;  // Header()'s
-  std::array<ColumnType, kColumns> type{};
-  std::array<std::size_t, kColumns> slot{};  // index into Cells' array of type[c]
+  std::vector<std::string> names;  // HeaderOf(plan)'s
+  std::vector<ColumnType> type;
+  std::vector<std::size_t> slot;  // index into Cells' array of type[c]
+  std::array<std::size_t, 3> count{};  // columns by ColumnType
+  std::string header;
+  std::size_t columns() const { return names.size(); }
 };
 
 std::string Join(const std::vector<std::string>& parts) {
@@ -69,21 +76,29 @@ std::string Join(const std::vector<std::string>& parts) {
   return out;
 }
 
-Layout MakeLayout() {
-  const std::vector<exporter::Column>& columns = ResultColumns();
-  if (columns.size() != kColumns) throw std::logic_error("sweep::ResultColumns() is not 17 columns");
+Layout MakeLayout(const Plan& plan) {
+  if (ResultColumns().size() != kColumns) throw std::logic_error("sweep::ResultColumns() is not 17 columns");
+  const std::vector<exporter::Column> columns = ResultColumnsOf(plan);
   Layout l;
-  std::array<std::size_t, 3> count{};  // by ColumnType
-  for (std::size_t c = 0; c < kColumns; ++c) {
+  std::array<std::size_t, 3>& count = l.count;
+  for (std::size_t c = 0; c < columns.size(); ++c) {
     l.names.push_back(columns[c].name);
-    l.type[c] = columns[c].type;
-    l.slot[c] = count[static_cast<std::size_t>(columns[c].type)]++;
+    l.type.push_back(columns[c].type);
+    l.slot.push_back(count[static_cast<std::size_t>(columns[c].type)]++);
+    if (c + 1 == kColumns &&
+        (count[static_cast<std::size_t>(ColumnType::kDouble)] != kReals ||
+         count[static_cast<std::size_t>(ColumnType::kInt)] != kIntegers ||
+         count[static_cast<std::size_t>(ColumnType::kString)] != kTexts)) {
+      throw std::logic_error("sweep::ResultColumns() is not 12 doubles, 2 integers and 3 texts");
+    }
   }
-  if (count[static_cast<std::size_t>(ColumnType::kDouble)] != kReals ||
-      count[static_cast<std::size_t>(ColumnType::kInt)] != kIntegers ||
-      count[static_cast<std::size_t>(ColumnType::kString)] != kTexts || Join(l.names) != Header()) {
-    throw std::logic_error("sweep::ResultColumns() does not match sweep::Header()");
+  if (count[static_cast<std::size_t>(ColumnType::kDouble)] > kReals + kAssemblyReals ||
+      count[static_cast<std::size_t>(ColumnType::kInt)] > kIntegers ||
+      count[static_cast<std::size_t>(ColumnType::kString)] > kTexts + kAssemblyTexts) {
+    throw std::logic_error("sweep::ResultColumnsOf() has more columns than a merge's cells hold");
   }
+  l.header = HeaderOf(plan);
+  if (Join(l.names) != l.header) throw std::logic_error("sweep::ResultColumnsOf() does not match sweep::HeaderOf()");
   return l;
 }
 
@@ -113,7 +128,7 @@ std::string FormatCells(const Layout& l, const Cells& cells, std::size_t count) 
   out.reserve(200);
   for (std::size_t c = 0; c < count; ++c) {
     AppendCell(l, cells, c, out);
-    if (c + 1 < kColumns) out += ',';
+    if (c + 1 < l.columns()) out += ',';
   }
   return out;
 }
@@ -121,11 +136,12 @@ std::string FormatCells(const Layout& l, const Cells& cells, std::size_t count) 
 // Parses a CSV row's fields into `cells`; returns "" or what is wrong.
 std::string ParseFields(const Layout& l, const std::string& line, Cells& cells) {
   std::size_t from = 0;
-  for (std::size_t c = 0; c < kColumns; ++c) {
+  const std::size_t columns = l.columns();
+  for (std::size_t c = 0; c < columns; ++c) {
     std::size_t end = line.find(',', from);
     if (end == std::string::npos) end = line.size();
-    if (c + 1 < kColumns && end == line.size()) {
-      return "has " + std::to_string(c + 1) + " columns, the header " + std::to_string(kColumns);
+    if (c + 1 < columns && end == line.size()) {
+      return "has " + std::to_string(c + 1) + " columns, the header " + std::to_string(columns);
     }
     const std::string field = line.substr(from, end - from);
     from = end + 1;
@@ -147,7 +163,7 @@ std::string ParseFields(const Layout& l, const std::string& line, Cells& cells) 
              (l.type[c] == ColumnType::kInt ? "an integer" : "a number");
     }
   }
-  if (from <= line.size()) return "has more columns than the header's " + std::to_string(kColumns);
+  if (from <= line.size()) return "has more columns than the header's " + std::to_string(columns);
   return "";
 }
 
@@ -249,7 +265,10 @@ void ReadCsvShard(const Layout& l, const std::unordered_map<std::string, std::si
     if (in.eof()) throw OptionError(where + "a torn last line (the shard was interrupted: --resume it first)");
     if (!header_seen) {
       if (ParseDefinitionLine(line, definition)) continue;
-      if (line != Header()) throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's");
+      if (line != l.header) {
+        throw OptionError(where + "header " + common::Quote(line) + " is not a sweep's" +
+                          (l.columns() > kColumns ? " of this assembly (" + l.header + ")" : ""));
+      }
       CheckDefinition(part, definition, definitions);
       header_seen = true;
       continue;
@@ -284,20 +303,21 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
   } catch (const std::runtime_error& e) {
     throw OptionError("--merge: " + std::string(e.what()));
   }
-  // The datasets must be Header()'s columns and no others, each of the type the HDF5 writer gives it.
-  std::array<const H5ResultsColumn*, kColumns> column{};
+  // The datasets must be HeaderOf(plan)'s columns and no others, each of the type the HDF5 writer gives it.
+  const std::size_t columns = l.columns();
+  std::vector<const H5ResultsColumn*> column(columns);
   std::string missing;
-  for (std::size_t c = 0; c < kColumns; ++c) {
+  for (std::size_t c = 0; c < columns; ++c) {
     column[c] = &read.columns[c];
     if (read.columns[c].kind == 0) missing += (missing.empty() ? "" : ",") + l.names[c];
   }
-  if (!missing.empty() || read.links != kColumns) {
+  if (!missing.empty() || read.links != columns) {
     throw OptionError("--merge: " + part + ": /results columns (" + std::to_string(read.links) + " links" +
-                      (missing.empty() ? "" : ", lacking " + missing) + ") are not a sweep's (" + Header() + ")");
+                      (missing.empty() ? "" : ", lacking " + missing) + ") are not a sweep's (" + l.header + ")");
   }
   CheckDefinition(part, read.definition, definitions);
   const std::size_t n = column[0]->size();
-  for (std::size_t c = 0; c < kColumns; ++c) {
+  for (std::size_t c = 0; c < columns; ++c) {
     const char want = l.type[c] == ColumnType::kDouble ? 'd' : l.type[c] == ColumnType::kInt ? 'i' : 's';
     if (column[c]->kind != want) {
       throw OptionError("--merge: " + part + ": /results/" + l.names[c] + " holds " + KindName(column[c]->kind) +
@@ -312,17 +332,17 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
   Cells cells;
   for (std::size_t r = 0; r < n; ++r) {
     const std::string where = "--merge: " + part + ": /results row " + std::to_string(r + 1) + ": ";
-    for (std::size_t c = 0; c < kColumns; ++c) {
+    for (std::size_t c = 0; c < columns; ++c) {
       switch (l.type[c]) {
         case ColumnType::kDouble: cells.real[l.slot[c]] = column[c]->real[r]; break;
         case ColumnType::kInt: cells.integer[l.slot[c]] = column[c]->integer[r]; break;
         case ColumnType::kString: cells.text[l.slot[c]] = column[c]->text[r]; break;
       }
     }
-    std::string line = FormatCells(l, cells, kColumns);
+    std::string line = FormatCells(l, cells, columns);
     if (!slots.h5) {
       // A CSV field cannot hold , " or a control character (the CSV writer never writes one).
-      for (std::size_t k = 0; k < kTexts; ++k) {
+      for (std::size_t k = 0; k < l.count[static_cast<std::size_t>(ColumnType::kString)]; ++k) {
         const std::string& t = cells.text[k];
         if (t.find_first_of(",\"") != std::string::npos ||
             std::any_of(t.begin(), t.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20; })) {
@@ -337,7 +357,7 @@ void ReadH5Shard(const Layout& l, const std::unordered_map<std::string, std::siz
   }
 }
 
-void WriteCsv(const Slots& slots, const Definition& definition, const ProvenanceLines& provenance,
+void WriteCsv(const Layout& l, const Slots& slots, const Definition& definition, const ProvenanceLines& provenance,
               const std::string& out_path) {
   std::unique_ptr<common::AtomicFile> out;
   try {
@@ -347,20 +367,21 @@ void WriteCsv(const Slots& slots, const Definition& definition, const Provenance
   }
   std::FILE* f = out->stream();
   const std::string head =
-      (definition.empty() ? "" : DefinitionText(definition)) + ProvenanceText(provenance) + Header() + "\n";
+      (definition.empty() ? "" : DefinitionText(definition)) + ProvenanceText(provenance) + l.header + "\n";
   bool ok = std::fputs(head.c_str(), f) >= 0;
   for (const std::string& row : slots.lines) ok = ok && std::fputs(row.c_str(), f) >= 0 && std::fputc('\n', f) != EOF;
   if (!ok) throw std::runtime_error("error writing '" + out_path + "'");
   out->Commit();
 }
 
-void WriteH5(const Layout& l, const Slots& slots, const Definition& definition, const ProvenanceLines& provenance,
-             const std::string& out_path) {
-  H5Results out(out_path, definition, provenance);  // destroyed without Close() (an error), out_path keeps what it held
+void WriteH5(const Plan& plan, const Layout& l, const Slots& slots, const Definition& definition,
+             const ProvenanceLines& provenance, const std::string& out_path) {
+  // Destroyed without Close() (an error), out_path keeps what it held.
+  H5Results out(out_path, plan, definition, provenance);
   exporter::Row row;
-  row.Resize(kColumns);
+  row.Resize(l.columns());
   for (const Cells& cells : slots.cells) {
-    for (std::size_t c = 0; c < kColumns; ++c) {
+    for (std::size_t c = 0; c < l.columns(); ++c) {
       switch (l.type[c]) {
         case ColumnType::kDouble: row.real[c] = cells.real[l.slot[c]]; break;
         case ColumnType::kInt: row.integer[c] = cells.integer[l.slot[c]]; break;
@@ -387,7 +408,7 @@ MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts,
                         ": the merge would replace a shard it reads; write the merge to another file");
     }
   }
-  const Layout layout = MakeLayout();
+  const Layout layout = MakeLayout(plan);
   const bool h5_out = common::HasExtension(out_path, ".h5") || common::HasExtension(out_path, ".hdf5");
   const std::size_t n = plan.size();
   std::unordered_map<std::string, std::size_t> index_of;
@@ -412,9 +433,9 @@ MergeReport MergeShards(const Plan& plan, const std::vector<std::string>& parts,
   // The output claims the definition only when every shard carried it.
   const Definition written = definitions.any_missing ? Definition{} : definitions.plan;
   if (h5_out) {
-    WriteH5(layout, slots, written, provenance, out_path);
+    WriteH5(plan, layout, slots, written, provenance, out_path);
   } else {
-    WriteCsv(slots, written, provenance, out_path);
+    WriteCsv(layout, slots, written, provenance, out_path);
   }
   return MergeReport{std::move(definitions.warnings)};
 }

@@ -171,6 +171,10 @@ const char* const kColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#94
 std::string RecordStyle(std::size_t k) {
   return std::string("with linespoints lw 1 pt 7 ps 0.5 lc rgb '") + kColours[k % 10] + "'";
 }
+// An assembly's bodies in the fragility figure: the record colours less the
+// fraction overturned's blue and the fitted curve's red, one per body.
+const char* const kBodyColours[] = {"#ff7f0e", "#2ca02c", "#9467bd", "#8c564b",
+                                    "#e377c2", "#bcbd22", "#17becf", "#7f7f7f"};
 const std::string kMedianStyle = "with linespoints lw 2.5 pt 5 ps 0.7 lc rgb '#000000'";
 
 }  // namespace
@@ -207,7 +211,7 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
   const char* const needed[] = {"record", "scale", "pga_g", "alpha", "p", "mu", "model", "peak_theta_over_alpha",
                                 "overturned"};
   std::vector<std::size_t> at;
-  std::optional<std::size_t> block_at;
+  std::optional<std::size_t> block_at, first_body_at;
   std::vector<ResultRow> rows;
   while (std::getline(in, line)) {
     ++line_no;
@@ -222,6 +226,7 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
         at.push_back(it->second);
       }
       if (column.count("block")) block_at = column["block"];
+      if (column.count("first_overturned_body")) first_body_at = column["first_overturned_body"];
       continue;
     }
     const std::size_t last = *std::max_element(at.begin(), at.end());
@@ -250,6 +255,9 @@ std::vector<ResultRow> ReadResults(const std::string& path) {
     if (block_at && *block_at < fields.size() && !common::Trim(fields[*block_at]).empty()) {
       r.block = std::string(common::Trim(fields[*block_at]));
     }
+    if (first_body_at && *first_body_at < fields.size() && r.overturned) {
+      r.first_overturned_body = std::string(common::Trim(fields[*first_body_at]));
+    }
     rows.push_back(std::move(r));
   }
   if (at.empty()) throw std::runtime_error(path + ": empty file (expected a sweep's header)");
@@ -274,6 +282,13 @@ std::vector<BlockFragility> FitFragilities(const std::vector<ResultRow>& rows) {
     BlockFragility& b = out[it->second];
     ++b.rows;
     if (r.overturned) ++b.overturned;
+    if (!r.first_overturned_body.empty()) {
+      auto& by_body = b.first_overturned;
+      auto at = std::find_if(by_body.begin(), by_body.end(),
+                             [&r](const auto& entry) { return entry.first == r.first_overturned_body; });
+      if (at == by_body.end()) at = by_body.insert(by_body.end(), {r.first_overturned_body, 0});
+      ++at->second;
+    }
     FragilityPoint& pt = points[it->second][r.pga_g];
     pt.x = r.pga_g;
     pt.trials += 1;
@@ -552,11 +567,16 @@ void DrawFragilityCurves(const std::vector<ResultRow>& rows, const std::vector<B
       continue;
     }
     std::map<double, std::pair<double, double>> at_pga;
+    // An assembly's: per body, the cases at each PGA it overturned first in.
+    std::vector<std::map<double, double>> body_at_pga(f.first_overturned.size());
     const ResultRow* first = nullptr;
     for (const ResultRow& r : rows) {
       if (r.model != f.model || r.alpha_text != f.alpha || r.p_text != f.p || r.mu_text != f.mu) continue;
       at_pga[r.pga_g].first += 1;
       at_pga[r.pga_g].second += r.overturned ? 1 : 0;
+      for (std::size_t k = 0; k < f.first_overturned.size(); ++k) {
+        body_at_pga[k][r.pga_g] += r.first_overturned_body == f.first_overturned[k].first ? 1 : 0;
+      }
       if (first == nullptr) first = &r;
     }
     Series points{"fraction overturned", {}, "with points pt 7 ps 0.8 lc rgb '#1f77b4'"};
@@ -564,6 +584,12 @@ void DrawFragilityCurves(const std::vector<ResultRow>& rows, const std::vector<B
     std::vector<Series> series;
     std::string title = "fragility, " + f.model + ", alpha " + f.alpha + " rad, p " + f.p + " rad/s, mu " + f.mu + ": " +
                         std::to_string(f.overturned) + " of " + std::to_string(f.rows) + " cases overturned";
+    if (!f.first_overturned.empty()) {
+      title += ", first to overturn:";
+      for (std::size_t k = 0; k < f.first_overturned.size(); ++k) {
+        title += (k ? ", " : " ") + f.first_overturned[k].first + " " + std::to_string(f.first_overturned[k].second);
+      }
+    }
     std::string curve;
     if (f.fit.status == FragilityFit::Status::kFitted) {
       Series band{"95 % band (profile likelihood)", {}, "with filledcurves fs transparent solid 0.25 noborder lc rgb '#d62728'"};
@@ -586,6 +612,16 @@ void DrawFragilityCurves(const std::vector<ResultRow>& rows, const std::vector<B
       title += " (no fit: " + std::string(ToString(f.fit.status)) + ")";
     }
     series.push_back(std::move(points));
+    // Which body overturns first: the fraction of cases at each PGA in which
+    // each body fell first, a colour and a point shape per body (they add
+    // up to the fraction overturned).
+    for (std::size_t k = 0; k < f.first_overturned.size(); ++k) {
+      Series body{f.first_overturned[k].first + " overturned first", {},
+                  "with linespoints dt 2 lw 1 pt " + std::to_string(4 + 2 * (k % 6)) + " ps 0.9 lc rgb '" +
+                      kBodyColours[k % 8] + "'"};
+      for (const auto& [x, count] : body_at_pga[k]) body.xy.emplace_back(x, count / at_pga[x].first);
+      series.push_back(std::move(body));
+    }
     const double x_max = 1.1 * f.pga_max_g;
     Draw(o, names.Unique("fragility_" + Slug(f.model) + (first ? names.BlockPart(*first) : "")),
          "set title " + TitleLiteral((title)) + " noenhanced\nset xlabel 'PGA (g)'\nset ylabel 'P(overturn)'\n"

@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "report/report_figure.h"
@@ -24,6 +25,9 @@ struct ResultRow {
   double scale{}, pga_g{}, alpha{}, p{}, mu{};
   double peak_theta_over_alpha{};
   bool overturned{};
+  /// An assembly's sweep (`first_overturned_body` column): the body that
+  /// overturned first; "" when none did or the results have no such column.
+  std::string first_overturned_body;
 };
 
 /// The values of a row sweep-plot checks, whatever file they come from.
@@ -69,6 +73,9 @@ struct BlockFragility {
   /// leaves open or that reaches beyond 10 x pga_max_g (or below
   /// pga_min_g / 10). Printed by sweep-plot, in the figure and in fragility.csv.
   std::string caveat;
+  /// An assembly's sweep: how many cases each body overturned first, in
+  /// the order the bodies first appear; empty for a sweep of blocks.
+  std::vector<std::pair<std::string, std::size_t>> first_overturned;
 };
 
 /// Fits every block's fragility against PGA in g (rows grouped by block, in

@@ -254,6 +254,9 @@ std::vector<ResultRow> ReadRows(const std::string& path) {
   const std::vector<std::string> model = Open(f, "model").Texts(f.bytes());
   const std::vector<std::string> block = HasLink(f, "block") ? Open(f, "block").Texts(f.bytes())
                                                              : std::vector<std::string>{};
+  const std::vector<std::string> first_body = HasLink(f, "first_overturned_body")
+                                                  ? Open(f, "first_overturned_body").Texts(f.bytes())
+                                                  : std::vector<std::string>{};
   const char* const numeric[] = {"scale", "pga_g", "alpha", "p", "mu", "peak_theta_over_alpha", "overturned"};
   std::vector<std::vector<double>> numbers;
   for (const char* name : numeric) {
@@ -277,6 +280,7 @@ std::vector<ResultRow> ReadRows(const std::string& path) {
     const std::string problem = RowProblem({r.scale, r.pga_g, r.alpha, r.p, r.mu, r.peak_theta_over_alpha, numbers[6][i]});
     if (!problem.empty()) throw std::runtime_error(path + ": /results row " + std::to_string(i + 1) + ": " + problem);
     r.overturned = numbers[6][i] == 1;
+    if (i < first_body.size() && r.overturned) r.first_overturned_body = first_body[i];
     // The block's name: the values as the CSV writes them (12 significant
     // digits, sweep.cpp), so a block reads the same from either file.
     char buf[40];
@@ -379,7 +383,10 @@ class Decoder {
 void Encode(Encoder& e, const std::vector<ResultRow>& rows) {
   e.U64(rows.size());
   for (const ResultRow& r : rows) {
-    for (const std::string* t : {&r.record, &r.model, &r.alpha_text, &r.p_text, &r.mu_text, &r.block}) e.Text(*t);
+    for (const std::string* t :
+         {&r.record, &r.model, &r.alpha_text, &r.p_text, &r.mu_text, &r.block, &r.first_overturned_body}) {
+      e.Text(*t);
+    }
     for (double v : {r.scale, r.pga_g, r.alpha, r.p, r.mu, r.peak_theta_over_alpha}) e.Bytes(&v, sizeof v);
     e.U64(r.overturned ? 1 : 0);
   }
@@ -389,7 +396,10 @@ void Decode(Decoder& d, std::vector<ResultRow>& rows) {
   const std::uint64_t n = d.U64();
   for (std::uint64_t i = 0; i < n; ++i) {
     ResultRow r;
-    for (std::string* t : {&r.record, &r.model, &r.alpha_text, &r.p_text, &r.mu_text, &r.block}) *t = d.Text();
+    for (std::string* t :
+         {&r.record, &r.model, &r.alpha_text, &r.p_text, &r.mu_text, &r.block, &r.first_overturned_body}) {
+      *t = d.Text();
+    }
     for (double* v : {&r.scale, &r.pga_g, &r.alpha, &r.p, &r.mu, &r.peak_theta_over_alpha}) {
       const std::uint64_t bits = d.U64();
       std::memcpy(v, &bits, sizeof *v);

@@ -54,7 +54,7 @@ class CsvRowWriter final : public RowWriter {
       file_ = std::fopen(partial_.c_str(), "w");
     }
     if (!file_) throw OptionError("--out: cannot write '" + partial_ + "': " + std::strerror(errno));
-    if (keep == 0) Put(DefinitionText(DefinitionOf(plan_)) + ProvenanceText(provenance) + Header() + "\n");
+    if (keep == 0) Put(DefinitionText(DefinitionOf(plan_)) + ProvenanceText(provenance) + HeaderOf(plan_) + "\n");
   }
   ~CsvRowWriter() override {
     if (file_) std::fclose(file_);  // the rows stay in the .partial for --resume
@@ -89,7 +89,8 @@ class CsvRowWriter final : public RowWriter {
     std::string line;
     std::uintmax_t offset = 0, keep = 0;
     std::size_t line_no = 0;
-    const std::size_t commas = static_cast<std::size_t>(std::count(Header().begin(), Header().end(), ','));
+    const std::string header = HeaderOf(plan_);
+    const std::size_t commas = static_cast<std::size_t>(std::count(header.begin(), header.end(), ','));
     rows_done_ = 0;
     bool header_seen = false;
     Definition definition;
@@ -102,10 +103,8 @@ class CsvRowWriter final : public RowWriter {
         // The definition's lines, then the header (an older rocklab's file
         // has the header alone, and is continued as it is).
         if (ParseDefinitionLine(line, definition)) continue;
-        if (line != Header()) {
-          throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
-                            " is not a sweep's; --resume continues a file this command wrote");
-        }
+        // The definition first: another assembly's header differs too, and
+        // its field says why.
         if (!definition.empty()) {
           std::string theirs, ours;
           const std::string key = FirstDifference(definition, DefinitionOf(plan_), theirs, ours);
@@ -114,6 +113,10 @@ class CsvRowWriter final : public RowWriter {
                               ", this one's options give " + common::Quote(ours) +
                               "; --resume continues the same sweep only");
           }
+        }
+        if (line != header) {
+          throw OptionError("--out: " + path + ":" + std::to_string(line_no) + ": header " + common::Quote(line) +
+                            " is not a sweep's; --resume continues a file this command wrote");
         }
         header_seen = true;
         keep = offset;
@@ -149,8 +152,8 @@ class CsvRowWriter final : public RowWriter {
 class H5RowWriter final : public RowWriter {
  public:
   H5RowWriter(const std::string& path, const Plan& plan, const ProvenanceLines& provenance)
-      : file_(path, DefinitionOf(plan), provenance), plan_(plan) {
-    row_.Resize(ResultColumns().size());
+      : file_(path, plan, DefinitionOf(plan), provenance), plan_(plan) {
+    row_.Resize(ResultColumnsOf(plan).size());
   }
 
   std::size_t rows_done() const override { return 0; }
@@ -178,6 +181,13 @@ class H5RowWriter final : public RowWriter {
     row_.real[14] = b.minus ? b.minus->alpha : kNone;
     row_.real[15] = b.minus ? b.minus->p : kNone;
     row_.real[16] = b.minus ? b.minus->mu : kNone;
+    if (plan_.assembly) {
+      const std::size_t at = ResultColumns().size();
+      row_.text[at] = o.first_overturned >= 0 ? plan_.assembly->body_name(o.first_overturned) : std::string();
+      for (int k = 0; k < plan_.bodies(); ++k) {
+        row_.real[at + 1 + static_cast<std::size_t>(k)] = o.peak_abs_theta_rad[static_cast<std::size_t>(k)];
+      }
+    }
     file_.Append(row_);
   }
 
@@ -208,11 +218,31 @@ const std::vector<exporter::Column>& ResultColumns() {
   return columns;
 }
 
+std::vector<exporter::Column> ResultColumnsOf(const Plan& plan) {
+  std::vector<exporter::Column> columns = ResultColumns();
+  if (!plan.assembly) return columns;
+  columns.push_back({"first_overturned_body", exporter::ColumnType::kString, ""});
+  for (int k = 1; k <= plan.bodies(); ++k) {
+    columns.push_back({"peak_abs_theta_" + std::to_string(k), exporter::ColumnType::kDouble, "rad"});
+  }
+  return columns;
+}
+
 H5Results::H5Results(const std::string& path, const Definition& definition, const ProvenanceLines& provenance) {
+  Open(path, ResultColumns(), Header(), definition, provenance);
+}
+
+H5Results::H5Results(const std::string& path, const Plan& plan, const Definition& definition,
+                     const ProvenanceLines& provenance) {
+  Open(path, ResultColumnsOf(plan), HeaderOf(plan), definition, provenance);
+}
+
+void H5Results::Open(const std::string& path, const std::vector<exporter::Column>& columns, const std::string& header,
+                     const Definition& definition, const ProvenanceLines& provenance) {
   try {
     writer_ = std::make_unique<exporter::H5Writer>(path);
-    table_ = writer_->AddTable("results", ResultColumns());
-    writer_->DescribeFile("columns_as_csv", Header());
+    table_ = writer_->AddTable("results", columns);
+    writer_->DescribeFile("columns_as_csv", header);
     if (!definition.empty()) {
       std::string keys;
       for (const DefinitionField& f : definition) {

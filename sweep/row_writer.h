@@ -50,6 +50,9 @@ class RowWriter {
 /// with its type (the numbers kDouble, overturned and impacts kInt, record,
 /// model and block kString) and unit.
 const std::vector<exporter::Column>& ResultColumns();
+/// The columns of HeaderOf(plan): ResultColumns(), and for an assembly
+/// first_overturned_body (kString) and peak_abs_theta_K (kDouble, rad).
+std::vector<exporter::Column> ResultColumnsOf(const Plan& plan);
 
 /// The root attributes of a sweep's HDF5 file that hold its definition:
 /// kH5DefinitionPrefix + key, one string each, and kH5DefinitionKeys, the
@@ -68,6 +71,10 @@ class H5Results {
   /// @throws pipeline::OptionError "--out: ..." when the file cannot be made.
   /// `provenance`: root attributes with its keys (as `export` writes them).
   H5Results(const std::string& path, const Definition& definition, const ProvenanceLines& provenance = {});
+  /// The same with the columns of `plan` (ResultColumnsOf: an assembly's
+  /// sweep has more).
+  H5Results(const std::string& path, const Plan& plan, const Definition& definition,
+            const ProvenanceLines& provenance = {});
   ~H5Results();
   H5Results(const H5Results&) = delete;
   H5Results& operator=(const H5Results&) = delete;
@@ -77,6 +84,8 @@ class H5Results {
   void Close();
 
  private:
+  void Open(const std::string& path, const std::vector<exporter::Column>& columns, const std::string& header,
+            const Definition& definition, const ProvenanceLines& provenance);
   std::unique_ptr<exporter::H5Writer> writer_;
   int table_{};
 };

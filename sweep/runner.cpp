@@ -43,8 +43,9 @@ int WorldSizeFromEnvironment() {
   return 1;
 }
 
-// An outcome on the wire between ranks: its place in the slice and eight doubles.
-constexpr int kWireDoubles = 9;
+// An outcome on the wire between ranks: its place in the slice and eight
+// doubles, then an assembly's first overturned body and its peaks per body.
+constexpr int kWireDoubles = 10 + model::stack::kMaxBodies;
 void Pack(std::size_t place, const Outcome& o, double* w) {
   w[0] = static_cast<double>(place);  // exact below 2^53 (plans hold at most 1e8 cases)
   w[1] = o.peak_theta_over_alpha;
@@ -55,6 +56,8 @@ void Pack(std::size_t place, const Outcome& o, double* w) {
   w[6] = o.uplift_time_s ? 1.0 : 0.0;
   w[7] = o.uplift_time_s.value_or(0.0);
   w[8] = o.beyond_pi_over_2 ? 1.0 : 0.0;
+  w[9] = static_cast<double>(o.first_overturned);
+  for (std::size_t k = 0; k < o.peak_abs_theta_rad.size(); ++k) w[10 + k] = o.peak_abs_theta_rad[k];
 }
 std::size_t Unpack(const double* w, Outcome& o) {
   o.peak_theta_over_alpha = w[1];
@@ -65,6 +68,8 @@ std::size_t Unpack(const double* w, Outcome& o) {
   o.uplift_time_s.reset();
   if (w[6] != 0.0) o.uplift_time_s = w[7];
   o.beyond_pi_over_2 = w[8] != 0.0;
+  o.first_overturned = static_cast<int>(w[9]);
+  for (std::size_t k = 0; k < o.peak_abs_theta_rad.size(); ++k) o.peak_abs_theta_rad[k] = w[10 + k];
   return static_cast<std::size_t>(w[0]);
 }
 

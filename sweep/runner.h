@@ -13,7 +13,7 @@
 ///
 /// MPI: the slice's remaining cases are dealt round-robin to the ranks
 /// (place k to rank k mod size). Every rank runs its cases on its threads;
-/// ranks other than 0 send each Outcome (its place and eight doubles) to
+/// ranks other than 0 send each Outcome (its place and its values as doubles) to
 /// rank 0, whose writer thread receives them beside its own and writes
 /// everything in order, so the file is the threaded run's, byte for byte.
 /// Only rank 0 opens the output; it tells the others how many rows

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -39,6 +40,46 @@ bool FieldSafe(const std::string& s) {
 
 double Duration(const Plan& plan, const Record& record) {
   return plan.duration_s ? *plan.duration_s : record.time_s.back() + Plan::kDefaultTail_s;
+}
+
+// FNV-1a, 64 bits, continued over `size` bytes.
+void Fnv1aBytes(std::uint64_t& h, const unsigned char* bytes, std::size_t size) {
+  for (std::size_t i = 0; i < size; ++i) {
+    h ^= bytes[i];
+    h *= 0x100000001b3ULL;
+  }
+}
+
+std::string Hex64(std::uint64_t h) {
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+// --assembly: the file read, its model checked, its one row block (the
+// single block of a body or a frame, a stack's StackRowParams) and its
+// identity for the definition.
+void PlanAssembly(const PlanOptions& o, Plan& plan) {
+  pipeline::Assembly a = pipeline::ReadAssembly(o.assembly);
+  pipeline::CheckAssemblyModel(a, o.model);
+  for (int k = 0; k < a.output_bodies(); ++k) {
+    if (!FieldSafe(a.body_name(k))) {
+      throw OptionError("--assembly: " + o.assembly + ": key 'body.name': '" + a.body_name(k) +
+                        "' names a CSV field: give it without control characters");
+    }
+  }
+  const std::string label = std::filesystem::path(o.assembly).filename().string();
+  if (!FieldSafe(label)) {
+    throw OptionError("--assembly: '" + o.assembly + "': rename it without ',', '\"' or control characters");
+  }
+  const std::optional<model::BlockParams> single = pipeline::EquivalentBlock(a);
+  plan.blocks.push_back({single ? *single : pipeline::StackRowParams(a), label});
+  std::ifstream in(o.assembly, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  Fnv1aBytes(h, reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  plan.assembly_identity = label + " " + std::to_string(bytes.size()) + " fnv1a64:" + Hex64(h);
+  plan.assembly = std::move(a);
 }
 
 }  // namespace
@@ -113,10 +154,13 @@ Plan MakePlan(const PlanOptions& o) {
   const bool by_params = !o.alpha.empty() || !o.p.empty() || !o.mu.empty();
   const bool by_rect = !o.width.empty() || !o.height.empty();
   const bool by_polygon = !o.polygons.empty();
-  if (int(by_params) + int(by_rect) + int(by_polygon) != 1) {
-    throw OptionError("give the blocks one way: --alpha/--p/--mu, --width/--height, or --polygon");
+  const bool by_assembly = !o.assembly.empty();
+  if (int(by_params) + int(by_rect) + int(by_polygon) + int(by_assembly) != 1) {
+    throw OptionError("give the blocks one way: --alpha/--p/--mu, --width/--height, or --polygon (or one --assembly)");
   }
-  if (by_params) {
+  if (by_assembly) {
+    PlanAssembly(o, plan);
+  } else if (by_params) {
     if (o.alpha.empty() || o.p.empty()) throw OptionError("--alpha and --p both need at least one value");
     for (double a : o.alpha) {
       Require(std::isfinite(a) && a > 0 && a < common::kPi / 2, "--alpha", "in (0, pi/2) rad", a);
@@ -171,6 +215,13 @@ Plan MakePlan(const PlanOptions& o) {
                         "' (the record column would not tell them apart): rename one");
     }
   }
+  if (plan.stack()) {
+    // A stack's run is held whole (pipeline::RunStackUnder), as simulate's.
+    for (const Record& r : plan.records) {
+      Require(Duration(plan, r) * plan.rate_hz < 1e7, "--duration",
+              "such that duration * rate < 1e7 samples for a stack (its run is held in memory)", Duration(plan, r));
+    }
+  }
   if (plan.size() > 100'000'000) {
     throw OptionError("the sweep has " + std::to_string(plan.size()) + " cases, more than 1e8");
   }
@@ -201,7 +252,63 @@ Scaling ScalingOf(const Plan& plan, std::size_t index) {
   return s;
 }
 
+namespace {
+
+// A case of a stack: pipeline::RunStackUnder (simulate --assembly's stack
+// path) under the scaled record. The stack model is not polled inside a
+// case: the token is looked at before and after it.
+Outcome RunStackCase(const Plan& plan, std::size_t index, const common::CancelToken* token) {
+  const CaseIndex c = Locate(plan, index);
+  const Record& record = plan.records[c.record];
+  const Scaling scaling = ScalingOf(plan, index);
+  std::vector<double> accel(record.accel_mps2);
+  for (double& a : accel) a *= scaling.factor;
+  const model::SampledAcceleration forcing(record.time_s, std::move(accel));
+  pipeline::ScenarioOptions so;
+  so.model = model::ToString(plan.model);
+  so.l = plan.l;
+  so.rtol = plan.rtol;
+  so.duration_s = Duration(plan, record);
+  so.rate_hz = plan.rate_hz;
+  if (token != nullptr) token->ThrowIfCancelled();
+  pipeline::AssemblyRun run;
+  try {
+    run = pipeline::RunStackUnder(*plan.assembly, so, forcing, "accel:" + record.path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
+  }
+  if (token != nullptr) token->ThrowIfCancelled();
+  // theta / alpha with the row's alpha (the stack's uplift angle), over
+  // every body: the existing columns keep their meaning for the assembly.
+  const double alpha = plan.blocks[c.block].params.alpha;
+  Outcome out;
+  for (std::size_t k = 0; k < run.names.size(); ++k) {
+    for (std::size_t i = 0; i < run.time_s.size(); ++i) {
+      const double a = std::abs(run.theta[k][i]);
+      out.peak_abs_theta_rad[k] = std::max(out.peak_abs_theta_rad[k], a);
+      if (a / alpha > out.peak_theta_over_alpha) {
+        out.peak_theta_over_alpha = a / alpha;
+        out.peak_time_s = run.time_s[i];
+      }
+    }
+  }
+  for (const pipeline::AssemblyEvent& e : run.events) {
+    if (e.kind == model::EventKind::kUplift && !out.uplift_time_s) out.uplift_time_s = e.time_s;
+    if (e.kind == model::EventKind::kImpact) ++out.impacts;
+    if (e.kind == model::EventKind::kOverturn && !out.overturned) {
+      out.overturned = true;
+      out.overturn_time_s = e.time_s;
+      out.first_overturned = e.interface;  // the body on the interface that reached pi/2
+    }
+  }
+  if (out.overturned) out.peak_theta_over_alpha = (common::kPi / 2) / alpha;
+  return out;
+}
+
+}  // namespace
+
 Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* token) {
+  if (plan.stack()) return RunStackCase(plan, index, token);
   const CaseIndex c = Locate(plan, index);
   const Record& record = plan.records[c.record];
   const Block& block = plan.blocks[c.block];
@@ -229,6 +336,7 @@ Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* 
   Outcome out;
   pipeline::RunSummary summary;
   double last_theta = 0.0;  // rad; after an overturn, the side it fell to
+  double peak_abs_theta = 0.0;  // rad
   unsigned unpolled = 0;    // output samples since the token was last polled
   try {
     summary = pipeline::RunScenario(scenario, so, [&](double t, double theta, double) {
@@ -237,6 +345,7 @@ Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* 
         token->ThrowIfCancelled();
       }
       last_theta = theta;
+      peak_abs_theta = std::max(peak_abs_theta, std::abs(theta));
       const double ratio = theta >= 0 ? theta / alpha_plus : -theta / alpha_minus;
       if (ratio > out.peak_theta_over_alpha) {
         out.peak_theta_over_alpha = ratio;
@@ -257,6 +366,8 @@ Outcome RunCase(const Plan& plan, std::size_t index, const common::CancelToken* 
   out.overturn_time_s = summary.overturn_time_s.value_or(0.0);
   out.impacts = summary.impacts;
   out.uplift_time_s = summary.uplift_time_s;
+  out.peak_abs_theta_rad[0] = peak_abs_theta;
+  if (out.overturned) out.first_overturned = 0;
   return out;
 }
 
@@ -284,10 +395,7 @@ void Fnv1a(std::uint64_t& h, const std::vector<double>& values) {
   for (double v : values) {
     unsigned char bytes[sizeof v];
     std::memcpy(bytes, &v, sizeof v);
-    for (unsigned char b : bytes) {
-      h ^= b;
-      h *= 0x100000001b3ULL;
-    }
+    Fnv1aBytes(h, bytes, sizeof bytes);
   }
 }
 
@@ -318,10 +426,24 @@ Definition DefinitionOf(const Plan& plan) {
     std::uint64_t h = 0xcbf29ce484222325ULL;
     Fnv1a(h, r.time_s);
     Fnv1a(h, r.accel_mps2);
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
     d.push_back({"record_" + std::to_string(k + 1),
-                 r.name + " " + std::to_string(r.time_s.size()) + " fnv1a64:" + hex});
+                 r.name + " " + std::to_string(r.time_s.size()) + " fnv1a64:" + Hex64(h)});
+  }
+  // A stack runs the stack model (model::stack::RunOptions' defaults but
+  // rtol), not the single block's integrator: its own knobs, "-" for those
+  // it has none of.
+  if (plan.stack()) {
+    const model::stack::RunOptions so;
+    for (DefinitionField& f : d) {
+      if (f.key == "integrator") f.value = "stack_cvode_adams";
+      if (f.key == "atol") f.value = Exact(so.atol_rad);
+      if (f.key == "max_step_s" || f.key == "rest_impact_interval_s") f.value = "-";
+    }
+  }
+  // Only with --assembly: a sweep of blocks keeps its definition's bytes.
+  if (plan.assembly) {
+    d.push_back({"assembly", plan.assembly_identity});
+    d.push_back({"assembly_bodies", std::to_string(plan.bodies())});
   }
   return d;
 }
@@ -392,6 +514,14 @@ const std::string& Header() {
   return header;
 }
 
+std::string HeaderOf(const Plan& plan) {
+  std::string header = Header();
+  if (!plan.assembly) return header;
+  header += ",first_overturned_body";
+  for (int k = 1; k <= plan.bodies(); ++k) header += ",peak_abs_theta_" + std::to_string(k);
+  return header;
+}
+
 std::string KeyPrefix(const Plan& plan, std::size_t index) {
   const CaseIndex c = Locate(plan, index);
   const Scaling s = ScalingOf(plan, index);
@@ -428,6 +558,14 @@ std::string FormatRow(const Plan& plan, std::size_t index, const Outcome& o) {
   } else {
     out += ",";
     out += ",";
+  }
+  if (plan.assembly) {
+    out += ',';
+    if (o.first_overturned >= 0) out += plan.assembly->body_name(o.first_overturned);
+    for (int k = 0; k < plan.bodies(); ++k) {
+      out += ',';
+      Append(out, o.peak_abs_theta_rad[static_cast<std::size_t>(k)]);
+    }
   }
   out += '\n';
   return out;

@@ -11,6 +11,7 @@
 /// written in that order and formatted by FormatRow alone, so the same plan
 /// gives the same bytes.
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -20,6 +21,8 @@
 #include "common/cancel.h"
 #include "model/block.h"
 #include "model/rocking_model.h"
+#include "model/stack.h"
+#include "pipeline/assembly.h"
 
 namespace rocklab::sweep {
 
@@ -63,10 +66,21 @@ struct Plan {
   double rate_hz{1000.0};  ///< rate at which the peak |theta| is sampled, Hz
   double l{model::kDefaultL};  ///< complex formulation momentum, 1
   double rtol{model::ModelOptions{}.rtol};  ///< CVODE relative tolerance, 1
+  /// --assembly: what every case runs (then `blocks` holds its one row
+  /// block, labelled by the file's name: the single block of a one-body
+  /// assembly or a frame, a stack's StackRowParams); nullopt otherwise.
+  std::optional<pipeline::Assembly> assembly;
+  /// The assembly file in the definition: "NAME BYTES fnv1a64:HEX" (its
+  /// name, size in bytes and the FNV-1a 64-bit hash of its bytes).
+  std::string assembly_identity;
 
   static constexpr double kDefaultTail_s = 10.0;
 
   std::size_t size() const { return records.size() * blocks.size() * scales.size(); }
+  /// Bodies in a row's per-body columns: the assembly's output bodies, 0 without one.
+  int bodies() const { return assembly ? assembly->output_bodies() : 0; }
+  /// A stack of several bodies, run by the stack model.
+  bool stack() const { return assembly && !assembly->frame && assembly->bodies.size() > 1; }
 };
 
 /// The values of the command line, before they become a Plan.
@@ -77,6 +91,7 @@ struct PlanOptions {
   std::vector<double> alpha, p, mu;      ///< rad, rad/s, 1 (mu empty: Housner's 1 - 1.5 sin^2 alpha)
   std::vector<double> width, height;     ///< m
   std::vector<std::string> polygons;
+  std::string assembly;  ///< an assembly file (TOML, as `simulate --assembly`), instead of the blocks above
   std::string model;
   std::optional<double> duration_s;
   double rate_hz{1000.0};
@@ -113,6 +128,11 @@ struct Outcome {
   /// UpliftTheTableDoesNotSustainEndsAtRest); kept as a guard: the row is
   /// written as computed and the run counts it and warns.
   bool beyond_pi_over_2{};
+  /// Assemblies: per body bottom-up, max over the samples of |theta|, rad
+  /// (a stack's samples stop at its overturning).
+  std::array<double, model::stack::kMaxBodies> peak_abs_theta_rad{};
+  /// Assemblies: the body that overturned first (0 the bottom one), -1 none.
+  int first_overturned{-1};
 };
 
 /// The factor applied to the record of case `index` and its PGA in g.
@@ -175,8 +195,11 @@ std::string ProvenanceText(const ProvenanceLines& p);
 /// values ("(none)" for a key one of them lacks). The caller names files.
 std::string FirstDifference(const Definition& a, const Definition& b, std::string& a_value, std::string& b_value);
 
-/// The CSV header (no newline).
+/// The CSV header of a sweep of blocks (no newline).
 const std::string& Header();
+/// The CSV header of `plan`'s rows: Header(), and for an assembly the
+/// columns after it, first_overturned_body and peak_abs_theta_1..N.
+std::string HeaderOf(const Plan& plan);
 /// The first columns of case `index`'s row, up to and including `model,`:
 /// they name the case (record,scale,pga_g,alpha,p,mu,model,).
 std::string KeyPrefix(const Plan& plan, std::size_t index);

@@ -94,6 +94,7 @@ int RunSweepCommand(SweepCommandOptions& o) {
   if (mpi.rank() == 0) {  // the records and section files the cases read
     std::vector<std::string> sources = o.plan.records;
     sources.insert(sources.end(), o.plan.polygons.begin(), o.plan.polygons.end());
+    if (!o.plan.assembly.empty()) sources.push_back(o.plan.assembly);
     ro.provenance = common::ProvenanceFields(common::MakeProvenance(sources));
   }
   const sweep::RunReport r = sweep::RunSweep(plan, out.path(), ro, mpi);
@@ -163,6 +164,11 @@ nlohmann::json FragilityJson(const sweep::BlockFragility& f) {
   } else if (f.fit.status == sweep::FragilityFit::Status::kSeparated) {
     j.update({{"safe_below_g", f.fit.safe_below}, {"overturned_above_g", f.fit.overturned_above}});
   }
+  if (!f.first_overturned.empty()) {  // an assembly's sweep: cases each body overturned first in
+    nlohmann::json by_body = nlohmann::json::object();
+    for (const auto& [body, count] : f.first_overturned) by_body[body] = count;
+    j["first_overturned"] = by_body;
+  }
   return j;
 }
 
@@ -218,6 +224,13 @@ int RunSweepPlot(PlotCommandOptions& o) {
         std::printf("all overturned, no fit\n");
         break;
     }
+    if (!f.first_overturned.empty()) {
+      std::printf("    first to overturn:");
+      for (std::size_t k = 0; k < f.first_overturned.size(); ++k) {
+        std::printf("%s %s in %zu cases", k ? "," : "", f.first_overturned[k].first.c_str(), f.first_overturned[k].second);
+      }
+      std::printf("\n");
+    }
   }
   const sweep::PlotReport report = sweep::MakeFigures(rows, fits, o.plot);
   std::printf("%zu files in %s", report.files.size(), o.plot.out_dir.c_str());
@@ -241,6 +254,10 @@ void RegisterSweep(CLI::App& app, CommandRun& run) {
   cmd->add_option("--width", p.width, "blocks: rectangle widths 2b, m")->expected(1, -1);
   cmd->add_option("--height", p.height, "blocks: rectangle heights 2h, m")->expected(1, -1);
   cmd->add_option("--polygon", p.polygons, "blocks: section files (x,z CSV, as rocklab params)")->expected(1, -1);
+  cmd->add_option("--assembly", p.assembly,
+                  "an assembly of bodies instead of the blocks (TOML, as simulate --assembly): a body or a frame "
+                  "runs as its single block, a stack of 2-8 bodies by the stack model (housner); rows gain "
+                  "first_overturned_body and peak_abs_theta_K (docs/sweep.md)");
   cmd->add_option("--model", p.model, "housner | complex")->required();
   cmd->add_option("--duration", opts->duration_s, "simulated time per case, s (default: record end + 10 s)");
   cmd->add_option("--rate", p.rate_hz, "rate at which peak theta is sampled, Hz (default 1000)");

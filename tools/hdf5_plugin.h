@@ -25,8 +25,9 @@ inline constexpr const char* kHdf5PluginEntry = "rocklab_hdf5_plugin";
 inline constexpr const char* kHdf5PluginFile = "rocklab-hdf5.so";
 /// Hdf5Calls::version of this build; a plugin with another is refused (2:
 /// read_results_table replaced read_results_columns; 3: TableSink gained
-/// DescribeFile, which moves its virtual table).
-inline constexpr int kHdf5PluginVersion = 3;
+/// DescribeFile, which moves its virtual table; 4: sweep::ResultRow gained
+/// first_overturned_body).
+inline constexpr int kHdf5PluginVersion = 4;
 
 /// The real classes and functions of export/ and sweep/, by the same names.
 struct Hdf5Calls {
