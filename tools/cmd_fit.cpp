@@ -362,13 +362,18 @@ int RunFit(const FitCliOptions& o) {
 
   model::FitResult result;
   std::optional<model::PosteriorResult> posterior;
+  std::string record_path = o.input, accel_path = o.accel_csv;  // the files read (- : its copy)
   try {
     model::RockingRecord record;
     {
       common::FileProgress progress("fit", o.input, o.quiet);  // the record's read
-      record = model::ReadRecord(InputFile("RECORD", o.input));
+      record_path = InputFile("RECORD", o.input);
+      record = model::ReadRecord(record_path);
     }
-    if (!o.accel_csv.empty()) model::AddTableCsv(InputFile("--accel", o.accel_csv), record);
+    if (!o.accel_csv.empty()) {
+      accel_path = InputFile("--accel", o.accel_csv);
+      model::AddTableCsv(accel_path, record);
+    }
     model::WindowRecord(record, o.start_s, o.end_s);
     {
       // The model runs so far on the commands' progress line (a terminal
@@ -397,9 +402,13 @@ int RunFit(const FitCliOptions& o) {
   }
 
   nlohmann::json j = ResultJson(o, result);
+  // What made the result (version, command, time, sources with size and
+  // SHA-256; standard input's as <stdin>): in the JSON, as run's summary.
+  const common::Provenance made = common::MakeProvenance({record_path, o.rig, accel_path});
+  j["provenance"] = nlohmann::json::parse(common::ProvenanceJson(made));
   if (posterior) {
     j["posterior"] = nlohmann::json::parse(model::PosteriorJson(*posterior));
-    const auto provenance = common::ProvenanceFields(common::MakeProvenance({o.input, o.rig, o.accel_csv}));
+    const auto provenance = common::ProvenanceFields(made);
     if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior, provenance);
     if (!o.plot.empty()) {  // - : the SVG, its provenance inside, to standard output once complete
       OutputTarget plot("--plot", o.plot, ".svg");

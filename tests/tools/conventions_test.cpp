@@ -335,10 +335,24 @@ TEST(CliConventions, DashIsStandardOutputWhereTheOutputIsOneStream) {
   const CliResult fit_pipe = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1", "--out", "-"});
   ASSERT_EQ(fit_pipe.exit_code, 0) << fit_pipe.err;
   auto a = nlohmann::json::parse(ReadFile(dir + "/fit.json")), b = nlohmann::json::parse(fit_pipe.out);
-  a.erase("runtime");
-  b.erase("runtime");
+  EXPECT_EQ(a.at("provenance").at("sources"), b.at("provenance").at("sources"));  // the record, its size and hash
+  EXPECT_EQ(a.at("provenance").at("sources")[0].at("size_bytes").get<long>(),
+            static_cast<long>(ReadFile(dir + "/free.csv").size()));
+  const nlohmann::json file_source = a.at("provenance").at("sources")[0];
+  for (const char* made_when : {"runtime", "provenance"}) {  // the time and command line differ
+    a.erase(made_when);
+    b.erase(made_when);
+  }
   EXPECT_EQ(a, b);
-  EXPECT_NE(fit_file.out.find("rocklab fit:"), std::string::npos);  // the text summary, not with --out -
+  EXPECT_NE(fit_file.out.find("rocklab fit:"), std::string::npos);
+  int piped_code = -1;  // the record from standard input: named <stdin>, with the file's size and hash
+  const auto from_stdin = nlohmann::json::parse(
+      Shell("cat " + dir + "/free.csv | " ROCKLAB_BINARY " fit - --width 0.247 --height 1 --json", piped_code));
+  ASSERT_EQ(piped_code, 0);
+  const auto& stdin_source = from_stdin.at("provenance").at("sources")[0];
+  EXPECT_EQ(stdin_source.at("path"), "<stdin>");
+  EXPECT_EQ(stdin_source.at("sha256"), file_source.at("sha256"));
+  EXPECT_EQ(stdin_source.at("size_bytes"), file_source.at("size_bytes"));  // the text summary, not with --out -
   // fit --samples -: the posterior's draws on standard output, the bytes
   // --samples FILE holds (same seed, same draws); the summary and --json
   // on stderr. A short chain: --allow-unconverged.
