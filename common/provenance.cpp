@@ -176,7 +176,7 @@ Provenance MakeProvenance(const std::vector<std::string>& sources) {
   std::set<std::string> seen;
   for (const std::string& path : sources) {
     if (path.empty() || path == "-" || !seen.insert(path).second) continue;
-    SourceFile s{path, -1, ""};
+    SourceFile s{WithPathsShown(path), -1, ""};  // standard input's copy: <stdin>
     std::error_code ec;
     // A device or a pipe is not hashed (it may never end): kept as not read.
     const bool regular = std::filesystem::is_regular_file(path, ec);

@@ -4,7 +4,11 @@
 #include <cctype>
 #include <cstdarg>
 #include <cstdio>
+#include <atomic>
 #include <charconv>
+#include <mutex>
+#include <utility>
+#include <vector>
 #include <cstdint>
 
 namespace rocklab::common {
@@ -231,7 +235,38 @@ std::string XmlText(std::string_view text) {
   return out;
 }
 
+namespace {
+// ShowPathAs's pairs (path, shown); `g_path_aliases_set` spares the lock
+// while there are none (every program but the CLI given `-`).
+std::mutex g_path_aliases_mutex;
+std::vector<std::pair<std::string, std::string>> g_path_aliases;
+std::atomic<bool> g_path_aliases_set{false};
+
+}  // namespace
+
+std::string WithPathsShown(std::string_view text) {
+  std::string s(text);
+  if (!g_path_aliases_set.load(std::memory_order_relaxed)) return s;
+  const std::lock_guard<std::mutex> lock(g_path_aliases_mutex);
+  for (const auto& alias : g_path_aliases) {
+    for (std::size_t at = s.find(alias.first); at != std::string::npos;
+         at = s.find(alias.first, at + alias.second.size())) {
+      s.replace(at, alias.first.size(), alias.second);
+    }
+  }
+  return s;
+}
+
+void ShowPathAs(const std::string& path, const std::string& shown) {
+  if (path.empty()) return;
+  const std::lock_guard<std::mutex> lock(g_path_aliases_mutex);
+  g_path_aliases.emplace_back(path, shown);
+  g_path_aliases_set.store(true);
+}
+
 std::string Printable(std::string_view text, std::size_t max_bytes) {
+  std::string shown;  // a temporary named as what the user gave (ShowPathAs)
+  if (g_path_aliases_set.load(std::memory_order_relaxed)) text = shown = WithPathsShown(text);
   std::string out;
   out.reserve(std::min(text.size(), max_bytes) + 32);
   AppendEscaped(out, text, max_bytes, true, false);

@@ -84,6 +84,16 @@ std::string Printable(std::string_view text, std::size_t max_bytes = kMaxLineByt
 /// whose own words may span lines but whose input must not.
 std::string PrintableLines(std::string_view text, std::size_t max_line_bytes = kMaxLineBytes);
 
+/// A file that stands in for what the user gave (standard input copied to
+/// a temporary file by the CLI): from now on Printable and PrintableLines
+/// show `shown` (e.g. "<stdin>") wherever `path` occurs, so errors and log
+/// lines name the input the user gave, not the temporary. Thread-safe.
+void ShowPathAs(const std::string& path, const std::string& shown);
+
+/// `text` with every path given to ShowPathAs replaced by its shown name
+/// (provenance's source names; Printable does it itself).
+std::string WithPathsShown(std::string_view text);
+
 /// Whether `text` is well-formed UTF-8 (no overlong forms, no surrogates).
 bool IsUtf8(std::string_view text);
 

@@ -266,6 +266,7 @@ std::string InputFile(const std::string& option, const std::string& path, const 
     n = static_cast<std::size_t>(got);
   }
   if (::close(fd) != 0) throw std::runtime_error(option + ": cannot copy standard input to " + name + ": " + std::strerror(errno));
+  common::ShowPathAs(name, "<stdin>");  // messages and log lines name what was given
   return name;
 }
 

@@ -97,7 +97,8 @@ int RunDaqStageCommand(pipeline::DaqStageOptions& options, const char* what, boo
 /// twice; a sweep names a record by its file name), removed when the
 /// command exits. With `hdf5_suffix`, bytes that start with HDF5's
 /// signature get that suffix instead. Standard input can be read once: a
-/// second `-` is a UsageError naming `option`.
+/// second `-` is a UsageError naming `option`. Messages and log lines show
+/// the temporary as `<stdin>` (common::ShowPathAs).
 std::string InputFile(const std::string& option, const std::string& path, const char* suffix = ".csv",
                       const char* hdf5_suffix = nullptr);
 

@@ -14,6 +14,7 @@
 #include "common/atomic_file.h"
 #include "common/progress.h"
 #include "common/provenance.h"
+#include "common/text.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
 #include "model/posterior.h"
@@ -61,35 +62,36 @@ struct FitCliOptions {
   bool per_impact_mu{};  // --per-impact-mu (or the rig's posterior.sigma_mu_max)
 };
 
-// Exit code of a posterior run that fails its convergence rule (without
-// --allow-unconverged): its outputs are written, the verdict is not. The
-// work failed, so 1, as every command's failure (docs/commands.md).
+// Exit code of a fit whose point fit is not converged or whose posterior
+// fails its convergence rule (without --allow-unconverged): its outputs are
+// written, the verdict is not. The work failed, so 1, as every command's
+// failure (docs/commands.md).
 constexpr int kUnconvergedExit = 1;
 
-void PrintPosterior(const model::PosteriorResult& p) {
-  std::printf("\nposterior (%s, %s model): %d walkers x %d steps, burn-in %d, %lld draws, seed %llu, %d threads, %.1f s\n",
+void PrintPosterior(std::FILE* out, const model::PosteriorResult& p) {
+  std::fprintf(out, "\nposterior (%s, %s model): %d walkers x %d steps, burn-in %d, %lld draws, seed %llu, %d threads, %.1f s\n",
               p.method.c_str(), p.model.c_str(), p.walkers, p.steps, p.diagnostics.burn_in,
               static_cast<long long>(p.draws.rows()), static_cast<unsigned long long>(p.seed), p.threads, p.runtime_s);
-  std::printf("%-9s %12s %25s %25s %11s %7s %7s %7s\n", "", "median", "68 % interval", "95 % interval", "sd", "R-hat",
+  std::fprintf(out, "%-9s %12s %25s %25s %11s %7s %7s %7s\n", "", "median", "68 % interval", "95 % interval", "sd", "R-hat",
               "ESS", "tau");
   for (const model::ParameterSummary& s : p.summary) {
-    std::printf("%-9s %12.6g [%11.6g, %11.6g] [%11.6g, %11.6g] %11.4g %7.4f %7.0f %7.1f\n", s.name.c_str(), s.median,
+    std::fprintf(out, "%-9s %12.6g [%11.6g, %11.6g] [%11.6g, %11.6g] %11.4g %7.4f %7.0f %7.1f\n", s.name.c_str(), s.median,
                 s.ci68_lo, s.ci68_hi, s.ci95_lo, s.ci95_hi, s.sd, s.rhat, s.ess, s.tau);
   }
-  std::printf("correlation (%s):\n", [&p] {
+  std::fprintf(out, "correlation (%s):\n", [&p] {
     std::string order;
     for (const std::string& n : p.names) order += (order.empty() ? "" : ", ") + n;
     return order;
   }().c_str());
   for (Eigen::Index i = 0; i < p.correlation.rows(); ++i) {
-    std::printf("  %-9s", p.names[static_cast<std::size_t>(i)].c_str());
-    for (Eigen::Index j = 0; j < p.correlation.cols(); ++j) std::printf(" %+6.3f", p.correlation(i, j));
-    std::printf("\n");
+    std::fprintf(out, "  %-9s", p.names[static_cast<std::size_t>(i)].c_str());
+    for (Eigen::Index j = 0; j < p.correlation.cols(); ++j) std::fprintf(out, " %+6.3f", p.correlation(i, j));
+    std::fprintf(out, "\n");
   }
-  std::printf("acceptance fraction %.3f; %s\n", p.diagnostics.acceptance,
+  std::fprintf(out, "acceptance fraction %.3f; %s\n", p.diagnostics.acceptance,
               p.converged() ? "converged (split R-hat, ESS, steps per tau, acceptance)" : "NOT converged:");
-  for (const std::string& problem : p.problems) std::printf("  %s\n", problem.c_str());
-  for (const std::string& w : p.warnings) std::printf("note: %s\n", w.c_str());
+  for (const std::string& problem : p.problems) std::fprintf(out, "  %s\n", problem.c_str());
+  for (const std::string& w : p.warnings) std::fprintf(out, "note: %s\n", w.c_str());
 }
 
 nlohmann::json Optional(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
@@ -172,14 +174,14 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
   return j;
 }
 
-void PrintText(const FitCliOptions& o, const model::FitResult& r) {
-  std::printf("rocklab fit: %s, method %s%s%s, %d residuals, %d iterations, %.2f s\n",
+void PrintText(std::FILE* out, const FitCliOptions& o, const model::FitResult& r) {
+  std::fprintf(out, "rocklab fit: %s, method %s%s%s, %d residuals, %d iterations, %.2f s\n",
               o.input.c_str(), model::ToString(r.method),
               r.method == model::FitMethod::kImpacts ? ", quarter time " : "",
               r.method == model::FitMethod::kImpacts ? model::ToString(r.quarter_time) : "",
               r.residuals, r.iterations, r.runtime_s);
-  std::printf("\n%-10s %11s %11s %8s %10s\n", "", "alpha (rad)", "p (rad/s)", "mu", "mu_spread");
-  std::printf("%-10s %11.4f %11.4f %8.4f %10s\n", "fitted", r.params.alpha, r.params.p,
+  std::fprintf(out, "\n%-10s %11s %11s %8s %10s\n", "", "alpha (rad)", "p (rad/s)", "mu", "mu_spread");
+  std::fprintf(out, "%-10s %11.4f %11.4f %8.4f %10s\n", "fitted", r.params.alpha, r.params.p,
               r.params.mu, std::isfinite(r.mu_spread) ? std::to_string(r.mu_spread).substr(0, 6).c_str() : "-");
   auto stderr_cell = [](double v, const char* fmt) {
     char buf[32];
@@ -187,45 +189,45 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
     std::snprintf(buf, sizeof buf, fmt, v);
     return std::string(buf);
   };
-  std::printf("%-10s %11s %11s %8s%s\n", "std error", stderr_cell(r.alpha_stderr, "%.4f").c_str(),
+  std::fprintf(out, "%-10s %11s %11s %8s%s\n", "std error", stderr_cell(r.alpha_stderr, "%.4f").c_str(),
               stderr_cell(r.p_stderr, "%.4f").c_str(), stderr_cell(r.mu_stderr, "%.4f").c_str(),
               r.stderr_withheld ? "   (withheld: fewer than 3 degrees of freedom)" : "");
   if (r.theory) {
-    std::printf("%-10s %11.4f %11.4f %8.4f   (geometry)\n", "theory", r.theory->alpha, r.theory->p,
+    std::fprintf(out, "%-10s %11.4f %11.4f %8.4f   (geometry)\n", "theory", r.theory->alpha, r.theory->p,
                 r.theory->mu);
   }
   if (r.band) {
-    std::printf("admissible alpha [%.4f, %.4f] rad (b +- %.3g m)\n", r.band->lo, r.band->hi, r.band->band_m);
+    std::fprintf(out, "admissible alpha [%.4f, %.4f] rad (b +- %.3g m)\n", r.band->lo, r.band->hi, r.band->band_m);
   }
-  if (std::isfinite(r.alpha_p_correlation)) std::printf("alpha-p correlation %.3f (%s)\n", r.alpha_p_correlation,
+  if (std::isfinite(r.alpha_p_correlation)) std::fprintf(out, "alpha-p correlation %.3f (%s)\n", r.alpha_p_correlation,
               std::abs(r.alpha_p_correlation) > 0.9
                   ? "strong: other (alpha, p) pairs along a ridge give nearly the same response"
                   : "moderate");
   const bool in_ms = r.method == model::FitMethod::kImpacts;
-  std::printf("rms residual %.3g %s, noise %.3g rad\n", in_ms ? r.rms_residual * 1e3 : r.rms_residual,
+  std::fprintf(out, "rms residual %.3g %s, noise %.3g rad\n", in_ms ? r.rms_residual * 1e3 : r.rms_residual,
               in_ms ? "ms" : "rad", r.features.noise_rad);
   if (std::isfinite(r.residual_to_noise)) {
-    std::printf("residual / noise %.2f (the noise alone gives %.3g %s per residual): %s\n", r.residual_to_noise,
+    std::fprintf(out, "residual / noise %.2f (the noise alone gives %.3g %s per residual): %s\n", r.residual_to_noise,
                 in_ms ? r.noise_residual * 1e3 : r.noise_residual, in_ms ? "ms" : "rad",
                 r.converged ? "converged" : "NOT converged");
-    std::printf("chi-square %.1f on %d degrees of freedom (%.3f per dof; noise %s), p = %.3g against "
+    std::fprintf(out, "chi-square %.1f on %d degrees of freedom (%.3f per dof; noise %s), p = %.3g against "
                 "significance %.3g; %d starts, %d refined\n",
                 r.chi2, r.dof, r.chi2_per_dof,
                 std::isinf(r.noise_dof) ? "stated" : ("estimated, " + std::to_string(static_cast<long>(r.noise_dof)) +
                                                       " dof").c_str(),
                 r.p_value, r.significance, r.starts, r.starts_refined);
   } else {
-    std::printf("residual / noise not computable (%d degrees of freedom%s): %s\n", r.dof,
+    std::fprintf(out, "residual / noise not computable (%d degrees of freedom%s): %s\n", r.dof,
                 r.features.noise_rad > 0.0 ? "" : ", no measurable noise",
                 r.converged ? "converged (least squares)" : "NOT converged");
   }
   if (r.theta_gaps.missing_samples > 0) {
-    std::printf("missing samples %lld in %lld gap(s)\n", static_cast<long long>(r.theta_gaps.missing_samples),
+    std::fprintf(out, "missing samples %lld in %lld gap(s)\n", static_cast<long long>(r.theta_gaps.missing_samples),
                 static_cast<long long>(r.theta_gaps.gaps));
   }
-  if (r.release_time_s) std::printf("fitted release time %.4f s\n", *r.release_time_s);
+  if (r.release_time_s) std::fprintf(out, "fitted release time %.4f s\n", *r.release_time_s);
   if (!r.impacts.empty()) {
-    std::printf("\n%3s %10s %11s %8s %9s %13s\n", "n", "time (s)", "peak (rad)", "mu_n", "tau* (s)",
+    std::fprintf(out, "\n%3s %10s %11s %8s %9s %13s\n", "n", "time (s)", "peak (rad)", "mu_n", "tau* (s)",
                 "residual (ms)");
     auto cell = [](const std::optional<double>& v, const char* fmt, double scale) {
       char buf[32];
@@ -234,13 +236,13 @@ void PrintText(const FitCliOptions& o, const model::FitResult& r) {
       return std::string(buf);
     };
     for (const model::ImpactRow& row : r.impacts) {
-      std::printf("%3d %10s %11s %8s %9s %13s\n", row.n,
+      std::fprintf(out, "%3d %10s %11s %8s %9s %13s\n", row.n,
                   std::isfinite(row.time_s) ? cell(row.time_s, "%.4f", 1).c_str() : "-",
                   cell(row.peak_rad, "%.5f", 1).c_str(), cell(row.mu_n, "%.4f", 1).c_str(),
                   cell(row.tau_s, "%.4f", 1).c_str(), cell(row.residual_s, "%+.3f", 1e3).c_str());
     }
   }
-  for (const std::string& w : r.warnings) std::printf("note: %s\n", w.c_str());
+  for (const std::string& w : r.warnings) std::fprintf(out, "note: %s\n", w.c_str());
 }
 
 int RunFit(const FitCliOptions& o) {
@@ -267,8 +269,7 @@ int RunFit(const FitCliOptions& o) {
   RequireOutputFolder("--out", o.out_json);
   RequireOutputFolder("--samples", o.samples);
   RequireOutputFolder("--plot", o.plot);
-  RefuseStandardOutput("--samples", o.samples, "the draws' provenance goes in a file beside them, or in HDF5");
-  RefuseStandardOutput("--plot", o.plot, "standard output holds the fit's summary");
+  RequireOneStandardOutput({{"--out", o.out_json}, {"--samples", o.samples}, {"--plot", o.plot}});
   fo.features.noise_rad = o.noise_rad;
   fo.significance = o.significance;
   fo.starts = o.starts;
@@ -361,13 +362,18 @@ int RunFit(const FitCliOptions& o) {
 
   model::FitResult result;
   std::optional<model::PosteriorResult> posterior;
+  std::string record_path = o.input, accel_path = o.accel_csv;  // the files read (- : its copy)
   try {
     model::RockingRecord record;
     {
       common::FileProgress progress("fit", o.input, o.quiet);  // the record's read
-      record = model::ReadRecord(InputFile("RECORD", o.input));
+      record_path = InputFile("RECORD", o.input);
+      record = model::ReadRecord(record_path);
     }
-    if (!o.accel_csv.empty()) model::AddTableCsv(InputFile("--accel", o.accel_csv), record);
+    if (!o.accel_csv.empty()) {
+      accel_path = InputFile("--accel", o.accel_csv);
+      model::AddTableCsv(accel_path, record);
+    }
     model::WindowRecord(record, o.start_s, o.end_s);
     {
       // The model runs so far on the commands' progress line (a terminal
@@ -396,17 +402,46 @@ int RunFit(const FitCliOptions& o) {
   }
 
   nlohmann::json j = ResultJson(o, result);
+  // What made the result (version, command, time, sources with size and
+  // SHA-256; standard input's as <stdin>): in the JSON, as run's summary.
+  const common::Provenance made = common::MakeProvenance({record_path, o.rig, accel_path});
+  j["provenance"] = nlohmann::json::parse(common::ProvenanceJson(made));
   if (posterior) {
     j["posterior"] = nlohmann::json::parse(model::PosteriorJson(*posterior));
-    const auto provenance = common::ProvenanceFields(common::MakeProvenance({o.input, o.rig, o.accel_csv}));
+    const auto provenance = common::ProvenanceFields(made);
     if (!o.samples.empty()) WritePosteriorSamples(o.samples, *posterior, provenance);
-    if (!o.plot.empty()) WriteCornerSvg(o.plot, *posterior, "rocklab fit --posterior: " + o.input, provenance);
+    if (!o.plot.empty()) {  // - : the SVG, its provenance inside, to standard output once complete
+      OutputTarget plot("--plot", o.plot, ".svg");
+      WriteCornerSvg(plot.path(), *posterior, "rocklab fit --posterior: " + o.input, provenance);
+      plot.Finish();
+    }
   }
   // One object for --out FILE (- : standard output) and --json.
-  WriteResult(j, o.json, o.out_json, false, "--out");
+  // With the draws or the plot on standard output (--samples -, --plot -)
+  // the summary and --json go to stderr, as simulate's with --out -.
+  const bool samples_out = posterior && (o.samples == "-" || o.plot == "-");
+  WriteResult(j, o.json, o.out_json, samples_out, "--out");
   if (!o.json && o.out_json != "-") {
-    PrintText(o, result);
-    if (posterior) PrintPosterior(*posterior);
+    PrintText(samples_out ? stderr : stdout, o, result);
+    if (posterior) PrintPosterior(samples_out ? stderr : stdout, *posterior);
+  }
+  int code = 0;
+  if (!result.converged) {
+    // The point fit's verdict (docs/commands.md, "converged"): the result is
+    // written, the work failed.
+    const std::string why = common::Format("the model does not follow the record within its noise or the search stopped "
+                                   "(chi-square p = %.3g%s, significance %.3g)",
+                                   result.p_value,
+                                   std::isfinite(result.band_p_value)
+                                       ? common::Format(", band p = %.3g", result.band_p_value).c_str()
+                                       : "",
+                                   result.significance);
+    if (!o.allow_unconverged) {
+      std::fprintf(stderr, "rocklab fit: the fit has not converged: %s (--allow-unconverged: exit 0)\n", why.c_str());
+      code = kUnconvergedExit;
+    } else {
+      std::fprintf(stderr, "rocklab fit: warning: the fit has not converged: %s\n", why.c_str());
+    }
   }
   if (posterior && !posterior->converged()) {
     std::string why;
@@ -418,7 +453,7 @@ int RunFit(const FitCliOptions& o) {
     }
     std::fprintf(stderr, "rocklab fit: warning: the posterior has not converged: %s\n", why.c_str());
   }
-  return 0;
+  return code;
 }
 
 }  // namespace
@@ -473,7 +508,8 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
                 "posterior, impacts method: a restitution per impact, mu_n ~ N(mu, sigma_mu^2), sigma_mu sampled "
                 "(its prior: the rig's posterior.sigma_mu_max, default 0.1)");
   cmd->add_flag("--allow-unconverged", opts->allow_unconverged,
-                "posterior: exit 0 even when the convergence rule fails (else exit code 1)");
+                "exit 0 even when the fit is not converged or the posterior fails its convergence rule (else "
+                "exit code 1; the results are written either way)");
   cmd->callback([opts, &run] { run = [opts] { return RunFit(*opts); }; });
 }
 

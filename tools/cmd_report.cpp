@@ -18,6 +18,7 @@
 #include "common/atomic_file.h"
 #include "common/progress.h"
 #include "common/provenance.h"
+#include "common/text.h"
 #include "tools/cli.h"
 #include "pipeline/pipeline.h"
 #include "report/report.h"
@@ -40,11 +41,27 @@ struct ReportCommand {
   std::string png_path;
   std::string svg_path;
   std::string size{"1000x650"};
+  std::string series_rate{"100"};  // Hz, or "model"
   long long max_points{20000};
   ReportOptions options;
   bool quiet{};
   bool json{};
 };
+
+// A slot of 1 us, the log's time resolution: every sample of each series
+// (at the model's, the DAQ's, the comparator's own rate) up to --max-points.
+constexpr double kEverySampleRateHz = 1e6;
+
+// --series-rate: a rate in Hz, or `model` for every sample as published.
+double ParseSeriesRate(const std::string& text) {
+  if (text == "model") return kEverySampleRateHz;
+  double hz = 0.0;
+  if (!common::ParseDouble(text, hz)) {
+    throw UsageError("report: --series-rate: '" + text + "' is not a number (Hz) or 'model'");
+  }
+  Require(hz > 0 && std::isfinite(hz), "--series-rate", "> 0 Hz", hz);
+  return hz;
+}
 
 std::pair<int, int> ParseSize(const std::string& text) {
   static const std::regex kSize("([0-9]{1,5})x([0-9]{1,5})");
@@ -74,8 +91,7 @@ void DrawFigure(const ThetaFigure& figure, const OutputTarget& target, FigureFor
 
 int RunReport(ReportCommand& c) {
   const std::pair<int, int> size = ParseSize(c.size);
-  Require(c.options.series_rate_hz > 0 && std::isfinite(c.options.series_rate_hz),
-          "--series-rate", "> 0 Hz", c.options.series_rate_hz);
+  c.options.series_rate_hz = ParseSeriesRate(c.series_rate);
   Require(c.max_points >= 16 && c.max_points <= 10000000, "--max-points", ">= 16 and <= 1e7",
           static_cast<double>(c.max_points));
   c.options.max_points = static_cast<std::size_t>(c.max_points);
@@ -170,8 +186,9 @@ void RegisterReport(CLI::App& app, CommandRun& run) {
   cmd->add_option("--png", c->png_path, "the figure as PNG (- : standard output)");
   cmd->add_option("--svg", c->svg_path, "the figure as SVG (- : standard output)");
   cmd->add_option("--size", c->size, "figure size WIDTHxHEIGHT, px")->capture_default_str();
-  cmd->add_option("--series-rate", c->options.series_rate_hz,
-                  "points kept per second of each series, Hz")
+  cmd->add_option("--series-rate", c->series_rate,
+                  "points kept per second of each series, Hz; model: every sample as published (the error "
+                  "at the model's rate), up to --max-points")
       ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "no progress bar (drawn when stderr is a terminal)");
   AddJsonFlag(*cmd, c->json);

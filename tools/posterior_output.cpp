@@ -36,6 +36,19 @@ std::string F(double v, const char* fmt = "%.2f") {
   return buf;
 }
 
+// The draws as CSV: the parameters' names, then log_posterior.
+void WriteSamplesCsv(std::FILE* out, const model::PosteriorResult& r) {
+  const auto cols = static_cast<std::size_t>(r.draws.cols());
+  std::string header;
+  for (const std::string& n : r.names) header += n + ",";
+  header += "log_posterior\n";
+  std::fputs(header.c_str(), out);
+  for (Eigen::Index i = 0; i < r.draws.rows(); ++i) {
+    for (std::size_t c = 0; c < cols; ++c) std::fprintf(out, "%.17g,", r.draws(i, static_cast<Eigen::Index>(c)));
+    std::fprintf(out, "%.17g\n", r.log_posterior(i));
+  }
+}
+
 }  // namespace
 
 void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r,
@@ -64,16 +77,15 @@ void WritePosteriorSamples(const std::string& path, const model::PosteriorResult
     h5.Close();
     return;
   }
-  common::AtomicFile file(path);
-  std::FILE* out = file.stream();
-  std::string header;
-  for (const std::string& n : r.names) header += n + ",";
-  header += "log_posterior\n";
-  std::fputs(header.c_str(), out);
-  for (Eigen::Index i = 0; i < r.draws.rows(); ++i) {
-    for (std::size_t c = 0; c < cols; ++c) std::fprintf(out, "%.17g,", r.draws(i, static_cast<Eigen::Index>(c)));
-    std::fprintf(out, "%.17g\n", r.log_posterior(i));
+  if (path == "-") {  // CSV on standard output, no sidecar (docs/commands.md)
+    WriteSamplesCsv(stdout, r);
+    if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+      throw std::runtime_error("--samples -: cannot write to standard output");
+    }
+    return;
   }
+  common::AtomicFile file(path);
+  WriteSamplesCsv(file.stream(), r);
   file.Commit();
   common::WriteProvenanceSidecarFields(path, provenance);
 }

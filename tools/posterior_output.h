@@ -18,7 +18,8 @@ namespace rocklab::tools {
 /// not at all.
 /// @throws std::runtime_error naming the file.
 /// `provenance` (common::ProvenanceFields): HDF5 root attributes, or the
-/// CSV's sidecar STEM.provenance.csv (the CSV itself as above).
+/// CSV's sidecar STEM.provenance.csv (the CSV itself as above). `-`: the
+/// CSV on standard output, no sidecar.
 void WritePosteriorSamples(const std::string& path, const model::PosteriorResult& r,
                            const std::vector<std::pair<std::string, std::string>>& provenance = {});
 

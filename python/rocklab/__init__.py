@@ -115,6 +115,8 @@ __all__ = [
     "SWEEP_DTYPE",
     "EVENT_DTYPE",
     "EVENT_FIELDS",
+    "EVENTS_DTYPE",
+    "events",
     "DEFAULT_L",
     "GRAVITY",
 ]
@@ -314,6 +316,45 @@ EVENT_DTYPE = _dtype(
         ("kind_code", "i8", None),
     ]
 )
+
+
+#: dtype of ``events(a)``: EVENT_FIELDS only, the same dtype (and so the
+#: same shape) whatever the source. ``value`` has no unit title: its unit
+#: is the kind's (docs/python.md).
+EVENTS_DTYPE = _dtype(
+    [
+        ("time", "f8", "s"),
+        ("kind_name", "U16", None),
+        ("kind_code", "i8", None),
+        ("value", "f8", None),
+    ]
+)
+
+
+def events(a):
+    """Any events as one structured array of EVENTS_DTYPE (``time`` s,
+    ``kind_name``, ``kind_code``, ``value``), the same dtype from every
+    source: read_log's RL_EVENT table, ``SimulationResult.events``,
+    ``AssemblyResult.events``, ``Reconstruction.events``, or an object with
+    such an ``events`` attribute. The sources keep their own arrays as they
+    were (their field ``kind`` differs: the code in read_log, the name in
+    simulate); this is the copy to concatenate, compare or save together."""
+    src = getattr(a, "events", a)
+    names = getattr(getattr(src, "dtype", None), "names", None) or ()
+    missing = [f for f in EVENT_FIELDS if f not in names]
+    if "kind" in names and missing:
+        src = _with_kind_code(src)
+        names = src.dtype.names
+        missing = [f for f in EVENT_FIELDS if f not in names]
+    if missing:
+        raise ValueError(
+            "events: not an events array (fields " + ", ".join(names or ("none",))
+            + "; needs " + ", ".join(EVENT_FIELDS) + ")"
+        )
+    out = _np.empty(src.shape, dtype=EVENTS_DTYPE)
+    for f in EVENT_FIELDS:
+        out[f] = src[f]
+    return out
 
 
 def _is_event_type(lcm_type):

@@ -40,6 +40,7 @@ DEFAULT_L: float
 GRAVITY: float
 EVENT_DTYPE: np.dtype[np.void]
 EVENT_FIELDS: Tuple[str, ...]
+EVENTS_DTYPE: np.dtype[np.void]
 SWEEP_DTYPE: np.dtype[np.void]
 
 # ---- block_params ---------------------------------------------------------
@@ -257,6 +258,7 @@ class LogTables(Dict[str, Table]):
     def _repr_html_(self) -> str: ...
 
 def units(a: Union[npt.NDArray[np.generic], np.dtype[np.generic]]) -> Dict[str, str]: ...
+def events(a: Union[npt.NDArray[np.void], SimulationResult, AssemblyResult, Reconstruction]) -> npt.NDArray[np.void]: ...
 
 def read_log(
     path: PathLike,

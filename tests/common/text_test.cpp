@@ -165,5 +165,18 @@ TEST(TextTest, NamedLoggerEscapesTheMessage) {
   }
 }
 
+// Oracle: the text with the registered path replaced, every occurrence;
+// text without it unchanged (the path is this test's own, unlike any other).
+TEST(TextTest, ShowPathAsNamesATemporaryAsWhatWasGiven) {
+  const std::string temp = "/tmp/rocklab-stdin-TextTest/stdin.csv";
+  EXPECT_EQ(Printable("x " + temp + ":3"), "x " + temp + ":3");
+  ShowPathAs(temp, "<stdin>");
+  EXPECT_EQ(Printable("RECORD: " + temp + ":3: 'abc' is not a number"), "RECORD: <stdin>:3: 'abc' is not a number");
+  EXPECT_EQ(PrintableLines(temp + "\n" + temp + " and " + temp), "<stdin>\n<stdin> and <stdin>");
+  EXPECT_EQ(WithPathsShown(temp), "<stdin>");
+  EXPECT_EQ(Printable("/tmp/rocklab-stdin-TextTest/stdin.cs"), "/tmp/rocklab-stdin-TextTest/stdin.cs");
+  EXPECT_EQ(Printable(std::string("\x1b") + temp), "\\x1b<stdin>");  // still escaped
+}
+
 }  // namespace
 }  // namespace rocklab::common

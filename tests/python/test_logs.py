@@ -308,6 +308,22 @@ def test_events_have_the_same_fields_everywhere(log_path, source_dir):
     import pickle
 
     assert pickle.loads(pickle.dumps(logged)).dtype == logged.dtype
+    # rocklab.events: one dtype from every source (EVENTS_DTYPE), so they
+    # concatenate; the values are the source's own, row for row.
+    same = [rocklab.events(e) for e in (logged, simulated, checked)]
+    assert rocklab.events(rocklab.simulate("housner", 0.235, 3.884, 0.937, theta0=0.1, duration=3,
+                                           rate=100)).dtype == rocklab.EVENTS_DTYPE
+    for source, out in zip((logged, simulated, checked), same):
+        assert out.dtype == rocklab.EVENTS_DTYPE and out.dtype.names == rocklab.EVENT_FIELDS
+        for f in rocklab.EVENT_FIELDS:
+            assert list(out[f]) == list(source[f]), f
+    assert len(np.concatenate(same)) == sum(len(e) for e in same)
+    # An old table without kind_code (an np.save from before issue 36) gets it from kind.
+    old = np.zeros(2, dtype=[("time", "f8"), ("kind", "i8"), ("value", "f8")])
+    old["kind"] = [codes["UPLIFT"], codes["IMPACT"]]
+    assert list(rocklab.events(old)["kind_name"]) == ["UPLIFT", "IMPACT"]
+    with pytest.raises(ValueError, match="not an events array"):
+        rocklab.events(np.zeros(2, dtype=[("time", "f8")]))
 
 
 def write_lcm_log(path, events):

@@ -17,6 +17,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -182,6 +184,54 @@ TEST(CliConventions, DashIsStandardInputForCsvAndRefusedForLogs) {
   const CliResult log = RunCli({"report", "-", "--out", dir + "/r.html"});
   EXPECT_EQ(log.exit_code, 2);
   EXPECT_NE(log.err.find("standard input (-) cannot be read here"), std::string::npos) << log.err;
+  // A message about standard input's bytes names it <stdin>, never the
+  // temporary copy. Oracle: the same bytes from a file named in the message.
+  WriteFile(dir + "/bad.csv", "time,theta\n0,0.1\n0.01,abc\n");
+  const CliResult bad_file = RunCli({"fit", dir + "/bad.csv", "--width", "0.247", "--height", "1"});
+  EXPECT_EQ(bad_file.exit_code, 2);
+  const std::string bad_pipe = Shell("cat " + dir + "/bad.csv | " ROCKLAB_BINARY
+                                     " fit - --width 0.247 --height 1 2>&1 >/dev/null",
+                                     code);
+  EXPECT_EQ(code, 2);
+  std::string expected = bad_file.err;
+  expected.replace(expected.find(dir + "/bad.csv"), (dir + "/bad.csv").size(), "<stdin>");
+  EXPECT_EQ(bad_pipe, expected);
+  EXPECT_EQ(bad_pipe.find("rocklab-stdin"), std::string::npos) << bad_pipe;
+}
+
+// Exit code 1 for a fit whose result is not converged (the work failed;
+// its JSON still written), 0 with --allow-unconverged. Oracle: a free
+// rocking record whose amplitude is modulated by 2 % at 0.5 Hz (no rocking
+// block moves so), with 2e-4 rad of uniform noise: the impacts method's
+// chi-square rejects it (p ~ 1e-131 here) at any usual significance.
+TEST(CliConventions, UnconvergedFitIsAFailureOfTheWork) {
+  const std::string dir = ScratchDir("conventions_unconverged");
+  const CliResult sim = RunCli({"simulate", "--alpha", "0.245", "--p", "3.78", "--mu", "0.91", "--theta0", "0.12",
+                                "--duration", "6", "--rate", "200", "--out", dir + "/free.csv"});
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  std::istringstream rows(ReadFile(dir + "/free.csv"));
+  std::string line, warped = "time,theta\n";
+  std::getline(rows, line);  // the header
+  std::uint32_t lcg = 12345;
+  while (std::getline(rows, line)) {
+    double t = 0, theta = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf", &t, &theta), 2) << line;
+    lcg = 1103515245u * lcg + 12345u;
+    const double noise = 2e-4 * ((lcg >> 1) / 2147483648.0 - 0.5);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6f,%.9g\n", t, theta * (1 + 0.02 * std::sin(2 * M_PI * 0.5 * t)) + noise);
+    warped += buf;
+  }
+  WriteFile(dir + "/warped.csv", warped);
+  const std::vector<std::string> fit = {"fit", dir + "/warped.csv", "--out", dir + "/fit.json"};
+  const CliResult failed = RunCli(fit);
+  EXPECT_EQ(failed.exit_code, 1) << failed.err;
+  EXPECT_NE(failed.err.find("rocklab fit: the fit has not converged:"), std::string::npos) << failed.err;
+  EXPECT_FALSE(nlohmann::json::parse(ReadFile(dir + "/fit.json")).at("converged").get<bool>());
+  const CliResult allowed = RunCli(With(fit, {"--allow-unconverged"}));
+  EXPECT_EQ(allowed.exit_code, 0) << allowed.err;
+  EXPECT_NE(allowed.err.find("warning: the fit has not converged"), std::string::npos) << allowed.err;
+  EXPECT_NE(allowed.out.find("NOT converged"), std::string::npos) << allowed.out;
 }
 
 // Command -> the options its --help marks REQUIRED (CLI11's help: "NAME
@@ -249,8 +299,8 @@ std::string WithoutProvenance(const std::string& text) {
   return out;
 }
 
-// `-` as standard output for synth, fit, sweep and report, and as
-// standard input for sweep --records and sweep-plot. Oracle: the same
+// `-` as standard output for synth, fit (--out, --samples, --plot), sweep
+// and report, and as standard input for sweep --records and sweep-plot. Oracle: the same
 // command writing a file (byte for byte, but for the provenance lines
 // that name the command and the time).
 TEST(CliConventions, DashIsStandardOutputWhereTheOutputIsOneStream) {
@@ -285,15 +335,49 @@ TEST(CliConventions, DashIsStandardOutputWhereTheOutputIsOneStream) {
   const CliResult fit_pipe = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1", "--out", "-"});
   ASSERT_EQ(fit_pipe.exit_code, 0) << fit_pipe.err;
   auto a = nlohmann::json::parse(ReadFile(dir + "/fit.json")), b = nlohmann::json::parse(fit_pipe.out);
-  a.erase("runtime");
-  b.erase("runtime");
+  EXPECT_EQ(a.at("provenance").at("sources"), b.at("provenance").at("sources"));  // the record, its size and hash
+  EXPECT_EQ(a.at("provenance").at("sources")[0].at("size_bytes").get<long>(),
+            static_cast<long>(ReadFile(dir + "/free.csv").size()));
+  const nlohmann::json file_source = a.at("provenance").at("sources")[0];
+  for (const char* made_when : {"runtime", "provenance"}) {  // the time and command line differ
+    a.erase(made_when);
+    b.erase(made_when);
+  }
   EXPECT_EQ(a, b);
-  EXPECT_NE(fit_file.out.find("rocklab fit:"), std::string::npos);  // the text summary, not with --out -
-  const CliResult samples = RunCli({"fit", dir + "/free.csv", "--width", "0.247", "--height", "1", "--posterior",
-                                    "--samples", "-"});
-  EXPECT_EQ(samples.exit_code, 2);
-  EXPECT_NE(samples.err.find("--samples: standard output (-) cannot be written here"), std::string::npos)
-      << samples.err;
+  EXPECT_NE(fit_file.out.find("rocklab fit:"), std::string::npos);
+  int piped_code = -1;  // the record from standard input: named <stdin>, with the file's size and hash
+  const auto from_stdin = nlohmann::json::parse(
+      Shell("cat " + dir + "/free.csv | " ROCKLAB_BINARY " fit - --width 0.247 --height 1 --json", piped_code));
+  ASSERT_EQ(piped_code, 0);
+  const auto& stdin_source = from_stdin.at("provenance").at("sources")[0];
+  EXPECT_EQ(stdin_source.at("path"), "<stdin>");
+  EXPECT_EQ(stdin_source.at("sha256"), file_source.at("sha256"));
+  EXPECT_EQ(stdin_source.at("size_bytes"), file_source.at("size_bytes"));  // the text summary, not with --out -
+  // fit --samples -: the posterior's draws on standard output, the bytes
+  // --samples FILE holds (same seed, same draws); the summary and --json
+  // on stderr. A short chain: --allow-unconverged.
+  const std::vector<std::string> post = {"fit", dir + "/free.csv", "--width", "0.247", "--height", "1",
+                                         "--posterior", "--walkers", "12", "--steps", "30", "--threads", "1",
+                                         "--allow-unconverged", "--quiet"};
+  const CliResult draws_file = RunCli(With(post, {"--samples", dir + "/draws.csv"}));
+  ASSERT_EQ(draws_file.exit_code, 0) << draws_file.err;
+  const CliResult draws_pipe = RunCli(With(post, {"--samples", "-", "--json"}));
+  ASSERT_EQ(draws_pipe.exit_code, 0) << draws_pipe.err;
+  EXPECT_EQ(draws_pipe.out, ReadFile(dir + "/draws.csv"));
+  EXPECT_EQ(draws_pipe.out.rfind("alpha,p,mu,", 0), 0u) << draws_pipe.out.substr(0, 80);
+  EXPECT_NE(draws_pipe.err.find("\"posterior\""), std::string::npos) << "--json to stderr: " << draws_pipe.err;
+  const CliResult draws_text = RunCli(With(post, {"--samples", "-"}));
+  ASSERT_EQ(draws_text.exit_code, 0) << draws_text.err;
+  EXPECT_EQ(draws_text.out, draws_pipe.out);
+  EXPECT_NE(draws_text.err.find("rocklab fit:"), std::string::npos) << "the summary to stderr: " << draws_text.err;
+  const CliResult corner = RunCli(With(post, {"--plot", "-"}));  // the SVG, its provenance inside
+  ASSERT_EQ(corner.exit_code, 0) << corner.err;
+  EXPECT_NE(corner.out.find("<svg"), std::string::npos) << corner.out.substr(0, 200);
+  EXPECT_NE(corner.out.find("key=\"rocklab_version\""), std::string::npos);
+  EXPECT_NE(corner.err.find("rocklab fit:"), std::string::npos) << corner.err;
+  const CliResult two_outs = RunCli(With(post, {"--samples", "-", "--out", "-"}));
+  EXPECT_EQ(two_outs.exit_code, 2);
+  EXPECT_NE(two_outs.err.find("--out - and --samples -"), std::string::npos) << two_outs.err;
 
   // sweep: the record from standard input, the rows to standard output.
   std::string record = "time,accel\n";

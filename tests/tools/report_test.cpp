@@ -494,6 +494,38 @@ TEST_F(RocklabReport, OldModelStateLogIsStillReported) {
               snap.at("counters").at("decode_errors").value("RL_MODEL_old", 0) == 0);
 }
 
+// `--series-rate model` keeps every sample as published: a model at 4 kHz
+// (its theta and, through it, the error at the model's points) beside a
+// measurement at 1 kHz. Oracle: the counts of messages written; the
+// default 100 Hz keeps one point per 10 ms slot of the 20 ms record (2).
+TEST_F(RocklabReport, SeriesRateModelKeepsEverySampleAsPublished) {
+  const std::string log = dir_ + "/model_rate.lcm";
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (int k = 0; k <= 80; ++k) {  // 0 .. 20 ms
+    if (k % 4 == 0) events.push_back({"RL_THETA", Theta(250 * k, 0.001 * k)});
+    rocklab::model_state3_t m = test::Model("fast", 250 * k, 0.001 * k);
+    std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(b.data(), 0, static_cast<int>(b.size()));
+    events.push_back({"RL_MODEL_fast", b});
+  }
+  WriteLog(log, events);
+  const std::string html = dir_ + "/report.html";
+  const test::CliResult r = test::RunCli({"report", log, "--out", html, "--series-rate", "model"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json snap = PageSnapshot(test::ReadFile(html));
+  ASSERT_TRUE(snap.is_object());
+  EXPECT_EQ(snap.at("measured").at("theta_deg").size(), 21u);
+  ASSERT_EQ(snap.at("variants").size(), 1u);
+  EXPECT_EQ(snap.at("variants")[0].at("theta").at("theta_deg").size(), 81u);
+  const test::CliResult coarse = test::RunCli({"report", log, "--out", html});
+  ASSERT_EQ(coarse.exit_code, 0) << coarse.err;
+  snap = PageSnapshot(test::ReadFile(html));
+  EXPECT_EQ(snap.at("variants")[0].at("theta").at("theta_deg").size(), 3u);  // slots at 0, 10, 20 ms
+  const test::CliResult bad = test::RunCli({"report", log, "--out", html, "--series-rate", "fast"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--series-rate: 'fast' is not a number (Hz) or 'model'"), std::string::npos) << bad.err;
+}
+
 // Without gnuplot the figure fails with a clear line and exit code 1 (the
 // command ran and failed); the page is still written.
 TEST_F(RocklabReport, MissingGnuplotIsAClearFailure) {
