@@ -8,6 +8,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iterator>
 #include <set>
 #include <stdexcept>
@@ -74,30 +75,48 @@ Sha256::Sha256()
     : h_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19},
       buffer_{} {}
 
+namespace {
+
+// One round of FIPS 180-4 6.2.2 with the eight working variables renamed
+// instead of moved: round i + 1 is called with (h, a, b, ..., g), so eight
+// calls bring them back to their places.
+inline void Sha256Round(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t& d, std::uint32_t e,
+                        std::uint32_t f, std::uint32_t g, std::uint32_t& h, std::uint32_t kw) {
+  const std::uint32_t t1 = h + (RotateRight(e, 6) ^ RotateRight(e, 11) ^ RotateRight(e, 25)) + (g ^ (e & (f ^ g))) + kw;
+  const std::uint32_t t2 = (RotateRight(a, 2) ^ RotateRight(a, 13) ^ RotateRight(a, 22)) + ((a & b) | (c & (a | b)));
+  d += t1;
+  h = t1 + t2;
+}
+
+}  // namespace
+
+// The message schedule is kept in 16 words (w[i] overwrites w[i - 16]).
 void Sha256::Block(const unsigned char* p) {
-  std::uint32_t w[64];
+  std::uint32_t w[16];
   for (int i = 0; i < 16; ++i) {
     w[i] = (std::uint32_t{p[4 * i]} << 24) | (std::uint32_t{p[4 * i + 1]} << 16) |
            (std::uint32_t{p[4 * i + 2]} << 8) | std::uint32_t{p[4 * i + 3]};
   }
-  for (int i = 16; i < 64; ++i) {
-    const std::uint32_t s0 = RotateRight(w[i - 15], 7) ^ RotateRight(w[i - 15], 18) ^ (w[i - 15] >> 3);
-    const std::uint32_t s1 = RotateRight(w[i - 2], 17) ^ RotateRight(w[i - 2], 19) ^ (w[i - 2] >> 10);
-    w[i] = w[i - 16] + s0 + w[i - 7] + s1;
-  }
   std::uint32_t a = h_[0], b = h_[1], c = h_[2], d = h_[3], e = h_[4], f = h_[5], g = h_[6], h = h_[7];
-  for (int i = 0; i < 64; ++i) {
-    const std::uint32_t t1 = h + (RotateRight(e, 6) ^ RotateRight(e, 11) ^ RotateRight(e, 25)) +
-                             ((e & f) ^ (~e & g)) + kRoundConstants[static_cast<std::size_t>(i)] + w[i];
-    const std::uint32_t t2 = (RotateRight(a, 2) ^ RotateRight(a, 13) ^ RotateRight(a, 22)) + ((a & b) ^ (a & c) ^ (b & c));
-    h = g;
-    g = f;
-    f = e;
-    e = d + t1;
-    d = c;
-    c = b;
-    b = a;
-    a = t1 + t2;
+  for (int i = 0; i < 64; i += 8) {
+    if (i >= 16) {
+      for (int j = i; j < i + 8; ++j) {
+        const std::uint32_t w15 = w[(j - 15) & 15], w2 = w[(j - 2) & 15];
+        const std::uint32_t s0 = RotateRight(w15, 7) ^ RotateRight(w15, 18) ^ (w15 >> 3);
+        const std::uint32_t s1 = RotateRight(w2, 17) ^ RotateRight(w2, 19) ^ (w2 >> 10);
+        w[j & 15] += s0 + w[(j - 7) & 15] + s1;
+      }
+    }
+    const std::uint32_t* k = kRoundConstants.data() + i;
+    const std::uint32_t* wi = w + (i & 15);
+    Sha256Round(a, b, c, d, e, f, g, h, k[0] + wi[0]);
+    Sha256Round(h, a, b, c, d, e, f, g, k[1] + wi[1]);
+    Sha256Round(g, h, a, b, c, d, e, f, k[2] + wi[2]);
+    Sha256Round(f, g, h, a, b, c, d, e, k[3] + wi[3]);
+    Sha256Round(e, f, g, h, a, b, c, d, k[4] + wi[4]);
+    Sha256Round(d, e, f, g, h, a, b, c, k[5] + wi[5]);
+    Sha256Round(c, d, e, f, g, h, a, b, k[6] + wi[6]);
+    Sha256Round(b, c, d, e, f, g, h, a, k[7] + wi[7]);
   }
   h_[0] += a;
   h_[1] += b;
@@ -167,12 +186,12 @@ std::string Sha256Hex(std::istream& in) {
   return Digest(in, bytes);
 }
 
-Provenance MakeProvenance(const std::vector<std::string>& sources) {
-  Provenance p;
-  p.rocklab_version = ROCKLAB_VERSION;
-  p.build_type = ROCKLAB_BUILD_TYPE;
-  p.command = ThisCommandLine();
-  p.created_utc = NowUtc();
+namespace {
+
+// Size and SHA-256 of each readable regular file of `sources` (empty and
+// repeated paths left out; one that cannot be read kept with size -1).
+std::vector<SourceFile> HashSources(const std::vector<std::string>& sources) {
+  std::vector<SourceFile> out;
   std::set<std::string> seen;
   for (const std::string& path : sources) {
     if (path.empty() || path == "-" || !seen.insert(path).second) continue;
@@ -190,8 +209,55 @@ Provenance MakeProvenance(const std::vector<std::string>& sources) {
         s.sha256 = std::move(hex);
       }
     }
-    p.sources.push_back(std::move(s));
+    out.push_back(std::move(s));
   }
+  return out;
+}
+
+// What says that a file is as it was when hashed: its size and time of
+// last change (-1 and the epoch when it cannot be read).
+std::pair<std::int64_t, std::filesystem::file_time_type> FileStamp(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return {-1, {}};
+  const auto time = std::filesystem::last_write_time(path, ec);
+  if (ec) return {-1, {}};
+  return {static_cast<std::int64_t>(size), time};
+}
+
+Provenance ProvenanceHeader() {
+  Provenance p;
+  p.rocklab_version = ROCKLAB_VERSION;
+  p.build_type = ROCKLAB_BUILD_TYPE;
+  p.command = ThisCommandLine();
+  p.created_utc = NowUtc();
+  return p;
+}
+
+}  // namespace
+
+Provenance MakeProvenance(const std::vector<std::string>& sources) {
+  Provenance p = ProvenanceHeader();
+  p.sources = HashSources(sources);
+  return p;
+}
+
+ProvenanceInBackground::ProvenanceInBackground(std::vector<std::string> sources) : paths_(std::move(sources)) {
+  // The stamps before the hash: a file changed while it was hashed differs at Finish.
+  for (const std::string& path : paths_) stamps_.push_back(FileStamp(path));
+  hashed_ = std::async(std::launch::async, [paths = paths_] { return HashSources(paths); });
+}
+
+ProvenanceInBackground::~ProvenanceInBackground() {
+  if (hashed_.valid()) hashed_.wait();
+}
+
+Provenance ProvenanceInBackground::Finish() {
+  Provenance p = ProvenanceHeader();
+  p.sources = hashed_.get();
+  bool changed = false;
+  for (std::size_t i = 0; i < paths_.size(); ++i) changed = changed || FileStamp(paths_[i]) != stamps_[i];
+  if (changed) p.sources = HashSources(paths_);  // as MakeProvenance now would see them
   return p;
 }
 

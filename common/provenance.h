@@ -7,6 +7,8 @@
 /// each kind of output keeps it.
 
 #include <cstdint>
+#include <filesystem>
+#include <future>
 #include <istream>
 #include <string>
 #include <utility>
@@ -53,6 +55,27 @@ struct Provenance {
 /// (/proc/self/cmdline: the `rocklab` command, or the python3 running the
 /// module).
 Provenance MakeProvenance(const std::vector<std::string>& sources);
+
+/// MakeProvenance(sources) with the files hashed on a thread of its own
+/// from construction on, while the command goes on (`run` hashes a 109 MB
+/// input in ~1 s: docs/performance.md, "Issue 33, third round"). Finish()
+/// returns what MakeProvenance(sources) would return then: the command
+/// line and time of that moment, and every file hashed again whose size or
+/// time of last change moved since construction.
+class ProvenanceInBackground {
+ public:
+  explicit ProvenanceInBackground(std::vector<std::string> sources);
+  ~ProvenanceInBackground();  ///< waits for the hashing thread
+  ProvenanceInBackground(const ProvenanceInBackground&) = delete;
+  ProvenanceInBackground& operator=(const ProvenanceInBackground&) = delete;
+  /// Once only.
+  Provenance Finish();
+
+ private:
+  std::vector<std::string> paths_;
+  std::vector<std::pair<std::int64_t, std::filesystem::file_time_type>> stamps_;
+  std::future<std::vector<SourceFile>> hashed_;
+};
 
 /// One JSON object: rocklab_version, build_type, command, created_utc,
 /// sources ([{path, size_bytes, sha256}]).

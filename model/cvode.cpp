@@ -67,7 +67,7 @@ struct Cvode::Handles {
   SUNNonlinearSolver nls{nullptr};
   void* mem{nullptr};
   bool rk{false};  // ARKODE's ERKStep instead of CVODE
-  std::unique_ptr<Dop853> dp;  // or Dormand-Prince 8(5,3), without SUNDIALS
+  std::unique_ptr<EmbeddedRungeKutta> dp;  // or Dormand-Prince 8(5,3) or 5(4), without SUNDIALS
   OdeSystem* system{nullptr};
   std::exception_ptr error;
 
@@ -120,6 +120,10 @@ Cvode::Cvode(int n, OdeSystem& system, double rtol, const double* atol, double m
   h_->system = &system;
   if (method == Method::kDormandPrince853) {
     h_->dp = std::make_unique<Dop853>(n, system, rtol, atol, max_step_s, roots);
+    return;
+  }
+  if (method == Method::kDormandPrince5) {
+    h_->dp = std::make_unique<Dopri5>(n, system, rtol, atol, max_step_s, roots);
     return;
   }
   h_->rk = method == Method::kRungeKutta;
@@ -245,9 +249,31 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
   // SUNDIALS 6.4 has no CVodeClearStopTime: "no bound" is the largest double.
   const double tstop = std::min(tstop_s, DBL_MAX);
   if (h_->dp) {
-    const Dop853::Result r = h_->dp->Advance(tout_s, tstop);
-    t_ = h_->dp->t_s();
-    return r == Dop853::Result::kRoot ? Result::kRoot : Result::kReached;
+    while (true) {
+      try {
+        const EmbeddedRungeKutta::Result r = h_->dp->Advance(tout_s, tstop);
+        t_ = h_->dp->t_s();
+        return r == EmbeddedRungeKutta::Result::kRoot ? Result::kRoot : Result::kReached;
+      } catch (const StepFailure&) {
+        // As CVODE's and ARKODE's failures below: from the last step's end
+        // (every root before it is found), with the starting-step estimate;
+        // the second time there, past the jump that the steps could not
+        // approach closer than their smallest (twice that: 7e-15 s at t < 1
+        // s, 2.5e-12 s at 358 s).
+        const double t_done = h_->dp->t_step_end();
+        double t_restart = 0.0;
+        if (!RecoveryTime(t_done, tstop, 2 * EmbeddedRungeKutta::SmallestStep(t_done), &t_restart) ||
+            t_restart > tout_s) {
+          throw;
+        }
+        ++done_.recoveries;
+        std::array<double, kMaxEquations> y0{};
+        for (int i = 0; i < n_; ++i) y0[static_cast<std::size_t>(i)] = h_->dp->y_step_end()[i];
+        AddCounters();
+        h_->dp->ReInit(t_restart, y0.data(), false);
+        t_ = t_restart;
+      }
+    }
   }
   const bool rk = h_->rk;
   while (true) {
@@ -283,14 +309,7 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
         Check(CVodeGetDky(h_->mem, t_done, 0, h_->y), "CVodeGetDky");
       }
       double t_restart = t_done;
-      if (t_done == last_failure_t_) {
-        if (nudged_) CheckEvolve(flag, rk, t_done, tout_s, h_->y, n_);
-        for (int k = 0; k < 16; ++k) t_restart = std::nextafter(t_restart, tstop);
-        nudged_ = true;
-      } else {
-        nudged_ = false;
-      }
-      last_failure_t_ = t_restart;
+      if (!RecoveryTime(t_done, tstop, 0.0, &t_restart)) CheckEvolve(flag, rk, t_done, tout_s, h_->y, n_);
       ++done_.recoveries;
       std::array<double, kMaxEquations> y0{};
       const double* y = N_VGetArrayPointer(h_->y);
@@ -302,6 +321,24 @@ Cvode::Result Cvode::Advance(double tout_s, double tstop_s) {
     t_ = t;
     return flag == (rk ? ARK_ROOT_RETURN : CV_ROOT_RETURN) ? Result::kRoot : Result::kReached;
   }
+}
+
+bool Cvode::RecoveryTime(double t_done_s, double tstop_s, double nudge_s, double* t_restart_s) {
+  double t = t_done_s;
+  if (t_done_s == last_failure_t_) {
+    if (nudged_) return false;
+    if (nudge_s > 0.0) {
+      t = std::min(t + nudge_s, tstop_s);
+    } else {
+      for (int k = 0; k < 16; ++k) t = std::nextafter(t, tstop_s);
+    }
+    nudged_ = true;
+  } else {
+    nudged_ = false;
+  }
+  last_failure_t_ = t;
+  *t_restart_s = t;
+  return true;
 }
 
 Cvode::Stats Cvode::Counters() const {

@@ -19,6 +19,14 @@ class IntegratorError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A step the fixed-array steppers (model/dop853.h) gave up (too small, or
+/// its error test failed too often): Cvode::Advance restarts them from their
+/// last step's end, as it restarts CVODE and ARKODE.
+class StepFailure : public IntegratorError {
+ public:
+  using IntegratorError::IntegratorError;
+};
+
 /// A small ODE y' = f(t, y) with root functions g(t, y) (three, or the
 /// number given to Cvode).
 class OdeSystem {
@@ -43,9 +51,9 @@ class Cvode {
   /// CVODE's Adams-Moulton (multistep: its history carries over from step
   /// to step) or ARKODE's explicit Runge-Kutta (ERKStep, one step at a
   /// time: nothing to lose at a kink of the forcing where it stops).
-  /// Or Dormand and Prince's 8(5,3) with its dense output, in fixed arrays
-  /// (model/dop853.h; no SUNDIALS call on its stepping path).
-  enum class Method { kAdams, kRungeKutta, kDormandPrince853 };
+  /// Or Dormand and Prince's 8(5,3) or 5(4) with their dense outputs, in
+  /// fixed arrays (model/dop853.h; no SUNDIALS call on their stepping path).
+  enum class Method { kAdams, kRungeKutta, kDormandPrince853, kDormandPrince5 };
   /// Order of the Runge-Kutta method.
   static constexpr int kRungeKuttaOrder = 5;
   /// Degree of its dense output (ERKStepSetInterpolantDegree).
@@ -109,6 +117,10 @@ class Cvode {
   static int RhsThunk(double t, _generic_N_Vector* y, _generic_N_Vector* ydot, void* user);
   static int RootThunk(double t, _generic_N_Vector* y, double* g, void* user);
   Stats Counters() const;  // the integrator's counters since its last (re)initialisation
+  // Where Advance goes on after the integrator gave up at t_done_s (see
+  // Advance; nudge_s > 0: that far instead of 16 ulp): false when it gave
+  // up there twice already.
+  bool RecoveryTime(double t_done_s, double tstop_s, double nudge_s, double* t_restart_s);
   void AddCounters();      // moves them (reset by ReInit) into done_
   std::unique_ptr<Handles> h_;
   int n_{};

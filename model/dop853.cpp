@@ -48,57 +48,93 @@ constexpr double kDopD[4][16] = {
     {-25.69393346270375, 0.0, 0.0, 0.0, 0.0, -154.18974869023643, -231.5293791760455, 357.6391179106141, 93.40532418362432, -37.45832313645163, 104.0996495089623, 29.8402934266605, -43.53345659001114, 96.32455395918828, -39.17726167561544, -149.72683625798564},
 };
 
-constexpr double kDopSafety = 0.9;
-constexpr double kDopMinFactor = 0.2;  // smallest step ratio after a rejection
-constexpr double kDopMaxFactor = 6.0;  // largest step ratio after an acceptance
-constexpr double kDopEps = std::numeric_limits<double>::epsilon();
+// Dormand and Prince's 5(4) pair (the published fractions, ibid. II.5,
+// Table 5.2): stages 0-5, stage 6 f at the step's end (c = 1, first same as
+// last), the error weights b - b^ of stages 0-6, and Shampine's dense
+// output of order 4 (the values of Hairer's DOPRI5 code), its fifth
+// coefficient's weights of stages 0-6.
+constexpr double kDp5C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+constexpr double kDp5A[7][6] = {
+    {0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+    {1.0 / 5, 0.0, 0.0, 0.0, 0.0, 0.0},
+    {3.0 / 40, 9.0 / 40, 0.0, 0.0, 0.0, 0.0},
+    {44.0 / 45, -56.0 / 15, 32.0 / 9, 0.0, 0.0, 0.0},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0.0, 0.0},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656, 0.0},
+    {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84},
+};
+constexpr double kDp5E[7] = {71.0 / 57600, 0.0, -71.0 / 16695, 71.0 / 1920, -17253.0 / 339200, 22.0 / 525, -1.0 / 40};
+constexpr double kDp5D[7] = {-12715105075.0 / 11282082432, 0.0, 87487479700.0 / 32700410799,
+                             -10690763975.0 / 1880347072, 701980252875.0 / 199316789632,
+                             -1453857185.0 / 822651844, 69997945.0 / 29380423};
+
+// The step-size control both pairs share (Hairer's codes' constants).
+constexpr double kErkSafety = 0.9;
+constexpr double kErkMinFactor = 0.2;  // smallest step ratio after a rejection
+constexpr double kErkEps = std::numeric_limits<double>::epsilon();
 
 }  // namespace
 
-Dop853::Dop853(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, int roots)
-    : n_(n), roots_(roots), system_(system), rtol_(rtol), max_step_s_(max_step_s) {
-  if (n < 1 || n > kMaxN) throw std::invalid_argument("Dop853: n must be 1.." + std::to_string(kMaxN));
-  if (roots < 1 || roots > kMaxRoots) throw std::invalid_argument("Dop853: roots must be 1.." + std::to_string(kMaxRoots));
+EmbeddedRungeKutta::EmbeddedRungeKutta(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s,
+                                       int roots, Pair pair)
+    : n_(n), rtol_(rtol), roots_(roots), system_(system), pair_(pair), max_step_s_(max_step_s) {
+  if (n < 1 || n > kMaxN) throw std::invalid_argument("EmbeddedRungeKutta: n must be 1.." + std::to_string(kMaxN));
+  if (roots < 1 || roots > kMaxRoots) {
+    throw std::invalid_argument("EmbeddedRungeKutta: roots must be 1.." + std::to_string(kMaxRoots));
+  }
   SetTolerances(rtol, atol);
   Vec zero{};
   ReInit(0.0, zero.data());
 }
 
-void Dop853::SetTolerances(double rtol, const double* atol) {
-  if (!(rtol >= 0.0)) throw std::invalid_argument("Dop853: rtol must be >= 0");
+Dop853::Dop853(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, int roots)
+    : EmbeddedRungeKutta(n, system, rtol, atol, max_step_s, roots, Pair{8, 6.0, 12, false}) {}
+
+Dopri5::Dopri5(int n, OdeSystem& system, double rtol, const double* atol, double max_step_s, int roots)
+    : EmbeddedRungeKutta(n, system, rtol, atol, max_step_s, roots, Pair{5, 10.0, 6, true}) {}
+
+void EmbeddedRungeKutta::SetTolerances(double rtol, const double* atol) {
+  if (!(rtol >= 0.0)) throw std::invalid_argument("EmbeddedRungeKutta: rtol must be >= 0");
   rtol_ = rtol;
   for (int i = 0; i < n_; ++i) {
-    if (!(atol[i] > 0.0) && rtol <= 0.0) throw std::invalid_argument("Dop853: a tolerance must be > 0");
+    if (!(atol[i] > 0.0) && rtol <= 0.0) throw std::invalid_argument("EmbeddedRungeKutta: a tolerance must be > 0");
     atol_[i] = atol[i];
   }
 }
 
-void Dop853::SetMaxStep(double max_step_s) { max_step_s_ = max_step_s > 0.0 ? max_step_s : 0.0; }
+void EmbeddedRungeKutta::SetMaxStep(double max_step_s) { max_step_s_ = max_step_s > 0.0 ? max_step_s : 0.0; }
 
-void Dop853::SetRootDirection(const int* direction) {
+void EmbeddedRungeKutta::SetRootDirection(const int* direction) {
   for (int r = 0; r < roots_; ++r) direction_[r] = direction[r];
 }
 
-void Dop853::Rhs(double t_s, const double* y, double* ydot) {
+void EmbeddedRungeKutta::Rhs(double t_s, const double* y, double* ydot) {
   ++rhs_evals_;
   const int flag = system_.Rhs(t_s, y, ydot);
   if (flag != 0) {
     char text[128];
-    std::snprintf(text, sizeof text, "Dop853: the right-hand side failed (flag %d) at t = %.17g s", flag, t_s);
+    std::snprintf(text, sizeof text, "EmbeddedRungeKutta: the right-hand side failed (flag %d) at t = %.17g s", flag,
+                  t_s);
     throw IntegratorError(text);
   }
 }
 
-void Dop853::Roots(double t_s, const double* y, double* g) {
-  if (system_.Roots(t_s, y, g) != 0) throw IntegratorError("Dop853: the root functions failed");
+void EmbeddedRungeKutta::Roots(double t_s, const double* y, double* g) {
+  if (system_.Roots(t_s, y, g) != 0) throw IntegratorError("EmbeddedRungeKutta: the root functions failed");
 }
 
-void Dop853::ReInit(double t0_s, const double* y0) {
+double EmbeddedRungeKutta::SmallestStep(double t_s) { return 16 * kErkEps * std::max(std::abs(t_s), 1.0); }
+
+double EmbeddedRungeKutta::Weight(int i, double y_old, double y_new) const {
+  return atol_[i] + rtol_ * std::max(std::abs(y_old), std::abs(y_new));
+}
+
+void EmbeddedRungeKutta::ReInit(double t0_s, const double* y0, bool keep_step) {
   // The last step size proposed, as the first guess from here: a restart
   // (an impact) keeps the motion's time scale, while the starting-step
   // estimate from y0 (theta = 0 at an impact, its tolerance atol) ramps up
   // from ~1e-5 s over four or five steps of a flight of ~7 (figure 8).
-  h_hint_ = started_ ? h_ : 0.0;
+  h_hint_ = keep_step && started_ ? h_ : 0.0;
   t_old_ = t_new_ = t_ = t0_s;
   for (int i = 0; i < n_; ++i) y_old_[i] = y_new_[i] = y_out_[i] = y0[i];
   started_ = false;
@@ -113,9 +149,9 @@ void Dop853::ReInit(double t0_s, const double* y0) {
 }
 
 // Hairer's starting step: h0 from |y| / |f| (scaled by the tolerances), one
-// Euler step to estimate the second derivative, and h such that h^8 times
-// the larger of the two is 0.01.
-double Dop853::InitialStep() {
+// Euler step to estimate the second derivative, and h such that h^order
+// times the larger of the two is 0.01.
+double EmbeddedRungeKutta::InitialStep() {
   const Vec& f0 = k_[0];
   double dy = 0.0, df = 0.0;
   for (int i = 0; i < n_; ++i) {
@@ -137,29 +173,30 @@ double Dop853::InitialStep() {
   }
   d2 = std::sqrt(d2 / n_) / h;
   const double d = std::max(d2, df);
-  const double h1 = d <= 1e-15 ? std::max(1e-6, h * 1e-3) : std::pow(0.01 / d, 1.0 / 8.0);
+  const double h1 = d <= 1e-15 ? std::max(1e-6, h * 1e-3) : std::pow(0.01 / d, 1.0 / pair_.order);
   h = std::min(100.0 * h, h1);
   if (max_step_s_ > 0.0) h = std::min(h, max_step_s_);
   return h;
 }
 
-void Dop853::Step(double tstop_s) {
+void EmbeddedRungeKutta::Step(double tstop_s) {
+  const int end = pair_.end_stage;
   if (!started_) {
-    Rhs(t_new_, y_new_.data(), k_[12].data());
+    Rhs(t_new_, y_new_.data(), k_[end].data());
     Roots(t_new_, y_new_.data(), g_new_.data());
     for (int r = 0; r < roots_; ++r) g_lo_[r] = g_new_[r];
-    k_[0] = k_[12];
+    k_[0] = k_[end];
     h_ = h_hint_ > 0.0 ? h_hint_ : InitialStep();
     started_ = true;
   } else {
-    k_[0] = k_[12];  // first same as last
+    k_[0] = k_[end];  // first same as last
   }
   t_old_ = t_new_;
   y_old_ = y_new_;
   dense_ready_ = false;
   for (int r = 0; r < roots_; ++r) g_lo_[r] = g_new_[r];
   t_lo_ = t_old_;
-  const int n = n_;
+  const double exponent = -1.0 / pair_.order;
   Vec ys{};
   while (true) {
     double h = h_;
@@ -169,57 +206,33 @@ void Dop853::Step(double tstop_s) {
       h = tstop_s - t_old_;
       to_stop = true;
     }
-    if (!(h > 16 * kDopEps * std::max(std::abs(t_old_), 1.0))) {
+    if (!(h > SmallestStep(t_old_))) {
       char text[160];
-      std::snprintf(text, sizeof text, "Dop853: step size %.3g s too small at t = %.17g s (stop at %.17g s)", h,
-                    t_old_, tstop_s);
-      throw IntegratorError(text);
+      std::snprintf(text, sizeof text, "EmbeddedRungeKutta: step size %.3g s too small at t = %.17g s (stop at %.17g s)",
+                    h, t_old_, tstop_s);
+      throw StepFailure(text);
     }
-    for (int s = 1; s < 12; ++s) {
-      for (int i = 0; i < n; ++i) {
-        double acc = 0.0;
-        for (int j = 0; j < s; ++j) acc += kDopA[s][j] * k_[j][i];
-        ys[i] = y_old_[i] + h * acc;
-      }
-      Rhs(t_old_ + kDopC[s] * h, ys.data(), k_[s].data());
-    }
-    double err5 = 0.0, err3 = 0.0;
-    for (int i = 0; i < n; ++i) {
-      double acc = 0.0, e5 = 0.0, e3 = 0.0;
-      for (int j = 0; j < 12; ++j) {
-        acc += kDopA[12][j] * k_[j][i];
-        e5 += kDopE5[j] * k_[j][i];
-        e3 += kDopE3[j] * k_[j][i];
-      }
-      ys[i] = y_old_[i] + h * acc;
-      const double sk = atol_[i] + rtol_ * std::max(std::abs(y_old_[i]), std::abs(ys[i]));
-      err5 += (e5 / sk) * (e5 / sk);
-      err3 += (e3 / sk) * (e3 / sk);
-    }
-    // The 5th-order estimate, damped by the 3rd where the two differ (the
-    // method's estimate of order 8 in h).
-    double denom = err5 + 0.01 * err3;
-    if (denom <= 0.0) denom = 1.0;
-    const double err = std::abs(h) * err5 / std::sqrt(denom * n);
+    const double err = TryStep(h, to_stop ? tstop_s : t_old_ + h, ys);
     if (!std::isfinite(err)) {
       ++fails_;
-      h_ = h * kDopMinFactor;
+      h_ = h * kErkMinFactor;
       last_rejected_ = true;
       continue;
     }
     if (err > 1.0) {
       ++fails_;
-      h_ = h * std::max(kDopMinFactor, kDopSafety * std::pow(err, -1.0 / 8.0));
+      h_ = h * std::max(kErkMinFactor, kErkSafety * std::pow(err, exponent));
       last_rejected_ = true;
       continue;
     }
-    double factor = err == 0.0 ? kDopMaxFactor : std::min(kDopMaxFactor, kDopSafety * std::pow(err, -1.0 / 8.0));
+    double factor =
+        err == 0.0 ? pair_.max_factor : std::min(pair_.max_factor, kErkSafety * std::pow(err, exponent));
     if (last_rejected_) factor = std::min(factor, 1.0);
-    factor = std::max(factor, kDopMinFactor);
+    factor = std::max(factor, kErkMinFactor);
     last_rejected_ = false;
     t_new_ = to_stop ? tstop_s : t_old_ + h;
     y_new_ = ys;
-    Rhs(t_new_, y_new_.data(), k_[12].data());
+    if (!pair_.end_in_try) Rhs(t_new_, y_new_.data(), k_[end].data());
     ++steps_;
     h_ = h * factor;
     break;
@@ -227,8 +240,37 @@ void Dop853::Step(double tstop_s) {
   Roots(t_new_, y_new_.data(), g_new_.data());
 }
 
+double Dop853::TryStep(double h, double, Vec& ys) {
+  const int n = n_;
+  for (int s = 1; s < 12; ++s) {
+    for (int i = 0; i < n; ++i) {
+      double acc = 0.0;
+      for (int j = 0; j < s; ++j) acc += kDopA[s][j] * k_[j][i];
+      ys[i] = y_old_[i] + h * acc;
+    }
+    Rhs(t_old_ + kDopC[s] * h, ys.data(), k_[s].data());
+  }
+  double err5 = 0.0, err3 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double acc = 0.0, e5 = 0.0, e3 = 0.0;
+    for (int j = 0; j < 12; ++j) {
+      acc += kDopA[12][j] * k_[j][i];
+      e5 += kDopE5[j] * k_[j][i];
+      e3 += kDopE3[j] * k_[j][i];
+    }
+    ys[i] = y_old_[i] + h * acc;
+    const double sk = Weight(i, y_old_[i], ys[i]);
+    err5 += (e5 / sk) * (e5 / sk);
+    err3 += (e3 / sk) * (e3 / sk);
+  }
+  // The 5th-order estimate, damped by the 3rd where the two differ (the
+  // method's estimate of order 8 in h).
+  double denom = err5 + 0.01 * err3;
+  if (denom <= 0.0) denom = 1.0;
+  return std::abs(h) * err5 / std::sqrt(denom * n);
+}
+
 void Dop853::PrepareDense() {
-  if (dense_ready_) return;
   const double h = t_new_ - t_old_;
   const int n = n_;
   Vec ys{};
@@ -251,17 +293,10 @@ void Dop853::PrepareDense() {
       dense_[3 + d][i] = h * acc;
     }
   }
-  dense_ready_ = true;
 }
 
 // y(t_old + x h) = y_old + x (c0 + (1-x) (c1 + x (c2 + (1-x) (c3 + x (c4 + (1-x) (c5 + x c6)))))).
-void Dop853::Interpolate(double t_s, double* y) {
-  if (t_s == t_new_) {
-    for (int i = 0; i < n_; ++i) y[i] = y_new_[i];
-    return;
-  }
-  PrepareDense();
-  const double x = (t_s - t_old_) / (t_new_ - t_old_);
+void Dop853::Dense(double x, double* y) const {
   for (int i = 0; i < n_; ++i) {
     double v = 0.0;
     for (int d = 6; d >= 0; --d) {
@@ -272,7 +307,63 @@ void Dop853::Interpolate(double t_s, double* y) {
   }
 }
 
-void Dop853::RootsAt(double t_s, double* y, double* g) {
+// Stages 1-5, the solution, f there (stage 6, c = 1: at the step's end as
+// the caller places it) and the error of the embedded order 4.
+double Dopri5::TryStep(double h, double t_end, Vec& ys) {
+  const int n = n_;
+  for (int s = 1; s < 7; ++s) {
+    for (int i = 0; i < n; ++i) {
+      double acc = 0.0;
+      for (int j = 0; j < s; ++j) acc += kDp5A[s][j] * k_[j][i];
+      ys[i] = y_old_[i] + h * acc;
+    }
+    if (s < 6) Rhs(kDp5C[s] == 1.0 ? t_end : t_old_ + kDp5C[s] * h, ys.data(), k_[s].data());
+  }
+  Rhs(t_end, ys.data(), k_[6].data());
+  double err = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double e = 0.0;
+    for (int j = 0; j < 7; ++j) e += kDp5E[j] * k_[j][i];
+    const double scaled = h * e / Weight(i, y_old_[i], ys[i]);
+    err += scaled * scaled;
+  }
+  return std::sqrt(err / n);
+}
+
+void Dopri5::PrepareDense() {
+  const double h = t_new_ - t_old_;
+  for (int i = 0; i < n_; ++i) {
+    const double dy = y_new_[i] - y_old_[i];
+    const double c2 = h * k_[0][i] - dy;
+    double d = 0.0;
+    for (int j = 0; j < 7; ++j) d += kDp5D[j] * k_[j][i];
+    dense_[0][i] = dy;
+    dense_[1][i] = c2;
+    dense_[2][i] = dy - h * k_[6][i] - c2;
+    dense_[3][i] = h * d;
+  }
+}
+
+// y(t_old + x h) = y_old + x (c0 + (1-x) (c1 + x (c2 + (1-x) c3))).
+void Dopri5::Dense(double x, double* y) const {
+  for (int i = 0; i < n_; ++i) {
+    y[i] = y_old_[i] + x * (dense_[0][i] + (1.0 - x) * (dense_[1][i] + x * (dense_[2][i] + (1.0 - x) * dense_[3][i])));
+  }
+}
+
+void EmbeddedRungeKutta::Interpolate(double t_s, double* y) {
+  if (t_s == t_new_) {
+    for (int i = 0; i < n_; ++i) y[i] = y_new_[i];
+    return;
+  }
+  if (!dense_ready_) {
+    PrepareDense();
+    dense_ready_ = true;
+  }
+  Dense((t_s - t_old_) / (t_new_ - t_old_), y);
+}
+
+void EmbeddedRungeKutta::RootsAt(double t_s, double* y, double* g) {
   Interpolate(t_s, y);
   Roots(t_s, y, g);
 }
@@ -287,8 +378,8 @@ bool DopCrossed(double g_lo, double g, int direction) {
 }
 }  // namespace
 
-bool Dop853::FindRoot(double t_hi_s, const double* g_hi) {
-  const double tol = 100 * kDopEps * std::max(std::abs(t_hi_s), std::abs(t_new_ - t_old_));
+bool EmbeddedRungeKutta::FindRoot(double t_hi_s, const double* g_hi) {
+  const double tol = 100 * kErkEps * std::max(std::abs(t_hi_s), std::abs(t_new_ - t_old_));
   double t_best = t_hi_s;
   bool any = false;
   Vec y{};
@@ -351,7 +442,7 @@ bool Dop853::FindRoot(double t_hi_s, const double* g_hi) {
   return true;
 }
 
-Dop853::Result Dop853::Advance(double tout_s, double tstop_s) {
+EmbeddedRungeKutta::Result EmbeddedRungeKutta::Advance(double tout_s, double tstop_s) {
   if (tstop_s < tout_s) tstop_s = tout_s;
   std::array<double, kMaxRoots> g_end{};
   Vec y{};
@@ -375,7 +466,7 @@ Dop853::Result Dop853::Advance(double tout_s, double tstop_s) {
     }
     if (tout_s <= t_new_) {
       if (tout_s < t_old_) {
-        throw std::invalid_argument("Dop853: output time before the current step");
+        throw std::invalid_argument("EmbeddedRungeKutta: output time before the current step");
       }
       t_ = tout_s;
       Interpolate(tout_s, y_out_.data());
@@ -386,7 +477,7 @@ Dop853::Result Dop853::Advance(double tout_s, double tstop_s) {
   }
 }
 
-void Dop853::RootsFound(int* found) const {
+void EmbeddedRungeKutta::RootsFound(int* found) const {
   for (int r = 0; r < roots_; ++r) found[r] = found_[r];
 }
 

@@ -82,8 +82,10 @@ struct ModelNodeConfig {
   /// spec's). Runge-Kutta: the chord of the table samples kinks at every
   /// sample, where a one-step method loses nothing (docs/performance.md,
   /// "Work and precision": 1.04 steps per sample and 6e-12 rad against
-  /// Adams' 8.1 and 1.5e-9 rad at rtol 1e-10, 7.5 times less CPU).
-  model::Integrator integrator{model::Integrator::kRungeKutta};
+  /// Adams' 8.1 and 1.5e-9 rad at rtol 1e-10, 7.5 times less CPU); the
+  /// order-5 pair in fixed arrays, without ARKODE's bookkeeping per step
+  /// ("Issue 33, third round").
+  model::Integrator integrator{model::Integrator::kDormandPrince5};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -72,6 +72,7 @@ const char* ToString(Integrator integrator) {
     case Integrator::kAdams: return "adams";
     case Integrator::kRungeKutta: return "rk";
     case Integrator::kDormandPrince853: return "dop853";
+    case Integrator::kDormandPrince5: return "dopri5";
   }
   return "?";
 }
@@ -178,6 +179,7 @@ void CvodeRockingModel::Init(int n, const double* atol) {
   Cvode::Method method = Cvode::Method::kAdams;
   if (options_.integrator == Integrator::kRungeKutta) method = Cvode::Method::kRungeKutta;
   if (options_.integrator == Integrator::kDormandPrince853) method = Cvode::Method::kDormandPrince853;
+  if (options_.integrator == Integrator::kDormandPrince5) method = Cvode::Method::kDormandPrince5;
   cvode_ = std::make_unique<Cvode>(n, static_cast<OdeSystem&>(*this), options_.rtol, atol, options_.max_step_s,
                                    method);
   EnterRest(0.0);

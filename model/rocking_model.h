@@ -94,8 +94,13 @@ enum class Integrator {
   /// either where the forcing is smooth, and no library bookkeeping per
   /// step; Simulate's Housner model (docs/performance.md, "Issue 33").
   kDormandPrince853,
+  /// Dormand and Prince's 5(4) with its order-4 dense output, in the same
+  /// fixed arrays: the model node's, which stops at every 1 ms sample
+  /// (one step of six right-hand sides a sample; docs/performance.md,
+  /// "Issue 33, third round").
+  kDormandPrince5,
 };
-/// "adams" / "rk" / "dop853".
+/// "adams" / "rk" / "dop853" / "dopri5".
 const char* ToString(Integrator integrator);
 
 /// Housner's impact root: theta shifted by this towards the side the block

@@ -130,6 +130,36 @@ TEST(Provenance, SidecarBesideACsvHoldsTheFieldsAndTheSourcesHash) {
   EXPECT_EQ(p.sources[0].size_bytes, -1);
 }
 
+// Oracle: MakeProvenance over the same paths and coreutils' sha256sum of
+// each file as it is at Finish: the same sources whether the hash ran
+// before or after the file changed (one file is appended to after the
+// hashing thread started, so its size moved and it is hashed again).
+TEST(Provenance, HashedInTheBackgroundAsMakeProvenanceWould) {
+  const std::string dir = test::ScratchDir("provenance_background");
+  const std::string kept = dir + "/kept.csv";
+  const std::string grown = dir + "/grown.csv";
+  std::ofstream(kept, std::ios::binary) << std::string(300000, 'k');
+  std::ofstream(grown, std::ios::binary) << std::string(300000, 'g');
+  const std::vector<std::string> paths = {kept, "", grown, kept, dir + "/missing.csv", "-"};
+  ProvenanceInBackground hashing(paths);
+  std::ofstream(grown, std::ios::binary | std::ios::app) << "more";
+  const Provenance p = hashing.Finish();
+  const Provenance oracle = MakeProvenance(paths);
+  ASSERT_EQ(p.sources.size(), 3u);
+  ASSERT_EQ(oracle.sources.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(p.sources[i].path, oracle.sources[i].path);
+    EXPECT_EQ(p.sources[i].size_bytes, oracle.sources[i].size_bytes);
+    EXPECT_EQ(p.sources[i].sha256, oracle.sources[i].sha256);
+  }
+  EXPECT_EQ(p.sources[0].sha256, test::Sha256sum(kept));
+  EXPECT_EQ(p.sources[1].sha256, test::Sha256sum(grown));
+  EXPECT_EQ(p.sources[1].size_bytes, 300004);
+  EXPECT_EQ(p.sources[2].size_bytes, -1);
+  EXPECT_EQ(p.rocklab_version, oracle.rocklab_version);
+  EXPECT_EQ(p.command, oracle.command);
+}
+
 // SVG: a <metadata> element after the start tag, its text XML-escaped;
 // PNG: tEXt chunks before IEND, each with a CRC that a table-driven CRC-32
 // written here (Oracle: an independent implementation, checked against the

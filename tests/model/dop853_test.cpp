@@ -1,6 +1,7 @@
-// model/dop853.h: Dormand-Prince 8(5,3) with its dense output and roots.
+// model/dop853.h: Dormand-Prince 8(5,3) and 5(4) with their dense outputs and roots.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 #include "model/cvode.h"
@@ -119,6 +120,136 @@ TEST(Dop853Test, NeverEvaluatesBeyondTheStopTime) {
   EXPECT_EQ(dp.t_s(), 0.7);
   EXPECT_LE(sys.latest, 0.7);
   EXPECT_NEAR(dp.y()[0], std::cos(2.1), 1e-9);
+}
+
+// Dormand-Prince 5(4), the model node's pair, on the same oscillator.
+// Oracle: the closed form, as above. Tolerance: measured 1.5e-9 at rtol
+// 1e-10 with 3985 steps (the dense output of order 4 between them); 1e-8 as
+// for the 8(5,3) pair. The step bound (5000) holds the order: an order-4
+// pair needs (1e-10)^(1/5 - 1/4) = 3.2 times the steps of an order-5 one
+// at this tolerance.
+TEST(Dopri5Test, OscillatorMatchesTheClosedFormAtEveryOutput) {
+  DopOscillator sys;
+  const double atol[2] = {1e-12, 1e-12};
+  Dopri5 dp(2, sys, 1e-10, atol, 0.0, 3);
+  const double y0[2] = {1.0, 0.0};
+  dp.ReInit(0.0, y0);
+  const int dir[3] = {0, +1, 0};
+  dp.SetRootDirection(dir);
+  const double period = 2 * M_PI / sys.w;
+  double worst = 0.0;
+  int roots = 0;
+  for (int k = 1; k <= 2000; ++k) {
+    const double t = k * 20 * period / 2000;
+    while (dp.Advance(t, 1e300) == Dopri5::Result::kRoot) ++roots;
+    ASSERT_EQ(dp.t_s(), t);
+    worst = std::max({worst, std::abs(dp.y()[0] - std::cos(sys.w * t)),
+                      std::abs(dp.y()[1] + sys.w * std::sin(sys.w * t)) / sys.w});
+  }
+  std::printf("oscillator, 5(4): %ld steps (%ld rhs), max error %.3e\n", dp.steps(), dp.rhs_evals(), worst);
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_EQ(roots, 60);
+  EXPECT_LT(dp.steps(), 5000);
+  // Six right-hand sides a step (the seventh is the next step's first).
+  EXPECT_LE(dp.rhs_evals(), 6 * (dp.steps() + dp.error_test_fails()) + 2);
+}
+
+// Oracle: the closed-form zeros, as for the 8(5,3) pair; tolerance 1e-9 s.
+TEST(Dopri5Test, RootsAtTheClosedFormTimesInTheirDirection) {
+  DopOscillator sys;
+  const double atol[2] = {1e-12, 1e-12};
+  Dopri5 dp(2, sys, 1e-10, atol, 0.0, 3);
+  const double y0[2] = {1.0, 0.0};
+  dp.ReInit(0.0, y0);
+  const int dir[3] = {0, +1, 0};
+  dp.SetRootDirection(dir);
+  int zeros = 0, rises = 0;
+  while (dp.Advance(10.0, 1e300) == Dopri5::Result::kRoot) {
+    int found[3] = {};
+    dp.RootsFound(found);
+    if (found[0] != 0) {
+      EXPECT_NEAR(dp.t_s(), (zeros + 0.5) * M_PI / sys.w, 1e-9) << zeros;
+      EXPECT_EQ(found[0], zeros % 2 == 0 ? -1 : +1) << zeros;
+      ++zeros;
+    }
+    if (found[1] != 0) {
+      EXPECT_NEAR(dp.t_s(), (2 * rises + 1) * M_PI / sys.w, 1e-9) << rises;
+      ++rises;
+    }
+  }
+  EXPECT_EQ(zeros, static_cast<int>(std::floor(30.0 / M_PI + 0.5)));
+  EXPECT_EQ(rises, static_cast<int>(std::floor((30.0 / M_PI + 1) / 2)));
+}
+
+// Oracle: the stop time bounds every right-hand side (the node's forcing is
+// a chord ending there), and steps of at most 1 ms that stop at every 1 ms
+// sample land on it: one step a sample, as the model node steps.
+TEST(Dopri5Test, StopsAtEverySampleWithoutPassingIt) {
+  struct Bounded : DopOscillator {
+    double tstop{};
+    bool passed{false};
+    int Rhs(double t, const double* y, double* ydot) override {
+      passed = passed || t > tstop;
+      return DopOscillator::Rhs(t, y, ydot);
+    }
+  } sys;
+  const double atol[2] = {1e-12, 1e-12};
+  Dopri5 dp(2, sys, 1e-10, atol, 1e-3, 3);
+  const double y0[2] = {1.0, 0.0};
+  dp.ReInit(0.0, y0);
+  const int none[3] = {0, 0, 0};
+  dp.SetRootDirection(none);
+  for (int k = 1; k <= 1000; ++k) {
+    sys.tstop = k * 1e-3;
+    while (dp.Advance(sys.tstop, sys.tstop) == Dopri5::Result::kRoot) {
+    }
+    ASSERT_EQ(dp.t_s(), sys.tstop);
+  }
+  EXPECT_FALSE(sys.passed);
+  EXPECT_NEAR(dp.y()[0], std::cos(3.0), 1e-9);
+  EXPECT_LE(dp.steps(), 1010);
+}
+
+// y' = 0 before t = 0.25 s and 1e8 after (a jump nobody declared), y(0) =
+// 1: y = 1 + 1e8 max(0, t - 0.25). No step across the jump passes the error
+// test (its error ~ 1e6 h against rtol 1e-10) until the step is below the
+// smallest one (3.6e-15 s at t < 1 s).
+struct DopJump : OdeSystem {
+  int Rhs(double t, const double*, double* ydot) override {
+    ydot[0] = t < 0.25 ? 0.0 : 1e8;
+    return 0;
+  }
+  int Roots(double, const double* y, double* g) override {
+    g[0] = y[0] - 1.0 - 1e7;  // at 0.35 s
+    return 0;
+  }
+};
+
+// Oracle: the closed form 1 + 1e8 max(0, t - 0.25) and its root at 0.35 s.
+// The 5(4) pair gives up the step at the jump (StepFailure); Cvode::Advance
+// restarts it from its last step's end, which fails there again, then twice
+// its smallest step later (7.1e-15 s), past the jump, as it restarts ARKODE
+// and CVODE 16 ulp later. Tolerance: the time skipped, at most 7.1e-15 s,
+// moves the root by as much and y by 1e8 times it (7.1e-7 against 2.5e7),
+// plus the steps' own error at rtol 1e-10 (2.5e-3 in y, 2.5e-11 s in the
+// root): 1e-10 s and 1e-9 relative.
+TEST(Dopri5Test, CvodeRecoversWhenTheRightHandSideJumps) {
+  DopJump sys;
+  const double atol[1] = {1e-10};
+  Cvode cv(1, sys, 1e-10, atol, 1e-2, Cvode::Method::kDormandPrince5, 1);
+  const double y0[1] = {1.0};
+  cv.ReInit(0.0, y0);
+  const int dir[1] = {0};
+  cv.SetRootDirection(dir);
+  int found = 0;
+  while (cv.Advance(0.5, 0.5) == Cvode::Result::kRoot) {
+    ASSERT_EQ(found++, 0);
+    EXPECT_NEAR(cv.t_s(), 0.35, 1e-10);
+  }
+  EXPECT_EQ(found, 1);
+  EXPECT_EQ(cv.t_s(), 0.5);
+  EXPECT_NEAR(cv.y()[0] / (1.0 + 2.5e7), 1.0, 1e-9);
+  EXPECT_EQ(cv.stats().recoveries, 2);
 }
 
 }  // namespace
