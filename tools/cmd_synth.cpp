@@ -75,8 +75,10 @@ std::optional<Fault> ParseFault(const std::string& text, const std::string& opti
     f.time_s = std::stod(time, &used);
     if (used != time.size()) throw std::invalid_argument("time");
   } catch (const std::exception&) {
+    // The body form is named only where it was tried (the message is older than it).
+    const bool tried_body = with_body && text.find('@', at == std::string::npos ? 0 : at + 1) != std::string::npos;
     throw UsageError(option + " must be SIZE@TIME_S (e.g. 0.003@2.5)" +
-                     (with_body ? std::string(" or SIZE@TIME_S@BODY (a body of the rig's [[body]] tables)") : "") +
+                     (tried_body ? std::string(" or SIZE@TIME_S@BODY (a body of the rig's [[body]] tables)") : "") +
                      ", got '" + text + "'");
   }
   Require(std::isfinite(f.size), option, "a finite size", f.size);

@@ -161,6 +161,9 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
       ASSERT_TRUE(SameValue(c->raw[i].values[k], frames[i].values[k])) << i << " " << k;
     }
   }
+  // A single block's rig: RL_THETA only, no RL_BODIES.
+  EXPECT_FALSE(c->theta.empty());
+  EXPECT_TRUE(c->bodies.empty());
   // The description comes before the first frame.
   ASSERT_FALSE(c->config.empty());
   EXPECT_LT(std::find(c->order.begin(), c->order.end(), "RL_DAQ_CONFIG") - c->order.begin(),
@@ -224,8 +227,9 @@ TEST(DaqNode, ThetaAndTableOfASampleArePublishedTogether) {
 // 2, its body 0 the RL_THETA's values bit for bit (one reconstruction,
 // copied by the field table); the statue's angle its own (oracle: the
 // motion given to the simulator, within 6 sigma of its mirror, 1.25e-5 rad
-// at half the typical noise, sigma_s / (2 D)); a single-block rig sends
-// no RL_BODIES (the test above's collector would have them).
+// at half the typical noise, sigma_s / (2 D)); its 3 mm slide on the
+// pedestal from 0.3 s measured within 5 sigma of the relative pivot (1.1e-4
+// m: two fits, docs/acquisition.md), flagged, and one RL_EVENT naming it.
 TEST(DaqNode, MultiBodyRigPublishesEveryBodyBesideTheBottomOnesTheta) {
   const RigConfig rig = LoadRigConfig(std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/statue_rig.toml");
   const std::string path = test::ScratchDir() + "/bodies.csv";
@@ -240,6 +244,8 @@ TEST(DaqNode, MultiBodyRigPublishesEveryBodyBesideTheBottomOnesTheta) {
     TrueMotion m = NodeMotion(t);
     m.body_theta[0] = 0.2 * m.theta;
     m.body_theta[1] = statue(t);
+    m.slip_body = 1;
+    m.slip_m = t >= 0.3 ? 0.003 : 0.0;  // the statue slides 3 mm on the pedestal
     if (sim.Raw(m, raw)) out.Write(t, raw);
   }
   out.Close();
@@ -267,8 +273,18 @@ TEST(DaqNode, MultiBodyRigPublishesEveryBodyBesideTheBottomOnesTheta) {
     ASSERT_TRUE(std::isnan(all.theta_mirror[0]));  // the mirror is the statue's
     ASSERT_NEAR(all.theta[1], statue(static_cast<double>(all.utime) * 1e-6), 6 * 0.5e-4 / (2 * 2.0)) << i;
     ASSERT_TRUE(std::isfinite(all.sliding[1])) << "the statue's relative slide is measured";
-    ASSERT_LT(std::abs(all.sliding[1]), 5 * 1.1e-4) << i;
+    ASSERT_NEAR(all.sliding[1], all.utime >= 300000 ? 0.003 : 0.0, 5 * 1.1e-4) << i;
+    ASSERT_EQ(all.flags[1] & rocklab::block_state2_t::FLAG_SLIDING, all.utime >= 300000 ? 1 : 0) << i;
   }
+  // One event, at the slide's first sample, naming the body and interface.
+  int slides = 0;
+  for (const auto& e : c->events) {
+    if (e.kind != rocklab::event2_t::SLIDING) continue;
+    ++slides;
+    EXPECT_EQ(e.utime, 300000);
+    EXPECT_EQ(e.detail, "body statue (interface 2): sliding above tolerance");
+  }
+  EXPECT_EQ(slides, 1);
 }
 
 // Oracle: the first frame's sample clock. RL_HEALTH "starting" carries it
