@@ -311,6 +311,8 @@ void Reconstructor::ReconstructBodies(const Frame& frame, BlockState& out) {
     int used{};
   };
   std::array<BodyFit, kMaxRigBodies> fits{};
+  // The counts are of frames: one where any body lacks what they count.
+  bool no_camera = false, imprecise = false, no_theta = false;
   for (int k = 0; k < body_count_; ++k) {
     const auto kk = static_cast<std::size_t>(k);
     BodyState& b = out.bodies[kk];
@@ -342,11 +344,12 @@ void Reconstructor::ReconstructBodies(const Frame& frame, BlockState& out) {
       b.theta_camera = -f.fit.phi;
       b.sigma_theta_camera = PredictNoise(&model_xz_[static_cast<std::size_t>(2 * f.begin)], f.used, 0.0, 0.0).sigma_theta;
     } else {
-      ++counts_.no_camera_frames;
+      no_camera = true;
       b.flags |= kFlagNoCamera;
     }
   }
   counts_.invalid_led_samples += out.leds_invalid;
+  counts_.no_camera_frames += no_camera ? 1 : 0;
 
   // The pivot of each body on the one below (or the table): its corner on
   // the side its relative angle leans to, mapped by its fit, against the
@@ -382,8 +385,10 @@ void Reconstructor::ReconstructBodies(const Frame& frame, BlockState& out) {
     const double reach = checks_.sigmas * sigma;
     b.sliding = reach <= checks_.sliding_m ? sliding : kNaN;
     b.jump = reach <= checks_.jump_m ? jump : kNaN;
-    if (reach > checks_.sliding_m || reach > checks_.jump_m) ++counts_.imprecise_pivot_frames;
+    if (reach > checks_.sliding_m || reach > checks_.jump_m) imprecise = true;
   }
+
+  counts_.imprecise_pivot_frames += imprecise ? 1 : 0;
 
   // The mirror and the out-of-plane pair, on the bodies the rig names.
   if (mirror_.present) {
@@ -398,9 +403,10 @@ void Reconstructor::ReconstructBodies(const Frame& frame, BlockState& out) {
   for (int k = 0; k < body_count_; ++k) {
     BodyState& b = out.bodies[static_cast<std::size_t>(k)];
     b.theta = std::isfinite(b.theta_mirror) ? b.theta_mirror : b.theta_camera;
-    if (!std::isfinite(b.theta)) ++counts_.no_theta_frames;
+    if (!std::isfinite(b.theta)) no_theta = true;
     RockingChecks(b, checks_, sigma_mirror_);
   }
+  counts_.no_theta_frames += no_theta ? 1 : 0;
   // RL_THETA's single block: the bottom body.
   const BodyState& bottom = out.bodies[0];
   out.theta = bottom.theta;
