@@ -101,7 +101,8 @@ struct ReconstructionCounts {
 };
 
 /// Per-sample reconstruction. Holds only fixed-size state; Reconstruct does
-/// not allocate.
+/// not allocate (a multi-body rig's BlockState::bodies grow once, in the
+/// first frame given that state, and keep their storage after).
 class Reconstructor {
  public:
   /// Binds the rig's channels to the source's columns.
