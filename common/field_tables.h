@@ -293,4 +293,32 @@ struct FieldCopier {
   void Text(const char*, G get) { Copy(get); }
 };
 
+/// Copies a state with per-body values (`body_count` of them in
+/// `bodies[k]`, daq::BlockState's) into a per-body type (block_state2_t):
+/// visit the single-body table (block_state_t's); a field that is an array
+/// in `Out` gets every body's value, a scalar (utime, seq) the state's.
+/// nbodies is the caller's. No allocation once `out`'s arrays have grown.
+template <class In, class Out>
+struct BodiesCopier {
+  const In& in;
+  Out& out;
+  template <class G>
+  void Copy(G get) {
+    auto& dst = get(out);
+    using D = std::remove_reference_t<decltype(dst)>;
+    if constexpr (kIsArray<D>) {
+      dst.resize(static_cast<std::size_t>(in.body_count));
+      for (std::size_t k = 0; k < dst.size(); ++k) {
+        dst[k] = static_cast<typename D::value_type>(get(in.bodies[k]));
+      }
+    } else {
+      dst = static_cast<D>(get(in));
+    }
+  }
+  template <class G>
+  void Int(const char*, const char*, G get, unsigned = 0) { Copy(get); }
+  template <class G>
+  void Real(const char*, const char*, G get, unsigned = 0) { Copy(get); }
+};
+
 }  // namespace rocklab::common

@@ -16,6 +16,7 @@
 #include "daq/source.h"
 #include "common/logger_clock.h"
 #include "common/sd_notify.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/event2_t.hpp"
@@ -50,11 +51,12 @@ struct DaqNode::Impl : ProcessorSink {
   std::unique_ptr<Source> source;
   std::unique_ptr<Processor> processor;
   DaqNodeStats stats;
-  std::string ch_config, ch_raw, ch_table, ch_theta, ch_event, ch_health;
+  std::string ch_config, ch_raw, ch_table, ch_theta, ch_bodies, ch_event, ch_health;
 
   rocklab::daq_config2_t config_msg;
   rocklab::raw_frame_t raw_msg;
   rocklab::block_state_t theta_msg;
+  rocklab::block_state2_t bodies_msg;  // RL_BODIES: a multi-body rig's every body
   rocklab::table_state_t table_msg;
   rocklab::health2_t health_msg;
   // seq of the next RL_DAQ_CONFIG, RL_EVENT, RL_HEALTH (RL_RAW, RL_THETA and
@@ -94,6 +96,13 @@ struct DaqNode::Impl : ProcessorSink {
     common::FieldCopier<BlockState, rocklab::block_state_t> copy{s, theta_msg};
     common::BlockStateFields<rocklab::block_state_t>(copy);  // the LCM type's fields, by name
     Publish(ch_theta, theta_msg);
+    if (s.body_count > 0) {
+      // Beside RL_THETA (the bottom body, for every single-block consumer).
+      common::BodiesCopier<BlockState, rocklab::block_state2_t> bodies{s, bodies_msg};
+      common::BlockStateFields<rocklab::block_state_t>(bodies);
+      bodies_msg.nbodies = s.body_count;
+      Publish(ch_bodies, bodies_msg);
+    }
   }
 
   void OnTableState(const TableState& t) override {
@@ -224,6 +233,7 @@ DaqNode::DaqNode(DaqNodeConfig config, common::Bus& bus) : impl_(std::make_uniqu
   m.ch_raw = p + "RAW";
   m.ch_table = p + "TABLE";
   m.ch_theta = p + "THETA";
+  m.ch_bodies = p + "BODIES";
   m.ch_event = p + "EVENT";
   m.ch_health = p + "HEALTH";
 

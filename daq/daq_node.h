@@ -1,7 +1,9 @@
 #pragma once
 /// @file
 /// The DAQ node: reads one source on its sample clock and publishes
-/// RL_DAQ_CONFIG, RL_RAW, RL_TABLE, RL_THETA, RL_EVENT and RL_HEALTH.
+/// RL_DAQ_CONFIG, RL_RAW, RL_TABLE, RL_THETA, RL_EVENT and RL_HEALTH; with
+/// a multi-body rig also RL_BODIES (block_state2_t, every body) right after
+/// each RL_THETA (the bottom body's block_state_t).
 ///
 /// Threading model: one thread, the caller's. Run() loops read -> pace ->
 /// process -> publish; nothing is queued between threads, so nothing can be

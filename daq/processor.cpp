@@ -26,7 +26,8 @@ constexpr FlagEvent kFlagEvents[] = {
     {kFlagDisagree, rocklab::event_t::DISAGREE, "mirror-camera disagreement"},
 };
 
-double FlagValue(const BlockState& s, int32_t flag) {
+template <class S>
+double FlagValue(const S& s, int32_t flag) {
   switch (flag) {
     case kFlagSliding: return s.sliding;
     case kFlagJump: return s.jump;
@@ -64,6 +65,17 @@ Processor::Processor(const RigConfig& rig, const std::vector<std::string>& sourc
   // acceleration where no accelerometer measures it.
   theta_.sg.SetOutputs(false, true, false);
   table_.sg.SetOutputs(false, true, !has_accelerometer_);
+  if (rig.multi_body()) {
+    for (int k = 0; k < rig.body_count(); ++k) {
+      body_labels_.push_back("body " + rig.bodies[static_cast<std::size_t>(k)].name + " (interface " +
+                             std::to_string(k + 1) + ")");
+      if (k == 0) continue;
+      theta_.upper.emplace_back(rig.HalfWindow(rig.theta_dot), rig.theta_dot.order, 1.0 / rig.sample_rate_hz,
+                                rig.HalfWindow(rig.theta_dot));
+      theta_.upper.back().SetOutputs(false, true, false);
+    }
+    theta_.upper_last.assign(theta_.upper.size(), 0.0);
+  }
 }
 
 Processor::Stream::Stream(int half_window, int order, double dt_s, int lag)
@@ -78,18 +90,27 @@ void Processor::Stream::Push(const BlockState& state, double value) {
   real[slot] = 1;
   sg.Push(value);
   last = value;
+  for (std::size_t k = 0; k < upper.size(); ++k) {
+    upper_last[k] = state.bodies[k + 1].theta;
+    upper[k].Push(upper_last[k]);
+  }
   started = true;
 }
 
-void Processor::Stream::Gap(int64_t missing, double next_value) {
+void Processor::Stream::Gap(int64_t missing, double next_value, const BlockState& next) {
   if (!started) return;
   if (missing > sg.half_window()) {
     sg.Finish();  // never differentiate across a long gap
+    for (SavitzkyGolay& u : upper) u.Finish();
     return;
   }
+  auto bridge = [missing](double from, double to, int64_t i) {
+    return from + (to - from) * static_cast<double>(i) / static_cast<double>(missing + 1);
+  };
   for (int64_t i = 1; i <= missing; ++i) {
     real[sg.next_index() % real.size()] = 0;
-    sg.Push(last + (next_value - last) * static_cast<double>(i) / static_cast<double>(missing + 1));
+    sg.Push(bridge(last, next_value, i));
+    for (std::size_t k = 0; k < upper.size(); ++k) upper[k].Push(bridge(upper_last[k], next.bodies[k + 1].theta, i));
   }
 }
 
@@ -97,6 +118,7 @@ void Processor::Stream::Restart(bool drop_last) {
   if (!started) return;
   if (drop_last && sg.next_index() > 0) real[(sg.next_index() - 1) % real.size()] = 0;
   sg.Finish();
+  for (SavitzkyGolay& u : upper) u.Finish();
   started = false;
 }
 
@@ -147,11 +169,13 @@ void Processor::Process(const Frame& frame) {
   ++counts_.reconstructed;
   last_time_s_ = frame.time_s;
   CheckEdges(current_);
-  if (current_.flags & kCheckFlags) ++counts_.flagged;
+  bool flagged = (current_.flags & kCheckFlags) != 0;
+  for (int k = 1; k < current_.body_count; ++k) flagged = flagged || (current_.bodies[static_cast<std::size_t>(k)].flags & kCheckFlags) != 0;
+  if (flagged) ++counts_.flagged;
 
   if (status == SequenceStatus::kGap) {
-    theta_.Gap(sequence_.missing(), current_.theta);
-    if (has_table_) table_.Gap(sequence_.missing(), current_.table_displacement);
+    theta_.Gap(sequence_.missing(), current_.theta, current_);
+    if (has_table_) table_.Gap(sequence_.missing(), current_.table_displacement, current_);
     Drain();
   }
   theta_.Push(current_, current_.theta);
@@ -160,17 +184,30 @@ void Processor::Process(const Frame& frame) {
 }
 
 void Processor::CheckEdges(const BlockState& state) {
+  if (state.body_count == 0) {
+    FlagEdges(state, state.utime, held_flags_, std::string());
+    return;
+  }
+  for (int k = 0; k < state.body_count; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    FlagEdges(state.bodies[kk], state.utime, held_body_flags_[kk], body_labels_[kk]);
+  }
+}
+
+template <class S>
+void Processor::FlagEdges(const S& state, int64_t utime, int32_t& held, const std::string& body_label) {
   for (const FlagEvent& f : kFlagEvents) {
     if (!(state.checked & f.flag)) continue;  // unmeasured: hold the last known state
     const bool now = (state.flags & f.flag) != 0;
-    const bool before = (held_flags_ & f.flag) != 0;
+    const bool before = (held & f.flag) != 0;
     if (now == before) continue;
+    const std::string what = body_label.empty() ? std::string(f.name) : body_label + ": " + f.name;
     if (now) {
-      held_flags_ |= f.flag;
-      Event(state.utime, f.kind, FlagValue(state, f.flag), std::string(f.name) + " above tolerance");
+      held |= f.flag;
+      Event(utime, f.kind, FlagValue(state, f.flag), what + " above tolerance");
     } else {
-      held_flags_ &= ~f.flag;
-      Event(state.utime, rocklab::event_t::RECOVERED, 0, std::string(f.name) + " back within tolerance");
+      held &= ~f.flag;
+      Event(utime, rocklab::event_t::RECOVERED, 0, what + " back within tolerance");
     }
   }
 }
@@ -179,9 +216,17 @@ void Processor::Drain() {
   SgOutput out;
   while (theta_.sg.Pop(out)) {
     const size_t slot = out.index % theta_.pending.size();
-    if (!theta_.real[slot]) continue;
     BlockState& state = theta_.pending[slot];
+    // The upper bodies' differentiators give the same index (in step),
+    // bridged samples too.
+    for (std::size_t k = 0; k < theta_.upper.size(); ++k) {
+      SgOutput body_out;
+      theta_.upper[k].Pop(body_out);
+      state.bodies[k + 1].theta_dot = body_out.d1;
+    }
+    if (!theta_.real[slot]) continue;
     state.theta_dot = out.d1;
+    if (state.body_count > 0) state.bodies[0].theta_dot = out.d1;
     if (!has_table_) {
       sink_.OnBlockState(state);
       continue;
@@ -241,6 +286,7 @@ void Processor::Pair(bool flush) {
 
 void Processor::Finish() {
   theta_.sg.Finish();
+  for (SavitzkyGolay& u : theta_.upper) u.Finish();
   table_.sg.Finish();
   Drain();
   Pair(true);

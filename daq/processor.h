@@ -7,6 +7,7 @@
 /// the same frames give the same outputs at any replay speed.
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -100,12 +101,17 @@ class Processor {
   struct Stream {
     Stream(int half_window, int order, double dt_s, int lag);
     SavitzkyGolay sg;
+    // A multi-body rig's theta stream: the bodies above the bottom one,
+    // differentiated in step with sg (same inputs, gaps and ends, so the
+    // same output indices).
+    std::vector<SavitzkyGolay> upper;
+    std::vector<double> upper_last;
     std::vector<BlockState> pending;  // ring indexed by SG input index
     std::vector<char> real;           // 0 for a bridged (interpolated) sample
     double last{};                    // last input value
     bool started{false};
     void Push(const BlockState& state, double value);
-    void Gap(int64_t missing, double next_value);
+    void Gap(int64_t missing, double next_value, const BlockState& next);
     // Ends the segment; with drop_last the last input gives no output.
     void Restart(bool drop_last);
   };
@@ -115,6 +121,10 @@ class Processor {
   void Pair(bool flush);
   void Event(int64_t utime, int8_t kind, double value, std::string detail);
   void CheckEdges(const BlockState& state);
+  // The flag edges of one state (the block's, or body k's with `body_label`
+  // naming it in the events' detail).
+  template <class S>
+  void FlagEdges(const S& state, int64_t utime, int32_t& held, const std::string& body_label);
 
   std::string source_path_;
   ProcessorSink& sink_;
@@ -131,6 +141,8 @@ class Processor {
   common::Ring<TableState> ready_table_;
   BlockState current_;
   int32_t held_flags_{0};  // check flags as last measured (for event edges)
+  std::array<int32_t, kMaxRigBodies> held_body_flags_{};  // the same per body (multi-body rig)
+  std::vector<std::string> body_labels_;  // per body: "body 'NAME' (interface K)" 
   double last_time_s_{};   // time of the last reconstructed frame, s
   ProcessorCounts counts_;
 };

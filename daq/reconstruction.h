@@ -3,6 +3,7 @@
 /// Calibration and per-sample reconstruction of the block's motion from the
 /// raw channels (measurement models in DESIGN.md, rules in docs/acquisition.md).
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -23,7 +24,30 @@ enum Flag : int32_t {
   kFlagNoCamera = 64,
 };
 
+/// One body's state at a sample of a multi-body rig (block_state2_t's
+/// per-body fields, same names and meanings: angles absolute, theta > 0
+/// tipping towards +x; sliding and jump relative to the body below, in its
+/// frame, or to the table for the bottom body). NaN where unmeasured.
+struct BodyState {
+  double theta{};
+  double theta_dot{};
+  double theta_mirror{};
+  double theta_camera{};
+  double sliding{};       ///< m
+  double jump{};          ///< m
+  double twist{};         ///< rad
+  double out_of_plane{};  ///< m
+  double tilt{};          ///< rad
+  double sigma_theta_camera{};  ///< rad
+  double sigma_slide_m{};       ///< predicted noise of the relative pivot position (per axis), m
+  int32_t leds_used{};
+  int32_t flags{};
+  int32_t checked{};
+};
+
 /// The block's state at one sample. NaN where a quantity cannot be measured.
+/// In a multi-body rig the scalar fields are the bottom body's (bodies[0])
+/// and `bodies` holds every body's.
 struct BlockState {
   int64_t seq{};
   int64_t utime{};        ///< sample clock, us
@@ -47,6 +71,10 @@ struct BlockState {
   int32_t leds_invalid{};  ///< configured LEDs left out of the fit at this sample
   int32_t flags{};
   int32_t checked{};  ///< the check flags (sliding .. disagree) that were evaluated at this sample
+  int32_t body_count{};  ///< bodies in `bodies`: 0 for a single-block rig (or a one-body one)
+  /// Every body's state, bottom-up (empty for a single block: its copies
+  /// cost nothing; a multi-body rig's reuse their storage once grown).
+  std::vector<BodyState> bodies;
 };
 
 /// A least-squares rigid 2-D transform world = R(phi) model + t, phi
@@ -73,7 +101,8 @@ struct ReconstructionCounts {
 };
 
 /// Per-sample reconstruction. Holds only fixed-size state; Reconstruct does
-/// not allocate.
+/// not allocate (a multi-body rig's BlockState::bodies grow once, in the
+/// first frame given that state, and keep their storage after).
 class Reconstructor {
  public:
   /// Binds the rig's channels to the source's columns.
@@ -103,6 +132,7 @@ class Reconstructor {
     double z_m{};
     Channel x;
     Channel z;
+    int body{};
   };
   Channel Bind(const RigConfig& rig, const std::string& sensor,
                const std::vector<std::string>& source_channels);
@@ -110,13 +140,28 @@ class Reconstructor {
     double sigma_theta{};  ///< rad
     double sigma_pivot{};  ///< m
   };
-  /// Predicted noise of the fit of `used` LEDs at model_xz with the pivot at x = bx (m).
-  Noise PredictNoise(const double* model_xz, int used, double bx) const;
+  /// Predicted noise of the fit of `used` LEDs at model_xz for the point
+  /// (px, pz) of the body frame (m): the pivot, or the face point of the body below.
+  Noise PredictNoise(const double* model_xz, int used, double px, double pz) const;
+  /// The mirror's angle and tilt (a bad spot: kFlagNoMirror into flags,
+  /// counted) and the out-of-plane pair's twist and displacement; what is
+  /// unmeasurable is left as it was.
+  void ReadMirror(const Frame& frame, double& theta_mirror, double& tilt, int32_t& flags);
+  void ReadOutOfPlane(const Frame& frame, double& twist, double& out_of_plane) const;
+  /// A multi-body rig's frame: every body's fit and checks into out.bodies,
+  /// the bottom body's into out's scalars.
+  void ReconstructBodies(const Frame& frame, BlockState& out);
 
   CheckTolerances checks_;
   MirrorConfig mirror_;
   OutOfPlaneConfig oop_;
   double pivot_half_width_m_{};
+  int body_count_{0};  // 0: single block
+  std::array<double, kMaxRigBodies> contact_half_width_m_{};  // per body, the pivots' |x|
+  std::array<double, kMaxRigBodies> height_m_{};
+  std::array<int, kMaxRigBodies + 1> body_begin_{};  // leds_ of body k: [begin[k], begin[k+1])
+  int mirror_body_{0};
+  int oop_body_{0};
   Channel mirror_s_, mirror_n_, oop_a_, oop_b_, table_disp_, table_acc_;
   std::vector<Led> leds_;
   std::vector<double> model_xz_;  // scratch for the fit, sized once

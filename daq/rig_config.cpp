@@ -78,11 +78,66 @@ int RigConfig::HalfWindow(const DifferentiatorConfig& d) const {
   return static_cast<int>(std::lround(d.window_s * sample_rate_hz / 2.0));
 }
 
+double RigConfig::contact_half_width_m(int k) const {
+  if (k == 0 || bodies.size() < 2) return block.pivot_half_width_m();
+  return 0.5 * std::min(bodies[static_cast<std::size_t>(k - 1)].width_m, bodies[static_cast<std::size_t>(k)].width_m);
+}
+
+double RigConfig::body_height_m(int k) const {
+  return bodies.empty() ? block.height_m : bodies[static_cast<std::size_t>(k)].height_m;
+}
+
 int RigConfig::LagSamples(const DifferentiatorConfig& d) const {
   return d.lag_s ? static_cast<int>(std::lround(*d.lag_s * sample_rate_hz)) : HalfWindow(d);
 }
 
 namespace {
+
+// [[body]]: an assembly's bodies bottom-up, each a named box; the rig's
+// [block] is then the bottom body's box (and may not be given too).
+void ParseBodies(Reader& r, const toml::table& root, RigConfig& rig) {
+  const toml::array* bodies = r.Array(root, "", "body");
+  if (bodies == nullptr) return;
+  r.Check(!bodies->empty() && bodies->size() <= static_cast<std::size_t>(kMaxRigBodies), root, "", "body",
+          "must list 1 to " + std::to_string(kMaxRigBodies) + " [[body]] tables, bottom-up");
+  r.Check(root.get("block") == nullptr, root, "", "block",
+          "must not be given beside [[body]] tables (the bottom body is the block)");
+  for (const toml::node& node : *bodies) {
+    const toml::table* t = node.as_table();
+    if (t == nullptr) r.Fail(Reader::LineOf(node), "body", "must be an array of tables");
+    RigBody body;
+    body.line = Reader::LineOf(*t);
+    body.name = r.String(*t, "body", "name", std::nullopt);
+    bool unique = !body.name.empty();
+    for (const RigBody& other : rig.bodies) unique = unique && other.name != body.name;
+    r.Check(unique, *t, "body", "name", "must be non-empty and unique, got " + common::Quote(body.name));
+    body.width_m = r.Bounded(*t, "body", "width_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+    body.height_m = r.Bounded(*t, "body", "height_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+    r.RejectUnknown(*t, "body");
+    rig.bodies.push_back(std::move(body));
+  }
+  rig.block.width_m = rig.bodies.front().width_m;
+  rig.block.height_m = rig.bodies.front().height_m;
+}
+
+// A sensor's `body` key: the index of the body it names. Required in a
+// rig of several bodies; refused in a single-block one.
+int BodyOf(Reader& r, const toml::table& t, const std::string& prefix, const RigConfig& rig) {
+  if (rig.bodies.empty()) {
+    r.Check(t.get("body") == nullptr, t, prefix, "body", "needs [[body]] tables naming the rig's bodies");
+    return 0;
+  }
+  const std::optional<std::string> fallback =
+      rig.bodies.size() == 1 ? std::optional<std::string>(rig.bodies.front().name) : std::nullopt;
+  const std::string name = r.String(t, prefix, "body", fallback);
+  for (std::size_t k = 0; k < rig.bodies.size(); ++k) {
+    if (rig.bodies[k].name == name) return static_cast<int>(k);
+  }
+  std::string known;
+  for (const RigBody& b : rig.bodies) known += " " + common::Quote(b.name);
+  r.Check(false, t, prefix, "body", "names no [[body]]: " + common::Quote(name) + " (the bodies:" + known + ")");
+  return 0;
+}
 
 // [block]: the size, the optional fitted parameters and polygon.
 void ParseBlock(Reader& r, const toml::table& root, BlockConfig& block) {
@@ -148,6 +203,7 @@ void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<s
     rig.mirror.lever_m = r.Bounded(*t, "mirror", "lever_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
     rig.mirror.rest_s_m = r.Bounded(*t, "mirror", "rest_s_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
     rig.mirror.rest_n_m = r.Bounded(*t, "mirror", "rest_n_m", 0.0, -kMaxLengthM, kMaxLengthM, " m");
+    rig.mirror.body = BodyOf(r, *t, "mirror", rig);
     r.RejectUnknown(*t, "mirror");
     roles.insert({"mirror.s", "mirror.n"});
   }
@@ -171,6 +227,7 @@ void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<s
                 "name", "must be non-empty without '.'");
         led.x_m = r.Bounded(*lt, "camera.led", "x_m", std::nullopt, -kMaxLengthM, kMaxLengthM, " m");
         led.z_m = r.Bounded(*lt, "camera.led", "z_m", std::nullopt, -kMaxLengthM, kMaxLengthM, " m");
+        led.body = BodyOf(r, *lt, "camera.led", rig);
         const std::string role = cam.name + "." + led.name;
         r.Check(roles.count(role + ".x") == 0, *lt, "camera.led", "name",
                 "repeats LED " + common::Quote(role));
@@ -188,6 +245,7 @@ void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<s
     rig.out_of_plane.present = true;
     rig.out_of_plane.spacing_m =
         r.Bounded(*t, "out_of_plane", "spacing_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+    rig.out_of_plane.body = BodyOf(r, *t, "out_of_plane", rig);
     r.RejectUnknown(*t, "out_of_plane");
     roles.insert({"oop.a", "oop.b"});
   }
@@ -311,7 +369,8 @@ RigConfig ParseRigConfig(const std::string& text, const std::string& path) {
   rig.calibration_id = r.String(root, "", "calibration_id", std::string());
   rig.sample_rate_hz = r.Bounded(root, "", "sample_rate_hz", std::nullopt, kMinSampleRateHz,
                                  kMaxSampleRateHz, " Hz");
-  ParseBlock(r, root, rig.block);
+  ParseBodies(r, root, rig);
+  if (rig.bodies.empty()) ParseBlock(r, root, rig.block);
   // Sensor roles the rest of the file makes available.
   std::set<std::string> roles = {"table.displacement", "table.acceleration"};
   ParseSensors(r, root, rig, roles);

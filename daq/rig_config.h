@@ -46,8 +46,9 @@ struct ChannelConfig {
 /// base, x along the rocking direction, z up, m.
 struct LedConfig {
   std::string name;
-  double x_m{};
+  double x_m{};  ///< in its body's frame (a multi-body rig: origin at that body's base centre), m
   double z_m{};
+  int body{0};   ///< index into RigConfig::bodies (bottom-up); 0 in a single-block rig
 };
 
 /// A lateral camera and the LEDs it sees. All cameras are calibrated (by the
@@ -62,6 +63,7 @@ struct CameraConfig {
 /// The LED-mirror: theta = 0.5 atan((s - rest_s) / lever).
 struct MirrorConfig {
   bool present{false};
+  int body{0};        ///< the body carrying the mirror (index into RigConfig::bodies)
   double lever_m{};   ///< optical lever D, m; > 0
   double rest_s_m{};  ///< spot coordinate along the rocking direction at rest, m
   double rest_n_m{};  ///< orthogonal spot coordinate at rest, m
@@ -71,6 +73,7 @@ struct MirrorConfig {
 /// out-of-plane (y) coordinates are seen by a camera looking along x.
 struct OutOfPlaneConfig {
   bool present{false};
+  int body{0};           ///< the body carrying the LED pair (index into RigConfig::bodies)
   double spacing_m{};  ///< x distance from LED a to LED b, m; > 0
 };
 
@@ -121,6 +124,19 @@ struct BlockConfig {
   double pivot_half_width_m() const { return 0.5 * width_m - chamfer_m; }
 };
 
+/// Upper limit of a rig's bodies (a column of drums; the stack model's).
+inline constexpr int kMaxRigBodies = 8;
+
+/// One body of an assembly rig (`[[body]]`, bottom-up): its name (as the
+/// assembly file's) and its rectangular box, whose base corners are the
+/// pivots of the checks (docs/acquisition.md, "Assemblies").
+struct RigBody {
+  std::string name;
+  double width_m{};   ///< 2b, m
+  double height_m{};  ///< 2h, m
+  int line{};         ///< line of its table in the rig file
+};
+
 /// Priors of `rocklab fit --posterior` (docs/identification.md), each
 /// absent unless the rig file's [posterior] section sets it (the fit's
 /// defaults then hold).
@@ -148,12 +164,27 @@ struct RigConfig {
   std::vector<CameraConfig> cameras;
   OutOfPlaneConfig out_of_plane;
   BlockConfig block;
+  /// `[[body]]` tables bottom-up: empty in a single-block rig (`[block]`).
+  /// A rig with one body is that single block (block = its box); with two or
+  /// more the DAQ reconstructs every body (multi_body()), block being the bottom one.
+  std::vector<RigBody> bodies;
   PosteriorPriorConfig posterior;
   CheckTolerances checks;
   /// theta_dot from theta (default: 10 ms span, order 2).
   DifferentiatorConfig theta_dot{0.010, 2, std::nullopt};
   /// table velocity and acceleration from the displacement (default: 100 ms span, order 4).
   DifferentiatorConfig table{0.100, 4, std::nullopt};
+
+  /// Two or more bodies: per-body reconstruction, checks per interface.
+  bool multi_body() const { return bodies.size() > 1; }
+  /// Bodies reconstructed: bodies.size(), or 1 for a single-block rig.
+  int body_count() const { return bodies.empty() ? 1 : static_cast<int>(bodies.size()); }
+  /// Half-width of the contact face under body k (the pivots' |x| in its
+  /// frame), m: the bottom body's pivot half-width, else min(b_k-1, b_k)
+  /// (centred bodies, as model/stack.h).
+  double contact_half_width_m(int k) const;
+  /// Height of body k (2h), m: block.height_m in a single-block rig.
+  double body_height_m(int k) const;
 
   /// The channel with this sensor role, or nullptr.
   const ChannelConfig* FindSensor(const std::string& sensor) const;

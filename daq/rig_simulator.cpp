@@ -74,7 +74,9 @@ RigSimulator::RigSimulator(const RigConfig& rig, const SimulatorNoise& noise, ui
 double RigSimulator::Physical(const std::string& sensor, const TrueMotion& m) const {
   if (sensor == "table.displacement") return m.table_displacement;
   if (sensor == "table.acceleration") return m.table_acceleration;
-  if (sensor == "mirror.s") return rig_.mirror.rest_s_m + rig_.mirror.lever_m * std::tan(2 * m.theta);
+  // A multi-body rig's mirror turns with its body.
+  const double mirror_theta = rig_.multi_body() ? m.body_theta[static_cast<std::size_t>(rig_.mirror.body)] : m.theta;
+  if (sensor == "mirror.s") return rig_.mirror.rest_s_m + rig_.mirror.lever_m * std::tan(2 * mirror_theta);
   if (sensor == "mirror.n") return rig_.mirror.rest_n_m + rig_.mirror.lever_m * std::tan(2 * m.tilt_rad);
   if (sensor == "oop.a" || sensor == "oop.b") {
     // LED a at x = -spacing/2, LED b at +spacing/2 (block frame); a yaw psi
@@ -89,6 +91,11 @@ double RigSimulator::Physical(const std::string& sensor, const TrueMotion& m) co
   for (const auto& cam : rig_.cameras) {
     for (const auto& led : cam.leds) {
       if (cam.name + "." + led.name != led_role) continue;
+      if (rig_.multi_body()) {
+        double wx = 0, wz = 0;
+        BodyPoint(m, led.body, led.x_m, led.z_m, wx, wz);
+        return sensor[dot + 1] == 'x' ? wx : wz;
+      }
       const double b = rig_.block.pivot_half_width_m();
       const double bx = m.theta >= 0 ? b : -b;
       const double qx = led.x_m - bx, qz = led.z_m;
@@ -100,6 +107,38 @@ double RigSimulator::Physical(const std::string& sensor, const TrueMotion& m) co
     }
   }
   throw std::invalid_argument("simulator: unknown sensor '" + sensor + "'");
+}
+
+void RigSimulator::BodyPoint(const TrueMotion& m, int k, double x_m, double z_m, double& wx_m,
+                             double& wz_m) const {
+  // Up the stack: body j's pivot P_j (rig frame) and its corner bx_j (its
+  // frame); a point (x, z) of body j is P_j + R(theta_j) (x - bx_j, z),
+  // R turning clockwise by theta (theta > 0 tips towards +x).
+  double px = 0, pz = 0, bx = 0, c = 1, s = 0, below = 0;
+  for (int j = 0; j <= k; ++j) {
+    const double theta = m.body_theta[static_cast<std::size_t>(j)];
+    const double half = rig_.contact_half_width_m(j);
+    const double corner = theta - below >= 0 ? half : -half;
+    const double slip = j == m.slip_body ? m.slip_m : 0.0;
+    const double lift = j == m.slip_body ? m.lift_m : 0.0;
+    if (j == 0) {
+      px = corner + m.table_displacement + slip;
+      pz = lift;
+    } else {
+      // The same corner on the top face of body j - 1.
+      const double qx = corner + slip - bx, qz = rig_.body_height_m(j - 1) + lift;
+      const double nx = px + c * qx + s * qz;
+      pz = pz - s * qx + c * qz;
+      px = nx;
+    }
+    bx = corner;
+    c = std::cos(theta);
+    s = std::sin(theta);
+    below = theta;
+  }
+  const double qx = x_m - bx, qz = z_m;
+  wx_m = px + c * qx + s * qz;
+  wz_m = pz - s * qx + c * qz;
 }
 
 bool RigSimulator::Raw(const TrueMotion& motion, std::vector<double>& raw) {

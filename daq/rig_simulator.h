@@ -4,6 +4,7 @@
 /// raw channel values the rig would acquire, with seeded noise, LED
 /// occlusions and dropped samples. Drives `rocklab synth` and the daq tests.
 
+#include <array>
 #include <cstdint>
 #include <fstream>
 #include <random>
@@ -26,6 +27,14 @@ struct TrueMotion {
   double twist_rad{};           ///< rotation about the vertical, rad
   double out_of_plane_m{};      ///< out-of-plane translation, m
   double tilt_rad{};            ///< out-of-plane tilt seen by the mirror, rad
+  /// A multi-body rig (RigConfig::multi_body()): every body's absolute
+  /// angle, rad, bottom-up (theta above is not read). Each body rocks on
+  /// the corner of its contact face that its angle relative to the body
+  /// below leans to; slip_m and lift_m then displace the pivot of body
+  /// `slip_body` along and off the face below it (0: the table), carrying
+  /// the bodies above with it.
+  std::array<double, kMaxRigBodies> body_theta{};
+  int slip_body{0};
 };
 
 /// Noise and imperfections, physical units (standard deviations).
@@ -61,6 +70,10 @@ class RigSimulator {
   /// Exact physical value of a sensor for `motion` (no noise), in the
   /// channel's unit. Tests use it as the forward model's inverse oracle.
   double Physical(const std::string& sensor, const TrueMotion& motion) const;
+
+  /// Where the point (x, z) of body k's frame (origin at its base centre,
+  /// m) is in the rig frame for `motion` of a multi-body rig, m.
+  void BodyPoint(const TrueMotion& motion, int k, double x_m, double z_m, double& wx_m, double& wz_m) const;
 
  private:
   RigConfig rig_;

@@ -18,6 +18,8 @@
 #include "daq/source.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/scenario.h"
+#include "rocklab/block_state2_t.hpp"
+#include "rocklab/block_state_t.hpp"
 #include "tools/cli.h"
 
 namespace rocklab::tools {
@@ -41,19 +43,31 @@ class CsvSink : public daq::ProcessorSink {
   CsvSink() = default;
   ~CsvSink() override { Flush(); }
   /// The file the rows go to, from the header on; before it, problems only.
-  void Start(std::FILE* out) {
+  /// `bodies` > 0: a multi-body rig's per-body columns (BodyColumns).
+  void Start(std::FILE* out, int bodies) {
     out_ = out;
+    bodies_ = bodies;
     std::string header = "time";
-    HeaderVisitor names{header};
-    common::BlockStateFields<daq::BlockState>(names);
+    if (bodies_ == 0) {
+      HeaderVisitor names{header};
+      common::BlockStateFields<daq::BlockState>(names);
+    }
+    for (int k = 1; k <= bodies_; ++k) {
+      BodyHeaderVisitor names{header, "_" + std::to_string(k)};
+      common::BlockStateFields<rocklab::block_state_t>(names);
+    }
     header += '\n';
     std::fputs(header.c_str(), out_);
   }
   CsvSink(const CsvSink&) = delete;
   CsvSink& operator=(const CsvSink&) = delete;
   void OnBlockState(const daq::BlockState& s) override {
-    if (kBuffer - used_ < kMaxRow) Flush();
+    if (kBuffer - used_ < kMaxRow * static_cast<std::size_t>(1 + bodies_)) Flush();
     Put(s.time_s, std::chars_format::fixed, 9);
+    if (bodies_ > 0) {
+      BodyColumns(s);
+      return;
+    }
     RowVisitor row{*this, s};
     common::BlockStateFields<daq::BlockState>(row);
     buffer_[used_++] = '\n';
@@ -93,6 +107,55 @@ class CsvSink : public daq::ProcessorSink {
       header += name;
     }
   };
+  // A multi-body rig's columns: per body K = 1.. bottom-up, every per-body
+  // field of block_state2_t (its table: block_state_t's but utime and seq)
+  // suffixed _K, as block_state2_t carries them (theta_K, ..., flags_K).
+  struct BodyHeaderVisitor {
+    std::string& header;
+    std::string suffix;
+    template <class G>
+    void Int(const char* name, const char*, G, unsigned) { Add(name); }
+    template <class G>
+    void Real(const char* name, const char*, G, unsigned) { Add(name); }
+    void Add(const char* name) {
+      if (std::strcmp(name, "utime") == 0 || std::strcmp(name, "seq") == 0) return;
+      header += ',';
+      header += name;
+      header += suffix;
+    }
+  };
+  struct BodyRowVisitor {
+    CsvSink& sink;
+    std::size_t body;
+    template <class G>
+    void Int(const char*, const char*, G get, unsigned) {
+      const auto& field = get(sink.bodies_msg_);
+      if constexpr (common::kIsArray<decltype(field)>) {
+        sink.buffer_[sink.used_++] = ',';
+        sink.used_ = static_cast<std::size_t>(
+            std::to_chars(&sink.buffer_[sink.used_], &sink.buffer_[kBuffer], field[body]).ptr - sink.buffer_.data());
+      }
+    }
+    template <class G>
+    void Real(const char*, const char*, G get, unsigned) {
+      const auto& field = get(sink.bodies_msg_);
+      if constexpr (common::kIsArray<decltype(field)>) {
+        sink.buffer_[sink.used_++] = ',';
+        sink.Put(field[body], std::chars_format::general, 12);
+      }
+    }
+  };
+  void BodyColumns(const daq::BlockState& s) {
+    common::BodiesCopier<daq::BlockState, rocklab::block_state2_t> copy{s, bodies_msg_};
+    common::BlockStateFields<rocklab::block_state_t>(copy);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(bodies_); ++k) {
+      BodyRowVisitor row{*this, k};
+      common::BlockStateFields<rocklab::block_state_t>(row);
+    }
+    buffer_[used_++] = '\n';
+    ++rows_;
+  }
+
   // One row's fields after `time`: %.12g, an integer in decimal.
   struct RowVisitor {
     CsvSink& sink;
@@ -146,6 +209,8 @@ class CsvSink : public daq::ProcessorSink {
     std::fprintf(out_, format == std::chars_format::fixed ? "%.*f" : "%.*g", precision, v);
   }
   std::FILE* out_{};
+  int bodies_{0};
+  rocklab::block_state2_t bodies_msg_;  // a multi-body row, copied by the field table
   std::array<char, kBuffer> buffer_{};
   std::size_t used_{0};
   int64_t flushes_{0};  // a flush moves the row's text: nothing before it may be copied
@@ -177,7 +242,7 @@ int RunReconstruct(const ReconstructOptions& o) {
     throw UsageError(std::string("--input: ") + e.what());
   }
   out = std::make_unique<pipeline::OutputFile>(o.out_csv);
-  sink.Start(out->get());
+  sink.Start(out->get(), rig.multi_body() ? rig.body_count() : 0);
   try {
     processor = std::make_unique<daq::Processor>(rig, source->channel_names(), source->path(), sink);
   } catch (const std::exception& e) {
@@ -248,7 +313,9 @@ void RegisterReconstruct(CLI::App& app, CommandRun& run) {
   cmd->add_option("input,--input", opts->input, "raw file: .csv, .lvm, an LCM log, or video:FILE (docs/video.md)")->required();
   cmd->add_option("--out", opts->out_csv,
                   "output CSV: time,theta,theta_dot,theta_mirror,theta_camera,sliding,twist,"
-                  "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask)")
+                  "out_of_plane,flags (s, rad, rad/s, rad, rad, m, rad, m, bitmask); a rig of several "
+                  "[[body]] tables: time, then per body K theta_K,theta_dot_K,theta_mirror_K,theta_camera_K,"
+                  "sliding_K,jump_K,twist_K,out_of_plane_K,leds_used_K,flags_K")
       ->required();
   AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunReconstruct(*opts); }; });

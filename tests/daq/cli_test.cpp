@@ -30,33 +30,8 @@
 namespace rocklab::daq {
 namespace {
 
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  size_t Col(const std::string& name) const {
-    for (size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name) return i;
-    }
-    ADD_FAILURE() << "no column " << name;
-    return 0;
-  }
-};
-
-Csv ReadCsv(const std::string& path) {
-  Csv csv;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  std::stringstream h(line);
-  for (std::string f; std::getline(h, f, ',');) csv.header.push_back(f);
-  while (std::getline(in, line)) {
-    std::vector<double> row;
-    std::stringstream s(line);
-    for (std::string f; std::getline(s, f, ',');) row.push_back(std::strtod(f.c_str(), nullptr));
-    csv.rows.push_back(row);
-  }
-  return csv;
-}
+using test::Csv;
+using test::ReadCsv;
 
 // Runs the CLI; returns its exit code, stderr in `err`.
 int Rocklab(const std::string& args, std::string* err = nullptr) {

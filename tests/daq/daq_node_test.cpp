@@ -24,6 +24,7 @@
 #include "daq/processor.h"
 #include "daq/rig_simulator.h"
 #include "daq/source.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/event2_t.hpp"
@@ -78,6 +79,7 @@ struct Collector {
   std::vector<std::string> order;  // channel of every message, in arrival order
   std::vector<rocklab::raw_frame_t> raw;
   std::vector<rocklab::block_state_t> theta;
+  std::vector<rocklab::block_state2_t> bodies;
   std::vector<rocklab::table_state_t> table;
   std::vector<rocklab::event2_t> events;
   std::vector<rocklab::health2_t> health;
@@ -93,6 +95,7 @@ struct Collector {
   void Subscribe(common::Bus& bus) {
     Add(bus, "RL_RAW", raw);
     Add(bus, "RL_THETA", theta);
+    Add(bus, "RL_BODIES", bodies);
     Add(bus, "RL_TABLE", table);
     Add(bus, "RL_EVENT", events);
     Add(bus, "RL_HEALTH", health);
@@ -158,6 +161,9 @@ TEST(DaqNode, MemqRoundTripPublishesEveryFrameAndTheSameReconstruction) {
       ASSERT_TRUE(SameValue(c->raw[i].values[k], frames[i].values[k])) << i << " " << k;
     }
   }
+  // A single block's rig: RL_THETA only, no RL_BODIES.
+  EXPECT_FALSE(c->theta.empty());
+  EXPECT_TRUE(c->bodies.empty());
   // The description comes before the first frame.
   ASSERT_FALSE(c->config.empty());
   EXPECT_LT(std::find(c->order.begin(), c->order.end(), "RL_DAQ_CONFIG") - c->order.begin(),
@@ -214,6 +220,71 @@ TEST(DaqNode, ThetaAndTableOfASampleArePublishedTogether) {
     ++table_i;
   }
   EXPECT_EQ(table_i, c->table.size());
+}
+
+// A rig of two bodies (data/rigs/statue_rig.toml): RL_BODIES
+// (block_state2_t) right after every RL_THETA, of the same sample, nbodies
+// 2, its body 0 the RL_THETA's values bit for bit (one reconstruction,
+// copied by the field table); the statue's angle its own (oracle: the
+// motion given to the simulator, within 6 sigma of its mirror, 1.25e-5 rad
+// at half the typical noise, sigma_s / (2 D)); its 3 mm slide on the
+// pedestal from 0.3 s measured within 5 sigma of the relative pivot (1.1e-4
+// m: two fits, docs/acquisition.md), flagged, and one RL_EVENT naming it.
+TEST(DaqNode, MultiBodyRigPublishesEveryBodyBesideTheBottomOnesTheta) {
+  const RigConfig rig = LoadRigConfig(std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/statue_rig.toml");
+  const std::string path = test::ScratchDir() + "/bodies.csv";
+  SimulatorNoise noise = SimulatorNoise::Typical().Scaled(0.5);
+  noise.occlusion = noise.drop = 0;
+  RigSimulator sim(rig, noise, 5);
+  RawFileWriter out(path, RawFileWriter::Format::kCsv, sim.channel_names(), rig.sample_rate_hz);
+  std::vector<double> raw;
+  auto statue = [](double t) { return 0.03 * std::sin(2 * kPi * 1.5 * t); };
+  for (int k = 0; k <= 500; ++k) {
+    const double t = k / rig.sample_rate_hz;
+    TrueMotion m = NodeMotion(t);
+    m.body_theta[0] = 0.2 * m.theta;
+    m.body_theta[1] = statue(t);
+    m.slip_body = 1;
+    m.slip_m = t >= 0.3 ? 0.003 : 0.0;  // the statue slides 3 mm on the pedestal
+    if (sim.Raw(m, raw)) out.Write(t, raw);
+  }
+  out.Close();
+  std::atomic<bool> stop{false};
+  const auto c = RunOnMemq(rig, path, 0, stop);
+  ASSERT_GT(c->theta.size(), 400u);
+  ASSERT_EQ(c->bodies.size(), c->theta.size());
+  std::size_t theta_i = 0, bodies_i = 0;
+  for (std::size_t i = 0; i < c->order.size(); ++i) {
+    if (c->order[i] == "RL_THETA") ++theta_i;
+    if (c->order[i] != "RL_BODIES") continue;
+    ASSERT_EQ(c->order[i - 1], "RL_THETA") << "message " << i;
+    const rocklab::block_state_t& one = c->theta[theta_i - 1];
+    const rocklab::block_state2_t& all = c->bodies[bodies_i++];
+    ASSERT_EQ(all.seq, one.seq);
+    ASSERT_EQ(all.utime, one.utime);
+    ASSERT_EQ(all.nbodies, 2);
+    ASSERT_EQ(all.theta.size(), 2u);
+    ASSERT_TRUE(SameValue(all.theta[0], one.theta));
+    ASSERT_TRUE(SameValue(all.theta_dot[0], one.theta_dot));
+    ASSERT_TRUE(SameValue(all.sliding[0], one.sliding));
+    ASSERT_EQ(all.flags[0], one.flags);
+    ASSERT_EQ(all.leds_used[0], 4);
+    ASSERT_EQ(all.leds_used[1], 4);
+    ASSERT_TRUE(std::isnan(all.theta_mirror[0]));  // the mirror is the statue's
+    ASSERT_NEAR(all.theta[1], statue(static_cast<double>(all.utime) * 1e-6), 6 * 0.5e-4 / (2 * 2.0)) << i;
+    ASSERT_TRUE(std::isfinite(all.sliding[1])) << "the statue's relative slide is measured";
+    ASSERT_NEAR(all.sliding[1], all.utime >= 300000 ? 0.003 : 0.0, 5 * 1.1e-4) << i;
+    ASSERT_EQ(all.flags[1] & rocklab::block_state2_t::FLAG_SLIDING, all.utime >= 300000 ? 1 : 0) << i;
+  }
+  // One event, at the slide's first sample, naming the body and interface.
+  int slides = 0;
+  for (const auto& e : c->events) {
+    if (e.kind != rocklab::event2_t::SLIDING) continue;
+    ++slides;
+    EXPECT_EQ(e.utime, 300000);
+    EXPECT_EQ(e.detail, "body statue (interface 2): sliding above tolerance");
+  }
+  EXPECT_EQ(slides, 1);
 }
 
 // Oracle: the first frame's sample clock. RL_HEALTH "starting" carries it

@@ -3,12 +3,16 @@
 // every output, and frames generated through the rig simulator.
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "daq/processor.h"
 #include "daq/rig_config.h"
@@ -28,6 +32,35 @@ inline std::string WriteFile(const std::string& name, const std::string& text) {
   const std::string path = ScratchDir() + "/" + name;
   std::ofstream(path, std::ios::binary) << text;
   return path;
+}
+
+/// A CSV read as numbers (a text field reads as 0), its header by name.
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  std::size_t Col(const std::string& name) const {
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return i;
+    }
+    ADD_FAILURE() << "no column " << name;
+    return 0;
+  }
+};
+
+inline Csv ReadCsv(const std::string& path) {
+  Csv csv;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::stringstream h(line);
+  for (std::string f; std::getline(h, f, ',');) csv.header.push_back(f);
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::stringstream s(line);
+    for (std::string f; std::getline(s, f, ',');) row.push_back(std::strtod(f.c_str(), nullptr));
+    csv.rows.push_back(row);
+  }
+  return csv;
 }
 
 struct CollectSink : ProcessorSink {
