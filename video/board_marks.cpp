@@ -81,7 +81,7 @@ cv::Mat ReadBoardImage(const BoardConfig& board, const std::string& video, std::
   cv::Mat frame;
   if (!board.image.empty() && cv::haveImageReader(path)) frame = cv::imread(path, cv::IMREAD_UNCHANGED);
   if (frame.empty()) {
-    cv::VideoCapture cap(path);
+    cv::VideoCapture cap(path, cv::CAP_FFMPEG);  // as frame_reader: not GStreamer, which leaks probing USB
     if (cap.isOpened()) cap.read(frame);
     if (!frame.empty() && !board.image.empty()) *where = "the first frame of " + path;
   }
