@@ -29,63 +29,53 @@ struct DopOscillator : OdeSystem {
   }
 };
 
-// Oracle: the closed form y0 = cos(w t), y1 = -w sin(w t) from y(0) = (1, 0).
-// Tolerance: rtol 1e-10, atol 1e-12 over 20 periods, at the outputs (the
-// dense output between steps as at the steps' ends): measured 9.2e-10 with
-// 395 steps; 1e-8 leaves 10x for other compilers and libm. A dense output
-// of lower order (a cubic between ~1 rad steps) is off by ~1e-3.
-TEST(Dop853Test, OscillatorMatchesTheClosedFormAtEveryOutput) {
-  DopOscillator sys;
-  const double atol[2] = {1e-12, 1e-12};
-  Dop853 dp(2, sys, 1e-10, atol, 0.0, 3);
+// Both pairs on the oscillator at rtol 1e-10, atol 1e-12 (kOscillatorAtol),
+// started from y(0) = (1, 0) with the roots y0 (either direction), y1
+// (rising), a constant.
+constexpr double kOscillatorAtol[2] = {1e-12, 1e-12};
+void StartOscillator(EmbeddedRungeKutta& dp) {
   const double y0[2] = {1.0, 0.0};
   dp.ReInit(0.0, y0);
   const int dir[3] = {0, +1, 0};
   dp.SetRootDirection(dir);
+}
+
+// 2000 outputs over 20 periods: the largest error against the closed form
+// (y1 over w) and the roots met on the way.
+struct OscillatorOutputs {
+  double worst{};
+  int roots{};
+};
+OscillatorOutputs RunOscillatorOutputs(EmbeddedRungeKutta& dp, const DopOscillator& sys) {
+  OscillatorOutputs out;
   const double period = 2 * M_PI / sys.w;
-  double worst = 0.0;
-  int roots = 0;
   for (int k = 1; k <= 2000; ++k) {
     const double t = k * 20 * period / 2000;
-    while (dp.Advance(t, 1e300) == Dop853::Result::kRoot) ++roots;
-    ASSERT_EQ(dp.t_s(), t);
-    worst = std::max({worst, std::abs(dp.y()[0] - std::cos(sys.w * t)),
-                      std::abs(dp.y()[1] + sys.w * std::sin(sys.w * t)) / sys.w});
+    while (dp.Advance(t, 1e300) == EmbeddedRungeKutta::Result::kRoot) ++out.roots;
+    EXPECT_EQ(dp.t_s(), t);
+    out.worst = std::max({out.worst, std::abs(dp.y()[0] - std::cos(sys.w * t)),
+                          std::abs(dp.y()[1] + sys.w * std::sin(sys.w * t)) / sys.w});
   }
-  std::printf("oscillator: %ld steps (%ld rhs), max error %.3e\n", dp.steps(), dp.rhs_evals(), worst);
-  EXPECT_LT(worst, 1e-8);
-  // 20 periods: y0 crosses zero 40 times, y1 rises through zero 20 times.
-  EXPECT_EQ(roots, 60);
-  // Order 8: far fewer steps than 2000 outputs (each step serves several).
-  EXPECT_LT(dp.steps(), 600);
+  return out;
 }
 
 // Oracle: the zeros of cos(w t) at (k + 1/2) pi / w (y0, either direction)
 // and of -w sin(w t) rising at (2k + 1) pi / w. Tolerance: 1e-9 s, the
-// solution's error (above) over |y'| = w; the root finder's own resolution
-// is 100 ulp of t.
-TEST(Dop853Test, RootsAtTheClosedFormTimesInTheirDirection) {
-  DopOscillator sys;
-  const double atol[2] = {1e-12, 1e-12};
-  Dop853 dp(2, sys, 1e-10, atol, 0.0, 3);
-  const double y0[2] = {1.0, 0.0};
-  dp.ReInit(0.0, y0);
-  const int dir[3] = {0, +1, 0};
-  dp.SetRootDirection(dir);
+// solution's error over |y'| = w; the root finder's own resolution is 100
+// ulp of t.
+void ExpectClosedFormRoots(EmbeddedRungeKutta& dp, const DopOscillator& sys) {
   int zeros = 0, rises = 0;
-  while (dp.Advance(10.0, 1e300) == Dop853::Result::kRoot) {
+  while (dp.Advance(10.0, 1e300) == EmbeddedRungeKutta::Result::kRoot) {
     int found[3] = {};
     dp.RootsFound(found);
     EXPECT_EQ(found[2], 0);
     if (found[0] != 0) {
-      const double expected = (zeros + 0.5) * M_PI / sys.w;
-      EXPECT_NEAR(dp.t_s(), expected, 1e-9) << zeros;
+      EXPECT_NEAR(dp.t_s(), (zeros + 0.5) * M_PI / sys.w, 1e-9) << zeros;
       EXPECT_EQ(found[0], zeros % 2 == 0 ? -1 : +1) << zeros;  // cos falls first
       ++zeros;
     }
     if (found[1] != 0) {
-      const double expected = (2 * rises + 1) * M_PI / sys.w;
-      EXPECT_NEAR(dp.t_s(), expected, 1e-9) << rises;
+      EXPECT_NEAR(dp.t_s(), (2 * rises + 1) * M_PI / sys.w, 1e-9) << rises;
       EXPECT_EQ(found[1], +1);
       ++rises;
     }
@@ -94,6 +84,32 @@ TEST(Dop853Test, RootsAtTheClosedFormTimesInTheirDirection) {
   EXPECT_EQ(zeros, static_cast<int>(std::floor(30.0 / M_PI + 0.5)));
   EXPECT_EQ(rises, static_cast<int>(std::floor((30.0 / M_PI + 1) / 2)));
   EXPECT_EQ(dp.t_s(), 10.0);
+}
+
+// Oracle: the closed form y0 = cos(w t), y1 = -w sin(w t) from y(0) = (1, 0).
+// Tolerance: rtol 1e-10, atol 1e-12 over 20 periods, at the outputs (the
+// dense output between steps as at the steps' ends): measured 9.2e-10 with
+// 395 steps; 1e-8 leaves 10x for other compilers and libm. A dense output
+// of lower order (a cubic between ~1 rad steps) is off by ~1e-3.
+TEST(Dop853Test, OscillatorMatchesTheClosedFormAtEveryOutput) {
+  DopOscillator sys;
+  Dop853 dp(2, sys, 1e-10, kOscillatorAtol, 0.0, 3);
+  StartOscillator(dp);
+  const OscillatorOutputs out = RunOscillatorOutputs(dp, sys);
+  std::printf("oscillator: %ld steps (%ld rhs), max error %.3e\n", dp.steps(), dp.rhs_evals(), out.worst);
+  EXPECT_LT(out.worst, 1e-8);
+  // 20 periods: y0 crosses zero 40 times, y1 rises through zero 20 times.
+  EXPECT_EQ(out.roots, 60);
+  // Order 8: far fewer steps than 2000 outputs (each step serves several).
+  EXPECT_LT(dp.steps(), 600);
+}
+
+// Oracle: the closed-form zeros (ExpectClosedFormRoots).
+TEST(Dop853Test, RootsAtTheClosedFormTimesInTheirDirection) {
+  DopOscillator sys;
+  Dop853 dp(2, sys, 1e-10, kOscillatorAtol, 0.0, 3);
+  StartOscillator(dp);
+  ExpectClosedFormRoots(dp, sys);
 }
 
 // Oracle: the stop time is a hard bound (the forcing may jump there): no
@@ -130,55 +146,23 @@ TEST(Dop853Test, NeverEvaluatesBeyondTheStopTime) {
 // at this tolerance.
 TEST(Dopri5Test, OscillatorMatchesTheClosedFormAtEveryOutput) {
   DopOscillator sys;
-  const double atol[2] = {1e-12, 1e-12};
-  Dopri5 dp(2, sys, 1e-10, atol, 0.0, 3);
-  const double y0[2] = {1.0, 0.0};
-  dp.ReInit(0.0, y0);
-  const int dir[3] = {0, +1, 0};
-  dp.SetRootDirection(dir);
-  const double period = 2 * M_PI / sys.w;
-  double worst = 0.0;
-  int roots = 0;
-  for (int k = 1; k <= 2000; ++k) {
-    const double t = k * 20 * period / 2000;
-    while (dp.Advance(t, 1e300) == Dopri5::Result::kRoot) ++roots;
-    ASSERT_EQ(dp.t_s(), t);
-    worst = std::max({worst, std::abs(dp.y()[0] - std::cos(sys.w * t)),
-                      std::abs(dp.y()[1] + sys.w * std::sin(sys.w * t)) / sys.w});
-  }
-  std::printf("oscillator, 5(4): %ld steps (%ld rhs), max error %.3e\n", dp.steps(), dp.rhs_evals(), worst);
-  EXPECT_LT(worst, 1e-8);
-  EXPECT_EQ(roots, 60);
+  Dopri5 dp(2, sys, 1e-10, kOscillatorAtol, 0.0, 3);
+  StartOscillator(dp);
+  const OscillatorOutputs out = RunOscillatorOutputs(dp, sys);
+  std::printf("oscillator, 5(4): %ld steps (%ld rhs), max error %.3e\n", dp.steps(), dp.rhs_evals(), out.worst);
+  EXPECT_LT(out.worst, 1e-8);
+  EXPECT_EQ(out.roots, 60);
   EXPECT_LT(dp.steps(), 5000);
   // Six right-hand sides a step (the seventh is the next step's first).
   EXPECT_LE(dp.rhs_evals(), 6 * (dp.steps() + dp.error_test_fails()) + 2);
 }
 
-// Oracle: the closed-form zeros, as for the 8(5,3) pair; tolerance 1e-9 s.
+// Oracle: the closed-form zeros (ExpectClosedFormRoots).
 TEST(Dopri5Test, RootsAtTheClosedFormTimesInTheirDirection) {
   DopOscillator sys;
-  const double atol[2] = {1e-12, 1e-12};
-  Dopri5 dp(2, sys, 1e-10, atol, 0.0, 3);
-  const double y0[2] = {1.0, 0.0};
-  dp.ReInit(0.0, y0);
-  const int dir[3] = {0, +1, 0};
-  dp.SetRootDirection(dir);
-  int zeros = 0, rises = 0;
-  while (dp.Advance(10.0, 1e300) == Dopri5::Result::kRoot) {
-    int found[3] = {};
-    dp.RootsFound(found);
-    if (found[0] != 0) {
-      EXPECT_NEAR(dp.t_s(), (zeros + 0.5) * M_PI / sys.w, 1e-9) << zeros;
-      EXPECT_EQ(found[0], zeros % 2 == 0 ? -1 : +1) << zeros;
-      ++zeros;
-    }
-    if (found[1] != 0) {
-      EXPECT_NEAR(dp.t_s(), (2 * rises + 1) * M_PI / sys.w, 1e-9) << rises;
-      ++rises;
-    }
-  }
-  EXPECT_EQ(zeros, static_cast<int>(std::floor(30.0 / M_PI + 0.5)));
-  EXPECT_EQ(rises, static_cast<int>(std::floor((30.0 / M_PI + 1) / 2)));
+  Dopri5 dp(2, sys, 1e-10, kOscillatorAtol, 0.0, 3);
+  StartOscillator(dp);
+  ExpectClosedFormRoots(dp, sys);
 }
 
 // Oracle: the stop time bounds every right-hand side (the node's forcing is
