@@ -75,7 +75,8 @@ class FrameReader {
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
 
-  /// The next frame as 8-bit grey (or the chosen channel), its time (s) and its frame number.
+  /// The next frame as 8-bit grey (or the chosen channel), its time (s) and its frame number;
+  /// `gray` is valid until the next call (a file's may point into the decoder's buffer).
   /// False at the end (or when the device stops). Never throws.
   bool Next(cv::Mat& gray, double& time_s, int64_t& number);
 
