@@ -5,12 +5,15 @@
 //     runs them per frame; wall and CPU time, resident memory at 10% of the
 //     run and at its end (flat: nothing grows per frame);
 //  2. end to end: an MJPG AVI of the same frames (OpenCV's writer) read by
-//     the video source's FrameReader (FFmpeg decoding) and tracked, on one
-//     thread and with the decoding on its own (ReadAhead, as the source does).
+//     OpenCV's FFmpeg reader (BGR, then grey: the reference), and by the
+//     video source's FrameReader (libavcodec, the luma plane) and tracked,
+//     on one thread and with the decoding on its own (ReadAhead, as the
+//     source does).
 // Usage: rocklab_bench_video_tracking [FRAMES] (default 20000).
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -162,6 +165,30 @@ int main(int argc, char** argv) {
       w.write(bgr);
     }
   }
+  std::vector<cv::Point2d> reference_centroids;  // every LED of every frame, px
+  {
+    // The reference: OpenCV's FFmpeg reader (every frame converted to BGR by
+    // swscale) and OpenCV's grey, as FrameReader read files before it
+    // decoded them with libavcodec itself; one thread.
+    cv::VideoCapture cap(path, cv::CAP_FFMPEG);
+    rocklab::video::LedTracker tracker0(config, map);
+    cv::Mat bgr, gray;
+    long read = 0;
+    const double cpu1 = CpuSeconds();
+    const auto t1 = std::chrono::steady_clock::now();
+    while (cap.read(bgr)) {
+      cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+      detector.Detect(gray, blobs);
+      tracker0.Track(blobs, cap.get(cv::CAP_PROP_POS_MSEC) * 1e-3, samples);
+      for (const LedSample& s : samples) reference_centroids.emplace_back(s.u_px, s.v_px);
+      ++read;
+    }
+    const double wall2 = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    const double cpu2 = CpuSeconds() - cpu1;
+    std::printf("decode (MJPG, OpenCV's reader, BGR then grey) + tracking 1280x720, one thread: %ld frames in %.3f s "
+                "wall, %.3f s CPU: %.0f frames/s wall, %.0f frames per CPU-s; %lld fits\n",
+                read, wall2, cpu2, read / wall2, read / cpu2, static_cast<long long>(tracker0.counts().fits));
+  }
   for (const bool ahead : {false, true}) {
     rocklab::video::FrameReader reader(path, false, std::nullopt);
     std::unique_ptr<rocklab::video::ReadAhead> read_ahead;
@@ -171,19 +198,31 @@ int main(int argc, char** argv) {
     double t = 0;
     int64_t number = 0;
     long read = 0;
+    std::size_t compared = 0;
+    double worst_px = 0;  // the largest centroid difference from the reference's
+    bool all_found = true;
     const double cpu1 = CpuSeconds();
     const auto t1 = std::chrono::steady_clock::now();
     while (ahead ? read_ahead->Next(gray, t, number) : reader.Next(gray, t, number)) {
       detector.Detect(gray, blobs);
       tracker2.Track(blobs, t, samples);
+      for (const LedSample& s : samples) {
+        if (compared < reference_centroids.size()) {
+          const cv::Point2d& r = reference_centroids[compared++];
+          worst_px = std::max({worst_px, std::abs(s.u_px - r.x), std::abs(s.v_px - r.y)});
+          all_found = all_found && std::isfinite(s.u_px) == std::isfinite(r.x);
+        }
+      }
       ++read;
     }
     const double wall2 = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     const double cpu2 = CpuSeconds() - cpu1;
-    std::printf("decode (MJPG, FFmpeg) + tracking 1280x720, %s: %ld frames in %.3f s wall, %.3f s CPU: "
-                "%.0f frames/s wall, %.0f frames per CPU-s; %lld fits\n",
-                ahead ? "decoding on its own thread (ReadAhead)" : "one thread", read, wall2, cpu2, read / wall2,
-                read / cpu2, static_cast<long long>(tracker2.counts().fits));
+    std::printf("decode (MJPG, libavcodec's luma) + tracking 1280x720, %s: %ld frames in %.3f s wall, %.3f s CPU: "
+                "%.0f frames/s wall, %.0f frames per CPU-s; %lld fits (MJPEG: two decoding threads)\n",
+                ahead ? "decoding on its own thread (ReadAhead)" : "tracking on the reading thread", read, wall2, cpu2,
+                read / wall2, read / cpu2, static_cast<long long>(tracker2.counts().fits));
+    std::printf("  centroids against OpenCV's reader's: %zu LED samples, largest difference %.3g px, %s\n", compared,
+                worst_px, all_found ? "the same LEDs found" : "NOT the same LEDs found");
   }
   std::filesystem::remove_all(dir_template);
   return 0;

@@ -159,7 +159,7 @@ link rocklab::model, rocklab::daq, rocklab::sweep and the others.")
 # dpkg-shlibdeps finds the shared libraries the binary and the MPI plugin
 # need (liblcm, SUNDIALS, spdlog, HDF5, matio, OpenMPI, ...); the rest:
 # gnuplot for figures, the LCM tools and Java for `rocklab spy`.
-# rocklab-video: OpenCV's libraries (dpkg-shlibdeps on its plugin) and the
+# rocklab-video: OpenCV's and FFmpeg's libraries (dpkg-shlibdeps on its plugin) and the
 # rocklab of its version, whose command opens it.
 set(CPACK_DEBIAN_MAIN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_VIDEO_PACKAGE_SHLIBDEPS ON)

@@ -19,7 +19,7 @@ packages=(
   libopenmpi-dev openmpi-bin
   libmatio-dev libhdf5-dev
   python3-dev python3-numpy pybind11-dev python3-pytest python3-scipy
-  libopencv-dev libopencv-contrib-dev libavcodec-dev libavformat-dev libavutil-dev
+  libopencv-dev libopencv-contrib-dev libavcodec-dev libavformat-dev libavutil-dev libswscale-dev
 )
 # Node.js and npm fetch the monitor's charting library at build time; a
 # machine that already has a Node.js with npm (nodesource, say) keeps it.

@@ -13,6 +13,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "video/av_decoder.h"
+
 namespace rocklab::video {
 namespace {
 // A container time further than this from its frame's place on the
@@ -22,8 +24,11 @@ constexpr double kOffGridS = 1e-6;
 constexpr int64_t kAnnouncedSlack = 1;
 }  // namespace
 
+// A file is decoded by FFmpeg's libraries directly (av_decoder.h); image
+// sequences and devices go through OpenCV's readers.
 struct FrameReader::Capture {
   cv::VideoCapture cap;
+  std::unique_ptr<AvDecoder> av;
 };
 
 FrameReader::FrameReader(const std::string& spec, bool device, std::optional<double> fps, const ColourChoice& colour)
@@ -33,28 +38,31 @@ FrameReader::FrameReader(const std::string& spec, bool device, std::optional<dou
                    static_cast<float>(colour.rgb[0])) {
   kind_ = device ? Kind::kDevice
                  : (spec.find('%') != std::string::npos ? Kind::kImageSequence : Kind::kFile);
-  const int api = kind_ == Kind::kDevice ? cv::CAP_V4L2
-                  : kind_ == Kind::kImageSequence ? cv::CAP_IMAGES
-                                                  : cv::CAP_FFMPEG;
-  bool opened = false;
-  try {
-    opened = cap_->cap.open(spec, api);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(spec + ": cannot be opened as a video: " + e.what());
-  }
-  if (!opened) {
-    throw std::runtime_error(spec + ": cannot be opened as a video" +
-                             std::string(kind_ == Kind::kDevice ? " device (V4L2)" : " (OpenCV's FFmpeg reader)"));
-  }
-  backend_ = cap_->cap.getBackendName();
-  width_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_WIDTH));
-  height_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_HEIGHT));
-  const double container_fps = kind_ == Kind::kImageSequence ? 0.0 : cap_->cap.get(cv::CAP_PROP_FPS);
+  double container_fps = 0;
   if (kind_ == Kind::kFile) {
-    const double announced = cap_->cap.get(cv::CAP_PROP_FRAME_COUNT);
-    if (std::isfinite(announced) && announced > 0 && announced < 1e12) {
-      counts_.announced = static_cast<int64_t>(std::llround(announced));
+    // Grey straight from the luma plane; a colour choice needs BGR.
+    cap_->av = std::make_unique<AvDecoder>(spec, colour_.kind != ColourChoice::Kind::kGrey);
+    backend_ = "FFMPEG (libavcodec)";
+    width_ = cap_->av->width();
+    height_ = cap_->av->height();
+    container_fps = cap_->av->rate_hz();
+    counts_.announced = cap_->av->announced();
+  } else {
+    const int api = kind_ == Kind::kDevice ? cv::CAP_V4L2 : cv::CAP_IMAGES;
+    bool opened = false;
+    try {
+      opened = cap_->cap.open(spec, api);
+    } catch (const cv::Exception& e) {
+      throw std::runtime_error(spec + ": cannot be opened as a video: " + e.what());
     }
+    if (!opened) {
+      throw std::runtime_error(spec + ": cannot be opened as a video" +
+                               std::string(kind_ == Kind::kDevice ? " device (V4L2)" : " (OpenCV's image reader)"));
+    }
+    backend_ = cap_->cap.getBackendName();
+    width_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_WIDTH));
+    height_ = static_cast<int>(cap_->cap.get(cv::CAP_PROP_FRAME_HEIGHT));
+    if (kind_ == Kind::kDevice) container_fps = cap_->cap.get(cv::CAP_PROP_FPS);
   }
   const bool has_rate = std::isfinite(container_fps) && container_fps > 0;
   if (kind_ == Kind::kImageSequence) {
@@ -89,10 +97,18 @@ FrameReader::~FrameReader() = default;
 bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
   while (true) {
     bool ok = false;
-    try {
-      ok = cap_->cap.read(raw_);
-    } catch (const cv::Exception&) {
-      ok = false;
+    double container_time_s = 0;  // the file's (device's) time of the frame
+    if (cap_->av) {
+      const int64_t errors_before = cap_->av->decode_errors();
+      ok = cap_->av->Read(raw_, container_time_s);
+      counts_.unreadable += cap_->av->decode_errors() - errors_before;
+    } else {
+      try {
+        ok = cap_->cap.read(raw_);
+        if (ok && kind_ == Kind::kDevice) container_time_s = cap_->cap.get(cv::CAP_PROP_POS_MSEC) * 1e-3;
+      } catch (const cv::Exception&) {
+        ok = false;
+      }
     }
     if (!ok || raw_.empty()) {
       // The end: frames the container announced beyond the last number
@@ -103,19 +119,24 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
       }
       return false;
     }
-    // A frame of another size (OpenCV's image reader gives it as it is; its
-    // FFmpeg reader keeps the first size, and the LEDs' blob statistics
-    // then reject what it makes of the new frames).
+    // A frame of another size: image sequences and files (av_decoder.h)
+    // give each frame at its own size.
     const cv::Size decoded = raw_.size();
     if (first_size_.empty()) first_size_ = decoded;
     if (decoded != first_size_) {
-      // Not measured with the first size's marks and intrinsics: stop, said.
-      char msg[256];
+      // Not measured with the first size's marks and intrinsics: stop, said,
+      // with the file's frames from here to its end counted.
+      std::string rest;
+      if (cap_->av) {
+        counts_.after_size_change = 1 + cap_->av->CountRemainingPackets();
+        rest = "; " + std::to_string(counts_.after_size_change) + " frame(s) from there to the end not tracked";
+      }
+      char msg[320];
       std::snprintf(msg, sizeof msg,
-                    "frame %lld (read %lld of the file): the frame size changed from %dx%d to %dx%d px; the marks, region "
-                    "and intrinsics hold for the first size (cut the video where it changes)",
+                    "frame %lld (read %lld of the file): the frame size changed from %dx%d to %dx%d px%s; the marks, "
+                    "region and intrinsics hold for the first size (cut the video where it changes)",
                     static_cast<long long>(last_number_ + 1), static_cast<long long>(index_ + 1), first_size_.width,
-                    first_size_.height, decoded.width, decoded.height);
+                    first_size_.height, decoded.width, decoded.height, rest.c_str());
       error_ = msg;
       return false;
     }
@@ -126,7 +147,7 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     if (times_from_fps_ && kind_ == Kind::kImageSequence) {
       t = stored = static_cast<double>(index) / rate_hz_;
     } else {
-      stored = cap_->cap.get(cv::CAP_PROP_POS_MSEC) * 1e-3;
+      stored = container_time_s;
       if (!std::isfinite(stored)) {
         ++counts_.unreadable;
         continue;

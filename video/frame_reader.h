@@ -1,13 +1,14 @@
 #pragma once
 /// @file
-/// Frames of a video and their times, through OpenCV's VideoCapture: a file
-/// (FFmpeg backend: mp4, mkv, avi; FFV1, MJPG, H.264...), an image sequence
-/// (`frames/%06d.png`, OpenCV's image reader) or a V4L2 device (live).
+/// Frames of a video and their times: a file (mp4, mkv, avi, nut; FFV1,
+/// MJPG, H.264...) decoded by FFmpeg's libraries (av_decoder.h), an image
+/// sequence (`frames/%06d.png`, OpenCV's image reader) or a V4L2 device
+/// (live, OpenCV's VideoCapture).
 ///
 /// Time: a file's frame k is stamped t_first + k / rate, the rate being the
 /// given `fps` (the rig's or `--fps`: a slow-motion export stored at 30
 /// frames/s) or else the container's nominal rate. The container's
-/// timestamps (CAP_PROP_POS_MSEC, the decoded frame's presentation time)
+/// timestamps (the decoded frame's presentation time)
 /// only number the frames: k = round((t - t_first) x container rate), so a
 /// dropped frame is a skipped number (counted), a repeated one (the same
 /// number again, or a time going back) is counted and not delivered, and
@@ -53,6 +54,9 @@ struct FrameCounts {
   /// ended the read. Set at the end; 0 when the container says nothing.
   int64_t missing_at_end{};
   int64_t announced{};  ///< the container's frame count; 0: not known
+  /// A file whose frame size changed: its frames from the first of the new
+  /// size to its end (packets counted, not decoded), none of them tracked.
+  int64_t after_size_change{};
 };
 
 class FrameReader {
@@ -71,7 +75,8 @@ class FrameReader {
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
 
-  /// The next frame as 8-bit grey (or the chosen channel), its time (s) and its frame number.
+  /// The next frame as 8-bit grey (or the chosen channel), its time (s) and its frame number;
+  /// `gray` is valid until the next call (a file's may point into the decoder's buffer).
   /// False at the end (or when the device stops). Never throws.
   bool Next(cv::Mat& gray, double& time_s, int64_t& number);
 
@@ -93,7 +98,8 @@ class FrameReader {
   const std::string& backend() const { return backend_; }
   /// Why Next() stopped before the end (a frame of another size: the
   /// marks and intrinsics hold for the first), "frame K (...): ..."; empty
-  /// at a plain end.
+  /// at a plain end. A file's frames from there to its end are counted
+  /// (FrameCounts::after_size_change) and named in it.
   const std::string& error() const { return error_; }
 
  private:

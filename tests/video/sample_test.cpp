@@ -333,7 +333,9 @@ namespace rocklab::video {
 namespace {
 
 // H.264 with B-frames: the decoder gives its last frames only when flushed
-// at the end. Oracle: the frames written, each at k x 10 ms.
+// at the end (OpenCV's reader gave them time 0; the libavcodec reader
+// keeps their presentation times). Oracle: the frames written, each at
+// k x 10 ms.
 TEST(FrameReader, H264WithBFramesKeepsItsLastFramesAndTheirTimes) {
   const std::string path = test::ScratchDir("video_bframes") + "/b.mkv";
   constexpr int kBFrames = 60;
@@ -351,7 +353,7 @@ TEST(FrameReader, H264WithBFramesKeepsItsLastFramesAndTheirTimes) {
   int64_t n = 0;
   std::vector<double> times;
   while (r.Next(gray, t, n)) times.push_back(t);
-  EXPECT_GT(r.counts().no_time, 0);
+  EXPECT_EQ(r.counts().no_time, 0);
   EXPECT_EQ(r.counts().backwards, 0);
   EXPECT_EQ(r.counts().repeated, 0);
   EXPECT_EQ(r.counts().dropped, 0);

@@ -11,8 +11,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -569,6 +571,60 @@ TEST(VideoSync, TheMergeResamplesOnTheDaqClockAndAPeriodicDriveIsRefused) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("A and B: the sync edges scatter by"), std::string::npos) << e.what();
   }
+}
+
+// sync = "table" on records made here (no video): the table's displacement
+// x_daq(t) sampled at 1 kHz for 10 s, the video's view of it at 100
+// frames/s for 4 s, x_video(t) = 2 x_daq(0.3 + (1 + 1e-4) t) + 0.01.
+TEST(VideoSync, TheTableClockIsFoundAndAPeriodicOrUnrelatedMotionRefused) {
+  const auto make = [](const std::function<double(double)>& table, std::vector<double>& td, std::vector<double>& xd,
+                       std::vector<double>& tv, std::vector<double>& xv) {
+    td.clear(), xd.clear(), tv.clear(), xv.clear();
+    for (int i = 0; i <= 10000; ++i) td.push_back(i * 1e-3), xd.push_back(table(i * 1e-3));
+    for (int k = 0; k < 400; ++k) tv.push_back(k * 0.01), xv.push_back(2 * table(0.3 + (1 + 1e-4) * k * 0.01) + 0.01);
+  };
+  std::vector<double> td, xd, tv, xv;
+  // A chirp (1 Hz rising 0.6 Hz/s) under a Hann window: no two offsets alike.
+  const auto chirp = [](double t) {
+    return 0.05 * std::sin(M_PI * t / 10) * std::sin(M_PI * t / 10) * std::sin(2 * M_PI * (t + 0.3 * t * t));
+  };
+  make(chirp, td, xd, tv, xv);
+  const MotionFit fit = FitClockByMotion(tv, xv, td, xd, 1e-3, "V and D");
+  // Oracle: the offset, drift and scale the records were made with. The
+  // only error is the DAQ's chord between its 1 ms samples, at most
+  // a'' h^2 / 8 = (2 pi 7 Hz x 1 ms)^2 / 8 = 2.4e-4 of the amplitude at the
+  // chirp's top 7 Hz: a time error below 2.4e-4 / (2 pi 7 Hz) = 5.5 us;
+  // over the video's 4 s that allows 2.7 ppm of drift.
+  EXPECT_NEAR(fit.clock.offset_s, 0.3, 5.5e-6);
+  EXPECT_NEAR(fit.clock.drift_ppm, 100, 2.7);
+  EXPECT_NEAR(fit.scale, 2.0, 2 * 2.4e-4);
+  EXPECT_GT(fit.correlation, 0.999);
+  const auto refusal = [&](const char* what) -> std::string {
+    try {
+      (void)FitClockByMotion(tv, xv, td, xd, 1e-3, "V and D");
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << what << " was accepted";
+    return "";
+  };
+  // A steady 2 Hz sine matches every 0.5 s as well as at 0.3 s.
+  make([](double t) { return 0.05 * std::sin(2 * M_PI * 2 * t); }, td, xd, tv, xv);
+  EXPECT_NE(refusal("a periodic motion").find("V and D: the table's motion matches at two offsets"),
+            std::string::npos);
+  // The video sees something else (noise, an LCG): correlation ~ 1/sqrt(400).
+  make(chirp, td, xd, tv, xv);
+  uint32_t lcg = 11;
+  for (double& x : xv) x = ((lcg = lcg * 1664525u + 1013904223u) >> 8) / 16777216.0;
+  EXPECT_NE(refusal("an unrelated motion").find("V and D: the table's motion in the video correlates"),
+            std::string::npos);
+  // A DAQ record shorter than the video, and too few frames.
+  make(chirp, td, xd, tv, xv);
+  td.resize(3000), xd.resize(3000);
+  EXPECT_NE(refusal("a short DAQ record").find("V and D: the DAQ record (2.999"), std::string::npos);
+  make(chirp, td, xd, tv, xv);
+  for (std::size_t k = 19; k < xv.size(); ++k) xv[k] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(refusal("19 frames").find("V and D: 19 frames show the table's motion (at least 20"), std::string::npos);
 }
 
 }  // namespace

@@ -452,6 +452,38 @@ TEST(VideoHealth, AFrameSizeChangeInAnImageSequenceStopsTheReadNamingTheFrame) {
   EXPECT_EQ(r.states.size(), 20u);
 }
 
+// The same in one MJPEG stream in Matroska (each JPEG carries its size):
+// OpenCV's FFmpeg reader handed back frames of the first size, stale or
+// garbled, and theta froze; the libavcodec reader sees the new size.
+TEST(VideoHealth, AFrameSizeChangeInsideAStreamStopsTheReadCountingTheRest) {
+  const std::string dir = test::ScratchDir("video_resize_mjpeg");
+  Shot s;
+  s.rate_hz = 100;
+  const test::TestCamera cam;
+  constexpr int kN = 30, kChange = 20;
+  {
+    test::TestVideoWriter w(dir + "/shot.mkv", false, cam.width, cam.height, 100);
+    cv::RNG rng(35);
+    for (int k = 0; k < kN; ++k) {
+      cv::Mat f = RenderFrame(cam, s, k, rng);
+      if (k >= kChange) cv::resize(f, f, cv::Size(240, 180), 0, 0, cv::INTER_AREA);
+      w.Write(f, k * 10);
+    }
+    w.Close();
+  }
+  const ShotRun r = ReadShot(dir, RigFor(cam, 100, ""), dir + "/shot.mkv", s);
+  // Oracle: 20 frames of 320x240 written, then 10 of 240x180.
+  EXPECT_EQ(r.end, daq::ReadStatus::kError);
+  EXPECT_NE(r.error.find("shot.mkv:21: frame 20 (read 21 of the file): the frame size changed from 320x240 to "
+                         "240x180 px; 10 frame(s) from there to the end not tracked"),
+            std::string::npos)
+      << r.error;
+  EXPECT_EQ(r.stats.frames.after_size_change, kN - kChange);
+  EXPECT_EQ(r.states.size(), static_cast<std::size_t>(kChange));
+  // The frames before the change are tracked as in any MJPEG stream.
+  EXPECT_EQ(r.compared, kChange);
+}
+
 TEST(VideoHealth, AnUncalibratedLensDoesNotMakeTheDroppedLedsFlipBetweenFrames) {
   const std::string dir = test::ScratchDir("video_flip");
   Shot s;
