@@ -26,6 +26,16 @@
 /// handler's exception is caught, logged the same way and counted
 /// (handler_errors()). Nothing escapes a handler into the transport.
 ///
+/// Passing by value (DirectBus): a message published in the process with
+/// Publish<Msg> reaches a typed subscription for the same Msg (Subscribe,
+/// common::SubscribeVersioned) as the object itself, without encoding,
+/// checking and decoding it, where the encoding would give the same value
+/// back (common::PassesAsValue: the per-sample types of `rocklab run`, when
+/// their strings hold no NUL and their arrays match their counts). Bytes
+/// from outside the process (LcmBus, a log replayed with the raw Publish)
+/// and every other subscription go the guarded way above. Other buses
+/// encode every message.
+///
 /// Threading: handlers run on the thread that calls HandleTimeout (LcmBus)
 /// or Publish (DirectBus). A bus is used by one thread at a time.
 
@@ -34,15 +44,65 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <typeinfo>
 #include <utility>
 
 #include "common/bus_counters.h"
 #include "common/encode_buffers.h"
 #include "common/wire.h"
 
+namespace rocklab {
+class block_state_t;
+class model_band_t;
+class model_state3_t;
+class raw_frame_t;
+class table_state_t;
+}  // namespace rocklab
+
 namespace rocklab::common {
 
 class Bus;
+
+/// Whether `msg` may be handed to an in-process subscriber as it is: its
+/// encoding succeeds and decodes to the same value (every string without a
+/// NUL inside, every array as long as its count says). False for the types
+/// not listed here (they are always encoded); the listed ones are defined in
+/// common/direct_bus.cpp.
+template <class Msg>
+bool PassesAsValue(const Msg& /*msg*/) {
+  return false;
+}
+template <>
+bool PassesAsValue(const rocklab::block_state_t& msg);
+template <>
+bool PassesAsValue(const rocklab::model_band_t& msg);
+template <>
+bool PassesAsValue(const rocklab::model_state3_t& msg);
+template <>
+bool PassesAsValue(const rocklab::raw_frame_t& msg);
+template <>
+bool PassesAsValue(const rocklab::table_state_t& msg);
+
+/// A typed message on its way to Bus::PublishValue: its C++ type, the object
+/// and how to encode it.
+struct MessageRef {
+  const std::type_info* type{};
+  const void* msg{};
+  int (*size_fn)(const void* msg){};                        ///< getEncodedSize()
+  int (*encode_fn)(const void* msg, void* buf, int size){};  ///< encode(): bytes written, < 0 on failure
+  bool by_value{};  ///< PassesAsValue(msg)
+
+  template <class Msg>
+  static MessageRef Of(const Msg& m) {
+    return MessageRef{&typeid(Msg), &m,
+                      [](const void* p) { return static_cast<const Msg*>(p)->getEncodedSize(); },
+                      [](const void* p, void* buf, int size) { return static_cast<const Msg*>(p)->encode(buf, 0, size); },
+                      PassesAsValue(m)};
+  }
+  // EncodeBuffers' view of it.
+  int getEncodedSize() const { return size_fn(msg); }
+  int encode(void* buf, int /*offset: 0*/, int size) const { return encode_fn(msg, buf, size); }
+};
 
 /// A subscription on a Bus: move-only; unsubscribes when destroyed, reset or
 /// assigned over. Empty when default-constructed or moved from.
@@ -72,6 +132,8 @@ class Bus {
  public:
   /// channel, payload bytes, size in bytes.
   using RawHandler = std::function<void(const std::string& channel, const void* data, int size)>;
+  /// channel, the published object (of the type the subscription names).
+  using ValueHandler = std::function<void(const std::string& channel, const void* msg)>;
   /// LCM's default subscriber queue (30) is 30 ms of a 1 kHz channel.
   static constexpr int kDefaultQueue = 4096;
 
@@ -84,9 +146,17 @@ class Bus {
   /// (the caller counts). Never throws.
   virtual bool Publish(const std::string& channel, const void* data, int size) = 0;
 
-  /// Encodes `msg` (an lcm-gen type) into a reused buffer and publishes it.
+  /// Encodes `msg` (an lcm-gen type) into a reused buffer and publishes it
+  /// (DirectBus: hands it to typed subscriptions as it is, see the file
+  /// comment). False when it does not encode or the transport failed.
   template <class Msg>
   bool Publish(const std::string& channel, const Msg& msg) {
+    return PublishValue(channel, MessageRef::Of(msg));
+  }
+
+  /// Publish<Msg>'s work: here, encode and the raw Publish; DirectBus
+  /// passes by value where it can.
+  virtual bool PublishValue(const std::string& channel, const MessageRef& msg) {
     return encode_buffers_.EncodeThen(
         msg, [&](const void* data, int size) { return Publish(channel, data, size); });
   }
@@ -115,6 +185,15 @@ class Bus {
                                 std::function<void(const std::string& channel, const Msg& msg)> handler,
                                 int queue_capacity = kDefaultQueue);
 
+  /// As SubscribeDecoded, and where the bus passes by value (DirectBus), an
+  /// in-process Publish<Msg> on a matching channel reaches `handler` as the
+  /// published object itself. `decode` must read Msg's own bytes as
+  /// GuardedDecode does (Subscribe, common::VersionedDecoder).
+  template <class Msg, class Decode>
+  Subscription SubscribeDecodedOrValue(const std::string& channel_regex, Decode decode,
+                                       std::function<void(const std::string& channel, const Msg& msg)> handler,
+                                       int queue_capacity = kDefaultQueue);
+
   /// Dispatches what has arrived, waiting up to `timeout_ms` for it.
   /// @return > 0 when messages were handled, 0 on timeout, < 0 on a transport
   ///         error. DirectBus has nothing queued: it waits and returns 0.
@@ -135,6 +214,25 @@ class Bus {
     const Bus& wrapped;
   };
   explicit Bus(SharesCountersWith shared);
+
+  /// SubscribeRaw with `value`, the handler of objects of `type` published
+  /// in the process, for a bus that passes by value. Here: `value` is not
+  /// used (every message arrives as bytes).
+  virtual Subscription SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw,
+                                           const std::type_info& /*type*/, ValueHandler /*value*/,
+                                           int queue_capacity) {
+    return SubscribeRaw(channel_regex, std::move(raw), queue_capacity);
+  }
+  /// Runs a value handler on one message, as Dispatch.
+  void DispatchValue(const ValueHandler& handler, const std::string& channel, const void* msg) {
+    counters_->DispatchValue(handler, channel, msg);
+  }
+  /// Encodes `msg` into the reused buffer of the current depth and calls
+  /// `then(data, size)`; false when it does not encode.
+  template <class Then>
+  bool EncodeThen(const MessageRef& msg, Then&& then) {
+    return encode_buffers_.EncodeThen(msg, std::forward<Then>(then));
+  }
 
   /// The handle of subscription `id` of this bus (an implementation's
   /// SubscribeRaw returns it; a decorator returns its inner bus's handle).
@@ -178,11 +276,30 @@ Subscription Bus::SubscribeDecoded(const std::string& channel_regex, Decode deco
       queue_capacity);
 }
 
+template <class Msg, class Decode>
+Subscription Bus::SubscribeDecodedOrValue(const std::string& channel_regex, Decode decode,
+                                          std::function<void(const std::string&, const Msg&)> handler,
+                                          int queue_capacity) {
+  auto shared = std::make_shared<std::function<void(const std::string&, const Msg&)>>(std::move(handler));
+  RawHandler raw = [counters = counters_, decode = std::move(decode), shared, msg = Msg{}](
+                       const std::string& channel, const void* data, int size) mutable {
+    if (const char* why = decode(data, size, msg)) {
+      counters->CountDecodeError(channel, why);
+      return;
+    }
+    (*shared)(channel, msg);
+  };
+  ValueHandler value = [shared](const std::string& channel, const void* msg) {
+    (*shared)(channel, *static_cast<const Msg*>(msg));
+  };
+  return SubscribeRawOrValue(channel_regex, std::move(raw), typeid(Msg), std::move(value), queue_capacity);
+}
+
 template <class Msg>
 Subscription Bus::Subscribe(const std::string& channel_regex,
                             std::function<void(const std::string&, const Msg&)> handler,
                             int queue_capacity) {
-  return SubscribeDecoded<Msg>(
+  return SubscribeDecodedOrValue<Msg>(
       channel_regex,
       [](const void* data, int size, Msg& msg) { return GuardedDecode(data, size, msg); },
       std::move(handler), queue_capacity);

@@ -43,10 +43,10 @@ void BusCounters::CountDecodeError(const std::string& channel, const char* why) 
            std::to_string(n) + " so far)");
 }
 
-void BusCounters::Dispatch(const std::function<void(const std::string&, const void*, int)>& handler,
-                           const std::string& channel, const void* data, int size) {
+template <class Call>
+void BusCounters::Guarded(const std::string& channel, Call&& call) {
   try {
-    handler(channel, data, size);
+    call();
   } catch (const std::exception& e) {
     const std::int64_t n = ++handler_errors_[channel];
     Warn(last_handler_warning_s_, channel,
@@ -57,6 +57,16 @@ void BusCounters::Dispatch(const std::function<void(const std::string&, const vo
     Warn(last_handler_warning_s_, channel,
          "channel " + channel + ": handler failed (" + std::to_string(n) + " so far)");
   }
+}
+
+void BusCounters::Dispatch(const std::function<void(const std::string&, const void*, int)>& handler,
+                           const std::string& channel, const void* data, int size) {
+  Guarded(channel, [&] { handler(channel, data, size); });
+}
+
+void BusCounters::DispatchValue(const std::function<void(const std::string&, const void*)>& handler,
+                                const std::string& channel, const void* msg) {
+  Guarded(channel, [&] { handler(channel, msg); });
 }
 
 }  // namespace rocklab::common

@@ -20,6 +20,9 @@ class BusCounters {
   /// logged, never passed on.
   void Dispatch(const std::function<void(const std::string&, const void*, int)>& handler,
                 const std::string& channel, const void* data, int size);
+  /// As Dispatch, for a handler given the published object (common/bus.h).
+  void DispatchValue(const std::function<void(const std::string&, const void*)>& handler,
+                     const std::string& channel, const void* msg);
 
   const std::map<std::string, std::int64_t>& decode_errors() const { return decode_errors_; }
   const std::map<std::string, std::int64_t>& handler_errors() const { return handler_errors_; }
@@ -28,6 +31,8 @@ class BusCounters {
 
  private:
   void Warn(std::map<std::string, double>& last, const std::string& channel, const std::string& what);
+  template <class Call>
+  void Guarded(const std::string& channel, Call&& call);
 
   std::map<std::string, std::int64_t> decode_errors_, handler_errors_;
   std::map<std::string, double> last_decode_warning_s_, last_handler_warning_s_;  // host s

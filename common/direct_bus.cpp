@@ -1,13 +1,48 @@
 #include "common/direct_bus.h"
 
 #include <chrono>
+#include <cstring>
 #include <regex>
 #include <stdexcept>
 #include <thread>
 #include <unordered_map>
 #include <vector>
 
+#include "rocklab/block_state_t.hpp"
+#include "rocklab/model_band_t.hpp"
+#include "rocklab/model_state3_t.hpp"
+#include "rocklab/raw_frame_t.hpp"
+#include "rocklab/table_state_t.hpp"
+
 namespace rocklab::common {
+namespace {
+
+// lcm-gen encodes a string up to its first NUL but sizes it by size().
+bool EncodesWhole(const std::string& s) { return std::strlen(s.c_str()) == s.size(); }
+
+}  // namespace
+
+// Fixed fields only: their encoding is their value.
+template <>
+bool PassesAsValue(const rocklab::block_state_t& /*msg*/) {
+  return true;
+}
+template <>
+bool PassesAsValue(const rocklab::table_state_t& /*msg*/) {
+  return true;
+}
+template <>
+bool PassesAsValue(const rocklab::model_state3_t& msg) {
+  return EncodesWhole(msg.name) && EncodesWhole(msg.model);
+}
+template <>
+bool PassesAsValue(const rocklab::model_band_t& msg) {
+  return EncodesWhole(msg.name) && EncodesWhole(msg.model);
+}
+template <>
+bool PassesAsValue(const rocklab::raw_frame_t& msg) {
+  return msg.num_channels >= 0 && static_cast<std::size_t>(msg.num_channels) == msg.values.size();
+}
 
 struct DirectBus::Impl {
   struct Entry {
@@ -15,6 +50,8 @@ struct DirectBus::Impl {
     std::regex pattern;
     std::unordered_map<std::string, bool> matches;  // channel -> matches (regex once per channel)
     RawHandler handler;
+    const std::type_info* type{};  // with `value`: the type it takes as an object
+    ValueHandler value;
     bool removed{};
   };
   std::vector<std::unique_ptr<Entry>> entries;
@@ -93,6 +130,50 @@ bool DirectBus::Publish(const std::string& channel, const void* data, int size) 
   --m.depth;
   m.Compact();
   return true;
+}
+
+bool DirectBus::PublishValue(const std::string& channel, const MessageRef& msg) {
+  Impl& m = *impl_;
+  // While the routes are stale (a subscription changed during a dispatch)
+  // the raw Publish matches entry by entry.
+  if (!msg.by_value || m.routes_stale) return Bus::PublishValue(channel, msg);
+  const std::vector<Impl::Entry*>& route = m.Route(channel);
+  bool bytes_wanted = false;
+  for (const Impl::Entry* e : route) bytes_wanted = bytes_wanted || !(e->value && *e->type == *msg.type);
+  ++m.depth;
+  struct Leave {  // also when the encoding throws
+    Impl& m;
+    ~Leave() {
+      --m.depth;
+      m.Compact();
+    }
+  } leave{m};
+  // An entry removed by a handler is skipped; none is added meanwhile (as
+  // in Publish). `route` stays valid: the routes are only cleared by Compact
+  // at depth 0.
+  const auto dispatch = [&](const void* data, int size) {
+    for (Impl::Entry* e : route) {
+      if (e->removed) continue;
+      if (e->value && *e->type == *msg.type) {
+        DispatchValue(e->value, channel, msg.msg);
+      } else {
+        Dispatch(e->handler, channel, data, size);
+      }
+    }
+    return true;
+  };
+  if (!bytes_wanted) return dispatch(nullptr, 0);
+  return EncodeThen(msg, dispatch);
+}
+
+Subscription DirectBus::SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw,
+                                            const std::type_info& type, ValueHandler value,
+                                            int queue_capacity) {
+  Subscription s = SubscribeRaw(channel_regex, std::move(raw), queue_capacity);
+  Impl::Entry& e = *impl_->entries.back();
+  e.type = &type;
+  e.value = std::move(value);
+  return s;
 }
 
 Subscription DirectBus::SubscribeRaw(const std::string& channel_regex, RawHandler handler,

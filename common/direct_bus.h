@@ -1,7 +1,9 @@
 #pragma once
 /// @file
 /// The in-process bus of `rocklab run` (common/bus.h): synchronous, no
-/// queue, no copy through memq.
+/// queue, no copy through memq; a typed message goes to the typed
+/// subscriptions of its type as the object itself (bus.h, "Passing by
+/// value"), and is encoded only when a subscription wants its bytes.
 
 #include <memory>
 #include <string>
@@ -20,12 +22,19 @@ class DirectBus final : public Bus {
 
   using Bus::Publish;
   bool Publish(const std::string& channel, const void* data, int size) override;
+  /// To the matching subscriptions in order: those of the message's type
+  /// get the object when it PassesAsValue, the others its bytes (encoded
+  /// once, only when one of them matches). A message nobody subscribes to
+  /// is not encoded when it PassesAsValue (its encoding cannot fail).
+  bool PublishValue(const std::string& channel, const MessageRef& msg) override;
   Subscription SubscribeRaw(const std::string& channel_regex, RawHandler handler,
                             int queue_capacity = kDefaultQueue) override;
   /// Nothing is ever queued: sleeps `timeout_ms` (a node's idle loop) and returns 0.
   int HandleTimeout(int timeout_ms) override;
 
  private:
+  Subscription SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw, const std::type_info& type,
+                                   ValueHandler value, int queue_capacity) override;
   void Unsubscribe(int id) override;
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -121,13 +121,14 @@ using ModelStateBodiesDecoder = VersionedDecoder<rocklab::model_state4_t, rockla
 
 /// Subscribes `handler` to `channel_regex` accepting the current type and
 /// the older ones, with the typed subscription's guard and counters
-/// (Bus::SubscribeDecoded).
+/// (Bus::SubscribeDecodedOrValue: on a DirectBus an in-process Current
+/// arrives as the object).
 template <class Decoder>
 [[nodiscard]] Subscription SubscribeVersioned(
     Bus& bus, const std::string& channel_regex,
     std::function<void(const std::string& channel, const typename Decoder::Message& msg)> handler,
     int queue_capacity = Bus::kDefaultQueue) {
-  return bus.SubscribeDecoded<typename Decoder::Message>(
+  return bus.SubscribeDecodedOrValue<typename Decoder::Message>(  // Current's own bytes: GuardedDecode
       channel_regex,
       [decoder = Decoder{}](const void* data, int size, typename Decoder::Message& msg) mutable {
         return decoder(data, size, msg);

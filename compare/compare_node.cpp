@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include <time.h>
+
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -27,7 +29,15 @@ std::int64_t CountOf(double n) {
   return n >= 9.2e18 ? std::numeric_limits<std::int64_t>::max() : n <= 0 ? 0 : static_cast<std::int64_t>(n);
 }
 
-using common::HostNowS;
+// The host clock of the stale checks, read at every RL_THETA and
+// RL_MODEL_* (six times a sample in `run` with four variants): the kernel's
+// coarse monotonic clock, which resolves its tick (~4 ms) at a third of
+// steady_clock's cost (docs/performance.md); stale_after_s is seconds.
+double CompareHostNowS() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> log = common::NamedLogger("compare");
@@ -119,7 +129,7 @@ BandSample ToBandSample(const rocklab::model_band_t& m) {
 CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
     : config_(config), bus_(bus), measured_(config.align_capacity) {
   config_.Validate();
-  last_theta_host_s_ = last_health_host_s_ = HostNowS();
+  last_theta_host_s_ = last_health_host_s_ = CompareHostNowS();
   subscriptions_.push_back(bus_.Subscribe<rocklab::block_state_t>(
       config_.channel_prefix + "THETA",
       [this](const std::string&, const rocklab::block_state_t& m) {
@@ -155,7 +165,7 @@ CompareNode::Variant& CompareNode::VariantFor(const rocklab::model_state3_t& msg
 }
 
 void CompareNode::HandleTheta(const rocklab::block_state_t& msg) {
-  const double now = HostNowS();
+  const double now = CompareHostNowS();
   if (theta_stale_) {
     theta_stale_ = false;
     PublishEvent(rocklab::event_t::RECOVERED, "daq", 0.0, "RL_THETA flowing again");
@@ -302,7 +312,7 @@ void CompareNode::PublishCoverage(Band& b) {
 void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   ++model_count_;
   Variant& v = VariantFor(msg);
-  v.last_host_s = HostNowS();
+  v.last_host_s = CompareHostNowS();
   if (v.stale) {
     v.stale = false;
     PublishEvent(rocklab::event_t::RECOVERED, msg.name, 0.0, "model flowing again");
@@ -398,7 +408,7 @@ void CompareNode::PublishHealth(const char* state) {
 }
 
 void CompareNode::CheckStale() {
-  const double now = HostNowS();
+  const double now = CompareHostNowS();
   const bool sample = config_.stale_clock == StaleClock::kSample;
   // How long an input has been silent, on the configured clock, s.
   auto silent_s = [&](double last_host_s, std::int64_t last_utime) {

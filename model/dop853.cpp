@@ -379,6 +379,11 @@ bool DopCrossed(double g_lo, double g, int direction) {
 }  // namespace
 
 bool EmbeddedRungeKutta::FindRoot(double t_hi_s, const double* g_hi) {
+  // Nearly every call (once a sample in the model node) has no crossing:
+  // answered before the search's scratch is set up.
+  bool crossed = false;
+  for (int r = 0; r < roots_; ++r) crossed = crossed || DopCrossed(g_lo_[r], g_hi[r], direction_[r]);
+  if (!crossed) return false;
   const double tol = 100 * kErkEps * std::max(std::abs(t_hi_s), std::abs(t_new_ - t_old_));
   double t_best = t_hi_s;
   bool any = false;
@@ -444,19 +449,21 @@ bool EmbeddedRungeKutta::FindRoot(double t_hi_s, const double* g_hi) {
 
 EmbeddedRungeKutta::Result EmbeddedRungeKutta::Advance(double tout_s, double tstop_s) {
   if (tstop_s < tout_s) tstop_s = tout_s;
-  std::array<double, kMaxRoots> g_end{};
-  Vec y{};
   while (true) {
     if (started_ && t_lo_ < t_new_) {
       // Search the rest of the current step up to the output.
       const double t_end = std::min(t_new_, tout_s);
       if (t_end > t_lo_) {
-        if (t_end == t_new_) {
-          g_end = g_new_;
-        } else {
-          RootsAt(t_end, y.data(), g_end.data());
+        // The roots at t_end: the step's own at its end (the model node's
+        // every sample), else from the dense output.
+        std::array<double, kMaxRoots> g_between{};
+        const double* g_end = g_new_.data();
+        if (t_end != t_new_) {
+          Vec y{};
+          RootsAt(t_end, y.data(), g_between.data());
+          g_end = g_between.data();
         }
-        if (FindRoot(t_end, g_end.data())) return Result::kRoot;
+        if (FindRoot(t_end, g_end)) return Result::kRoot;
         t_lo_ = t_end;
         for (int r = 0; r < roots_; ++r) {
           // A root function that was exactly zero becomes active once it is not.

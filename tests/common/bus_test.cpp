@@ -16,7 +16,9 @@
 #include "common/lcm_bus.h"
 #include "common/lcm_log.h"
 #include "common/log_writing_bus.h"
+#include "common/versions.h"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/model_state3_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/scratch.h"
 
@@ -138,6 +140,91 @@ TEST(DirectBus, UndecodableMessagesAndHandlerExceptionsAreCountedNotThrown) {
   EXPECT_EQ(bus.handler_errors().at("RL_RAW"), 1);
   EXPECT_EQ(bus.decode_error_count(), 3);
   EXPECT_EQ(bus.handler_error_count(), 1);
+}
+
+// Oracle: bus.h's "Passing by value": a typed subscription of the
+// published type gets the published object itself (its address), a raw one
+// on the same channel the bytes lcm-gen encodes, which decode to the same
+// fields; a message whose encoding would not give it back (a NUL inside a
+// string: encode() writes less than getEncodedSize(); an array longer than
+// its count) goes the encoded way as before: refused, or decoded (the
+// subscription sees the count's elements); a subscription of another type
+// on the channel gets bytes and counts them as undecodable; a channel
+// nobody subscribes to takes the message.
+TEST(DirectBus, PassesItsOwnMessagesByValueWhereTheEncodingGivesThemBack) {
+  DirectBus bus;
+  const void* typed_at = nullptr;
+  rocklab::block_state_t raw_decoded{};
+  int raw_calls = 0;
+  const common::Subscription typed = bus.Subscribe<rocklab::block_state_t>(
+      "RL_THETA", [&](const std::string&, const rocklab::block_state_t& m) { typed_at = &m; });
+  const common::Subscription raw = bus.SubscribeRaw("RL_THETA", [&](const std::string&, const void* data, int size) {
+    ++raw_calls;
+    EXPECT_EQ(GuardedDecode(data, size, raw_decoded), nullptr);
+  });
+  const rocklab::block_state_t theta = Theta(7, -0.125);
+  EXPECT_TRUE(bus.Publish("RL_THETA", theta));
+  EXPECT_EQ(typed_at, static_cast<const void*>(&theta));
+  EXPECT_EQ(raw_calls, 1);
+  EXPECT_EQ(raw_decoded.utime, 7);
+  EXPECT_EQ(raw_decoded.theta, -0.125);
+
+  std::vector<const void*> models;
+  std::vector<std::string> names;
+  const common::Subscription versioned = SubscribeVersioned<ModelStateDecoder>(
+      bus, "RL_MODEL_.*", [&](const std::string&, const rocklab::model_state3_t& m) {
+        models.push_back(&m);
+        names.push_back(m.name);
+      });
+  int wrong_type_calls = 0;
+  const common::Subscription wrong_type = bus.Subscribe<rocklab::block_state_t>(
+      "RL_MODEL_A", [&](const std::string&, const rocklab::block_state_t&) { ++wrong_type_calls; });
+  rocklab::model_state3_t model{};
+  model.name = "A";
+  model.model = "housner";
+  EXPECT_TRUE(bus.Publish("RL_MODEL_A", model));
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_EQ(models[0], static_cast<const void*>(&model));
+  EXPECT_EQ(wrong_type_calls, 0);
+  EXPECT_EQ(bus.decode_errors().at("RL_MODEL_A"), 1);  // the block_state_t subscription got the bytes
+  model.name = std::string("A\0B", 3);
+  EXPECT_FALSE(bus.Publish("RL_MODEL_A", model));  // does not encode: nobody gets it
+  EXPECT_EQ(models.size(), 1u);
+  EXPECT_EQ(bus.decode_errors().at("RL_MODEL_A"), 1);
+
+  std::vector<std::size_t> frame_sizes;
+  std::vector<const void*> frames;
+  const common::Subscription raw_frames = bus.Subscribe<rocklab::raw_frame_t>(
+      "RL_RAW", [&](const std::string&, const rocklab::raw_frame_t& m) {
+        frames.push_back(&m);
+        frame_sizes.push_back(m.values.size());
+      });
+  rocklab::raw_frame_t frame{};
+  frame.num_channels = 2;
+  frame.values = {1.0, 2.0, 3.0};
+  EXPECT_TRUE(bus.Publish("RL_RAW", frame));
+  frame.values.pop_back();
+  EXPECT_TRUE(bus.Publish("RL_RAW", frame));
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_NE(frames[0], static_cast<const void*>(&frame));  // decoded from bytes
+  EXPECT_EQ(frame_sizes[0], 2u);
+  EXPECT_EQ(frames[1], static_cast<const void*>(&frame));
+  EXPECT_TRUE(bus.Publish("RL_NOBODY", frame));
+  EXPECT_EQ(bus.handler_error_count(), 0);
+}
+
+// Oracle: a handler that throws on a message passed by value is counted on
+// its channel as on bytes, and the next subscription still gets it.
+TEST(DirectBus, HandlerExceptionsOnMessagesPassedByValueAreCounted) {
+  DirectBus bus;
+  int after = 0;
+  const common::Subscription thrower = bus.Subscribe<rocklab::block_state_t>(
+      "RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { throw std::runtime_error("bug"); });
+  const common::Subscription next = bus.Subscribe<rocklab::block_state_t>(
+      "RL_THETA", [&](const std::string&, const rocklab::block_state_t&) { ++after; });
+  EXPECT_NO_THROW(bus.Publish("RL_THETA", Theta(1, 0.0)));
+  EXPECT_EQ(after, 1);
+  EXPECT_EQ(bus.handler_errors().at("RL_THETA"), 1);
 }
 
 // Oracle: the same guard on LCM's own dispatch (memq://): the hostile
