@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/node_support.h"
+#include "model/model_registry.h"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health2_t.hpp"
@@ -230,7 +231,7 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
     v->msg.alpha = spec.params.alpha;
     v->msg.p = spec.params.p;
     v->msg.mu = spec.params.mu;
-    v->msg.l = spec.kind == ModelKind::kComplex ? spec.options.l : 0.0;
+    v->msg.l = FindModel(spec.kind).has_l ? spec.options.l : 0.0;
     variants_.push_back(std::move(v));
   }
   for (const EnsembleSpec& spec : config_.ensembles) {

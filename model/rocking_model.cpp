@@ -1,6 +1,7 @@
 #include "model/rocking_model.h"
 
 #include "common/logger_clock.h"
+#include "model/model_registry.h"
 #include "model/numbers.h"
 
 #include <spdlog/spdlog.h>
@@ -41,9 +42,8 @@ class SegmentForcing final : public Forcing {
 }  // namespace
 
 const char* ToString(ModelKind kind) {
-  switch (kind) {
-    case ModelKind::kHousner: return "housner";
-    case ModelKind::kComplex: return "complex";
+  for (const ModelInfo& m : Models()) {
+    if (m.kind == kind) return m.name;
   }
   return "?";
 }
@@ -87,9 +87,8 @@ const char* ToString(Equations equations) {
 }
 
 ModelKind ParseModelKind(const std::string& name) {
-  if (name == "housner") return ModelKind::kHousner;
-  if (name == "complex") return ModelKind::kComplex;
-  throw std::invalid_argument("unknown model '" + name + "' (expected housner, complex)");
+  if (const ModelInfo* m = FindModel(name)) return m->kind;
+  throw std::invalid_argument("unknown model '" + name + "' (expected " + ModelNames(", ") + ")");
 }
 
 void ModelOptions::Validate() const {
@@ -113,11 +112,7 @@ std::unique_ptr<RockingModel> RockingModel::Create(ModelKind kind, const BlockPa
                                                    const ModelOptions& options) {
   params.Validate();
   options.Validate();
-  switch (kind) {
-    case ModelKind::kHousner: return detail::MakeHousner(params, options);
-    case ModelKind::kComplex: return detail::MakeComplex(params, options);
-  }
-  throw std::invalid_argument("RockingModel::Create: unknown kind");
+  return FindModel(kind).make(params, options);
 }
 
 void RockingModel::Step(double t_s, double table_accel_mps2) {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/text.h"
+#include "model/model_registry.h"
 
 namespace rocklab::model {
 namespace {
@@ -65,7 +66,7 @@ VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParam
   try {
     v.kind = ParseModelKind(text.substr(c1 + 1, c2 - c1 - 1));
   } catch (const std::invalid_argument&) {
-    throw std::invalid_argument(where + ": MODEL must be housner or complex");
+    throw std::invalid_argument(where + ": MODEL must be " + ModelNames(" or "));
   }
   const std::string params = text.substr(c2 + 1);
   if (params == "theoretical") {

@@ -16,6 +16,7 @@
 
 #include "common/toml_reader.h"
 #include "common/units.h"
+#include "model/model_registry.h"
 #include "pipeline/option_error.h"
 
 namespace rocklab::pipeline {
@@ -296,10 +297,11 @@ void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model
 }  // namespace
 
 void CheckAssemblyModel(const Assembly& a, const std::string& model) {
-  if (model != "housner" && model != "complex") {
-    throw OptionError("--model must be housner or complex, got '" + model + "'");
+  const model::ModelInfo* info = model::FindModel(model);
+  if (info == nullptr) {
+    throw OptionError("--model must be " + model::ModelNames(" or ") + ", got '" + model + "'");
   }
-  if (model != "housner" && !a.frame && a.bodies.size() > 1) {
+  if (!a.frame && static_cast<int>(a.bodies.size()) > info->max_bodies) {
     throw OptionError("--model " + model + " with the stack of " + std::to_string(a.bodies.size()) + " bodies in " +
                       a.path +
                       ": only housner takes a stack (eq. (10)'s extension to several bodies is not derived, "
