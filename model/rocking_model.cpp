@@ -18,26 +18,12 @@ namespace {
 
 using detail::ExactText;
 using detail::kPi;
+using detail::SegmentForcing;
 
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> logger = common::NamedLogger("model");
   return logger;
 }
-
-// Table acceleration of Step: linear from (t0, a0) to (t1, a1), held
-// constant when t1 == t0. Lives on the stack of Step (no allocation).
-class SegmentForcing final : public Forcing {
- public:
-  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
-  double TableAcceleration(double t_s) const override {
-    if (!(t1_ > t0_)) return a1_;
-    const double w = (t_s - t0_) / (t1_ - t0_);
-    return a0_ + w * (a1_ - a0_);
-  }
-
- private:
-  double t0_, a0_, t1_, a1_;
-};
 
 }  // namespace
 
