@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -69,6 +70,13 @@ VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParam
     throw std::invalid_argument(where + ": MODEL must be " + ModelNames(" or "));
   }
   const std::string params = text.substr(c2 + 1);
+  constexpr std::string_view kAssemblySuffix = ".toml";
+  if (params.size() > kAssemblySuffix.size() &&
+      params.compare(params.size() - kAssemblySuffix.size(), kAssemblySuffix.size(), kAssemblySuffix) == 0) {
+    v.assembly_path = params;  // read, with its block or stack, by the caller (pipeline::BuildVariants)
+    v.params_source = params;
+    return v;
+  }
   if (params == "theoretical") {
     if (!theoretical) {
       throw std::invalid_argument(where + ": 'theoretical' needs the block geometry in the rig file");

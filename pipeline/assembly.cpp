@@ -309,6 +309,27 @@ void CheckAssemblyModel(const Assembly& a, const std::string& model) {
   }
 }
 
+model::stack::Stack StackOf(const Assembly& a) {
+  if (a.frame || a.bodies.size() < 2) {
+    throw OptionError("--assembly: " + a.path + ": a " + a.kind() + " is run as its single block, not as a stack");
+  }
+  return model::stack::Stack(StackBodiesOf(a));
+}
+
+void ResolveAssemblyVariant(model::VariantSpec& v) {
+  const Assembly a = ReadAssembly(v.assembly_path);
+  CheckAssemblyModel(a, model::ToString(v.kind));
+  if (const std::optional<model::BlockParams> block = EquivalentBlock(a)) {
+    v.params = *block;
+    return;
+  }
+  v.stack = StackOf(a);
+  v.restitution = a.restitution;
+  v.body_names.clear();
+  for (int k = 0; k < a.output_bodies(); ++k) v.body_names.push_back(a.body_name(k));
+  v.params = StackRowParams(a);
+}
+
 AssemblyRun RunStackUnder(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,
                           const std::string& forcing_description) {
   if (a.frame || a.bodies.size() < 2) {
