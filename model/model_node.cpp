@@ -1,6 +1,7 @@
 #include "model/model_node.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <condition_variable>
@@ -11,6 +12,8 @@
 #include <spdlog/spdlog.h>
 
 #include "common/node_support.h"
+#include "model/model_registry.h"
+#include "model/numbers.h"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health2_t.hpp"
@@ -106,7 +109,8 @@ void ModelNodeConfig::Validate() const {
 // One model stepped on the samples: a variant's, or an ensemble member.
 struct ModelNode::Runner {
   std::string label;  // for the log: "variant 'x'", "ensemble 'e' draw 3 (line 5)"
-  std::unique_ptr<RockingModel> model;
+  std::unique_ptr<RockingModel> model;  // a single block's; null for a stack
+  std::unique_ptr<stack::Stepper> stack;  // a stack's (an assembly variant of two or more bodies)
   bool failed{};
   bool failed_now{};   // failed at the sample being stepped (logged by the handler)
   std::string error;   // its message
@@ -117,6 +121,9 @@ struct ModelNode::Variant {
   Runner run;
   std::string channel;
   rocklab::model_state3_t msg{};  // its seq: the next message's number on `channel`
+  rocklab::model_state4_t bodies_msg{};  // a stack's message instead (its seq likewise)
+  std::vector<std::string> interface_names;  // a stack's, for its events: "table/drum1", ...
+  double stack_energy_scale_j{1.0};  // a stack's M g R of its bottom body on its base corner, J
 };
 
 struct ModelNode::Ensemble {
@@ -223,14 +230,19 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
     ModelOptions options = spec.options;
     options.integrator = config_.integrator;
     v->run.label = "variant '" + spec.name + "'";
-    v->run.model = RockingModel::Create(spec.kind, spec.params, options);
     v->channel = config_.channel_prefix + "MODEL_" + spec.name;
+    if (spec.stack) {
+      InitStackVariant(*v, options);
+      variants_.push_back(std::move(v));
+      continue;
+    }
+    v->run.model = RockingModel::Create(spec.kind, spec.params, options);
     v->msg.name = spec.name;
     v->msg.model = ToString(spec.kind);
     v->msg.alpha = spec.params.alpha;
     v->msg.p = spec.params.p;
     v->msg.mu = spec.params.mu;
-    v->msg.l = spec.kind == ModelKind::kComplex ? spec.options.l : 0.0;
+    v->msg.l = FindModel(spec.kind).has_l ? spec.options.l : 0.0;
     variants_.push_back(std::move(v));
   }
   for (const EnsembleSpec& spec : config_.ensembles) {
@@ -285,6 +297,8 @@ std::size_t ModelNode::variant_count() const { return variants_.size(); }
 
 const rocklab::model_state3_t& ModelNode::latest(std::size_t i) const { return variants_.at(i)->msg; }
 
+const rocklab::model_state4_t& ModelNode::latest_bodies(std::size_t i) const { return variants_.at(i)->bodies_msg; }
+
 const rocklab::model_band_t& ModelNode::band(std::size_t i) const { return ensembles_.at(i)->msg; }
 
 void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_utime) {
@@ -293,8 +307,12 @@ void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_ut
   const double theta_dot0 = at_rest || !std::isfinite(theta.theta_dot) ? 0.0 : theta.theta_dot;
   for (Runner* r : runners_) {
     try {
-      r->model->Reset(0.0, theta0, theta_dot0);
-      r->model->ClearEvents();
+      if (r->stack) {
+        r->stack->Reset(0.0);  // a stack starts at rest (docs/models.md, "The model node")
+      } else {
+        r->model->Reset(0.0, theta0, theta_dot0);
+        r->model->ClearEvents();
+      }
       r->failed = false;
     } catch (const std::exception& e) {
       r->failed = true;
@@ -416,6 +434,10 @@ void ModelNode::StepAll(const Target& target) {
       continue;
     }
     if (r.failed) continue;
+    if (r.stack) {
+      PublishStack(*v, target);
+      continue;
+    }
     const ModelState& st = r.model->state();
     v->msg.utime = target.utime;
     v->msg.theta = st.theta;
@@ -495,11 +517,99 @@ void ModelNode::PublishBand(Ensemble& e, const Target& target) {
   ++published_;
 }
 
+void ModelNode::InitStackVariant(Variant& v, const ModelOptions& options) {
+  const VariantSpec& spec = v.spec;
+  const stack::Stack& st = *spec.stack;
+  const int n = st.bodies();
+  const auto nn = static_cast<std::size_t>(n);
+  stack::RunOptions ro;
+  ro.rtol = options.rtol;
+  ro.restitution = spec.restitution;
+  ro.integrator = options.integrator;
+  v.run.stack = std::make_unique<stack::Stepper>(st, ro);
+  rocklab::model_state4_t& m = v.bodies_msg;
+  m.name = spec.name;
+  m.model = ToString(spec.kind);
+  m.nbodies = n;
+  m.theta.assign(nn, 0.0);
+  m.theta_dot.assign(nn, 0.0);
+  m.chi.assign(nn, 0.0);
+  m.psi.assign(nn, 0.0);
+  m.regime.assign(nn, static_cast<std::int8_t>(rocklab::model_state4_t::REGIME_REST));  // a copy: no ODR use
+  m.alpha.resize(nn);
+  m.p.resize(nn);
+  m.mu.resize(nn);
+  for (int k = 0; k < n; ++k) {
+    const BlockParams b = StackBodyParams(st, k, spec.restitution);
+    m.alpha[static_cast<std::size_t>(k)] = b.alpha;
+    m.p[static_cast<std::size_t>(k)] = b.p;
+    m.mu[static_cast<std::size_t>(k)] = b.mu;
+    const std::string below = k == 0 ? "table" : spec.body_names.at(static_cast<std::size_t>(k) - 1);
+    v.interface_names.push_back(below + "/" + spec.body_names.at(static_cast<std::size_t>(k)));
+  }
+  m.l = 0.0;
+  m.equations = rocklab::model_state4_t::EQUATIONS_HOUSNER;
+  m.mode = stack::ModeName(stack::Mode{}, n);
+  // E / (M g R) of the bottom body on its base corner.
+  const stack::Body& b0 = st.body(0);
+  v.stack_energy_scale_j = b0.mass_kg * kGravity * std::hypot(st.contact_half_width_m(0), b0.half_height_m);
+}
+
+void ModelNode::PublishStack(Variant& v, const Target& target) {
+  Runner& r = v.run;
+  const stack::Stepper& s = *r.stack;
+  rocklab::model_state4_t& m = v.bodies_msg;
+  const int n = m.nbodies;
+  std::array<double, stack::kMaxBodies> theta{}, theta_dot{};
+  s.BodyStates(theta.data(), theta_dot.data());
+  const stack::Mode& mode = s.mode();
+  bool moving = false;  // an interface at or below body k is open
+  for (int k = 0; k < n; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    moving = moving || mode[kk] != 0;
+    // The single block's sign, clockwise positive (0 - x: +0 at rest), as simulate --assembly's.
+    m.theta[kk] = 0.0 - theta[kk];
+    m.theta_dot[kk] = 0.0 - theta_dot[kk];
+    m.chi[kk] = std::abs(m.theta[kk]) / m.alpha[kk];
+    m.psi[kk] = m.theta[kk] >= 0.0 ? 0.0 : detail::kPi;
+    m.regime[kk] = s.overturned() && k >= s.overturned_interface() ? rocklab::model_state4_t::REGIME_OVERTURNED
+                   : moving ? rocklab::model_state4_t::REGIME_ROCKING
+                            : rocklab::model_state4_t::REGIME_REST;
+  }
+  m.utime = target.utime;
+  m.energy = s.EnergyAboveRest() / v.stack_energy_scale_j;
+  m.impact_count = s.impacts();
+  m.mode = stack::ModeName(mode, n);  // short: no allocation
+  bus_.Publish(v.channel, m);
+  ++m.seq;
+  ++published_;
+  for (const stack::Event& e : s.events()) {
+    rocklab::event2_t ev;
+    ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
+    ev.seq = event_seq_++;
+    ev.sender = sender_;
+    ev.source = v.spec.name;
+    ev.kind = EventCode(e.kind);
+    ev.value = e.value;  // event_t's meaning per kind, of the interface (stack::Event::value)
+    ev.detail = std::string(ToString(e.kind)) + " at interface " + std::to_string(e.interface) + " (" +
+                v.interface_names[static_cast<std::size_t>(e.interface)] + "), mode " +
+                stack::ModeName(e.after, n);
+    bus_.Publish(event_channel_, ev);
+  }
+  r.stack->ClearEvents();
+}
+
 void ModelNode::StepRunner(std::size_t i, const Target& target) {
   Runner& r = *runners_[i];
   if (r.failed) return;
   try {
-    if (std::isnan(target.horizon_s)) {
+    if (r.stack) {
+      if (std::isnan(target.horizon_s)) {
+        r.stack->Step(target.t_s, target.accel);
+      } else {
+        r.stack->AdvanceTo(target.t_s, window_, target.horizon_s);
+      }
+    } else if (std::isnan(target.horizon_s)) {
       r.model->Step(target.t_s, target.accel);
     } else {
       r.model->AdvanceAhead(target.t_s, window_, target.horizon_s);

@@ -4,7 +4,10 @@
 /// It subscribes RL_TABLE (and RL_THETA for the initial state), steps every
 /// variant to each table sample's time (never ahead of the data it has) and
 /// publishes RL_MODEL_<name> (model_state3_t: the state and which equations
-/// produced it) stamped with that sample's utime.
+/// produced it) stamped with that sample's utime. A variant of an assembly
+/// of two or more bodies (VariantSpec::stack) publishes model_state4_t on
+/// its RL_MODEL_<name> instead: per-body arrays and the contact mode
+/// (docs/channels.md); its events name the interface.
 ///
 /// Threading: handlers run where the bus dispatches (the caller of Run on an
 /// LcmBus; the publisher's thread on a DirectBus). With more than one variant
@@ -50,6 +53,7 @@
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/table_state_t.hpp"
 
 namespace rocklab::model {
@@ -112,6 +116,8 @@ class ModelNode {
   /// The latest state of variant i (in configuration order); its seq is
   /// the number the variant's next message will carry.
   const rocklab::model_state3_t& latest(std::size_t i) const;
+  /// The latest message of variant i when it is a stack (nbodies 0 otherwise).
+  const rocklab::model_state4_t& latest_bodies(std::size_t i) const;
   std::size_t variant_count() const;
   /// The latest band of ensemble i (in configuration order).
   const rocklab::model_band_t& band(std::size_t i) const;
@@ -147,6 +153,10 @@ class ModelNode {
   void StepRunner(std::size_t i, const Target& target);
   // An ensemble's band of the sample just stepped, published.
   void PublishBand(Ensemble& e, const Target& target);
+  // A stack variant's stepper and constant message fields.
+  void InitStackVariant(Variant& v, const ModelOptions& options);
+  // A stack variant's model_state4_t and events of the sample just stepped.
+  void PublishStack(Variant& v, const Target& target);
   // Steps every variant to `target` and publishes their messages and events.
   void StepAll(const Target& target);
   // Steps the oldest held sample (N > 0).

@@ -135,6 +135,22 @@ class CvodeRockingModel : public RockingModel, protected OdeSystem {
   bool passage_impact_done_{false};
 };
 
+// Table acceleration of live stepping (RockingModel::Step, the stack's
+// Stepper::Step): linear from (t0, a0) to (t1, a1), held constant when
+// t1 == t0. Lives on the stack of Step (no allocation).
+class SegmentForcing final : public Forcing {
+ public:
+  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
+  double TableAcceleration(double t_s) const override {
+    if (!(t1_ > t0_)) return a1_;
+    const double w = (t_s - t0_) / (t1_ - t0_);
+    return a0_ + w * (a1_ - a0_);
+  }
+
+ private:
+  double t0_, a0_, t1_, a1_;
+};
+
 std::unique_ptr<RockingModel> MakeHousner(const BlockParams& params, const ModelOptions& options);
 std::unique_ptr<RockingModel> MakeComplex(const BlockParams& params, const ModelOptions& options);
 

@@ -1,6 +1,7 @@
 #include "model/rocking_model.h"
 
 #include "common/logger_clock.h"
+#include "model/model_registry.h"
 #include "model/numbers.h"
 
 #include <spdlog/spdlog.h>
@@ -17,33 +18,18 @@ namespace {
 
 using detail::ExactText;
 using detail::kPi;
+using detail::SegmentForcing;
 
 std::shared_ptr<spdlog::logger> Log() {
   static const std::shared_ptr<spdlog::logger> logger = common::NamedLogger("model");
   return logger;
 }
 
-// Table acceleration of Step: linear from (t0, a0) to (t1, a1), held
-// constant when t1 == t0. Lives on the stack of Step (no allocation).
-class SegmentForcing final : public Forcing {
- public:
-  SegmentForcing(double t0, double a0, double t1, double a1) : t0_(t0), a0_(a0), t1_(t1), a1_(a1) {}
-  double TableAcceleration(double t_s) const override {
-    if (!(t1_ > t0_)) return a1_;
-    const double w = (t_s - t0_) / (t1_ - t0_);
-    return a0_ + w * (a1_ - a0_);
-  }
-
- private:
-  double t0_, a0_, t1_, a1_;
-};
-
 }  // namespace
 
 const char* ToString(ModelKind kind) {
-  switch (kind) {
-    case ModelKind::kHousner: return "housner";
-    case ModelKind::kComplex: return "complex";
+  for (const ModelInfo& m : Models()) {
+    if (m.kind == kind) return m.name;
   }
   return "?";
 }
@@ -87,9 +73,8 @@ const char* ToString(Equations equations) {
 }
 
 ModelKind ParseModelKind(const std::string& name) {
-  if (name == "housner") return ModelKind::kHousner;
-  if (name == "complex") return ModelKind::kComplex;
-  throw std::invalid_argument("unknown model '" + name + "' (expected housner, complex)");
+  if (const ModelInfo* m = FindModel(name)) return m->kind;
+  throw std::invalid_argument("unknown model '" + name + "' (expected " + ModelNames(", ") + ")");
 }
 
 void ModelOptions::Validate() const {
@@ -113,11 +98,7 @@ std::unique_ptr<RockingModel> RockingModel::Create(ModelKind kind, const BlockPa
                                                    const ModelOptions& options) {
   params.Validate();
   options.Validate();
-  switch (kind) {
-    case ModelKind::kHousner: return detail::MakeHousner(params, options);
-    case ModelKind::kComplex: return detail::MakeComplex(params, options);
-  }
-  throw std::invalid_argument("RockingModel::Create: unknown kind");
+  return FindModel(kind).make(params, options);
 }
 
 void RockingModel::Step(double t_s, double table_accel_mps2) {

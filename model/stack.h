@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -136,6 +137,11 @@ struct RunOptions {
   /// A pivot whose relative rate after an impact is below this closes
   /// (stays shut: Housner's impacts would otherwise come ever closer), rad/s.
   double rest_rate_rad_s{1e-6};
+  /// How the equations are stepped: Adams for a whole record (Simulate);
+  /// the model node steps live with Dormand-Prince 5(4), one step at a time,
+  /// which loses nothing at the kink of the sampled table at every sample
+  /// (as the single block's, docs/performance.md).
+  Integrator integrator{Integrator::kAdams};
 };
 
 /// The single block's kinds (uplift, impact, rest, overturn) and their names.
@@ -147,6 +153,10 @@ struct Event {
   EventKind kind{};
   int interface{};  ///< 0: the table, k: under body k
   Mode after{};     ///< the contact states from then on
+  /// As event_t's value, of the interface, in the single block's sign
+  /// (clockwise positive): uplift the table acceleration, m/s^2; impact the
+  /// interface's relative rate before, rad/s; rest 0; overturn its relative angle, rad.
+  double value{};
 };
 
 /// A stack's run: samples at t = k / rate_hz (angles counter-clockwise,
@@ -161,6 +171,68 @@ struct Run {
   long steps{};  ///< the integrator's
 };
 
+/// A stack stepped from rest, sample after sample: Simulate's loop, and the
+/// model node's live run of an assembly. Events, contact modes and
+/// overturning as Simulate's; the state frozen once an interface overturns.
+class Stepper {
+ public:
+  /// Only `options`' tolerances, rest step, restitution, rest rate and
+  /// integrator are read. @throws std::invalid_argument for a tolerance out of range.
+  Stepper(const Stack& stack, const RunOptions& options);
+  ~Stepper();
+  Stepper(const Stepper&) = delete;
+  Stepper& operator=(const Stepper&) = delete;
+
+  /// At rest (every interface closed) at t0_s; events cleared.
+  void Reset(double t0_s);
+  /// Integrates to t_s (>= time_s()) under `forcing`, evaluated only on
+  /// [time_s(), horizon_s] (horizon_s >= t_s: the integrator may step past
+  /// t_s and interpolate there, its history kept). Successive calls pass
+  /// the same forcing. @throws std::invalid_argument for a time out of
+  /// order, std::runtime_error when the integrator or an impact fails.
+  void AdvanceTo(double t_s, const Forcing& forcing, double horizon_s);
+  /// Live: the table acceleration (m/s^2) at t_s, linear since the
+  /// previous sample (the first after Reset held constant); never evaluates
+  /// the table past t_s (RockingModel::Step's rule).
+  void Step(double t_s, double table_accel_mps2);
+
+  const Stack& stack() const { return stack_; }
+  double time_s() const { return t_; }
+  const Mode& mode() const { return mode_; }
+  /// Every body's absolute angle (rad) and rate (rad/s), bottom-up,
+  /// counter-clockwise (stack().bodies() values each).
+  void BodyStates(double* theta, double* theta_dot) const;
+  /// Kinetic plus potential energy above rest, J.
+  double EnergyAboveRest() const;
+  bool overturned() const { return overturned_; }
+  /// The interface that overturned (-1: none).
+  int overturned_interface() const { return overturned_interface_; }
+  /// Impacts since Reset, at every interface.
+  int impacts() const { return impacts_; }
+  /// Events since Reset (or the last ClearEvents).
+  const std::vector<Event>& events() const { return events_; }
+  void ClearEvents() { events_.clear(); }
+  /// The integrator's steps since construction.
+  long steps() const;
+
+ private:
+  struct Solvers;
+  Stack stack_;
+  RunOptions options_;
+  std::unique_ptr<Solvers> solvers_;
+  Mode mode_{};
+  Vec q_, qdot_;
+  double t_{};
+  double rest_energy_j_{};
+  bool reinit_{true};  // the integrator restarts at t_ in mode_ before the next step
+  bool overturned_{};
+  int overturned_interface_{-1};
+  int impacts_{};
+  std::vector<Event> events_;
+  double last_step_time_s_{}, last_step_accel_{};
+  bool has_step_sample_{};
+};
+
 /// Integrates `stack` from rest under `forcing` (CVODE's Adams method; the
 /// equations of the current contact mode, restarted at every change of it
 /// and at the forcing's declared jumps). Stops at an overturning (an
@@ -168,6 +240,13 @@ struct Run {
 /// for a rate or duration out of range, std::runtime_error when the
 /// integrator or an impact fails.
 Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options);
+
+/// Body k alone on its base face (interface k's contact face, half-width
+/// c_k): alpha = atan(c_k / h_k), p^2 = m g R / I_O with R = hypot(c_k, h_k)
+/// and I_O = I + m R^2, and mu = 1 - 2 m c_k^2 / I_O (Housner's momentum
+/// balance about the new corner; 1 - 1.5 sin^2(alpha) for a rectangle on
+/// its own width), or the interface's restitution when given (>= 0).
+BlockParams StackBodyParams(const Stack& stack, int k, const std::vector<double>& restitution);
 
 /// A mode's name, one letter per interface bottom-up: C closed, L pivot on
 /// the left corner, R on the right one ("CC": at rest, two bodies).

@@ -9,9 +9,23 @@
 #include "common/units.h"
 #include "model/cvode.h"
 #include "model/excitation.h"
+#include "model/rocking_impl.h"
 #include "model/stack.h"
 
 namespace rocklab::model::stack {
+
+BlockParams StackBodyParams(const Stack& stack, int k, const std::vector<double>& restitution) {
+  const Body& b = stack.body(k);
+  const double c = stack.contact_half_width_m(k);
+  const double r = std::hypot(c, b.half_height_m);
+  const double inertia = b.inertia_kgm2 + b.mass_kg * r * r;
+  BlockParams out;
+  out.alpha = std::atan2(c, b.half_height_m);
+  out.p = std::sqrt(b.mass_kg * kGravity * r / inertia);
+  const auto kk = static_cast<std::size_t>(k);
+  out.mu = kk < restitution.size() && restitution[kk] >= 0 ? restitution[kk] : 1.0 - 2 * b.mass_kg * c * c / inertia;
+  return out;
+}
 
 std::string ModeName(const Mode& mode, int interfaces) {
   std::string name;
@@ -22,7 +36,8 @@ std::string ModeName(const Mode& mode, int interfaces) {
   return name;
 }
 
-namespace {
+// Private to this file; named (not anonymous) because Stepper::Solvers holds one.
+namespace run_detail {
 
 // The equations and roots of one contact mode. y = (q, q') of its m
 // pivots; with none (the stack at rest) one dummy equation y' = 0. Two root
@@ -31,7 +46,9 @@ namespace {
 // relative angle returning to 0 (s q) and reaching pi/2 (pi/2 - s q).
 class ModeOde final : public detail::OdeSystem {
  public:
-  ModeOde(const Stack& stack, const Forcing& forcing) : stack_(stack), forcing_(forcing) {}
+  explicit ModeOde(const Stack& stack) : stack_(stack) {}
+  // The table's acceleration of the calls to come (not owned).
+  void SetForcing(const Forcing& forcing) { forcing_ = &forcing; }
   void Set(const Mode& mode) {
     mode_ = mode;
     m_ = stack_.Dofs(mode);
@@ -44,7 +61,7 @@ class ModeOde final : public detail::OdeSystem {
       return 0;
     }
     Split(y);
-    const Vec a = stack_.Accelerations(mode_, q_, qdot_, forcing_.TableAcceleration(t_s));
+    const Vec a = stack_.Accelerations(mode_, q_, qdot_, forcing_->TableAcceleration(t_s));
     for (int i = 0; i < m_; ++i) {
       ydot[i] = y[m_ + i];
       ydot[m_ + i] = a(i);
@@ -54,7 +71,7 @@ class ModeOde final : public detail::OdeSystem {
 
   int Roots(double t_s, const double* y, double* g) override {
     Split(y);
-    const double accel = forcing_.TableAcceleration(t_s);
+    const double accel = forcing_->TableAcceleration(t_s);
     bool loads_done = false;
     std::array<Load, kMaxBodies> loads{};
     for (int k = 0, dof = 0; k < stack_.bodies(); ++k) {
@@ -91,11 +108,15 @@ class ModeOde final : public detail::OdeSystem {
     }
   }
   const Stack& stack_;
-  const Forcing& forcing_;
+  const Forcing* forcing_{};
   Mode mode_{};
   int m_{};
   Vec q_, qdot_;
 };
+
+}  // namespace run_detail
+
+namespace {
 
 // Index of interface k's generalised coordinate in `mode`: its pivots below k.
 int DofOf(const Mode& mode, int k) {
@@ -128,24 +149,100 @@ void Shut(int k, Eigen::Index dof, Mode& mode, Vec& q, Vec& qdot) {
   qdot = nqd;
 }
 
+detail::Cvode::Method StackMethod(Integrator integrator) {
+  switch (integrator) {
+    case Integrator::kAdams: return detail::Cvode::Method::kAdams;
+    case Integrator::kRungeKutta: return detail::Cvode::Method::kRungeKutta;
+    case Integrator::kDormandPrince853: return detail::Cvode::Method::kDormandPrince853;
+    case Integrator::kDormandPrince5: return detail::Cvode::Method::kDormandPrince5;
+  }
+  return detail::Cvode::Method::kAdams;
+}
+
 }  // namespace
 
-Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options) {
-  if (!(options.rate_hz > 0 && std::isfinite(options.rate_hz))) throw std::invalid_argument("stack: rate_hz must be > 0");
-  if (!(options.duration_s >= 0 && std::isfinite(options.duration_s))) {
-    throw std::invalid_argument("stack: duration_s must be >= 0");
+// The integrators of the stepper, one per number of pivots (created when
+// a mode first needs it), and the equations they step.
+struct Stepper::Solvers {
+  explicit Solvers(const Stack& stack) : ode(stack) {}
+  run_detail::ModeOde ode;
+  std::array<std::unique_ptr<detail::Cvode>, kMaxBodies + 1> by_pivots;
+};
+
+Stepper::Stepper(const Stack& stack, const RunOptions& options)
+    : stack_(stack), options_(options), solvers_(std::make_unique<Solvers>(stack_)) {
+  if (!(options.rtol > 0 && options.rtol < 1) || !(options.atol_rad > 0 && std::isfinite(options.atol_rad)) ||
+      !(options.rest_step_s > 0 && std::isfinite(options.rest_step_s))) {
+    throw std::invalid_argument("stack: rtol must be in (0, 1), atol_rad and rest_step_s finite and > 0");
   }
-  const int n = stack.bodies();
-  ModeOde ode(stack, forcing);
-  std::array<std::unique_ptr<detail::Cvode>, kMaxBodies + 1> solvers;  // by number of pivots
+  Reset(0.0);
+  rest_energy_j_ = stack_.Energy(mode_, q_, qdot_);
+}
+
+Stepper::~Stepper() = default;
+
+void Stepper::Reset(double t0_s) {
+  if (!std::isfinite(t0_s)) throw std::invalid_argument("stack: Reset: t0_s is not finite");
+  mode_ = Mode{};
+  q_.resize(0);
+  qdot_.resize(0);
+  t_ = t0_s;
+  reinit_ = true;
+  overturned_ = false;
+  overturned_interface_ = -1;
+  impacts_ = 0;
+  events_.clear();
+  has_step_sample_ = false;
+}
+
+void Stepper::BodyStates(double* theta, double* theta_dot) const {
+  stack_.Bodies(mode_, q_, qdot_, theta, theta_dot);
+}
+
+double Stepper::EnergyAboveRest() const { return stack_.Energy(mode_, q_, qdot_) - rest_energy_j_; }
+
+long Stepper::steps() const {
+  long steps = 0;
+  for (const auto& s : solvers_->by_pivots) {
+    if (s) steps += s->stats().steps;
+  }
+  return steps;
+}
+
+void Stepper::Step(double t_s, double table_accel_mps2) {
+  if (!std::isfinite(t_s) || !std::isfinite(table_accel_mps2)) {
+    throw std::invalid_argument("stack: Step: t_s and table_accel_mps2 must be finite");
+  }
+  const detail::SegmentForcing forcing =
+      has_step_sample_ ? detail::SegmentForcing(last_step_time_s_, last_step_accel_, t_s, table_accel_mps2)
+                       : detail::SegmentForcing(t_s, table_accel_mps2, t_s, table_accel_mps2);
+  AdvanceTo(t_s, forcing, t_s);
+  last_step_time_s_ = t_s;
+  last_step_accel_ = table_accel_mps2;
+  has_step_sample_ = true;
+}
+
+void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
+  if (!(t_s >= t_) || !std::isfinite(t_s) || !(horizon_s >= t_s)) {
+    throw std::invalid_argument("stack: AdvanceTo: t_s must be finite, >= the current time and <= horizon_s");
+  }
+  if (overturned_ || t_s == t_) {
+    t_ = t_s;  // frozen at the overturning, or already there (the first sample)
+    return;
+  }
+  const int n = stack_.bodies();
+  run_detail::ModeOde& ode = solvers_->ode;
+  ode.SetForcing(forcing);
   auto solver = [&](int m) -> detail::Cvode& {
-    auto& s = solvers[static_cast<std::size_t>(m)];
+    auto& s = solvers_->by_pivots[static_cast<std::size_t>(m)];
     if (!s) {
       const int eq = std::max(1, 2 * m);
       std::array<double, detail::Cvode::kMaxEquations> atol{};
-      for (int i = 0; i < eq; ++i) atol[static_cast<std::size_t>(i)] = i < m || m == 0 ? options.atol_rad : 100 * options.atol_rad;
-      s = std::make_unique<detail::Cvode>(eq, ode, options.rtol, atol.data(), m == 0 ? options.rest_step_s : 0.0,
-                                          detail::Cvode::Method::kAdams, 2 * n);
+      for (int i = 0; i < eq; ++i) {
+        atol[static_cast<std::size_t>(i)] = i < m || m == 0 ? options_.atol_rad : 100 * options_.atol_rad;
+      }
+      s = std::make_unique<detail::Cvode>(eq, ode, options_.rtol, atol.data(), m == 0 ? options_.rest_step_s : 0.0,
+                                          StackMethod(options_.integrator), 2 * n);
       std::array<int, detail::Cvode::kMaxRoots> down{};
       down.fill(-1);
       s->SetRootDirection(down.data());
@@ -153,112 +250,123 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
     return *s;
   };
   auto restitution = [&](int k) {
-    return static_cast<std::size_t>(k) < options.restitution.size() ? options.restitution[static_cast<std::size_t>(k)]
-                                                                      : -1.0;
+    return static_cast<std::size_t>(k) < options_.restitution.size()
+               ? options_.restitution[static_cast<std::size_t>(k)]
+               : -1.0;
   };
-
-  Run run;
-  Mode mode{};
-  Vec q(0), qdot(0);
-  const long samples = static_cast<long>(std::floor(options.duration_s * options.rate_hz + 1e-9)) + 1;
-  long next = 0;
-  double t = 0.0;
-  auto record = [&](double at) {
-    std::array<double, kMaxBodies> th{}, thd{};
-    stack.Bodies(mode, q, qdot, th.data(), thd.data());
-    run.time_s.push_back(at);
-    run.theta.push_back(th);
-    run.theta_dot.push_back(thd);
-    run.mode.push_back(mode);
-  };
-  record(0.0);
-  next = 1;
-  while (next < samples) {
+  Mode& mode = mode_;
+  Vec& q = q_;
+  Vec& qdot = qdot_;
+  double& t = t_;
+  while (true) {
     ode.Set(mode);
     const int m = ode.m();
     detail::Cvode& cv = solver(m);
-    std::array<double, detail::Cvode::kMaxEquations> y0{};
-    for (int i = 0; i < m; ++i) {
-      y0[static_cast<std::size_t>(i)] = q(i);
-      y0[static_cast<std::size_t>(m + i)] = qdot(i);
-    }
-    cv.ReInit(t, y0.data());
-    bool changed = false;
-    while (next < samples && !changed) {
-      const double tout = static_cast<double>(next) / options.rate_hz;
-      const double tstop = std::min(forcing.NextDiscontinuity(t), options.duration_s);
-      const auto result = cv.Advance(std::min(tout, tstop), tstop);
-      t = cv.t_s();
-      const double* y = cv.y();
+    if (reinit_) {
+      std::array<double, detail::Cvode::kMaxEquations> y0{};
       for (int i = 0; i < m; ++i) {
-        q(i) = y[i];
-        qdot(i) = y[m + i];
+        y0[static_cast<std::size_t>(i)] = q(i);
+        y0[static_cast<std::size_t>(m + i)] = qdot(i);
       }
-      if (result == detail::Cvode::Result::kReached) {
-        if (t >= tout) {
-          record(tout);
-          ++next;
-        } else {
-          changed = true;  // a jump of the forcing: restart on its other side
-        }
+      cv.ReInit(t, y0.data());
+      reinit_ = false;
+    }
+    const double tstop = std::min(forcing.NextDiscontinuity(t), horizon_s);
+    const auto result = cv.Advance(std::min(t_s, tstop), tstop);
+    t = cv.t_s();
+    const double* y = cv.y();
+    for (int i = 0; i < m; ++i) {
+      q(i) = y[i];
+      qdot(i) = y[m + i];
+    }
+    if (result == detail::Cvode::Result::kReached) {
+      if (t >= t_s) return;
+      reinit_ = true;  // a jump of the forcing: restart on its other side
+      continue;
+    }
+    // A root: the lowest interface's first.
+    std::array<int, detail::Cvode::kMaxRoots> found{};
+    cv.RootsFound(found.data());
+    int slot = 0;
+    while (slot < 2 * n && found[static_cast<std::size_t>(slot)] == 0) ++slot;
+    if (slot == 2 * n) continue;
+    const int k = slot / 2;
+    const auto kk = static_cast<std::size_t>(k);
+    reinit_ = true;
+    if (mode[kk] == 0) {
+      Insert(mode, k, q, qdot);
+      mode[kk] = slot % 2 == 0 ? -1 : 1;  // the resultant at the right corner: turning clockwise on it
+      events_.push_back({t, EventKind::kUplift, k, mode, forcing.TableAcceleration(t)});
+    } else if (slot % 2 == 1) {
+      events_.push_back({t, EventKind::kOverturn, k, mode, 0.0 - q(DofOf(mode, k))});
+      overturned_ = true;
+      overturned_interface_ = k;
+      return;
+    } else {
+      // The striking pivot's relative angle is 0 at the root (CVODE's
+      // interpolant leaves ~1e-15 rad): exactly 0 for the new contacts.
+      const int dof = DofOf(mode, k);
+      q(dof) = 0.0;
+      const double rate_before = 0.0 - qdot(dof);  // the single block's sign
+      if (std::abs(qdot(dof)) < options_.rest_rate_rad_s || mode[kk] * qdot(dof) >= 0) {
+        // Closing at (about) no relative rate, or grazing (the root found
+        // in the noise of an angle that hovers at 0): no impulse; it shuts.
+        Shut(k, dof, mode, q, qdot);
+        events_.push_back({t, EventKind::kRest, k, mode});
         continue;
       }
-      // A root: the lowest interface's first.
-      std::array<int, detail::Cvode::kMaxRoots> found{};
-      cv.RootsFound(found.data());
-      int slot = 0;
-      while (slot < 2 * n && found[static_cast<std::size_t>(slot)] == 0) ++slot;
-      if (slot == 2 * n) continue;
-      const int k = slot / 2;
-      const auto kk = static_cast<std::size_t>(k);
-      changed = true;
-      if (mode[kk] == 0) {
-        Insert(mode, k, q, qdot);
-        mode[kk] = slot % 2 == 0 ? -1 : 1;  // the resultant at the right corner: turning clockwise on it
-        run.events.push_back({t, EventKind::kUplift, k, mode});
-      } else if (slot % 2 == 1) {
-        run.events.push_back({t, EventKind::kOverturn, k, mode});
-        run.overturned = true;
-        next = samples;
+      ++impacts_;
+      Stack::ImpactResult after;
+      try {
+        after = stack_.Impact(mode, q, qdot, k, restitution(k));
+      } catch (const std::runtime_error& e) {
+        throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
+      }
+      const int new_dof = DofOf(after.mode, k);
+      if (after.mode[kk] != 0 && std::abs(after.qdot(new_dof)) < options_.rest_rate_rad_s) {
+        // Too slow to lift again: shut, its rate taken out by the impact.
+        after = stack_.Impact(mode, q, qdot, k, 0.0);
+        mode = after.mode;
+        q = after.q;
+        qdot = after.qdot;
+        if (mode[kk] != 0) Shut(k, DofOf(mode, k), mode, q, qdot);  // its contacts below k may differ
+        events_.push_back({t, EventKind::kRest, k, mode});
       } else {
-        // The striking pivot's relative angle is 0 at the root (CVODE's
-        // interpolant leaves ~1e-15 rad): exactly 0 for the new contacts.
-        const int dof = DofOf(mode, k);
-        q(dof) = 0.0;
-        if (std::abs(qdot(dof)) < options.rest_rate_rad_s || mode[kk] * qdot(dof) >= 0) {
-          // Closing at (about) no relative rate, or grazing (the root found
-          // in the noise of an angle that hovers at 0): no impulse; it shuts.
-          Shut(k, dof, mode, q, qdot);
-          run.events.push_back({t, EventKind::kRest, k, mode});
-          continue;
-        }
-        Stack::ImpactResult after;
-        try {
-          after = stack.Impact(mode, q, qdot, k, restitution(k));
-        } catch (const std::runtime_error& e) {
-          throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
-        }
-        const int new_dof = DofOf(after.mode, k);
-        if (after.mode[kk] != 0 && std::abs(after.qdot(new_dof)) < options.rest_rate_rad_s) {
-          // Too slow to lift again: shut, its rate taken out by the impact.
-          after = stack.Impact(mode, q, qdot, k, 0.0);
-          mode = after.mode;
-          q = after.q;
-          qdot = after.qdot;
-          if (mode[kk] != 0) Shut(k, DofOf(mode, k), mode, q, qdot);  // its contacts below k may differ
-          run.events.push_back({t, EventKind::kRest, k, mode});
-        } else {
-          mode = after.mode;
-          q = after.q;
-          qdot = after.qdot;
-          run.events.push_back({t, EventKind::kImpact, k, mode});
-        }
+        mode = after.mode;
+        q = after.q;
+        qdot = after.qdot;
+        events_.push_back({t, EventKind::kImpact, k, mode, rate_before});
       }
     }
   }
-  for (const auto& s : solvers) {
-    if (s) run.steps += s->stats().steps;
+}
+
+Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options) {
+  if (!(options.rate_hz > 0 && std::isfinite(options.rate_hz))) throw std::invalid_argument("stack: rate_hz must be > 0");
+  if (!(options.duration_s >= 0 && std::isfinite(options.duration_s))) {
+    throw std::invalid_argument("stack: duration_s must be >= 0");
   }
+  Stepper stepper(stack, options);
+  Run run;
+  const long samples = static_cast<long>(std::floor(options.duration_s * options.rate_hz + 1e-9)) + 1;
+  auto record = [&](double at) {
+    std::array<double, kMaxBodies> th{}, thd{};
+    stepper.BodyStates(th.data(), thd.data());
+    run.time_s.push_back(at);
+    run.theta.push_back(th);
+    run.theta_dot.push_back(thd);
+    run.mode.push_back(stepper.mode());
+  };
+  record(0.0);
+  for (long next = 1; next < samples; ++next) {
+    const double tout = static_cast<double>(next) / options.rate_hz;
+    stepper.AdvanceTo(tout, forcing, options.duration_s);
+    if (stepper.overturned()) break;
+    record(tout);
+  }
+  run.events = stepper.events();
+  run.overturned = stepper.overturned();
+  run.steps = stepper.steps();
   return run;
 }
 

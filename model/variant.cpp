@@ -4,10 +4,12 @@
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "common/text.h"
+#include "model/model_registry.h"
 
 namespace rocklab::model {
 namespace {
@@ -65,9 +67,16 @@ VariantSpec ParseVariant(const std::string& text, const std::optional<BlockParam
   try {
     v.kind = ParseModelKind(text.substr(c1 + 1, c2 - c1 - 1));
   } catch (const std::invalid_argument&) {
-    throw std::invalid_argument(where + ": MODEL must be housner or complex");
+    throw std::invalid_argument(where + ": MODEL must be " + ModelNames(" or "));
   }
   const std::string params = text.substr(c2 + 1);
+  constexpr std::string_view kAssemblySuffix = ".toml";
+  if (params.size() > kAssemblySuffix.size() &&
+      params.compare(params.size() - kAssemblySuffix.size(), kAssemblySuffix.size(), kAssemblySuffix) == 0) {
+    v.assembly_path = params;  // read, with its block or stack, by the caller (pipeline::BuildVariants)
+    v.params_source = params;
+    return v;
+  }
   if (params == "theoretical") {
     if (!theoretical) {
       throw std::invalid_argument(where + ": 'theoretical' needs the block geometry in the rig file");

@@ -5,9 +5,11 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "model/block.h"
 #include "model/rocking_model.h"
+#include "model/stack.h"
 
 namespace rocklab::model {
 
@@ -16,11 +18,22 @@ struct VariantSpec {
   std::string name;          ///< channel suffix: RL_MODEL_<name>; [A-Za-z0-9_]+
   ModelKind kind{};
   BlockParams params;
-  std::string params_source; ///< "theoretical", "command line" or the JSON file
+  std::string params_source; ///< "theoretical", "command line", the JSON file or the assembly file
   ModelOptions options;
+  /// PARAMS an assembly file (`*.toml`, docs/models.md "The model node"),
+  /// read by pipeline::BuildVariants: a one-body assembly or a frame sets
+  /// `params` (its single block); a stack of two or more bodies sets
+  /// `stack`, its interfaces' restitution and its bodies' names, and
+  /// `params` to the stack's single-block summary (pipeline::StackRowParams).
+  std::string assembly_path;
+  std::optional<stack::Stack> stack;
+  std::vector<double> restitution;  ///< per interface bottom-up, < 0: the angular momentum rule
+  std::vector<std::string> body_names;
 };
 
-/// Parses `NAME:MODEL:PARAMS`, MODEL housner|complex, PARAMS `theoretical`
+/// Parses `NAME:MODEL:PARAMS`, MODEL housner|complex, PARAMS a file
+/// ending in `.toml` (an assembly: only its path is kept, in
+/// assembly_path, for the caller to read), `theoretical`
 /// (then `theoretical` must hold the rig's geometric parameters),
 /// `alpha=A,p=P,mu=M[,l=L][,handoff=K]` (rad, rad/s, 1, 1, 1; handoff: the
 /// complex model's opt-in l -> 0 hand-off below K V_min, 0 = off, see

@@ -16,6 +16,7 @@
 
 #include "common/toml_reader.h"
 #include "common/units.h"
+#include "model/model_registry.h"
 #include "pipeline/option_error.h"
 
 namespace rocklab::pipeline {
@@ -296,15 +297,37 @@ void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model
 }  // namespace
 
 void CheckAssemblyModel(const Assembly& a, const std::string& model) {
-  if (model != "housner" && model != "complex") {
-    throw OptionError("--model must be housner or complex, got '" + model + "'");
+  const model::ModelInfo* info = model::FindModel(model);
+  if (info == nullptr) {
+    throw OptionError("--model must be " + model::ModelNames(" or ") + ", got '" + model + "'");
   }
-  if (model != "housner" && !a.frame && a.bodies.size() > 1) {
+  if (!a.frame && static_cast<int>(a.bodies.size()) > info->max_bodies) {
     throw OptionError("--model " + model + " with the stack of " + std::to_string(a.bodies.size()) + " bodies in " +
                       a.path +
                       ": only housner takes a stack (eq. (10)'s extension to several bodies is not derived, "
                       "docs/models.md, \"Assemblies\"); a frame or a one-body assembly takes complex");
   }
+}
+
+model::stack::Stack StackOf(const Assembly& a) {
+  if (a.frame || a.bodies.size() < 2) {
+    throw OptionError("--assembly: " + a.path + ": a " + a.kind() + " is run as its single block, not as a stack");
+  }
+  return model::stack::Stack(StackBodiesOf(a));
+}
+
+void ResolveAssemblyVariant(model::VariantSpec& v) {
+  const Assembly a = ReadAssembly(v.assembly_path);
+  CheckAssemblyModel(a, model::ToString(v.kind));
+  if (const std::optional<model::BlockParams> block = EquivalentBlock(a)) {
+    v.params = *block;
+    return;
+  }
+  v.stack = StackOf(a);
+  v.restitution = a.restitution;
+  v.body_names.clear();
+  for (int k = 0; k < a.output_bodies(); ++k) v.body_names.push_back(a.body_name(k));
+  v.params = StackRowParams(a);
 }
 
 AssemblyRun RunStackUnder(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,

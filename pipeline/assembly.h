@@ -17,6 +17,7 @@
 #include "model/block.h"
 #include "model/rocking_model.h"
 #include "model/stack.h"
+#include "model/variant.h"
 #include "pipeline/scenario.h"
 
 namespace rocklab::pipeline {
@@ -106,6 +107,17 @@ void CheckAssemblyModel(const Assembly& assembly, const std::string& model);
 /// integration fails.
 AssemblyRun RunStackUnder(const Assembly& assembly, const ScenarioOptions& options, const model::Forcing& forcing,
                           const std::string& forcing_description);
+
+/// A stack of two or more bodies (EquivalentBlock is nullopt) as the model
+/// integrates it: each body's rectangle and mass.
+model::stack::Stack StackOf(const Assembly& assembly);
+
+/// Fills an assembly variant (`NAME:MODEL:FILE.toml`, VariantSpec::
+/// assembly_path set) from its file: a one-body assembly or a frame its
+/// single block's params; a stack its stack, restitution, body names and
+/// the summary params (StackRowParams). @throws OptionError naming the
+/// file, line and key, or the model a stack cannot take.
+void ResolveAssemblyVariant(model::VariantSpec& variant);
 
 /// The single-block parameters that name a stack of two or more bodies in
 /// a sweep's rows (docs/sweep.md, "Assemblies"): alpha the stack's uplift

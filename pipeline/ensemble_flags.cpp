@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "model/model_registry.h"
 #include "pipeline/option_error.h"
 
 namespace rocklab::pipeline {
@@ -27,7 +28,7 @@ std::vector<model::EnsembleSpec> BuildEnsembles(const EnsembleFlags& f, double r
   try {
     kind = model::ParseModelKind(f.model);
   } catch (const std::invalid_argument&) {
-    throw OptionError("--ensemble-model: '" + f.model + "' is not housner or complex");
+    throw OptionError("--ensemble-model: '" + f.model + "' is not " + model::ModelNames(" or "));
   }
   model::ModelOptions options;
   options.rtol = rtol;

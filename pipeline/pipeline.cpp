@@ -13,6 +13,7 @@
 #include "common/text.h"
 #include "daq/source.h"
 #include "model/block.h"
+#include "pipeline/assembly.h"
 #include "record/log_writer.h"
 #include "rocklab/health2_t.hpp"
 
@@ -371,6 +372,15 @@ std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& te
     } catch (const std::invalid_argument& e) {
       throw OptionError(std::string("--variant: ") + e.what());
     }
+    if (!out.back().assembly_path.empty()) {
+      try {
+        ResolveAssemblyVariant(out.back());  // its file's errors name it, line and key
+      } catch (const OptionError& e) {
+        std::string why = e.what();  // "--assembly: FILE:LINE: ..." as simulate --assembly says it
+        if (why.rfind("--assembly: ", 0) == 0) why.erase(0, std::string("--assembly: ").size());
+        throw OptionError("--variant '" + s + "': " + why);
+      }
+    }
   }
   for (std::size_t i = 0; i < out.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
@@ -380,6 +390,18 @@ std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& te
     }
   }
   return out;
+}
+
+void PrintVariants(const std::vector<model::VariantSpec>& variants, std::FILE* out) {
+  for (const model::VariantSpec& v : variants) {
+    if (v.stack) {
+      std::fprintf(out, "variant %s: %s, a stack of %d bodies, per-body model_state4_t (%s)\n", v.name.c_str(),
+                   model::ToString(v.kind), v.stack->bodies(), v.params_source.c_str());
+      continue;
+    }
+    std::fprintf(out, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n", v.name.c_str(),
+                 model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu, v.params_source.c_str());
+  }
 }
 
 void ValidateCompareOptions(const compare::CompareNodeConfig& c) {

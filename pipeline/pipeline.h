@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <string>
@@ -112,6 +113,10 @@ int ReportDamage(long long regions, long long bytes, long long events, const std
 /// become OptionError naming --variant or --rtol.
 std::vector<model::VariantSpec> BuildVariants(const std::vector<std::string>& texts, const daq::RigConfig& rig,
                                               double rtol = model::ModelOptions{}.rtol);
+
+/// One line per variant on `out`: its model and parameters and where they
+/// came from (a stack: its bodies and its per-body message).
+void PrintVariants(const std::vector<model::VariantSpec>& variants, std::FILE* out);
 
 /// Checks the comparator's options; throws OptionError naming the option
 /// (--compare-rate, --window, --stale).

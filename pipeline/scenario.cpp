@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "common/units.h"
+#include "model/model_registry.h"
 #include "pipeline/option_error.h"
 
 namespace rocklab::pipeline {
@@ -59,7 +60,7 @@ Scenario BuildScenario(const ScenarioOptions& o) {
   try {
     kind = model::ParseModelKind(o.model);
   } catch (const std::invalid_argument&) {
-    throw OptionError("--model must be housner or complex, got '" + o.model + "'");
+    throw OptionError("--model must be " + model::ModelNames(" or ") + ", got '" + o.model + "'");
   }
   Require(std::isfinite(o.alpha) && o.alpha > 0 && o.alpha < kPi / 2, "--alpha",
           "in (0, pi/2) rad", o.alpha);
@@ -84,10 +85,8 @@ Scenario BuildScenario(const ScenarioOptions& o) {
   mo.l = o.l;
   mo.rtol = o.rtol;
   mo.complex_resolved_energy = o.complex_handoff;
-  // Housner's smooth flights between impacts: Dormand-Prince 8(5,3) takes a
-  // fifth of Adams' right-hand sides at the same tolerance, without CVODE's
-  // per-step bookkeeping (docs/performance.md, "Issue 33").
-  if (kind == model::ModelKind::kHousner) mo.integrator = model::Integrator::kDormandPrince853;
+  // The model's own integrator of a whole record (model_registry.cpp).
+  mo.integrator = model::FindModel(kind).batch_integrator;
   s.model = model::RockingModel::Create(kind, {o.alpha, o.p, o.mu}, mo);
   return s;
 }

@@ -21,6 +21,7 @@
 #include "daq/processor.h"
 #include "daq/source.h"
 #include "model/fit.h"
+#include "model/model_registry.h"
 #include "model/posterior.h"
 #include "model/test_record.h"
 #include "pipeline/option_error.h"
@@ -426,7 +427,7 @@ model::PosteriorOptions PosteriorOptionsOf(model::FitOptions fo, model::FitMetho
   try {
     po.model = model::ParseModelKind(model_name);
   } catch (const std::invalid_argument&) {
-    throw pipeline::OptionError("--model must be housner or complex, got '" + model_name + "'");
+    throw pipeline::OptionError("--model must be " + model::ModelNames(" or ") + ", got '" + model_name + "'");
   }
   if (integrator != "adams" && integrator != "rk") {
     throw pipeline::OptionError("--integrator must be adams or rk, got '" + integrator + "'");

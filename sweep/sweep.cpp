@@ -14,6 +14,7 @@
 #include "common/text.h"
 #include "common/units.h"
 #include "model/excitation.h"
+#include "model/model_registry.h"
 #include "pipeline/option_error.h"
 #include "pipeline/scenario.h"
 
@@ -134,7 +135,7 @@ Plan MakePlan(const PlanOptions& o) {
   try {
     plan.model = model::ParseModelKind(o.model);
   } catch (const std::invalid_argument&) {
-    throw OptionError("--model must be housner or complex, got '" + o.model + "'");
+    throw OptionError("--model must be " + model::ModelNames(" or ") + ", got '" + o.model + "'");
   }
   if (o.records.empty()) throw OptionError("--records: give at least one record file");
   plan.scales = ParseScaleGrid(o.scale);
@@ -377,7 +378,7 @@ model::ModelOptions CaseModelOptions(const Plan& plan) {
   mo.rtol = plan.rtol;
   // A case is `rocklab simulate`'s run to the bit: its integrator per model
   // as pipeline::BuildScenario chooses it.
-  if (plan.model == model::ModelKind::kHousner) mo.integrator = model::Integrator::kDormandPrince853;
+  mo.integrator = model::FindModel(plan.model).batch_integrator;
   return mo;
 }
 

@@ -17,6 +17,7 @@
 #include "common/text.h"
 #include "daq/rig_config.h"
 #include "model/fit.h"
+#include "model/model_registry.h"
 #include "model/posterior.h"
 #include "model/test_record.h"
 #include "tools/cli.h"
@@ -324,7 +325,7 @@ int RunFit(const FitCliOptions& o) {
     try {
       po.model = model::ParseModelKind(o.model);
     } catch (const std::invalid_argument&) {
-      throw UsageError("--model must be housner or complex, got '" + o.model + "'");
+      throw UsageError("--model must be " + model::ModelNames(" or ") + ", got '" + o.model + "'");
     }
     if (o.integrator != "adams" && o.integrator != "rk") {
       throw UsageError("--integrator must be adams or rk, got '" + o.integrator + "'");

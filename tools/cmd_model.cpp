@@ -34,11 +34,7 @@ int RunModel(const ModelCommand& c) {
   const std::string url = SubscriberUrl(c.lcm_url);
   const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(url);
   model::ModelNode node(cfg, *bus);
-  for (const model::VariantSpec& v : cfg.variants) {
-    std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
-                 v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
-                 v.params_source.c_str());
-  }
+  pipeline::PrintVariants(cfg.variants, stderr);
   pipeline::PrintEnsembles(cfg.ensembles, c.ensemble.size, stderr);
   node.Run(stop);
   std::fprintf(stderr, "model: %lld table samples, %lld before the start, %lld resets, %lld failures\n",
@@ -56,7 +52,7 @@ void RegisterModel(CLI::App& app, CommandRun& run) {
   cmd->add_option("--rig", c->rig_path, "rig configuration (TOML)")->required();
   cmd->add_option("--variant", c->variants,
                   "NAME:MODEL:PARAMS, MODEL housner|complex, PARAMS theoretical | "
-                  "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");
+                  "alpha=A,p=P,mu=M[,l=L] | FILE.json | FILE.toml (an assembly) (repeatable)");
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's own)");
   cmd->add_option("--lookahead", c->lookahead,
                   "table samples held before one is stepped (default 0: each as it arrives; N > 0 "

@@ -85,11 +85,7 @@ int RunAll(RunCommand& c) {
   }
   common::ProvenanceInBackground hashing(sources);
   pipeline::RunGraph graph(g);
-  for (const model::VariantSpec& v : g.model.variants) {
-    std::fprintf(stderr, "variant %s: %s, alpha %.4f rad, p %.4f rad/s, mu %.4f (%s)\n",
-                 v.name.c_str(), model::ToString(v.kind), v.params.alpha, v.params.p, v.params.mu,
-                 v.params_source.c_str());
-  }
+  pipeline::PrintVariants(g.model.variants, stderr);
   pipeline::PrintEnsembles(g.model.ensembles, c.ensemble.size, stderr);
   {
     common::FileProgress progress("run", c.input, c.quiet || c.speed != 0);  // --max only
@@ -152,7 +148,7 @@ void RegisterRun(CLI::App& app, CommandRun& run) {
       ->required();
   cmd->add_option("--variant", c->variants,
                   "NAME:MODEL:PARAMS, MODEL housner|complex, PARAMS theoretical | "
-                  "alpha=A,p=P,mu=M[,l=L] | FILE.json (repeatable)");
+                  "alpha=A,p=P,mu=M[,l=L] | FILE.json | FILE.toml (an assembly) (repeatable)");
   cmd->add_option("--lcm-url", c->lcm_url,
                   "where the channels also go (default memq://: in-process only)");
   cmd->add_option("--log", c->log_path,
