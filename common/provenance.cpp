@@ -275,6 +275,20 @@ std::string ProvenanceJson(const Provenance& p) {
   return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
+std::string ProvenanceCommentLines(const std::vector<std::pair<std::string, std::string>>& fields,
+                                   const std::string& title) {
+  if (fields.empty()) return {};
+  std::string out = "# " + title + "\n";
+  for (const auto& [key, value] : fields) {
+    std::string line = "# provenance." + key + ": " + value;
+    for (char& c : line) {
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
 std::string ProvenanceSidecarPath(const std::string& csv_path) {
   const bool csv = csv_path.size() >= 4 && csv_path.compare(csv_path.size() - 4, 4, ".csv") == 0;
   return (csv ? csv_path.substr(0, csv_path.size() - 4) : csv_path) + ".provenance.csv";

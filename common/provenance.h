@@ -87,6 +87,13 @@ std::string ProvenanceJson(const Provenance& p);
 /// "PATH (SIZE bytes, sha256 HEX)" (keys unique: HDF5 attribute names).
 std::vector<std::pair<std::string, std::string>> ProvenanceFields(const Provenance& p);
 
+/// `fields` as comment lines of a text format whose readers skip `#` lines
+/// (a sweep's results, a TOML file): `# TITLE`, then one
+/// `# provenance.KEY: value` per field (a control character in a line
+/// written `?`, so each stays one line). Empty for no fields.
+std::string ProvenanceCommentLines(const std::vector<std::pair<std::string, std::string>>& fields,
+                                   const std::string& title);
+
 /// The provenance sidecar of a CSV file: `STEM.provenance.csv` beside
 /// `STEM.csv` (any other name: NAME.provenance.csv), as `export` writes it.
 std::string ProvenanceSidecarPath(const std::string& csv_path);

@@ -14,6 +14,7 @@
 #include "daq/source.h"
 #include "model/block.h"
 #include "pipeline/assembly.h"
+#include "record/log_provenance.h"
 #include "record/log_writer.h"
 #include "rocklab/health2_t.hpp"
 
@@ -223,6 +224,7 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
     routing = std::make_unique<common::RoutingBus>(*lcm_bus, *raw_bus, common::ExactChannelRegex(common::RawChannel(o.prefix)));
     bus = routing.get();
   }
+  std::unique_ptr<record::LogProvenance> provenance;  // before the log: it outlives the writer
   std::unique_ptr<record::RotatingLogWriter> log;
   std::unique_ptr<RotatingLogBus> log_bus;
   if (!o.log_path.empty()) {
@@ -231,6 +233,20 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
     rotation.rotate_bytes = o.rotate_bytes;
     rotation.rotate_seconds = o.rotate_seconds;
     rotation.overwrite = true;
+    // Each finished file's provenance beside it (record/log_provenance.h),
+    // as run's log has it; the rig and input hashed on a thread of their
+    // own. A followed input grows while it is read: named, not hashed.
+    const daq::RigConfig& rig = config.rig;
+    record::LogProvenance::Fields extra = {
+        {"rig", rig.name + (rig.calibration_id.empty() ? "" : ", calibration " + rig.calibration_id)}};
+    std::vector<std::string> sources = {o.rig_path};
+    if (o.follow) {
+      extra.emplace_back("followed_input", o.input + " (followed as it grew: not hashed)");
+    } else {
+      sources.push_back(o.input);
+    }
+    provenance = std::make_unique<record::LogProvenance>(sources, extra);
+    provenance->Attach(rotation);
     try {
       log = std::make_unique<record::RotatingLogWriter>(rotation);
     } catch (const std::exception& e) {
@@ -251,12 +267,18 @@ int RunDaqStage(const DaqStageOptions& o, const char* what, const std::atomic<bo
       std::fprintf(stderr, "%s: --log: %lld \"waiting for header\" heartbeats not logged (over the first 4096)\n",
                    what, static_cast<long long>(log_bus->waiting_dropped()));
     }
+    int failed = 0;
+    if (provenance->errors() > 0) {
+      std::fprintf(stderr, "%s: --log: %lld provenance sidecars could not be written (see above)\n", what,
+                   static_cast<long long>(provenance->errors()));
+      failed = 1;
+    }
     if (log_bus->log_errors() > 0 || !closed) {
       std::fprintf(stderr, "%s: --log: %lld events could not be written: %s\n", what,
                    static_cast<long long>(log_bus->log_errors()), log->error().c_str());
-      return 1;
+      failed = 1;
     }
-    return 0;
+    return failed;
   };
   std::unique_ptr<daq::DaqNode> node;
   try {

@@ -121,16 +121,30 @@ RotatingLogWriter::RotatingLogWriter(RotationOptions options) : options_(std::mo
   const std::string first = options_.rotates() ? RotatedPath(options_.path, 0) : options_.path;
   file_ = std::make_unique<LogFileWriter>(first, options_.overwrite);
   files_.push_back(first);
+  if (options_.on_started) options_.on_started(first);
+}
+
+bool RotatingLogWriter::CloseFile() {
+  const std::unique_ptr<LogFileWriter> done = std::move(file_);
+  bytes_done_ += done->bytes();
+  const bool ok = done->Close();
+  if (!ok && error_.empty()) error_ = done->error();
+  if (ok && options_.on_finished) {
+    FinishedLogFile f;
+    f.path = done->path();
+    f.index = static_cast<int>(files_.size()) - 1;
+    f.first_event = next_event_ - done->events();
+    f.events = done->events();
+    f.bytes = done->bytes();
+    f.first_utime = done->events() > 0 ? file_first_utime_ : 0;
+    f.last_utime = done->events() > 0 ? last_utime_ : 0;
+    options_.on_finished(f);
+  }
+  return ok;
 }
 
 bool RotatingLogWriter::Open(int index) {
-  if (file_) {
-    bytes_done_ += file_->bytes();
-    const bool ok = file_->Close();
-    if (!ok && error_.empty()) error_ = file_->error();
-    file_.reset();
-    if (!ok) return false;
-  }
+  if (file_ && !CloseFile()) return false;
   const std::string next = RotatedPath(options_.path, index);
   try {
     file_ = std::make_unique<LogFileWriter>(next, options_.overwrite);
@@ -139,6 +153,7 @@ bool RotatingLogWriter::Open(int index) {
     return false;
   }
   files_.push_back(next);
+  if (options_.on_started) options_.on_started(next);
   return true;
 }
 
@@ -169,11 +184,7 @@ bool RotatingLogWriter::Flush() { return file_ && file_->Flush(); }
 
 bool RotatingLogWriter::Close() {
   if (!file_) return error_.empty();
-  bytes_done_ += file_->bytes();
-  const bool ok = file_->Close();
-  if (!ok && error_.empty()) error_ = file_->error();
-  file_.reset();
-  return ok;
+  return CloseFile();
 }
 
 }  // namespace rocklab::record

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -54,12 +55,30 @@ class LogFileWriter {
   std::string error_;
 };
 
+/// A file of a recording, closed without a write error: what its provenance
+/// sidecar says of it (record/log_provenance.h).
+struct FinishedLogFile {
+  std::string path;
+  int index{};               ///< its place in the series, from 0 (0 without rotation)
+  int64_t first_event{};     ///< the event number of its first event
+  int64_t events{};          ///< events in it
+  int64_t bytes{};           ///< its size, bytes
+  int64_t first_utime{};     ///< its first event's timestamp, us (0 when empty)
+  int64_t last_utime{};      ///< its last event's timestamp, us (0 when empty)
+};
+
 /// Where and when a recording goes to a new file.
 struct RotationOptions {
   std::string path;           ///< the log; with rotation, the series' base name (RotatedPath)
   int64_t rotate_bytes{0};    ///< start a new file before one would pass this size, bytes; 0: never
   double rotate_seconds{0};   ///< start a new file when an event is this long after the file's first, s; 0: never
   bool overwrite{false};      ///< replace existing files instead of refusing them
+  /// Called, on the writing thread, with each file's path once it is
+  /// created, and with each file once it is closed without error (at a
+  /// rotation and at Close); not for a file whose close failed. Must not
+  /// throw. Empty: nothing.
+  std::function<void(const std::string& path)> on_started;
+  std::function<void(const FinishedLogFile& file)> on_finished;
   /// @throws std::invalid_argument naming the option (rotate-size, rotate-seconds).
   void Validate() const;
   bool rotates() const { return rotate_bytes > 0 || rotate_seconds > 0; }
@@ -94,6 +113,8 @@ class RotatingLogWriter {
 
  private:
   bool Open(int index);
+  /// Closes the current file (adding its bytes); calls on_finished when it closed well.
+  bool CloseFile();
   RotationOptions options_;
   std::unique_ptr<LogFileWriter> file_;
   std::vector<std::string> files_;

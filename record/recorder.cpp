@@ -36,6 +36,12 @@ const RecorderOptions& Validated(const RecorderOptions& o) {
   return o;
 }
 
+RotationOptions WriterRotation(const RecorderOptions& o) {
+  RotationOptions r = Rotation(o);
+  if (o.provenance != nullptr) o.provenance->Attach(r);
+  return r;
+}
+
 }  // namespace
 
 void RecorderOptions::Validate() const {
@@ -52,7 +58,7 @@ Recorder::Recorder(lcm::LCM& instance, RecorderOptions options)
     : Recorder(std::vector<lcm::LCM*>{&instance}, std::move(options)) {}
 
 Recorder::Recorder(const std::vector<lcm::LCM*>& lcms, RecorderOptions options)
-    : options_(Validated(options)), queue_(options_.queue_bytes), writer_(Rotation(options_)) {
+    : options_(Validated(options)), queue_(options_.queue_bytes), writer_(WriterRotation(options_)) {
   if (lcms.empty()) throw std::invalid_argument("the recorder needs an LCM instance");
   names_.reserve(64);
   produced_.reserve(64);

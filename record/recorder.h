@@ -44,6 +44,7 @@
 
 #include "common/versions.h"
 #include "record/event_queue.h"
+#include "record/log_provenance.h"
 #include "record/log_writer.h"
 
 namespace rocklab::record {
@@ -62,6 +63,9 @@ struct RecorderOptions {
   /// LCM's own queue per subscription, messages (LCM's default of 30 drops
   /// silently after 30 ms of a 1 kHz stream if this thread is held up).
   int lcm_queue_messages{1 << 20};
+  /// Writes each finished file's provenance sidecar (not owned; outlives the
+  /// Recorder); null: none. Called on the writer thread, never LCM's.
+  LogProvenance* provenance{nullptr};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -11,6 +11,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "common/provenance.h"
 #include "common/text.h"
 #include "common/units.h"
 #include "model/excitation.h"
@@ -457,21 +458,13 @@ std::string DefinitionText(const Definition& d) {
   return out;
 }
 
+// ProvenanceText's title line, as common::ProvenanceCommentLines writes it.
 constexpr const char* kProvenanceTitle =
     "# rocklab provenance (not part of the definition: it differs between runs and shards)";
 constexpr const char* kProvenancePrefix = "# provenance.";
 
 std::string ProvenanceText(const ProvenanceLines& p) {
-  if (p.empty()) return {};
-  std::string out = std::string(kProvenanceTitle) + "\n";
-  for (const auto& [key, value] : p) {
-    std::string line = kProvenancePrefix + key + ": " + value;
-    for (char& c : line) {
-      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
-    }
-    out += line + "\n";
-  }
-  return out;
+  return common::ProvenanceCommentLines(p, std::string(kProvenanceTitle).substr(2));
 }
 
 bool ParseDefinitionLine(const std::string& line, Definition& d) {

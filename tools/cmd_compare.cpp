@@ -4,7 +4,10 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "common/lcm_bus.h"
+#include "common/provenance.h"
 #include "compare/compare_flags.h"
 #include "compare/compare_node.h"
 #include "pipeline/pipeline.h"
@@ -27,7 +30,11 @@ int RunCompare(CompareCommand& c) {
   const std::unique_ptr<common::LcmBus> bus = pipeline::OpenLcmBus(SubscriberUrl(c.lcm_url));
   compare::CompareNode node(c.config, *bus);
   node.Run(stop);
-  WriteCompareResult(node, c.json, c.summary_json);
+  // What made the summary: a live node reads no file, so no sources; the
+  // bus it listened to says where its data came from.
+  nlohmann::json extra = {{"provenance", nlohmann::json::parse(common::ProvenanceJson(common::MakeProvenance({})))}};
+  extra["provenance"]["lcm_url"] = c.lcm_url;
+  WriteCompareResult(node, c.json, c.summary_json, &extra);
   return 0;
 }
 

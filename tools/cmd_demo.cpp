@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/provenance.h"
 #include "common/units.h"
 #include "pipeline/scenario.h"
 #include "tools/cli.h"
@@ -57,6 +58,14 @@ int RunDemo(const DemoOptions& o) {
       std::fprintf(f, "%.9g,%.12g,%.12g\n", t, theta, theta_dot);
     });
     out.Close();
+    // Beside it, as simulate's: no input files (the scenario is built in),
+    // so the scenario itself says what made it.
+    auto fields = common::ProvenanceFields(common::MakeProvenance({}));
+    char scenario[160];
+    std::snprintf(scenario, sizeof scenario, "figure 7, model %s, alpha %.3f rad, p %.3f rad/s, mu %.3f, %s, %g s at %g Hz",
+                  name, base.alpha, base.p, base.mu, base.excitations.front().c_str(), base.duration_s, base.rate_hz);
+    fields.emplace_back("scenario", scenario);
+    common::WriteProvenanceSidecarFields(path, fields);
     char uplift[32] = "none";
     if (r.uplift_time_s) std::snprintf(uplift, sizeof uplift, "%.4f", *r.uplift_time_s);
     print("%-8s  %10s  %14.4f  %8.3f  %7d  %-10s  %s\n", name, uplift, r.peak_abs_theta * common::kDegPerRad,
@@ -90,7 +99,7 @@ int RunDemo(const DemoOptions& o) {
 void RegisterDemo(CLI::App& app, CommandRun& run) {
   auto opts = std::make_shared<DemoOptions>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("demo", "the paper's figure 7 scenario with both models");
-  cmd->add_option("--out-dir", opts->out_dir, "folder for the trajectories")->capture_default_str();
+  cmd->add_option("--out-dir", opts->out_dir, "folder for the trajectories (each with its provenance beside it, NAME.provenance.csv)")->capture_default_str();
   AddJsonFlag(*cmd, opts->json);
   cmd->callback([opts, &run] { run = [opts] { return RunDemo(*opts); }; });
 }

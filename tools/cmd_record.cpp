@@ -30,6 +30,7 @@
 
 #include "common/bus_urls.h"
 #include "common/logger_clock.h"
+#include "common/provenance.h"
 #include "common/text.h"
 #include "record/recorder.h"
 #include "tools/cli.h"
@@ -150,6 +151,13 @@ int RunRecord(RecordCommand& c) {
   if (asked > 0 && asked < (16LL << 20)) {
     log->info("net.core.rmem_max caps the udpm socket buffer at {} bytes (raise it for more)", asked);
   }
+  // What made each file: its sidecar LOG.provenance.csv, written on the
+  // writer thread as the file is closed (record/log_provenance.h); no
+  // input files, so nothing hashed: the buses and channels say what it took.
+  record::LogProvenance::Fields taken = {{"lcm_url", url}, {"channels", c.options.channels}};
+  if (!raw.empty()) taken.emplace_back("raw_url", raw);
+  record::LogProvenance provenance({}, taken);
+  c.options.provenance = &provenance;
   std::unique_ptr<record::Recorder> recorder;
   try {
     recorder = std::make_unique<record::Recorder>(buses, c.options);
@@ -189,13 +197,20 @@ int RunRecord(RecordCommand& c) {
   recorder->Stop();
   const record::RecorderStats stats = recorder->Stats();
   PrintSummary(stats);
+  if (provenance.errors() > 0) {
+    std::fprintf(stderr, "rocklab record: %lld provenance sidecars could not be written (see above)\n",
+                 static_cast<long long>(provenance.errors()));
+  }
   try {
-    WriteResult(nlohmann::json::parse(record::SummaryJson(stats)), c.json, c.summary_json);
+    nlohmann::json summary = nlohmann::json::parse(record::SummaryJson(stats));
+    summary["provenance"] = nlohmann::json::parse(common::ProvenanceJson(common::MakeProvenance({})));
+    for (const auto& [key, value] : taken) summary["provenance"][key] = value;
+    WriteResult(summary, c.json, c.summary_json);
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "rocklab: %s\n", e.what());
     return kFailureExit;
   }
-  return stats.write_error.empty() ? 0 : kFailureExit;
+  return stats.write_error.empty() && provenance.errors() == 0 ? 0 : kFailureExit;
 }
 
 }  // namespace
@@ -203,7 +218,7 @@ int RunRecord(RecordCommand& c) {
 void RegisterRecord(CLI::App& app, CommandRun& run) {
   auto c = std::make_shared<RecordCommand>();  // shared: owned by the callback
   CLI::App* cmd = app.add_subcommand("record", "record LCM channels to a log, counting every loss");
-  cmd->add_option("LOG", c->options.out_path, "output LCM log (with rotation: LOG's stem.NNNN.ext)")->required();
+  cmd->add_option("LOG", c->options.out_path, "output LCM log (with rotation: LOG's stem.NNNN.ext); each file's provenance beside it, FILE.provenance.csv")->required();
   cmd->add_option("--channels", c->options.channels, "LCM channel regex, matched against the whole name")
       ->capture_default_str();
   cmd->add_option("--rotate-size", c->options.rotate_bytes, "start a new file before one passes BYTES (0: never)");

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/provenance.h"
 #include "daq/rig_config.h"
 #include "daq/source.h"
 #include "pipeline/option_error.h"
@@ -370,9 +371,15 @@ int RunCameraCalibrate(const CalibrateRequest& request) {
     throw OptionError(std::string("VIDEO: ") + e.what());
   }
   const Intrinsics& k = r.intrinsics;
+  // What made the file, as comment lines every TOML reader skips (a sweep's
+  // results file keeps its own so): the video hashed (an image pattern or
+  // device is listed as "could not be read").
+  const std::string provenance = common::ProvenanceCommentLines(
+      common::ProvenanceFields(common::MakeProvenance({spec})), "rocklab provenance (what made this file)");
   WriteIntrinsics(o.out, k,
                   "rocklab camera-calibrate " + o.video + " --board " + o.board + " --square " +
-                      std::to_string(o.chessboard.square_m) + ": lens intrinsics (px) and distortion");
+                      std::to_string(o.chessboard.square_m) + ": lens intrinsics (px) and distortion",
+                  provenance);
   // The text on stdout, or on stderr when the command prints JSON there.
   std::FILE* text = o.result != nullptr ? stderr : stdout;
   std::fprintf(text, "%d frames read, %d looked at, board found in %d; %d views used\n", r.frames_read,

@@ -208,11 +208,12 @@ Intrinsics LoadIntrinsics(const std::string& path) {
   return ParseIntrinsics(path, root, "");
 }
 
-void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment) {
+void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment,
+                     const std::string& comment_lines) {
   const std::string part = path + ".part";
   std::FILE* f = std::fopen(part.c_str(), "w");
   if (f == nullptr) throw std::runtime_error("cannot write '" + part + "'");
-  std::fprintf(f, "# %s\n", comment.c_str());
+  std::fprintf(f, "# %s\n%s", comment.c_str(), comment_lines.c_str());
   std::fprintf(f, "width_px = %d\nheight_px = %d\n", k.width_px, k.height_px);
   std::fprintf(f, "fx_px = %.10g\nfy_px = %.10g\ncx_px = %.10g\ncy_px = %.10g\n", k.fx_px, k.fy_px,
                k.cx_px, k.cy_px);

@@ -137,8 +137,10 @@ int BoardDictionaryIndex(const std::string& name);
 /// Reads an intrinsics file as `rocklab camera-calibrate` writes it.
 /// @throws std::runtime_error naming the file, line and key.
 Intrinsics LoadIntrinsics(const std::string& path);
-/// Writes one (beside, then renamed: whole or not at all).
+/// Writes one (beside, then renamed: whole or not at all): `# comment`,
+/// then `comment_lines` as they are (whole `#` lines: the provenance).
 /// @throws std::runtime_error naming the file.
-void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment);
+void WriteIntrinsics(const std::string& path, const Intrinsics& k, const std::string& comment,
+                     const std::string& comment_lines = {});
 
 }  // namespace rocklab::video

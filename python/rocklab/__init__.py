@@ -334,11 +334,31 @@ EVENTS_DTYPE = _dtype(
 def events(a):
     """Any events as one structured array of EVENTS_DTYPE (``time`` s,
     ``kind_name``, ``kind_code``, ``value``), the same dtype from every
-    source: read_log's RL_EVENT table, ``SimulationResult.events``,
-    ``AssemblyResult.events``, ``Reconstruction.events``, or an object with
-    such an ``events`` attribute. The sources keep their own arrays as they
+    source: read_log's RL_EVENT table or the whole ``LogTables`` (its
+    events tables merged in time order; empty when it has none),
+    ``SimulationResult.events``, ``AssemblyResult.events``,
+    ``Reconstruction.events``, a ``FitResult`` (its impacts, ``value``
+    NaN), or an object with such an ``events`` attribute. The sources keep their own arrays as they
     were (their field ``kind`` differs: the code in read_log, the name in
     simulate); this is the copy to concatenate, compare or save together."""
+    if isinstance(a, LogTables):
+        # Every events table of the log (RL_EVENT, and a channel's table of
+        # another event type), merged in time order; none: empty.
+        parts = [events(t) for n, t in a.items() if _is_event_type(a.info.get(n, {}).get("lcm_type", ""))]
+        if not parts:
+            return _np.empty(0, dtype=EVENTS_DTYPE)
+        out = _np.concatenate(parts)
+        return out[_np.argsort(out["time"], kind="stable")]
+    if isinstance(a, FitResult):
+        # The impacts the fit found (fit --json's impacts): IMPACT events at
+        # their times; value NaN (the fit measures no theta_dot before them).
+        impacts = a.get("impacts") or []
+        out = _np.empty(len(impacts), dtype=EVENTS_DTYPE)
+        out["time"] = [float(i["time"]) for i in impacts]
+        out["kind_name"] = "IMPACT"
+        out["kind_code"] = _event_kind_codes().get("IMPACT", 2)
+        out["value"] = _np.nan
+        return out
     src = getattr(a, "events", a)
     names = getattr(getattr(src, "dtype", None), "names", None) or ()
     missing = [f for f in EVENT_FIELDS if f not in names]

@@ -31,6 +31,7 @@
 #include "rocklab/health2_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/daq/daq_test_util.h"
+#include "tests/sha256sum.h"
 #include "tests/tools/run_cli.h"
 
 namespace rocklab::daq {
@@ -107,6 +108,33 @@ TEST(DaqService, ConfigFileWithAFlagOverrideAndRotatedLog) {
     }
   }
   EXPECT_EQ(raw, static_cast<int64_t>(want.size()));
+  // Each file's provenance beside it (FILE.provenance.csv): the rig and the
+  // input with their sizes and SHA-256 (oracle: coreutils' sha256sum), the
+  // rig's name, and the file's own events (as read above).
+  const std::string rig_hash = rocklab::test::Sha256sum(test::LabRigPath()),
+                    raw_hash = rocklab::test::Sha256sum(raw_path);
+  ASSERT_EQ(rig_hash.size() + raw_hash.size(), 128u);
+  int64_t first_event = 0;
+  for (const auto& f : files) {
+    const std::string sidecar = rocklab::test::ReadFile(f + ".provenance.csv");
+    EXPECT_EQ(sidecar.rfind("key,value\n", 0), 0u) << f;
+    EXPECT_NE(sidecar.find(" (" + std::to_string(std::ifstream(test::LabRigPath(), std::ios::ate).tellg()) +
+                           " bytes, sha256 " + rig_hash + ")\""),
+              std::string::npos)
+        << sidecar;
+    EXPECT_NE(sidecar.find("svc_raw.csv (" + std::to_string(std::ifstream(raw_path, std::ios::ate).tellg()) +
+                           " bytes, sha256 " + raw_hash + ")\""),
+              std::string::npos)
+        << sidecar;
+    EXPECT_NE(sidecar.find("\"rig\",\"lab-table-A, calibration 2026-11-01-A\""), std::string::npos) << sidecar;
+    EXPECT_NE(sidecar.find("\"first_event\",\"" + std::to_string(first_event) + "\""), std::string::npos) << sidecar;
+    common::LogReader reader(f);
+    common::LogEvent ev;
+    int64_t n = 0;
+    while (reader.Next(ev)) ++n;
+    EXPECT_NE(sidecar.find("\"events\",\"" + std::to_string(n) + "\""), std::string::npos) << sidecar;
+    first_event += n;
+  }
   EXPECT_NE(r.err.find("--log: " + std::to_string(events) + " events in " + std::to_string(files.size()) + " files"),
             std::string::npos)
       << r.err;

@@ -118,6 +118,13 @@ def test_fit_equals_cli_and_finds_the_parameters(cli, free_record, method):
     assert f"{from_file.p:.4g} +- {from_file.p_stderr:.2g} rad/s" in text
     assert any(line.split() == ["impacts", str(len(from_file.impacts))] for line in text.splitlines()), text
     assert from_file._repr_html_().count("<tr>") == len(text.splitlines()) - 1
+    # rocklab.events: the impacts it found as IMPACT events (value NaN).
+    found = rocklab.events(from_file)
+    assert found.dtype == rocklab.EVENTS_DTYPE and len(found) == len(from_file.impacts)
+    assert list(found["time"]) == [i["time"] for i in from_file.impacts]
+    assert len(found) > 0 or method == "trajectory"  # the trajectory method lists none
+    assert (found["kind_name"] == "IMPACT").all() and (found["kind_code"] == rocklab.event_t.IMPACT).all()
+    assert np.isnan(found["value"]).all()
 
 
 def test_fit_window_equals_cli_and_the_sliced_record(cli, free_record):

@@ -318,6 +318,13 @@ def test_events_have_the_same_fields_everywhere(log_path, source_dir):
         for f in rocklab.EVENT_FIELDS:
             assert list(out[f]) == list(source[f]), f
     assert len(np.concatenate(same)) == sum(len(e) for e in same)
+    # A whole log: its events tables merged in time order (this log's only
+    # one is RL_EVENT); a log or raw file without events: none, same dtype.
+    whole = rocklab.events(rocklab.read_log(log_path))
+    assert whole.dtype == rocklab.EVENTS_DTYPE
+    np.testing.assert_array_equal(whole, same[0][np.argsort(same[0]["time"], kind="stable")])
+    no_events = rocklab.events(rocklab.read_log(log_path, "RL_THETA"))
+    assert no_events.dtype == rocklab.EVENTS_DTYPE and len(no_events) == 0
     # An old table without kind_code (an np.save from before issue 36) gets it from kind.
     old = np.zeros(2, dtype=[("time", "f8"), ("kind", "i8"), ("value", "f8")])
     old["kind"] = [codes["UPLIFT"], codes["IMPACT"]]

@@ -330,6 +330,11 @@ def test_assembly_equals_cli(cli, source_dir, tmp_path):
         np.testing.assert_array_equal(ours.theta_dot[:, k - 1], csv[f"theta_dot_{k}"])
     assert list(ours.mode) == list(csv["mode"])
     assert ours.summary["impacts"] > 0 and ours.events["body"][0] == "statue"
+    # rocklab.events: the assembly's events in the one dtype, row for row.
+    same_shape = rocklab.events(ours)
+    assert same_shape.dtype == rocklab.EVENTS_DTYPE and len(same_shape) == len(ours.events)
+    assert list(same_shape["kind_name"]) == list(ours.events["kind_name"])
+    np.testing.assert_array_equal(same_shape["time"], ours.events["time"])
     for key in ("cpu_time", "units"):
         ours.summary.pop(key)
         theirs.pop(key)

@@ -11,6 +11,8 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <regex>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -21,6 +23,7 @@
 
 #include "tests/scratch.h"
 #include "record/event_queue.h"
+#include "record/log_provenance.h"
 #include "record/log_writer.h"
 #include "record/recorder.h"
 #include "rocklab/raw_frame_t.hpp"
@@ -465,6 +468,69 @@ TEST(LogWriterTest, RotatesBySizeWithoutLosingOrRepeating) {
     EXPECT_EQ(got[i].data, sent[i].data);
   }
   EXPECT_EQ(w.events(), 500);
+}
+
+// A provenance sidecar's rows (key,value, both quoted), by key; empty when
+// the file is missing.
+std::map<std::string, std::string> SidecarRows(const std::string& path) {
+  std::map<std::string, std::string> rows;
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) return rows;
+  EXPECT_EQ(line, "key,value") << path;
+  const std::regex row(R"re("([a-z0-9_]+)","(.*)")re");
+  while (std::getline(in, line)) {
+    std::smatch m;
+    EXPECT_TRUE(std::regex_match(line, m, row)) << path << ": " << line;
+    if (m.size() == 3) rows[m[1]] = m[2];
+  }
+  return rows;
+}
+
+// Every file of a rotated series gets its own sidecar once it is finished,
+// saying which events it holds; none while a file is being written (a
+// stale one of an earlier recording is removed at its start).
+// Oracle: the source holds "abc", whose SHA-256 is FIPS 180-2's example
+// (ba7816bf...15ad); each file's events, first event number and size are
+// read back with LCM's reader and stat().
+TEST(LogWriterTest, EachFinishedFileCarriesItsOwnProvenance) {
+  const std::string source = Scratch("source.txt");
+  std::ofstream(source, std::ios::binary) << "abc";
+  RotationOptions o;
+  o.path = Scratch("prov.lcm");
+  o.rotate_bytes = 4000;
+  o.overwrite = true;
+  const std::string first_sidecar = RotatedPath(o.path, 0) + ".provenance.csv";
+  std::ofstream(first_sidecar) << "key,value\n\"stale\",\"from an earlier recording\"\n";
+  LogProvenance provenance({source}, {{"rig", "test rig"}});
+  provenance.Attach(o);
+  RotatingLogWriter w(o);
+  EXPECT_FALSE(std::ifstream(first_sidecar).good()) << "a stale sidecar beside the file being written";
+  const auto sent = WriteSeries(w, 120, 1000, 100);
+  ASSERT_GE(w.files().size(), 3u);
+  int64_t next_event = 0;
+  for (std::size_t i = 0; i < w.files().size(); ++i) {
+    const std::string& f = w.files()[i];
+    auto rows = SidecarRows(f + ".provenance.csv");
+    const auto events = ReadLog(f);
+    ASSERT_FALSE(events.empty()) << f;
+    EXPECT_EQ(rows["source_1"],
+              source + " (3 bytes, sha256 ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad)");
+    EXPECT_EQ(rows["rig"], "test rig");
+    EXPECT_EQ(rows["log_series"], o.path);
+    EXPECT_EQ(rows["log_file_index"], std::to_string(i));
+    EXPECT_EQ(rows["first_event"], std::to_string(events.front().number));
+    EXPECT_EQ(rows["first_event"], std::to_string(next_event));
+    EXPECT_EQ(rows["events"], std::to_string(events.size()));
+    EXPECT_EQ(rows["bytes"], std::to_string(FileSize(f)));
+    EXPECT_EQ(rows["first_utime_us"], std::to_string(events.front().utime));
+    EXPECT_EQ(rows["last_utime_us"], std::to_string(events.back().utime));
+    EXPECT_EQ(rows.count("rocklab_version") + rows.count("command") + rows.count("created_utc"), 3u);
+    EXPECT_EQ(rows.count("stale"), 0u);
+    next_event += static_cast<int64_t>(events.size());
+  }
+  EXPECT_EQ(next_event, static_cast<int64_t>(sent.size()));
+  EXPECT_EQ(provenance.errors(), 0);
 }
 
 // Oracle: with 10 ms between events and 0.25 s per file, each file holds the

@@ -76,6 +76,19 @@ TEST(Demo, PrintsTheFigure7TableAndWritesBothTrajectories) {
     int rows = 0;
     for (char c : csv) rows += c == '\n';
     EXPECT_EQ(rows - 1, 1601) << model;
+    // Its provenance beside it (docs/provenance.md): no input file, the
+    // built-in scenario named instead, with the figure's parameters.
+    const std::string sidecar = test::ReadFile(dir + "/" + model + ".provenance.csv");
+    EXPECT_EQ(sidecar.rfind("key,value\n", 0), 0u) << sidecar;
+    EXPECT_NE(sidecar.find("\"command\",\"" + std::string(ROCKLAB_BINARY) + " demo --out-dir " + dir + "\""),
+              std::string::npos)
+        << sidecar;
+    EXPECT_NE(sidecar.find(std::string("\"scenario\",\"figure 7, model ") + model +
+                           ", alpha 0.235 rad, p 3.884 rad/s, mu 0.937, hanning:amp=0.006,freq=3.3,duration=4,start=0.5, "
+                           "8 s at 200 Hz\""),
+              std::string::npos)
+        << sidecar;
+    EXPECT_EQ(sidecar.find("source_1"), std::string::npos) << sidecar;
   }
 }
 

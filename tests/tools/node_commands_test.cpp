@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "tests/tools/run_cli.h"
 #include "tests/source_paths.h"
@@ -100,11 +101,52 @@ TEST(ModelCommand, RunsOverMemqUntilSigint) {
   EXPECT_NE(err.find("model: 0 table samples"), std::string::npos) << err;
 }
 
+// The provenance object of a live node's summary (docs/provenance.md): no
+// input file, so no sources; the version as `rocklab --version` says it.
+void ExpectLiveProvenance(const nlohmann::json& p, const std::string& command) {
+  const std::string version = test::RunCli({"--version"}).out;  // "rocklab VERSION ..."
+  ASSERT_TRUE(p.is_object()) << p.dump();
+  EXPECT_EQ(version.rfind("rocklab " + p.at("rocklab_version").get<std::string>(), 0), 0u) << version;
+  EXPECT_NE(p.at("command").get<std::string>().find(command), std::string::npos) << p.dump();
+  EXPECT_EQ(p.at("created_utc").get<std::string>().size(), 20u) << p.dump();  // 2026-11-27T11:40:00Z
+  EXPECT_EQ(p.at("sources"), nlohmann::json::array());
+}
+
 TEST(CompareCommand, RunsOverMemqUntilSigintAndPrintsItsSummary) {
   std::string out, err;
-  const int code = RunUntilSigint({"compare", "--lcm-url", "memq://"}, "compare_memq", out, err);
+  const std::string summary = test::ScratchDir("compare_memq_summary") + "/compare.json";
+  const int code = RunUntilSigint({"compare", "--lcm-url", "memq://", "--summary", summary}, "compare_memq", out, err);
   EXPECT_EQ(code, 0) << err;
   EXPECT_EQ(out.rfind("variant", 0), 0u) << out;  // the summary table's header, no variant seen
+  const auto j = nlohmann::json::parse(test::ReadFile(summary));
+  ASSERT_TRUE(j.contains("provenance")) << j.dump();
+  ExpectLiveProvenance(j.at("provenance"), "compare --lcm-url memq:// --summary " + summary);
+  EXPECT_EQ(j.at("provenance").at("lcm_url"), "memq://");
+}
+
+// record: its summary's provenance and the sidecar of its (empty) log,
+// written at the stop (record/log_provenance.h). Oracle: the log's size by
+// stat (the 0 events of a memq bus no one publishes on).
+TEST(RecordCommand, SaysWhatMadeItsLogAndSummary) {
+  const std::string dir = test::ScratchDir("record_memq_provenance");
+  std::string out, err;
+  const int code = RunUntilSigint({"record", dir + "/rec.lcm", "--channels", "RL_.*", "--summary",
+                                   dir + "/rec.json", "--force", "--lcm-url", "memq://"},
+                                  "record_memq", out, err);
+  EXPECT_EQ(code, 0) << err;
+  const auto j = nlohmann::json::parse(test::ReadFile(dir + "/rec.json"));
+  ASSERT_TRUE(j.contains("provenance")) << j.dump();
+  ExpectLiveProvenance(j.at("provenance"), "record " + dir + "/rec.lcm --channels 'RL_.*'");
+  EXPECT_EQ(j.at("provenance").at("channels"), "RL_.*");
+  const std::string sidecar = test::ReadFile(dir + "/rec.lcm.provenance.csv");
+  EXPECT_EQ(sidecar.rfind("key,value\n", 0), 0u) << sidecar;
+  EXPECT_NE(sidecar.find("\"channels\",\"RL_.*\"\n"), std::string::npos) << sidecar;
+  EXPECT_NE(sidecar.find("\"events\",\"0\"\n"), std::string::npos) << sidecar;
+  EXPECT_NE(sidecar.find("\"bytes\",\"" + std::to_string(std::ifstream(dir + "/rec.lcm", std::ios::ate).tellg()) +
+                         "\"\n"),
+            std::string::npos)
+      << sidecar;
+  EXPECT_NE(sidecar.find("\"log_series\",\"" + dir + "/rec.lcm\"\n"), std::string::npos) << sidecar;
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "tests/scratch.h"
+#include "tests/sha256sum.h"
 #include "tests/video/test_video.h"
 #include "video/camera_calibration.h"
 #include "video/video_config.h"
@@ -149,6 +150,18 @@ TEST(CameraCalibrate, RecoversTheRenderingCamerasIntrinsics) {
   EXPECT_NEAR(j.at("distortion").at(0).get<double>(), cli.distortion[0], 1e-6);
   EXPECT_NEAR(j.at("rms_reprojection_px").get<double>(), cli.rms_reprojection_px, 1e-5);
   EXPECT_EQ(j.at("views").get<int>(), cli.views);
+  // What made the file, as TOML comments (docs/provenance.md): the video
+  // with its size and SHA-256 (oracle: coreutils' sha256sum).
+  std::ifstream toml_in(dir + "/cli.toml");
+  const std::string toml((std::istreambuf_iterator<char>(toml_in)), std::istreambuf_iterator<char>());
+  const std::string video_hash = test::Sha256sum(path);
+  ASSERT_EQ(video_hash.size(), 64u);
+  EXPECT_NE(toml.find("\n# provenance.source_1: " + path + " (" + std::to_string(std::filesystem::file_size(path)) +
+                      " bytes, sha256 " + video_hash + ")\n"),
+            std::string::npos)
+      << toml;
+  EXPECT_NE(toml.find("\n# provenance.command: " + std::string(ROCKLAB_BINARY) + " camera-calibrate " + path), std::string::npos)
+      << toml;
   // A board size the video does not hold: an error naming the video, exit 2.
   const std::string bad = std::string(ROCKLAB_BINARY) + " camera-calibrate " + path + " --board 7x5 --out " + dir +
                           "/bad.toml > " + dir + "/bad.out 2>&1";
