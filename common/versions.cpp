@@ -2,6 +2,7 @@
 
 #include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -99,6 +100,7 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
       static_cast<std::int64_t>(rocklab::block_state2_t::getHash()),
       static_cast<std::int64_t>(rocklab::table_state_t::getHash()),
       static_cast<std::int64_t>(rocklab::comparison2_t::getHash()),
+      static_cast<std::int64_t>(rocklab::comparison3_t::getHash()),
       static_cast<std::int64_t>(rocklab::daq_config2_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_state3_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_state4_t::getHash()),
