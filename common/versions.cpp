@@ -67,6 +67,25 @@ void Upgrade(const rocklab::model_state_t& in, rocklab::model_state4_t& out) {
   out.mode.clear();
 }
 
+void BodyOf(const rocklab::model_state4_t& in, std::size_t k, rocklab::model_state3_t& out) {
+  out.utime = in.utime;
+  out.seq = in.seq;
+  out.name = in.name;
+  out.model = in.model;
+  out.theta = in.theta[k];
+  out.theta_dot = in.theta_dot[k];
+  out.chi = in.chi[k];
+  out.psi = in.psi[k];
+  out.energy = in.energy;
+  out.impact_count = in.impact_count;
+  out.regime = in.regime[k];
+  out.alpha = in.alpha[k];
+  out.p = in.p[k];
+  out.mu = in.mu[k];
+  out.l = in.l;
+  out.equations = in.equations;
+}
+
 namespace {
 template <class M>
 void UpgradeModel(const M& in, rocklab::model_state3_t& out) {

@@ -390,22 +390,7 @@ void CompareNode::HandleModelBodies(const rocklab::model_state4_t& msg) {
   }
   // Body 0 is a single block's state: the comparison with RL_THETA (the
   // bottom body's) goes on as before, to the same bytes.
-  body0_.utime = msg.utime;
-  body0_.seq = msg.seq;
-  body0_.name = msg.name;
-  body0_.model = msg.model;
-  body0_.theta = msg.theta[0];
-  body0_.theta_dot = msg.theta_dot[0];
-  body0_.chi = msg.chi[0];
-  body0_.psi = msg.psi[0];
-  body0_.energy = msg.energy;
-  body0_.impact_count = msg.impact_count;
-  body0_.regime = msg.regime[0];
-  body0_.alpha = msg.alpha[0];
-  body0_.p = msg.p[0];
-  body0_.mu = msg.mu[0];
-  body0_.l = msg.l;
-  body0_.equations = msg.equations;
+  common::BodyOf(msg, 0, body0_);
   HandleModel(body0_);
   if (n < 2) return;
 
