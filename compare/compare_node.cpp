@@ -383,9 +383,15 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
 
 void CompareNode::HandleModelBodies(const rocklab::model_state4_t& msg) {
   const std::size_t n = msg.nbodies > 0 ? static_cast<std::size_t>(msg.nbodies) : 0;
-  if (n == 0 || msg.nbodies > kMaxCompareBodies) {
+  // Decoded messages have every array of nbodies; a caller's may not.
+  bool arrays_fit = true;
+  for (const auto* a : {&msg.theta, &msg.theta_dot, &msg.chi, &msg.psi, &msg.alpha, &msg.p, &msg.mu}) {
+    arrays_fit = arrays_fit && a->size() == n;
+  }
+  if (n == 0 || msg.nbodies > kMaxCompareBodies || !arrays_fit || msg.regime.size() != n) {
     ++bodies_dropped_;
-    Log()->warn("{}: nbodies {} outside 1..{}: dropped", msg.name, msg.nbodies, kMaxCompareBodies);
+    Log()->warn("{}: nbodies {} outside 1..{}, or arrays of another length: dropped", msg.name, msg.nbodies,
+                kMaxCompareBodies);
     return;
   }
   // Body 0 is a single block's state: the comparison with RL_THETA (the
@@ -439,10 +445,10 @@ CompareNode::BodiesVariant& CompareNode::BodiesVariantFor(const rocklab::model_s
 
 void CompareNode::HandleBodies(const rocklab::block_state2_t& msg) {
   const std::size_t n = msg.nbodies > 0 ? static_cast<std::size_t>(msg.nbodies) : 0;
-  if (n == 0 || msg.nbodies > kMaxCompareBodies) {
+  if (n == 0 || msg.nbodies > kMaxCompareBodies || msg.theta.size() != n || msg.flags.size() != n) {
     ++bodies_dropped_;
-    Log()->warn("{}BODIES: nbodies {} outside 1..{}: dropped", config_.channel_prefix, msg.nbodies,
-                kMaxCompareBodies);
+    Log()->warn("{}BODIES: nbodies {} outside 1..{}, or arrays of another length: dropped",
+                config_.channel_prefix, msg.nbodies, kMaxCompareBodies);
     return;
   }
   bodies_seq_.Add(msg.seq);

@@ -203,6 +203,15 @@ TEST(CompareNodeBodies, AnotherNumberOfBodiesIsCountedNotPaired) {
   EXPECT_EQ(s.bodies_unmatched_model, 10);
   EXPECT_EQ(s.bodies_unmatched_measured, 10);
   EXPECT_TRUE(std::isnan(s.mode.fraction()));
+  // Arrays of another length than nbodies (a caller's message, not a
+  // decoded one): dropped whole, nothing read past them.
+  auto short_model = Assembly("b", 20000, {0.0, 0.0}, "CC");
+  short_model.theta.resize(1);
+  node.HandleModelBodies(short_model);
+  auto short_bodies = Bodies(20000, {0.0, 0.0});
+  short_bodies.nbodies = 5;
+  node.HandleBodies(short_bodies);
+  EXPECT_EQ(node.Summary().at(0).metrics.samples, 10);
 }
 
 }  // namespace
