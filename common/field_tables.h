@@ -127,12 +127,14 @@ void ModelStateFields(V& v) {
   if constexpr (field_detail::HasMode<M>::value) v.Text("mode", ROCKLAB_FIELD(mode));
 }
 
-/// comparison_t and comparison2_t (seq after utime).
+/// comparison_t, comparison2_t (seq after utime) and comparison3_t (also
+/// nbodies after name, the figures per body, the mode fields last).
 template <class M, class V>
 void ComparisonFields(V& v) {
   v.Int("utime", "us", ROCKLAB_FIELD(utime));
   if constexpr (field_detail::HasSeq<M>::value) v.Int("seq", "", ROCKLAB_FIELD(seq));
   v.Text("name", ROCKLAB_FIELD(name));
+  if constexpr (field_detail::HasBodies<M>::value) v.Int("nbodies", "", ROCKLAB_FIELD(nbodies));
   v.Real("error", "rad", ROCKLAB_FIELD(error));
   v.Real("rms_window", "rad", ROCKLAB_FIELD(rms_window));
   v.Real("window_s", "s", ROCKLAB_FIELD(window_s));
@@ -143,6 +145,13 @@ void ComparisonFields(V& v) {
   v.Real("correlation", "1", ROCKLAB_FIELD(correlation));
   v.Int("valid", "", ROCKLAB_FIELD(valid));
   v.Int("samples", "", ROCKLAB_FIELD(samples));
+  if constexpr (field_detail::HasBodies<M>::value) {
+    v.Text("mode_model", ROCKLAB_FIELD(mode_model));
+    v.Text("mode_measured", ROCKLAB_FIELD(mode_measured));
+    v.Real("mode_rest_rad", "rad", ROCKLAB_FIELD(mode_rest_rad));
+    v.Real("mode_agreement", "1", ROCKLAB_FIELD(mode_agreement));
+    v.Int("mode_samples", "", ROCKLAB_FIELD(mode_samples));
+  }
 }
 
 /// daq_config_t and daq_config2_t (seq after utime).

@@ -2,6 +2,7 @@
 
 #include "rocklab/band_comparison_t.hpp"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -66,6 +67,25 @@ void Upgrade(const rocklab::model_state_t& in, rocklab::model_state4_t& out) {
   out.mode.clear();
 }
 
+void BodyOf(const rocklab::model_state4_t& in, std::size_t k, rocklab::model_state3_t& out) {
+  out.utime = in.utime;
+  out.seq = in.seq;
+  out.name = in.name;
+  out.model = in.model;
+  out.theta = in.theta[k];
+  out.theta_dot = in.theta_dot[k];
+  out.chi = in.chi[k];
+  out.psi = in.psi[k];
+  out.energy = in.energy;
+  out.impact_count = in.impact_count;
+  out.regime = in.regime[k];
+  out.alpha = in.alpha[k];
+  out.p = in.p[k];
+  out.mu = in.mu[k];
+  out.l = in.l;
+  out.equations = in.equations;
+}
+
 namespace {
 template <class M>
 void UpgradeModel(const M& in, rocklab::model_state3_t& out) {
@@ -99,6 +119,7 @@ bool WireSeq(const void* data, int size, std::int64_t& seq, std::string_view& se
       static_cast<std::int64_t>(rocklab::block_state2_t::getHash()),
       static_cast<std::int64_t>(rocklab::table_state_t::getHash()),
       static_cast<std::int64_t>(rocklab::comparison2_t::getHash()),
+      static_cast<std::int64_t>(rocklab::comparison3_t::getHash()),
       static_cast<std::int64_t>(rocklab::daq_config2_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_state3_t::getHash()),
       static_cast<std::int64_t>(rocklab::model_state4_t::getHash()),

@@ -12,6 +12,7 @@
 /// sender (event2_t.sender, health2_t.sender: unique per process), see
 /// ChannelSeqGaps.
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -62,6 +63,13 @@ void Upgrade(const rocklab::block_state_t& in, rocklab::block_state2_t& out);
 void Upgrade(const rocklab::model_state3_t& in, rocklab::model_state4_t& out);
 void Upgrade(const rocklab::model_state2_t& in, rocklab::model_state4_t& out);
 void Upgrade(const rocklab::model_state_t& in, rocklab::model_state4_t& out);
+
+/// Body `k` (0 <= k < in.nbodies) of an assembly's state as a single
+/// block's: its theta, theta_dot, chi, psi, regime, alpha, p, mu, and the
+/// whole's utime, seq, name, model, energy, impact_count, l, equations.
+/// Body 0 of a model_state4_t read from a model_state3_t is that message
+/// again. No allocation once `out`'s strings have grown.
+void BodyOf(const rocklab::model_state4_t& in, std::size_t k, rocklab::model_state3_t& out);
 
 /// Decodes `Current` or any of `Old` (by the fingerprint) into a `Current`,
 /// guarded (GuardedDecode). Holds one scratch message per older type, so no

@@ -8,6 +8,7 @@
 #include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
@@ -77,6 +78,13 @@ const WireField kBlockState2[] = {
 const WireField kComparison[] = {{F, 8, 0, "utime"}, ROCKLAB_COMPARISON_FIELDS};
 const WireField kComparison2[] = {{F, 8, 0, "utime"}, {F, 8, 0, "seq"}, ROCKLAB_COMPARISON_FIELDS};
 #undef ROCKLAB_COMPARISON_FIELDS
+// Per body (nbodies, field 3).
+const WireField kComparison3[] = {
+    {F, 8, 0, "utime"}, {F, 8, 0, "seq"}, {S, 0, 0, "name"}, {N, 4, 0, "nbodies"}, {A, 8, 3, "error"},
+    {A, 8, 3, "rms_window"}, {F, 8, 0, "window_s"}, {A, 8, 3, "rms_total"}, {A, 8, 3, "nrms"},
+    {A, 8, 3, "peak_error"}, {A, 8, 3, "impact_timing_error"}, {A, 8, 3, "correlation"},
+    {A, 1, 3, "valid"}, {F, 8, 0, "samples"}, {S, 0, 0, "mode_model"}, {S, 0, 0, "mode_measured"},
+    {F, 8, 0, "mode_rest_rad"}, {F, 8, 0, "mode_agreement"}, {F, 8, 0, "mode_samples"}};
 const WireField kDaqConfig[] = {
     {F, 8, 0, "utime"}, {S, 0, 0, "rig_name"}, {S, 0, 0, "calibration_id"},
     {F, 8, 0, "sample_rate_hz"}, {N, 4, 0, "num_channels"}, {SA, 0, 4, "channel_names"},
@@ -234,6 +242,7 @@ ROCKLAB_WIRE_LAYOUT(block_state_t, kBlockState)
 ROCKLAB_WIRE_LAYOUT(block_state2_t, kBlockState2)
 ROCKLAB_WIRE_LAYOUT(comparison_t, kComparison)
 ROCKLAB_WIRE_LAYOUT(comparison2_t, kComparison2)
+ROCKLAB_WIRE_LAYOUT(comparison3_t, kComparison3)
 ROCKLAB_WIRE_LAYOUT(daq_config_t, kDaqConfig)
 ROCKLAB_WIRE_LAYOUT(daq_config2_t, kDaqConfig2)
 ROCKLAB_WIRE_LAYOUT(event_t, kEvent)

@@ -1,6 +1,7 @@
 #include "compare/compare_node.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -17,6 +18,7 @@
 #include "common/versions.h"
 #include "rocklab/band_comparison_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/event_t.hpp"
 #include "rocklab/health2_t.hpp"
@@ -59,6 +61,7 @@ void CompareNodeConfig::Validate() const {
   check(std::isfinite(health_period_s) && health_period_s > 0, "health_period_s");
   check(align_capacity >= 2, "align_capacity");
   check(subscriber_queue >= 1, "subscriber_queue");
+  check(std::isfinite(mode_rest_rad) && mode_rest_rad >= 0, "mode_rest_rad");
   comparator.Validate();
 }
 
@@ -106,6 +109,43 @@ struct CompareNode::Band {
   std::int64_t coverage_seq{}; // seq of the next RL_COVERAGE_<name>
 };
 
+// A measured sample of every body (RL_BODIES), its angles and validity.
+struct CompareNode::BodiesMeasured {
+  std::int64_t utime{};
+  int n{};
+  std::array<double, kMaxCompareBodies> theta{};
+  std::array<bool, kMaxCompareBodies> valid{};
+};
+
+// An assembly variant's sample: its angles and mode ("" unknown; a mode
+// longer than kMaxCompareBodies cannot name n interfaces and is kept "").
+struct CompareNode::BodiesModelSample {
+  std::int64_t utime{};
+  int n{};
+  std::array<double, kMaxCompareBodies> theta{};
+  std::array<char, kMaxCompareBodies> mode{};
+  int mode_length{};
+};
+
+struct CompareNode::BodiesVariant {
+  BodiesVariant(const CompareNodeConfig& c, const rocklab::model_state4_t& first)
+      : name(first.name), channel(c.channel_prefix + "COMPAREBODIES_" + first.name),
+        n(first.nbodies), comparator(first.nbodies, BodiesComparatorOptions{c.comparator, c.mode_rest_rad}),
+        pending(c.align_capacity) {
+    mode.reserve(kMaxCompareBodies);
+  }
+  std::string name, channel;
+  int n;
+  BodiesComparator comparator;
+  common::Ring<BodiesModelSample> pending;  // samples newer than every measured one
+  std::string mode;                         // the pair's model mode, reused
+  std::int64_t pairs{};
+  std::int64_t unmatched_model{};  // never paired: no measured sample of its utime, or of other nbodies
+  std::int64_t last_pub_utime{INT64_MIN};
+  bool dirty{};
+  std::int64_t compare_seq{};  // seq of the next RL_COMPAREBODIES_<name>
+};
+
 namespace {
 
 BandSample ToBandSample(const rocklab::model_band_t& m) {
@@ -138,9 +178,16 @@ CompareNode::CompareNode(const CompareNodeConfig& config, common::Bus& bus)
       },
       config_.subscriber_queue));
   // model_state3_t from the model node, model_state2_t or model_state_t from older logs.
-  subscriptions_.push_back(common::SubscribeVersioned<common::ModelStateDecoder>(
+  // model_state4_t (an assembly, or a single block as nbodies = 1) read as
+  // is; model_state3_t from the model node, model_state2_t or model_state_t
+  // from older logs read as it with nbodies = 1.
+  subscriptions_.push_back(common::SubscribeVersioned<common::ModelStateBodiesDecoder>(
       bus_, config_.channel_prefix + "MODEL_.*",
-      [this](const std::string&, const rocklab::model_state3_t& m) { HandleModel(m); },
+      [this](const std::string&, const rocklab::model_state4_t& m) { HandleModelBodies(m); },
+      config_.subscriber_queue));
+  subscriptions_.push_back(bus_.Subscribe<rocklab::block_state2_t>(
+      config_.channel_prefix + "BODIES",
+      [this](const std::string&, const rocklab::block_state2_t& m) { HandleBodies(m); },
       config_.subscriber_queue));
   subscriptions_.push_back(bus_.Subscribe<rocklab::model_band_t>(
       config_.channel_prefix + "BAND_.*",
@@ -344,6 +391,160 @@ void CompareNode::HandleModel(const rocklab::model_state3_t& msg) {
   }
 }
 
+void CompareNode::HandleModelBodies(const rocklab::model_state4_t& msg) {
+  const std::size_t n = msg.nbodies > 0 ? static_cast<std::size_t>(msg.nbodies) : 0;
+  // Decoded messages have every array of nbodies; a caller's may not.
+  bool arrays_fit = true;
+  for (const auto* a : {&msg.theta, &msg.theta_dot, &msg.chi, &msg.psi, &msg.alpha, &msg.p, &msg.mu}) {
+    arrays_fit = arrays_fit && a->size() == n;
+  }
+  if (n == 0 || msg.nbodies > kMaxCompareBodies || !arrays_fit || msg.regime.size() != n) {
+    ++bodies_dropped_;
+    Log()->warn("{}: nbodies {} outside 1..{}, or arrays of another length: dropped", msg.name, msg.nbodies,
+                kMaxCompareBodies);
+    return;
+  }
+  // Body 0 is a single block's state: the comparison with RL_THETA (the
+  // bottom body's) goes on as before, to the same bytes.
+  common::BodyOf(msg, 0, body0_);
+  HandleModel(body0_);
+  if (n < 2) return;
+
+  BodiesVariant& v = BodiesVariantFor(msg);
+  BodiesModelSample sample;
+  sample.utime = msg.utime;
+  sample.n = msg.nbodies;
+  for (std::size_t k = 0; k < n; ++k) sample.theta[k] = msg.theta[k];
+  if (msg.mode.size() <= sample.mode.size()) {
+    sample.mode_length = static_cast<int>(msg.mode.size());
+    for (std::size_t k = 0; k < msg.mode.size(); ++k) sample.mode[k] = msg.mode[k];
+  }
+  if (!bodies_measured_ || bodies_measured_->empty() || msg.utime > bodies_measured_->back().utime) {
+    if (!v.pending.push_back(sample)) ++v.unmatched_model;
+    return;
+  }
+  // The measured sample of the same utime, by binary search (utime increasing).
+  const common::Ring<BodiesMeasured>& ring = *bodies_measured_;
+  std::size_t lo = 0, hi = ring.size();
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (ring[mid].utime < msg.utime) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  if (lo < ring.size() && ring[lo].utime == msg.utime) {
+    PairBodies(v, ring[lo], sample);
+  } else {
+    ++v.unmatched_model;
+  }
+}
+
+CompareNode::BodiesVariant& CompareNode::BodiesVariantFor(const rocklab::model_state4_t& msg) {
+  auto it = bodies_variants_.find(msg.name);
+  if (it != bodies_variants_.end()) return *it->second;
+  auto v = std::make_unique<BodiesVariant>(config_, msg);
+  BodiesVariant& ref = *v;
+  bodies_order_.push_back(&ref);
+  bodies_variants_.emplace(msg.name, std::move(v));
+  Log()->info("comparing the {} bodies of variant '{}' with {}BODIES", msg.nbodies, msg.name,
+              config_.channel_prefix);
+  return ref;
+}
+
+void CompareNode::HandleBodies(const rocklab::block_state2_t& msg) {
+  const std::size_t n = msg.nbodies > 0 ? static_cast<std::size_t>(msg.nbodies) : 0;
+  if (n == 0 || msg.nbodies > kMaxCompareBodies || msg.theta.size() != n || msg.flags.size() != n) {
+    ++bodies_dropped_;
+    Log()->warn("{}BODIES: nbodies {} outside 1..{}, or arrays of another length: dropped",
+                config_.channel_prefix, msg.nbodies, kMaxCompareBodies);
+    return;
+  }
+  bodies_seq_.Add(msg.seq);
+  if (!bodies_measured_) {
+    bodies_measured_ = std::make_unique<common::Ring<BodiesMeasured>>(config_.align_capacity);
+  }
+  common::Ring<BodiesMeasured>& ring = *bodies_measured_;
+  if (!ring.empty() && msg.utime <= ring.back().utime) {
+    ++bodies_dropped_;  // a duplicate or a replay restart, as RL_THETA's
+    return;
+  }
+  ++bodies_count_;
+  newest_utime_ = std::max(newest_utime_, msg.utime);
+  BodiesMeasured m;
+  m.utime = msg.utime;
+  m.n = msg.nbodies;
+  for (std::size_t k = 0; k < n; ++k) {
+    m.theta[k] = msg.theta[k];
+    m.valid[k] = (msg.flags[k] & config_.invalid_flags) == 0 && std::isfinite(msg.theta[k]);
+  }
+  ring.push_back(m);
+  for (BodiesVariant* v : bodies_order_) {
+    while (!v->pending.empty() && v->pending.front().utime <= msg.utime) {
+      const BodiesModelSample waiting = v->pending.front();
+      v->pending.pop_front();
+      if (waiting.utime == msg.utime) {
+        PairBodies(*v, m, waiting);
+      } else {
+        ++v->unmatched_model;
+      }
+    }
+  }
+}
+
+void CompareNode::PairBodies(BodiesVariant& v, const BodiesMeasured& measured,
+                             const BodiesModelSample& modelled) {
+  if (measured.n != v.n || modelled.n != v.n) {
+    ++v.unmatched_model;  // another assembly than the variant's first message, or the rig's
+    return;
+  }
+  ++v.pairs;
+  v.mode.assign(modelled.mode.data(), static_cast<std::size_t>(modelled.mode_length));
+  v.comparator.Add(measured.utime, measured.theta.data(), measured.valid.data(), modelled.theta.data(),
+                   v.mode);
+  v.dirty = true;
+  if (PublishDue(measured.utime, v.last_pub_utime)) PublishBodies(v);
+}
+
+void CompareNode::PublishBodies(BodiesVariant& v) {
+  const ComparisonMetrics& first = v.comparator.body(0);
+  v.last_pub_utime = first.utime;
+  v.dirty = false;
+  rocklab::comparison3_t out;
+  out.utime = first.utime;
+  out.seq = v.compare_seq++;
+  out.name = v.name;
+  out.nbodies = v.n;
+  const auto n = static_cast<std::size_t>(v.n);
+  for (auto* a : {&out.error, &out.rms_window, &out.rms_total, &out.nrms, &out.peak_error,
+                  &out.impact_timing_error, &out.correlation}) {
+    a->resize(n);
+  }
+  out.valid.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const ComparisonMetrics& m = v.comparator.body(static_cast<int>(k));
+    out.error[k] = m.error;
+    out.rms_window[k] = m.rms_window;
+    out.rms_total[k] = m.rms_total;
+    out.nrms[k] = m.nrms;
+    out.peak_error[k] = m.peak_error;
+    out.impact_timing_error[k] = m.impact_timing_error;
+    out.correlation[k] = m.correlation;
+    out.valid[k] = m.valid;
+  }
+  out.window_s = config_.comparator.window_s;
+  out.samples = first.samples;
+  const ModeAgreement& mode = v.comparator.mode();
+  out.mode_model = mode.model;
+  out.mode_measured = mode.measured;
+  out.mode_rest_rad = mode.rest_rad;
+  out.mode_agreement = mode.fraction();
+  out.mode_samples = mode.samples;
+  bus_.Publish(v.channel, out);
+  ++published_;
+}
+
 void CompareNode::Pair(Variant& v, std::int64_t utime, double measured, bool valid,
                        double modelled) {
   ++v.pairs;
@@ -396,13 +597,16 @@ void CompareNode::PublishHealth(const char* state) {
   h.sender = "compare";
   h.node = "compare";
   h.state = state;
-  h.count_in = theta_count_ + model_count_;
+  h.count_in = theta_count_ + model_count_ + bodies_count_;
   h.count_out = published_;
   std::int64_t dropped = theta_out_of_order_;
   for (const Variant* v : order_) dropped += v->unmatched_model;
   for (const Band* b : band_order_) dropped += b->unmatched_model;
+  for (const BodiesVariant* v : bodies_order_) dropped += v->unmatched_model;
+  dropped += bodies_dropped_;
   h.dropped = dropped + bus_.decode_error_count();  // and messages that did not decode
-  h.gaps = common::SeqGaps::SaturatingAdd(theta_seq_.missing(), model_gaps_);
+  h.gaps = common::SeqGaps::SaturatingAdd(
+      common::SeqGaps::SaturatingAdd(theta_seq_.missing(), model_gaps_), bodies_seq_.missing());
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(config_.channel_prefix + "HEALTH", h);
 }
@@ -449,6 +653,9 @@ void CompareNode::Finish() {
   for (Variant* v : order_) {
     if (v->dirty) PublishCompare(*v);
   }
+  for (BodiesVariant* v : bodies_order_) {
+    if (v->dirty) PublishBodies(*v);
+  }
   for (Band* b : band_order_) {
     // The crossings still waiting for later member impacts: none will come.
     const std::int64_t resolved = b->comparator.metrics().matched_crossings +
@@ -472,6 +679,14 @@ std::vector<VariantSummary> CompareNode::Summary() const {
     s.metrics = v->comparator.metrics();
     s.unmatched_measured = theta_count_ - v->pairs;
     s.unmatched_model = v->unmatched_model + static_cast<std::int64_t>(v->pending.size());
+    const auto bodies = bodies_variants_.find(v->name);
+    if (bodies != bodies_variants_.end()) {
+      const BodiesVariant& b = *bodies->second;
+      for (int k = 0; k < b.n; ++k) s.bodies.push_back(b.comparator.body(k));
+      s.mode = b.comparator.mode();
+      s.bodies_unmatched_measured = bodies_count_ - b.pairs;
+      s.bodies_unmatched_model = b.unmatched_model + static_cast<std::int64_t>(b.pending.size());
+    }
     out.push_back(s);
   }
   return out;
@@ -534,6 +749,23 @@ void CompareNode::PrintSummary(const std::vector<VariantSummary>& summary, std::
                  m.max_abs_error * kDeg, m.nrms, m.correlation, cell(m.mean_abs_timing_error).c_str(),
                  cell(m.mean_abs_peak_error * kDeg).c_str(), valid_pct);
   }
+  // An assembly's bodies (bottom-up, body 0 is the row above) and its modes.
+  for (const VariantSummary& s : summary) {
+    for (std::size_t k = 0; k < s.bodies.size(); ++k) {
+      const ComparisonMetrics& m = s.bodies[k];
+      const double valid_pct =
+          m.samples > 0 ? 100.0 * static_cast<double>(m.valid_samples) / m.samples : 0.0;
+      std::fprintf(out, "%-20s body %-3zu %25s %11.5f %9.4f %7.4f %9.5f %11s %11s %7.2f\n",
+                   s.name.c_str(), k, "", m.rms_total * kDeg, m.max_abs_error * kDeg, m.nrms,
+                   m.correlation, cell(m.mean_abs_timing_error).c_str(),
+                   cell(m.mean_abs_peak_error * kDeg).c_str(), valid_pct);
+    }
+    if (!s.bodies.empty()) {
+      std::fprintf(out, "%s: modes agree %s of %lld samples (rest below %.4f rad)\n", s.name.c_str(),
+                   s.mode.samples > 0 ? (cell(100.0 * s.mode.fraction()) + " %").c_str() : "-",
+                   static_cast<long long>(s.mode.samples), s.mode.rest_rad);
+    }
+  }
   for (const VariantSummary& s : summary) {
     if (s.metrics.matched_crossings > 0) continue;
     std::fprintf(out,
@@ -550,27 +782,46 @@ void CompareNode::WriteSummaryJson(const std::vector<VariantSummary>& summary,
 
 std::string CompareNode::SummaryJsonText(const std::vector<VariantSummary>& summary,
                                          const std::vector<BandSummary>& bands) {
+  // A variant's figures and each of an assembly's bodies' (the same keys).
+  auto figures = [](const ComparisonMetrics& m) {
+    return nlohmann::json{{"samples", m.samples},
+                          {"valid_samples", m.valid_samples},
+                          {"rms", m.rms_total},
+                          {"nrms", m.nrms},
+                          {"max_abs_error", m.max_abs_error},
+                          {"peak_measured", m.peak_measured},
+                          {"correlation", m.correlation},
+                          {"matched_crossings", m.matched_crossings},
+                          {"unmatched_crossings", m.unmatched_crossings},
+                          {"mean_abs_timing_error", OrNull(m.mean_abs_timing_error)},
+                          {"mean_abs_peak_error", OrNull(m.mean_abs_peak_error)}};
+  };
   nlohmann::json variants = nlohmann::json::array();
   for (const VariantSummary& s : summary) {
-    const ComparisonMetrics& m = s.metrics;
-    variants.push_back({{"name", s.name},
-                        {"model", s.model},
-                        {"alpha", s.alpha},
-                        {"p", s.p},
-                        {"mu", s.mu},
-                        {"samples", m.samples},
-                        {"valid_samples", m.valid_samples},
-                        {"rms", m.rms_total},
-                        {"nrms", m.nrms},
-                        {"max_abs_error", m.max_abs_error},
-                        {"peak_measured", m.peak_measured},
-                        {"correlation", m.correlation},
-                        {"matched_crossings", m.matched_crossings},
-                        {"unmatched_crossings", m.unmatched_crossings},
-                        {"mean_abs_timing_error", OrNull(m.mean_abs_timing_error)},
-                        {"mean_abs_peak_error", OrNull(m.mean_abs_peak_error)},
-                        {"unmatched_measured", s.unmatched_measured},
-                        {"unmatched_model", s.unmatched_model}});
+    nlohmann::json v = figures(s.metrics);
+    v["name"] = s.name;
+    v["model"] = s.model;
+    v["alpha"] = s.alpha;
+    v["p"] = s.p;
+    v["mu"] = s.mu;
+    v["unmatched_measured"] = s.unmatched_measured;
+    v["unmatched_model"] = s.unmatched_model;
+    // An assembly only: a single block's variant keeps its keys.
+    if (!s.bodies.empty()) {
+      nlohmann::json bodies = nlohmann::json::array();
+      for (std::size_t k = 0; k < s.bodies.size(); ++k) {
+        nlohmann::json b = figures(s.bodies[k]);
+        b["body"] = k;
+        bodies.push_back(b);
+      }
+      v["bodies"] = bodies;
+      v["mode_agreement"] = OrNull(s.mode.fraction());
+      v["mode_samples"] = s.mode.samples;
+      v["mode_rest_rad"] = s.mode.rest_rad;
+      v["bodies_unmatched_measured"] = s.bodies_unmatched_measured;
+      v["bodies_unmatched_model"] = s.bodies_unmatched_model;
+    }
+    variants.push_back(v);
   }
   nlohmann::json band_list = nlohmann::json::array();
   for (const BandSummary& s : bands) {
@@ -590,7 +841,7 @@ std::string CompareNode::SummaryJsonText(const std::vector<VariantSummary>& summ
                          {"unmatched_measured", s.unmatched_measured},
                          {"unmatched_model", s.unmatched_model}});
   }
-  const nlohmann::json doc = {
+  nlohmann::json doc = {
       {"variants", variants},
       {"bands", band_list},
       {"units",
@@ -599,6 +850,14 @@ std::string CompareNode::SummaryJsonText(const std::vector<VariantSummary>& summ
         {"mean_abs_timing_error", "s"}, {"mean_abs_peak_error", "rad"},
         {"band_coverage_95", "1"}, {"band_coverage_68", "1"}, {"impact_timing_z_rms", "1"},
         {"impact_timing_z_max_abs", "1"}}}};
+  // The units of an assembly's keys, only when one is there (a single
+  // block's document is unchanged).
+  bool any_bodies = false;
+  for (const VariantSummary& s : summary) any_bodies = any_bodies || !s.bodies.empty();
+  if (any_bodies) {
+    doc["units"]["mode_agreement"] = "1";
+    doc["units"]["mode_rest_rad"] = "rad";
+  }
   return doc.dump(2) + "\n";
 }
 

@@ -17,6 +17,12 @@
 /// utime. The rings below hold what one side has that the other has not yet
 /// sent: over udpm the model process runs behind the DAQ by its queue.
 ///
+/// Assemblies: a model_state4_t of nbodies >= 2 on RL_MODEL_<name> is
+/// compared twice: its bottom body with RL_THETA as a single block's
+/// (RL_COMPARE_<name>, comparison2_t, the summary row), and every body with
+/// RL_BODIES (block_state2_t) by a BodiesComparator, the same alignment by
+/// utime (RL_COMPAREBODIES_<name>, comparison3_t, the summary's "bodies").
+///
 /// Bands: RL_BAND_<name> (an ensemble's posterior predictive band,
 /// model_band_t) is paired with the measurement the same way and compared
 /// by a BandComparator; RL_COVERAGE_<name> (band_comparison_t) goes out at
@@ -33,10 +39,13 @@
 #include "common/seq_gaps.h"
 #include "common/ring.h"
 #include "compare/band_comparator.h"
+#include "compare/bodies_comparator.h"
 #include "compare/comparator.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 
 namespace rocklab::compare {
 
@@ -67,9 +76,16 @@ struct CompareNodeConfig {
                              rocklab::block_state_t::FLAG_JUMP |
                              rocklab::block_state_t::FLAG_TWIST};
   ComparatorOptions comparator;
+  /// An assembly's measured mode: |relative angle| at most this is a closed
+  /// interface, rad (BodiesComparatorOptions::mode_rest_rad); >= 0.
+  double mode_rest_rad{2e-3};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
+
+/// The largest assembly the compare node pairs (bodies); a message of more
+/// is counted as dropped.
+inline constexpr int kMaxCompareBodies = 16;
 
 /// End-of-run figures of one variant.
 struct VariantSummary {
@@ -79,6 +95,13 @@ struct VariantSummary {
   ComparisonMetrics metrics;   ///< at the end of the run
   std::int64_t unmatched_measured{};  ///< measured samples never paired
   std::int64_t unmatched_model{};     ///< model samples never paired
+  /// An assembly variant (model_state4_t, nbodies >= 2) against RL_BODIES:
+  /// the figures per body, bottom-up, and the mode agreement. Empty for a
+  /// single block (its summary is unchanged).
+  std::vector<ComparisonMetrics> bodies;
+  ModeAgreement mode;
+  std::int64_t bodies_unmatched_measured{};  ///< RL_BODIES samples never paired with it
+  std::int64_t bodies_unmatched_model{};     ///< its samples never paired with RL_BODIES
 };
 
 /// End-of-run figures of one ensemble's band.
@@ -107,6 +130,11 @@ class CompareNode {
   /// RL_MODEL_* carries model_state3_t or (older logs) model_state2_t,
   /// model_state_t, read as model_state3_t with seq = common::kNoSeq.
   void HandleModel(const rocklab::model_state3_t& msg);
+  /// RL_MODEL_* as the per-body type (what the node subscribes): body 0 to
+  /// HandleModel; an assembly (nbodies >= 2) also to its BodiesComparator.
+  void HandleModelBodies(const rocklab::model_state4_t& msg);
+  /// RL_BODIES (block_state2_t): the measured bodies.
+  void HandleBodies(const rocklab::block_state2_t& msg);
   /// RL_BAND_* (model_band_t).
   void HandleBand(const rocklab::model_band_t& msg);
 
@@ -144,6 +172,12 @@ class CompareNode {
  private:
   struct Variant;
   struct Band;
+  struct BodiesVariant;
+  struct BodiesMeasured;
+  struct BodiesModelSample;
+  BodiesVariant& BodiesVariantFor(const rocklab::model_state4_t& msg);
+  void PairBodies(BodiesVariant& v, const BodiesMeasured& measured, const BodiesModelSample& modelled);
+  void PublishBodies(BodiesVariant& v);
   Variant& VariantFor(const rocklab::model_state3_t& msg);
   Band& BandFor(const rocklab::model_band_t& msg);
   // Whether a stream last published at `last_pub_utime` publishes at `utime`
@@ -168,6 +202,14 @@ class CompareNode {
   std::vector<Variant*> order_;  // variants in order of appearance
   std::map<std::string, std::unique_ptr<Band>> bands_;
   std::vector<Band*> band_order_;  // bands in order of appearance
+  std::map<std::string, std::unique_ptr<BodiesVariant>> bodies_variants_;
+  std::vector<BodiesVariant*> bodies_order_;
+  // RL_BODIES samples waiting for the assembly variants (made at the first).
+  std::unique_ptr<common::Ring<BodiesMeasured>> bodies_measured_;
+  rocklab::model_state3_t body0_;  // HandleModelBodies' body 0, reused
+  std::int64_t bodies_count_{};        // RL_BODIES messages taken
+  std::int64_t bodies_dropped_{};      // RL_BODIES or RL_MODEL_* refused: nbodies out of range, out of order
+  common::SeqGaps bodies_seq_;         // RL_BODIES seq
 
   // Measured samples waiting for the models, oldest first, utime increasing.
   struct Measured {

@@ -14,6 +14,7 @@
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/band_comparison_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
@@ -82,6 +83,7 @@ ROCKLAB_VISIT(block_state_t, BlockStateFields)
 ROCKLAB_VISIT(block_state2_t, BlockStateFields)
 ROCKLAB_VISIT(comparison_t, ComparisonFields)
 ROCKLAB_VISIT(comparison2_t, ComparisonFields)
+ROCKLAB_VISIT(comparison3_t, ComparisonFields)
 ROCKLAB_VISIT(daq_config_t, DaqConfigFields)
 ROCKLAB_VISIT(daq_config2_t, DaqConfigFields)
 ROCKLAB_VISIT(event_t, EventFields)
@@ -352,6 +354,7 @@ const std::vector<MessageType>& MessageTypes() {
       Entry<rocklab::band_comparison_t>("band_comparison_t"),
       Entry<rocklab::block_state2_t>("block_state2_t"),
       Entry<rocklab::block_state_t>("block_state_t"),
+      Entry<rocklab::comparison3_t>("comparison3_t"),
       Entry<rocklab::comparison2_t>("comparison2_t"),
       Entry<rocklab::comparison_t>("comparison_t"),
       Entry<rocklab::daq_config2_t>("daq_config2_t"),

@@ -74,6 +74,10 @@ bool LiveState::Impl::Dispatch(std::string_view kind, const void* data, int size
       ok = IngestModel(kind.substr(6), data, size);
     } else if (StartsWith(kind, "COMPARE_") && kind.size() > 8) {
       ok = IngestCompare(kind.substr(8), data, size);
+    } else if (kind == "BODIES") {
+      ok = IngestBodies(data, size);
+    } else if (StartsWith(kind, "COMPAREBODIES_") && kind.size() > 14) {
+      ok = IngestCompareBodies(kind.substr(14), data, size);
     } else if (StartsWith(kind, "BAND_") && kind.size() > 5) {
       ok = IngestBand(kind.substr(5), data, size);
     } else if (StartsWith(kind, "COVERAGE_") && kind.size() > 9) {
@@ -127,19 +131,61 @@ bool LiveState::Impl::IngestTable(const void* data, int size) {
 }
 
 bool LiveState::Impl::IngestModel(std::string_view name, const void* data, int size) {
-  // model_state3_t, or model_state2_t / model_state_t from a log written before it.
-  if (model_decoder(data, size, model_msg) != nullptr ||
-      !UsableUtime(model_msg.utime)) {
+  // model_state4_t (an assembly), model_state3_t, or model_state2_t /
+  // model_state_t from a log written before it, as model_state4_t; body 0
+  // (the bottom body, RL_THETA's) is the variant's theta as a single block's.
+  if (model_decoder(data, size, model4_msg) != nullptr || model4_msg.nbodies < 1 ||
+      !UsableUtime(model4_msg.utime)) {
     return false;
   }
-  if (!SeeSampleClock(model_msg.utime)) return true;  // held
+  if (!SeeSampleClock(model4_msg.utime)) return true;  // held
   Variant* v = VariantFor(name);
   if (!v) return true;  // counted in dropped.variants
+  common::BodyOf(model4_msg, 0, model_msg);
   v->has_params = true;
   v->params = model_msg;  // copies reuse the strings' capacity
   AddPoint(v->theta, model_msg.utime, model_msg.theta * kDegPerRad, 0.0);
   if (InWindow(model_msg.utime) && std::isfinite(model_msg.theta)) {
     v->peak_abs_theta = std::fmax(v->peak_abs_theta, std::fabs(model_msg.theta));
+  }
+  if (model4_msg.nbodies >= 2) {
+    for (std::size_t k = 0; k < static_cast<std::size_t>(model4_msg.nbodies); ++k) {
+      if (Series* s = BodySeries(v->bodies, k)) AddPoint(*s, model4_msg.utime, model4_msg.theta[k] * kDegPerRad, 0.0);
+    }
+  }
+  return true;
+}
+
+LiveState::Impl::Series* LiveState::Impl::BodySeries(std::vector<std::unique_ptr<Series>>& list,
+                                                     std::size_t k) {
+  if (k >= kMaxBodies) {
+    ++dropped_bodies;
+    return nullptr;
+  }
+  while (list.size() <= k) list.push_back(std::make_unique<Series>(capacity, grows, options.max_points));
+  return list[k].get();
+}
+
+bool LiveState::Impl::IngestBodies(const void* data, int size) {
+  if (!DecodeSample(bodies_msg, data, size) || bodies_msg.nbodies < 1) return false;
+  if (!SeeSampleClock(bodies_msg.utime)) return true;  // held
+  for (std::size_t k = 0; k < static_cast<std::size_t>(bodies_msg.nbodies); ++k) {
+    if (Series* s = BodySeries(measured_bodies, k)) AddPoint(*s, bodies_msg.utime, bodies_msg.theta[k] * kDegPerRad, 0.0);
+  }
+  return true;
+}
+
+bool LiveState::Impl::IngestCompareBodies(std::string_view name, const void* data, int size) {
+  if (!DecodeSample(compare_bodies_msg, data, size)) return false;
+  if (!SeeSampleClock(compare_bodies_msg.utime)) return true;  // held
+  Variant* v = VariantFor(name);
+  if (!v) return true;
+  if (T(compare_bodies_msg.utime) <= options.to_s) {  // the newest inside the window
+    v->has_bodies_latest = true;
+    v->bodies_latest = compare_bodies_msg;
+    for (std::string* text : {&v->bodies_latest.name, &v->bodies_latest.mode_model, &v->bodies_latest.mode_measured}) {
+      text->resize(std::min(text->size(), kMaxTextBytes));  // a message's text cannot grow the state
+    }
   }
   return true;
 }

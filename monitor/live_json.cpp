@@ -39,6 +39,15 @@ json LiveState::Impl::Update(std::uint64_t cursor) const {
   table_doc["peak_disp_m"] = table_peak_disp;
   doc["table"] = std::move(table_doc);
   doc["variants"] = VariantsJson(w);
+  // An assembly only (RL_BODIES, or a model of several bodies): a single
+  // block's document keeps its keys.
+  bool any_bodies = !measured_bodies.empty() || dropped_bodies > 0;
+  for (const auto& v : variants) any_bodies = any_bodies || !v->bodies.empty();
+  if (any_bodies) {
+    json measured_list = json::array();
+    for (const auto& s : measured_bodies) measured_list.push_back(SeriesJson(*s, "theta_deg", nullptr, w));
+    doc["bodies"] = {{"measured", std::move(measured_list)}, {"dropped", dropped_bodies}};
+  }
   doc["bands"] = BandsJson(w);
   doc["flags"] = FlagsJson(w);
   doc["events"] = EventsJson(w);
@@ -104,6 +113,41 @@ json LiveState::Impl::VariantsJson(const UpdateWindow& w) const {
                      {"samples", m.samples}};
     } else {
       j["latest"] = nullptr;
+    }
+    if (!v->bodies.empty() || v->has_bodies_latest) {
+      json theta_list = json::array();
+      for (const auto& s : v->bodies) theta_list.push_back(SeriesJson(*s, "theta_deg", nullptr, w));
+      j["bodies"] = std::move(theta_list);
+      if (v->has_bodies_latest) {
+        const rocklab::comparison3_t& m = v->bodies_latest;
+        auto numbers = [](const std::vector<double>& x) {
+          json a = json::array();
+          for (double d : x) a.push_back(Number(d));
+          return a;
+        };
+        json valid = json::array();
+        for (auto b : m.valid) valid.push_back(b != 0);
+        j["bodies_latest"] = {{"utime", m.utime},
+                              {"t", T(m.utime)},
+                              {"nbodies", m.nbodies},
+                              {"error", numbers(m.error)},
+                              {"rms_window", numbers(m.rms_window)},
+                              {"window_s", Number(m.window_s)},
+                              {"rms_total", numbers(m.rms_total)},
+                              {"nrms", numbers(m.nrms)},
+                              {"peak_error", numbers(m.peak_error)},
+                              {"impact_timing_error", numbers(m.impact_timing_error)},
+                              {"correlation", numbers(m.correlation)},
+                              {"valid", std::move(valid)},
+                              {"samples", m.samples},
+                              {"mode_model", m.mode_model},
+                              {"mode_measured", m.mode_measured},
+                              {"mode_rest_rad", Number(m.mode_rest_rad)},
+                              {"mode_agreement", Number(m.mode_agreement)},
+                              {"mode_samples", m.mode_samples}};
+      } else {
+        j["bodies_latest"] = nullptr;
+      }
     }
     j["whole"] = {{"peak_theta", v->peak_abs_theta},
                   {"peak_theta_measured", measured_peak_abs_theta},

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -23,7 +24,9 @@
 #include "common/units.h"
 #include "common/wire.h"
 #include "rocklab/band_comparison_t.hpp"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "common/versions.h"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/table_state_t.hpp"
@@ -253,6 +256,11 @@ struct LiveState::Impl {
     Series comparison;  // a: error, deg; b: rms_window, deg
     bool has_latest{};
     rocklab::comparison2_t latest;
+    // An assembly (model_state4_t of two or more bodies): theta per body,
+    // bottom-up (a: theta, deg), and the newest RL_COMPAREBODIES_<name>.
+    std::vector<std::unique_ptr<Series>> bodies;
+    bool has_bodies_latest{};
+    rocklab::comparison3_t bodies_latest;
     // Whole-test figures over the window, at the model's full rate (not the
     // decimated series): max |theta| of RL_MODEL_<name>, rad; the impact
     // timing errors of RL_COMPARE_<name>, one per matched crossing (a new
@@ -304,6 +312,11 @@ struct LiveState::Impl {
   bool IngestTable(const void* data, int size);
   bool IngestModel(std::string_view name, const void* data, int size);
   bool IngestCompare(std::string_view name, const void* data, int size);
+  bool IngestBodies(const void* data, int size);
+  bool IngestCompareBodies(std::string_view name, const void* data, int size);
+  // Series k of `list`, made (empty) up to k; nullptr beyond kMaxBodies
+  // (counted in dropped.bodies).
+  Series* BodySeries(std::vector<std::unique_ptr<Series>>& list, std::size_t k);
   bool IngestBand(std::string_view name, const void* data, int size);
   bool IngestCoverage(std::string_view name, const void* data, int size);
   bool IngestEvent(const void* data, int size);
@@ -407,6 +420,7 @@ struct LiveState::Impl {
     record_start_seq = seq;  // the change being ingested belongs to the new record
     has_clock = false;
     measured.Clear();
+    measured_bodies.clear();
     table.Clear();
     table_samples = 0;
     table_peak_accel = table_peak_disp = 0.0;
@@ -534,13 +548,21 @@ struct LiveState::Impl {
   std::map<std::string, ChannelCount, std::less<>> channels;
   std::int64_t dropped_out_of_order{}, dropped_intervals{}, dropped_events{},
       dropped_variants{}, dropped_nodes{}, dropped_channels{};
+  // An assembly's measured theta per body (RL_BODIES), bottom-up (a: deg).
+  // At most kMaxBodies bodies are drawn; the others counted here.
+  static constexpr std::size_t kMaxBodies = 16;
+  std::vector<std::unique_ptr<Series>> measured_bodies;
+  std::int64_t dropped_bodies{};
 
   // Decoding buffers, reused: strings keep their capacity.
   rocklab::block_state_t theta_msg;
   rocklab::table_state_t table_msg;
   // The older types (logs written before) are read as the current ones.
-  rocklab::model_state3_t model_msg;
-  common::ModelStateDecoder model_decoder;
+  rocklab::model_state3_t model_msg;  // body 0 of model4_msg
+  rocklab::model_state4_t model4_msg;
+  common::ModelStateBodiesDecoder model_decoder;
+  rocklab::block_state2_t bodies_msg;
+  rocklab::comparison3_t compare_bodies_msg;
   rocklab::model_band_t band_msg;
   rocklab::band_comparison_t coverage_msg;
   rocklab::comparison2_t compare_msg;

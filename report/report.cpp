@@ -174,6 +174,23 @@ std::vector<std::string> CaptionLines(const RecordReport& record) {
       line += "; no zero crossing matched (no timing or peak error)";
     }
     lines.push_back(line);
+    // An assembly: a line per body (RL_COMPAREBODIES_<name>), then its modes.
+    const json bodies = v.value("bodies_latest", json());
+    if (bodies.is_object()) {
+      const json nrms_list = bodies.value("nrms", json::array());
+      const json rms_list = bodies.value("rms_total", json::array());
+      for (std::size_t k = 0; k < nrms_list.size(); ++k) {
+        const double body_nrms = nrms_list[k].is_number() ? nrms_list[k].get<double>() : kNaN;
+        const double body_rms = k < rms_list.size() && rms_list[k].is_number() ? rms_list[k].get<double>() : kNaN;
+        lines.push_back(Text(v, "name") + Format(" body %zu: rms %.3g rad, nrms %.3g", k, body_rms, body_nrms));
+      }
+      const double agreement = Number(bodies, "mode_agreement");
+      lines.push_back(Text(v, "name") +
+                      (std::isfinite(agreement)
+                           ? Format(": modes agree %.1f %% of the time", 100 * agreement)
+                           : std::string(": modes not compared")) +
+                      Format(" (rest below %.3g rad)", Number(bodies, "mode_rest_rad")));
+    }
   }
 
   for (const json& b : s.value("bands", json::array())) {
@@ -249,6 +266,22 @@ ThetaFigure ReportFigure(const RecordReport& record) {
   for (const json& v : s.at("variants")) {
     figure.AddCurve(Curve(v.value("theta", json()), "theta_deg",
                           Text(v, "name") + " (" + ModelName(Text(v, "model")) + ")", false));
+  }
+  // An assembly: its upper bodies a panel each (the panel above is body 0's,
+  // RL_THETA's), the experiment's (RL_BODIES) and each variant's curve.
+  const json measured_bodies = s.value("bodies", json::object()).value("measured", json::array());
+  std::size_t nbodies = measured_bodies.size();
+  for (const json& v : s.at("variants")) nbodies = std::max(nbodies, v.value("bodies", json::array()).size());
+  for (std::size_t k = 1; k < nbodies; ++k) {
+    std::vector<ThetaCurve> curves;
+    if (k < measured_bodies.size()) curves.push_back(Curve(measured_bodies[k], "theta_deg", Format("experiment, body %zu", k), true));
+    for (const json& v : s.at("variants")) {
+      const json list = v.value("bodies", json::array());
+      if (k < list.size()) {
+        curves.push_back(Curve(list[k], "theta_deg", Text(v, "name") + Format(", body %zu", k), false));
+      }
+    }
+    figure.AddBodyPanel(Format("theta, body %zu (degrees)", k), std::move(curves));
   }
   const ThetaCurve table = Curve(s.value("table", json()), "accel_mps2", "", false);
   if (!table.time_s.empty()) figure.SetTableAcceleration(table.time_s, table.theta_deg);

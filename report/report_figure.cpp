@@ -130,12 +130,12 @@ bool WriteAll(int fd, const std::string& text) {
 // Layout in pixels: the caption sits under the x label, one line per entry;
 // the plot takes the rest. Sizes follow the font size, whichever face renders it.
 struct Layout {
-  Layout(FigureFormat format, std::size_t caption_lines, bool table_panel)
+  Layout(FigureFormat format, std::size_t caption_lines, bool table_panel, std::size_t body_panels = 0)
       : font_pt(format == FigureFormat::kSvg ? 11.0 : 10.0),
         line_px(1.6 * font_pt),
         caption_px(line_px * (static_cast<double>(caption_lines) + 0.5)),
         bottom_px(caption_px + 3.2 * line_px),  // tick labels and the x label above
-        plot_min_px(table_panel ? 180 : 100) {}
+        plot_min_px((table_panel ? 180 : 100) + 100 * static_cast<double>(body_panels)) {}
   /// Height the figure needs: the bottom, the plots, the title above.
   int min_height_px() const {
     return static_cast<int>(std::ceil(bottom_px + plot_min_px + 3 * line_px));
@@ -179,6 +179,16 @@ void ThetaFigure::AddBand(ThetaBand band) {
   bands_.push_back(std::move(band));
 }
 
+void ThetaFigure::AddBodyPanel(std::string label, std::vector<ThetaCurve> curves) {
+  for (const ThetaCurve& c : curves) {
+    if (c.time_s.size() != c.theta_deg.size()) {
+      throw std::invalid_argument("curve '" + c.title + "': " + std::to_string(c.time_s.size()) +
+                                  " times but " + std::to_string(c.theta_deg.size()) + " angles");
+    }
+  }
+  body_panels_.push_back({std::move(label), std::move(curves)});
+}
+
 void ThetaFigure::SetTableAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2) {
   if (time_s.size() != accel_mps2.size()) {
     throw std::invalid_argument("table acceleration: " + std::to_string(time_s.size()) +
@@ -191,7 +201,10 @@ void ThetaFigure::SetTableAcceleration(std::vector<double> time_s, std::vector<d
 std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format, int width_px,
                                 int height_px) const {
   const bool panel = has_table_panel();
-  const Layout layout(format, caption_.size(), panel);
+  // Several panels on one time axis (multiplot): the table's, an assembly's
+  // upper bodies'. Without them the script is the single panel's.
+  const bool multi = panel || !body_panels_.empty();
+  const Layout layout(format, caption_.size(), panel, body_panels_.size());
   const double font_pt = layout.font_pt, line_px = layout.line_px;
   const double caption_px = layout.caption_px, bottom_px = layout.bottom_px;
   const double h = static_cast<double>(height_px);
@@ -217,9 +230,15 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
   // the top 62 % of the plotting height, the acceleration below it; fixed
   // left and right margins so the axes line up.
   double panel_top = 0, panel_split = 0;
-  if (panel) {
+  // An assembly: each theta panel one share of the plotting height, the
+  // table's 0.38 / 0.62 of one (its share beside a single theta panel).
+  double share = 0;
+  if (multi) {
     std::vector<const std::vector<double>*> times{&table_time_s_};
     for (const ThetaCurve& c : curves_) times.push_back(&c.time_s);
+    for (const BodyPanel& b : body_panels_) {
+      for (const ThetaCurve& c : b.curves) times.push_back(&c.time_s);
+    }
     double t_lo = 0, t_hi = 0;
     s += "set multiplot\nset lmargin 10\nset rmargin 3\n";
     if (Span(times, t_lo, t_hi)) {
@@ -228,6 +247,11 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
     }
     panel_top = 1.0 - 3 * line_px / h;  // the title above
     panel_split = bottom_px / h + 0.38 * (panel_top - bottom_px / h);
+    if (!body_panels_.empty()) {
+      const double table_share = panel ? 0.38 / 0.62 : 0.0;
+      share = (panel_top - bottom_px / h) / (static_cast<double>(1 + body_panels_.size()) + table_share);
+      panel_split = panel_top - share;  // under the bottom body's panel
+    }
     s += "set xlabel ''\nset format x ''\nset ylabel 'theta (degrees)'\n";
   } else {
     s += "set xlabel 'time (s)'\nset ylabel 'theta (degrees)'\n";
@@ -241,7 +265,7 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
                 "set offsets 0, 0, graph %.2f, graph 0.02\n",
                 0.06 + 0.07 * static_cast<double>(key_rows));
   s += buf;
-  if (panel) {
+  if (multi) {
     std::snprintf(buf, sizeof buf, "set tmargin at screen %.4f\nset bmargin at screen %.4f\n",
                   panel_top, panel_split + 0.01);
   } else {
@@ -286,10 +310,10 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
     std::snprintf(buf, sizeof buf, "%s using 1:4 with lines lw 1.2 lc rgb '%s' dt 2 title ", block.c_str(), colour);
     plot += buf + Quoted(b.title + " median") + " noenhanced, ";
   }
-  std::size_t model_index = 0;
-  for (std::size_t i = 0; i < curves_.size(); ++i) {
-    const ThetaCurve& c = curves_[i];
-    const std::string block = "$c" + std::to_string(i);
+  // A curve's data block into the script, its entry into `to_plot`: the
+  // experiment solid black, the models each a colour and dash of their own.
+  auto add_curve = [&](const ThetaCurve& c, const std::string& block, bool first, std::size_t& index,
+                       std::string& to_plot) {
     s += block + " << EOD\n";
     for (std::size_t k = 0; k < c.time_s.size(); ++k) {
       AppendNumber(s, c.time_s[k]);
@@ -299,25 +323,51 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
     }
     if (c.time_s.empty()) s += "NaN NaN\n";
     s += "EOD\n";
-    plot += i == 0 ? "" : ", ";
+    to_plot += first ? "" : ", ";
     if (c.reference) {
-      plot += block + " using 1:2 with lines lw 1.6 lc rgb '#000000' dt 1";
+      to_plot += block + " using 1:2 with lines lw 1.6 lc rgb '#000000' dt 1";
     } else {
       std::snprintf(buf, sizeof buf, " using 1:2 with lines lw 1.3 lc rgb '%s' dt %zu",
-                    kColours[model_index % 8], 2 + model_index % 4);
-      plot += block + buf;
-      ++model_index;
+                    kColours[index % 8], 2 + index % 4);
+      to_plot += block + buf;
+      ++index;
     }
-    plot += " title " + Quoted(c.title) + " noenhanced";
+    to_plot += " title " + Quoted(c.title) + " noenhanced";
+  };
+  std::size_t model_index = 0;
+  for (std::size_t i = 0; i < curves_.size(); ++i) {
+    add_curve(curves_[i], "$c" + std::to_string(i), i == 0, model_index, plot);
   }
   s += plot + "\n";
+  // An assembly's upper bodies, a panel each, the curves in the same order
+  // and styles as above.
+  for (std::size_t j = 0; j < body_panels_.size(); ++j) {
+    const BodyPanel& b = body_panels_[j];
+    const bool lowest = j + 1 == body_panels_.size() && !panel;
+    s += "unset title\nunset label\n";
+    s += lowest ? "set format x '% h'\nset xlabel 'time (s)'\n" : "set xlabel ''\nset format x ''\n";
+    s += "set ylabel " + Quoted(b.label) + " noenhanced\n";
+    const double top = panel_top - share * static_cast<double>(j + 1);
+    std::snprintf(buf, sizeof buf, "set tmargin at screen %.4f\nset bmargin at screen %.4f\n", top - 0.01,
+                  lowest ? bottom_px / h : top - share + 0.01);
+    s += buf;
+    std::string body_plot = "plot ";
+    std::size_t body_model_index = 0;
+    for (std::size_t i = 0; i < b.curves.size(); ++i) {
+      add_curve(b.curves[i], "$p" + std::to_string(j) + "c" + std::to_string(i), i == 0, body_model_index,
+                body_plot);
+    }
+    if (b.curves.empty()) body_plot += "NaN notitle";
+    s += body_plot + "\n";
+  }
   if (panel) {
     // The lower panel: no title, no caption (drawn once, with the first plot).
     s += "unset title\nunset label\nset format x '% h'\nset xlabel 'time (s)'\n"
          "set ylabel 'table accel. (m/s^2)' noenhanced\nset offsets 0, 0, graph 0.05, graph 0.05\n"
          "set key inside top right\n";
+    const double table_top = body_panels_.empty() ? panel_split : panel_top - share * static_cast<double>(1 + body_panels_.size());
     std::snprintf(buf, sizeof buf, "set tmargin at screen %.4f\nset bmargin at screen %.4f\n",
-                  panel_split - 0.01, bottom_px / h);
+                  table_top - 0.01, bottom_px / h);
     s += buf;
     s += "$table << EOD\n";
     for (std::size_t k = 0; k < table_time_s_.size(); ++k) {
@@ -329,8 +379,8 @@ std::string ThetaFigure::Script(const std::string& out_path, FigureFormat format
     s += "EOD\n";
     s += "plot $table using 1:2 with lines lw 1.0 lc rgb '#555555' dt 1 "
          "title 'table acceleration (RL_TABLE)' noenhanced\n";
-    s += "unset multiplot\n";
   }
+  if (multi) s += "unset multiplot\n";
   s += "set output\n";
   return s;
 }
@@ -342,7 +392,7 @@ std::string ThetaFigure::Write(const std::string& out_path, FigureFormat format,
     throw std::invalid_argument("figure size must be at least 200x200 px, got " +
                                 std::to_string(width_px) + "x" + std::to_string(height_px));
   }
-  const int min_height_px = Layout(format, caption_.size(), has_table_panel()).min_height_px();
+  const int min_height_px = Layout(format, caption_.size(), has_table_panel(), body_panels_.size()).min_height_px();
   if (height_px < min_height_px) {
     throw std::invalid_argument("a figure with " + std::to_string(caption_.size()) +
                                 " caption lines must be at least " +

@@ -72,6 +72,12 @@ class ThetaFigure {
   /// times (s, the curves' clock); NaN leaves a gap. Empty: no panel.
   /// @throws std::invalid_argument when the two differ in length.
   void SetTableAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2);
+  /// A panel of its own under the theta panel (above the table's), same
+  /// time axis: an assembly's upper body, the experiment's and each
+  /// variant's curve of it; `label` names the body on the y axis. The theta
+  /// panel above holds the bottom body. None: the figure is as before.
+  /// @throws std::invalid_argument as AddCurve.
+  void AddBodyPanel(std::string label, std::vector<ThetaCurve> curves);
   void set_title(std::string title) { title_ = std::move(title); }
   /// The gnuplot program: a name looked up on PATH (default "gnuplot") or a path.
   void set_gnuplot(std::string program) { gnuplot_ = std::move(program); }
@@ -82,6 +88,7 @@ class ThetaFigure {
   const std::vector<ThetaBand>& bands() const { return bands_; }
   const std::vector<std::string>& caption() const { return caption_; }
   bool has_table_panel() const { return !table_time_s_.empty(); }
+  std::size_t body_panels() const { return body_panels_.size(); }
 
   /// The whole gnuplot script Write sends (terminal, layout, data blocks, plot).
   /// Precondition: width_px, height_px >= 200.
@@ -102,6 +109,11 @@ class ThetaFigure {
   std::vector<ThetaBand> bands_;
   std::vector<std::string> caption_;
   std::vector<double> table_time_s_, table_accel_mps2_;
+  struct BodyPanel {
+    std::string label;
+    std::vector<ThetaCurve> curves;
+  };
+  std::vector<BodyPanel> body_panels_;
   std::string title_;
   std::string gnuplot_{"gnuplot"};
   std::vector<std::pair<std::string, std::string>> provenance_;

@@ -12,6 +12,7 @@ from .band_comparison_t import band_comparison_t as band_comparison_t
 from .block_state2_t import block_state2_t as block_state2_t
 from .block_state_t import block_state_t as block_state_t
 from .comparison2_t import comparison2_t as comparison2_t
+from .comparison3_t import comparison3_t as comparison3_t
 from .comparison_t import comparison_t as comparison_t
 from .daq_config2_t import daq_config2_t as daq_config2_t
 from .daq_config_t import daq_config_t as daq_config_t

@@ -20,6 +20,7 @@
 #include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "rocklab/comparison3_t.hpp"
 #include "rocklab/comparison_t.hpp"
 #include "rocklab/daq_config2_t.hpp"
 #include "rocklab/daq_config_t.hpp"
@@ -215,6 +216,26 @@ std::map<std::string, Sample> Samples() {
   m4.equations = rocklab::model_state4_t::EQUATIONS_HOUSNER;
   m4.mode = "upper-alone";
   all["model_state4_t"] = Make(m4);
+  rocklab::comparison3_t cmp3{};
+  cmp3.seq = 13;
+  cmp3.name = "stack";
+  cmp3.nbodies = 2;
+  cmp3.error = {1e-3, -2e-3};
+  cmp3.rms_window = {1e-3, 2e-3};
+  cmp3.window_s = 2;
+  cmp3.rms_total = {1e-3, 2e-3};
+  cmp3.nrms = {0.1, 0.2};
+  cmp3.peak_error = {0, 1e-4};
+  cmp3.impact_timing_error = {0.001, -0.002};
+  cmp3.correlation = {0.99, 0.98};
+  cmp3.valid = {1, 0};
+  cmp3.samples = 1000;
+  cmp3.mode_model = "RC";
+  cmp3.mode_measured = "RR";
+  cmp3.mode_rest_rad = 2e-3;
+  cmp3.mode_agreement = 0.6;
+  cmp3.mode_samples = 1000;
+  all["comparison3_t"] = Make(cmp3);
   return all;
 }
 

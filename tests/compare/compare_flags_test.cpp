@@ -24,7 +24,9 @@ TEST(CompareFlags, FillTheConfig) {
   CLI::App app;
   CompareNodeConfig c;
   AddCompareOptions(app, c);
-  Parse(app, {"--compare-rate", "25", "--window", "3.5", "--stale", "0.75", "--stale-clock", "SAMPLE"});
+  Parse(app, {"--compare-rate", "25", "--window", "3.5", "--stale", "0.75", "--stale-clock", "SAMPLE",
+              "--mode-rest", "0.004"});
+  EXPECT_DOUBLE_EQ(c.mode_rest_rad, 0.004);
   EXPECT_DOUBLE_EQ(c.publish_rate_hz, 25.0);
   EXPECT_DOUBLE_EQ(c.comparator.window_s, 3.5);
   EXPECT_DOUBLE_EQ(c.stale_after_s, 0.75);

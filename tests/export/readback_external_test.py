@@ -90,6 +90,10 @@ ATTRS["model_state3_t"] = dict(MODEL_STATE, seq=N, equations=N)
 # (the same comments, so the same units), model_state4_t also its mode.
 ATTRS["block_state2_t"] = dict(ATTRS["block_state_t"], nbodies=N)
 ATTRS["model_state4_t"] = dict(MODEL_STATE, seq=N, equations=N, nbodies=N, mode=N)
+# An assembly's comparison (a new type on a channel of its own): comparison2_t's
+# fields with nbodies, the figures per body, and the mode fields.
+ATTRS["comparison3_t"] = dict(ATTRS["comparison2_t"], nbodies=N, mode_model=N, mode_measured=N,
+                              mode_rest_rad=U("rad"), mode_agreement=U("1"), mode_samples=N)
 # The posterior band's types (new types, no older one).
 ATTRS["model_band_t"] = {"utime": U("us"), "seq": N, "name": N, "model": N, "draws": N, "members": N,
                          "noise_sigma": U("rad"), "theta_median": U("rad"), "theta_lo95": U("rad"),
@@ -111,7 +115,8 @@ CHANNEL = {"block_state_t": "RL_THETA", "comparison_t": "RL_COMPARE_x", "daq_con
            "comparison2_t": "RL_COMPARE_y", "model_state3_t": "RL_MODEL_y",
            "daq_config2_t": "RL_DAQ_CONFIG", "event2_t": "RL_EVENT", "health2_t": "RL_HEALTH",
            "model_band_t": "RL_BAND_x", "band_comparison_t": "RL_COVERAGE_x",
-           "block_state2_t": "RL_THETA", "model_state4_t": "RL_MODEL_z"}
+           "block_state2_t": "RL_THETA", "model_state4_t": "RL_MODEL_z",
+           "comparison3_t": "RL_COMPAREBODIES_z"}
 # The successors come after every older message (a log of nodes upgraded
 # mid-run). On RL_DAQ_CONFIG, RL_EVENT, RL_HEALTH and RL_THETA the channel changes
 # type, so its second type gets a table of its own, CHANNEL_<type>, and the

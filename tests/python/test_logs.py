@@ -386,3 +386,28 @@ def test_read_log_reads_the_single_block_and_the_per_body_types(tmp_path):
     types = {c["name"]: c["type"] for c in info["channels"]}
     assert "block_state2_t" in types["RL_THETA"] and "block_state_t" in types["RL_THETA"]
     assert "model_state4_t" in types["RL_MODEL_stack"]
+
+
+def test_read_log_reads_an_assemblys_comparison(tmp_path):
+    # Oracle: the message made here. RL_COMPAREBODIES_<name> (comparison3_t,
+    # docs/compare.md): the per-body figures one column per body, the modes
+    # as text, the agreement and its units; `info` names the type.
+    c = rocklab.comparison3_t()
+    c.utime, c.seq, c.name, c.nbodies, c.window_s, c.samples = 5000, 4, "statue", 2, 2.0, 600
+    for name in ("error", "rms_window", "rms_total", "nrms", "peak_error", "impact_timing_error", "correlation"):
+        setattr(c, name, [1e-3, 2e-3])
+    c.valid = [True, False]
+    c.mode_model, c.mode_measured = "RC", "RR"
+    c.mode_rest_rad, c.mode_agreement, c.mode_samples = 2e-3, 0.6, 600
+    log = tmp_path / "compare_bodies.lcm"
+    write_lcm_log(log, [(5000, "RL_COMPAREBODIES_statue", c.encode())])
+    table = rocklab.read_log(log)["RL_COMPAREBODIES_statue"]
+    assert list(table.dtype.names[:7]) == ["time", "utime", "seq", "name", "nbodies", "error_0", "error_1"]
+    assert table["rms_total_1"][0] == 2e-3 and table["valid_0"][0] == 1 and table["valid_1"][0] == 0
+    assert table["mode_model"][0] == "RC" and table["mode_measured"][0] == "RR"
+    assert table["mode_agreement"][0] == 0.6 and table["mode_samples"][0] == 600
+    units = rocklab.units(table)
+    assert units["rms_total_0"] == "rad" and units["mode_agreement"] == "1" and units["mode_rest_rad"] == "rad"
+    info = rocklab.info(log)
+    types = {c["name"]: c["type"] for c in info["channels"]}
+    assert "comparison3_t" in types["RL_COMPAREBODIES_statue"]

@@ -12,8 +12,11 @@
 #include <vector>
 
 #include "common/lcm_log.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "rocklab/comparison3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/table_state_t.hpp"
 #include "tests/scratch.h"
 
@@ -135,6 +138,92 @@ TEST(RecordReport, DamagedLogIsReadPastItsDamageAndTheRegionListed) {
   EXPECT_NE(r.problems[0].find("damaged region at byte offset " + std::to_string(offsets[101])),
             std::string::npos)
       << r.problems[0];
+}
+
+// Oracle: the messages written, a two-body assembly: RL_THETA (body 0),
+// RL_BODIES, an assembly variant's RL_MODEL_stack and RL_COMPAREBODIES_stack
+// (rms 1e-3 and 2e-3 rad, modes agreeing 0.6). The figure gets a panel for
+// body 1 (the theta panel above is body 0's) with the experiment's and the
+// variant's curve; the caption a line per body and the mode agreement. The
+// single block of WriteRecord gets no body panel.
+TEST(RecordReport, AnAssemblyGetsAPanelAndACaptionLinePerBody) {
+  const std::string path = Scratch("bodies.lcm");
+  {
+    common::LogWriter log(path);
+    auto put = [&](const std::string& channel, const auto& msg) {
+      std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+      msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      log.Write(channel, buf.data(), buf.size(), msg.utime);
+    };
+    for (int k = 0; k < 100; ++k) {
+      const double lower = 0.01 * std::sin(1e-2 * k), upper = 2 * lower;
+      rocklab::block_state_t th{};
+      th.utime = 1000 * k;
+      th.seq = k;
+      th.theta = lower;
+      put("RL_THETA", th);
+      rocklab::block_state2_t b{};
+      b.utime = th.utime;
+      b.seq = k;
+      b.nbodies = 2;
+      b.theta = {lower, upper};
+      b.theta_dot = b.theta_mirror = b.theta_camera = b.sliding = b.jump = b.twist = b.out_of_plane = {0, 0};
+      b.leds_used = {4, 4};
+      b.flags = {0, 0};
+      put("RL_BODIES", b);
+      rocklab::model_state4_t m{};
+      m.utime = th.utime;
+      m.seq = k;
+      m.name = "stack";
+      m.model = "housner";
+      m.nbodies = 2;
+      m.theta = {lower + 1e-3, upper - 2e-3};
+      m.theta_dot = m.chi = m.psi = m.alpha = m.p = m.mu = {0, 0};
+      m.regime = {1, 1};
+      m.mode = "RC";
+      put("RL_MODEL_stack", m);
+    }
+    rocklab::comparison3_t c{};
+    c.utime = 99000;
+    c.seq = 0;
+    c.name = "stack";
+    c.nbodies = 2;
+    c.error = c.rms_window = c.peak_error = c.impact_timing_error = c.correlation = {0, 0};
+    c.rms_total = {1e-3, 2e-3};
+    c.nrms = {0.1, 0.1};
+    c.valid = {1, 1};
+    c.mode_model = "RC";
+    c.mode_measured = "RR";
+    c.mode_rest_rad = 2e-3;
+    c.mode_agreement = 0.6;
+    c.mode_samples = 100;
+    put("RL_COMPAREBODIES_stack", c);
+  }
+  const RecordReport r = ReadRecordLog(path);
+  EXPECT_EQ(r.decode_errors, 0);
+  const ThetaFigure figure = ReportFigure(r);
+  ASSERT_EQ(figure.body_panels(), 1u);
+  const std::string script = figure.Script("out.svg", FigureFormat::kSvg, 900, 700);
+  EXPECT_NE(script.find("set ylabel 'theta, body 1 (degrees)'"), std::string::npos) << script;
+  EXPECT_NE(script.find("$p0c0 using 1:2"), std::string::npos);  // the experiment's body 1
+  EXPECT_NE(script.find("$p0c1 using 1:2"), std::string::npos);  // the variant's
+  EXPECT_NE(script.find("unset multiplot"), std::string::npos);
+  const std::vector<std::string> lines = CaptionLines(r);
+  auto has = [&](const std::string& text) {
+    for (const std::string& l : lines) {
+      if (l.find(text) != std::string::npos) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(has("stack body 0: rms 0.001 rad, nrms 0.1"));
+  EXPECT_TRUE(has("stack body 1: rms 0.002 rad, nrms 0.1"));
+  EXPECT_TRUE(has("stack: modes agree 60.0 % of the time (rest below 0.002 rad)"));
+
+  const std::string single_path = Scratch("single_for_bodies.lcm");
+  WriteRecord(single_path);
+  const ThetaFigure single = ReportFigure(ReadRecordLog(single_path));
+  EXPECT_EQ(single.body_panels(), 0u);
+  EXPECT_EQ(single.Script("out.svg", FigureFormat::kSvg, 900, 700).find("$p0c0"), std::string::npos);
 }
 
 TEST(RecordReport, NotALogIsAnInputError) {
