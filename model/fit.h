@@ -320,7 +320,7 @@ struct FitResult {
   int starts{};
   int starts_refined{};
   GapCount theta_gaps;  ///< missing theta samples of the record (bridged or skipped)
-  GapCount table_gaps;  ///< missing table samples (linear between the present ones)
+  GapCount table_gaps;  ///< missing table samples (the spline between the present ones)
   Eigen::MatrixXd covariance;    ///< of the fitted parameters, in their order
   double rms_residual{};         ///< s (impacts) or rad (trajectory)
   int residuals{};               ///< number of residuals
@@ -335,13 +335,14 @@ struct FitResult {
   std::optional<double> release_time_s;  ///< trajectory from a hold: fitted release time, s
   bool forced{};                      ///< trajectory: driven by the table record
   /// Forced trajectory fit: how much the table record's sampling moves the
-  /// model. The model runs on the chord between table samples; the same run
-  /// on a C1 cubic through them differs by about the chord's error (h^2/8
-  /// times a'', against the cubic's h^4): the rms of that difference over
-  /// the residuals (rad), and the fitted values it shifts (the fit again
-  /// on the cubic from the chord's answer, minus that answer; linearised,
-  /// (J^T J)^-1 J^T d, if that fit fails), which the standard errors above
-  /// include in quadrature. NaN / zero for a free record.
+  /// model. The model runs on the not-a-knot cubic spline through the
+  /// table samples (Interpolation::kSpline); the same run on Catmull-Rom's
+  /// cubic through them differs by about the larger of the two readings'
+  /// errors: the rms of that difference d over the residuals (rad), and the
+  /// fitted values it shifts ((J^T J)^-1 J^T d; beyond a quarter of the
+  /// noise, the fit again on Catmull-Rom's cubic from the spline's answer,
+  /// minus that answer), which the standard errors above include in
+  /// quadrature. NaN / zero for a free record.
   double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
   BlockParams table_interpolation_shift;  ///< alpha (rad), p (rad/s), mu (1)
   std::vector<std::string> warnings;
@@ -358,6 +359,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options);
 
 /// Fits (alpha, p, mu) to theta(t) of the whole record with the Housner
 /// model (rtol options.rtol), driven by the record's table acceleration
+/// (the not-a-knot cubic spline through its samples)
 /// when it has one. Missing samples are skipped (the residuals are at the
 /// samples present). The record must start at rest (forced) or from a held
 /// release (free; the release time is fitted too). Start values: options.start,
