@@ -341,12 +341,12 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
 
   std::unique_ptr<Forcing> forcing;
   if (record.has_table()) {
-    // The not-a-knot spline through the table samples, not their chord: the
-    // chord's error (a'' h^2 / 12 on average, one sign under each peak)
-    // biased alpha by -0.64 standard errors on average over the coverage
-    // bench's forced records (docs/fit_coverage.md).
+    // The chord by default; the not-a-knot spline on request: the chord's
+    // error (a'' h^2 / 12 on average, one sign under each peak) biased
+    // alpha by -0.64 standard errors on average over the coverage bench's
+    // forced records (docs/fit_coverage.md).
     forcing = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2,
-                                                    Interpolation::kSpline);
+                                                    options.table_interpolation);
   } else {
     forcing = std::make_unique<NoTableMotion>();
   }
@@ -423,16 +423,17 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     tight.rtol = std::min(options.rtol, kCovarianceRtol);
     const SampledAcceleration catmull_rom(record.table_time_s, record.table_accel_mps2, Interpolation::kCatmullRom);
     const TrajectoryFunctor on_second(record, first, record.size(), catmull_rom, from_hold, tight);
-    const TrajectoryFunctor on_spline(record, first, record.size(), *forcing, from_hold, tight);
+    const TrajectoryFunctor on_read(record, first, record.size(), *forcing, from_hold, tight);
     Eigen::VectorXd fc(lm.residuals.size()), fs(lm.residuals.size());
     on_second(lm.x, fc);
-    on_spline(lm.x, fs);
+    on_read(lm.x, fs);
     lm.evaluations += 2;
     const Eigen::VectorXd d = fc - fs;
     out.table_interpolation_rad = std::sqrt(d.squaredNorm() / static_cast<double>(d.size()));
     const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
     Eigen::VectorXd shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
-    if (out.table_interpolation_rad > 0.25 * f.noise_rad) {
+    const bool chord = options.table_interpolation == Interpolation::kLinear;
+    if (chord || out.table_interpolation_rad > 0.25 * f.noise_rad) {
       const TrajectoryFunctor refit_on_second(record, first, record.size(), catmull_rom, from_hold, options);
       const LmOutcome refit =
           RunLm(refit_on_second, lm.x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
@@ -448,8 +449,10 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     out.mu_stderr = std::hypot(out.mu_stderr, shift(2));
     if (dominates) {
       out.warnings.push_back(
-          "the table record's sampling moves the fit more than its noise does: two cubics through "
-          "its samples (the spline the fit reads and Catmull-Rom's) differ between them, which "
+          "the table record's sampling moves the fit more than its noise does: " +
+          std::string(chord ? "between samples the acceleration is a chord, which "
+                            : "two cubics through its samples (the spline the fit reads and Catmull-Rom's) "
+                              "differ between them, which ") +
           "shifts alpha by " + Num(shift(0), 2) + " rad, p by " +
           Num(shift(1), 2) + " rad/s, mu by " + Num(shift(2), 2) + " (theta by " +
           Num(out.table_interpolation_rad, 2) + " rad rms); the standard errors include it; record "

@@ -215,6 +215,7 @@ TEST(FitTrajectory, ReadsTheTableRecordAsASplineAndSaysWhenItsSamplingMovesTheFi
     o.geometry = kBlock1Geometry;
     o.start = kBlock1;
     o.starts = 0;
+    o.table_interpolation = model::Interpolation::kSpline;
     const auto r = model::FitTrajectory(rec, o);
     bool said = false;
     for (const auto& w : r.warnings) said = said || w.find("table record's sampling") != std::string::npos;
@@ -248,6 +249,7 @@ TEST(FitTrajectory, CovarianceIsTheModelsSensitivityNotTheIntegratorsError) {
   FitOptions o;
   o.start = truth;
   o.starts = 0;  // the covariance is tested, not the search
+  o.table_interpolation = model::Interpolation::kSpline;
   const auto r = model::FitTrajectory(rec, o);
   ASSERT_TRUE(r.converged);
   const model::SampledAcceleration spline(rec.table_time_s, rec.table_accel_mps2, model::Interpolation::kSpline);
