@@ -7,7 +7,7 @@
 // parameter (nominal 68.3 % and 95 %).
 //
 //   rocklab_bench_fit_coverage --method impacts|free|forced [--records N]
-//       [--seed S] [--noise-deg D] [--starts N] [--csv FILE]
+//       [--seed S] [--noise-deg D] [--starts N] [--table chord|spline] [--csv FILE]
 //
 // One line per record on --csv (method, seed, truth, fit, stated errors,
 // converged, p-value), the summary on stdout.
@@ -35,6 +35,7 @@ struct Args {
   double noise_deg{0.02};
   std::string csv;
   int starts{-1};  // FitOptions::starts (-1: the method's default)
+  bool spline{false};  // forced: FitOptions::table_interpolation (chord by default)
 };
 
 struct Case {
@@ -110,6 +111,7 @@ int Main(const Args& a) {
     rocklab::model::FitOptions o;
     o.geometry = c.geometry;
     o.starts = a.starts;
+    if (a.spline) o.table_interpolation = rocklab::model::Interpolation::kSpline;
     try {
       const auto r = a.method == "impacts" ? rocklab::model::FitImpacts(c.record, o)
                                            : rocklab::model::FitTrajectory(c.record, o);
@@ -160,6 +162,8 @@ int main(int argc, char** argv) {
       a.noise_deg = std::atof(v.c_str());
     } else if (k == "--starts") {
       a.starts = std::atoi(v.c_str());
+    } else if (k == "--table" && (v == "chord" || v == "spline")) {
+      a.spline = v == "spline";
     } else if (k == "--csv") {
       a.csv = v;
     } else {
@@ -170,7 +174,7 @@ int main(int argc, char** argv) {
   if ((argc - 1) % 2 != 0 || !(a.method == "impacts" || a.method == "free" || a.method == "forced") ||
       a.records < 1) {
     std::fprintf(stderr, "usage: %s --method impacts|free|forced [--records N] [--seed S] [--noise-deg D] "
-                 "[--starts N] [--csv FILE]\n", argv[0]);
+                 "[--starts N] [--table chord|spline] [--csv FILE]\n", argv[0]);
     return 2;
   }
   return Main(a);

@@ -225,8 +225,58 @@ std::unique_ptr<Excitation> ParseExcitation(const std::string& spec) {
   return kind == "sine" ? MakeSine(s) : MakeHanningSine(s);
 }
 
-SampledAcceleration::SampledAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2)
-    : time_(std::move(time_s)), accel_(std::move(accel_mps2)) {
+namespace {
+
+// The second derivatives M at the samples of the not-a-knot cubic spline
+// through (t, a): a' continuous at each inner sample,
+//   h0 M[i-1] + 2 (h0 + h1) M[i] + h1 M[i+1] = 6 ((a[i+1] - a[i]) / h1 - (a[i] - a[i-1]) / h0),
+// and the third derivative continuous at the second and the last but one
+// sample (M[0] and M[n-1] eliminated into the first and last rows), solved
+// by the Thomas algorithm. 3 samples: the natural spline (M = 0 at the
+// ends); 2: the chord (M = 0).
+std::vector<double> NotAKnotSplineCurvature(const std::vector<double>& t, const std::vector<double>& a) {
+  const std::size_t n = t.size();
+  std::vector<double> m(n, 0.0);
+  if (n < 3) return m;
+  auto h = [&t](std::size_t i) { return t[i + 1] - t[i]; };
+  auto rhs = [&](std::size_t i) { return 6.0 * ((a[i + 1] - a[i]) / h(i) - (a[i] - a[i - 1]) / h(i - 1)); };
+  if (n == 3) {
+    m[1] = rhs(1) / (2.0 * (h(0) + h(1)));
+    return m;
+  }
+  // Rows i = 1 .. n-2: sub[i] M[i-1] + diag[i] M[i] + sup[i] M[i+1] = r[i].
+  std::vector<double> sub(n, 0.0), diag(n, 0.0), sup(n, 0.0), r(n, 0.0);
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    sub[i] = h(i - 1);
+    diag[i] = 2.0 * (h(i - 1) + h(i));
+    sup[i] = h(i);
+    r[i] = rhs(i);
+  }
+  // Not-a-knot at sample 1: M[0] = ((h0 + h1) M[1] - h0 M[2]) / h1; at
+  // sample n-2: M[n-1] = ((ha + hb) M[n-2] - hb M[n-3]) / ha (ha, hb the
+  // last two intervals).
+  const double h0 = h(0), h1 = h(1), ha = h(n - 3), hb = h(n - 2);
+  diag[1] += h0 * (h0 + h1) / h1;
+  sup[1] -= h0 * h0 / h1;
+  diag[n - 2] += hb * (ha + hb) / ha;
+  sub[n - 2] -= hb * hb / ha;
+  for (std::size_t i = 2; i + 1 < n; ++i) {
+    const double f = sub[i] / diag[i - 1];
+    diag[i] -= f * sup[i - 1];
+    r[i] -= f * r[i - 1];
+  }
+  m[n - 2] = r[n - 2] / diag[n - 2];
+  for (std::size_t i = n - 2; i-- > 1;) m[i] = (r[i] - sup[i] * m[i + 1]) / diag[i];
+  m[0] = ((h0 + h1) * m[1] - h0 * m[2]) / h1;
+  m[n - 1] = ((ha + hb) * m[n - 2] - hb * m[n - 3]) / ha;
+  return m;
+}
+
+}  // namespace
+
+SampledAcceleration::SampledAcceleration(std::vector<double> time_s, std::vector<double> accel_mps2,
+                                         Interpolation interpolation)
+    : time_(std::move(time_s)), accel_(std::move(accel_mps2)), interpolation_(interpolation) {
   if (time_.size() != accel_.size()) {
     throw std::invalid_argument("SampledAcceleration: time_s has " + std::to_string(time_.size()) +
                                 " samples but accel_mps2 has " + std::to_string(accel_.size()));
@@ -246,6 +296,12 @@ SampledAcceleration::SampledAcceleration(std::vector<double> time_s, std::vector
                                   " is not after the previous sample");
     }
   }
+  if (interpolation_ == Interpolation::kSpline) curvature_ = NotAKnotSplineCurvature(time_, accel_);
+}
+
+double SampledAcceleration::CatmullRomSlope(std::size_t i) const {
+  const std::size_t lo = i == 0 ? 0 : i - 1, hi = std::min(i + 1, time_.size() - 1);
+  return (accel_[hi] - accel_[lo]) / (time_[hi] - time_[lo]);
 }
 
 double SampledAcceleration::TableAcceleration(double t_s) const {
@@ -254,8 +310,25 @@ double SampledAcceleration::TableAcceleration(double t_s) const {
   auto it = std::upper_bound(time_.begin(), time_.end(), t_s);
   if (it == time_.end()) return accel_.back();
   const std::size_t i = static_cast<std::size_t>(it - time_.begin());
-  const double w = (t_s - time_[i - 1]) / (time_[i] - time_[i - 1]);
-  return accel_[i - 1] + w * (accel_[i] - accel_[i - 1]);
+  const double h = time_[i] - time_[i - 1];
+  const double w = (t_s - time_[i - 1]) / h;
+  const double a0 = accel_[i - 1], a1 = accel_[i];
+  switch (interpolation_) {
+    case Interpolation::kLinear:
+      break;
+    case Interpolation::kCatmullRom: {
+      const double w2 = w * w, w3 = w2 * w;
+      return (2 * w3 - 3 * w2 + 1) * a0 + (w3 - 2 * w2 + w) * h * CatmullRomSlope(i - 1) +
+             (-2 * w3 + 3 * w2) * a1 + (w3 - w2) * h * CatmullRomSlope(i);
+    }
+    case Interpolation::kSpline: {
+      // The chord plus what the curvatures M0, M1 at the ends add:
+      // -w (1 - w) h^2 / 6 ((2 - w) M0 + (1 + w) M1).
+      const double m0 = curvature_[i - 1], m1 = curvature_[i];
+      return a0 + w * (a1 - a0) - w * (1 - w) * h * h / 6.0 * ((2 - w) * m0 + (1 + w) * m1);
+    }
+  }
+  return a0 + w * (a1 - a0);
 }
 
 double SampledAcceleration::NextDiscontinuity(double t_s) const {

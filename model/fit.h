@@ -33,6 +33,7 @@
 
 #include "model/block.h"
 #include "model/cancel.h"
+#include "model/excitation.h"
 #include "model/test_record.h"
 
 namespace rocklab::model {
@@ -254,6 +255,14 @@ struct FitOptions {
   /// 0: none, only the impacts/geometry/given start). Impacts method: local
   /// minima of the alpha profile refined (>= 1).
   int starts{-1};  ///< -1: the method's default (trajectory 24, impacts 3)
+  /// Forced trajectory fit: how the table record is read between its
+  /// samples. The chord (the default, as before) biases alpha low on
+  /// point samples (mean z -0.64 on the coverage bench); the spline does
+  /// not (docs/fit_coverage.md, "The forced fit reads the table's
+  /// spline"), but a record whose samples are least-squares chord values
+  /// (the camera-rate merge of video/daq_sync) is meant to be read as a
+  /// chord.
+  Interpolation table_interpolation{Interpolation::kLinear};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };
@@ -320,7 +329,7 @@ struct FitResult {
   int starts{};
   int starts_refined{};
   GapCount theta_gaps;  ///< missing theta samples of the record (bridged or skipped)
-  GapCount table_gaps;  ///< missing table samples (linear between the present ones)
+  GapCount table_gaps;  ///< missing table samples (read across as the others)
   Eigen::MatrixXd covariance;    ///< of the fitted parameters, in their order
   double rms_residual{};         ///< s (impacts) or rad (trajectory)
   int residuals{};               ///< number of residuals
@@ -335,13 +344,16 @@ struct FitResult {
   std::optional<double> release_time_s;  ///< trajectory from a hold: fitted release time, s
   bool forced{};                      ///< trajectory: driven by the table record
   /// Forced trajectory fit: how much the table record's sampling moves the
-  /// model. The model runs on the chord between table samples; the same run
-  /// on a C1 cubic through them differs by about the chord's error (h^2/8
-  /// times a'', against the cubic's h^4): the rms of that difference over
-  /// the residuals (rad), and the fitted values it shifts (the fit again
-  /// on the cubic from the chord's answer, minus that answer; linearised,
-  /// (J^T J)^-1 J^T d, if that fit fails), which the standard errors above
-  /// include in quadrature. NaN / zero for a free record.
+  /// model. The model runs on the table samples read as
+  /// FitOptions::table_interpolation says; the same run on Catmull-Rom's
+  /// cubic through them differs by about the larger of the two readings'
+  /// errors (the chord's h^2/8 a'', or the spline's and the cubic's
+  /// O(h^3..h^4)): the rms of that difference d over the residuals (rad),
+  /// and the fitted values it shifts (the fit again on Catmull-Rom's cubic
+  /// from the answer, minus that answer; for the spline while d is below a
+  /// quarter of the noise, linearised, (J^T J)^-1 J^T d, as when the refit
+  /// fails), which the standard errors above include in quadrature. NaN /
+  /// zero for a free record.
   double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
   BlockParams table_interpolation_shift;  ///< alpha (rad), p (rad/s), mu (1)
   std::vector<std::string> warnings;
@@ -358,7 +370,7 @@ FitResult FitImpacts(const RockingRecord& record, const FitOptions& options);
 
 /// Fits (alpha, p, mu) to theta(t) of the whole record with the Housner
 /// model (rtol options.rtol), driven by the record's table acceleration
-/// when it has one. Missing samples are skipped (the residuals are at the
+/// (read as options.table_interpolation says) when it has one. Missing samples are skipped (the residuals are at the
 /// samples present). The record must start at rest (forced) or from a held
 /// release (free; the release time is fitted too). Start values: options.start,
 /// else the impacts method (free records), else the geometry.

@@ -81,37 +81,6 @@ struct TrajectoryFunctor : Eigen::DenseFunctor<double> {
   std::shared_ptr<int> count_ = std::make_shared<int>(0);  // shared: NumericalDiff copies the functor
 };
 
-// A table-acceleration record as a C1 cubic Hermite through its samples
-// (slopes (a[k+1] - a[k-1]) / (t[k+1] - t[k-1]), one-sided at the ends),
-// zero outside: the chord's comparison interpolant.
-class CubicRecord final : public Forcing {
- public:
-  CubicRecord(const std::vector<double>& t, const std::vector<double>& a) : t_(t), a_(a) {}
-  double TableAcceleration(double t_s) const override {
-    if (!(t_s >= t_.front() && t_s <= t_.back())) return 0.0;
-    const auto k = static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), t_s) - t_.begin());
-    const std::size_t i = std::min(k, t_.size() - 1) - 1;
-    const double h = t_[i + 1] - t_[i];
-    const double u = (t_s - t_[i]) / h;
-    const double u2 = u * u, u3 = u2 * u;
-    return (2 * u3 - 3 * u2 + 1) * a_[i] + (u3 - 2 * u2 + u) * h * Slope(i) + (-2 * u3 + 3 * u2) * a_[i + 1] +
-           (u3 - u2) * h * Slope(i + 1);
-  }
-  double NextDiscontinuity(double t_s) const override {
-    if (t_s < t_.front()) return t_.front();
-    if (t_s < t_.back()) return t_.back();
-    return std::numeric_limits<double>::infinity();
-  }
-
- private:
-  double Slope(std::size_t i) const {
-    const std::size_t lo = i == 0 ? 0 : i - 1, hi = std::min(i + 1, t_.size() - 1);
-    return (a_[hi] - a_[lo]) / (t_[hi] - t_[lo]);
-  }
-  const std::vector<double>& t_;  // non-owning: the record's
-  const std::vector<double>& a_;
-};
-
 // The default number of screened starts of the trajectory method besides
 // the method's own: 24 Halton points fill the 3-D prior box with about 3
 // per axis and 24 distinct values along each (the cost is rugged mainly in
@@ -372,7 +341,12 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
 
   std::unique_ptr<Forcing> forcing;
   if (record.has_table()) {
-    forcing = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2);
+    // The chord by default; the not-a-knot spline on request: the chord's
+    // error (a'' h^2 / 12 on average, one sign under each peak) biased
+    // alpha by -0.64 standard errors on average over the coverage bench's
+    // forced records (docs/fit_coverage.md).
+    forcing = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2,
+                                                    options.table_interpolation);
   } else {
     forcing = std::make_unique<NoTableMotion>();
   }
@@ -433,36 +407,38 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.mu_stderr = std::sqrt(out.covariance(2, 2));
   out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
   if (out.forced) {
-    // The table record's sampling: the same run on the cubic through the
-    // samples; the difference d is about the chord's error (rms theta,
-    // both runs at kCovarianceRtol so that d holds the forcing's difference
-    // and not the integrator's error, ~1e-6 rad at rtol 1e-8, see above).
-    // The shift of the answer is the fit again on the cubic, from the
-    // chord's answer: not linearised, since where the chord moves the
-    // motion by as much as the noise (the repro, near the uplift
-    // threshold: 3.4e-4 rad rms) (J^T J)^-1 J^T d gave about half of the
-    // chord's effect on alpha (docs/fit_coverage.md); the linearised
-    // shift only if that fit fails.
+    // The table record's sampling: what its samples leave open between
+    // them. The same run on a second cubic through them, Catmull-Rom's
+    // (C1, off by O(h^3) with a zero mean over each interval, where the
+    // spline is off by O(h^4)), differs from the spline's by about the
+    // larger of their errors: d, rms over the residuals (both runs at
+    // kCovarianceRtol, so that d holds the forcing's difference and not the
+    // integrator's error, ~1e-6 rad at rtol 1e-8, see above). Its shift of
+    // the answer, (J^T J)^-1 J^T d, linear while d is well below the noise;
+    // beyond a quarter of it, the fit again on the second cubic from the
+    // spline's answer (the chord, read before, moved theta by as much as
+    // the noise near the uplift threshold, where the linear shift gave half
+    // of its effect; docs/fit_coverage.md), the linear one if that fails.
     FitOptions tight = options;
     tight.rtol = std::min(options.rtol, kCovarianceRtol);
-    const CubicRecord cubic(record.table_time_s, record.table_accel_mps2);
-    const TrajectoryFunctor on_cubic(record, first, record.size(), cubic, from_hold, tight);
-    const TrajectoryFunctor on_chord(record, first, record.size(), *forcing, from_hold, tight);
-    Eigen::VectorXd fc(lm.residuals.size()), fl(lm.residuals.size());
-    on_cubic(lm.x, fc);
-    on_chord(lm.x, fl);
-    const Eigen::VectorXd d = fc - fl;
+    const SampledAcceleration catmull_rom(record.table_time_s, record.table_accel_mps2, Interpolation::kCatmullRom);
+    const TrajectoryFunctor on_second(record, first, record.size(), catmull_rom, from_hold, tight);
+    const TrajectoryFunctor on_read(record, first, record.size(), *forcing, from_hold, tight);
+    Eigen::VectorXd fc(lm.residuals.size()), fs(lm.residuals.size());
+    on_second(lm.x, fc);
+    on_read(lm.x, fs);
+    lm.evaluations += 2;
+    const Eigen::VectorXd d = fc - fs;
     out.table_interpolation_rad = std::sqrt(d.squaredNorm() / static_cast<double>(d.size()));
-    const TrajectoryFunctor refit_on_cubic(record, first, record.size(), cubic, from_hold, options);
-    const LmOutcome refit =
-        RunLm(refit_on_cubic, lm.x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
-    lm.evaluations += *refit_on_cubic.count_;
-    Eigen::VectorXd shift;
-    if (LmConverged(refit.status)) {
-      shift = refit.x - lm.x;
-    } else {
-      const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
-      shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
+    const Eigen::MatrixXd jtj = lm.jacobian.transpose() * lm.jacobian;
+    Eigen::VectorXd shift = -jtj.fullPivLu().solve(lm.jacobian.transpose() * d);
+    const bool chord = options.table_interpolation == Interpolation::kLinear;
+    if (chord || out.table_interpolation_rad > 0.25 * f.noise_rad) {
+      const TrajectoryFunctor refit_on_second(record, first, record.size(), catmull_rom, from_hold, options);
+      const LmOutcome refit =
+          RunLm(refit_on_second, lm.x, 1e-10, 1e-8, 1e-10, options.max_evaluations, options, start);
+      lm.evaluations += *refit_on_second.count_;
+      if (LmConverged(refit.status)) shift = refit.x - lm.x;
     }
     out.table_interpolation_shift = {shift(0), shift(1), shift(2)};
     const double stat[3] = {out.alpha_stderr, out.p_stderr, out.mu_stderr};
@@ -473,8 +449,11 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
     out.mu_stderr = std::hypot(out.mu_stderr, shift(2));
     if (dominates) {
       out.warnings.push_back(
-          "the table record's sampling moves the fit more than its noise does: between samples the "
-          "acceleration is a chord, which shifts alpha by " + Num(shift(0), 2) + " rad, p by " +
+          "the table record's sampling moves the fit more than its noise does: " +
+          std::string(chord ? "between samples the acceleration is a chord, which "
+                            : "two cubics through its samples (the spline the fit reads and Catmull-Rom's) "
+                              "differ between them, which ") +
+          "shifts alpha by " + Num(shift(0), 2) + " rad, p by " +
           Num(shift(1), 2) + " rad/s, mu by " + Num(shift(2), 2) + " (theta by " +
           Num(out.table_interpolation_rad, 2) + " rad rms); the standard errors include it; record "
           "the table acceleration faster for a sharper fit");
