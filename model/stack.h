@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "model/cancel.h"
 #include "model/rocking_model.h"
 
 namespace rocklab::model::stack {
@@ -136,7 +137,14 @@ struct RunOptions {
   /// A pivot whose relative rate after an impact is below this closes
   /// (stays shut: Housner's impacts would otherwise come ever closer), rad/s.
   double rest_rate_rad_s{1e-6};
+  /// Polled every kCancelPollOutputs output samples (empty: never); true
+  /// stops the run with model::Cancelled (a sweep's Ctrl-C inside a case).
+  CancelHook cancelled;
 };
+
+/// Output samples between two polls of RunOptions::cancelled (as a
+/// sweep's single-block case polls its token).
+inline constexpr long kCancelPollOutputs = 256;
 
 /// The single block's kinds (uplift, impact, rest, overturn) and their names.
 using model::EventKind;
@@ -166,7 +174,8 @@ struct Run {
 /// and at the forcing's declared jumps). Stops at an overturning (an
 /// interface's relative angle reaching pi/2). @throws std::invalid_argument
 /// for a rate or duration out of range, std::runtime_error when the
-/// integrator or an impact fails.
+/// integrator or an impact fails, model::Cancelled when options.cancelled
+/// says stop.
 Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options);
 
 /// A mode's name, one letter per interface bottom-up: C closed, L pivot on

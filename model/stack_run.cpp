@@ -197,7 +197,7 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
       if (result == detail::Cvode::Result::kReached) {
         if (t >= tout) {
           record(tout);
-          ++next;
+          if (++next % kCancelPollOutputs == 0) ThrowIfCancelled(options.cancelled);
         } else {
           changed = true;  // a jump of the forcing: restart on its other side
         }
