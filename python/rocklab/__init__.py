@@ -924,7 +924,10 @@ def reconstruct(raw, rig, *, progress=None):
 
     Returns:
         Reconstruction: ``states`` (theta, theta_dot, the mirror and camera
-        thetas, sliding, twist, flags, ...), ``events``, ``summary``.
+        thetas, sliding, twist, flags, ...), ``events``, ``summary``. A rig
+        of several ``[[body]]`` tables: those columns are the bottom body's
+        (as RL_THETA), then ``theta_K`` ... ``flags_K`` per body K = 1..N
+        bottom-up, the columns of ``rocklab reconstruct``'s CSV.
     """
     raw, rig = _path(raw, "raw"), _path(rig, "rig")
     columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
