@@ -99,7 +99,6 @@ Reconstructor::Reconstructor(const RigConfig& rig, const std::vector<std::string
                              const std::string& source_path)
     : checks_(rig.checks),
       mirror_(rig.mirror),
-      oop_(rig.out_of_plane),
       pivot_half_width_m_(rig.block.pivot_half_width_m()) {
   // Every channel the rig maps must be in the source; name them all at once.
   std::vector<const ChannelConfig*> missing;
@@ -128,8 +127,9 @@ Reconstructor::Reconstructor(const RigConfig& rig, const std::vector<std::string
   };
   mirror_s_ = bind("mirror.s");
   mirror_n_ = bind("mirror.n");
-  oop_a_ = bind("oop.a");
-  oop_b_ = bind("oop.b");
+  for (const OutOfPlaneConfig& p : rig.out_of_plane_pairs) {
+    oop_.push_back({bind(p.role_prefix + ".a"), bind(p.role_prefix + ".b"), p.spacing_m, p.body});
+  }
   table_disp_ = bind("table.displacement");
   table_acc_ = bind("table.acceleration");
   for (const auto& cam : rig.cameras) {
@@ -144,7 +144,6 @@ Reconstructor::Reconstructor(const RigConfig& rig, const std::vector<std::string
   if (rig.multi_body()) {
     body_count_ = rig.body_count();
     mirror_body_ = rig.mirror.body;
-    oop_body_ = rig.out_of_plane.body;
     for (int k = 0; k < body_count_; ++k) {
       const auto kk = static_cast<std::size_t>(k);
       contact_half_width_m_[kk] = rig.contact_half_width_m(k);
@@ -208,12 +207,13 @@ void Reconstructor::ReadMirror(const Frame& frame, double& theta_mirror, double&
   if (std::isfinite(n)) tilt = 0.5 * std::atan((n - mirror_.rest_n_m) / mirror_.lever_m);
 }
 
-void Reconstructor::ReadOutOfPlane(const Frame& frame, double& twist, double& out_of_plane) const {
-  const double ya = oop_a_.Value(frame);
-  const double yb = oop_b_.Value(frame);
+void Reconstructor::ReadOutOfPlane(const Frame& frame, const OutOfPlanePair& pair, double& twist,
+                                   double& out_of_plane) {
+  const double ya = pair.a.Value(frame);
+  const double yb = pair.b.Value(frame);
   if (std::isfinite(ya) && std::isfinite(yb)) {
     // A yaw psi moves LED b relative to LED a by spacing * sin(psi) out of plane.
-    twist = std::asin(std::clamp((yb - ya) / oop_.spacing_m, -1.0, 1.0));
+    twist = std::asin(std::clamp((yb - ya) / pair.spacing_m, -1.0, 1.0));
     out_of_plane = 0.5 * (ya + yb);
   }
 }
@@ -289,7 +289,7 @@ void Reconstructor::Reconstruct(const Frame& frame, BlockState& out) {
 
   // Out-of-plane LED pair.
   out.twist = out.out_of_plane = kNaN;
-  if (oop_.present) ReadOutOfPlane(frame, out.twist, out.out_of_plane);
+  if (!oop_.empty()) ReadOutOfPlane(frame, oop_.front(), out.twist, out.out_of_plane);
 
   // Best theta: the mirror when valid (finer: the optical lever doubles the
   // angle), else the cameras.
@@ -390,14 +390,15 @@ void Reconstructor::ReconstructBodies(const Frame& frame, BlockState& out) {
 
   counts_.imprecise_pivot_frames += imprecise ? 1 : 0;
 
-  // The mirror and the out-of-plane pair, on the bodies the rig names.
+  // The mirror and the out-of-plane pairs, on the bodies the rig names
+  // (each body's twist and out-of-plane motion from its own pair).
   if (mirror_.present) {
     BodyState& b = out.bodies[static_cast<std::size_t>(mirror_body_)];
     ReadMirror(frame, b.theta_mirror, b.tilt, b.flags);
   }
-  if (oop_.present) {
-    BodyState& b = out.bodies[static_cast<std::size_t>(oop_body_)];
-    ReadOutOfPlane(frame, b.twist, b.out_of_plane);
+  for (const OutOfPlanePair& pair : oop_) {
+    BodyState& b = out.bodies[static_cast<std::size_t>(pair.body)];
+    ReadOutOfPlane(frame, pair, b.twist, b.out_of_plane);
   }
 
   for (int k = 0; k < body_count_; ++k) {

@@ -143,26 +143,32 @@ class Reconstructor {
   /// Predicted noise of the fit of `used` LEDs at model_xz for the point
   /// (px, pz) of the body frame (m): the pivot, or the face point of the body below.
   Noise PredictNoise(const double* model_xz, int used, double px, double pz) const;
+  /// An out-of-plane LED pair bound to its channels.
+  struct OutOfPlanePair {
+    Channel a;
+    Channel b;
+    double spacing_m{};
+    int body{};
+  };
   /// The mirror's angle and tilt (a bad spot: kFlagNoMirror into flags,
-  /// counted) and the out-of-plane pair's twist and displacement; what is
+  /// counted) and an out-of-plane pair's twist and displacement; what is
   /// unmeasurable is left as it was.
   void ReadMirror(const Frame& frame, double& theta_mirror, double& tilt, int32_t& flags);
-  void ReadOutOfPlane(const Frame& frame, double& twist, double& out_of_plane) const;
+  static void ReadOutOfPlane(const Frame& frame, const OutOfPlanePair& pair, double& twist, double& out_of_plane);
   /// A multi-body rig's frame: every body's fit and checks into out.bodies,
   /// the bottom body's into out's scalars.
   void ReconstructBodies(const Frame& frame, BlockState& out);
 
   CheckTolerances checks_;
   MirrorConfig mirror_;
-  OutOfPlaneConfig oop_;
   double pivot_half_width_m_{};
   int body_count_{0};  // 0: single block
   std::array<double, kMaxRigBodies> contact_half_width_m_{};  // per body, the pivots' |x|
   std::array<double, kMaxRigBodies> height_m_{};
   std::array<int, kMaxRigBodies + 1> body_begin_{};  // leds_ of body k: [begin[k], begin[k+1])
   int mirror_body_{0};
-  int oop_body_{0};
-  Channel mirror_s_, mirror_n_, oop_a_, oop_b_, table_disp_, table_acc_;
+  std::vector<OutOfPlanePair> oop_;  // the rig's pairs (a single block's: at most one)
+  Channel mirror_s_, mirror_n_, table_disp_, table_acc_;
   std::vector<Led> leds_;
   std::vector<double> model_xz_;  // scratch for the fit, sized once
   std::vector<double> world_xz_;

@@ -241,14 +241,41 @@ void ParseSensors(Reader& r, const toml::table& root, RigConfig& rig, std::set<s
     }
   }
 
-  if (const toml::table* t = r.Table(root, "", "out_of_plane", false)) {
-    rig.out_of_plane.present = true;
-    rig.out_of_plane.spacing_m =
-        r.Bounded(*t, "out_of_plane", "spacing_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
-    rig.out_of_plane.body = BodyOf(r, *t, "out_of_plane", rig);
-    r.RejectUnknown(*t, "out_of_plane");
-    roles.insert({"oop.a", "oop.b"});
+  // [out_of_plane]: one pair, sensors oop.a and oop.b; [[out_of_plane]]
+  // (a rig of [[body]] tables): a pair per body, sensors oop.BODY.a, .b.
+  const toml::node* oop = root.get("out_of_plane");
+  if (oop == nullptr) return;
+  auto pair = [&](const toml::table& t, bool per_body) {
+    OutOfPlaneConfig p;
+    p.present = true;
+    p.spacing_m = r.Bounded(t, "out_of_plane", "spacing_m", std::nullopt, kMinSizeM, kMaxLengthM, " m");
+    p.body = BodyOf(r, t, "out_of_plane", rig);
+    r.RejectUnknown(t, "out_of_plane");
+    for (const OutOfPlaneConfig& other : rig.out_of_plane_pairs) {
+      r.Check(other.body != p.body, t, "out_of_plane", "body",
+              "repeats the pair of body " + common::Quote(rig.bodies[static_cast<std::size_t>(p.body)].name) +
+                  " (one [[out_of_plane]] per body)");
+    }
+    if (per_body) p.role_prefix = "oop." + rig.bodies[static_cast<std::size_t>(p.body)].name;
+    roles.insert({p.role_prefix + ".a", p.role_prefix + ".b"});
+    rig.out_of_plane_pairs.push_back(p);
+  };
+  if (oop->is_array()) {
+    const toml::array& pairs = *r.Array(root, "", "out_of_plane");
+    if (rig.bodies.empty()) {
+      r.Fail(Reader::LineOf(*oop), "out_of_plane",
+             "as [[out_of_plane]] tables (a pair per body) needs [[body]] tables; a single block's pair is "
+             "[out_of_plane]");
+    }
+    for (const toml::node& node : pairs) {
+      const toml::table* t = node.as_table();
+      if (t == nullptr) r.Fail(Reader::LineOf(node), "out_of_plane", "must be a table or an array of tables");
+      pair(*t, true);
+    }
+  } else {
+    pair(*r.Table(root, "", "out_of_plane", true), false);
   }
+  if (!rig.out_of_plane_pairs.empty()) rig.out_of_plane = rig.out_of_plane_pairs.front();
 }
 
 // [posterior]: the priors of `rocklab fit --posterior`.
@@ -325,7 +352,7 @@ void ParseChannels(Reader& r, const toml::table& root, const std::set<std::strin
     ch.sensor = r.String(*t, "channel", "sensor", std::nullopt);
     r.Check(roles.count(ch.sensor) == 1, *t, "channel", "sensor",
             "names an unknown sensor " + common::Quote(ch.sensor) +
-                " (declare its [mirror], [[camera]] LED or [out_of_plane] first)");
+                " (declare its [mirror], [[camera]] LED or [out_of_plane] pair first)");
     r.Check(used_roles.insert(ch.sensor).second, *t, "channel", "sensor",
             "maps sensor " + common::Quote(ch.sensor) + " a second time");
     ch.gain = r.Double(*t, "channel", "gain", 1.0);
@@ -347,8 +374,10 @@ void ParseChannels(Reader& r, const toml::table& root, const std::set<std::strin
     const std::string axis = role.substr(dot + 1);
     std::string twin;
     if (axis == "x" || axis == "z") twin = stem + (axis == "x" ? ".z" : ".x");
-    if (role == "oop.a") twin = "oop.b";
-    if (role == "oop.b") twin = "oop.a";
+    for (const OutOfPlaneConfig& p : rig.out_of_plane_pairs) {
+      if (role == p.role_prefix + ".a") twin = p.role_prefix + ".b";
+      if (role == p.role_prefix + ".b") twin = p.role_prefix + ".a";
+    }
     if (!twin.empty() && used_roles.count(twin) == 0) {
       r.Fail(rig.FindSensor(role)->line, "channel.sensor",
              "maps " + common::Quote(role) + " but no channel maps " + common::Quote(twin));

@@ -75,6 +75,9 @@ struct OutOfPlaneConfig {
   bool present{false};
   int body{0};           ///< the body carrying the LED pair (index into RigConfig::bodies)
   double spacing_m{};  ///< x distance from LED a to LED b, m; > 0
+  /// Its LEDs' sensor roles are role_prefix + ".a" and ".b": "oop" for the
+  /// [out_of_plane] table, "oop.BODY" for a [[out_of_plane]] table of body BODY.
+  std::string role_prefix{"oop"};
 };
 
 /// Savitzky-Golay smoothing differentiator settings.
@@ -162,7 +165,12 @@ struct RigConfig {
   std::vector<ChannelConfig> channels;
   MirrorConfig mirror;
   std::vector<CameraConfig> cameras;
+  /// The [out_of_plane] table, or the first [[out_of_plane]] table.
   OutOfPlaneConfig out_of_plane;
+  /// Every out-of-plane pair, in the file's order, at most one per body:
+  /// [out_of_plane]'s (then it is out_of_plane), or one per [[out_of_plane]]
+  /// table (a rig of [[body]] tables: a pair per body, each body's twist).
+  std::vector<OutOfPlaneConfig> out_of_plane_pairs;
   BlockConfig block;
   /// `[[body]]` tables bottom-up: empty in a single-block rig (`[block]`).
   /// A rig with one body is that single block (block = its box); with two or

@@ -78,11 +78,15 @@ double RigSimulator::Physical(const std::string& sensor, const TrueMotion& m) co
   const double mirror_theta = rig_.multi_body() ? m.body_theta[static_cast<std::size_t>(rig_.mirror.body)] : m.theta;
   if (sensor == "mirror.s") return rig_.mirror.rest_s_m + rig_.mirror.lever_m * std::tan(2 * mirror_theta);
   if (sensor == "mirror.n") return rig_.mirror.rest_n_m + rig_.mirror.lever_m * std::tan(2 * m.tilt_rad);
-  if (sensor == "oop.a" || sensor == "oop.b") {
+  for (const OutOfPlaneConfig& pair : rig_.out_of_plane_pairs) {
+    const bool a = sensor == pair.role_prefix + ".a";
+    if (!a && sensor != pair.role_prefix + ".b") continue;
     // LED a at x = -spacing/2, LED b at +spacing/2 (block frame); a yaw psi
-    // moves each by x sin(psi) out of plane.
-    const double half = 0.5 * rig_.out_of_plane.spacing_m * std::sin(m.twist_rad);
-    return m.out_of_plane_m + (sensor == "oop.a" ? -half : half);
+    // moves each by x sin(psi) out of plane. A multi-body rig: the twisting
+    // body carries the ones above it.
+    const double twist = !rig_.multi_body() || pair.body >= m.twist_body ? m.twist_rad : 0.0;
+    const double half = 0.5 * pair.spacing_m * std::sin(twist);
+    return m.out_of_plane_m + (a ? -half : half);
   }
   // <camera>.<led>.x|z: the block turns clockwise by theta about its pivot
   // corner, which sits at the table's position plus the slip and lift.

@@ -35,6 +35,11 @@ struct TrueMotion {
   /// the bodies above with it.
   std::array<double, kMaxRigBodies> body_theta{};
   int slip_body{0};
+  /// A multi-body rig: the body that twists by twist_rad (0: the bottom
+  /// one); the bodies above turn with it (as they go with a slide), so the
+  /// out-of-plane pair of every body from it up reads the twist, those
+  /// below none. A single block: not read.
+  int twist_body{0};
 };
 
 /// Noise and imperfections, physical units (standard deviations).

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "model/cancel.h"
 #include "model/rocking_model.h"
 
 namespace rocklab::model::stack {
@@ -142,7 +143,14 @@ struct RunOptions {
   /// which loses nothing at the kink of the sampled table at every sample
   /// (as the single block's, docs/performance.md).
   Integrator integrator{Integrator::kAdams};
+  /// Polled every kCancelPollOutputs output samples (empty: never); true
+  /// stops the run with model::Cancelled (a sweep's Ctrl-C inside a case).
+  CancelHook cancelled;
 };
+
+/// Output samples between two polls of RunOptions::cancelled (as a
+/// sweep's single-block case polls its token).
+inline constexpr long kCancelPollOutputs = 256;
 
 /// The single block's kinds (uplift, impact, rest, overturn) and their names.
 using model::EventKind;
@@ -238,7 +246,8 @@ class Stepper {
 /// and at the forcing's declared jumps). Stops at an overturning (an
 /// interface's relative angle reaching pi/2). @throws std::invalid_argument
 /// for a rate or duration out of range, std::runtime_error when the
-/// integrator or an impact fails.
+/// integrator or an impact fails, model::Cancelled when options.cancelled
+/// says stop.
 Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& options);
 
 /// Body k alone on its base face (interface k's contact face, half-width

@@ -363,6 +363,7 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
     stepper.AdvanceTo(tout, forcing, options.duration_s);
     if (stepper.overturned()) break;
     record(tout);
+    if ((next + 1) % kCancelPollOutputs == 0) ThrowIfCancelled(options.cancelled);
   }
   run.events = stepper.events();
   run.overturned = stepper.overturned();

@@ -265,7 +265,7 @@ std::vector<model::stack::Body> StackBodiesOf(const Assembly& a) {
 }
 
 void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,
-                        AssemblyRun& run) {
+                        AssemblyRun& run, const model::CancelHook& cancelled = {}) {
   CheckAssemblyModel(a, o.model);
   Require(std::isfinite(o.rtol) && o.rtol > 0 && o.rtol <= 1e-3, "--rtol", "in (0, 1e-3]", o.rtol);
   const model::stack::Stack stack(StackBodiesOf(a));
@@ -274,6 +274,7 @@ void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model
   ro.rate_hz = o.rate_hz;
   ro.duration_s = o.duration_s;
   ro.restitution = a.restitution;
+  ro.cancelled = cancelled;
   const model::stack::Run r = model::stack::Simulate(stack, forcing, ro);
   const int n = stack.bodies();
   run.theta.assign(static_cast<std::size_t>(n), {});
@@ -331,7 +332,7 @@ void ResolveAssemblyVariant(model::VariantSpec& v) {
 }
 
 AssemblyRun RunStackUnder(const Assembly& a, const ScenarioOptions& o, const model::Forcing& forcing,
-                          const std::string& forcing_description) {
+                          const std::string& forcing_description, const model::CancelHook& cancelled) {
   if (a.frame || a.bodies.size() < 2) {
     throw OptionError("--assembly: " + a.path + ": a " + a.kind() + " is run as its single block, not as a stack");
   }
@@ -339,7 +340,7 @@ AssemblyRun RunStackUnder(const Assembly& a, const ScenarioOptions& o, const mod
   run.kind = a.kind();
   for (int k = 0; k < a.output_bodies(); ++k) run.names.push_back(a.body_name(k));
   run.forcing_description = forcing_description;
-  RunAssemblyAsStack(a, o, forcing, run);
+  RunAssemblyAsStack(a, o, forcing, run, cancelled);
   return run;
 }
 

@@ -103,10 +103,11 @@ void CheckAssemblyModel(const Assembly& assembly, const std::string& model);
 /// rest under `forcing` (described by `forcing_description`) for the
 /// options' duration at their rate, with their tolerance: RunAssembly's
 /// stack path, which `sweep --assembly` shares with `simulate --assembly`.
+/// `cancelled` is polled every model::stack::kCancelPollOutputs samples.
 /// @throws OptionError as RunAssembly, std::runtime_error when the
-/// integration fails.
+/// integration fails, model::Cancelled when `cancelled` says stop.
 AssemblyRun RunStackUnder(const Assembly& assembly, const ScenarioOptions& options, const model::Forcing& forcing,
-                          const std::string& forcing_description);
+                          const std::string& forcing_description, const model::CancelHook& cancelled = {});
 
 /// A stack of two or more bodies (EquivalentBlock is nullopt) as the model
 /// integrates it: each body's rectangle and mass.

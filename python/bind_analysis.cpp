@@ -27,6 +27,8 @@
 #include "pipeline/option_error.h"
 #include "pipeline/pipeline.h"
 #include "python/bindings.h"
+#include "rocklab/block_state2_t.hpp"
+#include "rocklab/block_state_t.hpp"
 #include "sweep/fragility.h"
 #include "sweep/plot.h"
 #include "sweep/sweep.h"
@@ -45,8 +47,10 @@ std::vector<double> ToVector(const DoubleArray& a, const char* name) {
 
 // The block states as columns (the CSV of `rocklab reconstruct`, and more):
 // time, then the fields of common/field_tables.h's block state named in
-// kOrder, each with the table's unit. A sink must not throw: the progress
-// hook's exception is kept, and the read loop stops on it.
+// kOrder, each with the table's unit (a multi-body rig: the bottom body's,
+// as RL_THETA), then for a multi-body rig the CSV's per-body columns
+// (BodyColumns). A sink must not throw: the progress hook's exception is
+// kept, and the read loop stops on it.
 class ColumnSink final : public daq::ProcessorSink {
  public:
   // rocklab.reconstruct's dtype order (the Python contract, older than the
@@ -68,10 +72,29 @@ class ColumnSink final : public daq::ProcessorSink {
       if (columns[i].unit == nullptr) throw std::logic_error(std::string("reconstruct: no field ") + kOrder[i]);
     }
   }
+  // A rig of `count` >= 2 bodies: `rocklab reconstruct`'s per-body columns,
+  // per body K = 1.. bottom-up every per-body field of block_state2_t
+  // (block_state_t's table but utime and seq) suffixed _K, with its unit.
+  void SetBodies(int count) {
+    for (int k = 1; k <= count; ++k) {
+      NameBodyColumns names{*this, "_" + std::to_string(k)};
+      common::BlockStateFields<rocklab::block_state_t>(names);
+    }
+    per_body_ = body_columns.size() / static_cast<std::size_t>(std::max(count, 1));
+  }
   void OnBlockState(const daq::BlockState& s) override {
     time.push_back(s.time_s);
     Append a{*this, s};
     VisitFields(a);
+    if (!body_columns.empty()) {
+      // Copied as the CLI and the DAQ copy them (BodiesCopier), then read per body.
+      common::BodiesCopier<daq::BlockState, rocklab::block_state2_t> copy{s, bodies_msg_};
+      common::BlockStateFields<rocklab::block_state_t>(copy);
+      for (std::size_t k = 0; k < static_cast<std::size_t>(s.body_count); ++k) {
+        AppendBody row{*this, k, k * per_body_};
+        common::BlockStateFields<rocklab::block_state_t>(row);
+      }
+    }
     (void)hook_.Poll(s.time_s);
   }
   void OnEvent(const daq::DaqEvent& e) override { events.push_back(e); }
@@ -79,6 +102,11 @@ class ColumnSink final : public daq::ProcessorSink {
 
   std::vector<double> time;
   std::array<Column, kOrder.size()> columns;  // in kOrder
+  struct BodyColumn {
+    std::string name;  ///< FIELD_K
+    Column values;
+  };
+  std::vector<BodyColumn> body_columns;  // a multi-body rig's, body by body
   std::vector<daq::DaqEvent> events;
   std::vector<std::string> problems;
 
@@ -124,7 +152,41 @@ class ColumnSink final : public daq::ProcessorSink {
       }
     }
   };
+  struct NameBodyColumns {
+    ColumnSink& sink;
+    std::string suffix;
+    template <class G>
+    void Int(const char* name, const char* unit, G, unsigned) { Add(name, unit, true); }
+    template <class G>
+    void Real(const char* name, const char* unit, G, unsigned) { Add(name, unit, false); }
+    void Add(const char* name, const char* unit, bool integer) {
+      if (std::string_view(name) == "utime" || std::string_view(name) == "seq") return;
+      BodyColumn c;
+      c.name = name + suffix;
+      c.values.unit = unit;
+      c.values.integer = integer;
+      sink.body_columns.push_back(std::move(c));
+    }
+  };
+  // Body k's values of the copied message into its columns (from `at`).
+  struct AppendBody {
+    ColumnSink& sink;
+    std::size_t k;
+    std::size_t at;
+    template <class G>
+    void Int(const char*, const char*, G get, unsigned) {
+      const auto& field = get(sink.bodies_msg_);
+      if constexpr (common::kIsArray<decltype(field)>) sink.body_columns[at++].values.ints.push_back(field[k]);
+    }
+    template <class G>
+    void Real(const char*, const char*, G get, unsigned) {
+      const auto& field = get(sink.bodies_msg_);
+      if constexpr (common::kIsArray<decltype(field)>) sink.body_columns[at++].values.real.push_back(field[k]);
+    }
+  };
   std::vector<int> slots_;  // per field of the table, in its order
+  std::size_t per_body_{};  // body_columns of one body
+  rocklab::block_state2_t bodies_msg_;  // a multi-body state, copied by the field table
   ProgressHook& hook_;
 };
 
@@ -146,6 +208,7 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
         ThrowIfUnreadable(rig_path, e.what());
         throw;
       }
+      if (rig.multi_body()) sink.SetBodies(rig.body_count());
       daq::SourceOptions options;  // as `rocklab reconstruct`
       options.sample_rate_hz = rig.sample_rate_hz;
       for (const auto& c : rig.channels) options.fallback_channel_names.push_back(c.name);
@@ -176,6 +239,11 @@ py::tuple Reconstruct(const std::string& input, const std::string& rig_path, con
   for (std::size_t i = 0; i < ColumnSink::kOrder.size(); ++i) {
     ColumnSink::Column& c = sink.columns[i];
     columns[ColumnSink::kOrder[i]] =
+        c.integer ? py::make_tuple(OwnedArray(std::move(c.ints)), c.unit) : py::make_tuple(OwnedArray(std::move(c.real)), c.unit);
+  }
+  for (ColumnSink::BodyColumn& b : sink.body_columns) {
+    ColumnSink::Column& c = b.values;
+    columns[b.name.c_str()] =
         c.integer ? py::make_tuple(OwnedArray(std::move(c.ints)), c.unit) : py::make_tuple(OwnedArray(std::move(c.real)), c.unit);
   }
   py::list events;
@@ -587,7 +655,14 @@ std::string Sweep(const sweep::PlanOptions& options, unsigned threads, const py:
   std::string csv;  // the definition and the header, then the rows
   {
     py::gil_scoped_release release;
-    const sweep::Plan plan = RunStoppable(hook, [&] { return sweep::MakePlan(options); });  // reads the records
+    const sweep::Plan plan = RunStoppable(hook, [&] {
+      try {
+        return sweep::MakePlan(options);  // reads the records and the assembly
+      } catch (const pipeline::OptionError& e) {
+        if (!options.assembly.empty()) ThrowIfUnreadable(options.assembly, e.what());
+        throw;
+      }
+    });
     csv = sweep::DefinitionText(sweep::DefinitionOf(plan)) + sweep::HeaderOf(plan) + "\n";
     hook.set_total(static_cast<double>(plan.size()));
     rows.resize(plan.size());
@@ -714,8 +789,9 @@ void RegisterAnalysis(py::module_& m) {
       [](const std::vector<std::string>& records, const std::string& scale, bool pga_g,
          const std::vector<double>& alpha, const std::vector<double>& p, const std::vector<double>& mu,
          const std::vector<double>& width, const std::vector<double>& height,
-         const std::vector<std::string>& polygons, const std::string& model, std::optional<double> duration,
-         double rate, double l, std::optional<double> rtol, unsigned threads, const py::object& progress) {
+         const std::vector<std::string>& polygons, const std::string& assembly, const std::string& model,
+         std::optional<double> duration, double rate, double l, std::optional<double> rtol, unsigned threads,
+         const py::object& progress) {
         sweep::PlanOptions o;
         o.records = records;
         o.scale = scale;
@@ -726,6 +802,7 @@ void RegisterAnalysis(py::module_& m) {
         o.width = width;
         o.height = height;
         o.polygons = polygons;
+        o.assembly = assembly;  // "": none (sweep::PlanOptions' default)
         o.model = model;
         o.duration_s = duration;
         o.rate_hz = rate;
@@ -734,7 +811,8 @@ void RegisterAnalysis(py::module_& m) {
         return Sweep(o, threads, progress);
       },
       py::arg("records"), py::arg("scale"), py::arg("pga_g"), py::arg("alpha"), py::arg("p"), py::arg("mu"),
-      py::arg("width"), py::arg("height"), py::arg("polygons"), py::arg("model"), py::arg("duration"),
+      py::arg("width"), py::arg("height"), py::arg("polygons"), py::arg("assembly"), py::arg("model"),
+      py::arg("duration"),
       py::arg("rate"), py::arg("l"), py::arg("rtol"), py::arg("threads"), py::arg("progress"));
   m.def("_fragility", &Fragility, py::arg("x"), py::arg("overturned"), py::arg("trials"));
   m.def("_sweep_fragilities", &SweepFragilities, py::arg("model"), py::arg("alpha"), py::arg("p"), py::arg("mu"),

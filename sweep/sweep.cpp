@@ -257,8 +257,8 @@ Scaling ScalingOf(const Plan& plan, std::size_t index) {
 namespace {
 
 // A case of a stack: pipeline::RunStackUnder (simulate --assembly's stack
-// path) under the scaled record. The stack model is not polled inside a
-// case: the token is looked at before and after it.
+// path) under the scaled record. The stack model polls the token every
+// model::stack::kCancelPollOutputs samples, as RunCase's block every 256.
 Outcome RunStackCase(const Plan& plan, std::size_t index, const common::CancelToken* token) {
   const CaseIndex c = Locate(plan, index);
   const Record& record = plan.records[c.record];
@@ -273,9 +273,13 @@ Outcome RunStackCase(const Plan& plan, std::size_t index, const common::CancelTo
   so.duration_s = Duration(plan, record);
   so.rate_hz = plan.rate_hz;
   if (token != nullptr) token->ThrowIfCancelled();
+  model::CancelHook cancelled;
+  if (token != nullptr) cancelled = [token] { return token->Check(); };
   pipeline::AssemblyRun run;
   try {
-    run = pipeline::RunStackUnder(*plan.assembly, so, forcing, "accel:" + record.path);
+    run = pipeline::RunStackUnder(*plan.assembly, so, forcing, "accel:" + record.path, cancelled);
+  } catch (const common::Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     throw std::runtime_error("case " + std::to_string(index) + " (" + KeyPrefix(plan, index) + "...): " + e.what());
   }

@@ -33,7 +33,7 @@ namespace {
 struct Fault {
   double size{};    ///< m (slip) or rad (twist)
   double time_s{};  ///< s
-  std::string body;  ///< --slip's optional third part: the body that slides on the one below
+  std::string body;  ///< the optional third part: the body that slides on the one below (--slip) or twists (--twist)
 };
 
 struct SynthOptions {
@@ -53,9 +53,9 @@ struct SynthOptions {
   std::string assembly_toml;  ///< --assembly: the motion of an assembly's bodies
 };
 
-// "SIZE@TIME" (or "SIZE@TIME@BODY" where `with_body`) -> Fault; throws
-// UsageError naming the option.
-std::optional<Fault> ParseFault(const std::string& text, const std::string& option, bool with_body) {
+// "SIZE@TIME" or "SIZE@TIME@BODY" -> Fault; throws UsageError naming the
+// option.
+std::optional<Fault> ParseFault(const std::string& text, const std::string& option) {
   if (text.empty()) return std::nullopt;
   const size_t at = text.find('@');
   Fault f;
@@ -67,7 +67,6 @@ std::optional<Fault> ParseFault(const std::string& text, const std::string& opti
     std::string time = text.substr(at + 1);
     const size_t second = time.find('@');
     if (second != std::string::npos) {
-      if (!with_body) throw std::invalid_argument("body");
       f.body = time.substr(second + 1);
       time.resize(second);
       if (f.body.empty()) throw std::invalid_argument("body");
@@ -76,7 +75,7 @@ std::optional<Fault> ParseFault(const std::string& text, const std::string& opti
     if (used != time.size()) throw std::invalid_argument("time");
   } catch (const std::exception&) {
     // The body form is named only where it was tried (the message is older than it).
-    const bool tried_body = with_body && text.find('@', at == std::string::npos ? 0 : at + 1) != std::string::npos;
+    const bool tried_body = text.find('@', at == std::string::npos ? 0 : at + 1) != std::string::npos;
     throw UsageError(option + " must be SIZE@TIME_S (e.g. 0.003@2.5)" +
                      (tried_body ? std::string(" or SIZE@TIME_S@BODY (a body of the rig's [[body]] tables)") : "") +
                      ", got '" + text + "'");
@@ -84,6 +83,17 @@ std::optional<Fault> ParseFault(const std::string& text, const std::string& opti
   Require(std::isfinite(f.size), option, "a finite size", f.size);
   Require(std::isfinite(f.time_s) && f.time_s >= 0, option, "a time >= 0 s", f.time_s);
   return f;
+}
+
+// The index of the rig's body a fault names with @BODY; without one the
+// bottom body (0). Throws UsageError naming the option and the rig.
+int FaultBody(const std::optional<Fault>& fault, const daq::RigConfig& rig, const std::string& option) {
+  if (!fault || fault->body.empty()) return 0;
+  for (std::size_t k = 0; rig.multi_body() && k < rig.bodies.size(); ++k) {
+    if (rig.bodies[k].name == fault->body) return static_cast<int>(k);
+  }
+  throw UsageError(option + ": '" + fault->body + "' is not a body of the rig " + rig.path +
+                   " (@BODY names one of its [[body]] tables, in a rig of several)");
 }
 
 // The assembly against the rig: the same bodies, by name and box, bottom-up
@@ -126,20 +136,12 @@ int RunSynth(const SynthOptions& o) {
   RequireOneStandardOutput({{"--out", o.out}, {"--truth", o.truth_csv}});
   RequireOutputFolder("--out", o.out);
   RequireOutputFolder("--truth", o.truth_csv);
-  const std::optional<Fault> slip = ParseFault(o.slip_text, "--slip", true);
-  const std::optional<Fault> twist = ParseFault(o.twist_text, "--twist", false);
+  const std::optional<Fault> slip = ParseFault(o.slip_text, "--slip");
+  const std::optional<Fault> twist = ParseFault(o.twist_text, "--twist");
   Require(std::isfinite(o.hold_s) && o.hold_s >= 0, "--hold", ">= 0 s", o.hold_s);
-  int slip_body = 0;
-  if (slip && !slip->body.empty()) {
-    slip_body = -1;
-    for (std::size_t k = 0; k < rig.bodies.size(); ++k) {
-      if (rig.bodies[k].name == slip->body) slip_body = static_cast<int>(k);
-    }
-    if (slip_body < 0 || !rig.multi_body()) {
-      throw UsageError("--slip: '" + slip->body + "' is not a body of the rig " + rig.path +
-                       " (@BODY names one of its [[body]] tables, in a rig of several)");
-    }
-  }
+  const int slip_body = FaultBody(slip, rig, "--slip");
+  // Without @BODY the bottom body: every pair reads the twist, as the one pair did.
+  const int twist_body = FaultBody(twist, rig, "--twist");
   // The motion: a single block's run (the scenario), or an assembly's,
   // held whole (pipeline::RunAssembly) and sampled below.
   pipeline::Scenario scenario;
@@ -211,6 +213,7 @@ int RunSynth(const SynthOptions& o) {
     if (slip && t >= slip->time_s) m.slip_m = slip->size;
     m.slip_body = slip_body;
     if (twist && t >= twist->time_s) m.twist_rad = twist->size;
+    m.twist_body = twist_body;
     const bool kept = sim.Raw(m, values);
     if (kept) {
       raw->Write(t, values);
@@ -315,7 +318,9 @@ void RegisterSynth(CLI::App& app, CommandRun& run) {
   cmd->add_option("--slip", opts->slip_text,
                   "pivot slip SIZE_M@TIME_S (a step); SIZE_M@TIME_S@BODY: that body's pivot on the one below "
                   "(--assembly)");
-  cmd->add_option("--twist", opts->twist_text, "twist RAD@TIME_S (a step)");
+  cmd->add_option("--twist", opts->twist_text,
+                  "twist RAD@TIME_S (a step); RAD@TIME_S@BODY: that body's twist, the bodies above turning with "
+                  "it (--assembly)");
   cmd->add_option("--seed", opts->seed, "noise seed")->capture_default_str();
   cmd->add_option("--hold", opts->hold_s,
                   "s the block is held at --theta0 (table at rest) before the run starts (a free-rocking "

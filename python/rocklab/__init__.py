@@ -944,7 +944,10 @@ def reconstruct(raw, rig, *, progress=None):
 
     Returns:
         Reconstruction: ``states`` (theta, theta_dot, the mirror and camera
-        thetas, sliding, twist, flags, ...), ``events``, ``summary``.
+        thetas, sliding, twist, flags, ...), ``events``, ``summary``. A rig
+        of several ``[[body]]`` tables: those columns are the bottom body's
+        (as RL_THETA), then ``theta_K`` ... ``flags_K`` per body K = 1..N
+        bottom-up, the columns of ``rocklab reconstruct``'s CSV.
     """
     raw, rig = _path(raw, "raw"), _path(rig, "rig")
     columns, events, summary = _rocklab._reconstruct(raw, rig, progress)
@@ -1257,6 +1260,22 @@ SWEEP_DTYPE = _dtype(
 )
 
 
+def _sweep_dtype(header):
+    """SWEEP_DTYPE, and for an assembly's sweep the columns after it
+    (docs/sweep.md, "Assemblies"): first_overturned_body ("" for none) and
+    peak_abs_theta_K (rad) per body K bottom-up."""
+    names = list(SWEEP_DTYPE.names)
+    assert header[: len(names)] == names, header
+    extra = header[len(names):]
+    if not extra:
+        return SWEEP_DTYPE
+    assert extra == ["first_overturned_body"] + [f"peak_abs_theta_{k}" for k in range(1, len(extra))], header
+    fields = [(n, SWEEP_DTYPE[n].str, units(SWEEP_DTYPE).get(n)) for n in names]
+    fields.append(("first_overturned_body", "U256", None))
+    fields += [(n, "f8", "rad") for n in extra[1:]]
+    return _dtype(fields)
+
+
 def _sweep_rows(text):
     import csv
     import io
@@ -1264,12 +1283,12 @@ def _sweep_rows(text):
     # The sweep's definition (`# key: value` lines) comes before the header.
     reader = csv.reader(line for line in io.StringIO(text) if not line.startswith("#"))
     header = next(reader)
-    assert header == list(SWEEP_DTYPE.names), header
+    dtype = _sweep_dtype(header)
     rows = []
     for r in reader:
         values = []
-        for name, field in zip(SWEEP_DTYPE.names, r):
-            kind = SWEEP_DTYPE[name].kind
+        for name, field in zip(dtype.names, r):
+            kind = dtype[name].kind
             if kind == "f":
                 values.append(float(field) if field != "" else _np.nan)
             elif kind == "i":
@@ -1279,7 +1298,7 @@ def _sweep_rows(text):
             else:
                 values.append(field)
         rows.append(tuple(values))
-    return _np.array(rows, dtype=SWEEP_DTYPE)
+    return _np.array(rows, dtype=dtype)
 
 
 def sweep(
@@ -1294,6 +1313,7 @@ def sweep(
     width=(),
     height=(),
     polygon=(),
+    assembly=None,
     duration=None,
     rate=1000.0,
     l=DEFAULT_L,
@@ -1314,6 +1334,13 @@ def sweep(
             Housner's 1 - 1.5 sin^2 alpha), as ``--alpha --p --mu``.
         width, height: blocks as rectangles (2b, 2h; m); polygon: section
             files (x,z CSV).
+        assembly: instead of the blocks, the path of an assembly TOML file
+            (``--assembly``; a file, not a dict: the results' definition
+            names the file and hashes its bytes). A one-body assembly or a
+            frame runs as its single block, a stack by the stack model
+            (housner only); the rows then add ``first_overturned_body``
+            ("" for none) and ``peak_abs_theta_K`` (rad) per body K
+            bottom-up (docs/sweep.md, "Assemblies").
         duration: simulated time per case, s (None: record end + 10 s).
         rate: rate at which peak theta is sampled, Hz.
         l: complex formulation momentum.
@@ -1323,19 +1350,23 @@ def sweep(
         csv_text: also return the CSV text (``rocklab sweep --out``'s bytes).
 
     Returns:
-        A structured array (SWEEP_DTYPE: the columns of sweep's CSV, in its
-        case order: record outermost, then block, then scale); with
-        ``csv_text``, (array, text).
+        A structured array (SWEEP_DTYPE, with an assembly's columns after
+        it: the columns of sweep's CSV, in its case order: record
+        outermost, then block, then scale); with ``csv_text``, (array,
+        text).
     """
 
     def floats(v):
         return [float(x) for x in _np.atleast_1d(v)] if v is not None else []
 
+    if assembly is not None and not isinstance(assembly, (str, bytes, _os.PathLike)):
+        raise TypeError(f"assembly must be the path of a TOML file, got {type(assembly).__name__}")
+
     text = _rocklab._sweep(
         [_path(r, "records") for r in ([records] if isinstance(records, (str, _os.PathLike)) else records)],
         str(scale), bool(pga_g), floats(alpha), floats(p), floats(mu), floats(width), floats(height),
         [_path(x, "polygon") for x in ([polygon] if isinstance(polygon, (str, _os.PathLike)) else polygon)],
-        str(model), None if duration is None else _float(duration, "duration"), _float(rate, "rate"), _float(l, "l"),
+        "" if assembly is None else _os.fsdecode(_path(assembly, "assembly")), str(model), None if duration is None else _float(duration, "duration"), _float(rate, "rate"), _float(l, "l"),
         None if rtol is None else _float(rtol, "rtol"), _int(threads, "threads"), progress,
     )
     rows = _sweep_rows(text)

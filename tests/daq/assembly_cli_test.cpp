@@ -142,6 +142,50 @@ TEST(AssemblyAcquisition, ASlideAtTheInterfaceIsFlaggedThereAndThen) {
   EXPECT_NE(bad.err.find("'plinth' is not a body of the rig"), std::string::npos) << bad.err;
 }
 
+// A 0.03 rad twist at t = 1.2345 s, of the statue and then of the
+// pedestal (the rig's pair per body, synth's --twist RAD@TIME@BODY).
+// Oracle: the step injected; a twist is read per sample from its body's
+// pair, undelayed, so it is flagged (FLAG_TWIST, tolerance 0.01 rad) from
+// the first sample at or after the step (1.235 s), never before, and
+// measured within 5.5 sigma of 0.03 rad (or 0; chance 4e-8 per sample):
+// sigma = sqrt(2) sigma_oop / spacing, sigma_oop 0.05 mm at half the
+// typical noise: 4.4e-4 rad on the statue's 0.16 m pair, 1.8e-4 rad on the
+// pedestal's 0.4 m one (the tolerance is 22 and 56 of them). A body twisting carries the ones above it: the statue's
+// twist is the statue's flag alone; the pedestal's flags both, from the
+// same sample.
+TEST(AssemblyAcquisition, ATwistIsFlaggedOnTheBodyThatTurnsThere) {
+  const double t_fault = 1.2345, first_sample = 1.235, size = 0.03;
+  const double sigma[2] = {std::sqrt(2.0) * 0.5e-4 / 0.4, std::sqrt(2.0) * 0.5e-4 / 0.16};
+  for (const std::string body : {"statue", "pedestal"}) {
+    SCOPED_TRACE(body);
+    const std::string raw = SynthStatue("twist_" + body + ".csv", {"--seed", "6", "--twist", "0.03@1.2345@" + body});
+    const Table rec = ReconstructWith(kStatueRig, raw);
+    const bool turns[2] = {body == "pedestal", true};
+    for (int k = 0; k < 2; ++k) {
+      const std::string K = std::to_string(k + 1);
+      const std::size_t f = rec.Col("flags_" + K), w = rec.Col("twist_" + K);
+      double first = -1;
+      for (const auto& r : rec.rows) {
+        const bool flagged = (static_cast<int>(r[f]) & kFlagTwist) != 0;
+        const bool after = r[0] >= t_fault;
+        ASSERT_EQ(flagged, turns[k] && after) << "body " << K << " at " << r[0];
+        ASSERT_NEAR(r[w], turns[k] && after ? size : 0.0, 5.5 * sigma[k]) << "body " << K << " at " << r[0];
+        if (flagged && first < 0) first = r[0];
+      }
+      if (turns[k]) {
+        EXPECT_NEAR(first, first_sample, 1e-9) << "body " << K;
+      }
+    }
+  }
+  // A body the rig does not have is refused by name, as --slip's.
+  const auto bad = rocklab::test::RunCli(Args({"synth", "--rig", kStatueRig, "--assembly", kStatue, "--twist",
+                                               "0.03@1@plinth", "--out", test::ScratchDir() + "/x.csv", "--truth",
+                                               test::ScratchDir() + "/x.truth.csv"},
+                                              kShake));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--twist: 'plinth' is not a body of the rig"), std::string::npos) << bad.err;
+}
+
 std::string Slurp(const std::string& path) { return rocklab::test::ReadFile(path); }
 
 // A rig of one [[body]] and a one-body assembly are today's single block:
@@ -190,6 +234,16 @@ TEST(AssemblyAcquisition, OneBodyAssemblyRigIsTheSingleBlockByteForByte) {
   EXPECT_EQ(rec, Slurp(dir + "/body.csv.theta.csv"));
 }
 
+// The message of ParseRigConfig on `text` as "r.toml" ("no error" if none).
+std::string RigError(const std::string& text) {
+  try {
+    ParseRigConfig(text, "r.toml");
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 // The rig file's bodies: every error names the file, the line and the key.
 TEST(AssemblyAcquisition, RigBodiesAreCheckedWithFileLineAndKey) {
   const std::string head =
@@ -197,14 +251,6 @@ TEST(AssemblyAcquisition, RigBodiesAreCheckedWithFileLineAndKey) {
       "[[body]]\nname = \"b\"\nwidth_m = 0.2\nheight_m = 0.8\n";
   const std::string channels =
       "[[channel]]\nname = \"x\"\nsensor = \"c.L.x\"\n[[channel]]\nname = \"z\"\nsensor = \"c.L.z\"\n";
-  auto error = [](const std::string& text) {
-    try {
-      ParseRigConfig(text, "r.toml");
-    } catch (const std::exception& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   const RigConfig ok = ParseRigConfig(
       head + "[[camera]]\nname = \"c\"\nled = [ { name = \"L\", x_m = 0.0, z_m = 0.1, body = \"b\" } ]\n" + channels,
       "r.toml");
@@ -213,14 +259,50 @@ TEST(AssemblyAcquisition, RigBodiesAreCheckedWithFileLineAndKey) {
   EXPECT_EQ(ok.cameras[0].leds[0].body, 1);
   EXPECT_EQ(ok.contact_half_width_m(1), 0.1);  // min(0.25, 0.1)
   EXPECT_EQ(ok.block.width_m, 0.5);            // the bottom body's box
-  EXPECT_EQ(error(head + "[[camera]]\nname = \"c\"\nled = [ { name = \"L\", x_m = 0.0, z_m = 0.1 } ]\n" + channels),
+  EXPECT_EQ(RigError(head + "[[camera]]\nname = \"c\"\nled = [ { name = \"L\", x_m = 0.0, z_m = 0.1 } ]\n" + channels),
             "r.toml:13: key 'camera.led.body' is missing");
-  EXPECT_NE(error(head + "[[camera]]\nname = \"c\"\nled = [ { name = \"L\", x_m = 0.0, z_m = 0.1, body = \"q\" } ]\n" +
+  EXPECT_NE(RigError(head + "[[camera]]\nname = \"c\"\nled = [ { name = \"L\", x_m = 0.0, z_m = 0.1, body = \"q\" } ]\n" +
                   channels)
                 .find("r.toml:13: key 'camera.led.body' names no [[body]]: 'q'"),
             std::string::npos);
-  EXPECT_NE(error(head + "[block]\nwidth_m = 0.2\nheight_m = 1.0\n" + channels)
+  EXPECT_NE(RigError(head + "[block]\nwidth_m = 0.2\nheight_m = 1.0\n" + channels)
                 .find("key 'block' must not be given beside [[body]] tables"),
+            std::string::npos);
+}
+
+// [[out_of_plane]]: a pair per body, its sensors named by the body; the
+// one [out_of_plane] table keeps oop.a and oop.b. Errors name the file,
+// the line and the key.
+TEST(AssemblyAcquisition, AnOutOfPlanePairPerBodyIsReadWithFileLineAndKey) {
+  const std::string head =
+      "name = \"r\"\nsample_rate_hz = 1000.0\n[[body]]\nname = \"a\"\nwidth_m = 0.5\nheight_m = 0.4\n"
+      "[[body]]\nname = \"b\"\nwidth_m = 0.2\nheight_m = 0.8\n";
+  auto channels = [](const std::string& prefix) {
+    return "[[channel]]\nname = \"" + prefix + "a\"\nsensor = \"" + prefix + ".a\"\n[[channel]]\nname = \"" +
+           prefix + "b\"\nsensor = \"" + prefix + ".b\"\n";
+  };
+  const RigConfig two = LoadRigConfig(kStatueRig);
+  ASSERT_EQ(two.out_of_plane_pairs.size(), 2u);
+  EXPECT_EQ(two.out_of_plane_pairs[0].body, 0);
+  EXPECT_EQ(two.out_of_plane_pairs[0].role_prefix, "oop.pedestal");
+  EXPECT_EQ(two.out_of_plane_pairs[1].role_prefix, "oop.statue");
+  EXPECT_EQ(two.out_of_plane_pairs[1].spacing_m, 0.16);
+  EXPECT_EQ(two.out_of_plane.role_prefix, "oop.pedestal");  // the first pair
+  const RigConfig one = ParseRigConfig(head + "[out_of_plane]\nbody = \"b\"\nspacing_m = 0.1\n" + channels("oop"),
+                                       "r.toml");
+  ASSERT_EQ(one.out_of_plane_pairs.size(), 1u);
+  EXPECT_EQ(one.out_of_plane.role_prefix, "oop");
+  EXPECT_EQ(one.out_of_plane.body, 1);
+  const std::string pair_a = "[[out_of_plane]]\nbody = \"a\"\nspacing_m = 0.3\n";
+  EXPECT_EQ(RigError(head + pair_a + pair_a + channels("oop.a")),
+            "r.toml:15: key 'out_of_plane.body' repeats the pair of body 'a' (one [[out_of_plane]] per body)");
+  EXPECT_NE(RigError(head + pair_a + channels("oop")).find("names an unknown sensor 'oop.a'"), std::string::npos);
+  EXPECT_NE(RigError(head + pair_a + "[[channel]]\nname = \"x\"\nsensor = \"oop.a.a\"\n")
+                .find("maps 'oop.a.a' but no channel maps 'oop.a.b'"),
+            std::string::npos);
+  EXPECT_NE(RigError("name = \"r\"\nsample_rate_hz = 1000.0\n[block]\nwidth_m = 0.2\nheight_m = 1.0\n" + pair_a +
+                  channels("oop"))
+                .find("key 'out_of_plane' as [[out_of_plane]] tables (a pair per body) needs [[body]] tables"),
             std::string::npos);
 }
 

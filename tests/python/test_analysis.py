@@ -66,6 +66,47 @@ def test_reconstruct_equals_cli(cli, source_dir, tmp_path):
     assert len(sliding) >= 1 and sliding["time"][0] == pytest.approx(0.5, abs=0.01)
 
 
+def _same_text(value, printed, fmt):
+    """A value against the CLI's field, to the last printed digit: fmt's
+    text of it (the CLI prints by to_chars, which is printf's), NaN as
+    "nan" or "-nan" (Python prints either sign as "nan")."""
+    if printed in ("nan", "-nan"):
+        return bool(np.isnan(value))
+    return fmt % value == printed
+
+
+def test_reconstruct_of_two_bodies_equals_cli(cli, source_dir, tmp_path):
+    # A rig of two [[body]] tables (the statue on its pedestal): the states
+    # carry the bottom body's columns, as RL_THETA does, then the CLI's
+    # per-body columns theta_1 .. flags_2. Oracle: `rocklab reconstruct`'s
+    # CSV of the same raw file, every field to its last printed digit
+    # (%.9f time, %.12g reals, integers). The raw file: synth of the
+    # statue under a short 8 Hz shake (0.6 s, both bodies rock).
+    rig = os.path.join(source_dir, "data/rigs/statue_rig.toml")
+    raw, out = tmp_path / "statue.csv", tmp_path / "statue.theta.csv"
+    cli.run("synth", "--rig", rig, "--assembly", os.path.join(source_dir, "data/assemblies/statue_on_pedestal.toml"),
+            "--excitation", "sine:amp=0.007,freq=8,duration=0.4,start=0.1", "--duration", 0.6, "--rate", 1000,
+            "--out", raw, "--truth", tmp_path / "statue.truth.csv")
+    cli.run("reconstruct", "--rig", rig, "--input", raw, "--out", out)
+    r = rocklab.reconstruct(raw, rig)
+    with open(out, newline="") as f:
+        rows = list(csv.reader(f))
+    header, rows = rows[0], rows[1:]
+    assert header[1:4] == ["theta_1", "theta_dot_1", "theta_mirror_1"] and header[-1] == "flags_2"
+    assert len(r.states) == len(rows) > 500
+    for j, name in enumerate(header):
+        assert name in r.states.dtype.names, name
+        fmt = "%.9f" if name == "time" else "%d" if r.states.dtype[name].kind == "i" else "%.12g"
+        bad = [(x[0], x[j], v) for x, v in zip(rows, r.states[name]) if not _same_text(v, x[j], fmt)]
+        assert not bad, (name, bad[:3])
+    units = rocklab.units(r.states)
+    assert units["theta_2"] == "rad" and units["sliding_1"] == "m" and "flags_2" not in units
+    # The bottom body is RL_THETA's block; the statue rocks on its own.
+    for field in ("theta", "theta_camera", "sliding", "flags", "leds_used"):
+        np.testing.assert_array_equal(r.states[field], r.states[field + "_1"])
+    assert np.nanmax(np.abs(r.states["theta_2"] - r.states["theta_1"])) > 0.01
+
+
 def test_reconstruct_errors(cli, source_dir, tmp_path):
     rig = os.path.join(source_dir, "data/rigs/lab_rig.toml")
     with pytest.raises(FileNotFoundError):
@@ -219,6 +260,48 @@ def test_sweep_equals_cli_and_fragility_equals_sweep_plot(cli, records, tmp_path
                 assert ours[key] is None
             else:
                 assert ours[key] == pytest.approx(float(theirs[column]), rel=5e-9)  # printed to 9 digits
+
+
+def test_sweep_of_an_assembly_equals_cli(cli, records, source_dir, tmp_path):
+    # sweep(assembly=) as `sweep --assembly`: the statue on its pedestal
+    # (a stack of two, the stack model) under the two bursts at 0.3 and
+    # 0.9 g. Oracle: the CLI's file of the same build, byte for byte but
+    # its provenance lines, and every parsed field its printed text.
+    statue = os.path.join(source_dir, "data/assemblies/statue_on_pedestal.toml")
+    out = tmp_path / "stack.csv"
+    args = ("--scale", "0.3:0.9:2", "--pga-g", "--duration", 5)
+    cli.run("sweep", "--records", *records, "--model", "housner", "--assembly", statue, *args, "--out", out)
+    rows, text = rocklab.sweep(records, model="housner", assembly=statue, scale="0.3:0.9:2", pga_g=True, duration=5,
+                               threads=2, csv_text=True)
+    cli_text = "".join(line for line in out.read_text().splitlines(keepends=True)
+                       if not line.startswith(("# rocklab provenance", "# provenance.")))
+    assert text == cli_text
+    assert "# assembly: statue_on_pedestal.toml " in text
+    assert rows.dtype.names[: len(rocklab.SWEEP_DTYPE.names)] == rocklab.SWEEP_DTYPE.names
+    assert rows.dtype.names[-3:] == ("first_overturned_body", "peak_abs_theta_1", "peak_abs_theta_2")
+    assert rocklab.units(rows)["peak_abs_theta_2"] == "rad" and rocklab.units(rows)["pga_g"] == "g"
+    lines = [line for line in cli_text.splitlines() if not line.startswith("#")]
+    assert lines[0].split(",") == list(rows.dtype.names) and len(rows) == len(lines) - 1 == 4
+    for row, line in zip(rows, lines[1:]):
+        for name, field in zip(rows.dtype.names, line.split(",")):
+            v = row[name]
+            if rows.dtype[name].kind == "f":
+                assert (np.isnan(v) and field == "") or repr(float(v)) == repr(float(field)), (name, field)
+            elif rows.dtype[name].kind == "b":
+                assert v == (field == "1"), (name, field)
+            else:
+                assert str(v) == field, (name, field)
+    assert set(rows["block"]) == {"statue_on_pedestal.toml"}
+    # The grid spans both outcomes: the statue falls first at 0.9 g of the 2 Hz burst.
+    assert set(rows["first_overturned_body"]) == {"", "statue"}
+    assert np.all(rows["peak_abs_theta_2"] > 0)
+    # Errors are the CLI's: a stack takes housner only; a missing file.
+    with pytest.raises(ValueError) as e:
+        rocklab.sweep(records, model="complex", assembly=statue)
+    assert str(e.value) == cli.error("sweep", "--records", *records, "--model", "complex", "--assembly", statue,
+                                     "--out", tmp_path / "x.csv")
+    with pytest.raises(FileNotFoundError):
+        rocklab.sweep(records, model="housner", assembly=tmp_path / "missing.toml")
 
 
 def test_sweep_errors_are_the_clis(cli, records, tmp_path):

@@ -59,6 +59,7 @@ names: List[str] = rocklab.posterior_problem(run.t, run.theta, 0.247, 1.0).names
 
 table: npt.NDArray[np.void] = rocklab.sweep(["a.csv"], model="housner", alpha=0.2, p=3.0)
 table2, text = rocklab.sweep(["a.csv"], model="housner", alpha=0.2, p=3.0, csv_text=True)
+stack_rows: npt.NDArray[np.void] = rocklab.sweep("a.csv", model="housner", assembly="statue.toml")
 length: int = len(text)
 fits: List[rocklab.BlockFragility] = rocklab.fragility(table)
 median_g: Optional[float] = fits[0]["median"]

@@ -19,10 +19,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/cancel.h"
 #include "common/units.h"
 #include "model/block.h"
 #include "pipeline/assembly.h"
 #include "pipeline/option_error.h"
+#include "sweep/sweep.h"
 #include "tests/source_paths.h"
 #include "tests/sweep/sweep_test_util.h"
 #include "tests/tools/run_cli.h"
@@ -232,6 +234,38 @@ TEST(SweepAssembly, AStackCellIsSimulateAssemblyOnItsExcitation) {
   EXPECT_NE(c.sweep.Cell(0, "uplift_time"), "");
   EXPECT_NE(c.sweep.Cell(0, "impacts"), "0");
   EXPECT_GT(overturned, 0);
+}
+
+// Oracle: a count of the token's polls. A stack's case looks at the token
+// before it and after it, and inside it every 256 output samples
+// (model::stack::kCancelPollOutputs), as a block's case: a hook that says
+// stop at its third call ends the case inside, at output sample 512 of
+// 4001, with Cancelled (polled only around the case, it would have run to
+// its end and returned). A hook that never says stop is called 2 +
+// floor(4000 / 256) = 17 times and leaves the row as without a token.
+TEST(SweepAssembly, AStackCaseStopsInsideWhenCancelled) {
+  const std::string dir = ScratchDir("sweep_assembly_cancel");
+  sweep::PlanOptions o;
+  o.records = {SineRecord(dir)};
+  o.assembly = kSource + "/data/assemblies/statue_on_pedestal.toml";
+  o.model = "housner";
+  o.scale = "3:3:1";  // 0.31 g: the statue rocks, nothing overturns (AStackCellIs...'s first row)
+  o.duration_s = 4.0;
+  const sweep::Plan plan = sweep::MakePlan(o);
+  ASSERT_TRUE(plan.stack());
+  int calls = 0;
+  const common::CancelToken stop_third([&calls] { return ++calls == 3; });
+  EXPECT_THROW(sweep::RunCase(plan, 0, &stop_third), common::Cancelled);
+  EXPECT_EQ(calls, 3);
+  int polls = 0;
+  const common::CancelToken never([&polls] {
+    ++polls;
+    return false;
+  });
+  const sweep::Outcome polled = sweep::RunCase(plan, 0, &never);
+  ASSERT_FALSE(polled.overturned);
+  EXPECT_EQ(polls, 2 + 4000 / 256);
+  EXPECT_EQ(sweep::FormatRow(plan, 0, polled), sweep::FormatRow(plan, 0, sweep::RunCase(plan, 0)));
 }
 
 // Oracle: docs/models.md's massless upper block (the reference
