@@ -63,7 +63,7 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 # pass still runs in smaller tests, and the stack oracle (python only).
 # Which, their cost under ASan and why: docs/testing.md, "Build time".
 asan_left_out='^(External\.stack_oracle|BlockTest\.AMillionVertexSectionIsCheckedInLinearlyManyEdgeTests'
-asan_left_out+='|FitTrajectory\.(SaysWhenTheTableRecordsSamplingMovesTheFit|ForcedNearThresholdFindsTheTruthOrSaysNotConverged'
+asan_left_out+='|FitTrajectory\.(ReadsTheTableRecordAsASplineAndSaysWhenItsSamplingMovesTheFit|ForcedNearThresholdFindsTheTruthOrSaysNotConverged'
 asan_left_out+='|RecoversBlock1FromAForcedTest|ResidualToNoiseSeesAWrongModel|ForcedLocalMinimumIsNotCalledConverged)'
 asan_left_out+='|FitTrajectory\.CovarianceIsTheModelsSensitivityNotTheIntegratorsError'
 asan_left_out+='|SweepMerge\.ByteDamagedHdf5ShardsAreErrorsNotCrashes|CliPosterior\.JsonKeysSamplesAndPlot'

@@ -319,8 +319,13 @@ TEST_F(MultiProcess, LogplayerReplayOfTheDaqMessagesGivesTheSameSummary) {
   EXPECT_EQ(test::StopProcess(compare.pid, SIGTERM), 0) << test::ReadFile(compare.err);
   EXPECT_EQ(test::StopProcess(model.pid, SIGTERM), 0) << test::ReadFile(model.err);
 
-  const nlohmann::json a = nlohmann::json::parse(test::ReadFile(dir + "/A.json"));
-  const nlohmann::json b = nlohmann::json::parse(test::ReadFile(dir + "/B.json"));
+  nlohmann::json a = nlohmann::json::parse(test::ReadFile(dir + "/A.json"));
+  nlohmann::json b = nlohmann::json::parse(test::ReadFile(dir + "/B.json"));
+  // compare's provenance names its own summary file and time: the figures
+  // are what must agree.
+  EXPECT_EQ(a.at("provenance").at("sources").size(), 0u);  // a live node reads no file
+  a.erase("provenance");
+  b.erase("provenance");
   ASSERT_EQ(a.at("variants").size(), 2u);
   for (const auto& v : a.at("variants")) {
     EXPECT_GT(v.at("samples").get<std::int64_t>(), 3800) << v.at("name");
