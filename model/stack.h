@@ -138,10 +138,8 @@ struct RunOptions {
   /// A pivot whose relative rate after an impact is below this closes
   /// (stays shut: Housner's impacts would otherwise come ever closer), rad/s.
   double rest_rate_rad_s{1e-6};
-  /// How the equations are stepped: Adams for a whole record (Simulate);
-  /// the model node steps live with Dormand-Prince 5(4), one step at a time,
-  /// which loses nothing at the kink of the sampled table at every sample
-  /// (as the single block's, docs/performance.md).
+  /// How the equations are stepped: Adams, for a whole record (Simulate)
+  /// and live in the model node (docs/models.md, "In the model node").
   Integrator integrator{Integrator::kAdams};
   /// Polled every kCancelPollOutputs output samples (empty: never); true
   /// stops the run with model::Cancelled (a sweep's Ctrl-C inside a case).

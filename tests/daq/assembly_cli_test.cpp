@@ -113,6 +113,31 @@ TEST(AssemblyAcquisition, EachBodysThetaIsTheStackModelsWithinTheNoise) {
   }
 }
 
+// The whole lab on the statue: `rocklab run` with the stack as a variant,
+// the model node driven live by the measured table. Oracle: synth's data
+// are the same stack model plus noise, so the live model must follow each
+// body: nRMS (RMS error over the measured peak) measured 0.05 (pedestal)
+// and 0.08 (statue). 0.2 leaves room for the table's noise carried through
+// 35 impacts and fails a model that leaves the record: stepped with
+// Dormand-Prince 5(4) the node overturned the pedestal at ~1.2 s (nRMS 114).
+// Modes: a perfect model agrees 73 % at the default 2e-3 rad rest threshold
+// on this record (docs/compare.md); measured 70 %, checked above 60 %.
+TEST(AssemblyAcquisition, RunFollowsTheStatueWithTheStackAsAVariant) {
+  const std::string raw = SynthStatue("run.csv", {"--seed", "3"});
+  const std::string summary = raw + ".summary.json";
+  const auto r = rocklab::test::RunCli({"run", "--rig", kStatueRig, "--input", raw, "--max", "--variant",
+                                        "st:housner:" + kStatue, "--summary", summary});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(rocklab::test::ReadFile(summary));
+  const nlohmann::json& v = j.at("variants").at(0);
+  ASSERT_EQ(v.at("bodies").size(), 2u) << v.dump(1);
+  for (const auto& b : v.at("bodies")) {
+    EXPECT_LT(b.at("nrms").get<double>(), 0.2) << b.dump();
+    EXPECT_GT(b.at("correlation").get<double>(), 0.9) << b.dump();
+  }
+  EXPECT_GT(v.at("mode_agreement").get<double>(), 0.6) << v.dump(1);
+}
+
 // A 3 mm slide of the statue on its pedestal at t = 1.2345 s: flagged on
 // the statue's interface (flags_2 SLIDING) from the first sample at or
 // after it, within 10 ms, never before; the pedestal's interface never.

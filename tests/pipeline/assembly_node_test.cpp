@@ -51,11 +51,12 @@ std::vector<double> WriteDrumRecord(const std::string& path) {
 
 // Oracle: `simulate --assembly`'s run (stack::Simulate, CVODE's Adams
 // stepping across the samples) of the same record, linear between its
-// samples as the node's table is. The node steps with Dormand-Prince 5(4)
+// samples as the node's table is. The node steps with the same Adams
 // stopping at every sample; both hold rtol 1e-10 and atol 1e-12 rad, so
 // they differ by their integration errors alone, which the impacts carry
 // on: 1e-7 rad is ~1e-6 of the peak angle and far below any modelling
-// difference; measured 2.7e-8 rad on this record (docs/models.md, "In the
+// difference; measured 2.7e-8 rad when the node stepped with Dormand-Prince
+// 5(4) (docs/models.md, "In the
 // model node"). Event times agree to 1.5 us: the root finders locate a
 // crossing to ~1e-10 s, and 3e-8 rad moves a crossing at ~0.1 rad/s by
 // ~3e-7 s.
