@@ -16,6 +16,7 @@
 #include "compare/compare_node.h"
 #include "rocklab/block_state2_t.hpp"
 #include "rocklab/comparison2_t.hpp"
+#include "tests/compare/printed_summary.h"
 #include "rocklab/comparison3_t.hpp"
 #include "rocklab/model_state4_t.hpp"
 #include "tests/tools/lcm_messages.h"
@@ -132,14 +133,8 @@ TEST(CompareNodeBodies, ComparesEveryBodyAndTheMode) {
   EXPECT_EQ(v.at("bodies").at(1).at("body").get<int>(), 1);
   EXPECT_NEAR(v.at("bodies").at(1).at("rms").get<double>(), 2e-3, 1e-15);
 
-  char* text = nullptr;
-  std::size_t size = 0;
-  std::FILE* out = open_memstream(&text, &size);
-  ASSERT_NE(out, nullptr);
-  CompareNode::PrintSummary(summary, out);
-  std::fclose(out);
-  const std::string table(text, size);
-  std::free(text);
+  const std::string table = test::PrintedSummary(summary);
+  ASSERT_FALSE(table.empty());
   EXPECT_NE(table.find("statue               body 1"), std::string::npos) << table;
   EXPECT_NE(table.find("statue: modes agree 60.00000 % of 1000 samples"), std::string::npos) << table;
 }

@@ -20,6 +20,7 @@
 #include "common/direct_bus.h"
 #include "common/lcm_bus.h"
 #include "rocklab/comparison2_t.hpp"
+#include "tests/compare/printed_summary.h"
 #include "rocklab/event2_t.hpp"
 #include "rocklab/health2_t.hpp"
 #include "tests/scratch.h"
@@ -192,14 +193,8 @@ TEST(CompareNode, NoMatchedCrossingIsNullAndADashNotZero) {
   EXPECT_TRUE(v.at("mean_abs_timing_error").is_null()) << v.dump();
   EXPECT_TRUE(v.at("mean_abs_peak_error").is_null()) << v.dump();
 
-  char* text = nullptr;
-  std::size_t size = 0;
-  std::FILE* out = open_memstream(&text, &size);
-  ASSERT_NE(out, nullptr);
-  CompareNode::PrintSummary(summary, out);
-  std::fclose(out);
-  const std::string table(text, size);
-  std::free(text);
+  const std::string table = test::PrintedSummary(summary);
+  ASSERT_FALSE(table.empty());
   // The row: ... corr, timing_s, peak_deg, valid%: the two as "-".
   const std::size_t row = table.find("\nfit ");
   ASSERT_NE(row, std::string::npos) << table;
