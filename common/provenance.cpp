@@ -60,16 +60,17 @@ std::string ThisCommandLine() {
   return out;
 }
 
-std::string NowUtc() {
-  const std::time_t now = std::time(nullptr);
+std::string NowUtc() { return UtcText(std::time(nullptr)); }
+
+}  // namespace
+
+std::string UtcText(std::time_t time) {
   std::tm utc{};
-  gmtime_r(&now, &utc);
+  gmtime_r(&time, &utc);
   char text[32];
   std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
   return text;
 }
-
-}  // namespace
 
 Sha256::Sha256()
     : h_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19},

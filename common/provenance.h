@@ -7,6 +7,7 @@
 /// each kind of output keeps it.
 
 #include <cstdint>
+#include <ctime>
 #include <filesystem>
 #include <future>
 #include <istream>
@@ -48,6 +49,9 @@ struct Provenance {
   std::string created_utc;      ///< ISO 8601, e.g. 2026-11-26T22:40:00Z
   std::vector<SourceFile> sources;
 };
+
+/// `time` as created_utc writes it (ISO 8601 in UTC, to the second).
+std::string UtcText(std::time_t time);
 
 /// The provenance of a file made now from `sources` (read and hashed here;
 /// a path that is empty or repeated is left out, one that cannot be read

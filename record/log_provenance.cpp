@@ -12,11 +12,16 @@
 namespace rocklab::record {
 
 LogProvenance::LogProvenance(std::vector<std::string> sources, Fields extra) : extra_(std::move(extra)) {
-  hashing_ = std::async(std::launch::async, [s = std::move(sources)] { return common::MakeProvenance(s); });
+  worker_ = std::thread([this, s = std::move(sources)]() mutable { Work(std::move(s)); });
 }
 
 LogProvenance::~LogProvenance() {
-  if (hashing_.valid()) hashing_.wait();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  worker_.join();
 }
 
 void LogProvenance::Attach(RotationOptions& options) {
@@ -25,13 +30,14 @@ void LogProvenance::Attach(RotationOptions& options) {
   options.on_finished = [this](const FinishedLogFile& file) { Finished(file); };
 }
 
-LogProvenance::Fields LogProvenance::FieldsOf(const FinishedLogFile& file) {
-  if (!have_provenance_) {
-    provenance_ = hashing_.get();
-    have_provenance_ = true;
+LogProvenance::Fields LogProvenance::FieldsOf(const Queued& q) {
+  const FinishedLogFile& file = q.file;
+  common::Provenance p;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    p = provenance_;
   }
-  common::Provenance p = provenance_;
-  p.created_utc = common::MakeProvenance({}).created_utc;  // when this file was finished
+  p.created_utc = common::UtcText(q.finished);
   Fields fields = common::ProvenanceFields(p);
   fields.insert(fields.end(), extra_.begin(), extra_.end());
   fields.emplace_back("log_series", series_);
@@ -52,12 +58,57 @@ void LogProvenance::Started(const std::string& path) {
 }
 
 void LogProvenance::Finished(const FinishedLogFile& file) {
-  try {
-    common::WriteProvenanceSidecarFields(file.path, FieldsOf(file));
-  } catch (const std::exception& e) {
-    errors_.fetch_add(1);
-    common::NamedLogger("record")->error("{}: its provenance sidecar could not be written: {}", file.path, e.what());
+  Queued q{file, std::time(nullptr)};
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.push_back(std::move(q));
   }
+  wake_.notify_one();
+}
+
+void LogProvenance::Work(std::vector<std::string> sources) {
+  // The hashing first (it may read a large input file), then the sidecars
+  // as the files finish.
+  common::Provenance hashed;
+  try {
+    hashed = common::MakeProvenance(sources);
+  } catch (const std::exception& e) {  // the sidecars say what they can
+    errors_.fetch_add(1);
+    common::NamedLogger("record")->error("the provenance of the log's sources could not be made: {}", e.what());
+    hashed = common::MakeProvenance({});
+  }
+  std::unique_lock<std::mutex> lock(mutex_);
+  provenance_ = std::move(hashed);
+  have_provenance_ = true;
+  drained_.notify_all();
+  for (;;) {
+    wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+    if (queue_.empty()) return;  // stopping, nothing left
+    Queued q = std::move(queue_.front());
+    queue_.pop_front();
+    busy_ = true;
+    lock.unlock();
+    try {
+      common::WriteProvenanceSidecarFields(q.file.path, FieldsOf(q));
+    } catch (const std::exception& e) {
+      errors_.fetch_add(1);
+      common::NamedLogger("record")->error("{}: its provenance sidecar could not be written: {}", q.file.path,
+                                           e.what());
+    }
+    lock.lock();
+    busy_ = false;
+    if (queue_.empty()) drained_.notify_all();
+  }
+}
+
+void LogProvenance::Drain() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  drained_.wait(lock, [this] { return have_provenance_ && queue_.empty() && !busy_; });
+}
+
+int64_t LogProvenance::errors() {
+  Drain();
+  return errors_.load();
 }
 
 }  // namespace rocklab::record

@@ -8,14 +8,21 @@
 /// as every reader expects them.
 ///
 /// Cost: the sources are hashed once, on a thread of their own from
-/// construction (common::MakeProvenance); the writing thread waits for them
-/// only at the first finished file. Per file, one sidecar of a few hundred
-/// bytes; nothing per event.
+/// construction (common::MakeProvenance), and each sidecar is written (and
+/// synced) on that thread too, in the order the files finish: the writing
+/// thread (the DAQ's, at a rotation) only queues the file's counts. Per
+/// file, one sidecar of a few hundred bytes; nothing per event. The
+/// sidecars are on disk once errors() or Drain() returns, or the object is
+/// destroyed.
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
-#include <future>
+#include <ctime>
+#include <deque>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -31,7 +38,7 @@ class LogProvenance {
   /// live inputs listed as "could not be read"); `extra`: rows after the
   /// common ones (rig, lcm_url, ...), before each file's own.
   LogProvenance(std::vector<std::string> sources, Fields extra);
-  ~LogProvenance();  ///< waits for the hashing thread
+  ~LogProvenance();  ///< writes the sidecars still queued, then joins its thread
   LogProvenance(const LogProvenance&) = delete;
   LogProvenance& operator=(const LogProvenance&) = delete;
 
@@ -39,24 +46,40 @@ class LogProvenance {
   /// outlive the writer. `series` names the recording (the --log/LOG path).
   void Attach(RotationOptions& options);
 
-  /// The sidecar rows of `file`: rocklab_version, build_type, command,
-  /// created_utc (the time the file was finished), source_N, the extra
-  /// rows, then log_series, log_file_index, first_event, events, bytes,
-  /// first_utime_us, last_utime_us.
-  Fields FieldsOf(const FinishedLogFile& file);
+  /// Returns when every file finished so far has its sidecar written (or
+  /// counted in errors()).
+  void Drain();
 
-  /// Sidecars that could not be written (each logged with its reason).
-  int64_t errors() const { return errors_.load(); }
+  /// Sidecars that could not be written (each logged with its reason), of
+  /// every file finished so far (drains first).
+  int64_t errors();
 
  private:
+  struct Queued {
+    FinishedLogFile file;
+    std::time_t finished{};  // created_utc: when the file was finished
+  };
   void Started(const std::string& path);
   void Finished(const FinishedLogFile& file);
-  std::future<common::Provenance> hashing_;
-  common::Provenance provenance_;  // hashing_'s, once taken
-  bool have_provenance_{false};
+  void Work(std::vector<std::string> sources);
+  /// The sidecar rows of `file`: rocklab_version, build_type, command,
+  /// created_utc, source_N, the extra rows, then log_series,
+  /// log_file_index, first_event, events, bytes, first_utime_us,
+  /// last_utime_us.
+  Fields FieldsOf(const Queued& q);
+
+  std::mutex mutex_;
+  std::condition_variable wake_;     // the worker: a file queued, or stopping
+  std::condition_variable drained_;  // Drain: the queue emptied
+  std::deque<Queued> queue_;         // guarded by mutex_
+  bool busy_{false};                 // the worker is writing one (mutex_)
+  bool stopping_{false};             // (mutex_)
+  bool have_provenance_{false};      // (mutex_)
+  common::Provenance provenance_;    // the worker's hashing, once done (mutex_)
   Fields extra_;
   std::string series_;
   std::atomic<int64_t> errors_{0};
+  std::thread worker_;  // last: started once the members above exist
 };
 
 }  // namespace rocklab::record

@@ -508,6 +508,7 @@ TEST(LogWriterTest, EachFinishedFileCarriesItsOwnProvenance) {
   EXPECT_FALSE(std::ifstream(first_sidecar).good()) << "a stale sidecar beside the file being written";
   const auto sent = WriteSeries(w, 120, 1000, 100);
   ASSERT_GE(w.files().size(), 3u);
+  provenance.Drain();  // the sidecars are written on the provenance's own thread
   int64_t next_event = 0;
   for (std::size_t i = 0; i < w.files().size(); ++i) {
     const std::string& f = w.files()[i];
@@ -531,6 +532,30 @@ TEST(LogWriterTest, EachFinishedFileCarriesItsOwnProvenance) {
   }
   EXPECT_EQ(next_event, static_cast<int64_t>(sent.size()));
   EXPECT_EQ(provenance.errors(), 0);
+}
+
+// The sidecars are written on the provenance's thread, not the writer's;
+// whatever is still queued when the provenance goes (the end of a daq or
+// record run without a call to errors()) is written before it is gone.
+// Oracle: every file of the series has its sidecar, naming its index.
+TEST(LogWriterTest, SidecarsStillQueuedAreWrittenWhenTheProvenanceGoes) {
+  RotationOptions o;
+  o.path = Scratch("prov_queued.lcm");
+  o.rotate_bytes = 2000;
+  o.overwrite = true;
+  std::vector<std::string> files;
+  {
+    LogProvenance provenance({}, {});
+    provenance.Attach(o);
+    RotatingLogWriter w(o);
+    WriteSeries(w, 200, 1000, 100);
+    files = w.files();
+  }
+  ASSERT_GE(files.size(), 8u);
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    auto rows = SidecarRows(files[i] + ".provenance.csv");
+    EXPECT_EQ(rows["log_file_index"], std::to_string(i)) << files[i];
+  }
 }
 
 // Oracle: with 10 ms between events and 0.25 s per file, each file holds the
