@@ -8,9 +8,13 @@
 // 2. writes READY_FILE (the test then starts the replay) and waits for
 //    DONE_FILE (the replay has ended);
 // 3. waits until the table shows, for every variant, the sample count of the
-//    server's final snapshot (the page caught up with the last RL_COMPARE);
+//    server's final snapshot (the page caught up with the last RL_COMPARE),
+//    and for every assembly variant the mode samples of its last
+//    RL_COMPAREBODIES;
 // 4. writes OUT.json: the table cells (data-variant, data-field -> text), the
-//    uPlot data lengths, the update count, console errors; saves a screenshot;
+//    uPlot data lengths, an assembly's body charts and per-body cells
+//    (data-assembly, data-body, data-field; data-modes, data-field), the
+//    update count, console errors; saves a screenshot;
 // 5. renders the page in static mode (files and the final snapshot inlined,
 //    as `rocklab report` does) and adds what it shows, and the requests it
 //    made, as "static".
@@ -54,7 +58,20 @@ function collectShown() {
     const n = td.getAttribute('data-node');
     (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
   }
+  const bodyCells = {};  // variant -> body index -> field -> text
+  for (const td of document.querySelectorAll('td[data-assembly][data-body][data-field]')) {
+    const v = td.getAttribute('data-assembly');
+    const k = td.getAttribute('data-body');
+    ((bodyCells[v] = bodyCells[v] || {})[k] = bodyCells[v][k] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
+  const modeCells = {};  // variant -> field -> text
+  for (const td of document.querySelectorAll('td[data-modes][data-field]')) {
+    const v = td.getAttribute('data-modes');
+    (modeCells[v] = modeCells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
   return {cells, health, dataLengths: window.rocklabMonitor.dataLengths(),
+    bodyRows: window.rocklabMonitor.bodyRows(), bodyCells, modeCells,
+    bodiesHidden: document.getElementById('bodies-section').hidden,
     updates: window.rocklabMonitor.updates, mode: window.rocklabMonitor.mode};
 }
 
@@ -104,16 +121,22 @@ async function main() {
     await waitForFile(doneFile);
     const snapshot = await getJson(url + 'api/snapshot');
     const expected = {};
+    const expectedModes = {};
     for (const v of snapshot.variants) {
       if (v.latest) expected[v.name] = String(v.latest.samples);
+      if (v.bodies_latest) expectedModes[v.name] = String(v.bodies_latest.mode_samples);
     }
-    await page.waitForFunction((want) => {
+    await page.waitForFunction(([want, wantModes]) => {
       for (const [name, samples] of Object.entries(want)) {
         const td = document.querySelector(`td[data-variant="${name}"][data-field="samples"]`);
         if (!td || td.textContent !== samples) return false;
       }
+      for (const [name, samples] of Object.entries(wantModes)) {
+        const td = document.querySelector(`td[data-modes="${name}"][data-field="mode_samples"]`);
+        if (!td || td.textContent !== samples) return false;
+      }
       return window.rocklabMonitor.dataLengths().theta.length > 1;
-    }, expected, {timeout: STEP_TIMEOUT_MS});
+    }, [expected, expectedModes], {timeout: STEP_TIMEOUT_MS});
 
     const shown = await page.evaluate(collectShown);
     fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
