@@ -811,7 +811,8 @@ std::string CompareNode::SummaryJsonText(const std::vector<VariantSummary>& summ
       nlohmann::json bodies = nlohmann::json::array();
       for (std::size_t k = 0; k < s.bodies.size(); ++k) {
         nlohmann::json b = figures(s.bodies[k]);
-        b["body"] = k;
+        b["body"] = k;        // the index, 0 on the table (LCM arrays, export's _k columns)
+        b["number"] = k + 1;  // the K of simulate's and reconstruct's CSV columns theta_K
         bodies.push_back(b);
       }
       v["bodies"] = bodies;

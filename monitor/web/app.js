@@ -2,7 +2,10 @@
 // windowed RMS (uPlot charts), flags as shaded bands and events as markers
 // (uPlot hooks), the latest comparison numbers, node health, counters, and
 // each ensemble's posterior predictive band (median, 68 % and 95 %) shaded
-// around the model curves with its coverage numbers.
+// around the model curves with its coverage numbers; for an assembly, a
+// theta chart per body (measured, RL_BODIES, and each assembly variant's)
+// with each body's comparison figures and each variant's mode agreement
+// (RL_COMPAREBODIES_<name>).
 //
 // Two modes:
 //  - live (`rocklab monitor`): an EventSource on api/events receives a full
@@ -17,8 +20,14 @@
 //
 // For tests and scripts, `window.rocklabMonitor` exposes the uPlot instances
 // (`plots.theta`, `plots.error`), `updates` (messages applied), `mode`,
-// `dataLengths()` (points per chart series) and `bandNames()` (the bands
-// drawn on the theta chart).
+// `dataLengths()` (points per chart series), `bandNames()` (the bands
+// drawn on the theta chart) and `bodyRows()` (an assembly's per-body charts:
+// each one's body index and series labels).
+//
+// Bodies are numbered by their index, 0 for the body on the table, upwards,
+// as RL_BODIES' arrays, compare's summary and `rocklab report`; the CSV
+// columns of simulate and reconstruct number them from 1 (theta_1 is body
+// 0): docs/compare.md, "Numbering the bodies".
 (function () {
   'use strict';
 
@@ -84,7 +93,10 @@
     t0Utime: null,         // sample clock of t = 0, us
     measured: {t: [], theta: []},
     table: {t: [], accel: []},  // RL_TABLE u_g'', m/s^2
-    variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest, whole}
+    variants: new Map(),   // name -> {meta, color, theta: {t, theta}, cmp: {t, err, rms}, latest, whole,
+                           //          bodies: [{t, theta}] per body, bodiesLatest: RL_COMPAREBODIES or null}
+    bodies: [],            // an assembly: RL_BODIES theta per body, [{t, theta}], bottom-up
+    bodiesDropped: 0,      // bodies beyond the server's limit, counted by it
     bands: new Map(),      // name -> {meta, rgb, band: {t, median, lo68, hi68, lo95, hi95}, latest}
     flags: new Map(),      // interval id -> {flag, source, start, end}
     events: [],
@@ -92,8 +104,9 @@
     config: null,
     counters: null,
   };
-  const plots = {theta: null, error: null};
+  const plots = {theta: null, error: null, bodies: []};  // bodies: one chart per body, bottom-up
   let plottedVariants = '';  // the variant list the plots were built for
+  let plottedBodies = '';    // the bodies and assembly variants the body charts were built for
   let updates = 0;
   let mode = 'starting';
   let renderPending = false;
@@ -129,7 +142,8 @@
     let v = held.variants.get(name);
     if (!v) {
       v = {meta: {name: name}, color: PALETTE[held.variants.size % PALETTE.length],
-        theta: {t: [], theta: []}, cmp: {t: [], err: [], rms: []}, latest: null};
+        theta: {t: [], theta: []}, cmp: {t: [], err: [], rms: []}, latest: null,
+        bodies: [], bodiesLatest: null};
       held.variants.set(name, v);
     }
     return v;
@@ -145,8 +159,16 @@
     return b;
   }
 
+  // The series of body k in `list` (an array of {t, theta}), made when new.
+  function bodySeries(list, k) {
+    while (list.length <= k) list.push({t: [], theta: []});
+    return list[k];
+  }
+
   function reset() {
     held.measured = {t: [], theta: []};
+    held.bodies = [];
+    held.bodiesDropped = 0;
     held.table = {t: [], accel: []};
     held.variants = new Map();
     held.bands = new Map();
@@ -169,6 +191,14 @@
       v.whole = mv.whole;
       append(v.theta, mv.theta, [['t', 't'], ['theta', 'theta_deg']]);
       append(v.cmp, mv.comparison, [['t', 't'], ['err', 'error_deg'], ['rms', 'rms_window_deg']]);
+      // An assembly variant only (a single block's has no "bodies").
+      (mv.bodies || []).forEach((s, k) => append(bodySeries(v.bodies, k), s, [['t', 't'], ['theta', 'theta_deg']]));
+      v.bodiesLatest = mv.bodies_latest || null;
+    }
+    if (msg.bodies) {
+      (msg.bodies.measured || []).forEach((s, k) =>
+        append(bodySeries(held.bodies, k), s, [['t', 't'], ['theta', 'theta_deg']]));
+      held.bodiesDropped = msg.bodies.dropped || 0;
     }
     for (const mb of msg.bands || []) {
       const b = bandFor(mb.name);
@@ -212,7 +242,9 @@
     for (const v of held.variants.values()) {
       trimSeries(v.theta, cutoff);
       trimSeries(v.cmp, cutoff);
+      for (const s of v.bodies) trimSeries(s, cutoff);
     }
+    for (const s of held.bodies) trimSeries(s, cutoff);
     for (const b of held.bands.values()) trimSeries(b.band, cutoff);
     for (const [id, f] of held.flags) {
       if (f.end !== null && f.end < cutoff) held.flags.delete(id);
@@ -337,21 +369,26 @@
     return rows;
   }
 
+  const CHART_HEIGHT_PX = 300;
+  const BODY_CHART_HEIGHT_PX = 220;  // a body's chart: several stack up
+
   function chartWidth(el) {
     return Math.max(300, el.clientWidth || 900);
   }
 
-  function makePlot(el, yLabel, series, bands) {
+  // `height`: CSS px (300 unless given); `plugins`: the flags and events
+  // unless given (the body charts draw neither: both are the bottom body's).
+  function makePlot(el, yLabel, series, bands, height, plugins) {
     el.textContent = '';
     const options = {
       width: chartWidth(el),
-      height: 300,
+      height: height || CHART_HEIGHT_PX,
       scales: {x: {time: false}},
       axes: [{label: 'time (s)'}, {label: yLabel}],
       series: [{label: 't (s)', value: (u, v) => (v === null ? '—' : v.toFixed(3))}].concat(series),
       cursor: {drag: {x: true, y: false}},
       legend: {live: true},
-      plugins: [flagsAndEvents()],
+      plugins: plugins || [flagsAndEvents()],
       bands: bands || [],
     };
     return new uPlot(options, [[]].concat(series.map(() => [])), el);
@@ -433,6 +470,84 @@
     plots.error.setData(errorTables.length ? uPlot.join(errorTables) : [[]]);
   }
 
+  // -- an assembly: a chart per body ----------------------------------------------
+
+  const NO_SERIES = {t: [], theta: []};
+
+  // The variants that carry bodies (model_state4_t of two or more), in order.
+  function assemblyVariants() {
+    return Array.from(held.variants).filter(([, v]) => v.bodies.length > 0 || v.bodiesLatest !== null);
+  }
+
+  // Bodies to draw: the most that any source has (RL_BODIES, a variant's
+  // theta or its RL_COMPAREBODIES); 0 for a single block.
+  function bodyCount() {
+    let n = held.bodies.length;
+    for (const [, v] of assemblyVariants()) {
+      n = Math.max(n, v.bodies.length, v.bodiesLatest ? v.bodiesLatest.nbodies : 0);
+    }
+    return n;
+  }
+
+  function bodyName(k, n) {
+    return 'body ' + k + (k === 0 ? ' (on the table)' : (k === n - 1 ? ' (top)' : ''));
+  }
+
+  // One chart per body: the measured angle (RL_BODIES) and each assembly
+  // variant's, in the variant's colour. Rebuilt when the bodies, the
+  // assembly variants or the unit change.
+  function buildBodyPlots(n, variants) {
+    const key = n + '\n' + variants.map(([name]) => name).join('\n') + '\n' + angleUnit;
+    if (key === plottedBodies) return;
+    plottedBodies = key;
+    for (const p of plots.bodies) p.destroy();
+    plots.bodies = [];
+    const container = document.getElementById('bodies-charts');
+    container.textContent = '';
+    for (let k = 0; k < n; k++) {
+      const row = document.createElement('div');
+      row.className = 'body-row';
+      row.setAttribute('data-body', String(k));
+      const title = document.createElement('h3');
+      title.textContent = 'θ (' + angleUnit + ') of ' + bodyName(k, n);
+      const el = document.createElement('div');
+      el.className = 'chart body-chart';
+      row.appendChild(title);
+      row.appendChild(el);
+      container.appendChild(row);
+      const series = [{label: 'measured', stroke: '#111', width: 1.6, spanGaps: true}];
+      for (const [name, v] of variants) series.push({label: name, stroke: v.color, width: 1.2, spanGaps: true});
+      plots.bodies.push(makePlot(el, 'θ, body ' + k + ' (' + angleUnit + ')', series, [], BODY_CHART_HEIGHT_PX, []));
+    }
+  }
+
+  function renderBodies() {
+    const n = bodyCount();
+    const section = document.getElementById('bodies-section');
+    if (section) section.hidden = n === 0;
+    const variants = assemblyVariants();
+    if (n === 0) {
+      if (plots.bodies.length) buildBodyPlots(0, []);
+    } else {
+      buildBodyPlots(n, variants);
+      plots.bodies.forEach((p, k) => {
+        const m = held.bodies[k] || NO_SERIES;
+        const tables = [[m.t, shown(m.theta)]];
+        for (const [, v] of variants) {
+          const s = v.bodies[k] || NO_SERIES;
+          tables.push([s.t, shown(s.theta)]);
+        }
+        p.setData(uPlot.join(tables));
+      });
+    }
+    const dropped = document.getElementById('bodies-dropped');
+    if (dropped) {
+      dropped.textContent = held.bodiesDropped > 0
+        ? 'bodies beyond those drawn, left out by the monitor: ' + held.bodiesDropped : '';
+    }
+    renderBodyTables(n, variants);
+  }
+
   // -- tables ---------------------------------------------------------------------
 
   function cell(row, text, attrs, cls) {
@@ -499,6 +614,50 @@
         cell(row, fmtG(BAND_ANGLE_FIELDS.has(f) ? fromRad(l[f]) : l[f]), {'data-band': name, 'data-field': f});
       }
       body.appendChild(row);
+    }
+  }
+
+  // An assembly's figures (each variant's newest RL_COMPAREBODIES_<name>):
+  // a row per (variant, body), cells data-assembly / data-body / data-field
+  // (not data-variant: those cells are the single-block table's), and a row
+  // per variant with its modes and their agreement (data-modes).
+  // [field, is an angle]: totals since the start, then the newest values.
+  const BODY_COLUMNS = [['rms_total', true], ['nrms', false], ['correlation', false],
+    ['peak_error', true], ['impact_timing_error', false]];
+  const MODE_COLUMNS = [['mode_model', false], ['mode_measured', false], ['mode_agreement', false],
+    ['mode_samples', false], ['mode_rest_rad', true]];
+
+  function renderBodyTables(n, variants) {
+    const body = document.querySelector('#bodies tbody');
+    const modes = document.querySelector('#modes tbody');
+    if (!body || !modes) return;
+    body.textContent = '';
+    modes.textContent = '';
+    for (const [name, v] of variants) {
+      const l = v.bodiesLatest || {};
+      for (let k = 0; k < n; k++) {
+        const row = nameRow('data-assembly', name, v.color);
+        row.setAttribute('data-body', String(k));
+        row.firstChild.setAttribute('data-body', String(k));
+        const at = (f) => ({'data-assembly': name, 'data-body': String(k), 'data-field': f});
+        cell(row, bodyName(k, n), at('body'), 'text');
+        const valid = Array.isArray(l.valid) ? l.valid[k] : undefined;
+        cell(row, l.samples === undefined ? '—' : String(l.samples) + (valid === false ? ' (invalid now)' : ''),
+          at('samples'), valid === false ? 'invalid' : '');
+        for (const [f, angle] of BODY_COLUMNS) {
+          const x = Array.isArray(l[f]) ? l[f][k] : undefined;
+          cell(row, fmtG(angle ? fromRad(x) : x), at(f));
+        }
+        body.appendChild(row);
+      }
+      const row = nameRow('data-modes', name, v.color);
+      for (const [f, angle] of MODE_COLUMNS) {
+        const x = l[f];
+        const text = f === 'mode_samples' ? (x === undefined ? '—' : String(x))
+          : (f.startsWith('mode_m') ? (x === undefined || x === '' ? '—' : x) : fmtG(angle ? fromRad(x) : x));
+        cell(row, text, {'data-modes': name, 'data-field': f}, f.startsWith('mode_m') ? 'text' : '');
+      }
+      modes.appendChild(row);
     }
   }
 
@@ -606,6 +765,7 @@
     renderPending = false;
     for (const el of document.querySelectorAll('.angle-unit')) el.textContent = angleUnit;
     renderCharts();
+    renderBodies();
     renderComparison();
     renderBands();
     renderHealth();
@@ -648,8 +808,9 @@
 
   window.addEventListener('resize', () => {
     for (const p of [plots.theta, plots.error]) {
-      if (p) p.setSize({width: chartWidth(p.root.parentNode), height: 300});
+      if (p) p.setSize({width: chartWidth(p.root.parentNode), height: CHART_HEIGHT_PX});
     }
+    for (const p of plots.bodies) p.setSize({width: chartWidth(p.root.parentNode), height: BODY_CHART_HEIGHT_PX});
   });
 
   // -- the page's data as CSV, built in the page (a Blob, no request) ---------
@@ -670,6 +831,11 @@
       columns.push(['theta_' + name + '_deg', v.theta.t, v.theta.theta]);
       columns.push(['error_' + name + '_deg', v.cmp.t, v.cmp.err]);
       columns.push(['rms_window_' + name + '_deg', v.cmp.t, v.cmp.rms]);
+    }
+    // An assembly: each body's measured and assembly variants' angles.
+    held.bodies.forEach((s, k) => columns.push(['theta_measured_body_' + k + '_deg', s.t, s.theta]));
+    for (const [name, v] of held.variants) {
+      v.bodies.forEach((s, k) => columns.push(['theta_' + name + '_body_' + k + '_deg', s.t, s.theta]));
     }
     for (const [name, b] of held.bands) {
       for (const q of ['median', 'lo95', 'lo68', 'hi68', 'hi95']) {
@@ -728,6 +894,15 @@
       theta: plots.theta ? plots.theta.data.map((a) => a.length) : [],
       error: plots.error ? plots.error.data.map((a) => a.length) : [],
     }),
+    // An assembly's body charts, bottom-up: the body index, the heading, the
+    // series' labels (measured, then each assembly variant) and the points
+    // of each series that are not null (x first). [] for a single block.
+    bodyRows: () => plots.bodies.map((p, k) => ({
+      body: k,
+      title: p.root.parentNode.parentNode.querySelector('h3').textContent,
+      series: p.series.slice(1).map((s) => s.label),
+      points: p.data.map((a) => a.filter((x) => x !== null && x !== undefined).length),
+    })),
     bandNames: () => Array.from(held.bands.keys()),
     // Per chart and marker row: the markers' x (CSS px) drawn and the number left out.
     markers: () => ({theta: markerStats.get(plots.theta) || [], error: markerStats.get(plots.error) || []}),

@@ -751,12 +751,95 @@ class LogTables(_Summarised, dict):
     outside_window, filtered, unknown_type, undecodable, damaged_regions,
     damaged_bytes, damaged_events, bad_rows, bad_values, read_error) and
     ``problems``, the lines it prints about the damage.
+
+    The comparator's results by (variant, body): ``compared()`` lists the
+    keys the log holds, ``comparison(variant, body)`` gives one (an
+    assembly's body by its index, 0 on the table; docs/python.md).
     """
 
     def __init__(self, tables, summary, info=None):
         super().__init__(tables)
         self.summary = summary
         self.info = info if info is not None else {n: {"units": units(a)} for n, a in tables.items()}
+
+    def _comparison_tables(self, lcm_types):
+        # (table name, array) of the tables of those types, in table order.
+        return [(n, a) for n, a in self.items() if self.info.get(n, {}).get("lcm_type") in lcm_types]
+
+    def compared(self):
+        """The comparisons the log holds, as (variant, body) keys for ``comparison``.
+
+        A variant compared as a single block (RL_COMPARE_<name>) gives
+        (variant, None); an assembly variant (RL_COMPAREBODIES_<name>) also
+        (variant, 0) .. (variant, n-1), its bodies by index, bottom-up (its
+        RL_COMPARE_<name> is body 0 against RL_THETA). Variants in the order
+        they first appear, by the messages' ``name``.
+        """
+        keys = {}
+        for _, a in self._comparison_tables(_SINGLE_COMPARISON_TYPES):
+            for v in _unique(a["name"]):
+                keys.setdefault(v, set()).add(None)
+        for _, a in self._comparison_tables((_BODIES_COMPARISON_TYPE,)):
+            n = _body_count(a)
+            for v in _unique(a["name"]):
+                keys.setdefault(v, set()).update(range(n))
+        return [(v, b) for v, bodies in keys.items() for b in sorted(bodies, key=lambda b: -1 if b is None else b)]
+
+    def comparison(self, variant, body=None):
+        """The comparator's messages for one variant, or one body of an assembly variant.
+
+        Args:
+            variant: the variant's name (the messages' ``name``, the channel's suffix).
+            body: None: the variant's RL_COMPARE_<name> (comparison2_t, or
+                comparison_t in an older log) rows as ``read_log`` gives them
+                (for an assembly variant, its body 0 against RL_THETA). An
+                int k: body k of an assembly variant (0 on the table,
+                upwards; simulate's and reconstruct's CSV column theta_{k+1}),
+                from RL_COMPAREBODIES_<name> (comparison3_t).
+
+        Returns:
+            A structured array, one row per message. For a body: ``time``
+            (s), ``utime``, ``seq``, ``name``, then comparison2_t's fields
+            for that body under comparison2_t's names (``error``,
+            ``rms_window``, ``window_s``, ``rms_total``, ``nrms``,
+            ``peak_error``, ``impact_timing_error``, ``correlation``,
+            ``valid``, ``samples``), so code written for a single block
+            reads it unchanged; then the variant's ``mode_model``,
+            ``mode_measured``, ``mode_rest_rad``, ``mode_agreement`` and
+            ``mode_samples`` (the same on every body). Units as titles.
+
+        Raises:
+            KeyError: no comparison of that variant in the log (or no
+                per-body one, for a body).
+            IndexError: a body the variant does not have.
+            TypeError: a body that is not an int (or None).
+        """
+        variant = str(variant)
+        if body is None:
+            found = [(n, a[a["name"] == variant]) for n, a in self._comparison_tables(_SINGLE_COMPARISON_TYPES)]
+            found = [(n, rows) for n, rows in found if len(rows)]
+            if not found:
+                raise KeyError(f"no RL_COMPARE_<name> of variant {variant!r} in the log (compared: {self.compared()})")
+            if len(found) > 1:
+                raise ValueError(f"variant {variant!r} is compared in tables of two types ({[n for n, _ in found]}): "
+                                 "read them by table name")
+            return found[0][1]
+        if isinstance(body, bool) or not isinstance(body, (int, _np.integer)):
+            raise TypeError(f"body must be an int (the body's index, 0 on the table) or None, got {_short(body)}")
+        body = int(body)
+        found = [(n, a[a["name"] == variant]) for n, a in self._comparison_tables((_BODIES_COMPARISON_TYPE,))]
+        found = [(n, rows) for n, rows in found if len(rows)]
+        if not found:
+            raise KeyError(f"no RL_COMPAREBODIES_<name> of variant {variant!r} in the log: "
+                           f"not an assembly variant (compared: {self.compared()})")
+        if len(found) > 1:
+            raise ValueError(f"variant {variant!r} is compared per body in two tables ({[n for n, _ in found]}): "
+                             "read them by table name")
+        a = found[0][1]
+        n = _body_count(a)
+        if not 0 <= body < n:
+            raise IndexError(f"variant {variant!r} has bodies 0..{n - 1} (by index, 0 on the table), not {body}")
+        return _body_comparison(a, body)
 
     def __reduce__(self):
         # dict subclasses pickle their items, not their attributes.
@@ -777,6 +860,47 @@ class LogTables(_Summarised, dict):
                 span = f", {_num(a['time'][0])} .. {_num(a['time'][-1])} s"
             rows.append((name, f"{len(a)} rows{span}: {_fields_text(a)}"))
         return title, rows
+
+
+_SINGLE_COMPARISON_TYPES = ("rocklab.comparison2_t", "rocklab.comparison_t")
+_BODIES_COMPARISON_TYPE = "rocklab.comparison3_t"
+# comparison3_t's per-body fields, in comparison2_t's order among its scalar ones.
+_BODY_COMPARISON_FIELDS = ("error", "rms_window", "window_s", "rms_total", "nrms", "peak_error",
+                           "impact_timing_error", "correlation", "valid", "samples")
+_MODE_FIELDS = ("mode_model", "mode_measured", "mode_rest_rad", "mode_agreement", "mode_samples")
+
+
+def _unique(values):
+    # The distinct values in the order they first appear.
+    return list(dict.fromkeys(values.tolist()))
+
+
+def _body_count(a):
+    # A comparison3_t table's bodies: its columns error_0 .. error_{n-1}
+    # (n from the channel's first message, as export makes them).
+    n = 0
+    while f"error_{n}" in a.dtype.names:
+        n += 1
+    return n
+
+
+def _body_comparison(a, k):
+    # Body k's columns of a comparison3_t table under comparison2_t's names,
+    # with the variant's modes; each field keeps its unit (title).
+    sources = [("time", "time"), ("utime", "utime"), ("seq", "seq"), ("name", "name")]
+    sources += [(f, f if f in ("window_s", "samples") else f"{f}_{k}") for f in _BODY_COMPARISON_FIELDS]
+    sources += [(f, f) for f in _MODE_FIELDS]
+    unit_of = units(a.dtype)
+    names, formats, titles = [], [], []
+    for mine, theirs in sources:
+        names.append(mine)
+        formats.append(a.dtype[theirs])
+        unit = unit_of.get(theirs)
+        titles.append(f"{mine} [{unit}]" if unit else None)
+    out = _np.empty(len(a), dtype=_np.dtype({"names": names, "formats": formats, "titles": titles}))
+    for mine, theirs in sources:
+        out[mine] = a[theirs]
+    return out
 
 
 def _warn_damage(path, summary, what):

@@ -131,6 +131,7 @@ TEST(CompareNodeBodies, ComparesEveryBodyAndTheMode) {
   EXPECT_EQ(v.at("mode_samples").get<int>(), 1000);
   ASSERT_EQ(v.at("bodies").size(), 2u);
   EXPECT_EQ(v.at("bodies").at(1).at("body").get<int>(), 1);
+  EXPECT_EQ(v.at("bodies").at(1).at("number").get<int>(), 2);  // theta_2 in the CSVs (docs/compare.md)
   EXPECT_NEAR(v.at("bodies").at(1).at("rms").get<double>(), 2e-3, 1e-15);
 
   const std::string table = test::PrintedSummary(summary);

@@ -38,6 +38,8 @@ rows: int = log.summary["rows"]
 problems: List[str] = log.summary["problems"]
 unit: str = rocklab.units(th)["theta"]
 lcm_type: str = log.info["RL_THETA"].get("lcm_type", "")
+keys: List[Tuple[str, Optional[int]]] = log.compared()
+upper_body: npt.NDArray[np.void] = log.comparison("stack", 1)
 
 about: rocklab.FileInfo = rocklab.info("test.lcm")
 

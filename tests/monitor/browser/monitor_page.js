@@ -7,10 +7,15 @@
 // 1. opens URL in a fresh profile and waits for the live event stream;
 // 2. writes READY_FILE (the test then starts the replay) and waits for
 //    DONE_FILE (the replay has ended);
-// 3. waits until the table shows, for every variant, the sample count of the
-//    server's final snapshot (the page caught up with the last RL_COMPARE);
+// 3. waits for the server's final snapshot (the compare node stopped, the
+//    comparisons no longer changing), then until the table shows, for every
+//    variant, its sample count (the page caught up with the last RL_COMPARE),
+//    and for every assembly variant the mode samples of its last
+//    RL_COMPAREBODIES;
 // 4. writes OUT.json: the table cells (data-variant, data-field -> text), the
-//    uPlot data lengths, the update count, console errors; saves a screenshot;
+//    uPlot data lengths, an assembly's body charts and per-body cells
+//    (data-assembly, data-body, data-field; data-modes, data-field), the
+//    update count, console errors; saves a screenshot;
 // 5. renders the page in static mode (files and the final snapshot inlined,
 //    as `rocklab report` does) and adds what it shows, and the requests it
 //    made, as "static".
@@ -54,8 +59,46 @@ function collectShown() {
     const n = td.getAttribute('data-node');
     (health[n] = health[n] || {})[td.getAttribute('data-field')] = td.textContent;
   }
+  const bodyCells = {};  // variant -> body index -> field -> text
+  for (const td of document.querySelectorAll('td[data-assembly][data-body][data-field]')) {
+    const v = td.getAttribute('data-assembly');
+    const k = td.getAttribute('data-body');
+    ((bodyCells[v] = bodyCells[v] || {})[k] = bodyCells[v][k] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
+  const modeCells = {};  // variant -> field -> text
+  for (const td of document.querySelectorAll('td[data-modes][data-field]')) {
+    const v = td.getAttribute('data-modes');
+    (modeCells[v] = modeCells[v] || {})[td.getAttribute('data-field')] = td.textContent;
+  }
   return {cells, health, dataLengths: window.rocklabMonitor.dataLengths(),
+    bodyRows: window.rocklabMonitor.bodyRows(), bodyCells, modeCells,
+    bodiesHidden: document.getElementById('bodies-section').hidden,
     updates: window.rocklabMonitor.updates, mode: window.rocklabMonitor.mode};
+}
+
+// The server's final snapshot. The run has ended at DONE_FILE, but the
+// monitor may still be reading its last messages from the socket (under
+// load it was 550 samples of RL_COMPARE behind, and the page then caught
+// up with numbers newer than the ones it was told to wait for): wait until
+// the compare node's RL_HEALTH says "stopped" (it sends that after its
+// final RL_COMPARE) and two reads 0.25 s apart agree on every variant's
+// comparison.
+async function settledSnapshot(base) {
+  const deadline = Date.now() + STEP_TIMEOUT_MS;
+  const key = (s) => JSON.stringify(s.variants.map((v) => [v.name, v.latest, v.bodies_latest || null]));
+  let last = null;
+  for (;;) {
+    const snapshot = await getJson(base + 'api/snapshot');
+    const stopped = snapshot.health.some((h) => h.node === 'compare' && h.state === 'stopped');
+    if (stopped && last !== null && key(snapshot) === key(last)) return snapshot;
+    if (Date.now() > deadline) throw new Error('the server\'s snapshot did not settle within ' + STEP_TIMEOUT_MS + ' ms');
+    last = snapshot;
+    await sleep(250);
+  }
+}
+
+function window_updates([updates, mode]) {
+  return updates + ' updates applied, ' + mode;
 }
 
 function getText(address) {
@@ -102,18 +145,39 @@ async function main() {
     fs.writeFileSync(readyFile, 'ready\n');
 
     await waitForFile(doneFile);
-    const snapshot = await getJson(url + 'api/snapshot');
+    const snapshot = await settledSnapshot(url);
     const expected = {};
+    const expectedModes = {};
     for (const v of snapshot.variants) {
       if (v.latest) expected[v.name] = String(v.latest.samples);
+      if (v.bodies_latest) expectedModes[v.name] = String(v.bodies_latest.mode_samples);
     }
-    await page.waitForFunction((want) => {
+    const caughtUp = page.waitForFunction(([want, wantModes]) => {
       for (const [name, samples] of Object.entries(want)) {
         const td = document.querySelector(`td[data-variant="${name}"][data-field="samples"]`);
         if (!td || td.textContent !== samples) return false;
       }
+      for (const [name, samples] of Object.entries(wantModes)) {
+        const td = document.querySelector(`td[data-modes="${name}"][data-field="mode_samples"]`);
+        if (!td || td.textContent !== samples) return false;
+      }
       return window.rocklabMonitor.dataLengths().theta.length > 1;
-    }, expected, {timeout: STEP_TIMEOUT_MS});
+    }, [expected, expectedModes], {timeout: STEP_TIMEOUT_MS});
+    try {
+      await caughtUp;
+    } catch (e) {
+      // Say what differed: the samples the page shows, those of the
+      // snapshot taken at DONE_FILE and of one taken now.
+      const shownSamples = await page.evaluate(() => Array.from(
+        document.querySelectorAll('td[data-field="samples"],td[data-field="mode_samples"]'),
+        (td) => [td.getAttribute('data-variant') || td.getAttribute('data-assembly') || td.getAttribute('data-modes'),
+          td.textContent]));
+      const now = await getJson(url + 'api/snapshot');
+      throw new Error(e.message + '\nwaited for ' + JSON.stringify([expected, expectedModes]) +
+        '\nthe page shows ' + JSON.stringify(shownSamples) + ' (' + window_updates(await page.evaluate(
+          () => [window.rocklabMonitor.updates, window.rocklabMonitor.mode])) + ')\nthe server now has ' +
+        JSON.stringify(now.variants.map((v) => [v.name, v.latest && v.latest.samples])));
+    }
 
     const shown = await page.evaluate(collectShown);
     fs.mkdirSync(path.dirname(screenshotPath), {recursive: true});
