@@ -799,5 +799,79 @@ TEST(VideoHealth, ATruncatedMjpegAviIsCountedAsFramesMissingAtTheEnd) {
   EXPECT_TRUE(said);
 }
 
+// A red LED filmed by a colour camera, MJPEG 4:4:4 in AVI through the
+// `video:` file path (libavcodec): the rig's `channel = "red"` reads the
+// decoded frame's colour, not its luma plane. Oracle: the LEDs light the
+// red channel only, kLedPeak over a background of kBackgroundLevel in all
+// three; the luma (0.299 R + 0.587 G + 0.114 B) keeps 0.299 of the LED's
+// light (the ~70 % a grey reading loses), the red channel all of it. Each
+// LED's brightest pixel (its `_peak` column) less the background: red's
+// over grey's 1 / 0.299 = 3.34 within 10 % (the same pixel in both, 1 level
+// of noise against 54 of signal in grey; MJPEG's error on the peak, a few
+// levels: measured 2 % on this video).
+TEST(VideoColour, ARedLedInAColourVideoFileIsReadInItsRedChannel) {
+  const std::string dir = test::ScratchDir("video_colour_file");
+  Shot s;
+  s.rate_hz = 100;
+  constexpr int kN = 60;
+  const test::TestCamera cam;
+  const std::string video = dir + "/red.avi";
+  {
+    test::TestVideoWriter w = test::TestVideoWriter::Colour(video, cam.width, cam.height, 100, 2);
+    cv::RNG rng(35);
+    for (int k = 0; k < kN; ++k) {
+      // The LEDs light the red channel only; each channel has its own noise.
+      const cv::Mat red = RenderFrame(cam, s, k, rng);  // background, LEDs and noise, 8-bit
+      cv::Mat dark_light(cam.height, cam.width, CV_64F, cv::Scalar(kBackgroundLevel));
+      const cv::Mat green = test::SensorFrame(dark_light, kPixelNoise, rng);
+      const cv::Mat blue = test::SensorFrame(dark_light, kPixelNoise, rng);
+      cv::Mat bgr;
+      cv::merge(std::vector<cv::Mat>{blue, green, red}, bgr);
+      w.Write(bgr, k * 10);
+    }
+    w.Close();
+  }
+  // Each LED's peak over the frames (columns after the 8 coordinates: area,
+  // peak, flags per LED), and theta against the truth.
+  const auto read = [&](const std::string& channel_key, const char* name) {
+    const std::string sub = dir + "/" + name;
+    std::filesystem::create_directories(sub);
+    const ShotRun r = ReadShot(sub, RigFor(cam, 100, channel_key), video, s);
+    return r;
+  };
+  const auto peaks = [&](const std::string& channel_key, const char* name, double* mean_signal) {
+    const std::string sub = dir + "/" + name;
+    std::filesystem::create_directories(sub);
+    std::ofstream(sub + "/rig.toml") << RigFor(cam, 100, channel_key);
+    RegisterSources();
+    const daq::RigConfig rig = daq::LoadRigConfig(sub + "/rig.toml");
+    daq::SourceOptions options;
+    options.rig = &rig;
+    std::unique_ptr<daq::Source> source = daq::OpenSource("video:" + video, options);
+    daq::Frame frame;
+    double sum = 0;
+    int n = 0, frames = 0;
+    while (source->Next(frame) == daq::ReadStatus::kFrame) {
+      ++frames;
+      for (int i = 0; i < 4; ++i) {
+        const double peak = frame.values[static_cast<std::size_t>(8 + 3 * i + 1)];
+        if (std::isfinite(peak)) sum += peak - kBackgroundLevel, ++n;
+      }
+    }
+    *mean_signal = n > 0 ? sum / n : NAN;
+    return frames;
+  };
+  double red_signal = 0, grey_signal = 0;
+  EXPECT_EQ(peaks("channel = \"red\"\n", "red", &red_signal), kN);
+  EXPECT_EQ(peaks("", "grey", &grey_signal), kN);
+  std::printf("red LED, colour MJPEG AVI: mean peak signal %.1f levels in red, %.1f in grey (ratio %.3f; 1/0.299 = "
+              "%.3f)\n",
+              red_signal, grey_signal, red_signal / grey_signal, 1 / 0.299);
+  EXPECT_NEAR(red_signal / grey_signal, 1 / 0.299, 0.1 / 0.299);
+  // And every frame is tracked in red.
+  const ShotRun on_red = read("channel = \"red\"\n", "red_run");
+  EXPECT_EQ(on_red.compared, kN);
+}
+
 }  // namespace
 }  // namespace rocklab::video::timing
