@@ -1,14 +1,20 @@
 #include "video/av_decoder.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <condition_variable>
+#include <cstring>
+#include <limits>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
+#include <utility>
+#include <vector>
 
 extern "C" {
 #include <libavcodec/avcodec.h>
+#include <libavcodec/codec_desc.h>
 #include <libavformat/avformat.h>
 #include <libavutil/pixdesc.h>
 #include <libswscale/swscale.h>
@@ -24,6 +30,8 @@ std::string AvErrorText(int rc) {
 }
 
 double RationalOrZero(AVRational r) { return r.num > 0 && r.den > 0 ? av_q2d(r) : 0.0; }
+
+constexpr double kNoTime = std::numeric_limits<double>::quiet_NaN();
 
 // Luma levels 16..235 (limited range) to grey 0..255, as swscale's BGR
 // then OpenCV's grey would make them: round((y - 16) x 255 / 219), clamped.
@@ -67,6 +75,7 @@ struct AvMjpegHelper {
     int rc = avcodec_parameters_to_context(codec, parameters);
     codec->pkt_timebase = time_base;
     codec->thread_count = 1;
+    codec->err_recognition |= AV_EF_EXPLODE;  // as the first decoder: a damaged JPEG refused
     if (rc >= 0) rc = avcodec_open2(codec, decoder, nullptr);
     if (rc < 0) throw std::runtime_error("cannot open a second decoder (FFmpeg: " + AvErrorText(rc) + ")");
     thread = std::thread([this] { Run(); });
@@ -127,7 +136,15 @@ struct AvDecoder::Impl {
   cv::Mat converted;     // reused: BGR, or luma stretched to full range
   cv::Mat limited_lut{LimitedToFullRangeTable()};
   std::unique_ptr<AvMjpegHelper> helper;  // MJPEG: the second decoder
-  bool helper_pending{false};           // its frame is the next to give
+  // MJPEG: what the last pair of packets gave, in the file's order: the
+  // first decoder's outcome (first_*) then the helper's (second_*), each
+  // a frame to give (0), a frame refused (< 0) or nothing left (1).
+  int first_state{1}, second_state{1};
+  double first_time_s{}, second_time_s{};  // their packets' times
+  bool intra_only{false};  // a packet is a frame standing alone: a refused packet's time is its frame's
+  // AVI: (chunk's place in the file, frame number) from the file's index,
+  // by place; empty for other containers or an AVI without its index.
+  std::vector<std::pair<int64_t, int64_t>> avi_index;
 
   ~Impl() {
     helper.reset();  // its thread stops first
@@ -147,9 +164,33 @@ struct AvDecoder::Impl {
         if (rc != AVERROR_EOF) error = AvErrorText(rc);
         return false;
       }
-      if (p->stream_index == stream) return true;
+      // An empty chunk (AVI's "no frame stored here") is no frame: its
+      // place shows as a gap in the next frame's time. (Sent to the decoder
+      // it would read as the end of the stream.)
+      if (p->stream_index == stream && p->size > 0) {
+        Restamp(p);
+        return true;
+      }
       av_packet_unref(p);
     }
+  }
+
+  // AVI: the frame number of the index entry at the packet's place, for its
+  // time (the demuxer's is the count of chunks read so far).
+  void Restamp(AVPacket* p) const {
+    if (avi_index.empty() || p->pos < 0) return;
+    const int64_t chunk = p->pos - kAviChunkHeaderBytes;
+    const auto it = std::lower_bound(avi_index.begin(), avi_index.end(), std::make_pair(chunk, int64_t{0}),
+                                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (it == avi_index.end() || it->first != chunk) return;  // not in the index: the demuxer's time
+    p->dts = p->pts = it->second;
+  }
+  static constexpr int64_t kAviChunkHeaderBytes = 8;  // "00dc" and the size: the index points at them
+
+  // A packet's time less the stream's start, s; NaN when it has none.
+  double PacketTime(const AVPacket& p) const {
+    const int64_t ts = p.pts != AV_NOPTS_VALUE ? p.pts : p.dts;
+    return ts == AV_NOPTS_VALUE ? kNoTime : static_cast<double>(ts - start) * av_q2d(time_base);
   }
 
   // OpenCV's picture time: the best-effort timestamp, else the packet's
@@ -160,42 +201,48 @@ struct AvDecoder::Impl {
     return pts == AV_NOPTS_VALUE ? 0.0 : static_cast<double>(pts - start) * av_q2d(time_base);
   }
 
-  // A decoded frame with its time; false (counted) for a pixel format
+  // A decoded frame with its time; unreadable (counted) for a pixel format
   // swscale cannot take.
-  bool Give(const AVFrame& f, cv::Mat& out, double& time_s, int64_t& errors) {
+  Got Give(const AVFrame& f, cv::Mat& out, double& time_s, int64_t& errors) {
     time_s = TimeOf(f);
     try {
       Convert(f, out);
     } catch (const std::exception&) {
       ++errors;
-      return false;
+      return Got::kUnreadable;
     }
-    return true;
+    return Got::kFrame;
   }
 
-  // MJPEG: two packets at a time, the second decoded by the helper.
-  bool ReadPaired(cv::Mat& out, double& time_s, int64_t& errors, std::string& error) {
-    if (helper_pending) {
-      helper_pending = false;
-      if (Give(*helper->frame, out, time_s, errors)) return true;
-    }
-    while (!ended) {
-      if (!NextPacket(packet, error)) break;
+  // One outcome of the last pair (`state` then spent): its frame, or a
+  // frame refused at its packet's time (counted).
+  Got Take(int& state, const AVFrame& f, double packet_time_s, cv::Mat& out, double& time_s, int64_t& errors) {
+    const int was = state;
+    state = 1;
+    if (was == 0) return Give(f, out, time_s, errors);
+    ++errors;  // a frame that could not be decoded
+    time_s = packet_time_s;
+    return Got::kUnreadable;
+  }
+
+  // MJPEG: two packets at a time, the second decoded by the helper; their
+  // outcomes given in the file's order.
+  Got ReadPaired(cv::Mat& out, double& time_s, int64_t& errors, std::string& error) {
+    while (true) {
+      if (first_state != 1) return Take(first_state, *frame, first_time_s, out, time_s, errors);
+      if (second_state != 1) return Take(second_state, *helper->frame, second_time_s, out, time_s, errors);
+      if (ended || !NextPacket(packet, error)) break;
       const bool second = NextPacket(helper->packet, error);
+      first_time_s = PacketTime(*packet);
+      second_time_s = second ? PacketTime(*helper->packet) : kNoTime;
       if (second) helper->Start();
-      const int first_result = DecodeAlone(codec, packet, frame);
-      const int second_result = second ? helper->Wait() : 0;
-      if (first_result < 0) ++errors;  // a frame that could not be decoded
-      if (second_result < 0) ++errors;
-      helper_pending = second && second_result == 0;
-      if (first_result == 0 && Give(*frame, out, time_s, errors)) return true;
-      if (helper_pending) {
-        helper_pending = false;
-        if (Give(*helper->frame, out, time_s, errors)) return true;
-      }
+      // EAGAIN (a packet that gives no frame, as an empty one) is nothing to give.
+      const auto outcome = [](int rc) { return rc == AVERROR(EAGAIN) ? 1 : rc < 0 ? -1 : 0; };
+      first_state = outcome(DecodeAlone(codec, packet, frame));
+      second_state = second ? outcome(helper->Wait()) : 1;
     }
     ended = true;
-    return false;
+    return Got::kEnd;
   }
 
   // The decoded frame as 8-bit grey (its luma plane) or BGR (swscale).
@@ -261,6 +308,8 @@ AvDecoder::AvDecoder(const std::string& path, bool bgr) : impl_(std::make_unique
   if (rc >= 0) {
     m.codec->pkt_timebase = st->time_base;
     m.codec->thread_count = 0;  // FFmpeg's choice (the cores), as OpenCV's reader
+    // MJPEG: a damaged JPEG refused (counted unreadable), not concealed.
+    if (codec->id == AV_CODEC_ID_MJPEG) m.codec->err_recognition |= AV_EF_EXPLODE;
     rc = avcodec_open2(m.codec, codec, nullptr);
   }
   if (rc < 0) throw std::runtime_error(path + ": cannot open its decoder (FFmpeg: " + AvErrorText(rc) + ")");
@@ -270,6 +319,19 @@ AvDecoder::AvDecoder(const std::string& path, bool bgr) : impl_(std::make_unique
     } catch (const std::exception& e) {
       throw std::runtime_error(path + ": " + e.what());
     }
+  }
+  const AVCodecDescriptor* desc = avcodec_descriptor_get(codec->id);
+  m.intra_only = desc != nullptr && (desc->props & AV_CODEC_PROP_INTRA_ONLY) != 0;
+  if (std::strcmp(m.format->iformat->name, "avi") == 0) {
+    // The index as the demuxer loaded it from idx1 (a video chunk's entry:
+    // its place, and its frame number as the timestamp, in time_base units).
+    const int entries = avformat_index_get_entries_count(st);
+    m.avi_index.reserve(static_cast<std::size_t>(std::max(entries, 0)));
+    for (int i = 0; i < entries; ++i) {
+      const AVIndexEntry* e = avformat_index_get_entry(const_cast<AVStream*>(st), i);
+      if (e != nullptr) m.avi_index.emplace_back(e->pos, e->timestamp);
+    }
+    std::sort(m.avi_index.begin(), m.avi_index.end());
   }
   width_ = st->codecpar->width;
   height_ = st->codecpar->height;
@@ -287,22 +349,20 @@ AvDecoder::AvDecoder(const std::string& path, bool bgr) : impl_(std::make_unique
 
 AvDecoder::~AvDecoder() = default;
 
-bool AvDecoder::Read(cv::Mat& out, double& time_s) {
+AvDecoder::Got AvDecoder::Read(cv::Mat& out, double& time_s) {
   Impl& m = *impl_;
   if (m.helper) return m.ReadPaired(out, time_s, decode_errors_, read_error_);
   while (!m.ended) {
     const int got = avcodec_receive_frame(m.codec, m.frame);
-    if (got == 0) {
-      if (m.Give(*m.frame, out, time_s, decode_errors_)) return true;
-      continue;
-    }
+    if (got == 0) return m.Give(*m.frame, out, time_s, decode_errors_);
     if (got == AVERROR_EOF) {
       m.ended = true;
       break;
     }
     if (got != AVERROR(EAGAIN)) {
-      ++decode_errors_;  // a frame that could not be decoded
-      continue;
+      ++decode_errors_;  // a frame that could not be decoded; which packet's, not known here
+      time_s = kNoTime;
+      return Got::kUnreadable;
     }
     if (m.flushing) {  // nothing more will come
       m.ended = true;
@@ -313,17 +373,23 @@ bool AvDecoder::Read(cv::Mat& out, double& time_s) {
       avcodec_send_packet(m.codec, nullptr);  // the decoder's held frames come next
       continue;
     }
+    const double packet_time_s = m.PacketTime(*m.packet);
     const int sent = avcodec_send_packet(m.codec, m.packet);
-    if (sent < 0 && sent != AVERROR(EAGAIN)) ++decode_errors_;
     av_packet_unref(m.packet);
+    if (sent < 0 && sent != AVERROR(EAGAIN)) {
+      ++decode_errors_;  // the packet refused: its frame's time where a packet is a frame
+      time_s = m.intra_only ? packet_time_s : kNoTime;
+      return Got::kUnreadable;
+    }
   }
-  return false;
+  return Got::kEnd;
 }
 
 int64_t AvDecoder::CountRemainingPackets() {
   Impl& m = *impl_;
-  int64_t n = m.helper_pending ? 1 : 0;  // the helper's frame, decoded but not given
-  m.helper_pending = false;
+  // The pair's outcomes not given yet (decoded or refused): frames of the file too.
+  int64_t n = (m.first_state != 1 ? 1 : 0) + (m.second_state != 1 ? 1 : 0);
+  m.first_state = m.second_state = 1;
   if (m.flushing || m.ended) return n;
   while (av_read_frame(m.format, m.packet) >= 0) {
     if (m.packet->stream_index == m.stream) ++n;

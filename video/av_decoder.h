@@ -14,8 +14,17 @@
 ///
 /// Times are the OpenCV reader's (CAP_PROP_POS_MSEC): the frame's best-effort
 /// presentation time less the stream's start time; 0 when the frame has
-/// none. The rate and the announced frame count are its CAP_PROP_FPS and
-/// CAP_PROP_FRAME_COUNT. Threading: one thread at a time.
+/// none. Except in AVI: its demuxer times a frame by counting the chunks it
+/// has read, so a chunk lost to damage (zeros over it) would stamp every
+/// later frame early; here a packet found in the file's index (idx1, by its
+/// place in the file) takes the index's frame number. The rate and the
+/// announced frame count are OpenCV's CAP_PROP_FPS and CAP_PROP_FRAME_COUNT.
+///
+/// A frame the decoder refuses is returned as unreadable, never skipped in
+/// silence: with its packet's time where the codec's frames stand alone
+/// (MJPEG, FFV1: packet = frame), else with no time. MJPEG is decoded
+/// strictly (AV_EF_EXPLODE): a damaged JPEG is refused, not concealed into
+/// a frame whose LEDs would be wrong. Threading: one thread at a time.
 
 #include <cstdint>
 #include <memory>
@@ -35,10 +44,15 @@ class AvDecoder {
   AvDecoder(const AvDecoder&) = delete;
   AvDecoder& operator=(const AvDecoder&) = delete;
 
+  enum class Got {
+    kFrame,       ///< `frame` and `time_s` are the next frame's
+    kUnreadable,  ///< a frame that could not be decoded; `time_s` its time, NaN when not known
+    kEnd,         ///< the end of the stream (or a read error: read_error())
+  };
   /// The next decoded frame: CV_8UC1 (grey) or CV_8UC3 (BGR), valid until the
-  /// next call (it may point into the decoder's buffer), and its time, s.
-  /// False at the end of the stream (or a read error: read_error()).
-  bool Read(cv::Mat& frame, double& time_s);
+  /// next call (it may point into the decoder's buffer), and its time, s;
+  /// or the next frame that could not be decoded (counted in decode_errors()).
+  Got Read(cv::Mat& frame, double& time_s);
   /// After Read() returned false early: the rest of the stream's packets,
   /// counted without decoding them (frames not read). Reads to the end.
   int64_t CountRemainingPackets();

@@ -99,9 +99,12 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     bool ok = false;
     double container_time_s = 0;  // the file's (device's) time of the frame
     if (cap_->av) {
-      const int64_t errors_before = cap_->av->decode_errors();
-      ok = cap_->av->Read(raw_, container_time_s);
-      counts_.unreadable += cap_->av->decode_errors() - errors_before;
+      const AvDecoder::Got got = cap_->av->Read(raw_, container_time_s);
+      if (got == AvDecoder::Got::kUnreadable) {
+        CountUnreadable(container_time_s);
+        continue;
+      }
+      ok = got == AvDecoder::Got::kFrame;
     } else {
       try {
         ok = cap_->cap.read(raw_);
@@ -191,11 +194,15 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
         ++counts_.repeated;
         continue;
       }
-      if (n > last_number_ + 1) {
-        counts_.dropped += n - last_number_ - 1;
+      // Frames refused with no time are the first of the gap, not drops.
+      const int64_t gap = n - last_number_ - 1;
+      const int64_t lost = gap - std::min(std::max(gap, int64_t{0}), untimed_unreadable_);
+      if (lost > 0) {
+        counts_.dropped += lost;
         ++counts_.drop_events;
       }
     }
+    untimed_unreadable_ = 0;
     last_number_ = n;
     last_time_s_ = stored;
     if (raw_.channels() == 1) {
@@ -218,6 +225,36 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
     ++counts_.frames;
     return true;
   }
+}
+
+// A frame the decoder refused: counted once, at its number where its time
+// says it (the next frame's number then follows it, no drop), else as the
+// first frame of the next gap.
+void FrameReader::CountUnreadable(double container_time_s) {
+  ++counts_.unreadable;
+  ++index_;  // a frame of the file: an untimed video's later frames keep their index
+  counts_.last_unreadable_number = -1;
+  counts_.last_unreadable_time_s = std::numeric_limits<double>::quiet_NaN();
+  if (times_from_fps_ || !std::isfinite(container_time_s)) {
+    ++untimed_unreadable_;
+    return;
+  }
+  if (last_number_ < 0) first_time_s_ = container_time_s;  // the file's first frame, damaged
+  const int64_t n = std::llround((container_time_s - first_time_s_) * container_rate_hz_);
+  if (last_number_ >= 0 && (n <= last_number_ || container_time_s < last_time_s_)) return;  // not a new place
+  if (last_number_ >= 0) {
+    const int64_t gap = n - last_number_ - 1;
+    const int64_t lost = gap - std::min(gap, untimed_unreadable_);
+    if (lost > 0) {
+      counts_.dropped += lost;
+      ++counts_.drop_events;
+    }
+  }
+  untimed_unreadable_ = 0;
+  last_number_ = n;
+  last_time_s_ = container_time_s;
+  counts_.last_unreadable_number = n;
+  counts_.last_unreadable_time_s = first_time_s_ + static_cast<double>(n) / rate_hz_;
 }
 
 }  // namespace rocklab::video

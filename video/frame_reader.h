@@ -19,6 +19,7 @@
 /// times (a live clock, not a grid).
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -35,7 +36,15 @@ struct FrameCounts {
   int64_t drop_events{};  ///< places where frames were dropped
   int64_t repeated{};  ///< frames with the number of the previous one (not delivered)
   int64_t backwards{}; ///< frames whose time went back (not delivered)
-  int64_t unreadable{};  ///< frames that could not be decoded
+  /// Frames that could not be decoded (damaged), each counted once: one
+  /// with a time (a codec whose packets are frames, MJPEG) takes its frame
+  /// number; one without is the first of the next gap in the numbers (not
+  /// also counted dropped).
+  int64_t unreadable{};
+  /// The last unreadable frame's number and time, s (-1 and NaN: none, or
+  /// the codec does not say which frame it was).
+  int64_t last_unreadable_number{-1};
+  double last_unreadable_time_s{std::numeric_limits<double>::quiet_NaN()};
   /// Frames timed index / rate because the video turned out to give no
   /// times (its second frame's time not after its first's).
   int64_t untimed{};
@@ -113,6 +122,7 @@ class FrameReader {
   std::string backend_;
   int width_{}, height_{};
   int64_t index_{0};            // frames read, decodable or not
+  int64_t untimed_unreadable_{0};  // unreadable frames with no time since the last frame numbered
   double first_time_s_{};
   int64_t last_number_{-1};
   double last_time_s_{};
@@ -120,6 +130,7 @@ class FrameReader {
   std::string error_;
   cv::Size first_size_;
   cv::Mat raw_;  // reused: the decoded frame before the grey conversion
+  void CountUnreadable(double container_time_s);
   ColourChoice colour_;
   cv::Matx13f bgr_weights_;  // ColourChoice::kWeights in OpenCV's B, G, R order
 };

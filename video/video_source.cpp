@@ -134,6 +134,7 @@ class VideoSource : public daq::Source {
     // A device is waited on 0.1 s at a time (the DAQ's live contract: kIdle).
     if (!read_ahead_->Next(gray_, t, number, device_ ? kIdleWaitS : -1.0, &idle)) {
       Sync();
+      if (!idle) SayUnreadable(stats_.frames.frames + 1, "after the last frame");
       if (!idle && !read_ahead_->error().empty()) {
         error_ = path_ + ":" + std::to_string(stats_.frames.frames + 1) + ": " + read_ahead_->error();
         Report(stats_.frames.frames + 1, read_ahead_->error());
@@ -176,6 +177,7 @@ class VideoSource : public daq::Source {
       Report(number, "frames without a time (OpenCV gives 0: B-frames the decoder hands over at the end): each "
                      "numbered after the previous one, so a drop among them cannot be seen");
     }
+    SayUnreadable(number, "before this one");
     const int64_t dropped = read_ahead_->counts().dropped - dropped_before;
     if (dropped > 0) {
       ++stats_src_.warnings;
@@ -288,6 +290,25 @@ class VideoSource : public daq::Source {
       outlier_now_[i] = now;
     }
   }
+  // Frames the decoder refused since the last said: counted (a warning),
+  // the last one named with its number and time (the first kShownDrops times).
+  void SayUnreadable(int64_t line, const char* where) {
+    const FrameCounts& c = read_ahead_->counts();
+    const int64_t n = c.unreadable - unreadable_said_;
+    if (n <= 0) return;
+    unreadable_said_ = c.unreadable;
+    ++stats_src_.warnings;
+    if (++unreadable_events_ > kShownDrops) return;
+    std::string which;
+    if (c.last_unreadable_number >= 0) {
+      char at[96];
+      std::snprintf(at, sizeof at, " (the last: frame %lld, t = %.6f s)", static_cast<long long>(c.last_unreadable_number),
+                    c.last_unreadable_time_s);
+      which = at;
+    }
+    Report(line, std::to_string(n) + " frame(s) " + where + " could not be decoded (damaged)" + which +
+                     ": counted unreadable, not tracked");
+  }
   void Report(int64_t line, const std::string& message) {
     if (on_problem_) on_problem_(daq::Problem{daq::Location{&path_, line}, message});
   }
@@ -321,6 +342,8 @@ class VideoSource : public daq::Source {
   bool off_grid_said_{false};
   bool no_time_said_{false};
   bool end_said_{false};
+  int64_t unreadable_said_{0};   // unreadable frames said so far
+  int64_t unreadable_events_{0};
   bool have_lit_time_{false};
   double last_lit_s_{};
   std::vector<bool> outlier_now_;

@@ -70,6 +70,7 @@ struct TestVideoWriter::Impl {
   bool closed{false};
   int h264_crf{-1};  // >= 0: H.264
   int b_frames{0};
+  bool colour{false};  // MJPEG 4:4:4 of BGR frames
 
   void Check(int rc, const char* what) {
     if (rc < 0) {
@@ -91,7 +92,10 @@ struct TestVideoWriter::Impl {
     ctx->height = height;
     ctx->time_base = AVRational{1, 1000};
     ctx->framerate = AVRational{fps, 1};
-    ctx->pix_fmt = h264_crf >= 0 ? AV_PIX_FMT_YUV420P : lossless ? AV_PIX_FMT_GRAY8 : AV_PIX_FMT_YUVJ420P;
+    ctx->pix_fmt = h264_crf >= 0 ? AV_PIX_FMT_YUV420P
+                   : lossless    ? AV_PIX_FMT_GRAY8
+                   : colour      ? AV_PIX_FMT_YUVJ444P
+                                 : AV_PIX_FMT_YUVJ420P;
     ctx->flags |= AV_CODEC_FLAG_BITEXACT;
     if (h264_crf >= 0) {
       ctx->max_b_frames = b_frames;
@@ -126,12 +130,14 @@ struct TestVideoWriter::Impl {
 };
 
 void TestVideoWriter::Impl::Open(const std::string& path, int width, int height) {
-  Check(avformat_alloc_output_context2(&fmt, nullptr, "matroska", path.c_str()), "output context");
+  const bool avi = path.size() > 4 && path.compare(path.size() - 4, 4, ".avi") == 0;
+  Check(avformat_alloc_output_context2(&fmt, nullptr, avi ? "avi" : "matroska", path.c_str()), "output context");
   fmt->flags |= AVFMT_FLAG_BITEXACT;  // no random segment UID or writer string: the same bytes every time
   st = avformat_new_stream(fmt, nullptr);
   OpenEncoder(width, height);
   Check(avcodec_parameters_from_context(st->codecpar, ctx), "parameters");
-  st->time_base = AVRational{1, 1000};
+  // AVI has no timestamps: a frame's place in the stream at 1 / fps is its time.
+  st->time_base = avi ? AVRational{1, fps} : AVRational{1, 1000};
   st->avg_frame_rate = AVRational{fps, 1};
   Check(avio_open(&fmt->pb, path.c_str(), AVIO_FLAG_WRITE), "avio_open");
   Check(avformat_write_header(fmt, nullptr), "write header");
@@ -158,8 +164,19 @@ TestVideoWriter TestVideoWriter::H264(const std::string& path, int width, int he
   return w;
 }
 
+TestVideoWriter TestVideoWriter::Colour(const std::string& path, int width, int height, int fps, int mjpeg_q) {
+  auto* impl = new Impl;
+  impl->fps = fps;
+  impl->mjpeg_q = mjpeg_q;
+  impl->colour = true;
+  TestVideoWriter w(impl);
+  impl->Open(path, width, height);
+  return w;
+}
+
 void TestVideoWriter::Write(const cv::Mat& gray, int64_t pts_ms) {
   Impl& m = *impl_;
+  if (m.colour != (gray.type() == CV_8UC3)) throw std::runtime_error("test video writer: BGR frames for Colour() only");
   if (gray.cols != m.ctx->width || gray.rows != m.ctx->height) {
     if (m.lossless || m.h264_crf >= 0) throw std::runtime_error("test video writer: FFV1 and H.264 frames keep one size");
     m.Check(avcodec_send_frame(m.ctx, nullptr), "flush");
@@ -168,6 +185,22 @@ void TestVideoWriter::Write(const cv::Mat& gray, int64_t pts_ms) {
     m.OpenEncoder(gray.cols, gray.rows);
   }
   m.Check(av_frame_make_writable(m.frame), "make writable");
+  if (m.colour) {  // BT.601 full range, each pixel its own chroma (4:4:4)
+    for (int y = 0; y < gray.rows; ++y) {
+      const auto* bgr = gray.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < gray.cols; ++x) {
+        const double b = bgr[x][0], g = bgr[x][1], r = bgr[x][2];
+        const double luma = 0.299 * r + 0.587 * g + 0.114 * b;
+        m.frame->data[0][y * m.frame->linesize[0] + x] = cv::saturate_cast<uint8_t>(luma);
+        m.frame->data[1][y * m.frame->linesize[1] + x] = cv::saturate_cast<uint8_t>(128 + 0.564 * (b - luma));
+        m.frame->data[2][y * m.frame->linesize[2] + x] = cv::saturate_cast<uint8_t>(128 + 0.713 * (r - luma));
+      }
+    }
+    m.frame->pts = pts_ms;
+    m.Check(avcodec_send_frame(m.ctx, m.frame), "send frame");
+    m.Drain();
+    return;
+  }
   for (int y = 0; y < gray.rows; ++y) {
     std::memcpy(m.frame->data[0] + y * m.frame->linesize[0], gray.ptr<uint8_t>(y), static_cast<std::size_t>(gray.cols));
   }

@@ -96,13 +96,19 @@ inline cv::Mat SensorFrame(const cv::Mat& light, double sigma, cv::RNG& rng) {
   return out;
 }
 
-/// Writes 8-bit grey frames into a Matroska file: FFV1 (lossless) or MJPEG
-/// (lossy, quantiser `mjpeg_q`, 2 = fine .. 31 = coarse), each frame at
-/// its own presentation time (ms). An MJPEG file's frames may change size
-/// midway (the stream's header keeps the first size). Or H.264 (H264()).
+/// Writes 8-bit grey frames into a Matroska file (an AVI one when `path`
+/// ends in ".avi": frames on the 1 / fps grid, its index at the end): FFV1
+/// (lossless) or MJPEG (lossy, quantiser `mjpeg_q`, 2 = fine .. 31 =
+/// coarse), each frame at its own presentation time (ms). An MJPEG file's
+/// frames may change size midway (the stream's header keeps the first
+/// size). Or H.264 (H264()), or colour MJPEG (Colour()).
 class TestVideoWriter {
  public:
   TestVideoWriter(const std::string& path, bool lossless, int width, int height, int fps, int mjpeg_q = 3);
+  /// MJPEG of 8-bit BGR frames (CV_8UC3), 4:4:4 (no chroma subsampling): the
+  /// writer's own BT.601 full-range conversion, Y = 0.299 R + 0.587 G +
+  /// 0.114 B, Cb = 128 + 0.564 (B - Y), Cr = 128 + 0.713 (R - Y), as JPEG's.
+  static TestVideoWriter Colour(const std::string& path, int width, int height, int fps, int mjpeg_q);
   /// H.264 (libx264, constant quality `crf`) with up to `b_frames` B-frames
   /// between references: frames decoded out of order, the decoder holding
   /// the last ones until it is flushed.
