@@ -31,10 +31,13 @@
 /// common::SubscribeVersioned) as the object itself, without encoding,
 /// checking and decoding it, where the encoding would give the same value
 /// back (common::PassesAsValue: the per-sample types of `rocklab run`, when
-/// their strings hold no NUL and their arrays match their counts). Bytes
-/// from outside the process (LcmBus, a log replayed with the raw Publish)
-/// and every other subscription go the guarded way above. Other buses
-/// encode every message.
+/// their strings hold no NUL and their arrays match their counts). A
+/// versioned subscription (common::SubscribeVersioned) also takes an object
+/// of one of the older types its decoder reads, converted by the same
+/// Upgrade its bytes would go through (so the handler sees what decoding
+/// would give). Bytes from outside the process (LcmBus, a log replayed with
+/// the raw Publish) and every other subscription go the guarded way above.
+/// Other buses encode every message.
 ///
 /// Threading: handlers run on the thread that calls HandleTimeout (LcmBus)
 /// or Publish (DirectBus). A bus is used by one thread at a time.
@@ -44,8 +47,11 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
+#include <type_traits>
 #include <typeinfo>
 #include <utility>
+#include <vector>
 
 #include "common/bus_counters.h"
 #include "common/encode_buffers.h"
@@ -134,6 +140,11 @@ class Bus {
   using RawHandler = std::function<void(const std::string& channel, const void* data, int size)>;
   /// channel, the published object (of the type the subscription names).
   using ValueHandler = std::function<void(const std::string& channel, const void* msg)>;
+  /// A ValueHandler and the C++ type of the objects it takes.
+  struct TypedValueHandler {
+    const std::type_info* type{};
+    ValueHandler handler;
+  };
   /// LCM's default subscriber queue (30) is 30 ms of a 1 kHz channel.
   static constexpr int kDefaultQueue = 4096;
 
@@ -188,7 +199,11 @@ class Bus {
   /// As SubscribeDecoded, and where the bus passes by value (DirectBus), an
   /// in-process Publish<Msg> on a matching channel reaches `handler` as the
   /// published object itself. `decode` must read Msg's own bytes as
-  /// GuardedDecode does (Subscribe, common::VersionedDecoder).
+  /// GuardedDecode does (Subscribe, common::VersionedDecoder). When Decode
+  /// names older types (`Decode::OldTypes`, a std::tuple, each read by
+  /// `Decode::FromOld(const Old&, Msg&)` as `decode` reads its bytes:
+  /// common::VersionedDecoder), an in-process Publish<Old> reaches `handler`
+  /// converted into a Msg kept by the subscription, without encoding.
   template <class Msg, class Decode>
   Subscription SubscribeDecodedOrValue(const std::string& channel_regex, Decode decode,
                                        std::function<void(const std::string& channel, const Msg& msg)> handler,
@@ -207,6 +222,9 @@ class Bus {
   /// Totals of both.
   std::int64_t decode_error_count() const { return counters_->decode_error_count(); }
   std::int64_t handler_error_count() const { return counters_->handler_error_count(); }
+  /// Typed messages this bus encoded (Publish<Msg>); a DirectBus leaves out
+  /// those it passed by value to every subscription.
+  std::int64_t encode_count() const { return encode_buffers_.encoded(); }
 
  protected:
   /// A decorator's base: it counts into the counters of `wrapped`.
@@ -215,12 +233,12 @@ class Bus {
   };
   explicit Bus(SharesCountersWith shared);
 
-  /// SubscribeRaw with `value`, the handler of objects of `type` published
-  /// in the process, for a bus that passes by value. Here: `value` is not
-  /// used (every message arrives as bytes).
+  /// SubscribeRaw with `values`, the handlers of objects published in the
+  /// process, one per type taken (the first match is used), for a bus that
+  /// passes by value. Here: `values` are not used (every message arrives as
+  /// bytes).
   virtual Subscription SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw,
-                                           const std::type_info& /*type*/, ValueHandler /*value*/,
-                                           int queue_capacity) {
+                                           std::vector<TypedValueHandler> /*values*/, int queue_capacity) {
     return SubscribeRaw(channel_regex, std::move(raw), queue_capacity);
   }
   /// Runs a value handler on one message, as Dispatch.
@@ -276,6 +294,32 @@ Subscription Bus::SubscribeDecoded(const std::string& channel_regex, Decode deco
       queue_capacity);
 }
 
+namespace detail {
+// Decode::OldTypes, or an empty tuple.
+template <class Decode, class = void>
+struct OldTypesOf {
+  using type = std::tuple<>;
+};
+template <class Decode>
+struct OldTypesOf<Decode, std::void_t<typename Decode::OldTypes>> {
+  using type = typename Decode::OldTypes;
+};
+// One handler per older type: the object converted into `scratch`, then `handler`.
+template <class Msg, class Decode, class Handler, class... Old>
+void AddOldValueHandlers(std::vector<Bus::TypedValueHandler>& values, const Handler& handler,
+                         std::tuple<Old...>* /*types*/) {
+  if constexpr (sizeof...(Old) > 0) {
+    auto scratch = std::make_shared<Msg>();
+    (values.push_back({&typeid(Old),
+                       [handler, scratch](const std::string& channel, const void* old) {
+                         Decode::FromOld(*static_cast<const Old*>(old), *scratch);
+                         (*handler)(channel, *scratch);
+                       }}),
+     ...);
+  }
+}
+}  // namespace detail
+
 template <class Msg, class Decode>
 Subscription Bus::SubscribeDecodedOrValue(const std::string& channel_regex, Decode decode,
                                           std::function<void(const std::string&, const Msg&)> handler,
@@ -289,10 +333,13 @@ Subscription Bus::SubscribeDecodedOrValue(const std::string& channel_regex, Deco
     }
     (*shared)(channel, msg);
   };
-  ValueHandler value = [shared](const std::string& channel, const void* msg) {
-    (*shared)(channel, *static_cast<const Msg*>(msg));
-  };
-  return SubscribeRawOrValue(channel_regex, std::move(raw), typeid(Msg), std::move(value), queue_capacity);
+  std::vector<TypedValueHandler> values;
+  values.push_back({&typeid(Msg), [shared](const std::string& channel, const void* msg) {
+                      (*shared)(channel, *static_cast<const Msg*>(msg));
+                    }});
+  detail::AddOldValueHandlers<Msg, Decode>(values, shared,
+                                           static_cast<typename detail::OldTypesOf<Decode>::type*>(nullptr));
+  return SubscribeRawOrValue(channel_regex, std::move(raw), std::move(values), queue_capacity);
 }
 
 template <class Msg>

@@ -50,9 +50,15 @@ struct DirectBus::Impl {
     std::regex pattern;
     std::unordered_map<std::string, bool> matches;  // channel -> matches (regex once per channel)
     RawHandler handler;
-    const std::type_info* type{};  // with `value`: the type it takes as an object
-    ValueHandler value;
+    std::vector<TypedValueHandler> values;  // the objects it takes, by type (bus.h)
     bool removed{};
+    // The handler of `values` that takes objects of `type`, or nullptr.
+    const ValueHandler* ValueFor(const std::type_info& type) const {
+      for (const TypedValueHandler& v : values) {
+        if (*v.type == type) return &v.handler;
+      }
+      return nullptr;
+    }
   };
   std::vector<std::unique_ptr<Entry>> entries;
   // Channel -> the entries it matches, in subscription order: one lookup
@@ -139,7 +145,7 @@ bool DirectBus::PublishValue(const std::string& channel, const MessageRef& msg) 
   if (!msg.by_value || m.routes_stale) return Bus::PublishValue(channel, msg);
   const std::vector<Impl::Entry*>& route = m.Route(channel);
   bool bytes_wanted = false;
-  for (const Impl::Entry* e : route) bytes_wanted = bytes_wanted || !(e->value && *e->type == *msg.type);
+  for (const Impl::Entry* e : route) bytes_wanted = bytes_wanted || e->ValueFor(*msg.type) == nullptr;
   ++m.depth;
   struct Leave {  // also when the encoding throws
     Impl& m;
@@ -154,8 +160,8 @@ bool DirectBus::PublishValue(const std::string& channel, const MessageRef& msg) 
   const auto dispatch = [&](const void* data, int size) {
     for (Impl::Entry* e : route) {
       if (e->removed) continue;
-      if (e->value && *e->type == *msg.type) {
-        DispatchValue(e->value, channel, msg.msg);
+      if (const ValueHandler* value = e->ValueFor(*msg.type)) {
+        DispatchValue(*value, channel, msg.msg);
       } else {
         Dispatch(e->handler, channel, data, size);
       }
@@ -167,12 +173,9 @@ bool DirectBus::PublishValue(const std::string& channel, const MessageRef& msg) 
 }
 
 Subscription DirectBus::SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw,
-                                            const std::type_info& type, ValueHandler value,
-                                            int queue_capacity) {
+                                            std::vector<TypedValueHandler> values, int queue_capacity) {
   Subscription s = SubscribeRaw(channel_regex, std::move(raw), queue_capacity);
-  Impl::Entry& e = *impl_->entries.back();
-  e.type = &type;
-  e.value = std::move(value);
+  impl_->entries.back()->values = std::move(values);
   return s;
 }
 

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/bus.h"
 
@@ -22,10 +23,11 @@ class DirectBus final : public Bus {
 
   using Bus::Publish;
   bool Publish(const std::string& channel, const void* data, int size) override;
-  /// To the matching subscriptions in order: those of the message's type
-  /// get the object when it PassesAsValue, the others its bytes (encoded
-  /// once, only when one of them matches). A message nobody subscribes to
-  /// is not encoded when it PassesAsValue (its encoding cannot fail).
+  /// To the matching subscriptions in order: those that take the message's
+  /// type (their own, or an older one they convert: bus.h) get the object
+  /// when it PassesAsValue, the others its bytes (encoded once, only when
+  /// one of them matches). A message nobody subscribes to is not encoded
+  /// when it PassesAsValue (its encoding cannot fail).
   bool PublishValue(const std::string& channel, const MessageRef& msg) override;
   Subscription SubscribeRaw(const std::string& channel_regex, RawHandler handler,
                             int queue_capacity = kDefaultQueue) override;
@@ -33,8 +35,8 @@ class DirectBus final : public Bus {
   int HandleTimeout(int timeout_ms) override;
 
  private:
-  Subscription SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw, const std::type_info& type,
-                                   ValueHandler value, int queue_capacity) override;
+  Subscription SubscribeRawOrValue(const std::string& channel_regex, RawHandler raw,
+                                   std::vector<TypedValueHandler> values, int queue_capacity) override;
   void Unsubscribe(int id) override;
   struct Impl;
   std::unique_ptr<Impl> impl_;

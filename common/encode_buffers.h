@@ -23,6 +23,7 @@ class EncodeBuffers {
     const int size = msg.getEncodedSize();
     if (size < 0) return false;
     if (buf.size() < static_cast<std::size_t>(size)) buf.resize(size);
+    ++encoded_;
     if (msg.encode(buf.data(), 0, size) != size) return false;
     ++depth_;
     struct Leave {  // also when `then` throws
@@ -32,8 +33,12 @@ class EncodeBuffers {
     return then(static_cast<const void*>(buf.data()), size);
   }
 
+  /// Messages encoded so far (those that failed to encode too).
+  std::int64_t encoded() const { return encoded_; }
+
  private:
   std::vector<std::vector<std::uint8_t>> buffers_;
+  std::int64_t encoded_{};
   std::size_t depth_{};
 };
 

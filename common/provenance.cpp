@@ -15,6 +15,11 @@
 
 #include <nlohmann/json.hpp>
 
+#if defined(__x86_64__)
+#include <cpuid.h>
+#include <immintrin.h>
+#endif
+
 namespace rocklab::common {
 namespace {
 
@@ -91,8 +96,72 @@ inline void Sha256Round(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::
 
 }  // namespace
 
+#if defined(__x86_64__)
+namespace {
+
+// The x86 SHA extensions (Intel SHA-NI, AMD since Zen): with them a block
+// takes ~5x less time than the portable rounds below, which made hashing a
+// run's input (`rocklab run` hashes it for its provenance) about a sixth of
+// run --max's CPU on a 600 s record. Same FIPS 180-4 function: the tests'
+// FIPS examples and sha256sum comparisons run on whichever path the CPU has.
+bool CpuHasShaExtensions() {
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  if (__get_cpuid(1, &a, &b, &c, &d) == 0) return false;
+  const bool ssse3 = (c & (1u << 9)) != 0, sse41 = (c & (1u << 19)) != 0;
+  if (__get_cpuid_count(7, 0, &a, &b, &c, &d) == 0) return false;
+  return ssse3 && sse41 && (b & (1u << 29)) != 0;  // CPUID.7.0:EBX.SHA
+}
+
+// The 64 rounds on one block, h = (a, b, ..., h). sha256rnds2 works on the
+// state as (a, b, e, f) and (c, d, g, h) and does two rounds per call with
+// the two round inputs in the low half of its third operand; sha256msg1 and
+// sha256msg2 make the message schedule four words at a time.
+__attribute__((target("sha,sse4.1,ssse3"))) void ShaExtensionsBlock(std::uint32_t* h, const unsigned char* p) {
+  const __m128i big_endian = _mm_set_epi64x(0x0c0d0e0f08090a0bLL, 0x0405060700010203LL);
+  const __m128i dcba = _mm_loadu_si128(reinterpret_cast<const __m128i*>(h));      // lanes a, b, c, d
+  const __m128i hgfe = _mm_loadu_si128(reinterpret_cast<const __m128i*>(h + 4));  // lanes e, f, g, h
+  const __m128i cdab = _mm_shuffle_epi32(dcba, 0xB1);
+  const __m128i efgh = _mm_shuffle_epi32(hgfe, 0x1B);
+  __m128i abef = _mm_alignr_epi8(cdab, efgh, 8);
+  __m128i cdgh = _mm_blend_epi16(efgh, cdab, 0xF0);
+  const __m128i abef0 = abef, cdgh0 = cdgh;
+  __m128i w[4];  // words 4i .. 4i + 3 of the schedule in w[i % 4]
+  for (int i = 0; i < 16; ++i) {
+    __m128i x;
+    if (i < 4) {
+      x = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 16 * i)), big_endian);
+    } else {
+      // W[t] = s1(W[t-2]) + W[t-7] + s0(W[t-15]) + W[t-16]
+      x = _mm_sha256msg1_epu32(w[i & 3], w[(i + 1) & 3]);                   // W[t-16] + s0(W[t-15])
+      x = _mm_add_epi32(x, _mm_alignr_epi8(w[(i + 3) & 3], w[(i + 2) & 3], 4));  // + W[t-7]
+      x = _mm_sha256msg2_epu32(x, w[(i + 3) & 3]);                           // + s1(W[t-2])
+    }
+    w[i & 3] = x;
+    __m128i kw = _mm_add_epi32(x, _mm_loadu_si128(reinterpret_cast<const __m128i*>(kRoundConstants.data() + 4 * i)));
+    cdgh = _mm_sha256rnds2_epu32(cdgh, abef, kw);
+    kw = _mm_shuffle_epi32(kw, 0x0E);
+    abef = _mm_sha256rnds2_epu32(abef, cdgh, kw);
+  }
+  abef = _mm_add_epi32(abef, abef0);
+  cdgh = _mm_add_epi32(cdgh, cdgh0);
+  const __m128i feba = _mm_shuffle_epi32(abef, 0x1B);
+  const __m128i dchg = _mm_shuffle_epi32(cdgh, 0xB1);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(h), _mm_blend_epi16(feba, dchg, 0xF0));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(h + 4), _mm_alignr_epi8(dchg, feba, 8));
+}
+
+}  // namespace
+#endif
+
 // The message schedule is kept in 16 words (w[i] overwrites w[i - 16]).
 void Sha256::Block(const unsigned char* p) {
+#if defined(__x86_64__)
+  static const bool sha_extensions = CpuHasShaExtensions();
+  if (sha_extensions) {
+    ShaExtensionsBlock(h_, p);
+    return;
+  }
+#endif
   std::uint32_t w[16];
   for (int i = 0; i < 16; ++i) {
     w[i] = (std::uint32_t{p[4 * i]} << 24) | (std::uint32_t{p[4 * i + 1]} << 16) |

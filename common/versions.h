@@ -79,6 +79,14 @@ template <class Current, class... Old>
 class VersionedDecoder {
  public:
   using Message = Current;
+  /// The older types, and how an object of one is read as `Current` (what
+  /// decoding its bytes gives): Bus::SubscribeDecodedOrValue hands an
+  /// in-process object of one of them to a DirectBus subscription so.
+  using OldTypes = std::tuple<Old...>;
+  template <class O>
+  static void FromOld(const O& in, Current& out) {
+    Upgrade(in, out);
+  }
   const char* operator()(const void* data, int size, Current& out) {
     const std::int64_t fingerprint = WireFingerprint(data, size);
     const char* why = nullptr;
@@ -130,18 +138,16 @@ using ModelStateBodiesDecoder = VersionedDecoder<rocklab::model_state4_t, rockla
 /// Subscribes `handler` to `channel_regex` accepting the current type and
 /// the older ones, with the typed subscription's guard and counters
 /// (Bus::SubscribeDecodedOrValue: on a DirectBus an in-process Current
-/// arrives as the object).
+/// arrives as the object, an in-process older type converted by Upgrade,
+/// neither encoded).
 template <class Decoder>
 [[nodiscard]] Subscription SubscribeVersioned(
     Bus& bus, const std::string& channel_regex,
     std::function<void(const std::string& channel, const typename Decoder::Message& msg)> handler,
     int queue_capacity = Bus::kDefaultQueue) {
-  return bus.SubscribeDecodedOrValue<typename Decoder::Message>(  // Current's own bytes: GuardedDecode
-      channel_regex,
-      [decoder = Decoder{}](const void* data, int size, typename Decoder::Message& msg) mutable {
-        return decoder(data, size, msg);
-      },
-      std::move(handler), queue_capacity);
+  // Current's own bytes: GuardedDecode; the decoder names the older types.
+  return bus.SubscribeDecodedOrValue<typename Decoder::Message>(channel_regex, Decoder{}, std::move(handler),
+                                                                queue_capacity);
 }
 
 /// The sequence number of a rocklab message that carries one (raw_frame_t,

@@ -19,6 +19,7 @@
 #include "common/versions.h"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/model_state3_t.hpp"
+#include "rocklab/model_state4_t.hpp"
 #include "rocklab/raw_frame_t.hpp"
 #include "tests/scratch.h"
 
@@ -210,6 +211,77 @@ TEST(DirectBus, PassesItsOwnMessagesByValueWhereTheEncodingGivesThemBack) {
   EXPECT_EQ(frame_sizes[0], 2u);
   EXPECT_EQ(frames[1], static_cast<const void*>(&frame));
   EXPECT_TRUE(bus.Publish("RL_NOBODY", frame));
+  EXPECT_EQ(bus.handler_error_count(), 0);
+}
+
+// Encodes an lcm-gen message into its bytes.
+template <class Msg>
+std::vector<std::uint8_t> EncodedBytes(const Msg& m) {
+  std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+  EXPECT_EQ(m.encode(b.data(), 0, static_cast<int>(b.size())), static_cast<int>(b.size()));
+  return b;
+}
+
+// Oracle: the same message's bytes through the guarded decoder
+// (ModelStateBodiesDecoder: decode the model_state3_t, then Upgrade) give
+// the model_state4_t the subscription saw, byte for byte when encoded
+// again; bus.h's "Passing by value": an older type a versioned
+// subscription reads is handed as the object and converted, not encoded
+// (the bus's encode_count stays 0) while no subscription wants bytes; a raw
+// subscription on the channel makes one encoding per message, and the
+// versioned one still sees the same value; a message whose encoding would
+// not give it back (a NUL in its name) is encoded and refused, as before.
+TEST(DirectBus, PassesAnOlderTypeByValueToAVersionedSubscription) {
+  DirectBus bus;
+  std::vector<rocklab::model_state4_t> seen;
+  const common::Subscription versioned = SubscribeVersioned<ModelStateBodiesDecoder>(
+      bus, "RL_MODEL_.*", [&](const std::string&, const rocklab::model_state4_t& m) { seen.push_back(m); });
+  rocklab::model_state3_t m3{};
+  m3.utime = 123456;
+  m3.seq = 41;
+  m3.name = "fitted_housner";
+  m3.model = "housner";
+  m3.theta = 0.0125;
+  m3.theta_dot = -0.25;
+  m3.chi = 0.5;
+  m3.psi = 1.5;
+  m3.energy = 0.75;
+  m3.impact_count = 3;
+  m3.regime = -1;
+  m3.alpha = 0.235;
+  m3.p = 3.884;
+  m3.mu = 0.937;
+  m3.l = 1e-10;
+  m3.equations = rocklab::model_state3_t::EQUATIONS_EQ10;
+  EXPECT_TRUE(bus.Publish("RL_MODEL_fitted_housner", m3));
+  EXPECT_EQ(bus.encode_count(), 0);
+  const std::vector<std::uint8_t> bytes = EncodedBytes(m3);
+  EXPECT_TRUE(bus.Publish("RL_MODEL_fitted_housner", bytes.data(), static_cast<int>(bytes.size())));
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_EQ(EncodedBytes(seen[0]), EncodedBytes(seen[1]));
+  EXPECT_EQ(seen[0].nbodies, 1);
+  ASSERT_EQ(seen[0].theta.size(), 1u);
+  EXPECT_EQ(seen[0].theta[0], 0.0125);
+  EXPECT_EQ(seen[0].seq, 41);
+  EXPECT_EQ(seen[0].name, "fitted_housner");
+  EXPECT_EQ(seen[0].mode, "");
+
+  int raw_calls = 0;
+  const common::Subscription raw =
+      bus.SubscribeRaw("RL_MODEL_.*", [&](const std::string&, const void*, int) { ++raw_calls; });
+  m3.theta = -0.5;
+  EXPECT_TRUE(bus.Publish("RL_MODEL_fitted_housner", m3));
+  EXPECT_EQ(bus.encode_count(), 1);
+  EXPECT_EQ(raw_calls, 1);
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[2].theta[0], -0.5);
+
+  m3.name = std::string("A\0B", 3);
+  EXPECT_FALSE(bus.Publish("RL_MODEL_A", m3));
+  EXPECT_EQ(bus.encode_count(), 2);
+  EXPECT_EQ(seen.size(), 3u);
+  EXPECT_EQ(raw_calls, 1);
+  EXPECT_EQ(bus.decode_error_count(), 0);
   EXPECT_EQ(bus.handler_error_count(), 0);
 }
 
