@@ -77,8 +77,9 @@ std::string UtcText(std::time_t time) {
   return text;
 }
 
-Sha256::Sha256()
-    : h_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19},
+Sha256::Sha256(Rounds rounds)
+    : extensions_(rounds == Rounds::kFastest && CpuHasShaExtensions()),
+      h_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19},
       buffer_{} {}
 
 namespace {
@@ -104,7 +105,7 @@ namespace {
 // run's input (`rocklab run` hashes it for its provenance) about a sixth of
 // run --max's CPU on a 600 s record. Same FIPS 180-4 function: the tests'
 // FIPS examples and sha256sum comparisons run on whichever path the CPU has.
-bool CpuHasShaExtensions() {
+bool CpuHasShaExtensionsNow() {
   unsigned a = 0, b = 0, c = 0, d = 0;
   if (__get_cpuid(1, &a, &b, &c, &d) == 0) return false;
   const bool ssse3 = (c & (1u << 9)) != 0, sse41 = (c & (1u << 19)) != 0;
@@ -153,11 +154,19 @@ __attribute__((target("sha,sse4.1,ssse3"))) void ShaExtensionsBlock(std::uint32_
 }  // namespace
 #endif
 
+bool Sha256::CpuHasShaExtensions() {
+#if defined(__x86_64__)
+  static const bool has = CpuHasShaExtensionsNow();
+  return has;
+#else
+  return false;
+#endif
+}
+
 // The message schedule is kept in 16 words (w[i] overwrites w[i - 16]).
 void Sha256::Block(const unsigned char* p) {
 #if defined(__x86_64__)
-  static const bool sha_extensions = CpuHasShaExtensions();
-  if (sha_extensions) {
+  if (extensions_) {
     ShaExtensionsBlock(h_, p);
     return;
   }

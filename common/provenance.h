@@ -20,13 +20,20 @@ namespace rocklab::common {
 /// SHA-256 (FIPS 180-4) of a byte stream, as 64 lowercase hex digits.
 class Sha256 {
  public:
-  Sha256();
+  /// kFastest: the x86 SHA extensions where the CPU has them, else the
+  /// portable rounds; kPortable: the portable rounds always (the tests
+  /// hold both paths to the same digests).
+  enum class Rounds { kFastest, kPortable };
+  explicit Sha256(Rounds rounds = Rounds::kFastest);
   void Update(const void* data, std::size_t bytes);
   /// The digest; the object is spent afterwards.
   std::string HexDigest();
+  /// Whether this CPU has the SHA extensions kFastest uses.
+  static bool CpuHasShaExtensions();
 
  private:
   void Block(const unsigned char* p);
+  bool extensions_{false};
   std::uint32_t h_[8];
   unsigned char buffer_[64];
   std::size_t buffered_{};
