@@ -99,8 +99,10 @@ class Stack {
   /// relative rate is instead that factor times its rate before. When no
   /// state pushes to round-off, the one of least tensile impulse is taken if
   /// that is within every interface's preload allowance (the weight above it
-  /// over kContactPreloadTimeS: docs/models.md, "Impacts: the contact states
-  /// after"). Throws std::runtime_error when none is.
+  /// over kContactPreloadTimeS); failing that, the same with the interfaces
+  /// that pivot through the impact held (their normal impulse not checked:
+  /// no flight). docs/models.md, "Impacts: the contact states after".
+  /// Throws std::runtime_error when none is.
   struct ImpactResult {
     Mode mode{};
     Vec q;     ///< the same configuration in the new mode's coordinates
