@@ -4,6 +4,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -232,20 +233,24 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
   const double tol = 1e-11 * scale;
   const double rate_k = qdot(before.dof[kk]);
 
-  // Candidates, fewest contact changes first.
+  // Candidates, fewest contact changes first: k on its other corner or
+  // closed, each closed, unglued interface kept closed or opened; then, last,
+  // k kept on its corner (the striking corner taking no impulse), so that
+  // every contact state of the contacts at zero gap is tried (docs/models.md,
+  // "Impacts: the contact states after").
   std::vector<int> closed;
   for (int j = 0; j < n_; ++j) {
     if (j != k && mode[static_cast<std::size_t>(j)] == 0 && !glued(j)) closed.push_back(j);
   }
   std::vector<std::pair<int, Mode>> candidates;
-  for (int sk : {-mode[kk], 0}) {
+  for (int sk : {-mode[kk], 0, mode[kk]}) {
     if (sk != 0 && glued(k)) continue;
     int combos = 1;
     for (std::size_t c = 0; c < closed.size(); ++c) combos *= 3;
     for (int code = 0; code < combos; ++code) {
       Mode next = mode;
       next[kk] = sk;
-      int changes = sk == 0, rest = code;
+      int changes = (sk == 0) + (sk == mode[kk] ? 2 * n_ + 2 : 0), rest = code;
       for (int j : closed) {
         const int s = rest % 3 == 0 ? 0 : (rest % 3 == 1 ? 1 : -1);
         rest /= 3;
@@ -258,10 +263,26 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const auto& x, const auto& y) { return x.first < y.first; });
 
-  for (const auto& [changes, next] : candidates) {
-    (void)changes;
+  // The preload allowance of each interface (N s): the weight of the bodies
+  // above it over kContactPreloadTimeS, the tensile impulse its standing
+  // compression takes up in that time without the contact parting.
+  std::array<double, kMaxBodies> allowance{};
+  {
+    double above = 0;
+    for (int j = n_ - 1; j >= 0; --j) {
+      above += body(j).mass_kg;
+      allowance[static_cast<std::size_t>(j)] = kContactPreloadTimeS * common::kGravity * above;
+    }
+  }
+
+  // Each candidate's post-impact state, and its worst shortfall from pushing
+  // in units of the allowance (0: every impulse pushes to round-off); < 0
+  // when an interface that opens here would not move apart.
+  // With `hold_pivots` the interfaces pivoting before and after (not k) are
+  // held: their normal impulse is not checked (no flight, as between
+  // impacts, where a pivot's normal force is not either).
+  auto evaluate = [&](const Mode& next, ImpactResult& out, bool hold_pivots) -> double {
     // The same configuration in the new mode's coordinates.
-    ImpactResult out;
     out.mode = next;
     const int m = Dofs(next);
     out.q = Vec::Zero(m);
@@ -295,13 +316,13 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
     }
     out.qdot = m > 0 ? Vec(lhs.partialPivLu().solve(rhs)) : Vec::Zero(0);
 
-    bool consistent = true;
-    for (int j = 0; j < n_ && consistent; ++j) {
+    double worst = 0;
+    for (int j = 0; j < n_; ++j) {
       const auto jj = static_cast<std::size_t>(j);
       const int s = next[jj];
       // An interface that opens here must move apart.
       if (s != 0 && (j == k || mode[jj] == 0) && s * out.qdot(after.dof[jj]) < -1e-12 * (std::abs(rate_k) + 1)) {
-        consistent = false;
+        return -1.0;
       }
       // Impulses through it: pushing, and within a closed face.
       V2 impulse(0, 0);
@@ -315,10 +336,31 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
       }
       const double below = j > 0 ? before.theta[jj - 1] : 0.0;
       const double normal = impulse.dot(V2(-std::sin(below), std::cos(below)));
-      if (normal < -tol) consistent = false;
-      if (s == 0 && std::abs(moment) > c_[jj] * normal + tol * c_[jj]) consistent = false;
+      if (hold_pivots && s != 0 && j != k && mode[jj] != 0) continue;
+      worst = std::max(worst, (-normal - tol) / allowance[jj]);
+      if (s == 0) worst = std::max(worst, (std::abs(moment) - c_[jj] * normal - tol * c_[jj]) / (c_[jj] * allowance[jj]));
     }
-    if (consistent) return out;
+    return worst;
+  };
+
+  // The first candidate whose impulses all push (to round-off) is the
+  // solution of the contacts' complementarity problem. Failing that, the
+  // one of least shortfall, if its tensile impulses are within the preloads;
+  // failing that, the same with the pivots above held (docs/models.md).
+  for (bool hold_pivots : {false, true}) {
+    ImpactResult best;
+    double best_worst = std::numeric_limits<double>::infinity();
+    for (const auto& [changes, next] : candidates) {
+      (void)changes;
+      ImpactResult out;
+      const double worst = evaluate(next, out, hold_pivots);
+      if (worst == 0.0) return out;
+      if (worst > 0 && worst < best_worst) {
+        best_worst = worst;
+        best = out;
+      }
+    }
+    if (best_worst <= 1.0) return best;
   }
   std::string state;
   for (Eigen::Index i = 0; i < q.size(); ++i) {
@@ -326,7 +368,8 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
   }
   throw std::runtime_error("stack impact at interface " + std::to_string(k) + " (mode " + ModeName(mode, n_) +
                            "; relative angles " + state +
-                           "): no post-impact contact state keeps every contact pushing (a block would jump)");
+                           "): no post-impact contact state keeps every contact pushing, within each interface's preload over " +
+                           std::to_string(kContactPreloadTimeS) + " s, even with the pivots held (a block would jump)");
 }
 
 }  // namespace rocklab::model::stack

@@ -39,6 +39,11 @@ struct Body {
   static Body Rectangle(double width_m, double height_m, double mass_kg);
 };
 
+/// An impact's tensile impulse at an interface that its standing
+/// compression (the weight above it) takes up within this time is not
+/// flight (docs/models.md, "Impacts: the contact states after"), s.
+inline constexpr double kContactPreloadTimeS = 1e-6;
+
 /// Contact state per interface: 0 closed, +1 pivot left, -1 pivot right.
 using Mode = std::array<int, kMaxBodies>;
 
@@ -82,15 +87,22 @@ class Stack {
   /// Kinetic plus potential energy (J), the table at rest.
   double Energy(const Mode& mode, const Vec& q, const Vec& qdot) const;
 
-  /// After interface k's pivot closes (its relative angle 0): the first
-  /// post-impact mode, fewest contact changes first (k on its other corner
-  /// or closed; each closed, unglued interface kept closed or opened), whose
-  /// impulses push (normal impulse >= 0, a closed face's impulsive moment
-  /// within c times it) and whose opened interfaces move apart. Angular
-  /// momentum of the bodies above every pivot is conserved about it (the
-  /// inelastic impact); with `restitution` >= 0 interface k's relative rate
-  /// is instead that factor times its rate before. Throws std::runtime_error
-  /// when no candidate is consistent.
+  /// After interface k's pivot closes (its relative angle 0): the
+  /// post-impact contact state, solving the complementarity problem of the
+  /// contacts at zero gap by trying every state, fewest contact changes first
+  /// (k on its other corner, closed, or on its own corner; each closed,
+  /// unglued interface kept closed or opened): the first whose impulses push
+  /// (normal impulse >= 0, a closed face's impulsive moment within c times
+  /// it) and whose opened interfaces move apart. Angular momentum of the
+  /// bodies above every pivot is conserved about it (the inelastic impact;
+  /// kinetic energy never grows); with `restitution` >= 0 interface k's
+  /// relative rate is instead that factor times its rate before. When no
+  /// state pushes to round-off, the one of least tensile impulse is taken if
+  /// that is within every interface's preload allowance (the weight above it
+  /// over kContactPreloadTimeS); failing that, the same with the interfaces
+  /// that pivot through the impact held (their normal impulse not checked:
+  /// no flight). docs/models.md, "Impacts: the contact states after".
+  /// Throws std::runtime_error when none is.
   struct ImpactResult {
     Mode mode{};
     Vec q;     ///< the same configuration in the new mode's coordinates
