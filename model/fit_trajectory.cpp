@@ -104,7 +104,7 @@ constexpr double kFirstWindowS = 1.0;
 // minimum, already over the first window; the screened points rarely fall
 // in the truth's piece. Bench seeds 3132 and 3139 (spline reading) ended
 // in a neighbouring piece 6e-4 and 1.2e-3 rad off, 134 and 156 standard
-// errors, where the whole-record cost was 46 and 76 noise variances above
+// errors, where the whole-record cost was 46 and 77 noise variances above
 // the truth's, and both noise tests passed (docs/fit_coverage.md). So the
 // best refined start's alpha is scanned on the first window, p and mu held,
 // over +-kLadderHalfWidth of itself in kLadderSteps steps (a step of 4e-5
@@ -113,7 +113,8 @@ constexpr double kFirstWindowS = 1.0;
 // screened starts and compete with them for the growing windows, where one
 // more is carried (kLadderCarried): on the first window the pieces' minima
 // can be within one noise variance of each other (seed 3139: the truth's
-// second, 0.4 above a wrong one that the whole record puts 80 above it).
+// second, 0.4 above a wrong one that the whole record puts 77 above it).
+// Not when the first window is the whole record (a short record).
 constexpr double kLadderHalfWidth = 0.01;
 constexpr int kLadderSteps = 100;
 constexpr int kLadderRefined = 6;

@@ -177,7 +177,7 @@ TEST(FitTrajectory, ForcedLocalMinimumIsNotCalledConverged) {
 // The global start ended at alpha 0.20445, 156 stated standard errors off,
 // in a neighbouring piece of a cost that is smooth in alpha only between
 // the values where a table peak crosses the uplift threshold; its
-// whole-record cost is 76 noise variances above the truth's minimum, yet
+// whole-record cost is 77 noise variances above the truth's minimum, yet
 // both noise tests passed (chi2 / dof 0.977 against a noise estimate 4 %
 // high, band test p 0.006), so it said converged. The alpha ladder
 // (model/fit_trajectory.cpp) finds the truth's piece. Oracle: the truth;
