@@ -18,6 +18,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "model/excitation.h"
@@ -51,18 +52,12 @@ Case MakeCase(const Args& a, unsigned s) {
   Case c;
   if (a.method == "forced") {
     // Slender blocks of 1 m height under a Hanning sine of 8-12 mm at
-    // 3.3 Hz (figure 7's motion, larger so that every record rocks);
-    // the geometry's b within +-2 mm of the truth's, p within -+5 % of it.
-    c.truth = {0.20 + 0.06 * u(rng), 0.0, 0.90 + 0.06 * u(rng)};
-    const double height = 1.0;
-    const double db = 0.004 * (u(rng) - 0.5);
-    c.geometry = rocklab::model::FitGeometry{height * std::tan(c.truth.alpha) + 2 * db, height, 0.0};
-    const double r = 0.5 * std::hypot(c.geometry->width_m, height);
-    c.truth.p = std::sqrt(3.0 * 9.81 / (4.0 * r)) * (0.95 + 0.10 * u(rng));
-    const double amp = 0.008 + 0.004 * u(rng);
-    const auto ex = rocklab::model::ParseExcitation("hanning:amp=" + std::to_string(amp) +
-                                                    ",freq=3.3,duration=4,start=0.5");
-    c.record = rocklab::test::SyntheticForced(c.truth, *ex, 6.0, 250, 1000, a.noise_deg, s);
+    // 3.3 Hz (figure 7's motion, larger so that every record rocks); the
+    // record shared with the tests (fit_synthetic.h).
+    rocklab::test::CoverageForcedCase f = rocklab::test::MakeCoverageForcedCase(s, a.noise_deg);
+    c.truth = f.truth;
+    c.geometry = f.geometry;
+    c.record = std::move(f.record);
   } else {
     c.truth = {0.20 + 0.10 * u(rng), 3.0 + 1.5 * u(rng), 0.88 + 0.08 * u(rng)};
     const double theta0 = (0.4 + 0.4 * u(rng)) * c.truth.alpha;

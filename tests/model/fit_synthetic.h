@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "model/excitation.h"
+#include "model/fit.h"
 #include "model/test_record.h"
 #include "model/rocking_model.h"
 #include "tests/model/rk4_reference.h"
@@ -102,6 +103,34 @@ inline model::RockingRecord SyntheticForced(const model::BlockParams& truth,
     r.table_accel_mps2.push_back(excitation.TableAcceleration(t));
   }
   return r;
+}
+
+/// The forced record of the coverage bench's seed (bench/fit_coverage.cpp,
+/// docs/fit_coverage.md): alpha in [0.20, 0.26], mu in [0.90, 0.96], a 1 m
+/// high block whose geometry has b within +-2 mm of the truth's and p
+/// 0.95-1.05 of the geometry's; a Hanning sine of 8-12 mm at 3.3 Hz (4 s
+/// from 0.5 s); 6 s of theta at 250 Hz with the given noise, the table
+/// acceleration at 1 kHz, exact. The bench and the tests share it, so that a
+/// test reproduces a bench record exactly.
+struct CoverageForcedCase {
+  model::BlockParams truth;
+  model::FitGeometry geometry;
+  model::RockingRecord record;
+};
+inline CoverageForcedCase MakeCoverageForcedCase(std::uint32_t seed, double noise_deg) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  CoverageForcedCase c;
+  c.truth = {0.20 + 0.06 * u(rng), 0.0, 0.90 + 0.06 * u(rng)};
+  const double height = 1.0;
+  const double db = 0.004 * (u(rng) - 0.5);
+  c.geometry = model::FitGeometry{height * std::tan(c.truth.alpha) + 2 * db, height, 0.0};
+  const double r = 0.5 * std::hypot(c.geometry.width_m, height);
+  c.truth.p = std::sqrt(3.0 * 9.81 / (4.0 * r)) * (0.95 + 0.10 * u(rng));
+  const double amp = 0.008 + 0.004 * u(rng);
+  const auto ex = model::ParseExcitation("hanning:amp=" + std::to_string(amp) + ",freq=3.3,duration=4,start=0.5");
+  c.record = SyntheticForced(c.truth, *ex, 6.0, 250, 1000, noise_deg, seed);
+  return c;
 }
 
 /// Removes each sample with probability `fraction` (seeded) and then the
