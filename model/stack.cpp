@@ -354,13 +354,19 @@ Stack::ImpactResult Stack::Impact(const Mode& mode, const Vec& q, const Vec& qdo
       (void)changes;
       ImpactResult out;
       const double worst = evaluate(next, out, hold_pivots);
-      if (worst == 0.0) return out;
+      if (worst == 0.0) {  // in the second pass, pushing only with the pivots held
+        out.rule = hold_pivots ? ImpactRule::kHeldPivots : ImpactRule::kPushing;
+        return out;
+      }
       if (worst > 0 && worst < best_worst) {
         best_worst = worst;
         best = out;
       }
     }
-    if (best_worst <= 1.0) return best;
+    if (best_worst <= 1.0) {
+      best.rule = hold_pivots ? ImpactRule::kHeldPivots : ImpactRule::kPreload;
+      return best;
+    }
   }
   std::string state;
   for (Eigen::Index i = 0; i < q.size(); ++i) {

@@ -103,7 +103,13 @@ class Stack {
   /// that pivot through the impact held (their normal impulse not checked:
   /// no flight). docs/models.md, "Impacts: the contact states after".
   /// Throws std::runtime_error when none is.
+  /// Which pass resolved an impact: every impulse pushing (the exact
+  /// complementarity solution), a tension within the preloads, or pivots
+  /// held (a block that would jump kept on its pivot: a model assumption,
+  /// counted by Stepper and reported by simulate).
+  enum class ImpactRule { kPushing, kPreload, kHeldPivots };
   struct ImpactResult {
+    ImpactRule rule{ImpactRule::kPushing};
     Mode mode{};
     Vec q;     ///< the same configuration in the new mode's coordinates
     Vec qdot;  ///< rad/s
@@ -187,6 +193,10 @@ struct Run {
   std::vector<Event> events;
   bool overturned{false};
   long steps{};  ///< the integrator's
+  /// Impacts resolved within the preloads, and with pivots held
+  /// (Stack::ImpactRule): the model's assumptions, said by simulate.
+  int impacts_preload{};
+  int impacts_held_pivots{};
 };
 
 /// A stack stepped from rest, sample after sample: Simulate's loop, and the
@@ -227,6 +237,10 @@ class Stepper {
   int overturned_interface() const { return overturned_interface_; }
   /// Impacts since Reset, at every interface.
   int impacts() const { return impacts_; }
+  /// Of those, the impacts resolved within the preloads, and with pivots
+  /// held (Stack::ImpactRule), since Reset.
+  int impacts_preload() const { return impacts_preload_; }
+  int impacts_held_pivots() const { return impacts_held_pivots_; }
   /// Events since Reset (or the last ClearEvents).
   const std::vector<Event>& events() const { return events_; }
   void ClearEvents() { events_.clear(); }
@@ -246,6 +260,8 @@ class Stepper {
   bool overturned_{};
   int overturned_interface_{-1};
   int impacts_{};
+  int impacts_preload_{};
+  int impacts_held_pivots_{};
   std::vector<Event> events_;
   double last_step_time_s_{}, last_step_accel_{};
   bool has_step_sample_{};

@@ -191,6 +191,8 @@ void Stepper::Reset(double t0_s) {
   overturned_ = false;
   overturned_interface_ = -1;
   impacts_ = 0;
+  impacts_preload_ = 0;
+  impacts_held_pivots_ = 0;
   events_.clear();
   has_step_sample_ = false;
 }
@@ -322,6 +324,8 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
       } catch (const std::runtime_error& e) {
         throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
       }
+      impacts_preload_ += after.rule == Stack::ImpactRule::kPreload ? 1 : 0;
+      impacts_held_pivots_ += after.rule == Stack::ImpactRule::kHeldPivots ? 1 : 0;
       const int new_dof = DofOf(after.mode, k);
       if (after.mode[kk] != 0 && std::abs(after.qdot(new_dof)) < options_.rest_rate_rad_s) {
         // Too slow to lift again: shut, its rate taken out by the impact.
@@ -368,6 +372,8 @@ Run Simulate(const Stack& stack, const Forcing& forcing, const RunOptions& optio
   run.events = stepper.events();
   run.overturned = stepper.overturned();
   run.steps = stepper.steps();
+  run.impacts_preload = stepper.impacts_preload();
+  run.impacts_held_pivots = stepper.impacts_held_pivots();
   return run;
 }
 

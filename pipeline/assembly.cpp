@@ -293,6 +293,8 @@ void RunAssemblyAsStack(const Assembly& a, const ScenarioOptions& o, const model
     run.events.push_back({e.time_s, e.kind, e.interface, model::stack::ModeName(e.after, n)});
   }
   run.steps = r.steps;
+  run.impacts_preload = r.impacts_preload;
+  run.impacts_held_pivots = r.impacts_held_pivots;
 }
 
 }  // namespace
@@ -471,6 +473,8 @@ std::string AssemblySummaryJson(const ScenarioOptions& o, const std::string& pat
                            {"final_mode", run.mode.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.mode.back())},
                            {"events", run.events.size()},
                            {"steps", run.steps},
+                           {"impacts_preload", run.impacts_preload},
+                           {"impacts_held_pivots", run.impacts_held_pivots},
                            {"cpu_time", cpu_s},
                            {"units",
                             {{"alpha", "rad"}, {"p", "rad/s"}, {"duration", "s"}, {"rate", "Hz"}, {"uplift_time", "s"},

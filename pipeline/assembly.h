@@ -84,6 +84,11 @@ struct AssemblyRun {
   std::optional<model::BlockParams> block;  ///< the single block run (block, frame)
   std::string forcing_description;
   long steps{};                     ///< the integrator's
+  /// A stack's impacts resolved within the contacts' preloads, and with
+  /// pivots held (a block that would jump kept on its pivot): the stack
+  /// model's assumptions (docs/models.md, "Impacts: the contact states after").
+  int impacts_preload{};
+  int impacts_held_pivots{};
 };
 
 /// Runs `assembly` from rest under the options' table motion, for their

@@ -89,7 +89,12 @@ void PrintAssemblySummary(std::FILE* report, const pipeline::ScenarioOptions& o,
   if (s.overturn_time_s) {
     std::fprintf(report, ", OVERTURNED: %s at %.4f s", s.overturned_body.c_str(), *s.overturn_time_s);
   }
-  std::fprintf(report, "\n  %zu rows written to %s\n", run.time_s.size(), written_to.c_str());
+  std::fprintf(report, "\n");
+  if (run.impacts_preload > 0 || run.impacts_held_pivots > 0) {
+    std::fprintf(report, "  of the impacts, %d resolved within the contacts' preloads, %d with pivots held\n",
+                 run.impacts_preload, run.impacts_held_pivots);
+  }
+  std::fprintf(report, "  %zu rows written to %s\n", run.time_s.size(), written_to.c_str());
 }
 
 }  // namespace
@@ -127,6 +132,12 @@ int RunSimulateAssembly(const pipeline::ScenarioOptions& o, const std::string& p
   if (!events_csv.empty()) WriteAssemblyEventsCsv(run, events_csv);
   for (const std::string& csv : {out_csv, events_csv}) common::WriteProvenanceSidecar(csv, {path, o.accel_csv});
 
+  if (run.impacts_held_pivots > 0) {  // a block that would have jumped was kept on its pivot
+    std::fprintf(stderr,
+                 "simulate: warning: %s: %d impact%s resolved only with pivots held (a block that would jump kept "
+                 "on its pivot; docs/models.md, \"Impacts: the contact states after\")\n",
+                 path.c_str(), run.impacts_held_pivots, run.impacts_held_pivots == 1 ? "" : "s");
+  }
   const pipeline::AssemblySummary s = pipeline::Summarise(run);
   std::FILE* report = out_csv == "-" || events_csv == "-" ? stderr : stdout;
   if (json) {

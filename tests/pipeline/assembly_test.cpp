@@ -184,6 +184,29 @@ TEST(AssemblyCli, AStackIsTheStackModelsRun) {
   EXPECT_EQ(j.at("bodies").size(), 2u);
   EXPECT_EQ(j.at("bodies").at(1).at("name"), "statue");
   EXPECT_EQ(j.at("samples").get<std::size_t>(), run.time_s.size());
+  // The impacts that needed the model's assumptions, as the run counted them.
+  EXPECT_EQ(j.at("impacts_preload").get<int>(), run.impacts_preload);
+  EXPECT_EQ(j.at("impacts_held_pivots").get<int>(), run.impacts_held_pivots);
+}
+
+// Figure 8's sine (6 mm at 5 Hz) under five drums: some impacts have no
+// post-impact state whose impulses all push and are resolved with the
+// pivots held (docs/models.md). The command says how many, in --json and
+// as a warning naming the file, the same count the stack model's run gives.
+TEST(AssemblyCli, ImpactsResolvedWithPivotsHeldAreCountedAndSaid) {
+  const std::string dir = ScratchDir("assembly_held");
+  const std::string toml = kSource + "/data/assemblies/drums5.toml";
+  const CliResult r = RunCli({"simulate", "--assembly", toml, "--model", "housner", "--excitation",
+                              "sine:amp=0.006,freq=5,duration=20,start=0", "--duration", "20", "--rate", "100",
+                              "--out", dir + "/drums.csv", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const int held = j.at("impacts_held_pivots").get<int>();
+  EXPECT_GT(held, 0);
+  EXPECT_LE(held + j.at("impacts_preload").get<int>(), j.at("impacts").get<int>());
+  EXPECT_NE(r.err.find("drums5.toml: " + std::to_string(held) + " impacts resolved only with pivots held"),
+            std::string::npos)
+      << r.err;
 }
 
 // Oracle: the single block (`simulate --alpha --p --mu`, the statue's
