@@ -157,6 +157,8 @@ class AssemblySummary(TypedDict):
     final_mode: Optional[str]
     events: int
     steps: int
+    impacts_preload: int  # a stack's impacts resolved within the contacts' preloads
+    impacts_held_pivots: int  # ... and with pivots held (docs/models.md)
     cpu_time: float
     units: Dict[str, str]
 
