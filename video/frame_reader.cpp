@@ -194,17 +194,8 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
         ++counts_.repeated;
         continue;
       }
-      // Frames refused with no time are the first of the gap, not drops.
-      const int64_t gap = n - last_number_ - 1;
-      const int64_t lost = gap - std::min(std::max(gap, int64_t{0}), untimed_unreadable_);
-      if (lost > 0) {
-        counts_.dropped += lost;
-        ++counts_.drop_events;
-      }
     }
-    untimed_unreadable_ = 0;
-    last_number_ = n;
-    last_time_s_ = stored;
+    MoveTo(n, stored);
     if (raw_.channels() == 1) {
       if (raw_.depth() == CV_8U) {
         gray = raw_;
@@ -227,6 +218,23 @@ bool FrameReader::Next(cv::Mat& gray, double& time_s, int64_t& number) {
   }
 }
 
+// Frame n (a frame given, or one refused at its time) after the last
+// numbered one: the frames between are dropped, less those refused with no
+// time (the first of the gap, not drops).
+void FrameReader::MoveTo(int64_t n, double container_time_s) {
+  if (last_number_ >= 0) {
+    const int64_t gap = n - last_number_ - 1;
+    const int64_t lost = gap - std::min(std::max(gap, int64_t{0}), untimed_unreadable_);
+    if (lost > 0) {
+      counts_.dropped += lost;
+      ++counts_.drop_events;
+    }
+  }
+  untimed_unreadable_ = 0;
+  last_number_ = n;
+  last_time_s_ = container_time_s;
+}
+
 // A frame the decoder refused: counted once, at its number where its time
 // says it (the next frame's number then follows it, no drop), else as the
 // first frame of the next gap.
@@ -242,17 +250,7 @@ void FrameReader::CountUnreadable(double container_time_s) {
   if (last_number_ < 0) first_time_s_ = container_time_s;  // the file's first frame, damaged
   const int64_t n = std::llround((container_time_s - first_time_s_) * container_rate_hz_);
   if (last_number_ >= 0 && (n <= last_number_ || container_time_s < last_time_s_)) return;  // not a new place
-  if (last_number_ >= 0) {
-    const int64_t gap = n - last_number_ - 1;
-    const int64_t lost = gap - std::min(gap, untimed_unreadable_);
-    if (lost > 0) {
-      counts_.dropped += lost;
-      ++counts_.drop_events;
-    }
-  }
-  untimed_unreadable_ = 0;
-  last_number_ = n;
-  last_time_s_ = container_time_s;
+  MoveTo(n, container_time_s);
   counts_.last_unreadable_number = n;
   counts_.last_unreadable_time_s = first_time_s_ + static_cast<double>(n) / rate_hz_;
 }

@@ -131,6 +131,7 @@ class FrameReader {
   cv::Size first_size_;
   cv::Mat raw_;  // reused: the decoded frame before the grey conversion
   void CountUnreadable(double container_time_s);
+  void MoveTo(int64_t n, double container_time_s);
   ColourChoice colour_;
   cv::Matx13f bgr_weights_;  // ColourChoice::kWeights in OpenCV's B, G, R order
 };
