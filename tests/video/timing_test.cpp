@@ -148,6 +148,14 @@ struct ShotRun {
   int compared{};
 };
 
+// Whether one of the read's problems says `text`.
+bool Said(const std::vector<std::string>& problems, const std::string& text) {
+  for (const std::string& p : problems) {
+    if (p.find(text) != std::string::npos) return true;
+  }
+  return false;
+}
+
 ShotRun ReadShot(const std::string& dir, const std::string& rig_text, const std::string& video, const Shot& s) {
   std::ofstream(dir + "/rig.toml") << rig_text;
   RegisterSources();
@@ -233,9 +241,7 @@ TEST(VideoTime, RoundedMatroskaTimesAreStampedOnTheFrameGridAndSaidSo) {
   EXPECT_GT(r.stats.frames.off_grid, kN / 2);
   EXPECT_GT(r.stats.frames.max_off_grid_s, 0.4e-3);
   EXPECT_LE(r.stats.frames.max_off_grid_s, 0.5e-3 + 1e-6);
-  bool said = false;
-  for (const std::string& p : r.problems) said = said || p.find("stamped t0 + k /") != std::string::npos;
-  EXPECT_TRUE(said);
+  EXPECT_TRUE(Said(r.problems, "stamped t0 + k /"));
   // Oracle: the truth at those times; all four LEDs in view.
   const double bound = ThetaBound({0, 1, 2, 3}, 0.0);
   std::printf("MKV 240 frames/s: theta error RMS %.3g, max %.3g rad (bound %.3g) over %d frames\n", r.rms_error,
@@ -334,9 +340,7 @@ TEST(VideoHealth, AGlintMergedWithAnLedIsRejectedNotAveraged) {
   EXPECT_LT(r.max_error, bound);
   EXPECT_GT(r.stats.track.outliers, 0);
   EXPECT_EQ(r.compared, kN);  // three LEDs always left: a theta every frame
-  bool said = false;
-  for (const std::string& p : r.problems) said = said || p.find("LED C: blob of") != std::string::npos;
-  EXPECT_TRUE(said);
+  EXPECT_TRUE(Said(r.problems, "LED C: blob of"));
 }
 
 TEST(VideoHealth, NoLedForLongerThanMaxDarkIsAnErrorNamingTheFileAndFrame) {
@@ -424,9 +428,7 @@ TEST(VideoHealth, ATruncatedFileIsCountedAsFramesMissingAtTheEnd) {
               static_cast<long long>(r.stats.frames.announced));
   EXPECT_LT(r.stats.frames.frames, 70);
   EXPECT_NEAR(static_cast<double>(r.stats.frames.frames + r.stats.frames.missing_at_end), kN, 1.0);
-  bool said = false;
-  for (const std::string& p : r.problems) said = said || p.find("the read ended") != std::string::npos;
-  EXPECT_TRUE(said);
+  EXPECT_TRUE(Said(r.problems, "the read ended"));
 }
 
 TEST(VideoHealth, AFrameSizeChangeInAnImageSequenceStopsTheReadNamingTheFrame) {
@@ -756,9 +758,7 @@ TEST(VideoHealth, ZerosInsideAnMjpegAviKeepTheTimesOfTheFramesAfterThem) {
   const ShotRun r = ReadShot(dir, RigFor(test::TestCamera{}, 100, ""), video, s);
   EXPECT_EQ(r.stats.frames.dropped, c.dropped);
   EXPECT_EQ(r.stats.frames.frames, static_cast<int64_t>(d.numbers.size()));
-  bool said = false;
-  for (const std::string& p : r.problems) said = said || p.find(" frame(s) dropped before this one") != std::string::npos;
-  EXPECT_TRUE(said);
+  EXPECT_TRUE(Said(r.problems, " frame(s) dropped before this one"));
 }
 
 
@@ -794,9 +794,7 @@ TEST(VideoHealth, ATruncatedMjpegAviIsCountedAsFramesMissingAtTheEnd) {
   EXPECT_EQ(static_cast<int64_t>(d.numbers.size()) + Counted(c), kN);
   const ShotRun r = ReadShot(dir, RigFor(test::TestCamera{}, 100, ""), video, s);
   EXPECT_EQ(r.stats.frames.missing_at_end, c.missing_at_end);
-  bool said = false;
-  for (const std::string& p : r.problems) said = said || p.find("the read ended") != std::string::npos;
-  EXPECT_TRUE(said);
+  EXPECT_TRUE(Said(r.problems, "the read ended"));
 }
 
 // A red LED filmed by a colour camera, MJPEG 4:4:4 in AVI through the
