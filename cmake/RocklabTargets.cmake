@@ -28,6 +28,17 @@ function(rocklab_configure_target target)
   endif()
 endfunction()
 
+# rocklab_glue_code(target): code whose speed no test depends on (the
+# tests' own files, the command's option handling and output). The
+# sanitizer build compiles it at -O0 (clang with ASan: about half the CPU
+# of -O1), while the libraries it calls keep the build type's flags
+# (docs/testing.md, "Build time").
+function(rocklab_glue_code target)
+  if(ROCKLAB_SANITIZE)
+    target_compile_options(${target} PRIVATE -O0)
+  endif()
+endfunction()
+
 # rocklab_position_independent(target): a static library that goes into a
 # shared object (a plugin, the Python module) and the static libraries it
 # links, compiled position-independent (-fPIC instead of the executables'
