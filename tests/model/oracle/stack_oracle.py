@@ -188,6 +188,94 @@ class Stack:
                 return vp, new
         raise RuntimeError("no consistent post-impact contact at t, interface %d" % k)
 
+    def place(self, theta, omega, mode):
+        """Coordinates and velocities (three per body) of the stack whose
+        bodies have the absolute angles theta (rad) and rates omega (rad/s),
+        each standing on the one below (the table at x = 0 for the bottom)
+        at the contact point of its interface's state in `mode`: a pivot's
+        corner, or a closed face's centre. No slide: a contact point moves
+        with both bodies."""
+        q = np.zeros(3 * self.n)
+        v = np.zeros(3 * self.n)
+        for k, s in enumerate(mode):
+            ru, rl = self._points(k, s)
+            if k == 0:
+                p, vp = rl, np.zeros(2)
+            else:
+                gl, tl, wl = q[3 * k - 3:3 * k - 1], theta[k - 1], omega[k - 1]
+                arm = rot(tl) @ rl
+                p, vp = gl + arm, v[3 * k - 3:3 * k - 1] + wl * perp(arm)
+            arm = rot(theta[k]) @ ru
+            q[3 * k:3 * k + 2] = p - arm
+            q[3 * k + 2] = theta[k]
+            v[3 * k:3 * k + 2] = vp - omega[k] * perp(arm)
+            v[3 * k + 2] = omega[k]
+        return q, v
+
+    def impact_rules(self, q, v, mode, k, tau=1e-6):
+        """The impact of interface k closing as rocklab's model states its
+        rule (docs/models.md, "Impacts: the contact states after"), solved
+        here in this file's coordinates: the first contact state, fewest
+        changes first, whose impulses all push ("pushing"); failing that,
+        the state of least tensile shortfall if it is within every
+        interface's preload, the weight above it over tau ("preload");
+        failing both, the same two with the interfaces that pivot through
+        the impact held, their normal impulse unchecked ("held"). Returns
+        (rule, velocities after, mode after), or ("none", None, None)."""
+        n = self.n
+        scale = sum(self.m[i] * (np.hypot(v[3 * i], v[3 * i + 1]) + abs(v[3 * i + 2]) * self.h[i])
+                    for i in range(n))
+        tol = 1e-11 * scale
+        rate_k = v[3 * k + 2] - (v[3 * k - 1] if k > 0 else 0.0)
+        allowance = [tau * G * sum(self.m[j:]) for j in range(n)]
+        closed = [j for j, s in enumerate(mode) if s == 0 and j != k and j not in self.glued]
+        candidates = []
+        for sk in (-mode[k], 0, mode[k]):
+            if sk != 0 and k in self.glued:
+                continue
+            for code in range(3 ** len(closed)):
+                new = list(mode)
+                new[k] = sk
+                changes = (sk == 0) + (2 * n + 2 if sk == mode[k] else 0)
+                for j in closed:
+                    new[j] = (0, 1, -1)[code % 3]
+                    code //= 3
+                    changes += new[j] != 0
+                candidates.append((changes, new))
+        candidates.sort(key=lambda c: c[0])
+
+        def shortfall(new, hold):
+            C, _, where = self.constraints(q, v, new)
+            x = np.linalg.solve(self._kkt(C), np.concatenate([self.M @ v, np.zeros(C.shape[0])]))
+            vp, imp = x[:3 * n], x[3 * n:]
+            worst = 0.0
+            for j, s in enumerate(new):
+                if s != 0 and (j == k or mode[j] == 0):
+                    rel = vp[3 * j + 2] - (vp[3 * j - 1] if j > 0 else 0.0)
+                    if s * rel < -1e-12 * (abs(rate_k) + 1):
+                        return vp, None  # an interface it opens would not open
+                pn, pm = self.contact(q, j, imp, where[j])
+                if hold and s != 0 and j != k and mode[j] != 0:
+                    continue
+                worst = max(worst, (-pn - tol) / allowance[j])
+                if s == 0:
+                    worst = max(worst, (abs(pm) - self.c[j] * pn - tol * self.c[j]) / (self.c[j] * allowance[j]))
+            return vp, worst
+
+        for hold in (False, True):
+            best = None
+            for _, new in candidates:
+                vp, worst = shortfall(new, hold)
+                if worst is None:
+                    continue
+                if worst == 0.0:
+                    return ("held" if hold else "pushing"), vp, new
+                if best is None or worst < best[0]:
+                    best = (worst, vp, new)
+            if best is not None and best[0] <= 1.0:
+                return ("held" if hold else "preload"), best[1], best[2]
+        return "none", None, None
+
 
 def simulate(stack, accel, duration, mode=None, q0=None, v0=None, rtol=1e-11, atol=1e-13, max_events=100000,
              rest_step_s=None):
@@ -474,6 +562,54 @@ def compare(a):
     return 0 if worst <= a.tolerance else 1
 
 
+def compare_impacts(a):
+    """Solves the impacts the CSV lists (another code's pre-impact states
+    and its answers: rocklab's StackImpact test) with impact_rules and
+    compares: the same rule and contact state after, every body's rate
+    after within --rate-tolerance rad/s. Columns: k, mode_1..n (0, 1, -1),
+    theta_1..n (rad), omega_1..n (rad/s), rule (pushing, preload, held or
+    none), mode_after_1..n, omega_after_1..n. Exit 0 when every row agrees."""
+    floats = lambda text: [float(x) for x in text.split(",")]
+    st = Stack(floats(a.widths), floats(a.heights), floats(a.masses))
+    n = st.n
+    counts, worst, rows = {}, 0.0, 0
+    with open(a.impacts) as f:
+        f.readline()
+        for line_no, line in enumerate(f, start=2):
+            cells = line.strip().split(",")
+            if len(cells) != 2 + 5 * n:
+                print("%s:%d: %d cells, not %d" % (a.impacts, line_no, len(cells), 2 + 5 * n))
+                return 2
+            k = int(cells[0])
+            mode = [int(x) for x in cells[1:1 + n]]
+            theta = [float(x) for x in cells[1 + n:1 + 2 * n]]
+            omega = [float(x) for x in cells[1 + 2 * n:1 + 3 * n]]
+            rule = cells[1 + 3 * n]
+            mode_after = [int(x) for x in cells[2 + 3 * n:2 + 4 * n]]
+            omega_after = [float(x) for x in cells[2 + 4 * n:2 + 5 * n]]
+            q, v = st.place(theta, omega, mode)
+            mine, vp, new = st.impact_rules(q, v, mode, k)
+            rows += 1
+            counts[mine] = counts.get(mine, 0) + 1
+            if mine != rule:
+                print("%s:%d: interface %d of %s: rule %s here, %s compared" % (a.impacts, line_no, k, mode, mine, rule))
+                return 1
+            if mine == "none":
+                continue
+            if new != mode_after:
+                print("%s:%d: interface %d of %s: state after %s here, %s compared" % (a.impacts, line_no, k, mode,
+                                                                                       new, mode_after))
+                return 1
+            diff = max(abs(vp[3 * i + 2] - omega_after[i]) for i in range(n))
+            worst = max(worst, diff)
+            if diff > a.rate_tolerance:
+                print("%s:%d: interface %d of %s: rates after differ by %.3g rad/s" % (a.impacts, line_no, k, mode, diff))
+                return 1
+    print("%d impacts agree (%s); largest rate difference %.3g rad/s" %
+          (rows, ", ".join("%s %d" % kv for kv in sorted(counts.items())), worst))
+    return 0 if rows > 0 else 1
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="run the oracles (ctest External.stack_oracle)")
@@ -485,11 +621,16 @@ def main():
     ap.add_argument("--sine", help="AMP,FREQ: the table's displacement AMP sin(2 pi FREQ t), m and Hz")
     ap.add_argument("--duration", type=float, help="s")
     ap.add_argument("--tolerance", type=float, default=1e-6, help="largest time difference, s")
+    ap.add_argument("--impacts", metavar="IMPACTS.csv", help="compare another code's impacts (compare_impacts: "
+                    "the columns) with impact_rules for the stack above")
+    ap.add_argument("--rate-tolerance", type=float, default=1e-9, help="largest rate difference after, rad/s")
     a = ap.parse_args()
     if a.check:
         sys.exit(check())
     if a.compare:
         sys.exit(compare(a))
+    if a.impacts:
+        sys.exit(compare_impacts(a))
     ap.print_help()
 
 
