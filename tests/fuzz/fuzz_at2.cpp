@@ -17,11 +17,7 @@
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path = "/tmp/rocklab_fuzz_at2_" + std::to_string(::getpid()) + ".AT2";
-  {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
+  const std::string path = rocklab::fuzz::WriteScratch("at2.AT2", data, size);
   try {
     const rocklab::model::AccelerationRows rows = rocklab::model::ReadAccelerationRows(path);
     if (rows.time_s.size() != rows.accel_mps2.size() || rows.time_s.size() != rows.line.size()) {

@@ -15,11 +15,7 @@
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path = "/tmp/rocklab_fuzz_daq_config_" + std::to_string(::getpid()) + ".toml";
-  {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
+  const std::string path = rocklab::fuzz::WriteScratch("daq_config.toml", data, size);
   rocklab::pipeline::DaqStageOptions options;
   options.prefix = "CLI_";
   try {

@@ -58,13 +58,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 #else
   const char* const ext = ".csv";
 #endif
-  static const std::string stem = "/tmp/rocklab_fuzz_sweep_" + std::to_string(::getpid());
-  static const std::string path = stem + ext, out = stem + "_merged.csv";
+  static const std::string out = fuzz::ScratchPath("sweep_merged.csv");
   static const sweep::Plan plan = FuzzPlan();
-  {
-    std::ofstream file(path, std::ios::binary | std::ios::trunc);
-    file.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
+  const std::string path = fuzz::WriteScratch(std::string("sweep") + ext, data, size);
   try {
     CheckRows(sweep::ReadResults(path));
   } catch (const std::runtime_error& e) {

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <fstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace rocklab::fuzz {
 
@@ -29,11 +31,28 @@ inline void CheckMessage(std::string_view message, std::size_t max_bytes = 2048)
   }
 }
 
-/// Writes the input to a scratch file of this process,
-/// /tmp/rocklab_fuzz_PID_`name`, and returns its path (for readers that
-/// take a path).
-inline std::string WriteScratch(const char* name, const std::uint8_t* data, std::size_t size) {
-  const std::string path = "/tmp/rocklab_fuzz_" + std::to_string(::getpid()) + "_" + name;
+/// The path of this process's scratch file `name`,
+/// /tmp/rocklab_fuzz_PID_`name`, removed when the process exits normally
+/// (a fuzzer's run ending, a replay done; a crash leaves it beside its input).
+inline std::string ScratchPath(const std::string& name) {
+  struct Registry {
+    std::vector<std::string> paths;
+    ~Registry() {
+      for (const std::string& path : paths) std::remove(path.c_str());
+    }
+  };
+  static Registry registry;
+  std::string path = "/tmp/rocklab_fuzz_" + std::to_string(::getpid()) + "_" + name;
+  if (std::find(registry.paths.begin(), registry.paths.end(), path) == registry.paths.end()) {
+    registry.paths.push_back(path);
+  }
+  return path;
+}
+
+/// Writes the input to this process's scratch file `name` (ScratchPath) and
+/// returns its path (for readers that take a path).
+inline std::string WriteScratch(const std::string& name, const std::uint8_t* data, std::size_t size) {
+  const std::string path = ScratchPath(name);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   return path;
