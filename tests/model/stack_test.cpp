@@ -312,6 +312,35 @@ Stack FiveDrums(std::vector<bool> glued = {}) {
   return Stack(drums, std::move(glued));
 }
 
+// A random impact of five bodies: interface k striking (closing at 0.01 to
+// 0.5 rad/s), every other interface closed or pivoting on either corner at
+// up to 0.05 rad, rates up to 0.5 rad/s.
+struct ImpactState {
+  Mode mode{};
+  int k{};
+  Vec q, qdot;
+};
+ImpactState RandomImpact(std::mt19937& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  ImpactState state;
+  state.k = static_cast<int>(unit(rng) * 5);
+  std::vector<double> q, qdot;
+  for (int j = 0; j < 5; ++j) {
+    const int s = j == state.k ? (unit(rng) < 0.5 ? 1 : -1) : static_cast<int>(unit(rng) * 3) - 1;
+    state.mode[static_cast<std::size_t>(j)] = s;
+    if (s == 0) continue;
+    q.push_back(j == state.k ? 0.0 : s * 0.05 * unit(rng));
+    qdot.push_back(j == state.k ? -s * (0.01 + 0.49 * unit(rng)) : (unit(rng) - 0.5));
+  }
+  state.q.resize(static_cast<Eigen::Index>(q.size()));
+  state.qdot.resize(static_cast<Eigen::Index>(q.size()));
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    state.q(static_cast<Eigen::Index>(i)) = q[i];
+    state.qdot(static_cast<Eigen::Index>(i)) = qdot[i];
+  }
+  return state;
+}
+
 // T = E(q, q') - E(q, 0): the kinetic energy, J.
 double Kinetic(const Stack& stack, const Mode& mode, const Vec& q, const Vec& qdot) {
   return stack.Energy(mode, q, qdot) - stack.Energy(mode, q, Vec::Zero(qdot.size()));
@@ -330,7 +359,6 @@ double Kinetic(const Stack& stack, const Mode& mode, const Vec& q, const Vec& qd
 // jump throws and is counted; at least 90 % must resolve.
 TEST(StackImpact, KineticEnergyNeverGrowsAcrossAnImpact) {
   std::mt19937 rng(37);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   const Stack tapered({Body::Rectangle(0.5, 0.6, 300.0), Body::Rectangle(0.4, 0.6, 220.0),
                        Body::Rectangle(0.32, 0.5, 150.0), Body::Rectangle(0.25, 0.5, 100.0),
                        Body::Rectangle(0.2, 0.4, 60.0)});
@@ -339,21 +367,10 @@ TEST(StackImpact, KineticEnergyNeverGrowsAcrossAnImpact) {
   double worst_gain = -INFINITY;
   for (const Stack* stack : {&drums, &tapered}) {
     for (int trial = 0; trial < 1000; ++trial, ++trials) {
-      Mode mode{};
-      const int k = static_cast<int>(unit(rng) * 5);
-      std::vector<double> q, qdot;
-      for (int j = 0; j < 5; ++j) {
-        const int s = j == k ? (unit(rng) < 0.5 ? 1 : -1) : static_cast<int>(unit(rng) * 3) - 1;
-        mode[static_cast<std::size_t>(j)] = s;
-        if (s == 0) continue;
-        q.push_back(j == k ? 0.0 : s * 0.05 * unit(rng));
-        qdot.push_back(j == k ? -s * (0.01 + 0.49 * unit(rng)) : (unit(rng) - 0.5));
-      }
-      Vec qv(static_cast<Eigen::Index>(q.size())), wv(static_cast<Eigen::Index>(q.size()));
-      for (std::size_t i = 0; i < q.size(); ++i) {
-        qv(static_cast<Eigen::Index>(i)) = q[i];
-        wv(static_cast<Eigen::Index>(i)) = qdot[i];
-      }
+      const ImpactState state = RandomImpact(rng);
+      const Mode& mode = state.mode;
+      const int k = state.k;
+      const Vec &qv = state.q, &wv = state.qdot;
       Stack::ImpactResult after;
       try {
         after = stack->Impact(mode, qv, wv, k);
@@ -395,7 +412,6 @@ TEST(StackImpact, EveryPassAgreesWithTheReferenceImpactRule) {
     return text.str();
   };
   std::mt19937 rng(3737);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   int by_rule[4] = {0, 0, 0, 0};  // pushing, preload, held, none
   for (std::size_t c = 0; c < columns.size(); ++c) {
     const Column& col = columns[c];
@@ -411,21 +427,10 @@ TEST(StackImpact, EveryPassAgreesWithTheReferenceImpactRule) {
       out.precision(17);
       out << "k,mode...,theta...,omega...,rule,mode_after...,omega_after...\n";
       for (int trial = 0; trial < 1000; ++trial) {
-        Mode mode{};
-        const int k = static_cast<int>(unit(rng) * 5);
-        std::vector<double> q, qdot;
-        for (int j = 0; j < 5; ++j) {
-          const int s = j == k ? (unit(rng) < 0.5 ? 1 : -1) : static_cast<int>(unit(rng) * 3) - 1;
-          mode[static_cast<std::size_t>(j)] = s;
-          if (s == 0) continue;
-          q.push_back(j == k ? 0.0 : s * 0.05 * unit(rng));
-          qdot.push_back(j == k ? -s * (0.01 + 0.49 * unit(rng)) : (unit(rng) - 0.5));
-        }
-        Vec qv(static_cast<Eigen::Index>(q.size())), wv(static_cast<Eigen::Index>(q.size()));
-        for (std::size_t i = 0; i < q.size(); ++i) {
-          qv(static_cast<Eigen::Index>(i)) = q[i];
-          wv(static_cast<Eigen::Index>(i)) = qdot[i];
-        }
+        const ImpactState state = RandomImpact(rng);
+        const Mode& mode = state.mode;
+        const int k = state.k;
+        const Vec &qv = state.q, &wv = state.qdot;
         double theta[5], omega[5], omega_after[5] = {0, 0, 0, 0, 0};
         stack.Bodies(mode, qv, wv, theta, omega);
         int rule = 3;
