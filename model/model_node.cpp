@@ -286,6 +286,13 @@ ModelNode::ModelNode(const ModelNodeConfig& config, common::Bus& bus)
       config_.channel_prefix + "THETA",
       [this](const std::string&, const rocklab::block_state_t& m) { HandleTheta(m); },
       config_.subscriber_queue));
+  // RL_BODIES only for a stack's start: a single-block node does not decode it.
+  if (std::any_of(variants_.begin(), variants_.end(), [](const auto& v) { return v->run.stack != nullptr; })) {
+    subscriptions_.push_back(bus_.Subscribe<rocklab::block_state2_t>(
+        config_.channel_prefix + "BODIES",
+        [this](const std::string&, const rocklab::block_state2_t& m) { HandleBodies(m); },
+        config_.subscriber_queue));
+  }
 }
 
 ModelNode::~ModelNode() {
@@ -320,10 +327,61 @@ void ModelNode::Start(const rocklab::block_state_t& theta, std::int64_t start_ut
       Log()->error("{}: reset failed: {}", r->label, e.what());
     }
   }
+  for (auto& v : variants_) {
+    if (v->run.stack && !v->run.failed) StartStack(*v, theta.utime);
+  }
   started_ = true;
   start_utime_ = start_utime;
   Log()->info("variants start at utime {} from theta {:.5f} rad{}", start_utime, theta0,
               at_rest ? " (at rest)" : "");
+}
+
+void ModelNode::StartStack(Variant& v, std::int64_t theta_utime) {
+  if (!have_bodies_) return;  // a single-block rig: at rest
+  Runner& r = v.run;
+  const int n = r.stack->stack().bodies();
+  std::string refused;
+  if (last_bodies_.utime != theta_utime) {
+    refused = "RL_BODIES of utime " + std::to_string(last_bodies_.utime) + " is not the starting sample's (" +
+              std::to_string(theta_utime) + ")";
+  } else if (last_bodies_.nbodies != n) {
+    refused = "RL_BODIES carries " + std::to_string(last_bodies_.nbodies) + " bodies, the stack " + std::to_string(n);
+  } else {
+    // The stack's sign: counter-clockwise positive.
+    std::array<double, stack::kMaxBodies> theta{}, theta_dot{};
+    for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
+      theta[k] = 0.0 - last_bodies_.theta[k];
+      theta_dot[k] = 0.0 - last_bodies_.theta_dot[k];
+    }
+    try {
+      refused = r.stack->ResetFrom(0.0, theta.data(), theta_dot.data(), config_.rest_threshold_rad);
+    } catch (const std::exception& e) {
+      refused = e.what();
+      r.stack->Reset(0.0);
+    }
+  }
+  if (refused.empty()) {
+    Log()->info("{} starts from RL_BODIES in mode {}", r.label, stack::ModeName(r.stack->mode(), n));
+    return;
+  }
+  ++start_refusals_;
+  Log()->warn("{}: measured start refused, at rest instead: {}", r.label, refused);
+  PublishEvent(last_bodies_.utime, rocklab::event_t::BAD_SAMPLE, 1,
+               "variant " + v.spec.name + ": measured start refused (" + refused + "): the stack starts at rest");
+}
+
+void ModelNode::HandleBodies(const rocklab::block_state2_t& msg) {
+  bodies_seq_.Add(msg.seq);
+  Bodies& b = last_bodies_;
+  b.utime = msg.utime;
+  b.nbodies = msg.nbodies;
+  b.theta.fill(std::nan(""));
+  b.theta_dot.fill(std::nan(""));
+  const std::size_t n = std::min({static_cast<std::size_t>(std::max(msg.nbodies, 0)), b.theta.size(),
+                                  msg.theta.size(), msg.theta_dot.size()});
+  std::copy_n(msg.theta.begin(), n, b.theta.begin());
+  std::copy_n(msg.theta_dot.begin(), n, b.theta_dot.begin());
+  have_bodies_ = true;
 }
 
 void ModelNode::HandleTheta(const rocklab::block_state_t& msg) {
@@ -352,6 +410,7 @@ void ModelNode::HandleTable(const rocklab::table_state_t& msg) {
     ++resets_;
     started_ = false;
     have_theta_ = have_theta_ && last_theta_.utime <= msg.utime;  // an old run's theta cannot start it
+    have_bodies_ = have_bodies_ && last_bodies_.utime <= msg.utime;
     Log()->info("table time went back from {} to {} us: reset", last_table_utime_, msg.utime);
   }
   // Gaps: a forward jump of RL_TABLE's seq (the DAQ numbers every sample).
@@ -588,6 +647,8 @@ void ModelNode::PublishStack(Variant& v, const Target& target) {
   ++m.seq;
   ++published_;
   for (const stack::Event& e : s.events()) {
+    impacts_preload_ += e.rule == stack::Stack::ImpactRule::kPreload;
+    impacts_held_pivots_ += e.rule == stack::Stack::ImpactRule::kHeldPivots;
     rocklab::event2_t ev;
     ev.utime = start_utime_ + static_cast<std::int64_t>(std::llround(e.time_s * 1e6));
     ev.seq = event_seq_++;
@@ -598,6 +659,9 @@ void ModelNode::PublishStack(Variant& v, const Target& target) {
     ev.detail = std::string(ToString(e.kind)) + " at interface " + std::to_string(e.interface) + " (" +
                 v.interface_names[static_cast<std::size_t>(e.interface)] + "), mode " +
                 stack::ModeName(e.after, n);
+    // The model's assumptions (docs/models.md, "Impacts: the contact states after").
+    if (e.rule == stack::Stack::ImpactRule::kPreload) ev.detail += ", resolved within the preloads";
+    if (e.rule == stack::Stack::ImpactRule::kHeldPivots) ev.detail += ", resolved with pivots held";
     bus_.Publish(event_channel_, ev);
   }
   r.stack->ClearEvents();
@@ -637,8 +701,9 @@ void ModelNode::PublishHealth(const char* state) {
   // Dropped: table samples before the start and messages that did not decode.
   h.dropped = skipped_before_start_ + bus_.decode_error_count();
   h.bad_samples = failures_ + bad_table_samples_;
-  // Messages missing on both streams (a frame lost on both counts twice).
-  h.gaps = common::SeqGaps::SaturatingAdd(table_seq_.missing(), theta_seq_.missing());
+  // Messages missing on every stream (a frame lost on several counts on each).
+  h.gaps = common::SeqGaps::SaturatingAdd(common::SeqGaps::SaturatingAdd(table_seq_.missing(), theta_seq_.missing()),
+                                          bodies_seq_.missing());
   h.lag_s = std::nan("");  // sample clock and host clock are unrelated offline
   bus_.Publish(health_channel_, h);
 }

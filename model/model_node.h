@@ -25,8 +25,11 @@
 ///
 /// Start, reset, gaps, bad samples and the lookahead are described in
 /// docs/models.md ("The model node"): the variants start at the first table
-/// sample from the newest RL_THETA, and a table utime that goes back resets
-/// them all.
+/// sample from the newest RL_THETA (a stack variant from that sample's
+/// RL_BODIES, block_state2_t, when there is one: its contact mode from the
+/// bodies' relative angles; a state no mode admits is refused, counted and
+/// said in an RL_EVENT, and the stack starts at rest), and a table utime
+/// that goes back resets them all.
 ///
 /// Ensembles (docs/models.md, "Posterior predictive band"): each is K
 /// members (posterior draws) stepped with the variants, on the same threads
@@ -36,6 +39,7 @@
 /// member. A member whose integration fails leaves the band (counted,
 /// logged once).
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -50,6 +54,7 @@
 #include "model/excitation.h"
 #include "model/rocking_model.h"
 #include "model/variant.h"
+#include "rocklab/block_state2_t.hpp"
 #include "rocklab/block_state_t.hpp"
 #include "rocklab/model_band_t.hpp"
 #include "rocklab/model_state3_t.hpp"
@@ -65,7 +70,9 @@ struct ModelNodeConfig {
   /// names must differ from each other (a variant may share one: the
   /// channels differ).
   std::vector<EnsembleSpec> ensembles;
-  double rest_threshold_rad{2e-3};    ///< |theta| at start below this: at rest, rad
+  /// |theta| at start below this: at rest; for a stack, each interface's
+  /// |relative angle| below this: closed, rad
+  double rest_threshold_rad{2e-3};
   double health_period_s{1.0};        ///< RL_HEALTH period, host time, s
   /// Messages each subscription may hold before a queued bus (LcmBus) drops.
   /// LCM's own default, 30, is 30 ms of a 1 kHz RL_TABLE: one scheduling
@@ -96,7 +103,8 @@ struct ModelNodeConfig {
 
 class ModelNode {
  public:
-  /// Subscribes RL_TABLE and RL_THETA on `bus`, which RL_MODEL_*, RL_EVENT
+  /// Subscribes RL_TABLE and RL_THETA (and RL_BODIES when a variant is a
+  /// stack) on `bus`, which RL_MODEL_*, RL_EVENT
   /// and RL_HEALTH go to. `bus` is not owned and must outlive the node.
   /// @throws std::invalid_argument for an invalid configuration.
   ModelNode(const ModelNodeConfig& config, common::Bus& bus);
@@ -109,9 +117,10 @@ class ModelNode {
   /// Publishes the final RL_HEALTH.
   void Finish();
 
-  /// What the RL_TABLE / RL_THETA handlers call. Never throw.
+  /// What the RL_TABLE / RL_THETA / RL_BODIES handlers call. Never throw.
   void HandleTable(const rocklab::table_state_t& msg);
   void HandleTheta(const rocklab::block_state_t& msg);
+  void HandleBodies(const rocklab::block_state2_t& msg);
 
   /// The latest state of variant i (in configuration order); its seq is
   /// the number the variant's next message will carry.
@@ -128,12 +137,23 @@ class ModelNode {
   std::int64_t skipped_before_start() const { return skipped_before_start_; }
   std::int64_t resets() const { return resets_; }
   std::int64_t failures() const { return failures_; }
+  /// Stack variants' starts from RL_BODIES refused (the state admitted by
+  /// no contact mode, another body count, another sample's): each started
+  /// at rest and said in an RL_EVENT BAD_SAMPLE.
+  std::int64_t start_refusals() const { return start_refusals_; }
+  /// The stack variants' impacts resolved within the preloads, and with
+  /// pivots held (stack::Stack::ImpactRule: the model's assumptions, named
+  /// in their RL_EVENT's detail), over the node's life (resets included).
+  std::int64_t impacts_preload() const { return impacts_preload_; }
+  std::int64_t impacts_held_pivots() const { return impacts_held_pivots_; }
   /// Table samples whose acceleration was not finite (the last finite value was held).
   std::int64_t bad_table_samples() const { return bad_table_samples_; }
   /// RL_TABLE samples missing by their seq (forward jumps), in RL_HEALTH gaps.
   std::int64_t table_gaps() const { return table_seq_.missing(); }
   /// RL_THETA samples missing by their seq, also in RL_HEALTH gaps.
   std::int64_t theta_gaps() const { return theta_seq_.missing(); }
+  /// RL_BODIES samples missing by their seq (subscribed with a stack variant), also in RL_HEALTH gaps.
+  std::int64_t bodies_gaps() const { return bodies_seq_.missing(); }
 
  private:
   struct Runner;
@@ -164,6 +184,9 @@ class ModelNode {
   // Steps every held sample with the window closed, then empties it.
   void FlushHeld();
   void Start(const rocklab::block_state_t& theta, std::int64_t start_utime);
+  // A stack variant's start (at rest already): from the newest RL_BODIES
+  // when it is that of `theta`, else refused or at rest.
+  void StartStack(Variant& v, std::int64_t theta_utime);
   void PublishHealth(const char* state);
   void PublishEvent(std::int64_t utime, std::int8_t kind, double value, const std::string& detail);
 
@@ -178,6 +201,15 @@ class ModelNode {
   bool started_{};
   rocklab::block_state_t last_theta_{};  // the newest RL_THETA
   bool have_theta_{};
+  // The newest RL_BODIES: what a stack's start reads, in fixed arrays (no
+  // allocation per message). nbodies as received (may exceed kMaxBodies).
+  struct Bodies {
+    std::int64_t utime{};
+    std::int32_t nbodies{};
+    std::array<double, stack::kMaxBodies> theta{}, theta_dot{};  // rad, rad/s, clockwise positive
+  };
+  Bodies last_bodies_{};
+  bool have_bodies_{};
   std::int64_t last_table_utime_{INT64_MIN};
   std::int64_t start_utime_{};  // model time 0, us
   double held_accel_mps2_{};    // the last finite table acceleration, m/s^2
@@ -186,12 +218,14 @@ class ModelNode {
   std::int64_t table_count_{}, skipped_before_start_{}, resets_{}, failures_{}, published_{};
   std::int64_t bad_table_samples_{};
   std::int64_t member_failures_{};
+  std::int64_t start_refusals_{}, impacts_preload_{}, impacts_held_pivots_{};
   // Lookahead (N > 0): the window's samples and the utimes of those not yet
   // stepped (oldest first, at most N + 1).
   SampleWindow window_;
   common::Ring<std::int64_t> held_utime_;
   common::SeqGaps table_seq_;  // RL_TABLE seq (its missing: RL_HEALTH gaps)
   common::SeqGaps theta_seq_;  // RL_THETA seq (its missing: RL_HEALTH gaps)
+  common::SeqGaps bodies_seq_;  // RL_BODIES seq (its missing: RL_HEALTH gaps)
   std::int64_t event_seq_{}, health_seq_{};  // seq of the next RL_EVENT, RL_HEALTH
   // RL_EVENT/RL_HEALTH sender: "model:<first variant>", unique on the bus
   // (several model processes may run; each RL_MODEL_<name> has one).

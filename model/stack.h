@@ -181,6 +181,9 @@ struct Event {
   /// (clockwise positive): uplift the table acceleration, m/s^2; impact the
   /// interface's relative rate before, rad/s; rest 0; overturn its relative angle, rad.
   double value{};
+  /// An impact's (and a rest that an impact's momentum balance closed):
+  /// which pass of Stack::Impact resolved it; kPushing for other events.
+  Stack::ImpactRule rule{Stack::ImpactRule::kPushing};
 };
 
 /// A stack's run: samples at t = k / rate_hz (angles counter-clockwise,
@@ -199,8 +202,9 @@ struct Run {
   int impacts_held_pivots{};
 };
 
-/// A stack stepped from rest, sample after sample: Simulate's loop, and the
-/// model node's live run of an assembly. Events, contact modes and
+/// A stack stepped from rest (or from a measured state, ResetFrom), sample
+/// after sample: Simulate's loop, and the model node's live run of an
+/// assembly. Events, contact modes and
 /// overturning as Simulate's; the state frozen once an interface overturns.
 class Stepper {
  public:
@@ -213,6 +217,19 @@ class Stepper {
 
   /// At rest (every interface closed) at t0_s; events cleared.
   void Reset(double t0_s);
+  /// As Reset, from a measured state: every body's absolute angle (rad)
+  /// and rate (rad/s), bottom-up, counter-clockwise (stack().bodies()
+  /// values each). Interface k's relative angle theta_k - theta_k-1 (the
+  /// table's 0 under body 0) below `rest_rad` in magnitude keeps it closed
+  /// (relative angle and rate taken as 0: sensor noise opens no joint);
+  /// above, it pivots on the corner that sign turns it about (> 0: left,
+  /// +1) at that relative angle and rate. A rate that is not finite counts
+  /// as 0 (as the single block's start). Refused, the stepper left at rest
+  /// at t0_s, when no mode admits the state: an angle not finite, a glued
+  /// interface open, or a relative angle at or past pi/2 (overturned).
+  /// @return "" when started from the state, else why it was refused.
+  /// @throws std::invalid_argument for t0_s or rest_rad not finite.
+  [[nodiscard]] std::string ResetFrom(double t0_s, const double* theta, const double* theta_dot, double rest_rad);
   /// Integrates to t_s (>= time_s()) under `forcing`, evaluated only on
   /// [time_s(), horizon_s] (horizon_s >= t_s: the integrator may step past
   /// t_s and interpolate there, its history kept). Successive calls pass

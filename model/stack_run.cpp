@@ -2,6 +2,7 @@
 // equations, the roots of the current contact mode, its changes as events.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -197,6 +198,43 @@ void Stepper::Reset(double t0_s) {
   has_step_sample_ = false;
 }
 
+std::string Stepper::ResetFrom(double t0_s, const double* theta, const double* theta_dot, double rest_rad) {
+  if (!(std::isfinite(rest_rad) && rest_rad >= 0)) throw std::invalid_argument("stack: ResetFrom: rest_rad out of range");
+  Reset(t0_s);
+  const int n = stack_.bodies();
+  Mode mode{};
+  Vec q(n), qdot(n);  // at most kMaxBodies: no allocation
+  int m = 0;
+  double below = 0.0, below_rate = 0.0;  // the table's
+  for (int k = 0; k < n; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    if (!std::isfinite(theta[kk])) return "body " + std::to_string(k + 1) + "'s angle is not finite";
+    const double rate = std::isfinite(theta_dot[kk]) ? theta_dot[kk] : 0.0;
+    const double rel = theta[kk] - below;
+    if (std::abs(rel) >= rest_rad) {
+      char what[160];
+      if (stack_.glued(k)) {
+        std::snprintf(what, sizeof what, "interface %d is glued but turned by %.6g rad", k, rel);
+        return what;
+      }
+      if (std::abs(rel) >= common::kPi / 2) {
+        std::snprintf(what, sizeof what, "interface %d turned by %.6g rad, at or past overturning (pi/2)", k, rel);
+        return what;
+      }
+      mode[kk] = rel > 0 ? 1 : -1;
+      q(m) = rel;
+      qdot(m) = rate - below_rate;
+      ++m;
+    }
+    below = theta[kk];
+    below_rate = rate;
+  }
+  mode_ = mode;
+  q_ = q.head(m);
+  qdot_ = qdot.head(m);
+  return {};
+}
+
 void Stepper::BodyStates(double* theta, double* theta_dot) const {
   stack_.Bodies(mode_, q_, qdot_, theta, theta_dot);
 }
@@ -324,6 +362,7 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
       } catch (const std::runtime_error& e) {
         throw std::runtime_error("at " + std::to_string(t) + " s: " + e.what());
       }
+      const Stack::ImpactRule rule = after.rule;  // the counted pass (a shut below re-solves at restitution 0)
       impacts_preload_ += after.rule == Stack::ImpactRule::kPreload ? 1 : 0;
       impacts_held_pivots_ += after.rule == Stack::ImpactRule::kHeldPivots ? 1 : 0;
       const int new_dof = DofOf(after.mode, k);
@@ -334,12 +373,12 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
         q = after.q;
         qdot = after.qdot;
         if (mode[kk] != 0) Shut(k, DofOf(mode, k), mode, q, qdot);  // its contacts below k may differ
-        events_.push_back({t, EventKind::kRest, k, mode});
+        events_.push_back({t, EventKind::kRest, k, mode, 0.0, rule});
       } else {
         mode = after.mode;
         q = after.q;
         qdot = after.qdot;
-        events_.push_back({t, EventKind::kImpact, k, mode, rate_before});
+        events_.push_back({t, EventKind::kImpact, k, mode, rate_before, rule});
       }
     }
   }

@@ -639,3 +639,55 @@ TEST(StackFrame, TheFrameIsItsEquivalentBlock) {
   EXPECT_THROW(rocklab::model::stack::FrameEquivalent({0, 0.4, 2.2, 500.0, 10.0}), std::invalid_argument);
   EXPECT_THROW(rocklab::model::stack::FrameEquivalent({2, 0.4, 2.2, -1.0, 10.0}), std::invalid_argument);
 }
+
+// Oracle: a measured state maps to the mode its relative angles say, and
+// the stepper's bodies are then that state again (the absolute angles
+// rebuilt as sums of the relative ones: round-off, 1e-15 rad); a joint
+// turned by less than the rest threshold stays closed, and a state no mode
+// admits (a glued joint turned, a joint past pi/2) is refused at rest.
+TEST(StackStepper, ResetFromAMeasuredStateTakesItsModeOrRefusesIt) {
+  using rocklab::model::stack::ModeName;
+  using rocklab::model::stack::RunOptions;
+  using rocklab::model::stack::Stepper;
+  const Stack two({Body::Rectangle(0.6, 1.0, 300.0), Body::Rectangle(0.2, 0.8, 50.0)});
+  Stepper stepper(two, RunOptions{});
+  // Bottom turned clockwise on its right corner, the top counter-clockwise
+  // on its left corner relative to it.
+  const double theta[] = {-0.01, 0.015}, rate[] = {-0.1, 0.3};
+  ASSERT_EQ(stepper.ResetFrom(0.25, theta, rate, 2e-3), "");
+  EXPECT_EQ(ModeName(stepper.mode(), 2), "RL");
+  EXPECT_EQ(stepper.time_s(), 0.25);
+  double th[2], thd[2];
+  stepper.BodyStates(th, thd);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_NEAR(th[k], theta[k], 1e-15);
+    EXPECT_NEAR(thd[k], rate[k], 1e-15);
+  }
+  // The top 1e-3 rad off the bottom (below 2e-3): closed, riding on it.
+  const double noisy[] = {-0.01, -0.009};
+  ASSERT_EQ(stepper.ResetFrom(0.0, noisy, rate, 2e-3), "");
+  EXPECT_EQ(ModeName(stepper.mode(), 2), "RC");
+  stepper.BodyStates(th, thd);
+  EXPECT_EQ(th[1], th[0]);
+  EXPECT_EQ(thd[1], thd[0]);
+  // The whole stack within the threshold: at rest, as the single block's start.
+  const double still[] = {1e-3, -5e-4};
+  ASSERT_EQ(stepper.ResetFrom(0.0, still, rate, 2e-3), "");
+  EXPECT_EQ(ModeName(stepper.mode(), 2), "CC");
+  // Past overturning at the joint: refused, at rest.
+  const double over[] = {-0.01, 1.6};
+  const std::string why = stepper.ResetFrom(0.0, over, rate, 2e-3);
+  EXPECT_NE(why.find("interface 1"), std::string::npos) << why;
+  EXPECT_EQ(ModeName(stepper.mode(), 2), "CC");
+  const double nan_angle[] = {-0.01, std::nan("")};
+  EXPECT_NE(stepper.ResetFrom(0.0, nan_angle, rate, 2e-3).find("body 2"), std::string::npos);
+  // A glued joint cannot open: the top turned on it is no state of this stack.
+  const Stack glued({Body::Rectangle(0.6, 1.0, 300.0), Body::Rectangle(0.2, 0.8, 50.0)}, {false, true});
+  Stepper held(glued, RunOptions{});
+  const std::string glued_why = held.ResetFrom(0.0, theta, rate, 2e-3);
+  EXPECT_NE(glued_why.find("interface 1 is glued"), std::string::npos) << glued_why;
+  EXPECT_EQ(ModeName(held.mode(), 2), "CC");
+  const double together[] = {-0.01, -0.01};
+  ASSERT_EQ(held.ResetFrom(0.0, together, rate, 2e-3), "");
+  EXPECT_EQ(ModeName(held.mode(), 2), "RC");
+}
