@@ -6,7 +6,7 @@
 # libraries the binary and its MPI plugin link (HDF5, matio, OpenMPI among
 # them) and not OpenCV, which is rocklab-video's (with VIDEO: its plugin,
 # its Depends on OpenCV and on rocklab of the same version).
-#   cmake -DBUILD_DIR=... -DWORK_DIR=... [-DVIDEO=ON] [-DMPI=ON] -P deb_test.cmake
+#   cmake -DBUILD_DIR=... -DWORK_DIR=... [-DVIDEO=ON] [-DMPI=ON] [-DSUNDIALS_STATIC=ON] -P deb_test.cmake
 foreach(var BUILD_DIR WORK_DIR)
   if(NOT ${var})
     message(FATAL_ERROR "deb_test.cmake: -D${var}= is required")
@@ -107,8 +107,19 @@ foreach(unit ${units})
   endforeach()
 endforeach()
 
-# Depends: dpkg-shlibdeps's libraries of the binary.
-foreach(dep libhdf5 libmatio libopenmpi liblcm1 libsundials-cvode libmicrohttpd gnuplot-nox)
+# Depends: dpkg-shlibdeps's libraries of the binary. SUNDIALS' shared
+# libraries only where they are linked (-DSUNDIALS_STATIC=ON: the command,
+# the plugins and the Python module hold its static archives, and no
+# libsundials package may be named).
+set(main_deps libhdf5 libmatio libopenmpi liblcm1 libmicrohttpd gnuplot-nox)
+if(SUNDIALS_STATIC)
+  if(main_control MATCHES "libsundials")
+    message(FATAL_ERROR "deb test: SUNDIALS is linked statically, yet Depends of rocklab names it:\n${main_control}")
+  endif()
+else()
+  list(APPEND main_deps libsundials-cvode)
+endif()
+foreach(dep ${main_deps})
   string(FIND "${main_control}" "${dep}" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "deb test: Depends of rocklab lacks ${dep}:\n${main_control}")
