@@ -20,6 +20,7 @@
 #include "common/atomic_file.h"
 #include "common/text.h"
 #include "compare/compare_node.h"
+#include "model/model_node.h"
 #include "pipeline/pipeline.h"
 
 namespace rocklab::tools {
@@ -139,6 +140,18 @@ void WriteResult(const nlohmann::json& result, bool json, const std::string& sum
   }
   if (json && summary_path != "-") std::fputs(text.c_str(), stdout_taken ? stderr : stdout);
   std::fflush(stdout);
+}
+
+void PrintStackAssumptions(const model::ModelNode& node, const char* what) {
+  if (node.impacts_preload() > 0 || node.impacts_held_pivots() > 0) {
+    // The stack model's assumptions (docs/models.md): each RL_EVENT's detail names its rule.
+    std::fprintf(stderr, "%s: %lld assembly impacts resolved within the preloads, %lld with pivots held\n", what,
+                 static_cast<long long>(node.impacts_preload()), static_cast<long long>(node.impacts_held_pivots()));
+  }
+  if (node.start_refusals() > 0) {
+    std::fprintf(stderr, "%s: %lld measured starts of a stack (RL_BODIES) refused: those stacks started at rest\n",
+                 what, static_cast<long long>(node.start_refusals()));
+  }
 }
 
 void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path,

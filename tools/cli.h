@@ -21,6 +21,9 @@ class CompareNode;
 namespace rocklab::daq {
 struct DaqNodeStats;
 }
+namespace rocklab::model {
+class ModelNode;
+}
 namespace rocklab::pipeline {
 struct DaqStageOptions;
 }
@@ -86,6 +89,11 @@ void WriteResult(const nlohmann::json& result, bool json, const std::string& sum
 /// `extra` (an object; run's `provenance`) added when given.
 void WriteCompareResult(const compare::CompareNode& node, bool json, const std::string& summary_path,
                         const nlohmann::json* extra = nullptr);
+
+/// `run`'s and `model`'s stack lines on standard error, each starting with
+/// `what` ("run"): the impacts resolved by the stack model's assumptions
+/// and the measured starts refused, when not 0.
+void PrintStackAssumptions(const model::ModelNode& node, const char* what);
 
 /// The DAQ stage of `daq` and `replay --rig`, with `json` its counts as
 /// the result object (frames_read, published, ...) on standard output.

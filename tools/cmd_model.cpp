@@ -41,15 +41,7 @@ int RunModel(const ModelCommand& c) {
                static_cast<long long>(node.table_count()),
                static_cast<long long>(node.skipped_before_start()),
                static_cast<long long>(node.resets()), static_cast<long long>(node.failures()));
-  if (node.impacts_preload() > 0 || node.impacts_held_pivots() > 0) {
-    // The stack model's assumptions (docs/models.md): each RL_EVENT's detail names its rule.
-    std::fprintf(stderr, "model: %lld assembly impacts resolved within the preloads, %lld with pivots held\n",
-                 static_cast<long long>(node.impacts_preload()), static_cast<long long>(node.impacts_held_pivots()));
-  }
-  if (node.start_refusals() > 0) {
-    std::fprintf(stderr, "model: %lld measured starts of a stack (RL_BODIES) refused: those stacks started at rest\n",
-                 static_cast<long long>(node.start_refusals()));
-  }
+  PrintStackAssumptions(node, "model");
   return 0;
 }
 

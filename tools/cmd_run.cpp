@@ -123,15 +123,7 @@ int RunAll(RunCommand& c) {
     std::fprintf(stderr, "run: %lld ensemble members failed and left their band\n",
                  static_cast<long long>(model.member_failures()));
   }
-  if (model.impacts_preload() > 0 || model.impacts_held_pivots() > 0) {
-    // The stack model's assumptions (docs/models.md): each RL_EVENT's detail names its rule.
-    std::fprintf(stderr, "run: %lld assembly impacts resolved within the preloads, %lld with pivots held\n",
-                 static_cast<long long>(model.impacts_preload()), static_cast<long long>(model.impacts_held_pivots()));
-  }
-  if (model.start_refusals() > 0) {
-    std::fprintf(stderr, "run: %lld measured starts of a stack (RL_BODIES) refused: those stacks started at rest\n",
-                 static_cast<long long>(model.start_refusals()));
-  }
+  PrintStackAssumptions(model, "run");
   const common::Provenance provenance = hashing.Finish();
   nlohmann::json extra = {{"provenance", nlohmann::json::parse(common::ProvenanceJson(provenance))}};
   extra["provenance"]["rig"] = {{"path", c.rig_path}, {"name", rig.name}, {"calibration", rig.calibration_id}};

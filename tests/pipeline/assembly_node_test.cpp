@@ -35,6 +35,28 @@ namespace {
 using model::node_messages::Table;
 using model::node_messages::Theta;
 
+// A model node of one variant on a DirectBus, with what it publishes on
+// RL_MODEL_<name> and RL_EVENT gathered.
+struct NodeOnABus {
+  explicit NodeOnABus(const model::VariantSpec& spec)
+      : states_sub(bus.Subscribe<rocklab::model_state4_t>(
+            "RL_MODEL_" + spec.name,
+            [this](const std::string&, const rocklab::model_state4_t& m) { states.push_back(m); })),
+        events_sub(bus.Subscribe<rocklab::event2_t>(
+            "RL_EVENT", [this](const std::string&, const rocklab::event2_t& e) { events.push_back(e); })),
+        node(Config(spec), bus) {}
+  static model::ModelNodeConfig Config(const model::VariantSpec& spec) {
+    model::ModelNodeConfig config;
+    config.variants.push_back(spec);
+    return config;
+  }
+  common::DirectBus bus;
+  std::vector<rocklab::model_state4_t> states;
+  std::vector<rocklab::event2_t> events;
+  const common::Subscription states_sub, events_sub;
+  model::ModelNode node;
+};
+
 // A 0.6 s table record at 1 kHz: one cycle of a 2 Hz sine of 6 m/s^2
 // (above the three drums' uplift, a/g = 0.27), then still: the column
 // lifts, its joints open and strike (seven contact modes: LCC, LLC, RLL,
@@ -82,16 +104,10 @@ TEST(AssemblyNode, StackVariantEqualsSimulateAssemblyOnTheSameRecord) {
   model::VariantSpec spec = model::ParseVariant("drums:housner:" + toml, std::nullopt);
   ResolveAssemblyVariant(spec);
   ASSERT_TRUE(spec.stack.has_value());
-  model::ModelNodeConfig config;
-  config.variants.push_back(spec);
-  common::DirectBus bus;
-  std::vector<rocklab::model_state4_t> states;
-  std::vector<rocklab::event2_t> events;
-  const common::Subscription s1 = bus.Subscribe<rocklab::model_state4_t>(
-      "RL_MODEL_drums", [&](const std::string&, const rocklab::model_state4_t& m) { states.push_back(m); });
-  const common::Subscription s2 = bus.Subscribe<rocklab::event2_t>(
-      "RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) { events.push_back(e); });
-  model::ModelNode node(config, bus);
+  NodeOnABus on(spec);
+  std::vector<rocklab::model_state4_t>& states = on.states;
+  std::vector<rocklab::event2_t>& events = on.events;
+  model::ModelNode& node = on.node;
   const std::int64_t t0 = 1'700'000'000'000'000;  // an epoch utime: model time counts from it
   node.HandleTheta(Theta(t0, 0.0));
   for (std::size_t k = 0; k < accel.size(); ++k) {
@@ -280,16 +296,11 @@ TEST(AssemblyNode, StackStartsFromTheMeasuredBodiesAndFollowsTheRun) {
   ASSERT_GT(k0, 0u) << "no joint between drums opened: the test does not test";
   std::printf("t0 = %.3f s in mode %s\n", static_cast<double>(k0) * 1e-3, modes[k0].c_str());
 
-  model::ModelNodeConfig config;
-  config.variants.push_back(spec);
-  common::DirectBus bus;
-  std::vector<rocklab::model_state4_t> states;
-  std::vector<rocklab::event2_t> events;
-  const common::Subscription s1 = bus.Subscribe<rocklab::model_state4_t>(
-      "RL_MODEL_drums", [&](const std::string&, const rocklab::model_state4_t& m) { states.push_back(m); });
-  const common::Subscription s2 = bus.Subscribe<rocklab::event2_t>(
-      "RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) { events.push_back(e); });
-  model::ModelNode node(config, bus);
+  NodeOnABus on(spec);
+  common::DirectBus& bus = on.bus;
+  std::vector<rocklab::model_state4_t>& states = on.states;
+  std::vector<rocklab::event2_t>& events = on.events;
+  model::ModelNode& node = on.node;
   const std::int64_t t0 = 1'700'000'000'000'000 + 1000 * static_cast<std::int64_t>(k0);
   std::vector<double> th0(n), thd0(n);
   for (std::size_t b = 0; b < 3; ++b) {
@@ -363,16 +374,11 @@ TEST(AssemblyNode, StackStartsFromTheMeasuredBodiesAndFollowsTheRun) {
 // too (noise opens no joint), without a refusal. A reset (the table utime
 // going back) starts again from the newest RL_BODIES.
 TEST(AssemblyNode, AMeasuredStateNoModeAdmitsIsRefusedAndTheStackStartsAtRest) {
-  model::ModelNodeConfig config;
-  config.variants.push_back(DrumsVariant());
-  common::DirectBus bus;
-  std::vector<rocklab::model_state4_t> states;
-  std::vector<rocklab::event2_t> events;
-  const common::Subscription s1 = bus.Subscribe<rocklab::model_state4_t>(
-      "RL_MODEL_drums", [&](const std::string&, const rocklab::model_state4_t& m) { states.push_back(m); });
-  const common::Subscription s2 = bus.Subscribe<rocklab::event2_t>(
-      "RL_EVENT", [&](const std::string&, const rocklab::event2_t& e) { events.push_back(e); });
-  model::ModelNode node(config, bus);
+  NodeOnABus on(DrumsVariant());
+  common::DirectBus& bus = on.bus;
+  std::vector<rocklab::model_state4_t>& states = on.states;
+  std::vector<rocklab::event2_t>& events = on.events;
+  model::ModelNode& node = on.node;
   const std::int64_t t0 = 5'000'000;
   bus.Publish("RL_THETA", Theta(t0, 0.01));
   bus.Publish("RL_BODIES", Bodies(t0, {0.01, 0.012, 1.712}, {0.1, 0.1, 0.0}));
