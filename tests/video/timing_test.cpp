@@ -627,6 +627,25 @@ Delivered ReadNumbered(const std::string& path) {
   return d;
 }
 
+// Every frame delivered carries its own number k (0 <= k < n), as its
+// number, at its time k / rate_hz; each of the n frames not in `lost` is
+// delivered once, and none of those in `lost`.
+void ExpectEachFrameOnceBut(const Delivered& d, int n, double rate_hz, const std::vector<int>& lost) {
+  std::vector<int> seen(static_cast<std::size_t>(n), 0);
+  for (std::size_t i = 0; i < d.numbers.size(); ++i) {
+    const int k = d.carried[i];
+    ASSERT_GE(k, 0);
+    ASSERT_LT(k, n);
+    ++seen[static_cast<std::size_t>(k)];
+    EXPECT_EQ(d.numbers[i], k);
+    EXPECT_NEAR(d.times[i], k / rate_hz, 1e-9) << "frame " << k;
+  }
+  for (int k = 0; k < n; ++k) {
+    const bool is_lost = std::find(lost.begin(), lost.end(), k) != lost.end();
+    EXPECT_EQ(seen[static_cast<std::size_t>(k)], is_lost ? 0 : 1) << "frame " << k;
+  }
+}
+
 // Frames counted as not delivered: every way the reader has to say so.
 int64_t Counted(const FrameCounts& c) {
   return c.unreadable + c.dropped + c.repeated + c.backwards + c.missing_at_end + c.after_size_change;
@@ -666,19 +685,8 @@ TEST(VideoHealth, CorruptMjpegFramesAreCountedUnreadableWithTheirTimes) {
               "(%zu frames damaged)\n",
               d.numbers.size(), kN, static_cast<long long>(c.unreadable), static_cast<long long>(c.dropped),
               static_cast<long long>(c.missing_at_end), damaged.size());
-  std::vector<int> seen(kN, 0);
-  for (std::size_t i = 0; i < d.numbers.size(); ++i) {
-    const int k = d.carried[i];
-    ASSERT_GE(k, 0);
-    ASSERT_LT(k, kN);
-    ++seen[static_cast<std::size_t>(k)];
-    EXPECT_EQ(d.numbers[i], k);
-    EXPECT_NEAR(d.times[i], k / s.rate_hz, 1e-9) << "frame " << k;
-  }
-  for (int k = 0; k < kN; ++k) {
-    const bool hit = std::find(damaged.begin(), damaged.end(), k) != damaged.end();
-    EXPECT_EQ(seen[static_cast<std::size_t>(k)], hit ? 0 : 1) << "frame " << k;
-  }
+  ExpectEachFrameOnceBut(d, kN, s.rate_hz, damaged);
+  if (HasFatalFailure()) return;
   EXPECT_EQ(c.unreadable, static_cast<int64_t>(damaged.size()));
   EXPECT_EQ(c.dropped, 0);  // no frame went missing from the file: the unreadable ones are counted as such
   EXPECT_EQ(c.missing_at_end, 0);
@@ -739,19 +747,8 @@ TEST(VideoHealth, ZerosInsideAnMjpegAviKeepTheTimesOfTheFramesAfterThem) {
               "%lld unreadable\n",
               hit.front(), hit.back(), d.numbers.size(), kN, static_cast<long long>(c.dropped),
               static_cast<long long>(c.drop_events), static_cast<long long>(c.unreadable));
-  std::vector<int> seen(kN, 0);
-  for (std::size_t i = 0; i < d.numbers.size(); ++i) {
-    const int k = d.carried[i];
-    ASSERT_GE(k, 0);
-    ASSERT_LT(k, kN);
-    ++seen[static_cast<std::size_t>(k)];
-    EXPECT_EQ(d.numbers[i], k);
-    EXPECT_NEAR(d.times[i], k / s.rate_hz, 1e-9) << "frame " << k;
-  }
-  for (int k = 0; k < kN; ++k) {
-    const bool under = std::find(hit.begin(), hit.end(), k) != hit.end();
-    EXPECT_EQ(seen[static_cast<std::size_t>(k)], under ? 0 : 1) << "frame " << k;
-  }
+  ExpectEachFrameOnceBut(d, kN, s.rate_hz, hit);
+  if (HasFatalFailure()) return;
   EXPECT_EQ(c.dropped + c.unreadable, static_cast<int64_t>(hit.size()));
   EXPECT_EQ(c.missing_at_end, 0);
   EXPECT_EQ(static_cast<int64_t>(d.numbers.size()) + Counted(c), kN);
