@@ -6,7 +6,7 @@
 // truth lies within 1 and 1.96 stated standard errors counted per
 // parameter (nominal 68.3 % and 95 %).
 //
-//   rocklab_bench_fit_coverage --method impacts|free|forced [--records N]
+//   rocklab_bench_fit_coverage --method impacts|free|forced|threshold [--records N]
 //       [--seed S] [--noise-deg D] [--starts N] [--table chord|spline] [--csv FILE]
 //
 // One line per record on --csv (method, seed, truth, fit, stated errors,
@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -58,6 +59,16 @@ Case MakeCase(const Args& a, unsigned s) {
     c.truth = f.truth;
     c.geometry = f.geometry;
     c.record = std::move(f.record);
+  } else if (a.method == "threshold") {
+    // The figure-7-like forced test near the uplift threshold, the
+    // truth fixed and the noise drawn per seed (the test
+    // FitTrajectory.ForcedNearThresholdFindsTheTruthOrSaysNotConverged is
+    // seed 8): block 0.225 x 1.0 m, Hanning 6 mm at 3.3 Hz for 4 s from
+    // 0.5 s, 7 s of theta at 500 Hz, table at 1 kHz.
+    c.truth = {std::atan(0.1125 / 0.5), 3.85, 0.93};
+    c.geometry = rocklab::model::FitGeometry{0.225, 1.0, 0.0};
+    const auto ex = rocklab::model::ParseExcitation("hanning:amp=0.006,freq=3.3,duration=4,start=0.5");
+    c.record = rocklab::test::SyntheticForced(c.truth, *ex, 7.0, 500, 1000, a.noise_deg, s);
   } else {
     c.truth = {0.20 + 0.10 * u(rng), 3.0 + 1.5 * u(rng), 0.88 + 0.08 * u(rng)};
     const double theta0 = (0.4 + 0.4 * u(rng)) * c.truth.alpha;
@@ -166,9 +177,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if ((argc - 1) % 2 != 0 || !(a.method == "impacts" || a.method == "free" || a.method == "forced") ||
+  if ((argc - 1) % 2 != 0 || !(a.method == "impacts" || a.method == "free" || a.method == "forced" || a.method == "threshold") ||
       a.records < 1) {
-    std::fprintf(stderr, "usage: %s --method impacts|free|forced [--records N] [--seed S] [--noise-deg D] "
+    std::fprintf(stderr, "usage: %s --method impacts|free|forced|threshold [--records N] [--seed S] [--noise-deg D] "
                  "[--starts N] [--table chord|spline] [--csv FILE]\n", argv[0]);
     return 2;
   }

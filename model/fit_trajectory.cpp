@@ -297,16 +297,42 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
 }
 
 // The Jacobian of the stated errors (and of the band test's hat matrix) is
-// taken at the model's rtol kCovarianceRtol with central differences of
-// relative step kCovarianceStep, not the search's (rtol options.rtol, step
-// 1e-5): the integrator's error at rtol 1e-8 moves theta by ~1e-6 rad in a
-// forced record, and changes unevenly with the parameters, so a 1e-5 step
-// read it as sensitivity: p's column came out 3.4 times its size (bench
-// seed 3053: norm 0.762 against 0.226 at rtol 1e-10, where steps 1e-6 to
-// 1e-3 agree within 2 %), p's stated error 3.2 times too small
-// (docs/fit_coverage.md, "The forced fit's p").
+// taken at the model's rtol kCovarianceRtol with central differences, not
+// at the search's (rtol options.rtol, step 1e-5): the integrator's error at
+// rtol 1e-8 moves theta by ~1e-6 rad in a forced record, and changes
+// unevenly with the parameters, so a 1e-5 step read it as sensitivity: p's
+// column came out 3.4 times its size (bench seed 3053: norm 0.762 against
+// 0.226 at rtol 1e-10, where steps 1e-6 to 1e-3 agree within 2 %), p's
+// stated error 3.2 times too small (docs/fit_coverage.md, "The forced
+// fit's p").
+//
+// The step: first kCovarianceStep relative; then each parameter's own
+// standard error from that Jacobian, where that is smaller (at least
+// kCovarianceFloor relative), until the steps and the errors agree within
+// a factor 2. The errors are a linearisation over the estimate's spread, so
+// the differences are taken over that spread: near the uplift threshold the
+// residuals turn in alpha within 1e-4 of it (an uplift that comes or goes),
+// and a step across that made alpha's column 4 times too large (the
+// issue's forced repro: its alpha error 4 to 5 stated errors on half of
+// its noise seeds; docs/fit_coverage.md, "Near the uplift threshold").
 constexpr double kCovarianceRtol = 1e-10;
 constexpr double kCovarianceStep = 1e-4;
+constexpr double kCovarianceFloor = 1e-8;
+constexpr int kCovarianceSteps = 4;  // passes at most
+
+Eigen::MatrixXd CentralDifferences(const TrajectoryFunctor& f, const Eigen::VectorXd& x, const Eigen::VectorXd& h) {
+  Eigen::MatrixXd jacobian(f.values(), x.size());
+  Eigen::VectorXd up(f.values()), down(f.values());
+  for (Eigen::Index j = 0; j < x.size(); ++j) {
+    Eigen::VectorXd xs = x;
+    xs(j) = x(j) + h(j);
+    f(xs, up);
+    xs(j) = x(j) - h(j);
+    f(xs, down);
+    jacobian.col(j) = (up - down) / (2.0 * h(j));
+  }
+  return jacobian;
+}
 
 Eigen::MatrixXd CovarianceJacobian(const RockingRecord& record, std::size_t first, const Forcing& forcing,
                                    bool from_hold, const Eigen::VectorXd& x, const FitOptions& options,
@@ -314,9 +340,29 @@ Eigen::MatrixXd CovarianceJacobian(const RockingRecord& record, std::size_t firs
   FitOptions tight = options;
   tight.rtol = std::min(options.rtol, kCovarianceRtol);
   const TrajectoryFunctor f(record, first, record.size(), forcing, from_hold, tight);
-  Eigen::NumericalDiff<TrajectoryFunctor, Eigen::Central> diff(f, kCovarianceStep * kCovarianceStep);
-  Eigen::MatrixXd jacobian(f.values(), x.size());
-  diff.df(x, jacobian);
+  Eigen::VectorXd residuals(f.values());
+  f(x, residuals);
+  const double s2 = residuals.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, f.values() - x.size()));
+  Eigen::VectorXd first_step(x.size()), step(x.size());
+  for (Eigen::Index j = 0; j < x.size(); ++j) first_step(j) = kCovarianceStep * std::max(std::abs(x(j)), 1e-3);
+  step = first_step;
+  Eigen::MatrixXd jacobian = CentralDifferences(f, x, step);
+  for (int pass = 1; pass < kCovarianceSteps; ++pass) {
+    Eigen::FullPivLU<Eigen::MatrixXd> lu(jacobian.transpose() * jacobian);
+    if (!lu.isInvertible()) break;
+    const Eigen::MatrixXd inverse = lu.inverse();
+    Eigen::VectorXd next(x.size());
+    bool agree = true;
+    for (Eigen::Index j = 0; j < x.size(); ++j) {
+      const double se = std::sqrt(s2 * inverse(j, j));
+      const double floor = kCovarianceFloor * std::max(std::abs(x(j)), 1e-3);
+      next(j) = std::isfinite(se) ? std::clamp(se, floor, first_step(j)) : step(j);
+      agree = agree && next(j) <= 2.0 * step(j) && next(j) >= 0.5 * step(j);
+    }
+    if (agree) break;
+    step = next;
+    jacobian = CentralDifferences(f, x, step);
+  }
   *evaluations += *f.count_;
   return jacobian;
 }
