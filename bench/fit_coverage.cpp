@@ -37,7 +37,7 @@ struct Args {
   double noise_deg{0.02};
   std::string csv;
   int starts{-1};  // FitOptions::starts (-1: the method's default)
-  bool spline{false};  // forced: FitOptions::table_interpolation (chord by default)
+  bool spline{true};  // forced: FitOptions::table_interpolation (the spline by default, as `rocklab fit`)
 };
 
 struct Case {
@@ -117,7 +117,7 @@ int Main(const Args& a) {
     rocklab::model::FitOptions o;
     o.geometry = c.geometry;
     o.starts = a.starts;
-    if (a.spline) o.table_interpolation = rocklab::model::Interpolation::kSpline;
+    o.table_interpolation = a.spline ? rocklab::model::Interpolation::kSpline : rocklab::model::Interpolation::kLinear;
     try {
       const auto r = a.method == "impacts" ? rocklab::model::FitImpacts(c.record, o)
                                            : rocklab::model::FitTrajectory(c.record, o);

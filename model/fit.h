@@ -255,14 +255,14 @@ struct FitOptions {
   /// 0: none, only the impacts/geometry/given start). Impacts method: local
   /// minima of the alpha profile refined (>= 1).
   int starts{-1};  ///< -1: the method's default (trajectory 24, impacts 3)
-  /// Forced trajectory fit: how the table record is read between its
-  /// samples. The chord (the default, as before) biases alpha low on
-  /// point samples (mean z -0.64 on the coverage bench); the spline does
-  /// not (docs/fit_coverage.md, "The forced fit reads the table's
-  /// spline"), but a record whose samples are least-squares chord values
-  /// (the camera-rate merge of video/daq_sync) is meant to be read as a
-  /// chord.
-  Interpolation table_interpolation{Interpolation::kLinear};
+  /// Forced trajectory fit (and the posterior's forced likelihood): how
+  /// the table record is read between its samples. The spline (the
+  /// default) for point samples, as a DAQ records them; the chord biased
+  /// alpha low on them (mean z -0.62 over the coverage bench's 200 forced
+  /// records, docs/fit_coverage.md). The chord for a record whose samples
+  /// are least-squares chord values (the camera-rate merge of
+  /// video/daq_sync), read as a spline they bias alpha the other way.
+  Interpolation table_interpolation{Interpolation::kSpline};
   /// @throws std::invalid_argument naming the option.
   void Validate() const;
 };

@@ -447,10 +447,11 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
 
   std::unique_ptr<Forcing> forcing;
   if (record.has_table()) {
-    // The chord by default; the not-a-knot spline on request: the chord's
-    // error (a'' h^2 / 12 on average, one sign under each peak) biased
-    // alpha by -0.64 standard errors on average over the coverage bench's
-    // forced records (docs/fit_coverage.md).
+    // The not-a-knot spline by default; the chord on request (records of
+    // least-squares chord values): the chord's error on point samples
+    // (a'' h^2 / 12 on average, one sign under each peak) biased alpha by
+    // -0.62 standard errors on average over the coverage bench's forced
+    // records (docs/fit_coverage.md).
     forcing = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2,
                                                     options.table_interpolation);
   } else {

@@ -296,22 +296,59 @@ struct PosteriorProblem::Impl {
   // The latest time >= t0_s up to which a block at rest from t0_s stays at
   // rest under the table delayed by offset_s: the start of the table's
   // interval (its samples shifted by offset_s) in which u_g'' first leaves
-  // the uplift band [-g tan alpha_+, g tan alpha_-]; linear between samples,
-  // it first leaves the band inside the interval that ends at the first
-  // sample outside it. t0_s itself when u_g''(t0_s) is outside.
+  // the uplift band [-g tan alpha_+, g tan alpha_-], as the table is read
+  // between its samples (LeavesBand). t0_s itself when u_g''(t0_s) is
+  // outside.
   double RestUntil(const BlockParams& params, double offset_s, double t0_s) const {
     const double up = kGravity * std::tan(params.Side(-1).alpha);   // u_g'' above: onto -x
     const double down = -kGravity * std::tan(params.Side(+1).alpha);
     auto outside = [&](double a) { return a > up || a < down; };
-    if (outside(table->TableAcceleration(t0_s - offset_s))) return t0_s;
+    double from = t0_s - offset_s;  // table time
+    if (outside(table->TableAcceleration(from))) return t0_s;
     double rest_s = t0_s;
     const std::vector<double>& tt = record.table_time_s;
-    for (auto j = static_cast<std::size_t>(std::upper_bound(tt.begin(), tt.end(), t0_s - offset_s) - tt.begin());
+    for (auto j = static_cast<std::size_t>(std::upper_bound(tt.begin(), tt.end(), from) - tt.begin());
          j < tt.size(); ++j) {
-      if (outside(record.table_accel_mps2[j])) return rest_s;
+      // Before the first sample the table is still (0); from it, one piece.
+      const bool leaves = j == 0 ? outside(record.table_accel_mps2[0]) : LeavesBand(from, tt[j], down, up);
+      if (leaves) return rest_s;
       rest_s = tt[j] + offset_s;
+      from = tt[j];
     }
     return rest_s;
+  }
+
+  // Whether the table as read leaves [down, up] on [a_s, b_s], a part of one
+  // interval between its samples (table time). Each reading is a cubic at
+  // most there (the chord, the spline, Catmull-Rom's), so its extremes are
+  // at the ends or where its derivative, a quadratic through the Newton
+  // differences of four equally spaced values, vanishes; each is evaluated
+  // exactly. The chord's interior extremes are none.
+  bool LeavesBand(double a_s, double b_s, double down, double up) const {
+    auto at = [&](double u) { return table->TableAcceleration(a_s + (b_s - a_s) * u / 3.0); };
+    auto outside = [&](double a) { return a > up || a < down; };
+    const double f0 = at(0.0), f1 = at(1.0), f2 = at(2.0), f3 = at(3.0);
+    if (outside(f0) || outside(f3)) return true;
+    if (table->interpolation() == Interpolation::kLinear) return false;
+    const double d1 = f1 - f0, d2 = f2 - 2.0 * f1 + f0, d3 = f3 - 3.0 * f2 + 3.0 * f1 - f0;
+    // f'(u) = A u^2 + B u + C on u in [0, 3].
+    const double qa = 0.5 * d3, qb = d2 - d3, qc = d1 - 0.5 * d2 + d3 / 3.0;
+    double roots[2];
+    int n = 0;
+    if (std::abs(qa) <= 1e-14 * (std::abs(qb) + std::abs(qc))) {
+      if (qb != 0.0) roots[n++] = -qc / qb;
+    } else {
+      const double disc = qb * qb - 4.0 * qa * qc;
+      if (disc >= 0.0) {
+        const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
+        if (q != 0.0) roots[n++] = q / qa;
+        roots[n++] = q != 0.0 ? qc / q : -qb / (2.0 * qa);
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      if (roots[i] > 0.0 && roots[i] < 3.0 && outside(at(roots[i]))) return true;
+    }
+    return false;
   }
 
   // The free Housner run costs ~50 ns per sample (0.5 ms for 10 s at 1 kHz,
@@ -520,7 +557,8 @@ PosteriorProblem::PosteriorProblem(const RockingRecord& record, const PosteriorO
     s.first = s.from_hold ? s.f.hold_start_index : 0;
     s.theta0 = s.from_hold ? s.f.first_sign * *s.f.r0_rad : 0.0;
     if (s.forced) {
-      s.table = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2);
+      s.table = std::make_unique<SampledAcceleration>(record.table_time_s, record.table_accel_mps2,
+                                                    options.fit.table_interpolation);
     }
   }
 

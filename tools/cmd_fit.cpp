@@ -44,6 +44,7 @@ struct FitCliOptions {
   double noise_rad{0.0};
   double significance{model::kDefaultSignificance};
   int starts{-1};
+  std::string table{"spline"};  // --table: how a forced record's table samples are read between them
   bool json{};
   bool quiet{};
   std::string out_json;
@@ -152,6 +153,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"longest_gap", r.theta_gaps.longest_s},
       {"missing_table_samples", r.table_gaps.missing_samples},
       {"table_interpolation_error", Optional(r.table_interpolation_rad)},
+      {"table_reading", r.forced ? nlohmann::json(o.table) : nlohmann::json(nullptr)},
       {"release_time", r.method == model::FitMethod::kTrajectory ? Optional(r.release_time_s)
                                                                 : Optional(r.features.release_time_s)},
       {"impacts", impacts},
@@ -274,6 +276,10 @@ int RunFit(const FitCliOptions& o) {
   fo.features.noise_rad = o.noise_rad;
   fo.significance = o.significance;
   fo.starts = o.starts;
+  if (o.table != "spline" && o.table != "chord") {
+    throw UsageError("--table must be spline or chord, got '" + o.table + "'");
+  }
+  fo.table_interpolation = o.table == "chord" ? model::Interpolation::kLinear : model::Interpolation::kSpline;
   fo.alpha_band_m = o.alpha_band_m;
   fo.min_impacts = o.min_impacts;
 
@@ -487,6 +493,10 @@ void RegisterFit(CLI::App& app, CommandRun& run) {
                   "level of the chi-square goodness-of-fit test behind 'converged', in (0, 0.5) (default 0.01)");
   cmd->add_option("--starts", opts->starts,
                   "trajectory: prior-box starts screened (default 24); impacts: alpha-profile minima refined (default 3)");
+  cmd->add_option("--table", opts->table,
+                  "forced trajectory fit and posterior: the table record between its samples, spline (point "
+                  "samples, as a DAQ records them) | chord (least-squares chord values, as `track` merges them "
+                  "at the camera's rate) (default spline)");
   cmd->add_flag("--json", opts->json, "print the result as JSON");
   cmd->add_flag("--quiet", opts->quiet, "no progress line on stderr (drawn when stderr is a terminal)");
   cmd->add_option("--out", opts->out_json,

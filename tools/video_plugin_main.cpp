@@ -217,7 +217,12 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
   result.rows_before = counts.before;
   result.rows_after = counts.after;
   result.rows_in_gaps = counts.in_gaps;
-  char line[768];
+  // The DAQ's channels on the camera's grid are least-squares chord values
+  // (video/daq_sync.h), which the forced fit reads with --table chord.
+  static constexpr const char* kAtCameraRate =
+      "at the camera's rate (the rig's sample_rate_hz; the DAQ's channels as least-squares chord values: "
+      "fit a forced test with --table chord)";
+  char line[1024];
   if (result.by_table) {
     std::snprintf(line, sizeof line,
                   "%lld rows merged to %s on the DAQ's clock, %s (%lld DAQ samples before the video's first frame "
@@ -225,7 +230,7 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
                   "motion: t_daq = offset + (1 + drift) t_video, offset %.6f s +- %.2g s, drift %.1f +- %.2g ppm; "
                   "%d frames, correlation %.4f, residual RMS %.3g mm",
                   static_cast<long long>(counts.rows), o.out_csv.c_str(),
-                  at_camera_rate ? "at the camera's rate (the rig's sample_rate_hz)" : "at the DAQ's samples",
+                  at_camera_rate ? kAtCameraRate : "at the DAQ's samples",
                   static_cast<long long>(counts.before), static_cast<long long>(counts.after),
                   static_cast<long long>(counts.in_gaps), fit.offset_s, fit.offset_se_s, fit.drift_ppm,
                   fit.drift_se_ppm, result.motion_samples, result.correlation, 1e3 * result.motion_residual_m);
@@ -237,7 +242,7 @@ std::string MergeWithDaq(const TrackRequest& o, const daq::RigConfig& rig, const
                 "t_video, offset %.6f s +- %.2g s, drift %.1f +- %.2g ppm; %d of %d video edges paired (%d in the DAQ "
                 "record), residual RMS %.3f ms, max %.3f ms (the frame and DAQ periods allow %.3f ms RMS)",
                 static_cast<long long>(counts.rows), o.out_csv.c_str(),
-                at_camera_rate ? "at the camera's rate (the rig's sample_rate_hz)" : "at the DAQ's samples",
+                at_camera_rate ? kAtCameraRate : "at the DAQ's samples",
                 static_cast<long long>(counts.before),
                 static_cast<long long>(counts.after), static_cast<long long>(counts.in_gaps), fit.offset_s,
                 fit.offset_se_s, fit.drift_ppm, fit.drift_se_ppm, fit.matched, fit.video_edges, fit.daq_edges,

@@ -1164,7 +1164,9 @@ def fit(
         method: "impacts" (the paper's, free rocking) or "trajectory" (the
             whole record, free or forced).
         table: the table acceleration of a forced record: a pair (t, a) of
-            arrays (s, m/s^2), or the path of a ``time,accel`` CSV.
+            arrays (s, m/s^2), or the path of a ``time,accel`` CSV; read
+            between its samples as the not-a-knot cubic spline (point
+            samples; ``rocklab fit``'s default ``--table spline``).
         quarter_time: impacts method: "exact" (corrected eq. 12) or
             "slender" (eq. 13).
         alpha_band: admissible error on b, m.
