@@ -238,6 +238,21 @@ using namespace fit_detail;
 const char* ToString(QuarterTime q) { return q == QuarterTime::kExact ? "exact" : "slender"; }
 const char* ToString(FitMethod m) { return m == FitMethod::kImpacts ? "impacts" : "trajectory"; }
 
+const char* TableReadingName(Interpolation i) {
+  switch (i) {
+    case Interpolation::kLinear: return "chord";
+    case Interpolation::kCatmullRom: return "catmull-rom";
+    case Interpolation::kSpline: return "spline";
+  }
+  return "spline";
+}
+
+Interpolation ParseTableReading(const std::string& name) {
+  if (name == "spline") return Interpolation::kSpline;
+  if (name == "chord") return Interpolation::kLinear;
+  throw std::invalid_argument("table reading must be spline or chord, got '" + name + "'");
+}
+
 QuarterTime ParseQuarterTime(const std::string& name) {
   if (name == "exact") return QuarterTime::kExact;
   if (name == "slender") return QuarterTime::kSlender;

@@ -51,6 +51,12 @@ enum class FitMethod { kImpacts, kTrajectory };
 /// "exact" / "slender"; "impacts" / "trajectory".
 const char* ToString(QuarterTime q);
 const char* ToString(FitMethod m);
+/// A forced fit's table reading as `fit --table` names it: "spline",
+/// "chord" (Catmull-Rom's cubic: "catmull-rom").
+const char* TableReadingName(Interpolation i);
+/// "spline" or "chord".
+/// @throws std::invalid_argument for another name.
+Interpolation ParseTableReading(const std::string& name);
 /// @throws std::invalid_argument for another name.
 QuarterTime ParseQuarterTime(const std::string& name);
 FitMethod ParseFitMethod(const std::string& name);
@@ -355,6 +361,9 @@ struct FitResult {
   /// fails), which the standard errors above include in quadrature. NaN /
   /// zero for a free record.
   double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
+  /// Forced trajectory fit: how the table record was read between its
+  /// samples (FitOptions::table_interpolation).
+  Interpolation table_interpolation{Interpolation::kSpline};
   BlockParams table_interpolation_shift;  ///< alpha (rad), p (rad/s), mu (1)
   std::vector<std::string> warnings;
 };

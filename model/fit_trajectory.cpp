@@ -516,6 +516,7 @@ FitResult FitTrajectory(const RockingRecord& record, const FitOptions& options) 
   out.mu_stderr = std::sqrt(out.covariance(2, 2));
   out.alpha_p_correlation = out.covariance(0, 1) / (out.alpha_stderr * out.p_stderr);
   if (out.forced) {
+    out.table_interpolation = options.table_interpolation;
     // The table record's sampling: what its samples leave open between
     // them. The same run on a second cubic through them, Catmull-Rom's
     // (C1, off by O(h^3) with a zero mean over each interval, where the

@@ -331,6 +331,7 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   j["longest_gap"] = r.theta_gaps.longest_s;
   j["missing_table_samples"] = r.table_gaps.missing_samples;
   j["table_interpolation_error"] = Optional(r.table_interpolation_rad);
+  j["table_reading"] = r.forced ? py::object(py::str(model::TableReadingName(r.table_interpolation))) : py::none();
   j["release_time"] = by_impacts ? Optional(r.features.release_time_s) : Optional(r.release_time_s);
   j["impacts"] = impacts;
   j["warnings"] = r.warnings;

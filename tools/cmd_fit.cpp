@@ -153,7 +153,7 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
       {"longest_gap", r.theta_gaps.longest_s},
       {"missing_table_samples", r.table_gaps.missing_samples},
       {"table_interpolation_error", Optional(r.table_interpolation_rad)},
-      {"table_reading", r.forced ? nlohmann::json(o.table) : nlohmann::json(nullptr)},
+      {"table_reading", r.forced ? nlohmann::json(model::TableReadingName(r.table_interpolation)) : nlohmann::json(nullptr)},
       {"release_time", r.method == model::FitMethod::kTrajectory ? Optional(r.release_time_s)
                                                                 : Optional(r.features.release_time_s)},
       {"impacts", impacts},
@@ -276,10 +276,11 @@ int RunFit(const FitCliOptions& o) {
   fo.features.noise_rad = o.noise_rad;
   fo.significance = o.significance;
   fo.starts = o.starts;
-  if (o.table != "spline" && o.table != "chord") {
+  try {
+    fo.table_interpolation = model::ParseTableReading(o.table);
+  } catch (const std::invalid_argument&) {
     throw UsageError("--table must be spline or chord, got '" + o.table + "'");
   }
-  fo.table_interpolation = o.table == "chord" ? model::Interpolation::kLinear : model::Interpolation::kSpline;
   fo.alpha_band_m = o.alpha_band_m;
   fo.min_impacts = o.min_impacts;
 

@@ -166,6 +166,7 @@ TEST(CliFit, TrajectoryWithAccelOnAReconstructedForcedRecord) {
               100 * (j.at("alpha").get<double>() / alpha - 1), 100 * (j.at("p").get<double>() / p - 1),
               100 * (j.at("mu").get<double>() / mu - 1));
   EXPECT_EQ(j.at("method"), "trajectory");
+  EXPECT_EQ(j.at("table_reading"), "spline");  // the default for point samples
   EXPECT_NEAR(j.at("alpha").get<double>() / alpha, 1.0, 0.01);
   EXPECT_NEAR(j.at("p").get<double>() / p, 1.0, 0.01);
   EXPECT_NEAR(j.at("mu").get<double>() / mu, 1.0, 0.01);
@@ -287,6 +288,7 @@ INSTANTIATE_TEST_SUITE_P(
                 "admissible band"},
         BadCase{"BadMethod", {"--input", "@/free.csv", "--method", "guess"}, "--method"},
         BadCase{"BadQuarterTime", {"--input", "@/free.csv", "--quarter-time", "x"}, "--quarter-time"},
+        BadCase{"BadTableReading", {"--input", "@/free.csv", "--table", "cubic"}, "--table must be spline or chord"},
         BadCase{"NegativeBand", {"--input", "@/free.csv", "--alpha-band-m", "-1"}, "--alpha-band-m"},
         BadCase{"RigAndWidth", {"--input", "@/free.csv", "--rig", "r.toml", "--width", "1"}, "--rig"},
         BadCase{"TrajectoryForcedNoStart", {"--input", "@/free.csv", "--method", "trajectory",
