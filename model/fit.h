@@ -273,6 +273,13 @@ struct FitOptions {
   void Validate() const;
 };
 
+/// A trajectory fit's second minimum that fits the record as well
+/// (FitResult::second_minimum).
+struct SecondMinimum {
+  BlockParams params;  ///< alpha (rad), p (rad/s), mu (1)
+  double delta_chi2{};  ///< its chi-square above the answer's, 1
+};
+
 struct FitResult {
   FitMethod method{FitMethod::kImpacts};
   QuarterTime quarter_time{QuarterTime::kExact};
@@ -361,6 +368,11 @@ struct FitResult {
   /// fails), which the standard errors above include in quadrature. NaN /
   /// zero for a free record.
   double table_interpolation_rad{std::numeric_limits<double>::quiet_NaN()};
+  /// Trajectory fit: the lowest other minimum of the search more than 2
+  /// stated errors away in some parameter whose chi-square is above the
+  /// answer's by less than 3.84 (a 95 % likelihood interval at one degree
+  /// of freedom): the record does not tell the two apart. None: no such.
+  std::optional<SecondMinimum> second_minimum;
   /// Forced trajectory fit: how the table record was read between its
   /// samples (FitOptions::table_interpolation).
   Interpolation table_interpolation{Interpolation::kSpline};

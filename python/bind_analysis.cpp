@@ -335,6 +335,16 @@ py::dict FitDict(const std::string& input, const model::FitResult& r) {
   j["release_time"] = by_impacts ? Optional(r.features.release_time_s) : Optional(r.release_time_s);
   j["impacts"] = impacts;
   j["warnings"] = r.warnings;
+  if (r.second_minimum) {
+    py::dict m;
+    m["alpha"] = r.second_minimum->params.alpha;
+    m["p"] = r.second_minimum->params.p;
+    m["mu"] = r.second_minimum->params.mu;
+    m["delta_chi2"] = r.second_minimum->delta_chi2;
+    j["second_minimum"] = m;
+  } else {
+    j["second_minimum"] = py::none();
+  }
   if (r.theory) {
     py::dict t;
     t["alpha"] = r.theory->alpha;

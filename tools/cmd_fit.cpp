@@ -164,6 +164,14 @@ nlohmann::json ResultJson(const FitCliOptions& o, const model::FitResult& r) {
         {"residual", "s"}, {"rms_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"},
         {"noise_residual", r.method == model::FitMethod::kImpacts ? "s" : "rad"}, {"noise", "rad"},
         {"residual_to_noise", "1"}, {"chi2", "1"}, {"chi2_per_dof", "1"}, {"p_value", "1"}, {"band_ratio", "1"}, {"band_p_value", "1"}, {"band_hz", "Hz"}, {"residual_noise", "s"}, {"table_interpolation_error", "rad"}, {"longest_gap", "s"}, {"release_time", "s"}, {"runtime", "s"}}}};
+  if (r.second_minimum) {
+    j["second_minimum"] = {{"alpha", r.second_minimum->params.alpha},
+                           {"p", r.second_minimum->params.p},
+                           {"mu", r.second_minimum->params.mu},
+                           {"delta_chi2", r.second_minimum->delta_chi2}};
+  } else {
+    j["second_minimum"] = nullptr;
+  }
   if (r.theory) {
     j["theory"] = {{"alpha", r.theory->alpha}, {"p", r.theory->p}, {"mu", r.theory->mu}};
   } else {

@@ -71,6 +71,7 @@ asan_left_out_tests=(
   'BlockTest\.AMillionVertexSectionIsCheckedInLinearlyManyEdgeTests'
   'FitTrajectory\.(ReadsTheTableRecordAsASplineAndSaysWhenItsSamplingMovesTheFit|RecoversBlock1FromAForcedTest)'
   'FitTrajectory\.(ForcedNearThresholdFindsTheTruthOrSaysNotConverged|ForcedLocalMinimumIsNotCalledConverged)'
+  'FitTrajectory\.TwoMinimaTheRecordCannotTellApartAreBothSaid'
   'FitTrajectory\.(ResidualToNoiseSeesAWrongModel|ForcedFitFindsTheTruthsPieceOfARuggedCost)'
   'FitTrajectory\.CovarianceIsTheModelsSensitivityNotTheIntegratorsError'
   'SweepMerge\.ByteDamagedHdf5ShardsAreErrorsNotCrashes'
