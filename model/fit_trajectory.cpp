@@ -315,10 +315,12 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
 // kCovarianceFloor relative), until the steps and the errors agree within
 // a factor 2. The errors are a linearisation over the estimate's spread, so
 // the differences are taken over that spread: near the uplift threshold the
-// residuals turn in alpha within 1e-4 of it (an uplift that comes or goes),
-// and a step across that made alpha's column 4 times too large (the
-// issue's forced repro: its alpha error 4 to 5 stated errors on half of
-// its noise seeds; docs/fit_coverage.md, "Near the uplift threshold").
+// residuals bend in alpha within 1e-4 of it, and across that step alpha's
+// column came out 1.2 times its size and turned against p's and mu's, with
+// which it is strongly correlated: alpha's stated error 2.8 times too
+// small (the forced repro, its error 4 to 5 stated errors on half
+// of its noise seeds; docs/fit_coverage.md, "Near the uplift threshold").
+//
 // chi-square's 95 % quantile at one degree of freedom: a second minimum
 // closer than this in chi-square lies inside a 95 % likelihood interval.
 constexpr double kSecondMinimumChi2 = 3.841;
