@@ -417,6 +417,12 @@ class FitTheory(TypedDict):
     p: float
     mu: float
 
+class FitSecondMinimum(TypedDict):
+    alpha: float  # rad
+    p: float  # rad/s
+    mu: float
+    delta_chi2: float  # its chi-square above the answer's
+
 class FitAlphaBand(TypedDict):
     """FitResult.alpha_band: the admissible alpha from the geometry."""
     lo: float  # rad
@@ -465,6 +471,8 @@ class FitResult(Dict[str, object]):
     longest_gap: float  # s
     missing_table_samples: int
     table_interpolation_error: Optional[float]  # rad
+    table_reading: Optional[str]  # forced trajectory fit: "spline" or "chord"
+    second_minimum: Optional[FitSecondMinimum]
     release_time: Optional[float]  # s
     impacts: List[FitImpact]
     warnings: List[str]
