@@ -26,6 +26,22 @@ using test::SyntheticFree;
 
 using ::rocklab::test::kBlock1;  // tests/paper_blocks.h
 
+// The log posterior of the trajectory likelihood at noise sigma (rad),
+// written here from `m` run from rest at the record's first sample and
+// output at every sample: -ss / (2 sigma^2) - (n + 1) log sigma (the prior
+// on sigma is 1 / sigma). The oracle of the likelihood's rest skip.
+double LogPosteriorFromRest(model::RockingModel& m, const model::Forcing& table, const model::RockingRecord& rec,
+                            double sigma) {
+  m.Reset(rec.time_s.front(), 0.0, 0.0);
+  double ss = 0.0;
+  for (std::size_t k = 0; k < rec.time_s.size(); ++k) {
+    m.AdvanceAhead(rec.time_s[k], table, std::numeric_limits<double>::infinity());
+    ss += (m.state().theta - rec.theta[k]) * (m.state().theta - rec.theta[k]);
+  }
+  const double n = static_cast<double>(rec.time_s.size());
+  return -0.5 * ss / (sigma * sigma) - (n + 1.0) * std::log(sigma);
+}
+
 model::PosteriorOptions Options(model::FitMethod method) {
   model::PosteriorOptions o;
   o.method = method;
@@ -239,13 +255,8 @@ TEST(Posterior, ComplexModelSamplesL) {
   auto m = model::RockingModel::Create(model::ModelKind::kComplex, kBlock1, mo);
   // The table read as the likelihood reads it (FitOptions::table_interpolation).
   const model::SampledAcceleration table(rec.table_time_s, rec.table_accel_mps2, o.fit.table_interpolation);
-  m->Reset(rec.time_s.front(), 0.0, 0.0);
-  double ss_all = 0.0;
-  for (std::size_t k = 0; k < rec.time_s.size(); ++k) {
-    m->AdvanceAhead(rec.time_s[k], table, std::numeric_limits<double>::infinity());
-    ss_all += (m->state().theta - rec.theta[k]) * (m->state().theta - rec.theta[k]);
-  }
-  const double lp_all = -0.5 * ss_all / (noise_rad * noise_rad) - (n + 1.0) * std::log(noise_rad);
+  ASSERT_EQ(n, static_cast<double>(rec.time_s.size()));
+  const double lp_all = LogPosteriorFromRest(*m, table, rec, noise_rad);
   std::printf("rest skip: log posterior %.9f against the run from t = 0 %.9f\n", lp, lp_all);
   EXPECT_NEAR(lp, lp_all, 1e-3);
 }
@@ -303,22 +314,13 @@ TEST(Posterior, RestSkipFollowsTheSplineBetweenSamples) {
   Eigen::VectorXd x(5);
   const double sigma = 1e-9;
   x << kBlock1.alpha, kBlock1.p, kBlock1.mu, sigma, 0.0;
-  const double n = problem.data_points();
+  ASSERT_EQ(problem.data_points(), static_cast<int>(rec.time_s.size()));
   const double lp = problem.LogPosterior(x);
-
-  auto all = model::RockingModel::Create(model::ModelKind::kHousner, kBlock1, [&] {
-    model::ModelOptions a;
-    a.rtol = o.rtol;
-    a.atol = 1e-10;
-    return a;
-  }());
-  all->Reset(rec.time_s.front(), 0.0, 0.0);
-  double ss = 0.0;
-  for (std::size_t k = 0; k < rec.time_s.size(); ++k) {
-    all->AdvanceAhead(rec.time_s[k], table, std::numeric_limits<double>::infinity());
-    ss += (all->state().theta - rec.theta[k]) * (all->state().theta - rec.theta[k]);
-  }
-  const double lp_all = -0.5 * ss / (sigma * sigma) - (n + 1.0) * std::log(sigma);
+  model::ModelOptions ao;
+  ao.rtol = o.rtol;
+  ao.atol = 1e-10;
+  auto all = model::RockingModel::Create(model::ModelKind::kHousner, kBlock1, ao);
+  const double lp_all = LogPosteriorFromRest(*all, table, rec, sigma);
   std::printf("spline overshoot: theta peak %.3g rad; log posterior %.6f against the run from t = 0 %.6f\n", peak,
               lp, lp_all);
   EXPECT_NEAR(lp, lp_all, 1e-3);
