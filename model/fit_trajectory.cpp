@@ -320,14 +320,14 @@ MultiStartResult FitFromManyStarts(const RockingRecord& record, std::size_t firs
 // which it is strongly correlated: alpha's stated error 2.8 times too
 // small (the forced repro, its error 4 to 5 stated errors on half
 // of its noise seeds; docs/fit_coverage.md, "Near the uplift threshold").
-//
-// chi-square's 95 % quantile at one degree of freedom: a second minimum
-// closer than this in chi-square lies inside a 95 % likelihood interval.
-constexpr double kSecondMinimumChi2 = 3.841;
 constexpr double kCovarianceRtol = 1e-10;
 constexpr double kCovarianceStep = 1e-4;
 constexpr double kCovarianceFloor = 1e-8;
 constexpr int kCovarianceSteps = 4;  // passes at most
+
+// chi-square's 95 % quantile at one degree of freedom: a second minimum
+// closer than this in chi-square lies inside a 95 % likelihood interval.
+constexpr double kSecondMinimumChi2 = 3.841;
 
 Eigen::MatrixXd CentralDifferences(const TrajectoryFunctor& f, const Eigen::VectorXd& x, const Eigen::VectorXd& h) {
   Eigen::MatrixXd jacobian(f.values(), x.size());
