@@ -167,7 +167,9 @@ set(CPACK_DEBIAN_VIDEO_PACKAGE_DEPENDS "rocklab (= ${PROJECT_VERSION}-1)")
 if(ROCKLAB_VIDEO)
   set(CPACK_DEBIAN_MAIN_PACKAGE_SUGGESTS "rocklab-video")
 endif()
-set(CPACK_DEBIAN_MAIN_PACKAGE_DEPENDS "gnuplot-nox, liblcm-bin, liblcm-java, libjchart2d-java, default-jre-headless")
+# liblcm1 by name: the command opens liblcm.so.1 when it opens the bus
+# (tools/lcm_forward.cpp), so dpkg-shlibdeps does not see it in its DT_NEEDED.
+set(CPACK_DEBIAN_MAIN_PACKAGE_DEPENDS "gnuplot-nox, liblcm1, liblcm-bin, liblcm-java, libjchart2d-java, default-jre-headless")
 # The Python module (python/, under /usr/lib/python3/dist-packages): built
 # for this Python minor version, with numpy.
 if(ROCKLAB_PYTHON)

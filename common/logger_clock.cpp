@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include <spdlog/cfg/env.h>
 #include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -68,6 +69,8 @@ std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name) {
     return spdlog::get(name);
   }
 }
+
+void LoadLogLevels() { spdlog::cfg::load_env_levels(); }
 
 double HostNowS() {
   using namespace std::chrono;

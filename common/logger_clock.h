@@ -23,6 +23,13 @@ std::shared_ptr<spdlog::logger> NamedLogger(const std::string& name);
 /// at kMaxLineBytes): the formatter of every NamedLogger.
 std::unique_ptr<spdlog::formatter> PrintableLogFormatter();
 
+/// SPDLOG_LEVEL's levels (SPDLOG_LEVEL=debug, =video=debug, ...) into the
+/// registry of the spdlog this code is linked with: the command's (main),
+/// and each plugin's entry, whose log lines go through the shared
+/// libspdlog's registry, not the command's compiled-in one
+/// (tools/spdlog_fmt_implementation.cpp).
+void LoadLogLevels();
+
 /// Seconds of the host's monotonic clock (std::chrono::steady_clock), s.
 double HostNowS();
 

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "common/logger_clock.h"
 #include "export/h5_writer.h"
 #include "export/mat_writer.h"
 #include "sweep/results_h5.h"
@@ -35,5 +36,6 @@ const Hdf5Calls kCalls{kHdf5PluginVersion,           &ValidateH5Options,        
 }  // namespace rocklab::tools
 
 extern "C" __attribute__((visibility("default"))) const rocklab::tools::Hdf5Calls* rocklab_hdf5_plugin() {
+  rocklab::common::LoadLogLevels();  // this plugin's spdlog registry
   return &rocklab::tools::kCalls;
 }

@@ -3,6 +3,7 @@
 // command maps libmicrohttpd and gnutls only in `rocklab monitor`.
 #include <string>
 
+#include "common/logger_clock.h"
 #include "monitor/server.h"
 #include "tools/monitor_plugin.h"
 
@@ -29,5 +30,6 @@ const MonitorCalls kCalls{kMonitorPluginVersion, &Open, &Close, &Start, &Stop, &
 }  // namespace rocklab::tools
 
 extern "C" __attribute__((visibility("default"))) const rocklab::tools::MonitorCalls* rocklab_monitor_plugin() {
+  rocklab::common::LoadLogLevels();  // this plugin's spdlog registry
   return &rocklab::tools::kCalls;
 }

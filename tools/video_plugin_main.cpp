@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/logger_clock.h"
 #include "common/provenance.h"
 #include "daq/rig_config.h"
 #include "daq/source.h"
@@ -403,5 +404,6 @@ const PluginCalls kCalls{kPluginVersion, &OpenVideoSource, &RunTrack, &RunCamera
 }  // namespace rocklab::video
 
 extern "C" __attribute__((visibility("default"))) const rocklab::video::PluginCalls* rocklab_video_plugin() {
+  rocklab::common::LoadLogLevels();  // this plugin's spdlog registry
   return &rocklab::video::kCalls;
 }
