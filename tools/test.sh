@@ -59,7 +59,7 @@ asan=${ROCKLAB_ASAN_BUILD_DIR:-$here/build-asan}
 # at a usable speed, 40 % less compile than -O3) and symbolised reports.
 # No benchmarks (none runs here). Warnings are the plain build's job, and
 # so is the command's lean start: here it links spdlog, fmt and toml++
-# shared (ROCKLAB_COMMAND_OWN_LIBS=OFF, ~37 s less compile).
+# shared (ROCKLAB_COMMAND_OWN_LIBS=OFF, ~36 s less compile).
 CXXFLAGS="-gline-tables-only -DNDEBUG ${CXXFLAGS:-}" ROCKLAB_BUILD_DIR=$asan \
   ROCKLAB_CMAKE_ARGS="-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE=-O1 -DROCKLAB_SANITIZE=ON -DROCKLAB_FUZZ=ON -DROCKLAB_LCM_JAVA=OFF -DROCKLAB_BENCH=OFF -DROCKLAB_WERROR=OFF -DROCKLAB_COMMAND_OWN_LIBS=OFF ${ROCKLAB_CMAKE_ARGS:-}" \
   ROCKLAB_TEST_TOOLS=1 bash "$here/tools/setup.sh"
