@@ -8,7 +8,8 @@
 // of the message's fingerprint in its type database (the class name, or
 // "?? <fingerprint>" for an unknown type) and Undecodable counts the
 // messages its decoder threw on. Run by tests/tools/spy_test.cpp with the
-// class path `rocklab spy --print-command` gives lcm-spy.
+// class path `rocklab spy --print-command` gives lcm-spy. Exit codes: 3 no
+// table, 4 lcm-spy failed, 5 the probe failed.
 import java.awt.Component;
 import java.awt.Container;
 import java.awt.Frame;
@@ -35,13 +36,27 @@ public class SpyTableProbe {
     // (RL_DAQ_CONFIG) reaches a loaded machine's JVM when it reaches it.
     final long end = System.nanoTime() + seconds * 1_000_000_000L;
     final StringBuilder out = new StringBuilder();
-    while (true) {
-      out.setLength(0);
-      SwingUtilities.invokeAndWait(() -> {
-        for (Frame f : Frame.getFrames()) collect(f, out);
-      });
-      if (allSeen(out.toString(), expect) || System.nanoTime() > end) break;
-      Thread.sleep(250);
+    try {
+      while (true) {
+        out.setLength(0);
+        SwingUtilities.invokeAndWait(() -> {
+          try {
+            for (Frame f : Frame.getFrames()) collect(f, out);
+          } catch (IndexOutOfBoundsException e) {
+            // lcm-spy adds a channel's row from its LCM thread: its sorter's
+            // index can lag the model by a row while it is read. Not a
+            // table yet; read again at the next poll.
+            out.setLength(0);
+          }
+        });
+        if (allSeen(out.toString(), expect) || System.nanoTime() > end) break;
+        Thread.sleep(250);
+      }
+    } catch (Throwable e) {
+      // Anything else ends the probe at once (Swing's threads would keep
+      // the JVM, and the test, waiting for its time-out).
+      e.printStackTrace();
+      System.exit(5);
     }
     System.out.print(out);
     System.out.flush();
