@@ -12,6 +12,7 @@
 #include <dlfcn.h>
 
 #include <cstdio>
+#include <mutex>
 #include <string>
 
 #pragma GCC visibility push(hidden)  // the command's own: liblcm's stay its own
@@ -79,12 +80,11 @@ extern "C" {
 lcm_t* lcm_create(const char* provider) {
   const Liblcm& lcm = Lcm();
   if (lcm.create == nullptr) {
-    static bool said = false;
-    if (!said) {
+    static std::once_flag said;  // once, whichever thread opens a bus first
+    std::call_once(said, [&lcm] {
       std::fprintf(stderr, "rocklab: the LCM bus needs %s, which does not load: %s (apt-get install liblcm1)\n",
                    kLiblcm, lcm.error.c_str());
-      said = true;
-    }
+    });
     return nullptr;
   }
   return lcm.create(provider);

@@ -7,8 +7,7 @@
 #include <string>
 #include <vector>
 
-#include <spdlog/cfg/env.h>
-
+#include "common/logger_clock.h"
 #include "common/text.h"
 #include "tools/cli.h"
 #include "tools/version.h"
@@ -43,7 +42,7 @@ void RegisterCameraCalibrate(CLI::App& app, CommandRun& run);
 
 int main(int argc, char** argv) {
   using namespace rocklab::tools;
-  spdlog::cfg::load_env_levels();  // SPDLOG_LEVEL=debug etc.
+  rocklab::common::LoadLogLevels();  // SPDLOG_LEVEL=debug etc.
   // `rocklab --version [--load]`: the version, build type and optional
   // parts, before any command is registered (tools/version.h).
   if (argc >= 2 && std::string(argv[1]) == "--version" &&

@@ -21,26 +21,33 @@
 namespace rocklab::test {
 namespace {
 
-// The shared objects the dynamic linker loaded while `binary args` ran
-// (LD_DEBUG=files: one "file=NAME [0];  generating link map" per object,
-// also for dlopen()), by name.
-std::set<std::string> LoadedObjects(const std::string& binary, const std::string& args) {
+// What the dynamic linker said of its files (LD_DEBUG=files) while
+// `binary args` ran, which must exit 0: one "file=NAME [0];  generating
+// link map" per object loaded, also for dlopen() ("dynamically loaded by").
+std::string LdDebugFiles(const std::string& binary, const std::string& args) {
   const std::string dir = ScratchDir("startup");
   const std::string log = dir + "/ld_debug";
   const std::string command = "LD_DEBUG=files LD_DEBUG_OUTPUT='" + log + "' '" + binary + "' " + args +
                               " > /dev/null 2>&1";
   EXPECT_EQ(std::system(command.c_str()), 0) << command;
-  std::set<std::string> names;
+  std::string text;
   // LD_DEBUG_OUTPUT appends the process id to the file name.
   for (const auto& e : std::filesystem::directory_iterator(dir)) {
     if (e.path().filename().string().rfind("ld_debug", 0) != 0) continue;
-    const std::regex loaded(R"(file=(\S+) \[\d+\];\s+generating link map)");
-    std::smatch m;
-    const std::string text = Slurp(e.path().string());
-    for (auto it = text.cbegin(); std::regex_search(it, text.cend(), m, loaded); it = m.suffix().first) {
-      names.insert(m[1].str());
-    }
+    text += Slurp(e.path().string());
     std::filesystem::remove(e.path());
+  }
+  return text;
+}
+
+// The shared objects the dynamic linker loaded while `binary args` ran, by name.
+std::set<std::string> LoadedObjects(const std::string& binary, const std::string& args) {
+  const std::string text = LdDebugFiles(binary, args);
+  const std::regex loaded(R"(file=(\S+) \[\d+\];\s+generating link map)");
+  std::set<std::string> names;
+  std::smatch m;
+  for (auto it = text.cbegin(); std::regex_search(it, text.cend(), m, loaded); it = m.suffix().first) {
+    names.insert(m[1].str());
   }
   return names;
 }
@@ -106,9 +113,9 @@ TEST(Startup, VersionMapsTheCoreLibrariesOnly) {
 }
 
 // The DAQ over memq:// (a recorded CSV as fast as it reads, then it ends):
-// it publishes on the bus, so it opens liblcm.
-std::string DaqOverMemq() {
-  return "'" + std::string(ROCKLAB_BINARY) + "' daq --rig '" + ROCKLAB_SOURCE_DIR + "/data/rigs/lab_rig.toml' --input '" +
+// it publishes on the bus, so it opens liblcm. Its arguments.
+std::string DaqOverMemqArgs() {
+  return "daq --rig '" + std::string(ROCKLAB_SOURCE_DIR) + "/data/rigs/lab_rig.toml' --input '" +
          ROCKLAB_SOURCE_DIR + "/data/samples/free_rocking.csv' --max --lcm-url memq://";
 }
 
@@ -118,17 +125,7 @@ TEST(Startup, TheBusLoadsLiblcmWhenOpened) {
   const std::set<std::string> names =
       LoadedObjects(ROCKLAB_BINARY, "info '" + std::string(ROCKLAB_SOURCE_DIR) + "/data/samples/fig7_block1.csv'");
   for (const std::string& n : names) EXPECT_EQ(n.find("liblcm"), std::string::npos) << "info loads " << n;
-  const std::string dir = ScratchDir("startup_bus");
-  const std::string log = dir + "/ld_debug";
-  const std::string command =
-      "LD_DEBUG=files LD_DEBUG_OUTPUT='" + log + "' " + DaqOverMemq() + " > '" + dir + "/out' 2> '" + dir + "/err'";
-  const int status = std::system(command.c_str());
-  ASSERT_TRUE(WIFEXITED(status)) << command;
-  EXPECT_EQ(WEXITSTATUS(status), 0) << command << "\n" << Slurp(dir + "/err");
-  std::string loaded;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) {
-    if (e.path().filename().string().rfind("ld_debug", 0) == 0) loaded += Slurp(e.path().string());
-  }
+  const std::string loaded = LdDebugFiles(ROCKLAB_BINARY, DaqOverMemqArgs());
   EXPECT_NE(loaded.find("file=liblcm.so.1 [0];  dynamically loaded by"), std::string::npos) << loaded;
 }
 
@@ -137,8 +134,9 @@ TEST(Startup, TheBusLoadsLiblcmWhenOpened) {
 // and the package, and the command ends with an error, not a crash.
 TEST(Startup, ABrokenLiblcmIsNamedWithItsPackage) {
   const std::string dir = ScratchDir("startup_no_lcm");
-  const std::string command = "LD_LIBRARY_PATH='" + std::string(ROCKLAB_NOT_LIBLCM_DIR) + "' " + DaqOverMemq() +
-                              " > '" + dir + "/out' 2> '" + dir + "/err'";
+  const std::string command = "LD_LIBRARY_PATH='" + std::string(ROCKLAB_NOT_LIBLCM_DIR) + "' '" +
+                              std::string(ROCKLAB_BINARY) + "' " + DaqOverMemqArgs() + " > '" + dir + "/out' 2> '" +
+                              dir + "/err'";
   const int status = std::system(command.c_str());
   const std::string err = Slurp(dir + "/err");
   ASSERT_TRUE(WIFEXITED(status)) << command << "\n" << err;
