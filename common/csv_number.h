@@ -2,7 +2,8 @@
 /// @file
 /// printf's "%.12g" and "%.9f" of a double, exactly (the same bytes), for the
 /// CSV rows of `rocklab reconstruct` (tools/cmd_reconstruct.cpp), at about a
-/// quarter of std::to_chars' cost with a precision. The digits come from
+/// quarter of std::to_chars' cost with a precision. (Shortest, at the end,
+/// is the shortest round-trip text for `rocklab simulate`.) The digits come from
 /// exact integer arithmetic: a double is m 2^e (m < 2^53), so m 10^k < 2^127
 /// for k <= 22 and the rounding to the wanted digit is decided on the exact
 /// remainder of the shift by -e. What that cannot cover (zero, NaN, inf,
@@ -189,5 +190,15 @@ inline char* Fixed9(double x, char* out) {
   std::memcpy(p, nine + 3, 9);
   return p + 9;
 }
+
+/// Writes the shortest text that reads back as x, the same bytes as
+/// std::to_chars(first, last, x) (scientific or fixed, whichever is
+/// shorter, fixed on a tie), at `out` (room for 48 bytes: it writes whole
+/// words past the text); returns the end,
+/// or nullptr where the caller must use std::to_chars (zero, subnormals,
+/// inf, NaN, |x| >= 2^53). The digits are fmt's Dragonbox (the same
+/// shortest, nearest digits as to_chars' Ryu), at about a quarter of
+/// to_chars' cost (csv_shortest.cpp; docs/performance.md).
+char* Shortest(double x, char* out);
 
 }  // namespace rocklab::common::csv_number

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/csv_number.h"
 #include "common/provenance.h"
 #include "common/units.h"
 #include "pipeline/scenario.h"
@@ -29,7 +30,8 @@ struct SimulateOptions {
 };
 
 // The output rows, formatted into a buffer written in blocks: each number the
-// shortest text that reads back as the same double (std::to_chars), so the
+// shortest text that reads back as the same double (std::to_chars' bytes,
+// from common/csv_number.h's Shortest where it takes the value), so the
 // CSV holds the solution to the last bit, at a fraction of printf's cost
 // (which was most of simulate's time after the solve, docs/performance.md).
 class RowWriter {
@@ -55,11 +57,13 @@ class RowWriter {
 
  private:
   static constexpr std::size_t kBuffer = 1 << 16;
-  // Shortest round-trip text of a double: at most 24 characters ("-1.2345678901234567e-308").
-  static constexpr std::size_t kMaxRow = 3 * 32;
+  // Shortest round-trip text of a double: at most 24 characters
+  // ("-1.2345678901234567e-308"); Shortest wants 48 bytes of room.
+  static constexpr std::size_t kMaxRow = 3 * 25 + 48;
   void Put(double v) {
-    const auto r = std::to_chars(&buffer_[used_], &buffer_[kBuffer], v);
-    used_ = static_cast<std::size_t>(r.ptr - buffer_.data());
+    char* end = common::csv_number::Shortest(v, &buffer_[used_]);
+    if (end == nullptr) end = std::to_chars(&buffer_[used_], &buffer_[kBuffer], v).ptr;
+    used_ = static_cast<std::size_t>(end - buffer_.data());
   }
   std::FILE* out_;
   std::array<char, kBuffer> buffer_{};

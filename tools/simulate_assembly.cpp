@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/csv_number.h"
 #include "common/provenance.h"
 #include "common/units.h"
 #include "pipeline/assembly.h"
@@ -25,9 +26,10 @@ constexpr const char* kBlockOnlyOptions[] = {"--alpha", "--p", "--mu", "--theta0
 // Appends `v` as the shortest text that reads back as the same double (the
 // CSV keeps the solution to the last bit, as simulate's).
 void AppendShortest(std::string& line, double v) {
-  char text[32];
-  const auto r = std::to_chars(text, text + sizeof text, v);
-  line.append(text, r.ptr);
+  char text[48];
+  char* end = common::csv_number::Shortest(v, text);
+  if (end == nullptr) end = std::to_chars(text, text + sizeof text, v).ptr;
+  line.append(text, end);
 }
 
 void WriteAssemblyCsv(const pipeline::AssemblyRun& run, const std::string& path) {

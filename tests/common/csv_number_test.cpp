@@ -3,9 +3,15 @@
 // byte, on values of every magnitude the fast path takes and around its
 // edges; where the fast path declines (nullptr) the caller's std::to_chars
 // is printf's conversion by the standard's definition, so only the
-// declining is checked there.
+// declining is checked there. Shortest (simulate's CSV): libstdc++'s
+// std::to_chars(first, last, double), byte for byte, and a read back by
+// strtod to the same bits.
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -120,6 +126,84 @@ TEST(CsvNumber, DeclinesWhatItCannotDoExactly) {
   EXPECT_EQ(General(1e-5), "1e-05");
   EXPECT_EQ(General(-123456.5), "-123456.5");
   EXPECT_EQ(Fixed(-1e-12), "-0.000000000");
+}
+
+// Shortest's text (or "" where it declines) and to_chars' text.
+std::string Shortest(double x) {
+  char buf[64];
+  char* end = csv_number::Shortest(x, buf);
+  return end ? std::string(buf, static_cast<std::size_t>(end - buf)) : std::string();
+}
+std::string ToChars(double x) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, x);
+  return std::string(buf, r.ptr);
+}
+
+// Checks one value; counts the ones Shortest wrote.
+void ExpectShortest(double x, int& taken) {
+  const std::string ours = Shortest(x);
+  if (ours.empty()) return;
+  ++taken;
+  ASSERT_EQ(ours, ToChars(x)) << "bits " << std::hex << [&] {
+    uint64_t b = 0;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+  }();
+  ASSERT_EQ(std::strtod(ours.c_str(), nullptr), x) << ours;
+}
+
+TEST(CsvNumber, ShortestIsToCharsByteForByte) {
+  int taken = 0;
+  std::mt19937_64 rng(20261128);
+  // Every bit pattern of a normal double below 2^53, uniformly in its bits
+  // (so every exponent from 2^-1022 up).
+  for (int i = 0; i < 300000; ++i) {
+    uint64_t bits = rng() & ~(uint64_t{0x7ff} << 52);
+    bits |= static_cast<uint64_t>(1 + rng() % (1023 + 52)) << 52;
+    double x = 0;
+    std::memcpy(&x, &bits, sizeof x);
+    ExpectShortest(x, taken);
+  }
+  // Short decimals of every magnitude, where the choice between fixed and
+  // scientific is close (1e-05 against 0.00001, 1.2e+15 against the integer).
+  std::uniform_int_distribution<int> digits(1, 17);
+  for (int i = 0; i < 200000; ++i) {
+    const int n = digits(rng);
+    const double mantissa = static_cast<double>(rng() % static_cast<uint64_t>(std::pow(10.0, n)));
+    const int e = static_cast<int>(rng() % 60) - 40;
+    const double x = std::strtod((std::to_string(static_cast<uint64_t>(mantissa)) + "e" + std::to_string(e)).c_str(),
+                                 nullptr);
+    ExpectShortest(x, taken);
+    ExpectShortest(-x, taken);
+  }
+  // What simulate writes: times k / rate and sums of steps, angles and rates.
+  for (int k = 0; k < 200000; ++k) {
+    ExpectShortest(k / 200.0, taken);
+    ExpectShortest(k * 0.005, taken);
+    ExpectShortest(1e-3 * std::sin(k * 0.01), taken);
+  }
+  for (int e = -307; e <= 15; ++e) {
+    const double p = std::pow(10.0, e);
+    for (double x : {p, std::nextafter(p, 0.0), std::nextafter(p, 1e300), 5 * p, 0.5 * p}) ExpectShortest(x, taken);
+  }
+  for (double x : {1.0, 2.0, 9007199254740991.0, 4503599627370496.5, 0.1, 0.3, 1e-5, 1e-4, 1.5e-4, 123456.0,
+                   1e15, 1.2e15, 100.0, 1e16 / 3})
+    ExpectShortest(x, taken);
+  EXPECT_GT(taken, 1200000);
+}
+
+TEST(CsvNumber, ShortestDeclinesWhatToCharsMustWrite) {
+  for (double x : {0.0, -0.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                   -std::numeric_limits<double>::infinity(), std::numeric_limits<double>::denorm_min(),
+                   9007199254740992.0, 1e300, -1e17})
+    EXPECT_EQ(Shortest(x), "") << x;
+  EXPECT_EQ(Shortest(1e-5), "1e-05");
+  EXPECT_EQ(Shortest(0.00012), "0.00012");
+  EXPECT_EQ(Shortest(-1e15), "-1e+15");
+  EXPECT_EQ(Shortest(123456789012345.0), "123456789012345");
+  EXPECT_EQ(Shortest(2.5e-300), "2.5e-300");
+  EXPECT_EQ(Shortest(0.005), "0.005");
 }
 
 }  // namespace
