@@ -123,7 +123,7 @@ void EmbeddedRungeKutta::Roots(double t_s, const double* y, double* g) {
   if (system_.Roots(t_s, y, g) != 0) throw IntegratorError("EmbeddedRungeKutta: the root functions failed");
 }
 
-double EmbeddedRungeKutta::SmallestStep(double t_s) { return 16 * kErkEps * std::max(std::abs(t_s), 1.0); }
+double EmbeddedRungeKutta::SmallestStep(double t_s) { return 2 * kErkEps * std::max(std::abs(t_s), 1.0); }
 
 double EmbeddedRungeKutta::Weight(int i, double y_old, double y_new) const {
   return atol_[i] + rtol_ * std::max(std::abs(y_old), std::abs(y_new));

@@ -195,9 +195,9 @@ TEST(Dopri5Test, StopsAtEverySampleWithoutPassingIt) {
 }
 
 // y' = 0 before t = 0.25 s and 1e8 after (a jump nobody declared), y(0) =
-// 1: y = 1 + 1e8 max(0, t - 0.25). No step across the jump passes the error
-// test (its error ~ 1e6 h against rtol 1e-10) until the step is below the
-// smallest one (3.6e-15 s at t < 1 s).
+// 1: y = 1 + 1e8 max(0, t - 0.25). A step across the jump passes the error
+// test only when it is ~1e-15 s (its estimate ~1.2e5 h against 2e-10),
+// about the smallest step (4.4e-16 s at t < 1 s).
 struct DopJump : OdeSystem {
   int Rhs(double t, const double*, double* ydot) override {
     ydot[0] = t < 0.25 ? 0.0 : 1e8;
@@ -210,11 +210,15 @@ struct DopJump : OdeSystem {
 };
 
 // Oracle: the closed form 1 + 1e8 max(0, t - 0.25) and its root at 0.35 s.
-// The 5(4) pair gives up the step at the jump (StepFailure); Cvode::Advance
-// restarts it from its last step's end, which fails there again, then twice
-// its smallest step later (7.1e-15 s), past the jump, as it restarts ARKODE
-// and CVODE 16 ulp later. Tolerance: the time skipped, at most 7.1e-15 s,
-// moves the root by as much and y by 1e8 times it (7.1e-7 against 2.5e7),
+// The 5(4) pair either steps across the jump with such a step, or gives it
+// up (StepFailure) and Cvode::Advance restarts it from its last step's
+// end, which fails there again, then twice its smallest step later (8.9e-16
+// s), past the jump, as it restarts ARKODE and CVODE 16 ulp later: at most
+// two recoveries (with the smallest step at 16 ulp, 3.6e-15 s, it was
+// always the two; at 2 eps, the floor since the complex model's crossings
+// needed it, the step is taken). Tolerance: either way ~1e-15 s of the
+// jump is misplaced, which moves the root by as much and y by 1e8 times it
+// (1e-7 against 2.5e7),
 // plus the steps' own error at rtol 1e-10 (2.5e-3 in y, 2.5e-11 s in the
 // root): 1e-10 s and 1e-9 relative.
 TEST(Dopri5Test, CvodeRecoversWhenTheRightHandSideJumps) {
@@ -233,7 +237,7 @@ TEST(Dopri5Test, CvodeRecoversWhenTheRightHandSideJumps) {
   EXPECT_EQ(found, 1);
   EXPECT_EQ(cv.t_s(), 0.5);
   EXPECT_NEAR(cv.y()[0] / (1.0 + 2.5e7), 1.0, 1e-9);
-  EXPECT_EQ(cv.stats().recoveries, 2);
+  EXPECT_LE(cv.stats().recoveries, 2);
 }
 
 }  // namespace
