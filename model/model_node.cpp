@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <mutex>
@@ -138,9 +139,12 @@ struct ModelNode::Ensemble {
 
 // Worker threads 1 .. n-1 of the variant stepping (thread 0 is the
 // handler's). A sample is a generation: Run publishes it, each worker steps
-// its variants and counts down `pending_`, Run waits for zero. Waiting spins
-// for a few microseconds (at --max the next sample comes at once) and then
-// blocks (live, samples are a millisecond apart).
+// its variants and counts down `pending_`, Run waits for zero. A worker
+// waits by spinning for up to kSpinS (at --max the next sample comes
+// after the handler's own share and the other nodes' work, a few
+// microseconds) and then blocks (live, samples are a millisecond apart).
+// A spin shorter than that gap put a futex sleep and wake on every sample
+// (docs/performance.md, "Threads that wait by the clock").
 class ModelNode::Workers {
  public:
   Workers(ModelNode& node, int threads) : node_(node), threads_(threads) {
@@ -168,18 +172,35 @@ class ModelNode::Workers {
     }
     if (sleepers_.load(std::memory_order_acquire) > 0) wake_.notify_all();
     Share(0);
-    for (int spin = 0; pending_.load(std::memory_order_acquire) > 0;) {
-      if (spin < kSpins) {
-        ++spin;
-      } else {
-        std::this_thread::yield();
-      }
+    Spinner spinner;
+    while (pending_.load(std::memory_order_acquire) > 0) {
+      if (!spinner.Spin()) std::this_thread::yield();
     }
   }
 
  private:
-  // Polls of the generation (a few microseconds) before a worker blocks.
-  static constexpr int kSpins = 4000;
+  // How long a waiting thread polls before it blocks (the worker) or
+  // yields (the handler), s.
+  static constexpr double kSpinS = 50e-6;
+
+  // Polls with the CPU's pause hint; Spin() is false once kSpinS has
+  // passed (the clock read every 64 polls).
+  class Spinner {
+   public:
+    bool Spin() {
+#if defined(__x86_64__) || defined(__i386__)
+      __builtin_ia32_pause();
+#endif
+      if ((++polls_ & 63) != 0) return true;
+      const auto now = std::chrono::steady_clock::now();
+      if (polls_ == 64) start_ = now;
+      return now - start_ < std::chrono::duration<double>(kSpinS);
+    }
+
+   private:
+    unsigned polls_{0};
+    std::chrono::steady_clock::time_point start_{};
+  };
 
   void Share(int w) {
     for (std::size_t i = static_cast<std::size_t>(w); i < node_.runners_.size();
@@ -191,7 +212,7 @@ class ModelNode::Workers {
     std::uint64_t seen = 0;
     while (true) {
       std::uint64_t now = generation_.load(std::memory_order_acquire);
-      for (int spin = 0; now == seen && spin < kSpins; ++spin) now = generation_.load(std::memory_order_acquire);
+      for (Spinner spinner; now == seen && spinner.Spin();) now = generation_.load(std::memory_order_acquire);
       if (now == seen) {
         std::unique_lock<std::mutex> lock(mutex_);
         sleepers_.fetch_add(1, std::memory_order_acq_rel);
