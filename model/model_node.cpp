@@ -144,7 +144,7 @@ struct ModelNode::Ensemble {
 // after the handler's own share and the other nodes' work, a few
 // microseconds) and then blocks (live, samples are a millisecond apart).
 // A spin shorter than that gap put a futex sleep and wake on every sample
-// (docs/performance.md, "Threads that wait by the clock").
+// (docs/performance.md, "Issue 33, sixth round").
 class ModelNode::Workers {
  public:
   Workers(ModelNode& node, int threads) : node_(node), threads_(threads) {
