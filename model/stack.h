@@ -274,6 +274,7 @@ class Stepper {
   double t_{};
   double rest_energy_j_{};
   bool reinit_{true};  // the integrator restarts at t_ in mode_ before the next step
+  bool start_{true};   // the next advance is the first since a Reset: loads checked (OpenPastCorners)
   bool overturned_{};
   int overturned_interface_{-1};
   int impacts_{};

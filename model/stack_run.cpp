@@ -189,6 +189,7 @@ void Stepper::Reset(double t0_s) {
   qdot_.resize(0);
   t_ = t0_s;
   reinit_ = true;
+  start_ = true;
   overturned_ = false;
   overturned_interface_ = -1;
   impacts_ = 0;
@@ -301,6 +302,33 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
   while (true) {
     ode.Set(mode);
     const int m = ode.m();
+    if (start_) {
+      // A start (at rest, or a measured mode) whose closed interface
+      // already carries its load past a corner: no root falls through
+      // zero there, so that joint would stay shut under a table that
+      // lifts it. It opens at once, as at its uplift root, the lowest
+      // first, until every closed joint's load is within its face.
+      std::array<double, detail::Cvode::kMaxEquations> y0{};
+      for (int i = 0; i < m; ++i) {
+        y0[static_cast<std::size_t>(i)] = q(i);
+        y0[static_cast<std::size_t>(m + i)] = qdot(i);
+      }
+      std::array<double, detail::Cvode::kMaxRoots> g{};
+      ode.Roots(t, y0.data(), g.data());
+      int slot = 0;
+      while (slot < 2 * n && !(mode[static_cast<std::size_t>(slot / 2)] == 0 && g[static_cast<std::size_t>(slot)] < 0)) {
+        ++slot;
+      }
+      if (slot < 2 * n) {
+        const int k = slot / 2;
+        Insert(mode, k, q, qdot);
+        mode[static_cast<std::size_t>(k)] = slot % 2 == 0 ? -1 : 1;  // as at the uplift root below
+        events_.push_back({t, EventKind::kUplift, k, mode, forcing.TableAcceleration(t)});
+        reinit_ = true;
+        continue;
+      }
+      start_ = false;
+    }
     detail::Cvode& cv = solver(m);
     if (reinit_) {
       std::array<double, detail::Cvode::kMaxEquations> y0{};

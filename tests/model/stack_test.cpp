@@ -563,6 +563,50 @@ struct FrameBodies {
   }
 };
 
+// Oracle: the closed-form uplift of two rectangles from rest, a/g =
+// min(b2/h2, (m1 + m2) b1 / (m1 h1 + m2 (2 h1 + h2))) (the first case of
+// TwoBlocksLiftOffAtTheClosedFormAcceleration: the joint between them, 1,
+// opens first). A start under a table already 20 % past it has no root to
+// fall through: the joint opens at the start itself (an uplift event at
+// t0, the table's value), from rest and from a measured closed state; 20 %
+// below it nothing opens over the same samples.
+TEST(StackStepper, AStartWhoseLoadIsPastItsCornerOpensAtOnce) {
+  using rocklab::model::EventKind;
+  using rocklab::model::stack::ModeName;
+  using rocklab::model::stack::RunOptions;
+  using rocklab::model::stack::Stepper;
+  const double w1 = 0.4, h1 = 0.6, m1 = 300.0, w2 = 0.2, h2 = 0.8, m2 = 50.0;
+  const Stack two({Body::Rectangle(w1, h1, m1), Body::Rectangle(w2, h2, m2)});
+  const double b1 = w1 / 2, hh1 = h1 / 2, b2 = w2 / 2, hh2 = h2 / 2;
+  const double uplift = std::min(b2 / hh2, (m1 + m2) * b1 / (m1 * hh1 + m2 * (2 * hh1 + hh2))) * kG;
+  for (bool measured : {false, true}) {
+    for (double factor : {1.2, 0.8}) {
+      Stepper stepper(two, RunOptions{});
+      const double t0 = 0.5;
+      if (measured) {
+        const double still[] = {0.0, 0.0}, rate[] = {0.0, 0.0};
+        ASSERT_EQ(stepper.ResetFrom(t0, still, rate, 2e-3), "");
+      } else {
+        stepper.Reset(t0);
+      }
+      const double a = factor * uplift;
+      for (int k = 0; k <= 5; ++k) stepper.Step(t0 + 1e-3 * k, a);
+      const auto& events = stepper.events();
+      if (factor > 1) {
+        ASSERT_FALSE(events.empty()) << "measured " << measured;
+        EXPECT_EQ(events.front().kind, EventKind::kUplift);
+        EXPECT_EQ(events.front().time_s, t0);
+        EXPECT_EQ(events.front().interface, 1);
+        EXPECT_EQ(events.front().value, a);
+        EXPECT_NE(ModeName(stepper.mode(), 2), "CC");
+      } else {
+        EXPECT_TRUE(events.empty()) << "measured " << measured;
+        EXPECT_EQ(ModeName(stepper.mode(), 2), "CC");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 // Oracles: (1) the frame's motion from its energies, computed here from the
