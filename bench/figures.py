@@ -19,6 +19,10 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The user's build (tools/demo.sh's Release, -O3 with LTO) where it is
+# configured, else the test build (tools/test.sh's RelWithDebInfo).
+DEFAULT_BUILD = next((os.path.join(ROOT, d) for d in ("build-release", "build")
+                      if os.path.exists(os.path.join(ROOT, d, "build.ninja"))), os.path.join(ROOT, "build"))
 F = "alpha=0.235,p=3.884,mu=0.937"
 VARIANTS = ["--variant", "fitted_complex:complex:" + F, "--variant", "fitted_housner:housner:" + F,
             "--variant", "theory_complex:complex:theoretical", "--variant", "theory_housner:housner:theoretical"]
@@ -282,7 +286,7 @@ def bench_live(b, work, t, seconds):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--build", default=DEFAULT_BUILD)
     ap.add_argument("--work", help="folder for the generated inputs (kept; default: a temporary one)")
     ap.add_argument("--run-seconds", type=int, default=600)
     ap.add_argument("--live-seconds", type=int, default=20)

@@ -4,7 +4,7 @@
 # time and the scipy peer):
 #
 #   bash bench/run.sh [--work DIR] [--repeats N] [--only run,band,simulate,node,reconstruct,replay,live,startup]
-#                     [--run-seconds 600] [--simulate-seconds 20,200] [--live-seconds 20] [--build build]
+#                     [--run-seconds 600] [--simulate-seconds 20,200] [--live-seconds 20] [--build build-release]
 #
 # Installs the bench-only dependency python3-scipy (the peer of `simulate`,
 # bench/scipy_peer.py) the way tools/setup.sh installs packages, builds the
@@ -14,7 +14,10 @@
 # without one it says so and the other figures stand.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
+# The user's build (tools/demo.sh's Release) where it is configured, else
+# the test build; figures.py and startup.py take the same default.
 build="$here/build"
+[ -f "$here/build-release/build.ninja" ] && build="$here/build-release"
 for ((i = 1; i <= $#; i++)); do
   if [ "${!i}" = "--build" ]; then j=$((i + 1)); build="${!j}"; fi
 done

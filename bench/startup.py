@@ -137,7 +137,7 @@ def bench_daemons(b, work, t, rec, seconds, speed):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--build", default=os.path.join(figures.ROOT, "build"))
+    ap.add_argument("--build", default=figures.DEFAULT_BUILD)
     ap.add_argument("--work", default=None)
     ap.add_argument("--run-seconds", dest="seconds", type=int, default=600)
     ap.add_argument("--daq-speed", dest="speed", type=float, default=20)
