@@ -94,8 +94,10 @@ for p in files_under((".h", ".cpp", ".hpp", ".py", ".pyi", ".lcm", ".cmake", ".i
                       ".toml", ".service", ".timer", "CMakeLists.txt")):
     code_words.update(re.findall(r"\w+", read(p)))
 
-top_dirs = {d for d in os.listdir(root) if os.path.isdir(os.path.join(root, d)) and d not in SKIP_DIRS}
-top_dirs.discard("build")
+# Build folders (build/, build-release/, build-asan/: generated, maybe
+# present) are not the source's: a path into one is not checked.
+top_dirs = {d for d in os.listdir(root)
+            if os.path.isdir(os.path.join(root, d)) and d not in SKIP_DIRS and not d.startswith("build")}
 
 pages = [os.path.join(root, n) for n in ("README.md", "CONTRIBUTING.md") if os.path.exists(os.path.join(root, n))]
 pages += sorted(os.path.join(root, "docs", n) for n in os.listdir(os.path.join(root, "docs")) if n.endswith(".md"))
