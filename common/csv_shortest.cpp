@@ -69,7 +69,7 @@ char* Shortest(double x, char* out) {
   // move fixed sizes (whole words) past the n digits, which the later
   // writes overwrite or the returned end excludes.
   const int n = DigitCount(sig);
-  char padded[48];
+  char padded[48]{};  // zeros past the digits: the fixed-size copies read only set bytes
   padded[0] = static_cast<char>('0' + sig / 10000000000000000ULL);
   const uint64_t rest = sig % 10000000000000000ULL;
   Digits8(static_cast<uint32_t>(rest / 100000000), padded + 1);
