@@ -201,4 +201,8 @@ inline char* Fixed9(double x, char* out) {
 /// to_chars' cost (csv_shortest.cpp; docs/performance.md).
 char* Shortest(double x, char* out);
 
+/// Shortest, or std::to_chars where Shortest declines: the shortest text
+/// that reads back as x, always written (room for 48 bytes); returns the end.
+char* WriteShortest(double x, char* out);
+
 }  // namespace rocklab::common::csv_number

@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <charconv>
 #include <cstdint>
 #include <cstring>
 
@@ -8,44 +9,12 @@
 namespace rocklab::common::csv_number {
 namespace {
 
-// The number of decimal digits of v >= 1.
+// The number of decimal digits of v >= 1: floor(log10 v) from the bit
+// length (1233 / 4096 ~ log10 2), then one comparison to correct it.
 inline int DigitCount(uint64_t v) {
-  static constexpr uint64_t kPow10[] = {1ULL,
-                                        10ULL,
-                                        100ULL,
-                                        1000ULL,
-                                        10000ULL,
-                                        100000ULL,
-                                        1000000ULL,
-                                        10000000ULL,
-                                        100000000ULL,
-                                        1000000000ULL,
-                                        10000000000ULL,
-                                        100000000000ULL,
-                                        1000000000000ULL,
-                                        10000000000000ULL,
-                                        100000000000000ULL,
-                                        1000000000000000ULL,
-                                        10000000000000000ULL,
-                                        100000000000000000ULL,
-                                        1000000000000000000ULL,
-                                        10000000000000000000ULL};
-  // floor(log10 v) from the bit length (1233 / 4096 ~ log10 2), then one
-  // comparison to correct it.
   const int bits = 64 - __builtin_clzll(v);
-  const int guess = (bits * 1233) >> 12;
-  return guess + (v >= kPow10[guess] ? 1 : 0);
-}
-
-// The 8 digits of v < 10^8 (zero-padded) at out, two at a time.
-inline void Digits8(uint32_t v, char* out) {
-  const char* pairs = detail::DigitPairs();
-  const uint32_t high = v / 10000;
-  const uint32_t low = v % 10000;
-  std::memcpy(out, pairs + 2 * (high / 100), 2);
-  std::memcpy(out + 2, pairs + 2 * (high % 100), 2);
-  std::memcpy(out + 4, pairs + 2 * (low / 100), 2);
-  std::memcpy(out + 6, pairs + 2 * (low % 100), 2);
+  const int guess = (bits * 1233) >> 12;  // <= 19
+  return guess + (v >= Pow10(guess) ? 1 : 0);
 }
 
 }  // namespace
@@ -64,17 +33,15 @@ char* Shortest(double x, char* out) {
     sig /= 10;
     ++e10;
   }
-  // The 17 digits of sig < 10^17, zero-padded, in three parts (no 64-bit
+  // The 18 digits of sig < 10^17, zero-padded, as 6 and 12 (no 64-bit
   // division in a loop); its n digits are the last n. The copies below
   // move fixed sizes (whole words) past the n digits, which the later
   // writes overwrite or the returned end excludes.
   const int n = DigitCount(sig);
   char padded[48]{};  // zeros past the digits: the fixed-size copies read only set bytes
-  padded[0] = static_cast<char>('0' + sig / 10000000000000000ULL);
-  const uint64_t rest = sig % 10000000000000000ULL;
-  Digits8(static_cast<uint32_t>(rest / 100000000), padded + 1);
-  Digits8(static_cast<uint32_t>(rest % 100000000), padded + 9);
-  const char* digits = padded + 17 - n;
+  detail::Digits6(static_cast<uint32_t>(sig / 1000000000000ULL), padded);
+  detail::Digits12(sig % 1000000000000ULL, padded + 6);
+  const char* digits = padded + 18 - n;
   const char* pairs = detail::DigitPairs();
   // to_chars' choice: the shorter of scientific and fixed, fixed on a tie.
   const int exp_sci = e10 + n - 1;
@@ -110,6 +77,11 @@ char* Shortest(double x, char* out) {
   if (abs_sci >= 100) *p++ = static_cast<char>('0' + abs_sci / 100);
   std::memcpy(p, pairs + 2 * (abs_sci % 100), 2);
   return p + 2;
+}
+
+char* WriteShortest(double x, char* out) {
+  char* end = Shortest(x, out);
+  return end != nullptr ? end : std::to_chars(out, out + 48, x).ptr;
 }
 
 }  // namespace rocklab::common::csv_number

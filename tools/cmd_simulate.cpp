@@ -1,6 +1,5 @@
 // rocklab simulate: one model on one scenario, written as CSV.
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -31,7 +30,7 @@ struct SimulateOptions {
 
 // The output rows, formatted into a buffer written in blocks: each number the
 // shortest text that reads back as the same double (std::to_chars' bytes,
-// from common/csv_number.h's Shortest where it takes the value), so the
+// from common/csv_number.h's WriteShortest), so the
 // CSV holds the solution to the last bit, at a fraction of printf's cost
 // (which was most of simulate's time after the solve, docs/performance.md).
 class RowWriter {
@@ -61,9 +60,7 @@ class RowWriter {
   // ("-1.2345678901234567e-308"); Shortest wants 48 bytes of room.
   static constexpr std::size_t kMaxRow = 3 * 25 + 48;
   void Put(double v) {
-    char* end = common::csv_number::Shortest(v, &buffer_[used_]);
-    if (end == nullptr) end = std::to_chars(&buffer_[used_], &buffer_[kBuffer], v).ptr;
-    used_ = static_cast<std::size_t>(end - buffer_.data());
+    used_ = static_cast<std::size_t>(common::csv_number::WriteShortest(v, &buffer_[used_]) - buffer_.data());
   }
   std::FILE* out_;
   std::array<char, kBuffer> buffer_{};

@@ -3,7 +3,6 @@
 // events naming interface and body, and the summary.
 #include "tools/simulate_assembly.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -27,9 +26,7 @@ constexpr const char* kBlockOnlyOptions[] = {"--alpha", "--p", "--mu", "--theta0
 // CSV keeps the solution to the last bit, as simulate's).
 void AppendShortest(std::string& line, double v) {
   char text[48];
-  char* end = common::csv_number::Shortest(v, text);
-  if (end == nullptr) end = std::to_chars(text, text + sizeof text, v).ptr;
-  line.append(text, end);
+  line.append(text, common::csv_number::WriteShortest(v, text));
 }
 
 void WriteAssemblyCsv(const pipeline::AssemblyRun& run, const std::string& path) {

@@ -29,17 +29,14 @@ std::string Printf(const char* format, double x) {
   return buf;
 }
 
-// The fast path's text, or "" where it declines.
-std::string General(double x) {
+// A fast path's text, or "" where it declines.
+std::string FastText(char* (*write)(double, char*), double x) {
   char buf[64];
-  char* end = csv_number::General12(x, buf);
+  char* end = write(x, buf);
   return end ? std::string(buf, static_cast<std::size_t>(end - buf)) : std::string();
 }
-std::string Fixed(double x) {
-  char buf[64];
-  char* end = csv_number::Fixed9(x, buf);
-  return end ? std::string(buf, static_cast<std::size_t>(end - buf)) : std::string();
-}
+std::string General(double x) { return FastText(csv_number::General12, x); }
+std::string Fixed(double x) { return FastText(csv_number::Fixed9, x); }
 
 // Whether x's exact decimal expansion (printf prints it whole with enough
 // digits) is a tie at its 12th significant digit: "5" then only zeros.
@@ -129,11 +126,7 @@ TEST(CsvNumber, DeclinesWhatItCannotDoExactly) {
 }
 
 // Shortest's text (or "" where it declines) and to_chars' text.
-std::string Shortest(double x) {
-  char buf[64];
-  char* end = csv_number::Shortest(x, buf);
-  return end ? std::string(buf, static_cast<std::size_t>(end - buf)) : std::string();
-}
+std::string Shortest(double x) { return FastText(csv_number::Shortest, x); }
 std::string ToChars(double x) {
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, x);
