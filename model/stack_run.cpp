@@ -299,6 +299,15 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
   Vec& q = q_;
   Vec& qdot = qdot_;
   double& t = t_;
+  // The integrator's state (q, qdot) of the current mode's m coordinates.
+  auto state = [&](int m) {
+    std::array<double, detail::Cvode::kMaxEquations> y{};
+    for (int i = 0; i < m; ++i) {
+      y[static_cast<std::size_t>(i)] = q(i);
+      y[static_cast<std::size_t>(m + i)] = qdot(i);
+    }
+    return y;
+  };
   while (true) {
     ode.Set(mode);
     const int m = ode.m();
@@ -308,13 +317,8 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
       // zero there, so that joint would stay shut under a table that
       // lifts it. It opens at once, as at its uplift root, the lowest
       // first, until every closed joint's load is within its face.
-      std::array<double, detail::Cvode::kMaxEquations> y0{};
-      for (int i = 0; i < m; ++i) {
-        y0[static_cast<std::size_t>(i)] = q(i);
-        y0[static_cast<std::size_t>(m + i)] = qdot(i);
-      }
       std::array<double, detail::Cvode::kMaxRoots> g{};
-      ode.Roots(t, y0.data(), g.data());
+      ode.Roots(t, state(m).data(), g.data());
       int slot = 0;
       while (slot < 2 * n && !(mode[static_cast<std::size_t>(slot / 2)] == 0 && g[static_cast<std::size_t>(slot)] < 0)) {
         ++slot;
@@ -331,12 +335,7 @@ void Stepper::AdvanceTo(double t_s, const Forcing& forcing, double horizon_s) {
     }
     detail::Cvode& cv = solver(m);
     if (reinit_) {
-      std::array<double, detail::Cvode::kMaxEquations> y0{};
-      for (int i = 0; i < m; ++i) {
-        y0[static_cast<std::size_t>(i)] = q(i);
-        y0[static_cast<std::size_t>(m + i)] = qdot(i);
-      }
-      cv.ReInit(t, y0.data());
+      cv.ReInit(t, state(m).data());
       reinit_ = false;
     }
     const double tstop = std::min(forcing.NextDiscontinuity(t), horizon_s);
